@@ -1,0 +1,2 @@
+//! armcal
+fn main() {}

@@ -1,0 +1,46 @@
+//! # armcal-shared: the one copy of armcal's robot math
+//!
+//! `#![no_std]`, generic over `f32` (the controller) and `f64` (the calibrator),
+//! so that the host tests run exactly the code the firmware runs.
+//!
+//! | module | idea |
+//! | --- | --- |
+//! | [`model`] | the nominal robot: D-H links (standard or modified), joint types, base and tool frames |
+//! | [`dh`] | one link's homogeneous transform in either convention, elementary rotations, roll-pitch-yaw |
+//! | [`kinematics`] | forward kinematics of the measured frame and point, and the [`kinematics::Chain`] of every link frame |
+//! | [`jacobian`] | the special Jacobians J_θ, J_s, J_α, J_a of Mirman & Gupta (eqs. 51–54), base and tool columns, the manipulator Jacobian |
+//! | [`pose_error`] | the end-effector error of Mirman & Gupta eqs. 12–15, full pose and position only |
+//! | [`param`] | the names of the geometric parameters (`theta3`, `alpha1`, `base.rx`, `tool.z`, ...) |
+//!
+//! ## Conventions used throughout
+//! - Units: SI inside this crate, metres and radians. The host converts model files
+//!   from their declared units (`in`, `mm`, `deg`) on reading and back on writing.
+//! - Frames: every vector and point returned by [`kinematics`] and [`jacobian`] is
+//!   expressed in the *measurement frame* (the laser tracker's or the world frame),
+//!   i.e. after the robot's `base` transform.
+//! - Errors and Jacobian columns are 6-vectors `[νdφ; dη]`: the rotation error vector
+//!   first, then the translation error of the point of the end effector that
+//!   coincides with the measurement-frame origin, exactly as in eq. (49) of
+//!   C. R. Mirman and K. C. Gupta, "Identification of Position-Independent Robot
+//!   Parameter Errors Using Special Jacobian Matrices", Int. J. Robotics Research,
+//!   11(3), 1992. The error of a point `P` follows as `dP = dη + νdφ × P` (eq. 8).
+#![no_std]
+#![forbid(unsafe_code)]
+
+#[cfg(feature = "std")]
+extern crate std;
+
+pub mod dh;
+pub mod jacobian;
+pub mod kinematics;
+pub mod model;
+pub mod param;
+pub mod pose_error;
+pub mod scalar;
+
+pub use jacobian::{SpecialJacobians, Twist};
+pub use kinematics::{Chain, LinkAxes};
+pub use model::{Convention, Frame, JointType, Link, LinkMass, MAX_JOINTS, ModelError, Robot};
+pub use param::{FrameAxis, Param};
+pub use pose_error::{pose_error, position_error};
+pub use scalar::Real;
