@@ -54,7 +54,20 @@ impl FrameAxis {
 
     /// True for the three rotations.
     pub fn is_angle(self) -> bool {
-        matches!(self, Self::Rx | Self::Ry | Self::Rz)
+        self.slot().0
+    }
+
+    /// Where the parameter lives in a [`crate::Frame`]: `(false, i)` is `xyz[i]`,
+    /// `(true, i)` is `rpy[i]`.
+    fn slot(self) -> (bool, usize) {
+        match self {
+            Self::X => (false, 0),
+            Self::Y => (false, 1),
+            Self::Z => (false, 2),
+            Self::Rx => (true, 0),
+            Self::Ry => (true, 1),
+            Self::Rz => (true, 2),
+        }
     }
 }
 
@@ -172,5 +185,53 @@ mod tests {
         ] {
             assert_eq!(bad.parse::<Param>(), Err(UnknownParam), "{bad}");
         }
+    }
+}
+
+impl<T: crate::Real> crate::Robot<T> {
+    /// The current value of a parameter (SI units), or `None` if its joint index
+    /// is beyond the model's joints.
+    pub fn param(&self, param: Param) -> Option<T> {
+        let frame = |f: &crate::Frame<T>, axis: FrameAxis| match axis.slot() {
+            (false, i) => f.xyz[i],
+            (true, i) => f.rpy[i],
+        };
+        match param {
+            Param::Theta(m) => self.links.get(m).map(|l| l.theta),
+            Param::S(m) => self.links.get(m).map(|l| l.s),
+            Param::A(m) => self.links.get(m).map(|l| l.a),
+            Param::Alpha(m) => self.links.get(m).map(|l| l.alpha),
+            Param::Base(axis) => Some(frame(&self.base, axis)),
+            Param::Tool(axis) => Some(frame(&self.tool, axis)),
+        }
+    }
+
+    /// A mutable reference to a parameter, or `None` if its joint index is beyond
+    /// the model's joints. This is how identified errors are applied to a model.
+    pub fn param_mut(&mut self, param: Param) -> Option<&mut T> {
+        fn frame<T: crate::Real>(f: &mut crate::Frame<T>, axis: FrameAxis) -> &mut T {
+            match axis.slot() {
+                (false, i) => &mut f.xyz[i],
+                (true, i) => &mut f.rpy[i],
+            }
+        }
+        match param {
+            Param::Theta(m) => self.links.get_mut(m).map(|l| &mut l.theta),
+            Param::S(m) => self.links.get_mut(m).map(|l| &mut l.s),
+            Param::A(m) => self.links.get_mut(m).map(|l| &mut l.a),
+            Param::Alpha(m) => self.links.get_mut(m).map(|l| &mut l.alpha),
+            Param::Base(axis) => Some(frame(&mut self.base, axis)),
+            Param::Tool(axis) => Some(frame(&mut self.tool, axis)),
+        }
+    }
+
+    /// Every geometric parameter of this model, joints first (`theta, s, a, alpha`
+    /// of each joint), then the six base and the six tool parameters.
+    pub fn params(&self) -> impl Iterator<Item = Param> + '_ {
+        let joints = (0..self.dof())
+            .flat_map(|m| [Param::Theta(m), Param::S(m), Param::A(m), Param::Alpha(m)]);
+        joints
+            .chain(FrameAxis::ALL.into_iter().map(Param::Base))
+            .chain(FrameAxis::ALL.into_iter().map(Param::Tool))
     }
 }
