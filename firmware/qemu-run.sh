@@ -1,0 +1,55 @@
+#!/usr/bin/env bash
+# Boots the firmware under QEMU and prints its defmt log.
+#
+#   ./qemu-run.sh [ELF]
+#
+# Without ELF it builds the release binary first. QEMU's netduinoplus2 is an
+# STM32F405 like the controller; semihosting carries the defmt frames to stdout
+# and the firmware's exit code back. The log is decoded with defmt-print
+# (`cargo install defmt-print`) when it is installed; otherwise the raw frames are
+# kept in a file next to the ELF.
+#
+# Exit code: the firmware's (0 when the boot self-check passed, 1 on an error,
+# panic or hard fault), 124 when it did not exit within QEMU_TIMEOUT seconds
+# (default 60).
+set -euo pipefail
+
+if [[ $# -ge 1 ]]; then
+    elf=$(realpath "$1")
+    cd "$(dirname "$0")"
+else
+    cd "$(dirname "$0")"
+    cargo build --release
+    elf="${CARGO_TARGET_DIR:-target}/thumbv7em-none-eabihf/release/armcal-firmware"
+fi
+[[ -f $elf ]] || { echo "qemu-run.sh: no firmware ELF at $elf" >&2; exit 2; }
+
+qemu=(qemu-system-arm -cpu cortex-m4 -machine netduinoplus2 -nographic
+      -semihosting-config "enable=on,target=native" -kernel "$elf")
+timeout_s=${QEMU_TIMEOUT:-60}
+
+echo "qemu-run.sh: booting $elf (timeout ${timeout_s}s)"
+if command -v defmt-print >/dev/null; then
+    set +e
+    timeout "$timeout_s" "${qemu[@]}" </dev/null | defmt-print -e "$elf"
+    status=("${PIPESTATUS[@]}")
+    set -e
+    rc=${status[0]}
+    if (( status[1] != 0 )); then
+        echo "qemu-run.sh: defmt-print could not decode the log (exit ${status[1]})" >&2
+    fi
+else
+    raw="$elf.defmt"
+    set +e
+    timeout "$timeout_s" "${qemu[@]}" </dev/null >"$raw"
+    rc=$?
+    set -e
+    echo "qemu-run.sh: defmt-print not installed; $(wc -c <"$raw") bytes of raw defmt frames in $raw"
+fi
+
+case $rc in
+    0) echo "qemu-run.sh: firmware exited with success" ;;
+    124) echo "qemu-run.sh: firmware did not exit within ${timeout_s}s" >&2 ;;
+    *) echo "qemu-run.sh: firmware exited with failure ($rc)" >&2 ;;
+esac
+exit "$rc"
