@@ -1,1 +1,138 @@
-//! End-to-end tests
+//! End-to-end tests across armcal's crates: the host reads the shipped files, the
+//! shared kinematics evaluates them, and the results are checked against values
+//! derived outside armcal.
+//!
+//! One test binary, a module per topic.
+
+mod builtin_models {
+    //! The shipped models, read by the host's parser, run by the shared kinematics.
+
+    use armcal::model_file::load_model;
+
+    #[allow(clippy::approx_constant)] // Table 1 positions as printed.
+    mod reference {
+        include!("reference/puma_table1.rs");
+    }
+    use reference::{TABLE1_FK, TABLE1_POSITIONS};
+
+    /// `puma560` read from its TOML (inches) and converted to SI reproduces the
+    /// independently derived Table 1 forward kinematics after converting back:
+    /// checks the unit handling end to end. Tolerance: the f64 rounding bound of
+    /// the shared test (`k ε L`, k = 128, L = 70.25 in) plus the two unit
+    /// conversions (a few ε relative on each length).
+    #[test]
+    fn puma560_reproduces_table1() {
+        let model = load_model("puma560").expect("built-in puma560");
+        assert_eq!(model.robot.dof(), 6);
+        let tol = 136.0 * f64::EPSILON * 70.25;
+        for (q, want) in TABLE1_POSITIONS.iter().zip(&TABLE1_FK) {
+            let t = model.robot.forward(q).unwrap();
+            for (r, want_row) in want.iter().enumerate() {
+                let got_in = model.units.length_from_si(t.translation.vector[r]);
+                assert!(
+                    (got_in - want_row[3]).abs() <= tol,
+                    "{got_in} vs {} in",
+                    want_row[3]
+                );
+                for (c, want_rc) in want_row.iter().take(3).enumerate() {
+                    let got = t.rotation.matrix()[(r, c)];
+                    assert!((got - want_rc).abs() <= 136.0 * f64::EPSILON);
+                }
+            }
+        }
+    }
+
+    /// Every shipped model runs in the controller's f32 and agrees with f64.
+    #[test]
+    fn every_builtin_model_runs_in_f32() {
+        for name in armcal::builtin::MODEL_NAMES {
+            let model = load_model(name).unwrap();
+            let q = vec![0.3; model.robot.dof()];
+            let q32 = vec![0.3f32; model.robot.dof()];
+            let p64 = model.robot.measured_point(&q).unwrap();
+            let p32 = model.robot.cast::<f32>().measured_point(&q32).unwrap();
+            let reach: f64 = model
+                .robot
+                .links
+                .iter()
+                .map(|l| l.s.abs() + l.a.abs())
+                .sum::<f64>()
+                + 3.0;
+            // k ε L with k = 16 (M + 2) + 4π M (inputs rounded to f32).
+            let m = model.robot.dof() as f64;
+            let tol =
+                (16.0 * (m + 2.0) + 4.0 * std::f64::consts::PI * m) * f32::EPSILON as f64 * reach;
+            assert!(
+                (p64.coords - p32.coords.cast::<f64>()).norm() <= tol,
+                "{name}"
+            );
+        }
+    }
+}
+
+mod bundled_data {
+    //! The bundled real data sets: the nominal error armcal computes equals the
+    //! figure the data set's README gives, computed there by independent code
+    //! when the data were converted.
+
+    use armcal::check::nominal_error;
+    use armcal::measurements::load_measurements;
+    use armcal::model_file::load_model;
+
+    /// `(data set, rms mm, mean mm, max mm)` as printed in each README, to 0.1 mm.
+    const README_FIGURES: [(&str, f64, Option<f64>, f64); 3] = [
+        ("figaroh-talos-left-arm", 5.3, Some(4.5), 11.2),
+        ("figaroh-tiago-mocap", 4.1, Some(3.8), 7.1),
+        ("figaroh-ur10e-camera", 74.0, None, 84.0),
+    ];
+
+    #[test]
+    fn nominal_error_matches_the_data_readmes() {
+        for (name, rms, mean, max) in README_FIGURES {
+            let model = load_model(name).unwrap();
+            let data = load_measurements(name, &model).unwrap();
+            let e = nominal_error(&model, &data);
+            // Printed with one decimal (two significant figures for the UR10e):
+            // the true value lies within half a unit of the last digit.
+            let half_unit = if rms >= 10.0 { 0.5 } else { 0.05 };
+            let close = |got_m: f64, want_mm: f64| (got_m * 1e3 - want_mm).abs() <= half_unit;
+            assert!(
+                close(e.position_rms, rms),
+                "{name}: rms {} mm",
+                e.position_rms * 1e3
+            );
+            assert!(
+                close(e.position_max, max),
+                "{name}: max {} mm",
+                e.position_max * 1e3
+            );
+            if let Some(mean) = mean {
+                assert!(
+                    close(e.position_mean, mean),
+                    "{name}: mean {} mm",
+                    e.position_mean * 1e3
+                );
+            }
+        }
+    }
+
+    /// The UR10e camera set has orientation; its README gives 3.5° mean, 4.9° max.
+    #[test]
+    fn ur10e_orientation_error_matches_readme() {
+        let model = load_model("figaroh-ur10e-camera").unwrap();
+        let data = load_measurements("figaroh-ur10e-camera", &model).unwrap();
+        let (_, mean, max) = nominal_error(&model, &data)
+            .orientation
+            .expect("orientation data");
+        assert!(
+            (mean.to_degrees() - 3.5).abs() <= 0.05,
+            "mean {}°",
+            mean.to_degrees()
+        );
+        assert!(
+            (max.to_degrees() - 4.9).abs() <= 0.05,
+            "max {}°",
+            max.to_degrees()
+        );
+    }
+}

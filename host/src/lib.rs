@@ -1,1 +1,25 @@
-//! placeholder
+//! # armcal: the robot calibrator (library part of the `armcal` binary)
+//!
+//! The input layer reads the two interchange formats of `FORMAT.md` and refuses,
+//! with file, line and column, anything it cannot use:
+//!
+//! | module | idea |
+//! | --- | --- |
+//! | [`input_error`] | [`InputError`](input_error::InputError): a refused file, `file:line:column: message` |
+//! | [`model_file`] | the robot model TOML (§1) into an SI [`armcal_shared::Robot`], with the file's [`Units`](model_file::Units) |
+//! | [`measurements`] | the measurement CSV (§2), read against a model, into SI [`Pose`](measurements::Pose)s |
+//! | [`builtin`] | the models of `models/` and the real data sets of `data/`, built into the binary |
+//! | [`check`] | `armcal check`: what was read, and the error of the nominal model against the data |
+//!
+//! Units: inside the program everything is SI (m, rad, kg), as in `armcal-shared`;
+//! the model file's `length_unit` and `angle_unit` apply to the model and to its
+//! data files, and are converted on reading.
+
+pub mod builtin;
+pub mod check;
+pub mod input_error;
+pub mod measurements;
+pub mod model_file;
+
+#[cfg(test)]
+mod test_support;

@@ -1,2 +1,82 @@
-//! armcal
-fn main() {}
+//! `armcal`, the robot calibrator's command line.
+//!
+//! Each verb reads its inputs completely and validates them before it computes or
+//! writes anything, so a refused input leaves every output file untouched. Errors
+//! print as `file:line:column: what is wrong` and the process exits with status 2
+//! (bad input) or 1 (anything else).
+
+use std::process::ExitCode;
+
+use armcal::check;
+use armcal::input_error::InputError;
+use armcal::{builtin, measurements, model_file};
+use clap::{Parser, Subcommand};
+
+/// armcal makes serial robot arms accurate: it identifies the errors of their
+/// Denavit-Hartenberg model from measured poses and writes the calibration the
+/// motion controller applies.
+#[derive(Parser, Debug)]
+#[command(name = "armcal", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Print what was read from a robot model and a measurement file, and the
+    /// error of the nominal model against the measurements.
+    Check {
+        /// Robot model: a TOML file (FORMAT.md §1) or the name of a built-in model.
+        #[arg(long, value_name = "M.toml|NAME")]
+        model: String,
+        /// Measurements: a CSV file (FORMAT.md §2) or the name of a built-in data set.
+        #[arg(long, value_name = "D.csv|NAME")]
+        data: String,
+    },
+    /// List the built-in robot models and data sets.
+    Models,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) => {
+            eprintln!("armcal: error: {err}");
+            let mut source = err.source();
+            while let Some(cause) = source {
+                eprintln!("  caused by: {cause}");
+                source = cause.source();
+            }
+            if err.downcast_ref::<InputError>().is_some() {
+                ExitCode::from(2)
+            } else {
+                ExitCode::FAILURE
+            }
+        }
+    }
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Check { model, data } => {
+            let model = model_file::load_model(&model)?;
+            let data = measurements::load_measurements(&data, &model)?;
+            let full_pose = data.poses.iter().all(|p| p.orientation.is_some());
+            data.require_poses(check::independent_parameter_count(&model.robot, full_pose))?;
+            print!("{}", check::report(&model, &data));
+        }
+        Command::Models => {
+            println!("built-in robot models (use as --model NAME):");
+            for name in builtin::MODEL_NAMES {
+                println!("  {name}");
+            }
+            println!("built-in data sets (use as --data NAME):");
+            for name in builtin::DATA_NAMES {
+                println!("  {name}");
+            }
+        }
+    }
+    Ok(())
+}

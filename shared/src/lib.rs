@@ -10,6 +10,7 @@
 //! | [`kinematics`] | forward kinematics of the measured frame and point, and the [`kinematics::Chain`] of every link frame |
 //! | [`jacobian`] | the special Jacobians J_θ, J_s, J_α, J_a of Mirman & Gupta (eqs. 51–54), base and tool columns, the manipulator Jacobian |
 //! | [`pose_error`] | the end-effector error of Mirman & Gupta eqs. 12–15, full pose and position only |
+//! | [`calibration`] | the calibration file the calibrator writes and the controller loads: magic, version, model hash, CRC, postcard payload |
 //! | [`param`] | the names of the geometric parameters (`theta3`, `alpha1`, `base.rx`, `tool.z`, ...) |
 //!
 //! ## Conventions used throughout
@@ -30,6 +31,7 @@
 #[cfg(feature = "std")]
 extern crate std;
 
+pub mod calibration;
 pub mod dh;
 pub mod jacobian;
 pub mod kinematics;
@@ -38,6 +40,7 @@ pub mod param;
 pub mod pose_error;
 pub mod scalar;
 
+pub use calibration::{Calibration, CalibrationError, ParamError};
 pub use jacobian::{SpecialJacobians, Twist};
 pub use kinematics::{Chain, LinkAxes};
 pub use model::{Convention, Frame, JointType, Link, LinkMass, MAX_JOINTS, ModelError, Robot};

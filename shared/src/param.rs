@@ -139,7 +139,8 @@ impl FromStr for Param {
             return frame_axis(rest).map(Self::Tool);
         }
         // Longest prefixes first: "alpha" before "a".
-        let joint: [(&str, fn(usize) -> Param); 4] = [
+        type MakeJointParam = fn(usize) -> Param;
+        let joint: [(&str, MakeJointParam); 4] = [
             ("theta", Self::Theta),
             ("alpha", Self::Alpha),
             ("s", Self::S),
@@ -157,34 +158,6 @@ impl FromStr for Param {
             }
         }
         Err(UnknownParam)
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    extern crate std;
-    use std::string::ToString;
-
-    #[test]
-    fn names_round_trip() {
-        let all = [
-            Param::Theta(0),
-            Param::S(1),
-            Param::A(2),
-            Param::Alpha(11),
-            Param::Base(FrameAxis::Rx),
-            Param::Tool(FrameAxis::Z),
-        ];
-        for p in all {
-            assert_eq!(p.to_string().parse::<Param>(), Ok(p), "{p}");
-        }
-        assert_eq!(Param::Alpha(0).to_string(), "alpha1");
-        for bad in [
-            "theta0", "theta", "a-1", "alpha1x", "base.w", "tool.", "q1", "",
-        ] {
-            assert_eq!(bad.parse::<Param>(), Err(UnknownParam), "{bad}");
-        }
     }
 }
 
@@ -233,5 +206,33 @@ impl<T: crate::Real> crate::Robot<T> {
         joints
             .chain(FrameAxis::ALL.into_iter().map(Param::Base))
             .chain(FrameAxis::ALL.into_iter().map(Param::Tool))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    extern crate std;
+    use std::string::ToString;
+
+    #[test]
+    fn names_round_trip() {
+        let all = [
+            Param::Theta(0),
+            Param::S(1),
+            Param::A(2),
+            Param::Alpha(11),
+            Param::Base(FrameAxis::Rx),
+            Param::Tool(FrameAxis::Z),
+        ];
+        for p in all {
+            assert_eq!(p.to_string().parse::<Param>(), Ok(p), "{p}");
+        }
+        assert_eq!(Param::Alpha(0).to_string(), "alpha1");
+        for bad in [
+            "theta0", "theta", "a-1", "alpha1x", "base.w", "tool.", "q1", "",
+        ] {
+            assert_eq!(bad.parse::<Param>(), Err(UnknownParam), "{bad}");
+        }
     }
 }

@@ -35,28 +35,48 @@
 //! `h = (3 k ε)^{1/3}`, is used: about 5e-5 in f64 and 4e-2 in f32.
 
 use armcal_shared::jacobian::at_point;
-use armcal_shared::{
-    Convention, Frame, FrameAxis, JointType, Link, Param, Real, Robot, Twist,
-};
+use armcal_shared::{Convention, Frame, FrameAxis, JointType, Link, Param, Real, Robot, Twist};
 use nalgebra::{IsometryMatrix3, Vector3};
 use proptest::prelude::*;
 
 /// A random robot in f64: both conventions, mixed joints, lengths within ±1 m.
 fn robot_strategy() -> impl Strategy<Value = (Robot<f64>, Vec<f64>)> {
     let pi = std::f64::consts::PI;
-    let link = (any::<bool>(), -pi..pi, -1.0..1.0f64, -1.0..1.0f64, -pi..pi, -pi..pi);
+    let link = (
+        any::<bool>(),
+        -pi..pi,
+        -1.0..1.0f64,
+        -1.0..1.0f64,
+        -pi..pi,
+        -pi..pi,
+    );
     let frame = |len: f64| {
-        (prop::array::uniform3(-len..len), prop::array::uniform3(-pi..pi))
-            .prop_map(|(xyz, rpy)| Frame { xyz: Vector3::from(xyz), rpy: Vector3::from(rpy) })
+        (
+            prop::array::uniform3(-len..len),
+            prop::array::uniform3(-pi..pi),
+        )
+            .prop_map(|(xyz, rpy)| Frame {
+                xyz: Vector3::from(xyz),
+                rpy: Vector3::from(rpy),
+            })
     };
-    (any::<bool>(), prop::collection::vec(link, 1..=8), frame(2.0), frame(0.3)).prop_map(
-        move |(mdh, links, base, tool)| {
+    (
+        any::<bool>(),
+        prop::collection::vec(link, 1..=8),
+        frame(2.0),
+        frame(0.3),
+    )
+        .prop_map(move |(mdh, links, base, tool)| {
             let convention = if mdh { Convention::Mdh } else { Convention::Dh };
             let mut q = Vec::new();
             let links: Vec<Link<f64>> = links
                 .into_iter()
                 .map(|(prismatic, theta, s, a, alpha, qm)| {
-                    let joint = if prismatic { JointType::Prismatic } else { JointType::Revolute };
+                    let joint = if prismatic {
+                        JointType::Prismatic
+                    } else {
+                        JointType::Revolute
+                    };
                     // A prismatic reading is a length: scale the random angle to ±0.5 m.
                     q.push(if prismatic { qm / (2.0 * pi) } else { qm });
                     Link::new(joint, theta, s, a, alpha)
@@ -66,8 +86,7 @@ fn robot_strategy() -> impl Strategy<Value = (Robot<f64>, Vec<f64>)> {
             robot.base = base;
             robot.tool = tool;
             (robot, q)
-        },
-    )
+        })
 }
 
 /// `L`: the sum of every length of the model and the joint travel, at least 1 m.
@@ -77,7 +96,11 @@ fn reach<T: Real>(robot: &Robot<T>, q: &[T]) -> f64 {
         .iter()
         .zip(q)
         .map(|(l, &qm)| {
-            let travel = if l.joint == JointType::Prismatic { qm.to_f64().abs() } else { 0.0 };
+            let travel = if l.joint == JointType::Prismatic {
+                qm.to_f64().abs()
+            } else {
+                0.0
+            };
             l.s.to_f64().abs() + l.a.to_f64().abs() + travel
         })
         .sum();
@@ -138,7 +161,13 @@ fn check_all_columns<T: Real>(robot: &Robot<T>, q: &[T]) -> Result<(), TestCaseE
             moved.forward(q).expect("joint count matches")
         };
         let numeric = fd_twist(frame_at, T::lit(h));
-        assert_twist_close(&param.to_string(), &chain.column(param), &numeric, tol_rot, tol_trans)?;
+        assert_twist_close(
+            &param.to_string(),
+            &chain.column(param),
+            &numeric,
+            tol_rot,
+            tol_trans,
+        )?;
     }
     // The manipulator Jacobian: the twist per unit joint reading.
     let jac = chain.manipulator_jacobian();
@@ -151,7 +180,13 @@ fn check_all_columns<T: Real>(robot: &Robot<T>, q: &[T]) -> Result<(), TestCaseE
             robot.forward(&moved).expect("joint count matches")
         };
         let numeric = fd_twist(frame_at, T::lit(h));
-        assert_twist_close(&format!("joint {}", m + 1), &jac.column(m), &numeric, tol_rot, tol_trans)?;
+        assert_twist_close(
+            &format!("joint {}", m + 1),
+            &jac.column(m),
+            &numeric,
+            tol_rot,
+            tol_trans,
+        )?;
     }
     Ok(())
 }
@@ -229,7 +264,11 @@ proptest! {
 /// A joint vector of the wrong length is refused, not a panic.
 #[test]
 fn wrong_joint_count_is_an_error() {
-    let robot = Robot::new(Convention::Dh, &[Link::new(JointType::Revolute, 0.0, 0.1, 0.2, 0.3)]).unwrap();
+    let robot = Robot::new(
+        Convention::Dh,
+        &[Link::new(JointType::Revolute, 0.0, 0.1, 0.2, 0.3)],
+    )
+    .unwrap();
     assert!(robot.forward(&[0.0, 1.0]).is_err());
     assert!(robot.chain(&[]).is_err());
 }
@@ -237,7 +276,11 @@ fn wrong_joint_count_is_an_error() {
 /// The base columns at the identity base are the unit twists of the measurement frame.
 #[test]
 fn base_columns_at_identity_are_unit_twists() {
-    let robot = Robot::new(Convention::Mdh, &[Link::new(JointType::Revolute, 0.0, 0.1, 0.2, 0.3)]).unwrap();
+    let robot = Robot::new(
+        Convention::Mdh,
+        &[Link::new(JointType::Revolute, 0.0, 0.1, 0.2, 0.3)],
+    )
+    .unwrap();
     let chain = robot.chain(&[0.4]).unwrap();
     let unit = |i: usize| {
         let mut t = Twist::<f64>::zeros();

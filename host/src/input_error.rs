@@ -1,0 +1,189 @@
+//! Why a model or data file was refused, and where.
+//!
+//! Every refusal of an input file (a robot model of `FORMAT.md` §1, a measurement
+//! CSV of §2) is an [`InputError`] that names the file, the line and the column
+//! of the offending text, so that an editor or a terminal can jump to it:
+//!
+//! ```text
+//! data.csv:14:23: column 'x': "abc" is not a finite number
+//! ```
+//!
+//! Conventions:
+//! - lines and columns are 1-based;
+//! - the column counts *characters* (Unicode scalar values), not bytes, from the
+//!   start of the line, so that it matches what an editor shows for non-ASCII text;
+//! - line 0, column 0 means "no place in the text" (the file could not be read at
+//!   all); the position is then left out of the message.
+//!
+//! [`line_col`] turns a byte offset, as the TOML and CSV parsers report them, into
+//! such a (line, column) pair. It never panics, whatever the offset.
+
+use thiserror::Error;
+
+/// A refused input file: the file, the place in it and what is wrong there.
+///
+/// Displayed as `file:line:column: message` (`file: message` when `line` is 0,
+/// i.e. when the file could not be read at all).
+#[derive(Clone, Debug, PartialEq, Eq, Error)]
+#[error("{}", self.render())]
+pub struct InputError {
+    /// The file as the user named it (a path, or the label of a built-in file).
+    pub file: String,
+    /// 1-based line; 0 when the error has no place in the text.
+    pub line: usize,
+    /// 1-based character column in that line; 0 when the error has no place in the text.
+    pub column: usize,
+    /// What is wrong and, where it helps, what would be accepted.
+    pub message: String,
+}
+
+impl InputError {
+    /// An error at a known line and column (both 1-based).
+    pub fn new(
+        file: impl Into<String>,
+        line: usize,
+        column: usize,
+        message: impl Into<String>,
+    ) -> Self {
+        Self {
+            file: file.into(),
+            line,
+            column,
+            message: message.into(),
+        }
+    }
+
+    /// An error at byte `offset` of `text` (the offset is turned into line and
+    /// column by [`line_col`]).
+    pub fn at_offset(
+        file: impl Into<String>,
+        text: &str,
+        offset: usize,
+        message: impl Into<String>,
+    ) -> Self {
+        let (line, column) = line_col(text, offset);
+        Self::new(file, line, column, message)
+    }
+
+    /// A file that could not be read at all (line and column 0), with the reason
+    /// the operating system gave.
+    pub fn unreadable(file: impl Into<String>, reason: impl core::fmt::Display) -> Self {
+        Self::new(file, 0, 0, format!("cannot read the file: {reason}"))
+    }
+
+    fn render(&self) -> String {
+        if self.line == 0 {
+            format!("{}: {}", self.file, self.message)
+        } else {
+            format!(
+                "{}:{}:{}: {}",
+                self.file, self.line, self.column, self.message
+            )
+        }
+    }
+}
+
+/// The 1-based (line, character column) of byte `offset` in `text`.
+///
+/// Lines end at `\n` (a `\r` before it counts as the last character of its line).
+/// An offset past the end is taken as the end of the text, and an offset inside a
+/// multi-byte character as the start of that character.
+pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let mut offset = offset.min(text.len());
+    while offset > 0 && !text.is_char_boundary(offset) {
+        offset -= 1;
+    }
+    let before = text.get(..offset).unwrap_or("");
+    let line = before.bytes().filter(|&b| b == b'\n').count() + 1;
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    let column = before.get(line_start..).unwrap_or("").chars().count() + 1;
+    (line, column)
+}
+
+/// Reads a whole input file as UTF-8 text.
+///
+/// A file that cannot be read is an error at line 0 naming the OS reason; a file
+/// that is not UTF-8 is an error at the first invalid byte. A leading UTF-8
+/// byte-order mark (as spreadsheet programs write) is dropped.
+pub fn read_text(path: &str) -> Result<String, InputError> {
+    let bytes = std::fs::read(path).map_err(|e| InputError::unreadable(path, e))?;
+    match String::from_utf8(bytes) {
+        Ok(mut text) => {
+            if text.starts_with('\u{feff}') {
+                text.drain(..'\u{feff}'.len_utf8());
+            }
+            Ok(text)
+        }
+        Err(e) => {
+            let valid = e.utf8_error().valid_up_to();
+            let bytes = e.into_bytes();
+            let prefix = String::from_utf8_lossy(bytes.get(..valid).unwrap_or(&[]));
+            Err(InputError::at_offset(
+                path,
+                &prefix,
+                valid,
+                "the file is not UTF-8 text (invalid byte here)",
+            ))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Line and column are 1-based, the column counts characters not bytes, and
+    /// out-of-range or mid-character offsets do not panic.
+    #[test]
+    fn line_col_counts_lines_and_characters() {
+        let text = "ab\nçd,e\n\nz";
+        assert_eq!(line_col(text, 0), (1, 1));
+        assert_eq!(line_col(text, 2), (1, 3)); // the '\n' itself
+        assert_eq!(line_col(text, 3), (2, 1)); // 'ç'
+        assert_eq!(line_col(text, 4), (2, 1)); // inside 'ç': its start
+        assert_eq!(line_col(text, 5), (2, 2)); // 'd': 'ç' is one character
+        assert_eq!(line_col(text, 7), (2, 4)); // 'e'
+        assert_eq!(line_col(text, 9), (3, 1)); // the empty line
+        assert_eq!(line_col(text, 10), (4, 1));
+        assert_eq!(line_col(text, 1000), (4, 2)); // past the end: the end
+        assert_eq!(line_col("", 5), (1, 1));
+    }
+
+    /// The display is `file:line:column: message`, without the place for line 0.
+    #[test]
+    fn display_names_file_line_column() {
+        let e = InputError::new("data.csv", 14, 23, "column 'x': bad");
+        assert_eq!(e.to_string(), "data.csv:14:23: column 'x': bad");
+        let e = InputError::unreadable("nope.toml", "No such file");
+        assert_eq!(
+            e.to_string(),
+            "nope.toml: cannot read the file: No such file"
+        );
+        let e = InputError::at_offset("m.toml", "a\nbc", 3, "here");
+        assert_eq!((e.line, e.column), (2, 2));
+    }
+
+    /// A missing file names the file; a non-UTF-8 file names the line and column
+    /// of the first bad byte; a byte-order mark is dropped.
+    #[test]
+    fn read_text_refuses_unreadable_and_non_utf8() {
+        let e = read_text("/nonexistent/armcal/x.toml").unwrap_err();
+        assert_eq!(e.file, "/nonexistent/armcal/x.toml");
+        assert_eq!((e.line, e.column), (0, 0));
+        assert!(
+            e.to_string()
+                .starts_with("/nonexistent/armcal/x.toml: cannot read")
+        );
+
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("bad.csv");
+        std::fs::write(&path, b"q1,x\n1,\xff\n").unwrap();
+        let p = path.to_str().unwrap();
+        let e = read_text(p).unwrap_err();
+        assert_eq!((e.line, e.column), (2, 3), "{e}");
+        assert!(e.message.contains("UTF-8"));
+
+        std::fs::write(&path, "\u{feff}q1,x\n").unwrap();
+        assert_eq!(read_text(p).unwrap(), "q1,x\n");
+    }
+}

@@ -1,0 +1,1155 @@
+//! Measured poses: the CSV of `FORMAT.md` §2, read against a robot model.
+//!
+//! One row per measured pose, in the order the poses were measured (row order
+//! carries information: the direction from which each joint approached a pose is
+//! the sign of its change from the previous row, so rows are kept in file order).
+//! Lines that start with `#` are comments; the first other line is the header;
+//! blank lines are skipped; fields are trimmed.
+//!
+//! | column | required | unit on file | in [`Pose`] |
+//! | --- | --- | --- | --- |
+//! | `q1` … `qM` | yes | model angle unit (revolute) or length unit (prismatic) | `q`, rad or m |
+//! | `x`, `y`, `z` | yes | model length unit, measurement frame | `position`, m |
+//! | `qw`, `qx`, `qy`, `qz` | no, all four or none | unit quaternion, scalar first | `orientation`, normalised |
+//! | `t` | no | s | `t` |
+//! | `temp` | no | °C | `temp` |
+//! | `load` | no | kg | `load` |
+//!
+//! Other columns (an id, a comment) are kept out of the computation, listed in
+//! [`Measurements::columns_ignored`] and named in a warning. An empty cell of an
+//! optional column means "not measured for this pose" (all four quaternion cells
+//! empty: no orientation for this pose).
+//!
+//! Refusals are [`InputError`]s naming the file, the line, the character column of
+//! the offending field and the column's header name: a missing required column, a
+//! `q` column beyond the model's joint count or a missing one (joint-count
+//! mismatch), a duplicate column name, a row with the wrong number of fields, a
+//! value that is not a finite number, a partial quaternion, a quaternion whose norm
+//! differs from 1 by more than [`QUATERNION_NORM_TOLERANCE`], no data rows, and —
+//! once the caller knows how many parameters it identifies — fewer equations
+//! than unknowns ([`Measurements::require_poses`]).
+//!
+//! The `csv` crate splits the records; the column of a field is found by scanning
+//! the raw line for commas outside double quotes.
+
+use armcal_shared::JointType;
+use nalgebra::{Point3, Quaternion, UnitQuaternion};
+
+use crate::builtin;
+use crate::input_error::{InputError, read_text};
+use crate::model_file::RobotModel;
+
+/// How far from 1 the norm of a measured quaternion may be; within it the
+/// quaternion is normalised, beyond it the file is refused.
+pub const QUATERNION_NORM_TOLERANCE: f64 = 1e-3;
+
+/// One measured pose: the joint readings and what the tracker saw.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Pose {
+    /// 1-based line of this row in the file (for messages and `outlier_rows`).
+    pub line: usize,
+    /// Joint readings, SI: rad for a revolute joint, m for a prismatic one.
+    pub q: Vec<f64>,
+    /// Measured position of the tool point in the measurement frame, m.
+    pub position: Point3<f64>,
+    /// Measured orientation of the tool frame, if the row has one (normalised).
+    pub orientation: Option<UnitQuaternion<f64>>,
+    /// Time of the measurement, s.
+    pub t: Option<f64>,
+    /// Temperature, °C.
+    pub temp: Option<f64>,
+    /// Payload mass, kg.
+    pub load: Option<f64>,
+}
+
+impl Pose {
+    /// Whether the orientation was measured for this pose.
+    pub fn has_orientation(&self) -> bool {
+        self.orientation.is_some()
+    }
+
+    /// Whether the time was recorded for this pose.
+    pub fn has_time(&self) -> bool {
+        self.t.is_some()
+    }
+
+    /// Whether the temperature was recorded for this pose.
+    pub fn has_temp(&self) -> bool {
+        self.temp.is_some()
+    }
+
+    /// Whether the payload was recorded for this pose.
+    pub fn has_load(&self) -> bool {
+        self.load.is_some()
+    }
+
+    /// The scalar equations this pose gives an identification: 3 (position) or 6
+    /// (position and orientation).
+    pub fn equations(&self) -> usize {
+        if self.has_orientation() { 6 } else { 3 }
+    }
+}
+
+/// A measurement file read against a model.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Measurements {
+    /// The file as named by the user (or the label of a built-in set).
+    pub file: String,
+    /// The poses, in file order.
+    pub poses: Vec<Pose>,
+    /// The header names of the columns used, in file order.
+    pub columns_used: Vec<String>,
+    /// The header names of the columns kept out of the computation, in file order.
+    pub columns_ignored: Vec<String>,
+    /// Things the user should know that do not stop the computation.
+    pub warnings: Vec<String>,
+}
+
+impl Measurements {
+    /// The number of poses.
+    pub fn len(&self) -> usize {
+        self.poses.len()
+    }
+
+    /// Whether there are no poses (never the case for a parsed file).
+    pub fn is_empty(&self) -> bool {
+        self.poses.is_empty()
+    }
+
+    /// Whether every pose has a measured orientation.
+    pub fn has_orientation(&self) -> bool {
+        !self.poses.is_empty() && self.poses.iter().all(Pose::has_orientation)
+    }
+
+    /// The number of scalar equations the poses give: 3 per pose, 6 per pose with
+    /// orientation.
+    pub fn equations(&self) -> usize {
+        self.poses.iter().map(Pose::equations).sum()
+    }
+
+    /// Refuses the file if its poses give fewer equations than `unknowns`.
+    ///
+    /// The error is placed at the last data line, column 1, and says how many poses
+    /// and equations there are, how many unknowns, and how many poses are needed.
+    pub fn require_poses(&self, unknowns: usize) -> Result<(), InputError> {
+        let equations = self.equations();
+        if equations >= unknowns {
+            return Ok(());
+        }
+        let per_pose = if self.has_orientation() { 6 } else { 3 };
+        let needed = unknowns.div_ceil(per_pose);
+        let line = self.poses.last().map_or(1, |p| p.line);
+        Err(InputError::new(
+            &self.file,
+            line,
+            1,
+            format!(
+                "fewer poses than unknowns: {} give{} {equations} equations ({per_pose} per pose), \
+                 fewer than the {unknowns} unknowns; at least {needed} poses are needed",
+                plural(self.poses.len(), "pose"),
+                if self.poses.len() == 1 { "s" } else { "" }
+            ),
+        ))
+    }
+}
+
+/// Loads measurements: a built-in set if `name_or_path` is the name of one (see
+/// [`builtin::DATA`]), otherwise the file at that path, read against `model`.
+pub fn load_measurements(
+    name_or_path: &str,
+    model: &RobotModel,
+) -> Result<Measurements, InputError> {
+    if let Some((text, label)) = builtin::builtin_data(name_or_path) {
+        return parse_measurements(text, label, model);
+    }
+    let text = read_text(name_or_path).map_err(|mut e| {
+        if e.line == 0 {
+            e.message = format!(
+                "{} (and it is not a built-in data set: {})",
+                e.message,
+                builtin::DATA_NAMES.join(", ")
+            );
+        }
+        e
+    })?;
+    parse_measurements(&text, name_or_path, model)
+}
+
+/// What a column of the file feeds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Role {
+    /// Joint reading, 0-based joint index.
+    Joint(usize),
+    /// Position component 0, 1, 2 (x, y, z).
+    Position(usize),
+    /// Quaternion component 0..4 (w, x, y, z).
+    Quat(usize),
+    T,
+    Temp,
+    Load,
+    Ignored,
+}
+
+const POSITION: [&str; 3] = ["x", "y", "z"];
+const QUAT: [&str; 4] = ["qw", "qx", "qy", "qz"];
+
+/// The role of a header name (`q0` is no joint; the header check refuses it).
+fn role_of(name: &str) -> Role {
+    if let Some(i) = POSITION.iter().position(|n| *n == name) {
+        return Role::Position(i);
+    }
+    if let Some(i) = QUAT.iter().position(|n| *n == name) {
+        return Role::Quat(i);
+    }
+    match name {
+        "t" => return Role::T,
+        "temp" => return Role::Temp,
+        "load" => return Role::Load,
+        _ => {}
+    }
+    if let Some(k) = joint_index(name).filter(|&k| k > 0) {
+        return Role::Joint(k - 1);
+    }
+    Role::Ignored
+}
+
+/// `k` for a column `q<k>` (decimal, no leading zero, `q0` gives 0).
+fn joint_index(name: &str) -> Option<usize> {
+    let digits = name.strip_prefix('q')?;
+    if digits.is_empty()
+        || !digits.bytes().all(|b| b.is_ascii_digit())
+        || (digits.len() > 1 && digits.starts_with('0'))
+    {
+        return None;
+    }
+    // More digits than fit are still a (huge) joint number.
+    Some(digits.parse::<usize>().unwrap_or(usize::MAX))
+}
+
+/// Parses the text of a measurement file (`FORMAT.md` §2) against `model`.
+///
+/// `file` names the file in error messages. Never panics, whatever the text.
+pub fn parse_measurements(
+    text: &str,
+    file: &str,
+    model: &RobotModel,
+) -> Result<Measurements, InputError> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    CsvReader::new(text, file).read(model)
+}
+
+/// The raw text and where each record of it starts.
+struct CsvReader<'a> {
+    text: &'a str,
+    file: &'a str,
+    /// Line counting cursor: `line` is the 1-based line of byte `byte`.
+    byte: usize,
+    line: usize,
+}
+
+/// One record: its fields (trimmed), where it starts and its line.
+struct Row {
+    fields: csv::StringRecord,
+    start: usize,
+    line: usize,
+}
+
+impl<'a> CsvReader<'a> {
+    fn new(text: &'a str, file: &'a str) -> Self {
+        Self {
+            text,
+            file,
+            byte: 0,
+            line: 1,
+        }
+    }
+
+    fn err_at(&self, offset: usize, message: impl Into<String>) -> InputError {
+        InputError::at_offset(self.file, self.text, offset, message)
+    }
+
+    /// The 1-based line of byte `offset`; offsets come in increasing order, so the
+    /// whole file is scanned once.
+    fn line_of(&mut self, offset: usize) -> usize {
+        let bytes = self.text.as_bytes();
+        let offset = offset.min(bytes.len());
+        if offset < self.byte {
+            self.byte = 0;
+            self.line = 1;
+        }
+        self.line += bytes
+            .get(self.byte..offset)
+            .unwrap_or(&[])
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count();
+        self.byte = offset;
+        self.line
+    }
+
+    /// Where a record really starts: the `csv` crate reports the place it began
+    /// reading, before the comment and blank lines it skipped.
+    fn record_start(&self, mut i: usize) -> usize {
+        let bytes = self.text.as_bytes();
+        loop {
+            match bytes.get(i) {
+                Some(b'#') => {
+                    while let Some(&b) = bytes.get(i) {
+                        i += 1;
+                        if b == b'\n' {
+                            break;
+                        }
+                    }
+                }
+                Some(b'\n' | b'\r') => i += 1,
+                _ => return i,
+            }
+        }
+    }
+
+    /// The byte offsets where the fields of the record at `start` begin (after
+    /// leading blanks, as the fields are trimmed), and where the record ends.
+    fn field_offsets(&self, start: usize) -> (Vec<usize>, usize) {
+        let bytes = self.text.as_bytes();
+        let skip_blanks = |mut i: usize| {
+            while matches!(bytes.get(i), Some(b' ' | b'\t')) {
+                i += 1;
+            }
+            i
+        };
+        let mut starts = Vec::new();
+        let mut i = start;
+        loop {
+            starts.push(skip_blanks(i));
+            // As in csv-core, a quote opens a quoted field only as its first byte.
+            let mut in_quotes = bytes.get(i) == Some(&b'"');
+            if in_quotes {
+                i += 1;
+            }
+            loop {
+                match bytes.get(i) {
+                    None => return (starts, i),
+                    Some(b'"') if in_quotes => {
+                        if bytes.get(i + 1) == Some(&b'"') {
+                            i += 2;
+                        } else {
+                            in_quotes = false;
+                            i += 1;
+                        }
+                    }
+                    Some(b',') if !in_quotes => {
+                        i += 1;
+                        break;
+                    }
+                    Some(b'\n' | b'\r') if !in_quotes => return (starts, i),
+                    Some(_) => i += 1,
+                }
+            }
+        }
+    }
+
+    /// The byte offset of field `index` of the record at `start` (the end of the
+    /// record if it has fewer fields).
+    fn field_offset(&self, start: usize, index: usize) -> usize {
+        let (starts, end) = self.field_offsets(start);
+        starts.get(index).copied().unwrap_or(end)
+    }
+
+    /// The next record that is not a blank-looking line, or `None` at the end.
+    fn next_row(&mut self, reader: &mut csv::Reader<&[u8]>) -> Result<Option<Row>, InputError> {
+        loop {
+            let mut fields = csv::StringRecord::new();
+            match reader.read_record(&mut fields) {
+                Ok(false) => return Ok(None),
+                Ok(true) => {
+                    let begun = fields.position().map_or(0, |p| p.byte() as usize);
+                    let start = self.record_start(begun);
+                    let line = self.line_of(start);
+                    if fields.len() == 1 && fields.get(0).is_some_and(str::is_empty) {
+                        continue; // a line of blanks only
+                    }
+                    return Ok(Some(Row {
+                        fields,
+                        start,
+                        line,
+                    }));
+                }
+                Err(e) => {
+                    let offset = e.position().map_or(0, |p| p.byte() as usize);
+                    return Err(self.err_at(offset, format!("CSV: {e}")));
+                }
+            }
+        }
+    }
+
+    fn read(mut self, model: &RobotModel) -> Result<Measurements, InputError> {
+        let mut reader = csv::ReaderBuilder::new()
+            .has_headers(false)
+            .comment(Some(b'#'))
+            .trim(csv::Trim::All)
+            .flexible(true)
+            .from_reader(self.text.as_bytes());
+
+        let Some(header) = self.next_row(&mut reader)? else {
+            return Err(InputError::new(
+                self.file,
+                1,
+                1,
+                "no header line: the file is empty or has only comments (expected q1..qM, x, y, z, ...)",
+            ));
+        };
+        let columns = self.header(&header, model)?;
+
+        let mut poses = Vec::new();
+        while let Some(row) = self.next_row(&mut reader)? {
+            poses.push(self.pose(&row, &header, &columns, model)?);
+        }
+        if poses.is_empty() {
+            return Err(InputError::new(
+                self.file,
+                header.line,
+                1,
+                "no data rows after the header: at least one measured pose is needed",
+            ));
+        }
+
+        let mut columns_used = Vec::new();
+        let mut columns_ignored = Vec::new();
+        for (name, role) in header.fields.iter().zip(&columns) {
+            if *role == Role::Ignored {
+                columns_ignored.push(name.to_owned());
+            } else {
+                columns_used.push(name.to_owned());
+            }
+        }
+        let mut warnings = Vec::new();
+        if !columns_ignored.is_empty() {
+            let names: Vec<String> = columns_ignored
+                .iter()
+                .map(|n| {
+                    if n.is_empty() {
+                        "(unnamed)".to_owned()
+                    } else {
+                        format!("'{n}'")
+                    }
+                })
+                .collect();
+            warnings.push(format!(
+                "{}:{}: columns kept out of the computation: {} (used: q1..q{}, x, y, z, qw, qx, qy, qz, t, temp, load)",
+                self.file,
+                header.line,
+                names.join(", "),
+                model.dof()
+            ));
+        }
+        warnings.extend(limit_warnings(self.file, &poses, model));
+
+        Ok(Measurements {
+            file: self.file.to_owned(),
+            poses,
+            columns_used,
+            columns_ignored,
+            warnings,
+        })
+    }
+
+    /// Checks the header against the model; the role of each column.
+    fn header(&self, header: &Row, model: &RobotModel) -> Result<Vec<Role>, InputError> {
+        let m = model.dof();
+        let at = |index: usize, message: String| {
+            self.err_at(self.field_offset(header.start, index), message)
+        };
+        let names: Vec<&str> = header.fields.iter().collect();
+
+        for (i, name) in names.iter().enumerate() {
+            if name.is_empty() {
+                continue;
+            }
+            if let Some(first) = names.iter().take(i).position(|n| n == name) {
+                return Err(at(
+                    i,
+                    format!(
+                        "column '{name}': duplicate column name (field {} of the header is '{name}' too)",
+                        first + 1
+                    ),
+                ));
+            }
+        }
+
+        let roles: Vec<Role> = names.iter().map(|n| role_of(n)).collect();
+        let joint_numbers: Vec<(usize, usize)> = names
+            .iter()
+            .enumerate()
+            .filter_map(|(i, n)| joint_index(n).map(|k| (i, k)))
+            .collect();
+        let data_joints = joint_numbers.iter().map(|(_, k)| *k).max().unwrap_or(0);
+        for &(i, k) in &joint_numbers {
+            if k == 0 {
+                return Err(at(
+                    i,
+                    "column 'q0': joints are numbered from 1 (q1..qM)".to_owned(),
+                ));
+            }
+            if k > m {
+                return Err(at(
+                    i,
+                    format!(
+                        "column '{}': joint-count mismatch: the model has {m} joints, the data has {data_joints} (q1..q{m} expected)",
+                        names.get(i).unwrap_or(&"")
+                    ),
+                ));
+            }
+        }
+        let header_err = |message: String| InputError::new(self.file, header.line, 1, message);
+        for j in 0..m {
+            if !roles.contains(&Role::Joint(j)) {
+                return Err(header_err(format!(
+                    "missing column 'q{}': joint-count mismatch: the model has {m} joints, the data has {}{}",
+                    j + 1,
+                    joint_numbers.len(),
+                    case_hint(&names, &format!("q{}", j + 1))
+                )));
+            }
+        }
+        for (c, name) in POSITION.iter().enumerate() {
+            if !roles.contains(&Role::Position(c)) {
+                return Err(header_err(format!(
+                    "missing required column '{name}' (required: q1..q{m}, x, y, z){}",
+                    case_hint(&names, name)
+                )));
+            }
+        }
+        let present: Vec<usize> = (0..4).filter(|c| roles.contains(&Role::Quat(*c))).collect();
+        if !present.is_empty() && present.len() < 4 {
+            let first = roles
+                .iter()
+                .position(|r| matches!(r, Role::Quat(_)))
+                .unwrap_or(0);
+            let have: Vec<&str> = present
+                .iter()
+                .filter_map(|c| QUAT.get(*c).copied())
+                .collect();
+            let missing: Vec<&str> = (0..4)
+                .filter(|c| !present.contains(c))
+                .filter_map(|c| QUAT.get(c).copied())
+                .collect();
+            return Err(at(
+                first,
+                format!(
+                    "column '{}': partial quaternion: {} given, {} missing; give all four of qw, qx, qy, qz or none",
+                    names.get(first).unwrap_or(&""),
+                    have.join(", "),
+                    missing.join(", ")
+                ),
+            ));
+        }
+        Ok(roles)
+    }
+
+    /// One data row.
+    fn pose(
+        &self,
+        row: &Row,
+        header: &Row,
+        roles: &[Role],
+        model: &RobotModel,
+    ) -> Result<Pose, InputError> {
+        let at = |index: usize, message: String| {
+            self.err_at(self.field_offset(row.start, index), message)
+        };
+        if row.fields.len() != roles.len() {
+            let hint = if row.fields.get(0).is_some_and(|f| f.starts_with('#')) {
+                " (a comment line must start with '#' in its first column)"
+            } else {
+                ""
+            };
+            return Err(at(
+                roles.len().min(row.fields.len()),
+                format!(
+                    "row has {}, the header has {}{hint}",
+                    plural(row.fields.len(), "field"),
+                    roles.len()
+                ),
+            ));
+        }
+
+        let units = model.units;
+        let mut q = vec![0.0; model.dof()];
+        let mut position = [0.0; 3];
+        let mut quat: [Option<f64>; 4] = [None; 4];
+        let (mut t, mut temp, mut load) = (None, None, None);
+        for (i, (value, role)) in row.fields.iter().zip(roles).enumerate() {
+            if *role == Role::Ignored {
+                continue;
+            }
+            let name = header.fields.get(i).unwrap_or("");
+            let number = || -> Result<f64, InputError> {
+                match value.parse::<f64>() {
+                    Ok(x) if x.is_finite() => Ok(x),
+                    _ if value.is_empty() => Err(at(
+                        i,
+                        format!("column '{name}': empty, expected a finite number"),
+                    )),
+                    _ => Err(at(
+                        i,
+                        format!("column '{name}': {value:?} is not a finite number"),
+                    )),
+                }
+            };
+            let optional = || -> Result<Option<f64>, InputError> {
+                if value.is_empty() {
+                    Ok(None)
+                } else {
+                    number().map(Some)
+                }
+            };
+            match *role {
+                Role::Joint(j) => {
+                    let joint = model
+                        .robot
+                        .links
+                        .get(j)
+                        .map_or(JointType::Revolute, |l| l.joint);
+                    if let Some(slot) = q.get_mut(j) {
+                        *slot = units.joint_to_si(joint, number()?);
+                    }
+                }
+                Role::Position(c) => {
+                    if let Some(slot) = position.get_mut(c) {
+                        *slot = units.length_to_si(number()?);
+                    }
+                }
+                Role::Quat(c) => {
+                    if let Some(slot) = quat.get_mut(c) {
+                        *slot = optional()?;
+                    }
+                }
+                Role::T => t = optional()?,
+                Role::Temp => temp = optional()?,
+                Role::Load => load = optional()?,
+                Role::Ignored => {}
+            }
+        }
+
+        let orientation = match quat {
+            [None, None, None, None] => None,
+            [Some(w), Some(x), Some(y), Some(z)] => {
+                let quaternion = Quaternion::new(w, x, y, z);
+                let norm = quaternion.norm();
+                if (norm - 1.0).abs() > QUATERNION_NORM_TOLERANCE {
+                    let first = roles.iter().position(|r| *r == Role::Quat(0)).unwrap_or(0);
+                    return Err(at(
+                        first,
+                        format!(
+                            "column 'qw': quaternion (qw, qx, qy, qz) = ({w}, {x}, {y}, {z}) has norm {norm:.6}, \
+                             not 1 within {QUATERNION_NORM_TOLERANCE}"
+                        ),
+                    ));
+                }
+                Some(UnitQuaternion::from_quaternion(quaternion))
+            }
+            partial => {
+                let empty = partial.iter().position(Option::is_none).unwrap_or(0);
+                let index = roles
+                    .iter()
+                    .position(|r| *r == Role::Quat(empty))
+                    .unwrap_or(0);
+                let name = QUAT.get(empty).copied().unwrap_or("q");
+                return Err(at(
+                    index,
+                    format!(
+                        "column '{name}': partial quaternion: empty while other quaternion cells of the row are given; give all four of qw, qx, qy, qz or none"
+                    ),
+                ));
+            }
+        };
+
+        Ok(Pose {
+            line: row.line,
+            q,
+            position: Point3::from(position),
+            orientation,
+            t,
+            temp,
+            load,
+        })
+    }
+}
+
+/// `1 pose`, `2 poses`.
+fn plural(n: usize, noun: &str) -> String {
+    if n == 1 {
+        format!("{n} {noun}")
+    } else {
+        format!("{n} {noun}s")
+    }
+}
+
+/// ` (found 'X': column names are case-sensitive)` when a header name matches
+/// `wanted` but for case.
+fn case_hint(names: &[&str], wanted: &str) -> String {
+    names
+        .iter()
+        .find(|n| n.eq_ignore_ascii_case(wanted))
+        .map(|n| format!(" (found '{n}': column names are case-sensitive)"))
+        .unwrap_or_default()
+}
+
+/// One warning per joint whose readings leave the model's limits.
+fn limit_warnings(file: &str, poses: &[Pose], model: &RobotModel) -> Vec<String> {
+    let units = model.units;
+    let mut warnings = Vec::new();
+    for (j, link) in model.robot.links.iter().enumerate() {
+        let Some([lo, hi]) = link.limits else {
+            continue;
+        };
+        let outside: Vec<&Pose> = poses
+            .iter()
+            .filter(|p| p.q.get(j).is_some_and(|&q| q < lo || q > hi))
+            .collect();
+        if let Some(first) = outside.first() {
+            let q = first.q.get(j).copied().unwrap_or(0.0);
+            let unit = units.joint_unit(link.joint);
+            warnings.push(format!(
+                "{file}:{}: q{} = {} {unit} is outside the model's limits [{}, {}] {unit} ({} reading(s) outside in all)",
+                first.line,
+                j + 1,
+                units.joint_from_si(link.joint, q),
+                units.joint_from_si(link.joint, lo),
+                units.joint_from_si(link.joint, hi),
+                outside.len()
+            ));
+        }
+    }
+    warnings
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::builtin::DATA;
+    use crate::model_file::{load_model, parse_model};
+    use proptest::prelude::*;
+
+    fn ur5e() -> RobotModel {
+        load_model("ur5e").unwrap()
+    }
+
+    const HEADER6: &str = "q1,q2,q3,q4,q5,q6,x,y,z";
+    const ROW6: &str = "0.1,0.2,0.3,0.4,0.5,0.6,1.0,2.0,3.0";
+
+    /// Asserts that `text` is refused at exactly `line`:`column` of "data.csv"
+    /// against `model`, with a message containing every one of `needles`.
+    #[track_caller]
+    fn refused(model: &RobotModel, text: &str, line: usize, column: usize, needles: &[&str]) {
+        let e = match parse_measurements(text, "data.csv", model) {
+            Ok(_) => panic!("accepted:\n{text}"),
+            Err(e) => e,
+        };
+        assert_eq!(e.file, "data.csv");
+        assert_eq!((e.line, e.column), (line, column), "{e}");
+        assert!(
+            e.to_string()
+                .starts_with(&format!("data.csv:{line}:{column}: ")),
+            "{e}"
+        );
+        for needle in needles {
+            assert!(e.message.contains(needle), "{e:?} does not name {needle:?}");
+        }
+    }
+
+    /// Every built-in data set parses against its built-in model, with the pose
+    /// counts that its README gives and the lines of its file.
+    #[test]
+    fn every_builtin_data_set_parses_against_its_model() {
+        for d in DATA {
+            let model = load_model(d.name).unwrap();
+            let m = load_measurements(d.name, &model).unwrap_or_else(|e| panic!("{e}"));
+            assert_eq!(m.file, d.file);
+            let expected = match d.name {
+                "figaroh-ur10e-camera" => 23,
+                "figaroh-tiago-mocap" => 34,
+                "figaroh-talos-left-arm" => 61,
+                other => panic!("no expected count for {other}"),
+            };
+            assert_eq!(m.len(), expected, "{}", d.name);
+            assert!(m.columns_ignored.is_empty(), "{:?}", m.columns_ignored);
+            assert!(m.poses.iter().all(|p| p.q.len() == model.dof()));
+            assert_eq!(m.has_orientation(), d.name == "figaroh-ur10e-camera");
+            // Lines are those of the file: after the comment lines and the header.
+            let first_data_line = d.text.lines().position(|l| !l.starts_with('#')).unwrap() + 2;
+            assert_eq!(m.poses[0].line, first_data_line);
+            assert_eq!(m.poses.last().unwrap().line, first_data_line + expected - 1);
+        }
+    }
+
+    /// The UR10e set: orientation unit quaternions, columns in use; TALOS has `t`;
+    /// TIAGo row 3 reads the torso lift 0.18 mm above its 0.35 m limit (line 8).
+    #[test]
+    // The literals are the digits of the file, which round to the same f64.
+    #[allow(clippy::excessive_precision)]
+    fn builtin_sets_details() {
+        let ur = load_model("figaroh-ur10e-camera").unwrap();
+        let m = load_measurements("figaroh-ur10e-camera", &ur).unwrap();
+        assert_eq!(
+            m.columns_used,
+            [
+                "q1", "q2", "q3", "q4", "q5", "q6", "x", "y", "z", "qw", "qx", "qy", "qz"
+            ]
+        );
+        assert_eq!(m.equations(), 23 * 6);
+        let p = &m.poses[0];
+        assert_eq!(p.q[0], 1.589200496673584);
+        assert_eq!(
+            p.position,
+            Point3::new(0.90882845233650233, 0.34156959335807885, 1.2526995668918641)
+        );
+        let q = p.orientation.unwrap();
+        assert!((q.w - 0.16704657887989197).abs() < 1e-9);
+
+        let talos = load_model("figaroh-talos-left-arm").unwrap();
+        let m = load_measurements("figaroh-talos-left-arm", &talos).unwrap();
+        assert!(m.poses.iter().all(Pose::has_time));
+        assert_eq!(m.poses[0].t, Some(42.399117469787598));
+
+        let tiago = load_model("figaroh-tiago-mocap").unwrap();
+        let m = load_measurements("figaroh-tiago-mocap", &tiago).unwrap();
+        assert!(
+            m.warnings.iter().any(|w| w.starts_with("data/figaroh-tiago-mocap/measurements.csv:8: q1 = 0.35018")),
+            "{:?}",
+            m.warnings
+        );
+    }
+
+    /// Readings and positions in mm and degrees become the same SI poses as their
+    /// twin in m and rad; a prismatic joint's reading uses the length unit.
+    #[test]
+    fn units_of_the_model_apply_to_the_data() {
+        let model = |length: &str, angle: &str| {
+            parse_model(
+                &format!(
+                    "name = \"rp\"\nconvention = \"dh\"\nlength_unit = \"{length}\"\nangle_unit = \"{angle}\"\n\
+                     [[joint]]\ntype = \"revolute\"\ntheta = 0\ns = 0\na = 0\nalpha = 0\n\
+                     [[joint]]\ntype = \"prismatic\"\ntheta = 0\ns = 0\na = 0\nalpha = 0\n"
+                ),
+                "rp.toml",
+            )
+            .unwrap()
+        };
+        let si = parse_measurements(
+            "q1,q2,x,y,z\n1.5707963267948966,0.25,1.5,-0.002,0.0125\n",
+            "si.csv",
+            &model("m", "rad"),
+        )
+        .unwrap();
+        let mm = parse_measurements(
+            "q2,z,x,y,q1\n250,12.5,1500,-2,90\n",
+            "mm.csv",
+            &model("mm", "deg"),
+        )
+        .unwrap();
+        let (a, b) = (&si.poses[0], &mm.poses[0]);
+        assert!((a.q[0] - b.q[0]).abs() <= 4.0 * f64::EPSILON);
+        assert_eq!(a.q[1], b.q[1]);
+        assert_eq!(b.q[1], 0.25);
+        assert_eq!(a.position, b.position);
+        assert_eq!(mm.columns_used, ["q2", "z", "x", "y", "q1"]);
+    }
+
+    /// Comments, blank lines, CRLF, quoted fields, optional columns, ignored
+    /// columns (named in a warning), and a near-unit quaternion that is normalised.
+    #[test]
+    fn reads_the_optional_and_the_ignored() {
+        let text = "# a comment\r\n\r\nid,q1,q2,q3,q4,q5,q6,x,y,z,qw,qx,qy,qz,t,temp,load,comment\r\n\
+                    # between\r\n\
+                    7,0,0,0,0,0,0,1,2,3,1.0005,0,0,0,0.5,21.5,2.0,\"a, b\"\r\n\
+                    \r\n\
+                    8,0,0,0,0,0,0,1,2,3,,,,,,,,\r\n";
+        let m = parse_measurements(text, "data.csv", &ur5e()).unwrap();
+        assert_eq!(m.len(), 2);
+        assert_eq!((m.poses[0].line, m.poses[1].line), (5, 7));
+        assert_eq!(m.columns_ignored, ["id", "comment"]);
+        assert!(
+            m.warnings[0].contains("'id', 'comment'"),
+            "{:?}",
+            m.warnings
+        );
+        let p = &m.poses[0];
+        assert!((p.orientation.unwrap().into_inner().norm() - 1.0).abs() < 1e-15);
+        assert_eq!((p.t, p.temp, p.load), (Some(0.5), Some(21.5), Some(2.0)));
+        assert!(p.has_orientation() && p.has_temp() && p.has_load());
+        let p = &m.poses[1];
+        assert!(!p.has_orientation() && !p.has_time() && !p.has_temp() && !p.has_load());
+        assert_eq!(m.equations(), 9);
+        assert!(!m.has_orientation());
+    }
+
+    #[test]
+    fn refuses_missing_required_columns_on_the_header_line() {
+        let model = ur5e();
+        refused(
+            &model,
+            "# c\nq1,q2,q3,q4,q5,q6,x,z\n0,0,0,0,0,0,1,3\n",
+            2,
+            1,
+            &["missing required column 'y'"],
+        );
+        refused(
+            &model,
+            "q1,q2,q3,q4,q5,q6,X,y,z\n",
+            1,
+            1,
+            &["'x'", "found 'X'"],
+        );
+    }
+
+    #[test]
+    fn refuses_joint_count_mismatch() {
+        let model = ur5e();
+        refused(
+            &model,
+            &format!("{HEADER6},q7\n{ROW6},0.7\n"),
+            1,
+            25,
+            &["column 'q7'", "the model has 6 joints, the data has 7"],
+        );
+        refused(
+            &model,
+            "q1,q2,q3,q4,q5,x,y,z\n0,0,0,0,0,1,2,3\n",
+            1,
+            1,
+            &[
+                "missing column 'q6'",
+                "the model has 6 joints, the data has 5",
+            ],
+        );
+        refused(&model, &format!("q0,{HEADER6}\n"), 1, 1, &["column 'q0'"]);
+    }
+
+    #[test]
+    fn refuses_duplicate_column_names_at_the_second() {
+        refused(
+            &ur5e(),
+            &format!("{HEADER6}, x\n{ROW6},1\n"),
+            1,
+            26,
+            &["column 'x'", "duplicate"],
+        );
+    }
+
+    #[test]
+    fn refuses_rows_with_the_wrong_number_of_fields() {
+        let model = ur5e();
+        // One too many: the column of the extra field.
+        refused(
+            &model,
+            &format!("{HEADER6}\n{ROW6},9\n"),
+            2,
+            37,
+            &["10 fields, the header has 9"],
+        );
+        // One too few: the end of the line.
+        refused(
+            &model,
+            &format!("{HEADER6}\n{ROW6}\n0,0,0,0,0,0,1,2\n"),
+            3,
+            16,
+            &["8 fields, the header has 9"],
+        );
+        // An indented comment is a row.
+        refused(
+            &model,
+            &format!("{HEADER6}\n  # note\n"),
+            2,
+            9,
+            &["1 field,", "first column"],
+        );
+    }
+
+    #[test]
+    fn refuses_values_that_are_not_finite_numbers() {
+        let model = ur5e();
+        for bad in ["abc", "nan", "inf", "-inf", "1e999", "0x10", "1_0"] {
+            let row = format!("0.1,0.2,0.3,0.4,0.5,0.6,1.0,2.0,{bad}");
+            let needle = format!("column 'z': \"{bad}\" is not a finite number");
+            refused(
+                &model,
+                &format!("{HEADER6}\n{ROW6}\n{row}\n"),
+                3,
+                33,
+                &[&needle],
+            );
+        }
+        // A decimal comma splits the field: the extra field is refused.
+        let row = "0.1,0.2,0.3,0.4,0.5,0.6,1.0,2.0,1,5";
+        refused(
+            &model,
+            &format!("{HEADER6}\n{row}\n"),
+            2,
+            35,
+            &["10 fields, the header has 9"],
+        );
+        // Empty cell of a required column; column counts characters (é is one),
+        // and commas inside quotes do not split fields.
+        refused(
+            &model,
+            &format!("note,{HEADER6}\n\"é, ü\",0.1,0.2,0.3,0.4,0.5,0.6,,2,3\n"),
+            2,
+            32,
+            &["column 'x': empty"],
+        );
+        refused(
+            &model,
+            &format!("{HEADER6}\n0.1, 0.2,0.3,0.4,0.5,0.6, abc ,2,3\n"),
+            2,
+            27,
+            &["column 'x'", "\"abc\""],
+        );
+        // A value in a joint column.
+        refused(
+            &model,
+            &format!("{HEADER6}\n0.1,0.2,three,0.4,0.5,0.6,1,2,3\n"),
+            2,
+            9,
+            &["column 'q3'"],
+        );
+        // Optional columns too, when not empty.
+        refused(
+            &model,
+            &format!("{HEADER6},temp\n{ROW6},warm\n"),
+            2,
+            37,
+            &["column 'temp'", "\"warm\""],
+        );
+    }
+
+    #[test]
+    fn refuses_partial_quaternions() {
+        let model = ur5e();
+        refused(
+            &model,
+            &format!("{HEADER6},qx,qw,qz\n"),
+            1,
+            25,
+            &[
+                "column 'qx'",
+                "partial quaternion",
+                "qw, qx, qz given, qy missing",
+            ],
+        );
+        refused(
+            &model,
+            &format!("{HEADER6},qw,qx,qy,qz\n{ROW6},1,0,,0\n"),
+            2,
+            41,
+            &["column 'qy'", "partial quaternion"],
+        );
+    }
+
+    #[test]
+    fn refuses_quaternions_far_from_unit_norm() {
+        refused(
+            &ur5e(),
+            &format!("{HEADER6},qx,qy,qz,qw\n{ROW6},0,0,0,0.998\n"),
+            2,
+            43,
+            &["column 'qw'", "norm 0.998000", "not 1 within 0.001"],
+        );
+        // Within the tolerance: accepted.
+        parse_measurements(
+            &format!("{HEADER6},qx,qy,qz,qw\n{ROW6},0,0,0,0.9991\n"),
+            "ok.csv",
+            &ur5e(),
+        )
+        .unwrap();
+    }
+
+    #[test]
+    fn refuses_files_without_data() {
+        let model = ur5e();
+        refused(
+            &model,
+            &format!("# only a header\n\n{HEADER6}\n# and a comment\n"),
+            3,
+            1,
+            &["no data rows"],
+        );
+        refused(&model, "", 1, 1, &["no header line"]);
+        refused(&model, "# comments\n# only\n", 1, 1, &["no header line"]);
+    }
+
+    #[test]
+    fn require_poses_refuses_fewer_equations_than_unknowns() {
+        let text = format!("{HEADER6}\n{ROW6}\n{ROW6}\n# end\n{ROW6}\n");
+        let m = parse_measurements(&text, "data.csv", &ur5e()).unwrap();
+        assert!(m.require_poses(9).is_ok());
+        let e = m.require_poses(27).unwrap_err();
+        assert_eq!(
+            (e.file.as_str(), e.line, e.column),
+            ("data.csv", 5, 1),
+            "{e}"
+        );
+        for needle in [
+            "3 poses give 9 equations",
+            "27 unknowns",
+            "at least 9 poses are needed",
+        ] {
+            assert!(e.message.contains(needle), "{e}");
+        }
+        // With orientation, 6 equations per pose.
+        let text = format!("{HEADER6},qw,qx,qy,qz\n{ROW6},1,0,0,0\n");
+        let m = parse_measurements(&text, "data.csv", &ur5e()).unwrap();
+        let e = m.require_poses(30).unwrap_err();
+        assert!(
+            e.message.contains("1 pose gives 6 equations (6 per pose)"),
+            "{e}"
+        );
+        assert!(e.message.contains("at least 5 poses"), "{e}");
+    }
+
+    #[test]
+    fn load_measurements_refuses_a_missing_file_naming_it() {
+        let e = load_measurements("/nonexistent/data.csv", &ur5e()).unwrap_err();
+        assert_eq!((e.file.as_str(), e.line), ("/nonexistent/data.csv", 0));
+        assert!(e.message.contains("figaroh-ur10e-camera"), "{e}");
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("d.csv");
+        std::fs::write(&path, format!("{HEADER6}\n{ROW6}\n")).unwrap();
+        let p = path.to_str().unwrap();
+        assert_eq!(load_measurements(p, &ur5e()).unwrap().file, p);
+    }
+
+    /// Characters that matter to CSV and to this format, to mutate files with.
+    const CSV_ALPHABET: &str = ",,,\"\"#\n\r .-+e0123456789qwxyzntaif\u{e9}\u{1f600}";
+
+    proptest! {
+        /// Random bytes never make the measurement parser panic.
+        #[test]
+        fn random_bytes_never_panic(bytes in prop::collection::vec(any::<u8>(), 0..600)) {
+            let text = String::from_utf8_lossy(&bytes);
+            let _ = parse_measurements(&text, "fuzz.csv", &ur5e());
+        }
+
+        /// Random edits of the built-in data sets never make the parser panic, and a
+        /// refusal always has a place in the text.
+        #[test]
+        fn mutated_data_never_panic(
+            which in 0..DATA.len(),
+            edits in prop::collection::vec((any::<usize>(), any::<u8>(), any::<usize>()), 1..12),
+        ) {
+            let d = &DATA[which];
+            let model = load_model(d.name).unwrap();
+            let text = crate::test_support::mutate(d.text, &edits, CSV_ALPHABET);
+            match parse_measurements(&text, "fuzz.csv", &model) {
+                Err(e) => {
+                    let lines = text.split('\n').count();
+                    prop_assert!(e.line >= 1 && e.line <= lines, "{e}");
+                    prop_assert!(e.column >= 1, "{e}");
+                }
+                Ok(m) => {
+                    let _ = m.require_poses(usize::MAX);
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,404 @@
+//! The calibration file: what the calibrator writes and the controller loads.
+//!
+//! One definition for both sides, so that the host's `--out CAL` bytes and the
+//! firmware's loader cannot drift apart. The layout (all integers little-endian):
+//!
+//! ```text
+//! offset  size  field
+//!  0       8    magic  89 'A' 'R' 'M' 'C' 'A' 'L' 0A   (high bit and newline catch
+//!                                                        7-bit and text-mode transfers)
+//!  8       2    format version (FORMAT_VERSION)
+//! 10       1    joint count M of the nominal model
+//! 11       1    reserved, 0
+//! 12       8    model hash: CRC-64/XZ of the nominal model's postcard bytes
+//! 20       4    payload length n
+//! 24       n    payload: postcard bytes of the Calibration (nominal model, identified errors)
+//! 24+n     4    CRC-32/ISO-HDLC of bytes 0 .. 24+n
+//! ```
+//!
+//! Lengths and angles are SI (m, rad) in `f64`; the controller converts to `f32`
+//! after validation. A file is accepted only whole: right magic, a version this
+//! build understands, the declared length, the CRC, a payload that decodes with
+//! nothing left over, a joint count and model hash that match the decoded model,
+//! finite values everywhere and identified parameters that exist in the model.
+//! Any other file is refused with a [`CalibrationError`] that says why.
+
+use core::fmt;
+
+use heapless::Vec;
+use serde::{Deserialize, Serialize};
+
+use crate::{MAX_JOINTS, Param, Robot};
+
+/// The first eight bytes of every calibration file.
+pub const MAGIC: [u8; 8] = *b"\x89ARMCAL\n";
+
+/// The format version this build writes and the newest it reads.
+pub const FORMAT_VERSION: u16 = 1;
+
+/// Bytes before the payload.
+pub const HEADER_LEN: usize = 24;
+
+/// Bytes of the trailing CRC.
+const CRC_LEN: usize = 4;
+
+/// The most identified parameters a calibration holds: four per joint, six of
+/// the base and six of the tool.
+pub const MAX_PARAMS: usize = 4 * MAX_JOINTS + 12;
+
+/// The largest calibration file, bytes: the receive buffer a loader needs.
+pub const MAX_FILE_LEN: usize = 4096;
+
+const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+const CRC64: crc::Crc<u64> = crc::Crc::<u64>::new(&crc::CRC_64_XZ);
+
+/// One identified parameter: its error, identified value minus nominal, SI units.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ParamError {
+    /// Which parameter.
+    pub param: Param,
+    /// Identified minus nominal, m or rad.
+    pub error: f64,
+}
+
+/// A calibration: the nominal model it was made for and the identified errors.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Calibration {
+    /// The nominal model, in SI units.
+    pub nominal: Robot<f64>,
+    /// The identified errors; parameters not listed keep their nominal value.
+    pub errors: Vec<ParamError, MAX_PARAMS>,
+    /// True if identified from full poses (the orientation is calibrated too).
+    pub orientation: bool,
+}
+
+/// Why a calibration file was refused, or could not be written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum CalibrationError {
+    /// Fewer bytes than the header and CRC, or than the header declares.
+    Truncated {
+        /// Bytes present.
+        len: usize,
+        /// Bytes needed.
+        needed: usize,
+    },
+    /// More bytes than the header declares, or than [`MAX_FILE_LEN`].
+    TooLong {
+        /// Bytes present.
+        len: usize,
+        /// Bytes expected at most.
+        max: usize,
+    },
+    /// The first bytes are not [`MAGIC`]: not an armcal calibration file.
+    BadMagic,
+    /// Written by a newer armcal, in a format this build does not know.
+    NewerVersion {
+        /// The file's version.
+        found: u16,
+    },
+    /// A version number that was never issued (0).
+    BadVersion {
+        /// The file's version.
+        found: u16,
+    },
+    /// The CRC does not match: the bytes were damaged.
+    Crc {
+        /// CRC stored in the file.
+        stored: u32,
+        /// CRC of the bytes read.
+        computed: u32,
+    },
+    /// The payload does not decode as a calibration.
+    Payload,
+    /// The header's joint count is not the model's.
+    JointCount {
+        /// In the header.
+        header: u8,
+        /// In the model.
+        model: usize,
+    },
+    /// The header's model hash is not the hash of the model in the payload.
+    ModelHash {
+        /// In the header.
+        header: u64,
+        /// Of the decoded model.
+        computed: u64,
+    },
+    /// A value of the model or of an identified error is NaN or infinite.
+    NonFinite,
+    /// An identified parameter names a joint the model does not have.
+    UnknownParam {
+        /// The parameter.
+        param: Param,
+    },
+    /// The same parameter is identified twice.
+    DuplicateParam {
+        /// The parameter.
+        param: Param,
+    },
+    /// The output buffer is too small (writing).
+    BufferTooSmall,
+}
+
+impl fmt::Display for CalibrationError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Truncated { len, needed } => {
+                write!(
+                    f,
+                    "truncated calibration: {len} bytes, {needed} needed; copy the whole file again"
+                )
+            }
+            Self::TooLong { len, max } => {
+                write!(
+                    f,
+                    "calibration of {len} bytes, at most {max} expected: extra bytes after the end"
+                )
+            }
+            Self::BadMagic => f.write_str("not an armcal calibration file (wrong magic bytes)"),
+            Self::NewerVersion { found } => write!(
+                f,
+                "calibration format version {found} is newer than this build reads ({FORMAT_VERSION}): update the reader"
+            ),
+            Self::BadVersion { found } => {
+                write!(f, "calibration format version {found} does not exist")
+            }
+            Self::Crc { stored, computed } => write!(
+                f,
+                "calibration damaged: CRC {computed:#010x} of the bytes read, {stored:#010x} stored"
+            ),
+            Self::Payload => f.write_str("calibration damaged: the payload does not decode"),
+            Self::JointCount { header, model } => {
+                write!(
+                    f,
+                    "calibration header says {header} joints, its model has {model}"
+                )
+            }
+            Self::ModelHash { header, computed } => write!(
+                f,
+                "calibration model hash {header:#018x} in the header, {computed:#018x} computed from its model"
+            ),
+            Self::NonFinite => f.write_str("calibration holds a value that is not a finite number"),
+            Self::UnknownParam { param } => {
+                write!(
+                    f,
+                    "calibration identifies {param}, which its model does not have"
+                )
+            }
+            Self::DuplicateParam { param } => write!(f, "calibration identifies {param} twice"),
+            Self::BufferTooSmall => write!(
+                f,
+                "output buffer too small (at most {MAX_FILE_LEN} bytes needed)"
+            ),
+        }
+    }
+}
+
+#[cfg(feature = "std")]
+impl std::error::Error for CalibrationError {}
+
+/// A postcard output that only feeds a CRC-64, to hash a model without a buffer.
+struct HashFlavor(crc::Digest<'static, u64>);
+
+impl postcard::ser_flavors::Flavor for HashFlavor {
+    type Output = u64;
+
+    fn try_push(&mut self, data: u8) -> postcard::Result<()> {
+        self.0.update(&[data]);
+        Ok(())
+    }
+
+    fn try_extend(&mut self, data: &[u8]) -> postcard::Result<()> {
+        self.0.update(data);
+        Ok(())
+    }
+
+    fn finalize(self) -> postcard::Result<u64> {
+        Ok(self.0.finalize())
+    }
+}
+
+/// The model hash: CRC-64/XZ of the model's postcard bytes. Two models hash
+/// alike only if every parameter, limit and mass is bit-for-bit the same.
+pub fn model_hash(model: &Robot<f64>) -> u64 {
+    // Serialising into a hash never fails: the flavor accepts every byte.
+    postcard::serialize_with_flavor(model, HashFlavor(CRC64.digest())).unwrap_or(0)
+}
+
+impl Calibration {
+    /// A calibration that identifies nothing: the nominal model itself.
+    pub fn nominal(nominal: Robot<f64>, orientation: bool) -> Self {
+        Self {
+            nominal,
+            errors: Vec::new(),
+            orientation,
+        }
+    }
+
+    /// The calibrated model: the nominal model with every identified error added.
+    pub fn calibrated(&self) -> Robot<f64> {
+        let mut robot = self.nominal.clone();
+        for e in &self.errors {
+            if let Some(v) = robot.param_mut(e.param) {
+                *v += e.error;
+            }
+        }
+        robot
+    }
+
+    /// Writes the calibration file into `buf` and returns the bytes written.
+    pub fn encode<'a>(&self, buf: &'a mut [u8]) -> Result<&'a mut [u8], CalibrationError> {
+        self.validate()?;
+        if buf.len() < HEADER_LEN + CRC_LEN {
+            return Err(CalibrationError::BufferTooSmall);
+        }
+        let (header, rest) = buf.split_at_mut(HEADER_LEN);
+        let payload_len = postcard::to_slice(self, rest)
+            .map_err(|_| CalibrationError::BufferTooSmall)?
+            .len();
+        let total = HEADER_LEN + payload_len + CRC_LEN;
+        if total > MAX_FILE_LEN {
+            return Err(CalibrationError::TooLong {
+                len: total,
+                max: MAX_FILE_LEN,
+            });
+        }
+        header[0..8].copy_from_slice(&MAGIC);
+        header[8..10].copy_from_slice(&FORMAT_VERSION.to_le_bytes());
+        header[10] = self.nominal.dof() as u8;
+        header[11] = 0;
+        header[12..20].copy_from_slice(&model_hash(&self.nominal).to_le_bytes());
+        header[20..24].copy_from_slice(&(payload_len as u32).to_le_bytes());
+        let body_end = HEADER_LEN + payload_len;
+        let crc = CRC32.checksum(&buf[..body_end]);
+        let out = buf
+            .get_mut(..total)
+            .ok_or(CalibrationError::BufferTooSmall)?;
+        out[body_end..].copy_from_slice(&crc.to_le_bytes());
+        Ok(out)
+    }
+
+    /// The calibration file as a byte vector.
+    #[cfg(feature = "std")]
+    pub fn to_bytes(&self) -> Result<std::vec::Vec<u8>, CalibrationError> {
+        let mut buf = std::vec![0u8; MAX_FILE_LEN];
+        let len = self.encode(&mut buf)?.len();
+        buf.truncate(len);
+        Ok(buf)
+    }
+
+    /// Reads and fully validates a calibration file.
+    pub fn decode(bytes: &[u8]) -> Result<Self, CalibrationError> {
+        let min = HEADER_LEN + CRC_LEN;
+        if bytes.len() < MAGIC.len() || bytes[..MAGIC.len()] != MAGIC {
+            // A short prefix of the magic is a truncated file, anything else is foreign.
+            return Err(if bytes.len() < MAGIC.len() && MAGIC.starts_with(bytes) {
+                CalibrationError::Truncated {
+                    len: bytes.len(),
+                    needed: min,
+                }
+            } else {
+                CalibrationError::BadMagic
+            });
+        }
+        if bytes.len() < min {
+            return Err(CalibrationError::Truncated {
+                len: bytes.len(),
+                needed: min,
+            });
+        }
+        let u16_at = |i: usize| u16::from_le_bytes([bytes[i], bytes[i + 1]]);
+        let u32_at =
+            |i: usize| u32::from_le_bytes([bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]]);
+        let version = u16_at(8);
+        if version > FORMAT_VERSION {
+            return Err(CalibrationError::NewerVersion { found: version });
+        }
+        if version == 0 {
+            return Err(CalibrationError::BadVersion { found: version });
+        }
+        let payload_len = u32_at(20) as usize;
+        let total = HEADER_LEN
+            .saturating_add(payload_len)
+            .saturating_add(CRC_LEN);
+        if total > MAX_FILE_LEN {
+            return Err(CalibrationError::TooLong {
+                len: total,
+                max: MAX_FILE_LEN,
+            });
+        }
+        if bytes.len() < total {
+            return Err(CalibrationError::Truncated {
+                len: bytes.len(),
+                needed: total,
+            });
+        }
+        if bytes.len() > total {
+            return Err(CalibrationError::TooLong {
+                len: bytes.len(),
+                max: total,
+            });
+        }
+        let body_end = HEADER_LEN + payload_len;
+        let stored = u32_at(body_end);
+        let computed = CRC32.checksum(&bytes[..body_end]);
+        if stored != computed {
+            return Err(CalibrationError::Crc { stored, computed });
+        }
+        let (cal, rest) = postcard::take_from_bytes::<Calibration>(&bytes[HEADER_LEN..body_end])
+            .map_err(|_| CalibrationError::Payload)?;
+        if !rest.is_empty() {
+            return Err(CalibrationError::Payload);
+        }
+        let header_joints = bytes[10];
+        if usize::from(header_joints) != cal.nominal.dof() {
+            return Err(CalibrationError::JointCount {
+                header: header_joints,
+                model: cal.nominal.dof(),
+            });
+        }
+        let header_hash = u64::from_le_bytes([
+            bytes[12], bytes[13], bytes[14], bytes[15], bytes[16], bytes[17], bytes[18], bytes[19],
+        ]);
+        let computed = model_hash(&cal.nominal);
+        if header_hash != computed {
+            return Err(CalibrationError::ModelHash {
+                header: header_hash,
+                computed,
+            });
+        }
+        cal.validate()?;
+        Ok(cal)
+    }
+
+    /// Finite values everywhere, and every identified parameter exists once.
+    fn validate(&self) -> Result<(), CalibrationError> {
+        let model = &self.nominal;
+        let finite3 = |v: &nalgebra::Vector3<f64>| v.iter().all(|x| x.is_finite());
+        let links_finite = model.links.iter().all(|l| {
+            [l.theta, l.s, l.a, l.alpha].iter().all(|x| x.is_finite())
+                && l.limits
+                    .is_none_or(|[lo, hi]| lo.is_finite() && hi.is_finite())
+                && l.mass.is_none_or(|m| m.mass.is_finite() && finite3(&m.com))
+        });
+        let frames_finite = [&model.base, &model.tool]
+            .iter()
+            .all(|f| finite3(&f.xyz) && finite3(&f.rpy));
+        if !links_finite || !frames_finite || !model.gravity.as_ref().is_none_or(finite3) {
+            return Err(CalibrationError::NonFinite);
+        }
+        for (i, e) in self.errors.iter().enumerate() {
+            if !e.error.is_finite() {
+                return Err(CalibrationError::NonFinite);
+            }
+            if model.param(e.param).is_none() {
+                return Err(CalibrationError::UnknownParam { param: e.param });
+            }
+            if self.errors[..i].iter().any(|o| o.param == e.param) {
+                return Err(CalibrationError::DuplicateParam { param: e.param });
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,210 @@
+//! The calibration file: what is written reads back bit for bit, and every damaged,
+//! truncated, foreign or newer file is refused with its reason.
+
+use armcal_shared::calibration::{
+    FORMAT_VERSION, HEADER_LEN, MAGIC, MAX_FILE_LEN, MAX_PARAMS, model_hash,
+};
+use armcal_shared::{
+    Calibration, CalibrationError, Convention, Frame, FrameAxis, JointType, Link, LinkMass,
+    MAX_JOINTS, Param, ParamError, Robot,
+};
+use nalgebra::Vector3;
+
+/// A 6R arm with limits and masses and a handful of identified errors.
+fn sample() -> Calibration {
+    let mut links = Vec::new();
+    for m in 0..6 {
+        let mut l = Link::new(
+            JointType::Revolute,
+            0.1 * m as f64,
+            0.2,
+            -0.4,
+            std::f64::consts::FRAC_PI_2,
+        );
+        l.limits = Some([-3.0, 3.0]);
+        l.mass = Some(LinkMass {
+            mass: 2.0 + m as f64,
+            com: Vector3::new(0.01, 0.02, 0.03),
+        });
+        links.push(l);
+    }
+    let mut nominal = Robot::new(Convention::Dh, &links).unwrap();
+    nominal.base = Frame {
+        xyz: Vector3::new(1.0, 2.0, 0.5),
+        rpy: Vector3::new(0.0, 0.1, -1.2),
+    };
+    nominal.gravity = Some(Vector3::new(0.0, 0.0, -9.81));
+    let mut cal = Calibration::nominal(nominal, false);
+    for (param, error) in [
+        (Param::Theta(1), 1.0e-3),
+        (Param::Alpha(2), -2.0e-4),
+        (Param::A(3), 3.0e-4),
+        (Param::Base(FrameAxis::Rz), 0.02),
+        (Param::Tool(FrameAxis::Z), -1.5e-3),
+    ] {
+        cal.errors.push(ParamError { param, error }).unwrap();
+    }
+    cal
+}
+
+/// The file's bytes, through the `no_std` writer the firmware side links too.
+fn bytes_of(cal: &Calibration) -> Result<Vec<u8>, CalibrationError> {
+    let mut buf = vec![0u8; MAX_FILE_LEN];
+    cal.encode(&mut buf).map(|b| b.to_vec())
+}
+
+/// Re-seals a file after editing its header, so that the check under test, not the
+/// CRC, is what refuses it.
+fn reseal(bytes: &mut [u8]) {
+    let n = bytes.len() - 4;
+    let crc = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC).checksum(&bytes[..n]);
+    bytes[n..].copy_from_slice(&crc.to_le_bytes());
+}
+
+#[test]
+fn round_trip_is_exact() {
+    let cal = sample();
+    let bytes = bytes_of(&cal).unwrap();
+    assert_eq!(&bytes[..8], &MAGIC);
+    assert_eq!(Calibration::decode(&bytes).unwrap(), cal);
+    // The calibrated model carries the errors.
+    let calibrated = cal.calibrated();
+    assert_eq!(
+        calibrated.param(Param::Theta(1)).unwrap(),
+        cal.nominal.links[1].theta + 1.0e-3
+    );
+    assert_eq!(
+        calibrated.param(Param::Base(FrameAxis::Rz)).unwrap(),
+        -1.2 + 0.02
+    );
+}
+
+#[test]
+fn the_largest_calibration_fits_the_loader_buffer() {
+    let mut cal = sample();
+    let link = cal.nominal.links[0];
+    cal.nominal = Robot::new(Convention::Mdh, &[link; MAX_JOINTS]).unwrap();
+    cal.nominal.gravity = Some(Vector3::new(0.0, 0.0, -9.81));
+    cal.errors.clear();
+    let params: Vec<Param> = cal.nominal.params().collect();
+    assert_eq!(params.len(), MAX_PARAMS);
+    for param in params {
+        // Values that need all eight bytes.
+        cal.errors
+            .push(ParamError {
+                param,
+                error: -1.234_567_890_123e-3,
+            })
+            .unwrap();
+    }
+    let bytes = bytes_of(&cal).unwrap();
+    assert!(bytes.len() <= MAX_FILE_LEN, "{} bytes", bytes.len());
+    assert_eq!(Calibration::decode(&bytes).unwrap(), cal);
+}
+
+/// CRC-32 detects every error burst of up to 32 bits, so every single-byte change
+/// anywhere in the file must be refused, whatever the byte becomes.
+#[test]
+fn every_single_byte_corruption_is_refused() {
+    let bytes = bytes_of(&sample()).unwrap();
+    for i in 0..bytes.len() {
+        for flip in [0x01u8, 0x80, 0xff, 0x5a] {
+            let mut bad = bytes.clone();
+            bad[i] ^= flip;
+            assert!(
+                Calibration::decode(&bad).is_err(),
+                "byte {i} ^ {flip:#x} accepted"
+            );
+        }
+    }
+}
+
+#[test]
+fn every_truncation_is_refused_as_truncated() {
+    let bytes = bytes_of(&sample()).unwrap();
+    for len in 0..bytes.len() {
+        match Calibration::decode(&bytes[..len]) {
+            Err(CalibrationError::Truncated { len: got, .. }) => assert_eq!(got, len),
+            other => panic!("{len} bytes: {other:?}"),
+        }
+    }
+    let mut long = bytes.clone();
+    long.push(0);
+    assert!(matches!(
+        Calibration::decode(&long),
+        Err(CalibrationError::TooLong { .. })
+    ));
+}
+
+#[test]
+fn foreign_and_newer_files_are_refused_with_their_reason() {
+    let bytes = bytes_of(&sample()).unwrap();
+    let foreign = b"q1,q2,q3,x,y,z\n0,0,0,1,2,3\n0,0,0,1,2,3\n0,0,0,1,2,3\n".to_vec();
+    assert_eq!(
+        Calibration::decode(&foreign),
+        Err(CalibrationError::BadMagic)
+    );
+
+    let mut newer = bytes.clone();
+    newer[8..10].copy_from_slice(&(FORMAT_VERSION + 1).to_le_bytes());
+    reseal(&mut newer);
+    let err = Calibration::decode(&newer).unwrap_err();
+    assert_eq!(
+        err,
+        CalibrationError::NewerVersion {
+            found: FORMAT_VERSION + 1
+        }
+    );
+    assert!(err.to_string().contains("newer"));
+
+    let mut joints = bytes.clone();
+    joints[10] = 7;
+    reseal(&mut joints);
+    assert_eq!(
+        Calibration::decode(&joints),
+        Err(CalibrationError::JointCount {
+            header: 7,
+            model: 6
+        })
+    );
+
+    let mut hash = bytes.clone();
+    hash[12] ^= 1;
+    reseal(&mut hash);
+    assert!(matches!(
+        Calibration::decode(&hash),
+        Err(CalibrationError::ModelHash { .. })
+    ));
+}
+
+#[test]
+fn non_finite_and_unknown_parameters_are_not_written() {
+    let mut cal = sample();
+    cal.errors[0].error = f64::NAN;
+    assert_eq!(bytes_of(&cal), Err(CalibrationError::NonFinite));
+    let mut cal = sample();
+    cal.errors
+        .push(ParamError {
+            param: Param::S(6),
+            error: 0.0,
+        })
+        .unwrap();
+    assert_eq!(
+        bytes_of(&cal),
+        Err(CalibrationError::UnknownParam { param: Param::S(6) })
+    );
+    let mut cal = sample();
+    cal.nominal.links[2].a = f64::INFINITY;
+    assert_eq!(bytes_of(&cal), Err(CalibrationError::NonFinite));
+}
+
+#[test]
+fn model_hash_tells_models_apart() {
+    let cal = sample();
+    let mut other = cal.nominal.clone();
+    other.links[4].s += 1e-12;
+    assert_ne!(model_hash(&cal.nominal), model_hash(&other));
+    let bytes = bytes_of(&cal).unwrap();
+    assert_eq!(&bytes[12..20], &model_hash(&cal.nominal).to_le_bytes());
+    assert!(bytes.len() > HEADER_LEN);
+}
