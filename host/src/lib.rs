@@ -17,9 +17,11 @@
 
 pub mod builtin;
 pub mod check;
+pub mod identify;
 pub mod input_error;
 pub mod measurements;
 pub mod model_file;
+pub mod reproduce;
 
 #[cfg(test)]
 mod test_support;

@@ -8,8 +8,9 @@
 use std::process::ExitCode;
 
 use armcal::check;
+use armcal::identify::paper::PaperOptions;
 use armcal::input_error::InputError;
-use armcal::{builtin, measurements, model_file};
+use armcal::{builtin, measurements, model_file, reproduce};
 use clap::{Parser, Subcommand};
 
 /// armcal makes serial robot arms accurate: it identifies the errors of their
@@ -36,6 +37,18 @@ enum Command {
     },
     /// List the built-in robot models and data sets.
     Models,
+    /// Rebuild the worked examples of a seed paper and print them as the paper does.
+    Reproduce {
+        /// Which paper.
+        #[arg(value_enum)]
+        paper: Paper,
+    },
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum Paper {
+    /// Mirman & Gupta (1992): Table 2, the iterative regression on the Table 1 PUMA.
+    MirmanGupta,
 }
 
 fn main() -> ExitCode {
@@ -66,6 +79,12 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let full_pose = data.poses.iter().all(|p| p.orientation.is_some());
             data.require_poses(check::independent_parameter_count(&model.robot, full_pose))?;
             print!("{}", check::report(&model, &data));
+        }
+        Command::Reproduce {
+            paper: Paper::MirmanGupta,
+        } => {
+            let (induced, fit) = reproduce::table2(&PaperOptions::default());
+            print!("{}", reproduce::table2_report(&induced, &fit));
         }
         Command::Models => {
             println!("built-in robot models (use as --model NAME):");

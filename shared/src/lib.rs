@@ -9,7 +9,7 @@
 //! | [`dh`] | one link's homogeneous transform in either convention, elementary rotations, roll-pitch-yaw |
 //! | [`kinematics`] | forward kinematics of the measured frame and point, and the [`kinematics::Chain`] of every link frame |
 //! | [`jacobian`] | the special Jacobians J_θ, J_s, J_α, J_a of Mirman & Gupta (eqs. 51–54), base and tool columns, the manipulator Jacobian |
-//! | [`pose_error`] | the end-effector error of Mirman & Gupta eqs. 12–15, full pose and position only |
+//! | [`pose_error`](mod@pose_error) | the end-effector error of Mirman & Gupta eqs. 12–15, full pose and position only |
 //! | [`calibration`] | the calibration file the calibrator writes and the controller loads: magic, version, model hash, CRC, postcard payload |
 //! | [`param`] | the names of the geometric parameters (`theta3`, `alpha1`, `base.rx`, `tool.z`, ...) |
 //!
