@@ -85,6 +85,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         } => {
             let (induced, fit) = reproduce::table2(&PaperOptions::default());
             print!("{}", reproduce::table2_report(&induced, &fit));
+            println!();
+            print!("{}", reproduce::table3_report());
         }
         Command::Models => {
             println!("built-in robot models (use as --model NAME):");
