@@ -83,10 +83,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Reproduce {
             paper: Paper::MirmanGupta,
         } => {
-            let (induced, fit) = reproduce::table2(&PaperOptions::default());
-            print!("{}", reproduce::table2_report(&induced, &fit));
+            let (induced, fit) = reproduce::mirman_gupta::table2(&PaperOptions::default());
+            print!("{}", reproduce::mirman_gupta::table2_report(&induced, &fit));
             println!();
-            print!("{}", reproduce::table3_report());
+            print!("{}", reproduce::mirman_gupta::table3_report());
         }
         Command::Models => {
             println!("built-in robot models (use as --model NAME):");

@@ -1,4 +1,4 @@
-//! `armcal reproduce`: the examples of the seed papers, rebuilt.
+//! `armcal reproduce mirman-gupta`: the examples of Mirman & Gupta (1992), rebuilt.
 //!
 //! Mirman & Gupta (1992), Table 2: the PUMA of Table 1 at its six positions, with
 //! induced errors alternating in sign, ±0.01 rad on every `α` and ±0.001 in on
