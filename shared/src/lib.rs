@@ -45,5 +45,5 @@ pub use jacobian::{SpecialJacobians, Twist};
 pub use kinematics::{Chain, LinkAxes};
 pub use model::{Convention, Frame, JointType, Link, LinkMass, MAX_JOINTS, ModelError, Robot};
 pub use param::{FrameAxis, Param};
-pub use pose_error::{pose_error, position_error};
+pub use pose_error::{pose_error, position_error, rotation_error};
 pub use scalar::Real;

@@ -17,7 +17,7 @@
 //! then the error is simply `dP = P^actual − P^current` (eq. 7), which the
 //! Jacobians predict through [`crate::jacobian::at_point`].
 
-use nalgebra::{IsometryMatrix3, Point3, Vector3};
+use nalgebra::{IsometryMatrix3, Point3, Rotation3, UnitQuaternion, Vector3};
 
 use crate::{Real, Twist};
 
@@ -39,4 +39,13 @@ pub fn pose_error<T: Real>(actual: &IsometryMatrix3<T>, current: &IsometryMatrix
 #[inline]
 pub fn position_error<T: Real>(actual: &Point3<T>, current: &Point3<T>) -> Vector3<T> {
     actual - current
+}
+
+/// The exact rotation error: the rotation vector `φ·ν` of `R_actual · R_currentᵀ`,
+/// measurement frame. To first order it is the `νdφ` of eq. (15); unlike that, it
+/// stays exact for large errors. Computed through a unit quaternion and `atan2`,
+/// so it is finite for any two rotations, however rounded (an `acos` of the trace
+/// is not: rounding can push its argument past 1).
+pub fn rotation_error<T: Real>(actual: &Rotation3<T>, current: &Rotation3<T>) -> Vector3<T> {
+    UnitQuaternion::from_rotation_matrix(&(actual * current.inverse())).scaled_axis()
 }

@@ -1,0 +1,745 @@
+//! `--params full`: every identifiable geometric parameter, base and tool included.
+//!
+//! ## Model
+//! The unknowns are, for every joint, the joint offset and the three link
+//! parameters (`θ_m, s_m, a_m, α_m`: the offset is `θ` of a revolute joint and `s`
+//! of a prismatic one), the six parameters of the base frame, and the tool: its
+//! position (3) when only positions are measured, its full frame (6) when
+//! orientations are measured too. Their columns are the analytic special
+//! Jacobians of Mirman & Gupta (eqs. 51–54) and the base and tool columns of
+//! [`armcal_shared::jacobian`].
+//!
+//! ## Residuals and weights
+//! For each pose, the position residual `P_meas − P_model` (3 rows, with Jacobian
+//! rows `dP = dη + νdφ × P`, eq. 8) and, when measured, the orientation residual:
+//! the rotation vector of `R_meas R_modelᵀ` (3 rows, with the rotation part
+//! `νdφ` of the columns). Rows are divided by the stated noise, `σ_p` for
+//! positions and `σ_r` for orientations, so that both are in units of their noise
+//! and the fit is a weighted least-squares one.
+//!
+//! ## Initial estimate
+//! The base and tool may be far from nominal (metres, tens of degrees). Before
+//! the iterations they are estimated in closed form with the nominal joints:
+//! positions only, by alternating the rigid registration of the nominal points
+//! onto the measured ones (Kabsch/Horn, SVD) with the linear least-squares tool
+//! position; full poses, by the chordal mean of the base and tool rotations and
+//! the joint linear least squares of the base and tool positions.
+//!
+//! ## Identifiability
+//! At the initial estimate the weighted Jacobian `J` of all unknowns is formed,
+//! each column scaled to unit norm. The normal matrix `G = JᵀJ` (faer) is
+//! factored by a rank-revealing Cholesky in the order of preference: base, tool,
+//! then the joints base to tip (`θ, s, a, α` each). A parameter whose scaled
+//! column keeps less than `1e-6` of its norm once the columns kept before it are
+//! projected out cannot be separated from them by these data: it is held at its
+//! nominal value and reported with the parameters it depends on and, where one
+//! applies, the geometric reason (parallel axes). So the PUMA's `s3` beside `s2`
+//! at `α2 = 0`, `θ1` beside `base.rz`, `s1` beside `base.z`.
+//!
+//! ## Solution
+//! Levenberg–Marquardt on the identifiable parameters: the scaled normal
+//! equations `(Gs + λI) δs = Jsᵀ r` solved by faer's Cholesky, a step accepted when
+//! it lowers the weighted sum of squares. Converged when a step changes every
+//! prediction by less than 1e-10 of its noise.
+//!
+//! ## Report
+//! Standard errors `sqrt(diag(s² (JᵀJ)⁻¹))` with the a-posteriori variance factor
+//! `s² = Σr²/(n − p)` (so they hold even when the stated noise is off by a
+//! factor), the condition number of the scaled Jacobian, the observability index
+//! O1 of Borm & Menq (1991), `(σ_1 ⋯ σ_p)^{1/p} / √n`, and the strongest
+//! correlations of the estimates.
+
+use armcal_shared::jacobian::at_point;
+use armcal_shared::{FrameAxis, Param, Robot, Twist, rotation_error};
+use faer::linalg::solvers::{DenseSolveCore, Solve};
+use faer::{Mat, Side};
+use nalgebra::{IsometryMatrix3, Matrix3, Point3, Rotation3, UnitQuaternion, Vector3};
+
+/// One measured pose in SI units.
+#[derive(Clone, Debug)]
+pub struct Observation {
+    /// Joint readings (rad or m).
+    pub q: Vec<f64>,
+    /// Measured tool point, m, measurement frame.
+    pub position: Point3<f64>,
+    /// Measured tool orientation, if measured.
+    pub orientation: Option<UnitQuaternion<f64>>,
+}
+
+/// Settings of the full identification.
+#[derive(Clone, Copy, Debug)]
+pub struct FullOptions {
+    /// Position noise (one standard deviation per axis), m.
+    pub position_noise: f64,
+    /// Orientation noise (one standard deviation per axis), rad.
+    pub orientation_noise: f64,
+    /// Most Levenberg–Marquardt iterations.
+    pub max_iterations: usize,
+    /// Relative residual norm below which a scaled column is not separable.
+    pub separability: f64,
+    /// Estimate base and tool in closed form before iterating.
+    pub initial_estimate: bool,
+}
+
+impl Default for FullOptions {
+    fn default() -> Self {
+        Self {
+            position_noise: 1e-4,
+            orientation_noise: 1e-4,
+            max_iterations: 100,
+            separability: 1e-6,
+            initial_estimate: true,
+        }
+    }
+}
+
+/// What became of one parameter.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Status {
+    /// Identified, with its standard error (SI units).
+    Identified {
+        /// One standard error, m or rad.
+        std: f64,
+    },
+    /// Held at nominal because the data cannot separate it.
+    Fixed {
+        /// Why, for the engineer.
+        reason: String,
+    },
+}
+
+/// One parameter of the result.
+#[derive(Clone, Debug)]
+pub struct ParamResult {
+    /// Which parameter.
+    pub param: Param,
+    /// Nominal value, SI.
+    pub nominal: f64,
+    /// Identified minus nominal, SI (angles wrapped to (−π, π]).
+    pub error: f64,
+    /// Identified or fixed.
+    pub status: Status,
+}
+
+/// The result of the full identification.
+#[derive(Clone, Debug)]
+pub struct FullFit {
+    /// Every parameter: base, tool, then the joints.
+    pub params: Vec<ParamResult>,
+    /// The calibrated model.
+    pub calibrated: Robot<f64>,
+    /// Levenberg–Marquardt iterations.
+    pub iterations: usize,
+    /// True if the last step was below the convergence threshold.
+    pub converged: bool,
+    /// RMS of the position residual (3-D distance), m.
+    pub position_rms: f64,
+    /// RMS of the orientation residual angle, rad (0 without orientation data).
+    pub orientation_rms: f64,
+    /// Condition number of the scaled, weighted Jacobian of the identified parameters.
+    pub condition_number: f64,
+    /// Observability index O1 (Borm & Menq) of the same matrix.
+    pub observability: f64,
+    /// The a-posteriori variance factor `s² = Σr²/(n − p)`, in units of the stated noise².
+    pub variance_factor: f64,
+    /// The strongest correlations between identified parameters, strongest first.
+    pub correlations: Vec<(Param, Param, f64)>,
+    /// Equations (rows) and identified parameters.
+    pub equations: usize,
+}
+
+/// Why the identification could not run.
+#[derive(Debug, thiserror::Error, PartialEq)]
+#[non_exhaustive]
+pub enum FullError {
+    /// Fewer equations than identifiable parameters.
+    #[error("{equations} equations for {unknowns} identifiable parameters: measure more poses")]
+    TooFewEquations {
+        /// Rows.
+        equations: usize,
+        /// Identifiable parameters.
+        unknowns: usize,
+    },
+    /// A pose whose joint count is not the model's.
+    #[error("pose {pose}: {got} joint values, the model has {expected} joints")]
+    JointCount {
+        /// 1-based pose index.
+        pose: usize,
+        /// Model joints.
+        expected: usize,
+        /// Values given.
+        got: usize,
+    },
+    /// A non-finite value appeared (the data or the model are unusable).
+    #[error("the fit produced a value that is not finite: check units and joint order")]
+    NonFinite,
+}
+
+/// The unknowns of the full model, in the order of preference: base, tool, joints.
+pub fn full_params(robot: &Robot<f64>, orientation: bool) -> Vec<Param> {
+    let tool_axes: &[FrameAxis] = if orientation {
+        &FrameAxis::ALL
+    } else {
+        &[FrameAxis::X, FrameAxis::Y, FrameAxis::Z]
+    };
+    FrameAxis::ALL
+        .into_iter()
+        .map(Param::Base)
+        .chain(tool_axes.iter().copied().map(Param::Tool))
+        .chain(
+            (0..robot.dof())
+                .flat_map(|m| [Param::Theta(m), Param::S(m), Param::A(m), Param::Alpha(m)]),
+        )
+        .collect()
+}
+
+/// Identifies every identifiable geometric parameter of `nominal` from `data`.
+pub fn identify_full(
+    nominal: &Robot<f64>,
+    data: &[Observation],
+    options: &FullOptions,
+) -> Result<FullFit, FullError> {
+    for (i, obs) in data.iter().enumerate() {
+        if obs.q.len() != nominal.dof() {
+            return Err(FullError::JointCount {
+                pose: i + 1,
+                expected: nominal.dof(),
+                got: obs.q.len(),
+            });
+        }
+    }
+    let orientation = data.iter().any(|o| o.orientation.is_some());
+    let params = full_params(nominal, orientation);
+    let weights = (
+        1.0 / options.position_noise,
+        1.0 / options.orientation_noise,
+    );
+
+    let mut robot = nominal.clone();
+    if options.initial_estimate {
+        initial_base_tool(&mut robot, data);
+    }
+
+    // Identifiability at the initial estimate, on the unit-scaled normal matrix.
+    let system = LinearSystem::build(&robot, data, &params, weights);
+    let equations = system.j.nrows();
+    let (free, fixed) = separable_subset(&system, &params, &robot, data, options.separability);
+    if equations < free.len() {
+        return Err(FullError::TooFewEquations {
+            equations,
+            unknowns: free.len(),
+        });
+    }
+    let free_params: Vec<Param> = free.iter().map(|&k| params[k]).collect();
+
+    // Levenberg–Marquardt on the free parameters.
+    let mut cost = LinearSystem::cost(&robot, data, weights);
+    let mut lambda = 1e-3;
+    let mut iterations = 0;
+    let mut converged = false;
+    while iterations < options.max_iterations {
+        iterations += 1;
+        let sys = LinearSystem::build(&robot, data, &free_params, weights);
+        let (g, rhs, scale) = sys.scaled_normal_equations();
+        let mut accepted = false;
+        for _ in 0..30 {
+            let mut a = g.clone();
+            for k in 0..a.nrows() {
+                a[(k, k)] += lambda;
+            }
+            let Ok(llt) = a.llt(Side::Lower) else {
+                lambda *= 10.0;
+                continue;
+            };
+            let ds = llt.solve(&rhs);
+            let step: Vec<f64> = (0..free_params.len())
+                .map(|k| ds[(k, 0)] * scale[k])
+                .collect();
+            if step.iter().any(|s| !s.is_finite()) {
+                return Err(FullError::NonFinite);
+            }
+            let mut trial = robot.clone();
+            apply(&mut trial, &free_params, &step);
+            let trial_cost = LinearSystem::cost(&trial, data, weights);
+            // The largest change of any prediction, in units of its noise: |ds_k| since
+            // every scaled column has unit norm.
+            let effect = (0..free_params.len())
+                .map(|k| ds[(k, 0)].abs())
+                .fold(0.0, f64::max);
+            if trial_cost <= cost {
+                robot = trial;
+                let done =
+                    effect < 1e-10 || cost - trial_cost <= 1e-15 * cost.max(f64::MIN_POSITIVE);
+                cost = trial_cost;
+                lambda = (lambda / 10.0).max(1e-12);
+                accepted = true;
+                converged = done;
+                break;
+            }
+            if effect < 1e-10 {
+                // A step this small changes nothing measurable: converged at a minimum.
+                accepted = true;
+                converged = true;
+                break;
+            }
+            lambda *= 10.0;
+        }
+        if !accepted || converged {
+            converged |= !accepted && cost == 0.0;
+            break;
+        }
+    }
+
+    // Statistics at the solution.
+    let sys = LinearSystem::build(&robot, data, &free_params, weights);
+    let (g, _, scale) = sys.scaled_normal_equations();
+    let dof = equations.saturating_sub(free_params.len());
+    let variance_factor = if dof > 0 { cost / dof as f64 } else { 1.0 };
+    let cov_scaled = g.llt(Side::Lower).map(|l| l.inverse()).ok();
+    let eig = g.self_adjoint_eigenvalues(Side::Lower).unwrap_or_default();
+    let (smin, smax) = (
+        eig.first().copied().unwrap_or(0.0).max(0.0).sqrt(),
+        eig.last().copied().unwrap_or(0.0).max(0.0).sqrt(),
+    );
+    let condition_number = if smin > 0.0 {
+        smax / smin
+    } else {
+        f64::INFINITY
+    };
+    let observability = {
+        let p = eig.len().max(1) as f64;
+        let log_sum: f64 = eig
+            .iter()
+            .map(|l| 0.5 * l.max(f64::MIN_POSITIVE).ln())
+            .sum();
+        (log_sum / p).exp() / (equations.max(1) as f64).sqrt()
+    };
+    let mut correlations = Vec::new();
+    let mut std_of = vec![f64::NAN; free_params.len()];
+    if let Some(c) = &cov_scaled {
+        for k in 0..free_params.len() {
+            std_of[k] = (variance_factor * c[(k, k)]).sqrt() * scale[k];
+            for l in 0..k {
+                let rho = c[(k, l)] / (c[(k, k)] * c[(l, l)]).sqrt();
+                correlations.push((free_params[l], free_params[k], rho));
+            }
+        }
+    }
+    correlations.sort_by(|a, b| b.2.abs().total_cmp(&a.2.abs()));
+    correlations.truncate(5);
+
+    let (position_rms, orientation_rms) = residual_rms(&robot, data);
+    let mut fixed_reason = fixed
+        .into_iter()
+        .collect::<std::collections::HashMap<_, _>>();
+    let results = params
+        .iter()
+        .map(|&param| {
+            let nominal_value = nominal.param(param).unwrap_or(0.0);
+            let mut error = robot.param(param).unwrap_or(0.0) - nominal_value;
+            if param.is_angle() {
+                error = wrap_angle(error);
+            }
+            let status = match free_params.iter().position(|p| *p == param) {
+                Some(k) => Status::Identified { std: std_of[k] },
+                None => Status::Fixed {
+                    reason: fixed_reason
+                        .remove(&param)
+                        .unwrap_or_else(|| "not separable".into()),
+                },
+            };
+            ParamResult {
+                param,
+                nominal: nominal_value,
+                error,
+                status,
+            }
+        })
+        .collect();
+    if !cost.is_finite() {
+        return Err(FullError::NonFinite);
+    }
+    Ok(FullFit {
+        params: results,
+        calibrated: robot,
+        iterations,
+        converged,
+        position_rms,
+        orientation_rms,
+        condition_number,
+        observability,
+        variance_factor,
+        correlations,
+        equations,
+    })
+}
+
+/// Wraps an angle to (−π, π].
+fn wrap_angle(x: f64) -> f64 {
+    let two_pi = 2.0 * std::f64::consts::PI;
+    let y = x.rem_euclid(two_pi);
+    if y > std::f64::consts::PI {
+        y - two_pi
+    } else {
+        y
+    }
+}
+
+/// Adds `step` to `params` of `robot`.
+fn apply(robot: &mut Robot<f64>, params: &[Param], step: &[f64]) {
+    for (p, d) in params.iter().zip(step) {
+        if let Some(v) = robot.param_mut(*p) {
+            *v += d;
+        }
+    }
+}
+
+/// The weighted Jacobian and residual of one linearisation.
+struct LinearSystem {
+    /// Weighted Jacobian, rows × params.
+    j: Mat<f64>,
+    /// Weighted residual, rows × 1.
+    r: Mat<f64>,
+}
+
+impl LinearSystem {
+    fn rows(data: &[Observation]) -> usize {
+        data.iter()
+            .map(|o| if o.orientation.is_some() { 6 } else { 3 })
+            .sum()
+    }
+
+    fn build(
+        robot: &Robot<f64>,
+        data: &[Observation],
+        params: &[Param],
+        (wp, wr): (f64, f64),
+    ) -> Self {
+        let rows = Self::rows(data);
+        let mut j = Mat::<f64>::zeros(rows, params.len());
+        let mut r = Mat::<f64>::zeros(rows, 1);
+        let mut row = 0;
+        for obs in data {
+            // Joint counts were checked on entry.
+            let Ok(chain) = robot.chain(&obs.q) else {
+                continue;
+            };
+            let p = chain.point();
+            let dp = obs.position - p;
+            for i in 0..3 {
+                r[(row + i, 0)] = dp[i] * wp;
+            }
+            let cols: Vec<Twist<f64>> = params.iter().map(|&pm| chain.column(pm)).collect();
+            for (k, col) in cols.iter().enumerate() {
+                let v = at_point(col, &p);
+                for i in 0..3 {
+                    j[(row + i, k)] = v[i] * wp;
+                }
+            }
+            row += 3;
+            if let Some(q) = obs.orientation {
+                let e = rotation_error(&q.to_rotation_matrix(), &chain.end.rotation);
+                for i in 0..3 {
+                    r[(row + i, 0)] = e[i] * wr;
+                }
+                for (k, col) in cols.iter().enumerate() {
+                    for i in 0..3 {
+                        j[(row + i, k)] = col[i] * wr;
+                    }
+                }
+                row += 3;
+            }
+        }
+        Self { j, r }
+    }
+
+    /// The weighted sum of squares of the residual of `robot`.
+    fn cost(robot: &Robot<f64>, data: &[Observation], (wp, wr): (f64, f64)) -> f64 {
+        data.iter()
+            .map(|obs| {
+                let Ok(t) = robot.forward(&obs.q) else {
+                    return f64::INFINITY;
+                };
+                let dp = (obs.position.coords - t.translation.vector).norm_squared() * wp * wp;
+                let dr = obs.orientation.map_or(0.0, |q| {
+                    rotation_error(&q.to_rotation_matrix(), &t.rotation).norm_squared() * wr * wr
+                });
+                dp + dr
+            })
+            .sum()
+    }
+
+    /// `(Gs, Jsᵀr, scale)`: the normal matrix of the columns scaled to unit norm,
+    /// its right-hand side, and the scale factors (`δ = scale · δs`). A zero column
+    /// keeps scale 0 (it cannot move anything).
+    fn scaled_normal_equations(&self) -> (Mat<f64>, Mat<f64>, Vec<f64>) {
+        let g = self.j.transpose() * &self.j;
+        let n = g.nrows();
+        let scale: Vec<f64> = (0..n)
+            .map(|k| {
+                if g[(k, k)] > 0.0 {
+                    1.0 / g[(k, k)].sqrt()
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let gs = Mat::from_fn(n, n, |a, b| g[(a, b)] * scale[a] * scale[b]);
+        let jtr = self.j.transpose() * &self.r;
+        let rhs = Mat::from_fn(n, 1, |a, _| jtr[(a, 0)] * scale[a]);
+        (gs, rhs, scale)
+    }
+}
+
+/// The rank-revealing Cholesky of the scaled normal matrix in the order of
+/// preference: the indices of the separable parameters, and the others with the
+/// reason each is not.
+fn separable_subset(
+    sys: &LinearSystem,
+    params: &[Param],
+    robot: &Robot<f64>,
+    data: &[Observation],
+    tolerance: f64,
+) -> (Vec<usize>, Vec<(Param, String)>) {
+    let (g, _, scale) = sys.scaled_normal_equations();
+    let n = g.nrows();
+    // Cholesky factor columns of the kept parameters: L[k] holds row k of L.
+    let mut l = Mat::<f64>::zeros(n, n);
+    let mut kept: Vec<usize> = Vec::new();
+    let mut fixed = Vec::new();
+    let tol2 = tolerance * tolerance;
+    for k in 0..n {
+        if scale[k] == 0.0 {
+            fixed.push((
+                params[k],
+                "does not move the measured point or frame".to_string(),
+            ));
+            continue;
+        }
+        // Residual of column k after projecting out the kept columns: d = G_kk − Σ L_kj².
+        let mut lk = vec![0.0; kept.len()];
+        for (a, &i) in kept.iter().enumerate() {
+            let mut s = g[(k, i)];
+            for b in 0..a {
+                s -= lk[b] * l[(i, b)];
+            }
+            lk[a] = s / l[(i, a)];
+        }
+        let d = g[(k, k)] - lk.iter().map(|x| x * x).sum::<f64>();
+        if d > tol2 {
+            let a = kept.len();
+            for (b, v) in lk.iter().enumerate() {
+                l[(k, b)] = *v;
+            }
+            l[(k, a)] = d.sqrt();
+            kept.push(k);
+        } else {
+            fixed.push((
+                params[k],
+                dependence_reason(k, &kept, &g, params, robot, data),
+            ));
+        }
+    }
+    (kept, fixed)
+}
+
+/// Names the kept parameters that column `k` depends on, and the geometry behind it.
+fn dependence_reason(
+    k: usize,
+    kept: &[usize],
+    g: &Mat<f64>,
+    params: &[Param],
+    robot: &Robot<f64>,
+    data: &[Observation],
+) -> String {
+    // Least-squares coefficients of column k on the kept columns: G_SS c = G_Sk.
+    let n = kept.len();
+    let gss = Mat::from_fn(n, n, |a, b| g[(kept[a], kept[b])]);
+    let gsk = Mat::from_fn(n, 1, |a, _| g[(kept[a], k)]);
+    let mut names: Vec<(f64, Param)> = match gss.llt(Side::Lower) {
+        Ok(llt) => {
+            let c = llt.solve(&gsk);
+            (0..n).map(|a| (c[(a, 0)].abs(), params[kept[a]])).collect()
+        }
+        Err(_) => Vec::new(),
+    };
+    names.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let top = names.first().map_or(0.0, |x| x.0);
+    let list: Vec<String> = names
+        .iter()
+        .take_while(|x| x.0 >= 0.1 * top && x.0 > 0.0)
+        .take(3)
+        .map(|x| x.1.to_string())
+        .collect();
+    let mut reason = if list.is_empty() {
+        "not separable by these data".to_string()
+    } else {
+        format!("not separable from {}", list.join(", "))
+    };
+    if let Some(geometry) = geometry_reason(params[k], robot, data) {
+        reason.push_str(": ");
+        reason.push_str(&geometry);
+    }
+    reason
+}
+
+/// The geometric reason for a dependence, where one is recognised: consecutive
+/// parallel joint axes, or the first joint axis parallel to the measurement frame's z.
+fn geometry_reason(param: Param, robot: &Robot<f64>, data: &[Observation]) -> Option<String> {
+    let chain = robot.chain(&data.first()?.q).ok()?;
+    let parallel = |a: &Vector3<f64>, b: &Vector3<f64>| a.cross(b).norm() < 1e-9;
+    let m = match param {
+        Param::Theta(m) | Param::S(m) => m,
+        _ => return None,
+    };
+    if m > 0 && parallel(&chain.axes[m].w, &chain.axes[m - 1].w) {
+        return Some(format!("axes {} and {} parallel", m, m + 1));
+    }
+    if m == 0 && parallel(&chain.axes[0].w, &Vector3::z()) {
+        return Some("axis 1 parallel to the measurement frame's z".into());
+    }
+    None
+}
+
+/// RMS of the position residual (m) and of the orientation angle (rad).
+pub fn residual_rms(robot: &Robot<f64>, data: &[Observation]) -> (f64, f64) {
+    let (mut pos, mut rot, mut n_rot) = (0.0, 0.0, 0usize);
+    for obs in data {
+        if let Ok(t) = robot.forward(&obs.q) {
+            pos += (obs.position.coords - t.translation.vector).norm_squared();
+            if let Some(q) = obs.orientation {
+                rot += rotation_error(&q.to_rotation_matrix(), &t.rotation).norm_squared();
+                n_rot += 1;
+            }
+        }
+    }
+    let n = data.len().max(1) as f64;
+    (
+        (pos / n).sqrt(),
+        if n_rot > 0 {
+            (rot / n_rot as f64).sqrt()
+        } else {
+            0.0
+        },
+    )
+}
+
+/// The closed-form estimate of base and tool with the nominal joints (see the module header).
+fn initial_base_tool(robot: &mut Robot<f64>, data: &[Observation]) {
+    let flange: Vec<IsometryMatrix3<f64>> = data
+        .iter()
+        .filter_map(|o| {
+            let mut r = robot.clone();
+            r.base = armcal_shared::Frame::identity();
+            r.tool = armcal_shared::Frame::identity();
+            r.forward(&o.q).ok()
+        })
+        .collect();
+    if flange.len() != data.len() || data.len() < 3 {
+        return;
+    }
+    let with_orientation: Vec<usize> = (0..data.len())
+        .filter(|&i| data[i].orientation.is_some())
+        .collect();
+    let mut base = robot.base.isometry();
+    let mut tool = robot.tool.isometry();
+    let before = LinearSystem::cost(robot, data, (1.0, 1.0));
+    for _ in 0..20 {
+        if with_orientation.len() >= 2 {
+            // Rotations: R_meas = R_b R_f R_t, alternating chordal means.
+            let rb: Matrix3<f64> = with_orientation
+                .iter()
+                .map(|&i| {
+                    let rm = data[i].orientation.unwrap_or_default().to_rotation_matrix();
+                    (rm * (flange[i].rotation * tool.rotation).inverse()).into_inner()
+                })
+                .sum();
+            base.rotation = project_to_rotation(&rb);
+            let rt: Matrix3<f64> = with_orientation
+                .iter()
+                .map(|&i| {
+                    let rm = data[i].orientation.unwrap_or_default().to_rotation_matrix();
+                    ((base.rotation * flange[i].rotation).inverse() * rm).into_inner()
+                })
+                .sum();
+            tool.rotation = project_to_rotation(&rt);
+        } else {
+            // Positions only: register the current model's points onto the measured ones.
+            let model: Vec<Point3<f64>> = flange
+                .iter()
+                .map(|f| base * (f * Point3::from(tool.translation.vector)))
+                .collect();
+            let measured: Vec<Point3<f64>> = data.iter().map(|o| o.position).collect();
+            let correction = kabsch(&model, &measured);
+            base = correction * base;
+        }
+        // Positions: P = t_b + R_b (p_f + R_f t_t), linear in (t_b, t_t).
+        let n = data.len();
+        let mut a = nalgebra::DMatrix::<f64>::zeros(3 * n, 6);
+        let mut b = nalgebra::DVector::<f64>::zeros(3 * n);
+        for (i, (obs, f)) in data.iter().zip(&flange).enumerate() {
+            let rbrf = base.rotation.matrix() * f.rotation.matrix();
+            a.view_mut((3 * i, 0), (3, 3))
+                .copy_from(&Matrix3::identity());
+            a.view_mut((3 * i, 3), (3, 3)).copy_from(&rbrf);
+            let rhs = obs.position.coords - base.rotation * f.translation.vector;
+            b.rows_mut(3 * i, 3).copy_from(&rhs);
+        }
+        let Ok(x) = a.svd(true, true).solve(&b, 1e-12) else {
+            return;
+        };
+        let (tb, tt) = (
+            Vector3::new(x[0], x[1], x[2]),
+            Vector3::new(x[3], x[4], x[5]),
+        );
+        let change = (tb - base.translation.vector).norm() + (tt - tool.translation.vector).norm();
+        base.translation.vector = tb;
+        tool.translation.vector = tt;
+        if change < 1e-12 {
+            break;
+        }
+    }
+    let mut trial = robot.clone();
+    trial.base = frame_of(&base);
+    trial.tool = frame_of(&tool);
+    if with_orientation.len() < 2 {
+        trial.tool.rpy = robot.tool.rpy; // not observable from positions: keep nominal
+    }
+    if LinearSystem::cost(&trial, data, (1.0, 1.0)) < before {
+        *robot = trial;
+    }
+}
+
+/// xyz and roll-pitch-yaw of an isometry.
+fn frame_of(iso: &IsometryMatrix3<f64>) -> armcal_shared::Frame<f64> {
+    let (roll, pitch, yaw) = iso.rotation.euler_angles();
+    armcal_shared::Frame {
+        xyz: iso.translation.vector,
+        rpy: Vector3::new(roll, pitch, yaw),
+    }
+}
+
+/// The rotation nearest to `m` (Frobenius norm): `U diag(1, 1, det(UVᵀ)) Vᵀ`.
+fn project_to_rotation(m: &Matrix3<f64>) -> Rotation3<f64> {
+    let svd = m.svd(true, true);
+    let (Some(u), Some(vt)) = (svd.u, svd.v_t) else {
+        return Rotation3::identity();
+    };
+    let mut d = Matrix3::identity();
+    d[(2, 2)] = (u * vt).determinant().signum();
+    Rotation3::from_matrix_unchecked(u * d * vt)
+}
+
+/// The rigid motion `T` minimising `Σ |T a_i − b_i|²` (Kabsch/Horn).
+fn kabsch(a: &[Point3<f64>], b: &[Point3<f64>]) -> IsometryMatrix3<f64> {
+    let n = a.len() as f64;
+    let ca = a.iter().map(|p| p.coords).sum::<Vector3<f64>>() / n;
+    let cb = b.iter().map(|p| p.coords).sum::<Vector3<f64>>() / n;
+    let h: Matrix3<f64> = a
+        .iter()
+        .zip(b)
+        .map(|(p, q)| (q.coords - cb) * (p.coords - ca).transpose())
+        .sum();
+    let r = project_to_rotation(&h);
+    IsometryMatrix3::from_parts((cb - r * ca).into(), r)
+}
