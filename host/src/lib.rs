@@ -9,6 +9,9 @@
 //! | [`model_file`] | the robot model TOML (§1) into an SI [`armcal_shared::Robot`], with the file's [`Units`](model_file::Units) |
 //! | [`measurements`] | the measurement CSV (§2), read against a model, into SI [`Pose`](measurements::Pose)s |
 //! | [`builtin`] | the models of `models/` and the real data sets of `data/`, built into the binary |
+//! | [`identify`] | `armcal identify`: the paper's iterative regression and the full model, report and calibration |
+//! | [`output`] | result files written atomically |
+//! | [`reproduce`] | `armcal reproduce`: the seed papers' examples |
 //! | [`check`] | `armcal check`: what was read, and the error of the nominal model against the data |
 //!
 //! Units: inside the program everything is SI (m, rad, kg), as in `armcal-shared`;
@@ -21,6 +24,7 @@ pub mod identify;
 pub mod input_error;
 pub mod measurements;
 pub mod model_file;
+pub mod output;
 pub mod reproduce;
 
 #[cfg(test)]

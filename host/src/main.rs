@@ -8,9 +8,13 @@
 use std::process::ExitCode;
 
 use armcal::check;
+use std::path::PathBuf;
+
+use armcal::identify::full::FullOptions;
 use armcal::identify::paper::PaperOptions;
+use armcal::identify::{self, ParamSet};
 use armcal::input_error::InputError;
-use armcal::{builtin, measurements, model_file, reproduce};
+use armcal::{builtin, measurements, model_file, output, reproduce};
 use clap::{Parser, Subcommand};
 
 /// armcal makes serial robot arms accurate: it identifies the errors of their
@@ -35,6 +39,34 @@ enum Command {
         #[arg(long, value_name = "D.csv|NAME")]
         data: String,
     },
+    /// Identify the geometric parameter errors from measured poses, say which
+    /// parameters the data cannot separate, and write the calibration.
+    Identify {
+        /// Robot model: a TOML file (FORMAT.md §1) or the name of a built-in model.
+        #[arg(long, value_name = "M.toml|NAME")]
+        model: String,
+        /// Measurements: a CSV file (FORMAT.md §2) or the name of a built-in data set.
+        #[arg(long, value_name = "D.csv|NAME")]
+        data: String,
+        /// `full`: every identifiable parameter, base and tool included; `paper`: the
+        /// 3M model and iterative regression of Mirman & Gupta (needs full poses).
+        #[arg(long, value_enum, default_value = "full")]
+        params: Params,
+        /// Write the calibration (postcard bytes the firmware loads) here.
+        #[arg(long, value_name = "CAL")]
+        out: Option<PathBuf>,
+        /// Write the report as JSON here.
+        #[arg(long, value_name = "R.json")]
+        json: Option<PathBuf>,
+        /// Position noise of the measurements, one standard deviation per axis, in
+        /// the model's length unit (default: 0.1 mm).
+        #[arg(long, value_name = "LENGTH")]
+        position_noise: Option<f64>,
+        /// Orientation noise, one standard deviation per axis, in the model's angle
+        /// unit (default: 0.1 mrad).
+        #[arg(long, value_name = "ANGLE")]
+        orientation_noise: Option<f64>,
+    },
     /// List the built-in robot models and data sets.
     Models,
     /// Rebuild the worked examples of a seed paper and print them as the paper does.
@@ -43,6 +75,14 @@ enum Command {
         #[arg(value_enum)]
         paper: Paper,
     },
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum Params {
+    /// Every identifiable geometric parameter, base and tool included.
+    Full,
+    /// The 3M position-independent model of Mirman & Gupta.
+    Paper,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
@@ -87,6 +127,66 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             print!("{}", reproduce::mirman_gupta::table2_report(&induced, &fit));
             println!();
             print!("{}", reproduce::mirman_gupta::table3_report());
+        }
+        Command::Identify {
+            model,
+            data,
+            params,
+            out,
+            json,
+            position_noise,
+            orientation_noise,
+        } => {
+            let model = model_file::load_model(&model)?;
+            let data = measurements::load_measurements(&data, &model)?;
+            let full_pose = data.poses.iter().all(|p| p.orientation.is_some());
+            data.require_poses(check::independent_parameter_count(&model.robot, full_pose))?;
+            let mut options = FullOptions::default();
+            let u = &model.units;
+            let noise = [
+                (
+                    "--position-noise",
+                    position_noise,
+                    position_noise.map(|v| u.length_to_si(v)),
+                ),
+                (
+                    "--orientation-noise",
+                    orientation_noise,
+                    orientation_noise.map(|v| u.angle_to_si(v)),
+                ),
+            ];
+            for (flag, given, _) in &noise {
+                if let Some(v) = given {
+                    anyhow::ensure!(
+                        v.is_finite() && *v > 0.0,
+                        "{flag} {v}: must be a positive number"
+                    );
+                }
+            }
+            if let Some(si) = noise[0].2 {
+                options.position_noise = si;
+            }
+            if let Some(si) = noise[1].2 {
+                options.orientation_noise = si;
+            }
+            let set = match params {
+                Params::Full => ParamSet::Full,
+                Params::Paper => ParamSet::Paper,
+            };
+            let result = identify::identify(&model, &data, set, &options)?;
+            // Everything is computed and encoded before the first byte is written.
+            let mut outputs = Vec::new();
+            if let Some(path) = &out {
+                outputs.push((path.as_path(), result.calibration.to_bytes()?));
+            }
+            if let Some(path) = &json {
+                let text = serde_json::to_string_pretty(&result.to_json(&model.units))?;
+                outputs.push((path.as_path(), text.into_bytes()));
+            }
+            if outputs.is_empty() {
+                print!("{}", result.summary(&model, &data));
+            }
+            output::write_all(&outputs)?;
         }
         Command::Models => {
             println!("built-in robot models (use as --model NAME):");

@@ -12,7 +12,8 @@
 //! 11       1    reserved, 0
 //! 12       8    model hash: CRC-64/XZ of the nominal model's postcard bytes
 //! 20       4    payload length n
-//! 24       n    payload: postcard bytes of the Calibration (nominal model, identified errors)
+//! 24       n    payload: postcard bytes of the Calibration (nominal model, identified
+//!               errors, whether orientation was calibrated, the model file's units)
 //! 24+n     4    CRC-32/ISO-HDLC of bytes 0 .. 24+n
 //! ```
 //!
@@ -28,6 +29,7 @@ use core::fmt;
 use heapless::Vec;
 use serde::{Deserialize, Serialize};
 
+use crate::units::Units;
 use crate::{MAX_JOINTS, Param, Robot};
 
 /// The first eight bytes of every calibration file.
@@ -70,6 +72,8 @@ pub struct Calibration {
     pub errors: Vec<ParamError, MAX_PARAMS>,
     /// True if identified from full poses (the orientation is calibrated too).
     pub orientation: bool,
+    /// The units of the model file, in which results are reported.
+    pub units: Units,
 }
 
 /// Why a calibration file was refused, or could not be written.
@@ -228,11 +232,12 @@ pub fn model_hash(model: &Robot<f64>) -> u64 {
 
 impl Calibration {
     /// A calibration that identifies nothing: the nominal model itself.
-    pub fn nominal(nominal: Robot<f64>, orientation: bool) -> Self {
+    pub fn nominal(nominal: Robot<f64>, orientation: bool, units: Units) -> Self {
         Self {
             nominal,
             errors: Vec::new(),
             orientation,
+            units,
         }
     }
 

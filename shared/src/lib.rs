@@ -11,6 +11,7 @@
 //! | [`jacobian`] | the special Jacobians J_θ, J_s, J_α, J_a of Mirman & Gupta (eqs. 51–54), base and tool columns, the manipulator Jacobian |
 //! | [`pose_error`](mod@pose_error) | the end-effector error of Mirman & Gupta eqs. 12–15, full pose and position only |
 //! | [`calibration`] | the calibration file the calibrator writes and the controller loads: magic, version, model hash, CRC, postcard payload |
+//! | [`units`] | the model file's length and angle units, and their conversion to SI |
 //! | [`param`] | the names of the geometric parameters (`theta3`, `alpha1`, `base.rx`, `tool.z`, ...) |
 //!
 //! ## Conventions used throughout
@@ -39,6 +40,7 @@ pub mod model;
 pub mod param;
 pub mod pose_error;
 pub mod scalar;
+pub mod units;
 
 pub use calibration::{Calibration, CalibrationError, ParamError};
 pub use jacobian::{SpecialJacobians, Twist};

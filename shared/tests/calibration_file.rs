@@ -8,6 +8,7 @@ use armcal_shared::{
     Calibration, CalibrationError, Convention, Frame, FrameAxis, JointType, Link, LinkMass,
     MAX_JOINTS, Param, ParamError, Robot,
 };
+use armcal_shared::units::{AngleUnit, LengthUnit, Units};
 use nalgebra::Vector3;
 
 /// A 6R arm with limits and masses and a handful of identified errors.
@@ -34,7 +35,7 @@ fn sample() -> Calibration {
         rpy: Vector3::new(0.0, 0.1, -1.2),
     };
     nominal.gravity = Some(Vector3::new(0.0, 0.0, -9.81));
-    let mut cal = Calibration::nominal(nominal, false);
+    let mut cal = Calibration::nominal(nominal, false, Units { length: LengthUnit::Mm, angle: AngleUnit::Deg });
     for (param, error) in [
         (Param::Theta(1), 1.0e-3),
         (Param::Alpha(2), -2.0e-4),

@@ -32,9 +32,15 @@
 //! then the joints base to tip (`θ, s, a, α` each). A parameter whose scaled
 //! column keeps less than `1e-6` of its norm once the columns kept before it are
 //! projected out cannot be separated from them by these data: it is held at its
-//! nominal value and reported with the parameters it depends on and, where one
+//! nominal value (base and tool: at the closed-form estimate) and reported with the parameters it depends on and, where one
 //! applies, the geometric reason (parallel axes). So the PUMA's `s3` beside `s2`
-//! at `α2 = 0`, `θ1` beside `base.rz`, `s1` beside `base.z`.
+//! at `α2 = 0`, `θ1` beside `base.rz`, `s1` beside `base.z`. A parameter that is
+//! separable in principle but whose standard error, given the columns kept
+//! before it and the noise, would exceed [`FullOptions::max_std_length`] or
+//! [`FullOptions::max_std_angle`] (10 mm, 10 mrad) is held at nominal too: the data
+//! do not determine it. The noise is first the stated one; when the fit shows it
+//! larger (variance factor above 1), the selection is made again with the noise
+//! the residuals show, and the fit repeated.
 //!
 //! ## Solution
 //! Levenberg–Marquardt on the identifiable parameters: the scaled normal
@@ -77,6 +83,11 @@ pub struct FullOptions {
     pub max_iterations: usize,
     /// Relative residual norm below which a scaled column is not separable.
     pub separability: f64,
+    /// A length parameter whose standard error would exceed this (m) is held at
+    /// nominal: the data do not determine it.
+    pub max_std_length: f64,
+    /// Likewise for an angle parameter (rad).
+    pub max_std_angle: f64,
     /// Estimate base and tool in closed form before iterating.
     pub initial_estimate: bool,
 }
@@ -88,6 +99,8 @@ impl Default for FullOptions {
             orientation_noise: 1e-4,
             max_iterations: 100,
             separability: 1e-6,
+            max_std_length: 0.01,
+            max_std_angle: 0.01,
             initial_estimate: true,
         }
     }
@@ -220,72 +233,46 @@ pub fn identify_full(
         initial_base_tool(&mut robot, data);
     }
 
-    // Identifiability at the initial estimate, on the unit-scaled normal matrix.
-    let system = LinearSystem::build(&robot, data, &params, weights);
-    let equations = system.j.nrows();
-    let (free, fixed) = separable_subset(&system, &params, &robot, data, options.separability);
-    if equations < free.len() {
-        return Err(FullError::TooFewEquations {
-            equations,
-            unknowns: free.len(),
-        });
-    }
-    let free_params: Vec<Param> = free.iter().map(|&k| params[k]).collect();
-
-    // Levenberg–Marquardt on the free parameters.
-    let mut cost = LinearSystem::cost(&robot, data, weights);
-    let mut lambda = 1e-3;
-    let mut iterations = 0;
-    let mut converged = false;
-    while iterations < options.max_iterations {
-        iterations += 1;
-        let sys = LinearSystem::build(&robot, data, &free_params, weights);
-        let (g, rhs, scale) = sys.scaled_normal_equations();
-        let mut accepted = false;
-        for _ in 0..30 {
-            let mut a = g.clone();
-            for k in 0..a.nrows() {
-                a[(k, k)] += lambda;
-            }
-            let Ok(llt) = a.llt(Side::Lower) else {
-                lambda *= 10.0;
-                continue;
-            };
-            let ds = llt.solve(&rhs);
-            let step: Vec<f64> = (0..free_params.len())
-                .map(|k| ds[(k, 0)] * scale[k])
-                .collect();
-            if step.iter().any(|s| !s.is_finite()) {
-                return Err(FullError::NonFinite);
-            }
-            let mut trial = robot.clone();
-            apply(&mut trial, &free_params, &step);
-            let trial_cost = LinearSystem::cost(&trial, data, weights);
-            // The largest change of any prediction, in units of its noise: |ds_k| since
-            // every scaled column has unit norm.
-            let effect = (0..free_params.len())
-                .map(|k| ds[(k, 0)].abs())
-                .fold(0.0, f64::max);
-            if trial_cost <= cost {
-                robot = trial;
-                let done =
-                    effect < 1e-10 || cost - trial_cost <= 1e-15 * cost.max(f64::MIN_POSITIVE);
-                cost = trial_cost;
-                lambda = (lambda / 10.0).max(1e-12);
-                accepted = true;
-                converged = done;
-                break;
-            }
-            if effect < 1e-10 {
-                // A step this small changes nothing measurable: converged at a minimum.
-                accepted = true;
-                converged = true;
-                break;
-            }
-            lambda *= 10.0;
+    // Identifiability at the initial estimate with the stated noise; again with the
+    // noise the residuals show if it is larger.
+    let start = robot.clone();
+    let mut noise_scale = 1.0;
+    let (mut free_params, mut fixed, mut iterations, mut converged, mut cost, mut equations);
+    loop {
+        let system = LinearSystem::build(&robot, data, &params, weights);
+        equations = system.j.nrows();
+        let (free, f) = separable_subset(&system, &params, &robot, data, options, noise_scale);
+        fixed = f;
+        if equations < free.len() {
+            return Err(FullError::TooFewEquations {
+                equations,
+                unknowns: free.len(),
+            });
         }
-        if !accepted || converged {
-            converged |= !accepted && cost == 0.0;
+        free_params = free.iter().map(|&k| params[k]).collect::<Vec<Param>>();
+        // Parameters held fixed keep their nominal value (base and tool: their
+        // closed-form estimate).
+        for (p, _) in &fixed {
+            let keep = match p {
+                Param::Base(_) | Param::Tool(_) => start.param(*p),
+                _ => nominal.param(*p),
+            };
+            if let (Some(v), Some(slot)) = (keep, robot.param_mut(*p)) {
+                *slot = v;
+            }
+        }
+        (iterations, converged, cost) =
+            levenberg_marquardt(&mut robot, data, &free_params, weights, options)?;
+        let dof = equations.saturating_sub(free_params.len());
+        let variance_factor = if dof > 0 { cost / dof as f64 } else { 1.0 };
+        let new_scale = variance_factor.sqrt();
+        if new_scale <= noise_scale * 1.01 {
+            break;
+        }
+        let system = LinearSystem::build(&robot, data, &params, weights);
+        let (free_again, _) = separable_subset(&system, &params, &robot, data, options, new_scale);
+        noise_scale = new_scale;
+        if free_again.iter().map(|&k| params[k]).collect::<Vec<_>>() == free_params {
             break;
         }
     }
@@ -372,6 +359,74 @@ pub fn identify_full(
         correlations,
         equations,
     })
+}
+
+/// Levenberg–Marquardt on `free` from `robot`: iterations, convergence and the
+/// final weighted sum of squares.
+fn levenberg_marquardt(
+    robot: &mut Robot<f64>,
+    data: &[Observation],
+    free_params: &[Param],
+    weights: (f64, f64),
+    options: &FullOptions,
+) -> Result<(usize, bool, f64), FullError> {
+    let mut cost = LinearSystem::cost(robot, data, weights);
+    let mut lambda = 1e-3;
+    let mut iterations = 0;
+    let mut converged = false;
+    while iterations < options.max_iterations {
+        iterations += 1;
+        let sys = LinearSystem::build(robot, data, free_params, weights);
+        let (g, rhs, scale) = sys.scaled_normal_equations();
+        let mut accepted = false;
+        for _ in 0..30 {
+            let mut a = g.clone();
+            for k in 0..a.nrows() {
+                a[(k, k)] += lambda;
+            }
+            let Ok(llt) = a.llt(Side::Lower) else {
+                lambda *= 10.0;
+                continue;
+            };
+            let ds = llt.solve(&rhs);
+            let step: Vec<f64> = (0..free_params.len())
+                .map(|k| ds[(k, 0)] * scale[k])
+                .collect();
+            if step.iter().any(|s| !s.is_finite()) {
+                return Err(FullError::NonFinite);
+            }
+            let mut trial = robot.clone();
+            apply(&mut trial, free_params, &step);
+            let trial_cost = LinearSystem::cost(&trial, data, weights);
+            // The largest change of any prediction, in units of its noise: |ds_k| since
+            // every scaled column has unit norm.
+            let effect = (0..free_params.len())
+                .map(|k| ds[(k, 0)].abs())
+                .fold(0.0, f64::max);
+            if trial_cost <= cost {
+                *robot = trial;
+                let done =
+                    effect < 1e-10 || cost - trial_cost <= 1e-15 * cost.max(f64::MIN_POSITIVE);
+                cost = trial_cost;
+                lambda = (lambda / 10.0).max(1e-12);
+                accepted = true;
+                converged = done;
+                break;
+            }
+            if effect < 1e-10 {
+                // A step this small changes nothing measurable: converged at a minimum.
+                accepted = true;
+                converged = true;
+                break;
+            }
+            lambda *= 10.0;
+        }
+        if !accepted || converged {
+            converged |= !accepted && cost == 0.0;
+            break;
+        }
+    }
+    Ok((iterations, converged, cost))
 }
 
 /// Wraps an angle to (−π, π].
@@ -499,8 +554,10 @@ fn separable_subset(
     params: &[Param],
     robot: &Robot<f64>,
     data: &[Observation],
-    tolerance: f64,
+    options: &FullOptions,
+    noise_scale: f64,
 ) -> (Vec<usize>, Vec<(Param, String)>) {
+    let tolerance = options.separability;
     let (g, _, scale) = sys.scaled_normal_equations();
     let n = g.nrows();
     // Cholesky factor columns of the kept parameters: L[k] holds row k of L.
@@ -526,7 +583,20 @@ fn separable_subset(
             lk[a] = s / l[(i, a)];
         }
         let d = g[(k, k)] - lk.iter().map(|x| x * x).sum::<f64>();
-        if d > tol2 {
+        // The standard error this parameter would have beside the ones kept so far.
+        let std = noise_scale * scale[k] / d.max(0.0).sqrt();
+        let limit = if params[k].is_angle() {
+            options.max_std_angle
+        } else {
+            options.max_std_length
+        };
+        if d > tol2 && std > limit {
+            let unit = if params[k].is_angle() { "rad" } else { "m" };
+            fixed.push((
+                params[k],
+                format!("not determined by these data: its standard error would be {std:.2e} {unit}, above {limit:.0e} {unit}"),
+            ));
+        } else if d > tol2 {
             let a = kept.len();
             for (b, v) in lk.iter().enumerate() {
                 l[(k, b)] = *v;
