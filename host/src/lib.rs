@@ -7,10 +7,12 @@
 //! | --- | --- |
 //! | [`input_error`] | [`InputError`](input_error::InputError): a refused file, `file:line:column: message` |
 //! | [`model_file`] | the robot model TOML (§1) into an SI [`armcal_shared::Robot`], with the file's [`Units`](model_file::Units) |
-//! | [`measurements`] | the measurement CSV (§2), read against a model, into SI [`Pose`](measurements::Pose)s |
+//! | [`measurements`] | the measurement CSV (§2), read against a model, into SI [`Pose`](measurements::Pose)s; joint readings alone into [`JointRow`](measurements::JointRow)s |
 //! | [`builtin`] | the models of `models/` and the real data sets of `data/`, built into the binary |
 //! | [`identify`] | `armcal identify`: the paper's iterative regression and the full model, report and calibration |
 //! | [`output`] | result files written atomically |
+//! | [`predict`] | `armcal predict`: the calibrated model's tool point (and frame) for each row of joint readings |
+//! | [`simulate`] | true robots with built-in errors and their noisy measurements |
 //! | [`reproduce`] | `armcal reproduce`: the seed papers' examples |
 //! | [`check`] | `armcal check`: what was read, and the error of the nominal model against the data |
 //!
@@ -25,7 +27,9 @@ pub mod input_error;
 pub mod measurements;
 pub mod model_file;
 pub mod output;
+pub mod predict;
 pub mod reproduce;
+pub mod simulate;
 
 #[cfg(test)]
 mod test_support;

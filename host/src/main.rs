@@ -14,7 +14,7 @@ use armcal::identify::full::FullOptions;
 use armcal::identify::paper::PaperOptions;
 use armcal::identify::{self, ParamSet};
 use armcal::input_error::InputError;
-use armcal::{builtin, measurements, model_file, output, reproduce};
+use armcal::{builtin, measurements, model_file, output, predict, reproduce};
 use clap::{Parser, Subcommand};
 
 /// armcal makes serial robot arms accurate: it identifies the errors of their
@@ -67,6 +67,22 @@ enum Command {
         #[arg(long, value_name = "ANGLE")]
         orientation_noise: Option<f64>,
     },
+    /// Where the calibrated robot puts its tool point (and how it turns its tool
+    /// frame, when the calibration has orientation) for each row of joint
+    /// readings: a CSV with x,y,z (and qw,qx,qy,qz) in the model's units, rows in
+    /// the order of the joints file.
+    Predict {
+        /// The calibration file written by `armcal identify --out`.
+        #[arg(long, value_name = "CAL")]
+        calibration: String,
+        /// Joint readings: a CSV with q1..qM in the model's units (FORMAT.md §2;
+        /// x, y, z and the quaternion of a measurement file are not read).
+        #[arg(long, value_name = "J.csv")]
+        joints: String,
+        /// Write the predictions here (otherwise they are printed).
+        #[arg(long, value_name = "P.csv")]
+        out: Option<PathBuf>,
+    },
     /// List the built-in robot models and data sets.
     Models,
     /// Rebuild the worked examples of a seed paper and print them as the paper does.
@@ -87,8 +103,11 @@ enum Params {
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
 enum Paper {
-    /// Mirman & Gupta (1992): Table 2, the iterative regression on the Table 1 PUMA.
+    /// Mirman & Gupta (1992): Tables 2 and 3, the iterative regression on the Table 1 PUMA.
     MirmanGupta,
+    /// Kirchner, Gurumoorthy & Prinz (1985): the second-order expansion (eq. 2.22)
+    /// and the series inversion of section 3 beside the iterative regression.
+    Kirchner,
 }
 
 fn main() -> ExitCode {
@@ -187,6 +206,29 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 print!("{}", result.summary(&model, &data));
             }
             output::write_all(&outputs)?;
+        }
+        Command::Predict {
+            calibration,
+            joints,
+            out,
+        } => {
+            let cal = predict::load_calibration(&calibration)?;
+            let rows = measurements::load_joints(&joints, &cal.nominal, &cal.units)?;
+            let mut predictions = predict::predict(&cal, &rows)?;
+            predictions.calibration_file = Some(calibration);
+            let csv = predictions.to_csv(&cal.units);
+            for w in &rows.warnings {
+                eprintln!("armcal: warning: {w}");
+            }
+            match &out {
+                Some(path) => output::write_atomically(path, csv.as_bytes())?,
+                None => print!("{csv}"),
+            }
+        }
+        Command::Reproduce {
+            paper: Paper::Kirchner,
+        } => {
+            print!("{}", reproduce::kirchner::report());
         }
         Command::Models => {
             println!("built-in robot models (use as --model NAME):");

@@ -29,10 +29,20 @@
 //! once the caller knows how many parameters it identifies — fewer equations
 //! than unknowns ([`Measurements::require_poses`]).
 //!
+//! ## Joint readings
+//!
+//! [`parse_joints`] reads the same CSV for `armcal predict` and `compensate`: only
+//! `q1` … `qM` are required. `t`, `temp` and `load` are read as above and kept on
+//! each [`JointRow`]; `x`, `y`, `z`, `qw`, `qx`, `qy`, `qz` are allowed (a
+//! measurement file may be fed as it is) but not read: they are listed in
+//! [`JointRows::columns_ignored`] with any other column, and named in a warning.
+//! Every other refusal is the measurement reader's, from the same code.
+//!
 //! The `csv` crate splits the records; the column of a field is found by scanning
 //! the raw line for commas outside double quotes.
 
-use armcal_shared::JointType;
+use armcal_shared::units::Units;
+use armcal_shared::{JointType, Robot};
 use nalgebra::{Point3, Quaternion, UnitQuaternion};
 
 use crate::builtin;
@@ -175,6 +185,172 @@ pub fn load_measurements(
     parse_measurements(&text, name_or_path, model)
 }
 
+/// One row of joint readings, for `armcal predict` and `compensate`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct JointRow {
+    /// 1-based line of this row in the file.
+    pub line: usize,
+    /// Joint readings, SI: rad for a revolute joint, m for a prismatic one.
+    pub q: Vec<f64>,
+    /// Time of the reading, s.
+    pub t: Option<f64>,
+    /// Temperature, °C.
+    pub temp: Option<f64>,
+    /// Payload mass, kg.
+    pub load: Option<f64>,
+}
+
+/// A file of joint readings read against a robot (see [the module](self)).
+#[derive(Clone, Debug, PartialEq)]
+pub struct JointRows {
+    /// The file as named by the user.
+    pub file: String,
+    /// The rows, in file order.
+    pub rows: Vec<JointRow>,
+    /// The header names of the columns used (`q1..qM`, `t`, `temp`, `load`), in
+    /// file order.
+    pub columns_used: Vec<String>,
+    /// The header names of the columns not read (`x`, `y`, `z`, the quaternion and
+    /// any other), in file order.
+    pub columns_ignored: Vec<String>,
+    /// Things the user should know that do not stop the computation.
+    pub warnings: Vec<String>,
+}
+
+impl JointRows {
+    /// The number of rows.
+    pub fn len(&self) -> usize {
+        self.rows.len()
+    }
+
+    /// Whether there are no rows (never the case for a parsed file).
+    pub fn is_empty(&self) -> bool {
+        self.rows.is_empty()
+    }
+}
+
+/// Loads the joint readings of the file at `path`, read against `robot` (its
+/// joint count, joint types and limits) in `units`.
+pub fn load_joints(path: &str, robot: &Robot<f64>, units: &Units) -> Result<JointRows, InputError> {
+    let text = read_text(path)?;
+    parse_joints(&text, path, robot, units)
+}
+
+/// Parses the text of a joint-readings file (see [the module](self)) against
+/// `robot`, whose readings are in `units` on file.
+///
+/// `file` names the file in error messages. Never panics, whatever the text.
+pub fn parse_joints(
+    text: &str,
+    file: &str,
+    robot: &Robot<f64>,
+    units: &Units,
+) -> Result<JointRows, InputError> {
+    let table = parse_table(
+        text,
+        file,
+        &Schema {
+            robot,
+            units: *units,
+            kind: Kind::Joints,
+        },
+    )?;
+    Ok(JointRows {
+        file: file.to_owned(),
+        rows: table
+            .records
+            .into_iter()
+            .map(|r| JointRow {
+                line: r.line,
+                q: r.q,
+                t: r.t,
+                temp: r.temp,
+                load: r.load,
+            })
+            .collect(),
+        columns_used: table.columns_used,
+        columns_ignored: table.columns_ignored,
+        warnings: table.warnings,
+    })
+}
+
+/// Which file is read: the columns it needs and those it reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    /// Measured poses: `q1..qM, x, y, z` required, the quaternion read.
+    Measurements,
+    /// Joint readings: `q1..qM` required, the pose columns not read.
+    Joints,
+}
+
+impl Kind {
+    /// The required columns, for messages.
+    fn required(self, m: usize) -> String {
+        match self {
+            Self::Measurements => format!("q1..q{m}, x, y, z"),
+            Self::Joints => format!("q1..q{m}"),
+        }
+    }
+
+    /// The columns read, for the warning about the others.
+    fn used(self, m: usize) -> String {
+        match self {
+            Self::Measurements => format!("q1..q{m}, x, y, z, qw, qx, qy, qz, t, temp, load"),
+            Self::Joints => format!("q1..q{m}, t, temp, load"),
+        }
+    }
+
+    /// What one data row is, for messages.
+    fn row_noun(self) -> &'static str {
+        match self {
+            Self::Measurements => "measured pose",
+            Self::Joints => "row of joint readings",
+        }
+    }
+}
+
+/// What a file is read against.
+struct Schema<'m> {
+    /// Joint count, joint types (the unit of each reading) and limits.
+    robot: &'m Robot<f64>,
+    /// The units of the file.
+    units: Units,
+    /// Which file.
+    kind: Kind,
+}
+
+impl Schema<'_> {
+    fn dof(&self) -> usize {
+        self.robot.dof()
+    }
+}
+
+/// One data row as read, in SI, before it becomes a [`Pose`] or a [`JointRow`]
+/// (a joints file leaves `position` at 0 and `orientation` empty).
+struct Record {
+    line: usize,
+    q: Vec<f64>,
+    position: [f64; 3],
+    orientation: Option<UnitQuaternion<f64>>,
+    t: Option<f64>,
+    temp: Option<f64>,
+    load: Option<f64>,
+}
+
+/// A whole file as read.
+struct Table {
+    records: Vec<Record>,
+    columns_used: Vec<String>,
+    columns_ignored: Vec<String>,
+    warnings: Vec<String>,
+}
+
+/// Reads `text` as a file of `schema.kind`; a leading byte-order mark is dropped.
+fn parse_table(text: &str, file: &str, schema: &Schema<'_>) -> Result<Table, InputError> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    CsvReader::new(text, file).read(schema)
+}
+
 /// What a column of the file feeds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Role {
@@ -193,13 +369,20 @@ enum Role {
 const POSITION: [&str; 3] = ["x", "y", "z"];
 const QUAT: [&str; 4] = ["qw", "qx", "qy", "qz"];
 
-/// The role of a header name (`q0` is no joint; the header check refuses it).
-fn role_of(name: &str) -> Role {
+/// The role of a header name in a file of `kind` (`q0` is no joint; the header
+/// check refuses it). A joints file does not read the pose columns.
+fn role_of(name: &str, kind: Kind) -> Role {
     if let Some(i) = POSITION.iter().position(|n| *n == name) {
-        return Role::Position(i);
+        return match kind {
+            Kind::Measurements => Role::Position(i),
+            Kind::Joints => Role::Ignored,
+        };
     }
     if let Some(i) = QUAT.iter().position(|n| *n == name) {
-        return Role::Quat(i);
+        return match kind {
+            Kind::Measurements => Role::Quat(i),
+            Kind::Joints => Role::Ignored,
+        };
     }
     match name {
         "t" => return Role::T,
@@ -234,8 +417,34 @@ pub fn parse_measurements(
     file: &str,
     model: &RobotModel,
 ) -> Result<Measurements, InputError> {
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    CsvReader::new(text, file).read(model)
+    let table = parse_table(
+        text,
+        file,
+        &Schema {
+            robot: &model.robot,
+            units: model.units,
+            kind: Kind::Measurements,
+        },
+    )?;
+    Ok(Measurements {
+        file: file.to_owned(),
+        poses: table
+            .records
+            .into_iter()
+            .map(|r| Pose {
+                line: r.line,
+                q: r.q,
+                position: Point3::from(r.position),
+                orientation: r.orientation,
+                t: r.t,
+                temp: r.temp,
+                load: r.load,
+            })
+            .collect(),
+        columns_used: table.columns_used,
+        columns_ignored: table.columns_ignored,
+        warnings: table.warnings,
+    })
 }
 
 /// The raw text and where each record of it starts.
@@ -382,7 +591,7 @@ impl<'a> CsvReader<'a> {
         }
     }
 
-    fn read(mut self, model: &RobotModel) -> Result<Measurements, InputError> {
+    fn read(mut self, schema: &Schema<'_>) -> Result<Table, InputError> {
         let mut reader = csv::ReaderBuilder::new()
             .has_headers(false)
             .comment(Some(b'#'))
@@ -395,21 +604,27 @@ impl<'a> CsvReader<'a> {
                 self.file,
                 1,
                 1,
-                "no header line: the file is empty or has only comments (expected q1..qM, x, y, z, ...)",
+                format!(
+                    "no header line: the file is empty or has only comments (expected {}, ...)",
+                    schema.kind.required(schema.dof())
+                ),
             ));
         };
-        let columns = self.header(&header, model)?;
+        let columns = self.header(&header, schema)?;
 
-        let mut poses = Vec::new();
+        let mut records = Vec::new();
         while let Some(row) = self.next_row(&mut reader)? {
-            poses.push(self.pose(&row, &header, &columns, model)?);
+            records.push(self.record(&row, &header, &columns, schema)?);
         }
-        if poses.is_empty() {
+        if records.is_empty() {
             return Err(InputError::new(
                 self.file,
                 header.line,
                 1,
-                "no data rows after the header: at least one measured pose is needed",
+                format!(
+                    "no data rows after the header: at least one {} is needed",
+                    schema.kind.row_noun()
+                ),
             ));
         }
 
@@ -435,27 +650,26 @@ impl<'a> CsvReader<'a> {
                 })
                 .collect();
             warnings.push(format!(
-                "{}:{}: columns kept out of the computation: {} (used: q1..q{}, x, y, z, qw, qx, qy, qz, t, temp, load)",
+                "{}:{}: columns kept out of the computation: {} (used: {})",
                 self.file,
                 header.line,
                 names.join(", "),
-                model.dof()
+                schema.kind.used(schema.dof())
             ));
         }
-        warnings.extend(limit_warnings(self.file, &poses, model));
+        warnings.extend(limit_warnings(self.file, &records, schema));
 
-        Ok(Measurements {
-            file: self.file.to_owned(),
-            poses,
+        Ok(Table {
+            records,
             columns_used,
             columns_ignored,
             warnings,
         })
     }
 
-    /// Checks the header against the model; the role of each column.
-    fn header(&self, header: &Row, model: &RobotModel) -> Result<Vec<Role>, InputError> {
-        let m = model.dof();
+    /// Checks the header against the schema; the role of each column.
+    fn header(&self, header: &Row, schema: &Schema<'_>) -> Result<Vec<Role>, InputError> {
+        let m = schema.dof();
         let at = |index: usize, message: String| {
             self.err_at(self.field_offset(header.start, index), message)
         };
@@ -476,7 +690,7 @@ impl<'a> CsvReader<'a> {
             }
         }
 
-        let roles: Vec<Role> = names.iter().map(|n| role_of(n)).collect();
+        let roles: Vec<Role> = names.iter().map(|n| role_of(n, schema.kind)).collect();
         let joint_numbers: Vec<(usize, usize)> = names
             .iter()
             .enumerate()
@@ -512,9 +726,10 @@ impl<'a> CsvReader<'a> {
             }
         }
         for (c, name) in POSITION.iter().enumerate() {
-            if !roles.contains(&Role::Position(c)) {
+            if schema.kind == Kind::Measurements && !roles.contains(&Role::Position(c)) {
                 return Err(header_err(format!(
-                    "missing required column '{name}' (required: q1..q{m}, x, y, z){}",
+                    "missing required column '{name}' (required: {}){}",
+                    schema.kind.required(m),
                     case_hint(&names, name)
                 )));
             }
@@ -547,13 +762,13 @@ impl<'a> CsvReader<'a> {
     }
 
     /// One data row.
-    fn pose(
+    fn record(
         &self,
         row: &Row,
         header: &Row,
         roles: &[Role],
-        model: &RobotModel,
-    ) -> Result<Pose, InputError> {
+        schema: &Schema<'_>,
+    ) -> Result<Record, InputError> {
         let at = |index: usize, message: String| {
             self.err_at(self.field_offset(row.start, index), message)
         };
@@ -573,8 +788,8 @@ impl<'a> CsvReader<'a> {
             ));
         }
 
-        let units = model.units;
-        let mut q = vec![0.0; model.dof()];
+        let units = schema.units;
+        let mut q = vec![0.0; schema.dof()];
         let mut position = [0.0; 3];
         let mut quat: [Option<f64>; 4] = [None; 4];
         let (mut t, mut temp, mut load) = (None, None, None);
@@ -605,7 +820,7 @@ impl<'a> CsvReader<'a> {
             };
             match *role {
                 Role::Joint(j) => {
-                    let joint = model
+                    let joint = schema
                         .robot
                         .links
                         .get(j)
@@ -664,10 +879,10 @@ impl<'a> CsvReader<'a> {
             }
         };
 
-        Ok(Pose {
+        Ok(Record {
             line: row.line,
             q,
-            position: Point3::from(position),
+            position,
             orientation,
             t,
             temp,
@@ -696,14 +911,14 @@ fn case_hint(names: &[&str], wanted: &str) -> String {
 }
 
 /// One warning per joint whose readings leave the model's limits.
-fn limit_warnings(file: &str, poses: &[Pose], model: &RobotModel) -> Vec<String> {
-    let units = model.units;
+fn limit_warnings(file: &str, records: &[Record], schema: &Schema<'_>) -> Vec<String> {
+    let units = schema.units;
     let mut warnings = Vec::new();
-    for (j, link) in model.robot.links.iter().enumerate() {
+    for (j, link) in schema.robot.links.iter().enumerate() {
         let Some([lo, hi]) = link.limits else {
             continue;
         };
-        let outside: Vec<&Pose> = poses
+        let outside: Vec<&Record> = records
             .iter()
             .filter(|p| p.q.get(j).is_some_and(|&q| q < lo || q > hi))
             .collect();
@@ -1119,6 +1334,177 @@ mod tests {
         assert_eq!(load_measurements(p, &ur5e()).unwrap().file, p);
     }
 
+    /// Asserts that `text` is refused as joint readings at exactly
+    /// `line`:`column` of "joints.csv" against `model`, naming every `needles`.
+    #[track_caller]
+    fn joints_refused(
+        model: &RobotModel,
+        text: &str,
+        line: usize,
+        column: usize,
+        needles: &[&str],
+    ) {
+        let e = match parse_joints(text, "joints.csv", &model.robot, &model.units) {
+            Ok(_) => panic!("accepted:\n{text}"),
+            Err(e) => e,
+        };
+        assert_eq!(e.file, "joints.csv");
+        assert_eq!((e.line, e.column), (line, column), "{e}");
+        assert!(
+            e.to_string()
+                .starts_with(&format!("joints.csv:{line}:{column}: ")),
+            "{e}"
+        );
+        for needle in needles {
+            assert!(e.message.contains(needle), "{e:?} does not name {needle:?}");
+        }
+    }
+
+    /// Every built-in measurement file reads as joint readings too: the same
+    /// readings, times, temperatures and loads on the same lines, the pose columns
+    /// listed as ignored and named in a warning.
+    #[test]
+    fn measurement_files_read_as_joints() {
+        for d in DATA {
+            let model = load_model(d.name).unwrap();
+            let m = load_measurements(d.name, &model).unwrap();
+            let j = parse_joints(d.text, d.file, &model.robot, &model.units)
+                .unwrap_or_else(|e| panic!("{e}"));
+            assert_eq!(j.file, d.file);
+            assert_eq!(j.len(), m.len());
+            for (r, p) in j.rows.iter().zip(&m.poses) {
+                assert_eq!((r.line, &r.q), (p.line, &p.q));
+                assert_eq!((r.t, r.temp, r.load), (p.t, p.temp, p.load));
+            }
+            let pose_columns: Vec<&String> = m
+                .columns_used
+                .iter()
+                .filter(|c| POSITION.contains(&c.as_str()) || QUAT.contains(&c.as_str()))
+                .collect();
+            assert!(pose_columns.len() >= 3);
+            assert_eq!(j.columns_ignored.iter().collect::<Vec<_>>(), pose_columns);
+            assert!(
+                j.warnings
+                    .iter()
+                    .any(|w| w.contains("kept out of the computation: 'x', 'y', 'z'")
+                        && w.contains(&format!("(used: q1..q{}, t, temp, load)", model.dof()))),
+                "{:?}",
+                j.warnings
+            );
+            // The limit warnings are the measurement reader's.
+            let limits = |w: &[String]| -> Vec<String> {
+                w.iter().filter(|w| w.contains("limits")).cloned().collect()
+            };
+            assert_eq!(limits(&j.warnings), limits(&m.warnings));
+        }
+    }
+
+    /// Only the joints are required; readings follow the units (deg, and mm for a
+    /// prismatic joint); `t`, `temp`, `load` are kept; pose columns are not read,
+    /// not even checked (a partial quaternion or a text in `x` is fine); other
+    /// columns are ignored and named.
+    #[test]
+    fn joints_need_only_the_joints() {
+        let model = parse_model(
+            "name = \"rp\"\nconvention = \"dh\"\nlength_unit = \"mm\"\nangle_unit = \"deg\"\n\
+             [[joint]]\ntype = \"revolute\"\ntheta = 0\ns = 0\na = 0\nalpha = 0\n\
+             [[joint]]\ntype = \"prismatic\"\ntheta = 0\ns = 0\na = 0\nalpha = 0\n",
+            "rp.toml",
+        )
+        .unwrap();
+        let j = parse_joints(
+            "\u{feff}# c\nid,q2,q1,load,x,qw,t,temp\n1,250,90,2.5,abc,,0.5,\n\n2,0,-45,,1,1,,21\n",
+            "j.csv",
+            &model.robot,
+            &model.units,
+        )
+        .unwrap();
+        assert_eq!(j.columns_used, ["q2", "q1", "load", "t", "temp"]);
+        assert_eq!(j.columns_ignored, ["id", "x", "qw"]);
+        assert_eq!(j.len(), 2);
+        let (a, b) = (&j.rows[0], &j.rows[1]);
+        assert_eq!((a.line, b.line), (3, 5));
+        assert!((a.q[0] - core::f64::consts::FRAC_PI_2).abs() <= 4.0 * f64::EPSILON);
+        assert_eq!(a.q[1], 0.25);
+        assert_eq!((a.t, a.temp, a.load), (Some(0.5), None, Some(2.5)));
+        assert_eq!((b.t, b.temp, b.load), (None, Some(21.0), None));
+        assert!(
+            j.warnings[0].contains("'id', 'x', 'qw'"),
+            "{:?}",
+            j.warnings
+        );
+    }
+
+    /// The measurement reader's refusals, from the same code, with the place.
+    #[test]
+    fn joints_refusals_name_file_line_column() {
+        let model = ur5e();
+        const JOINTS6: &str = "q1,q2,q3,q4,q5,q6";
+        joints_refused(
+            &model,
+            &format!("{JOINTS6}\n0.1,0.2,three,0.4,0.5,0.6\n"),
+            2,
+            9,
+            &["column 'q3'", "\"three\" is not a finite number"],
+        );
+        joints_refused(
+            &model,
+            &format!("{JOINTS6},temp\n0,0,0,0,0,0,1\n0,0,0,0,0,0,inf\n"),
+            3,
+            13,
+            &["column 'temp'", "\"inf\" is not a finite number"],
+        );
+        joints_refused(
+            &model,
+            &format!("{JOINTS6},q7\n0,0,0,0,0,0,0\n"),
+            1,
+            19,
+            &["column 'q7'", "the model has 6 joints, the data has 7"],
+        );
+        joints_refused(
+            &model,
+            "q1,q2,q3,q4,q5,x,y,z\n0,0,0,0,0,1,2,3\n",
+            1,
+            1,
+            &["missing column 'q6'", "joint-count mismatch"],
+        );
+        joints_refused(
+            &model,
+            &format!("{JOINTS6}\n0,0,0,0,0\n"),
+            2,
+            10,
+            &["5 fields, the header has 6"],
+        );
+        joints_refused(
+            &model,
+            &format!("{JOINTS6},x,x\n"),
+            1,
+            21,
+            &["column 'x'", "duplicate"],
+        );
+        joints_refused(
+            &model,
+            &format!("{JOINTS6}\n# nothing\n"),
+            1,
+            1,
+            &["no data rows", "row of joint readings"],
+        );
+        joints_refused(&model, "", 1, 1, &["no header line", "expected q1..q6,"]);
+    }
+
+    #[test]
+    fn load_joints_reads_a_file_and_refuses_a_missing_one() {
+        let model = ur5e();
+        let e = load_joints("/nonexistent/j.csv", &model.robot, &model.units).unwrap_err();
+        assert_eq!((e.file.as_str(), e.line), ("/nonexistent/j.csv", 0));
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("j.csv");
+        std::fs::write(&path, "q1,q2,q3,q4,q5,q6\n0,0,0,0,0,0\n").unwrap();
+        let p = path.to_str().unwrap();
+        let j = load_joints(p, &model.robot, &model.units).unwrap();
+        assert_eq!((j.file.as_str(), j.len()), (p, 1));
+    }
+
     /// Characters that matter to CSV and to this format, to mutate files with.
     const CSV_ALPHABET: &str = ",,,\"\"#\n\r .-+e0123456789qwxyzntaif\u{e9}\u{1f600}";
 
@@ -1128,6 +1514,14 @@ mod tests {
         fn random_bytes_never_panic(bytes in prop::collection::vec(any::<u8>(), 0..600)) {
             let text = String::from_utf8_lossy(&bytes);
             let _ = parse_measurements(&text, "fuzz.csv", &ur5e());
+        }
+
+        /// Random bytes never make the joint-readings parser panic.
+        #[test]
+        fn random_bytes_never_panic_as_joints(bytes in prop::collection::vec(any::<u8>(), 0..600)) {
+            let text = String::from_utf8_lossy(&bytes);
+            let model = ur5e();
+            let _ = parse_joints(&text, "fuzz.csv", &model.robot, &model.units);
         }
 
         /// Random edits of the built-in data sets never make the parser panic, and a

@@ -4,11 +4,11 @@
 use armcal_shared::calibration::{
     FORMAT_VERSION, HEADER_LEN, MAGIC, MAX_FILE_LEN, MAX_PARAMS, model_hash,
 };
+use armcal_shared::units::{AngleUnit, LengthUnit, Units};
 use armcal_shared::{
     Calibration, CalibrationError, Convention, Frame, FrameAxis, JointType, Link, LinkMass,
     MAX_JOINTS, Param, ParamError, Robot,
 };
-use armcal_shared::units::{AngleUnit, LengthUnit, Units};
 use nalgebra::Vector3;
 
 /// A 6R arm with limits and masses and a handful of identified errors.
@@ -35,7 +35,14 @@ fn sample() -> Calibration {
         rpy: Vector3::new(0.0, 0.1, -1.2),
     };
     nominal.gravity = Some(Vector3::new(0.0, 0.0, -9.81));
-    let mut cal = Calibration::nominal(nominal, false, Units { length: LengthUnit::Mm, angle: AngleUnit::Deg });
+    let mut cal = Calibration::nominal(
+        nominal,
+        false,
+        Units {
+            length: LengthUnit::Mm,
+            angle: AngleUnit::Deg,
+        },
+    );
     for (param, error) in [
         (Param::Theta(1), 1.0e-3),
         (Param::Alpha(2), -2.0e-4),

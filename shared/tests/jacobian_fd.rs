@@ -35,59 +35,12 @@
 //! `h = (3 k ε)^{1/3}`, is used: about 5e-5 in f64 and 4e-2 in f32.
 
 use armcal_shared::jacobian::at_point;
-use armcal_shared::{Convention, Frame, FrameAxis, JointType, Link, Param, Real, Robot, Twist};
+use armcal_shared::{Convention, FrameAxis, JointType, Link, Param, Real, Robot, Twist};
 use nalgebra::{IsometryMatrix3, Vector3};
 use proptest::prelude::*;
 
-/// A random robot in f64: both conventions, mixed joints, lengths within ±1 m.
-fn robot_strategy() -> impl Strategy<Value = (Robot<f64>, Vec<f64>)> {
-    let pi = std::f64::consts::PI;
-    let link = (
-        any::<bool>(),
-        -pi..pi,
-        -1.0..1.0f64,
-        -1.0..1.0f64,
-        -pi..pi,
-        -pi..pi,
-    );
-    let frame = |len: f64| {
-        (
-            prop::array::uniform3(-len..len),
-            prop::array::uniform3(-pi..pi),
-        )
-            .prop_map(|(xyz, rpy)| Frame {
-                xyz: Vector3::from(xyz),
-                rpy: Vector3::from(rpy),
-            })
-    };
-    (
-        any::<bool>(),
-        prop::collection::vec(link, 1..=8),
-        frame(2.0),
-        frame(0.3),
-    )
-        .prop_map(move |(mdh, links, base, tool)| {
-            let convention = if mdh { Convention::Mdh } else { Convention::Dh };
-            let mut q = Vec::new();
-            let links: Vec<Link<f64>> = links
-                .into_iter()
-                .map(|(prismatic, theta, s, a, alpha, qm)| {
-                    let joint = if prismatic {
-                        JointType::Prismatic
-                    } else {
-                        JointType::Revolute
-                    };
-                    // A prismatic reading is a length: scale the random angle to ±0.5 m.
-                    q.push(if prismatic { qm / (2.0 * pi) } else { qm });
-                    Link::new(joint, theta, s, a, alpha)
-                })
-                .collect();
-            let mut robot = Robot::new(convention, &links).expect("at most 8 joints");
-            robot.base = base;
-            robot.tool = tool;
-            (robot, q)
-        })
-}
+mod common;
+use common::robot_strategy;
 
 /// `L`: the sum of every length of the model and the joint travel, at least 1 m.
 fn reach<T: Real>(robot: &Robot<T>, q: &[T]) -> f64 {

@@ -484,23 +484,25 @@ impl LinearSystem {
             for i in 0..3 {
                 r[(row + i, 0)] = dp[i] * wp;
             }
-            let cols: Vec<Twist<f64>> = params.iter().map(|&pm| chain.column(pm)).collect();
-            for (k, col) in cols.iter().enumerate() {
-                let v = at_point(col, &p);
+            let orientation = obs
+                .orientation
+                .map(|q| rotation_error(&q.to_rotation_matrix(), &chain.end.rotation));
+            for (k, &pm) in params.iter().enumerate() {
+                let col: Twist<f64> = chain.column(pm);
+                let v = at_point(&col, &p);
                 for i in 0..3 {
                     j[(row + i, k)] = v[i] * wp;
                 }
+                if orientation.is_some() {
+                    for i in 0..3 {
+                        j[(row + 3 + i, k)] = col[i] * wr;
+                    }
+                }
             }
             row += 3;
-            if let Some(q) = obs.orientation {
-                let e = rotation_error(&q.to_rotation_matrix(), &chain.end.rotation);
+            if let Some(e) = orientation {
                 for i in 0..3 {
                     r[(row + i, 0)] = e[i] * wr;
-                }
-                for (k, col) in cols.iter().enumerate() {
-                    for i in 0..3 {
-                        j[(row + i, k)] = col[i] * wr;
-                    }
                 }
                 row += 3;
             }
@@ -743,19 +745,22 @@ fn initial_base_tool(robot: &mut Robot<f64>, data: &[Observation]) {
             let correction = kabsch(&model, &measured);
             base = correction * base;
         }
-        // Positions: P = t_b + R_b (p_f + R_f t_t), linear in (t_b, t_t).
-        let n = data.len();
-        let mut a = nalgebra::DMatrix::<f64>::zeros(3 * n, 6);
-        let mut b = nalgebra::DVector::<f64>::zeros(3 * n);
-        for (i, (obs, f)) in data.iter().zip(&flange).enumerate() {
+        // Positions: P = t_b + R_b (p_f + R_f t_t), linear in (t_b, t_t): the 6 × 6
+        // normal equations, accumulated pose by pose.
+        let mut ata = nalgebra::Matrix6::<f64>::zeros();
+        let mut atb = nalgebra::Vector6::<f64>::zeros();
+        for (obs, f) in data.iter().zip(&flange) {
             let rbrf = base.rotation.matrix() * f.rotation.matrix();
-            a.view_mut((3 * i, 0), (3, 3))
+            let mut a = nalgebra::Matrix3x6::<f64>::zeros();
+            a.fixed_view_mut::<3, 3>(0, 0)
                 .copy_from(&Matrix3::identity());
-            a.view_mut((3 * i, 3), (3, 3)).copy_from(&rbrf);
+            a.fixed_view_mut::<3, 3>(0, 3).copy_from(&rbrf);
             let rhs = obs.position.coords - base.rotation * f.translation.vector;
-            b.rows_mut(3 * i, 3).copy_from(&rhs);
+            ata += a.transpose() * a;
+            atb += a.transpose() * rhs;
         }
-        let Ok(x) = a.svd(true, true).solve(&b, 1e-12) else {
+        // Singular when the tool point cannot be told from the base (all poses alike).
+        let Some(x) = ata.cholesky().map(|c| c.solve(&atb)) else {
             return;
         };
         let (tb, tt) = (

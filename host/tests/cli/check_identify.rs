@@ -1,25 +1,6 @@
-//! The `armcal` binary as a user runs it: exit status, what it prints, and that a
-//! refused input names file, line and column and leaves the output folder untouched.
+//! `armcal check` and `armcal identify`.
 
-use std::path::Path;
-use std::process::{Command, Output};
-
-fn armcal(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_armcal"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("armcal runs")
-}
-
-fn files_in(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
-    names
-}
+use crate::{armcal, files_in};
 
 #[test]
 fn check_on_builtin_model_and_data_prints_the_summary() {
@@ -123,23 +104,44 @@ fn identify_writes_the_interface_json_and_a_calibration_the_firmware_format_read
     let dir = tempfile::tempdir().unwrap();
     let out = armcal(
         &[
-            "identify", "--model", "figaroh-ur10e-camera", "--data", "figaroh-ur10e-camera", "--out", "ur10e.cal",
-            "--json", "report.json",
+            "identify",
+            "--model",
+            "figaroh-ur10e-camera",
+            "--data",
+            "figaroh-ur10e-camera",
+            "--out",
+            "ur10e.cal",
+            "--json",
+            "report.json",
         ],
         dir.path(),
     );
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    assert!(out.stdout.is_empty(), "with --out/--json nothing is printed");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        out.stdout.is_empty(),
+        "with --out/--json nothing is printed"
+    );
     let json: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.path().join("report.json")).unwrap()).unwrap();
     assert_eq!(json["params"], "full");
     assert!(json["iterations"].as_u64().unwrap() >= 1);
     assert_eq!(json["converged"], true);
     assert!(json["condition_number"].as_f64().unwrap() > 1.0);
-    assert!(json["residual"]["position_rms"].as_f64().unwrap() < 0.074, "better than nominal");
+    assert!(
+        json["residual"]["position_rms"].as_f64().unwrap() < 0.074,
+        "better than nominal"
+    );
     assert!(json["residual"]["orientation_rms"].is_number());
     let params = json["parameters"].as_array().unwrap();
-    assert_eq!(params.len(), 6 + 6 + 4 * 6, "base 6, tool 6 (full poses), 4 per joint");
+    assert_eq!(
+        params.len(),
+        6 + 6 + 4 * 6,
+        "base 6, tool 6 (full poses), 4 per joint"
+    );
     for p in params {
         for key in ["name", "nominal", "error", "std", "status"] {
             assert!(p.get(key).is_some(), "{p} lacks {key}");
@@ -158,17 +160,42 @@ fn identify_writes_the_interface_json_and_a_calibration_the_firmware_format_read
     let cal = armcal_shared::Calibration::decode(&bytes).unwrap();
     assert!(cal.orientation);
     let base_x = params.iter().find(|p| p["name"] == "base.x").unwrap();
-    let err = cal.errors.iter().find(|e| e.param.to_string() == "base.x").map_or(0.0, |e| e.error);
-    assert!((err - base_x["error"].as_f64().unwrap()).abs() < 1e-15, "lengths in m, as the model");
+    let err = cal
+        .errors
+        .iter()
+        .find(|e| e.param.to_string() == "base.x")
+        .map_or(0.0, |e| e.error);
+    assert!(
+        (err - base_x["error"].as_f64().unwrap()).abs() < 1e-15,
+        "lengths in m, as the model"
+    );
 }
 
 #[test]
 fn identify_without_outputs_prints_a_summary_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
-    let out = armcal(&["identify", "--model", "figaroh-tiago-mocap", "--data", "figaroh-tiago-mocap"], dir.path());
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = armcal(
+        &[
+            "identify",
+            "--model",
+            "figaroh-tiago-mocap",
+            "--data",
+            "figaroh-tiago-mocap",
+        ],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let stdout = String::from_utf8_lossy(&out.stdout);
-    for needle in ["converged", "condition number", "theta1", "fixed: not separable from base.rz"] {
+    for needle in [
+        "converged",
+        "condition number",
+        "theta1",
+        "fixed: not separable from base.rz",
+    ] {
         assert!(stdout.contains(needle), "missing {needle:?} in\n{stdout}");
     }
     assert!(files_in(dir.path()).is_empty());
@@ -179,14 +206,26 @@ fn identify_refuses_paper_model_on_positions_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let out = armcal(
         &[
-            "identify", "--model", "figaroh-tiago-mocap", "--data", "figaroh-tiago-mocap", "--params", "paper", "--out",
-            "x.cal", "--json", "x.json",
+            "identify",
+            "--model",
+            "figaroh-tiago-mocap",
+            "--data",
+            "figaroh-tiago-mocap",
+            "--params",
+            "paper",
+            "--out",
+            "x.cal",
+            "--json",
+            "x.json",
         ],
         dir.path(),
     );
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
-    assert!(stderr.contains("--params paper needs full poses"), "{stderr}");
+    assert!(
+        stderr.contains("--params paper needs full poses"),
+        "{stderr}"
+    );
     assert!(files_in(dir.path()).is_empty(), "nothing written");
 }
 
@@ -199,7 +238,18 @@ fn identify_refuses_data_of_another_robot_naming_the_place() {
         csv.push_str(&format!("{},0,0,0,0,0,0,1,2,3\n", i as f64 * 0.01));
     }
     std::fs::write(dir.path().join("seven.csv"), csv).unwrap();
-    let out = armcal(&["identify", "--model", "puma560", "--data", "seven.csv", "--out", "p.cal"], dir.path());
+    let out = armcal(
+        &[
+            "identify",
+            "--model",
+            "puma560",
+            "--data",
+            "seven.csv",
+            "--out",
+            "p.cal",
+        ],
+        dir.path(),
+    );
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("seven.csv:1:"), "{stderr}");

@@ -1,0 +1,319 @@
+//! `armcal predict` as a user runs it: a calibration with known errors predicts
+//! the calibrated model's forward kinematics row for row, in the model's units;
+//! a damaged, truncated or foreign calibration and a bad joints file are refused
+//! with exit status 2, naming the file and the reason, and nothing is written.
+
+use crate::armcal;
+use armcal::model_file::{RobotModel, load_model, parse_model};
+use armcal_shared::{Calibration, Param, ParamError};
+
+/// `model`'s nominal calibration with the given errors (SI).
+fn calibration(model: &RobotModel, orientation: bool, errors: &[(&str, f64)]) -> Calibration {
+    let mut cal = Calibration::nominal(model.robot.clone(), orientation, model.units);
+    for (name, error) in errors {
+        let param: Param = name.parse().unwrap();
+        cal.errors
+            .push(ParamError {
+                param,
+                error: *error,
+            })
+            .unwrap();
+    }
+    cal
+}
+
+/// Joint readings in model units, one row per configuration, varied enough that
+/// every joint matters.
+fn readings(dof: usize, rows: usize, scale: f64) -> Vec<Vec<f64>> {
+    (0..rows)
+        .map(|r| {
+            (0..dof)
+                .map(|j| scale * (0.37 * (r as f64 + 1.0) * (j as f64 + 1.3)).sin())
+                .collect()
+        })
+        .collect()
+}
+
+/// The rows of a predictions CSV: the first line is a comment, the second the
+/// header; returns the header and the numbers.
+fn read_predictions(csv: &str) -> (String, Vec<Vec<f64>>) {
+    let mut lines = csv.lines();
+    let comment = lines.next().expect("a comment line");
+    assert!(comment.starts_with("# "), "{comment}");
+    let header = lines.next().expect("a header").to_owned();
+    let rows = lines
+        .map(|l| {
+            l.split(',')
+                .map(|f| f.parse::<f64>().unwrap_or_else(|e| panic!("{f:?}: {e}")))
+                .collect()
+        })
+        .collect();
+    (header, rows)
+}
+
+/// Runs `predict` on `cal` and the readings (model units), to a file and to
+/// stdout, and checks every row against the calibrated model's forward
+/// kinematics in the model's units.
+fn predicts_the_calibrated_forward_kinematics(
+    model: &RobotModel,
+    cal: &Calibration,
+    q: &[Vec<f64>],
+) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("cal.bin"), cal.to_bytes().unwrap()).unwrap();
+    // A measurement-like file: comment, extra columns in the way, joints out of order.
+    let dof = model.dof();
+    let mut text = String::from("# joint readings\nid,x,y,z,");
+    let order: Vec<usize> = (0..dof).rev().collect();
+    let names: Vec<String> = order.iter().map(|j| format!("q{}", j + 1)).collect();
+    text.push_str(&names.join(","));
+    text.push_str(",temp\n");
+    for (r, row) in q.iter().enumerate() {
+        let values: Vec<String> = order.iter().map(|&j| format!("{}", row[j])).collect();
+        text.push_str(&format!("{r},1,2,3,{},20\n", values.join(",")));
+    }
+    std::fs::write(dir.path().join("j.csv"), &text).unwrap();
+
+    let out = armcal(
+        &[
+            "predict",
+            "--calibration",
+            "cal.bin",
+            "--joints",
+            "j.csv",
+            "--out",
+            "p.csv",
+        ],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(out.stdout.is_empty(), "--out prints nothing");
+    let csv = std::fs::read_to_string(dir.path().join("p.csv")).unwrap();
+    let first = csv.lines().next().unwrap();
+    assert!(first.contains("cal.bin"), "{first}");
+    assert!(
+        first.contains(&format!("in {}", model.units.length)),
+        "{first}"
+    );
+
+    let (header, rows) = read_predictions(&csv);
+    if cal.orientation {
+        assert_eq!(header, "x,y,z,qw,qx,qy,qz");
+    } else {
+        assert_eq!(header, "x,y,z");
+    }
+    assert_eq!(rows.len(), q.len(), "one row per input row");
+    let calibrated = cal.calibrated();
+    let nominal = &model.robot;
+    let u = model.units;
+    for (row, qm) in rows.iter().zip(q) {
+        let q_si: Vec<f64> = qm
+            .iter()
+            .zip(&nominal.links)
+            .map(|(&v, l)| u.joint_to_si(l.joint, v))
+            .collect();
+        let t = calibrated.forward(&q_si).unwrap();
+        let want = t.translation.vector.map(|x| u.length_from_si(x));
+        let scale = want.norm();
+        for (got, want) in row.iter().zip(want.iter()) {
+            assert!(
+                (got - want).abs() <= 1e-12 * scale,
+                "{got} against {want} in {row:?}"
+            );
+        }
+        // The errors move the point: this is not the nominal model.
+        let moved = (nominal.measured_point(&q_si).unwrap().coords - t.translation.vector).norm();
+        assert!(moved > 1e-5, "{moved}");
+        if cal.orientation {
+            assert_eq!(row.len(), 7);
+            let mut want = nalgebra::UnitQuaternion::from_rotation_matrix(&t.rotation);
+            if want.w < 0.0 {
+                want = nalgebra::UnitQuaternion::new_unchecked(-want.into_inner());
+            }
+            assert!(row[3] >= 0.0);
+            for (got, want) in row[3..].iter().zip([want.w, want.i, want.j, want.k]) {
+                assert!((got - want).abs() <= 1e-12, "{got} against {want}");
+            }
+        } else {
+            assert_eq!(row.len(), 3);
+        }
+    }
+
+    // Without --out, the same CSV on stdout.
+    let out = armcal(
+        &["predict", "--calibration", "cal.bin", "--joints", "j.csv"],
+        dir.path(),
+    );
+    assert!(out.status.success());
+    assert_eq!(String::from_utf8(out.stdout).unwrap(), csv);
+}
+
+#[test]
+fn predicts_puma560_position_in_inches() {
+    let model = load_model("puma560").unwrap();
+    let cal = calibration(
+        &model,
+        false,
+        &[
+            ("theta2", 0.01),
+            ("a3", 0.05 * 0.0254),
+            ("alpha1", -0.01),
+            ("s4", 0.002),
+            ("base.x", 0.003),
+            ("tool.z", -0.001),
+        ],
+    );
+    predicts_the_calibrated_forward_kinematics(&model, &cal, &readings(6, 9, 1.2));
+}
+
+#[test]
+fn predicts_full_pose_of_a_mm_degree_arm() {
+    let model = parse_model(
+        "name = \"rrp\"\nconvention = \"mdh\"\nlength_unit = \"mm\"\nangle_unit = \"deg\"\n\
+         [[joint]]\ntype = \"revolute\"\ntheta = 0\ns = 400\na = 0\nalpha = 0\n\
+         [[joint]]\ntype = \"revolute\"\ntheta = -90\ns = 0\na = 150\nalpha = -90\n\
+         [[joint]]\ntype = \"prismatic\"\ntheta = 0\ns = 200\na = 500\nalpha = 0\n\
+         [tool]\nxyz = [10, 0, 80]\nrpy = [0, 90, 0]\n",
+        "rrp.toml",
+    )
+    .unwrap();
+    let cal = calibration(
+        &model,
+        true,
+        &[
+            ("theta1", 0.002),
+            ("alpha2", -0.001),
+            ("s3", 0.0005),
+            ("a2", -0.0003),
+            ("tool.ry", 0.003),
+            ("base.rz", 0.001),
+        ],
+    );
+    // Degrees for the revolute joints, millimetres for the prismatic one.
+    let q: Vec<Vec<f64>> = readings(3, 7, 60.0);
+    predicts_the_calibrated_forward_kinematics(&model, &cal, &q);
+}
+
+/// Runs `predict --out p.csv` with `bytes` as the calibration and checks the
+/// refusal: status 2, the message names the file and `reason`, nothing written.
+#[track_caller]
+fn refuses_calibration(bytes: &[u8], reason: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("cal.bin"), bytes).unwrap();
+    std::fs::write(dir.path().join("j.csv"), "q1,q2,q3,q4,q5,q6\n0,0,0,0,0,0\n").unwrap();
+    let out = armcal(
+        &[
+            "predict",
+            "--calibration",
+            "cal.bin",
+            "--joints",
+            "j.csv",
+            "--out",
+            "p.csv",
+        ],
+        dir.path(),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.starts_with("armcal: error: cal.bin: "), "{stderr}");
+    assert!(stderr.contains(reason), "{reason:?} not in {stderr}");
+    assert!(out.stdout.is_empty());
+    assert!(!dir.path().join("p.csv").exists(), "--out written");
+}
+
+#[test]
+fn refuses_damaged_truncated_and_foreign_calibrations() {
+    let model = load_model("puma560").unwrap();
+    let bytes = calibration(&model, true, &[("theta2", 0.01)])
+        .to_bytes()
+        .unwrap();
+
+    let mut flipped = bytes.clone();
+    flipped[armcal_shared::calibration::HEADER_LEN + 5] ^= 0x10;
+    refuses_calibration(&flipped, "CRC");
+
+    refuses_calibration(&bytes[..bytes.len() - 7], "truncated");
+    refuses_calibration(&bytes[..3], "truncated");
+
+    refuses_calibration(
+        b"q1,q2,q3,q4,q5,q6,x,y,z\n0,0,0,0,0,0,1,2,3\n",
+        "not an armcal calibration file",
+    );
+    refuses_calibration(b"", "truncated");
+
+    // A missing file: status 2 too, naming it.
+    let dir = tempfile::tempdir().unwrap();
+    let out = armcal(
+        &[
+            "predict",
+            "--calibration",
+            "none.bin",
+            "--joints",
+            "j.csv",
+            "--out",
+            "p.csv",
+        ],
+        dir.path(),
+    );
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("none.bin: cannot read"));
+    assert!(!dir.path().join("p.csv").exists());
+}
+
+#[test]
+fn refuses_a_bad_joint_value_with_file_line_column() {
+    let model = load_model("puma560").unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("cal.bin"),
+        calibration(&model, false, &[]).to_bytes().unwrap(),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("j.csv"),
+        "# readings\nq1,q2,q3,q4,q5,q6\n0,0,0,0,0,0\n0.1,0.2,0..3,0.4,0.5,0.6\n",
+    )
+    .unwrap();
+    // An existing output stays as it was.
+    std::fs::write(dir.path().join("p.csv"), "old").unwrap();
+    let out = armcal(
+        &[
+            "predict",
+            "--calibration",
+            "cal.bin",
+            "--joints",
+            "j.csv",
+            "--out",
+            "p.csv",
+        ],
+        dir.path(),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("j.csv:4:9: column 'q3': \"0..3\" is not a finite number"),
+        "{stderr}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("p.csv")).unwrap(),
+        "old"
+    );
+
+    // Joints of another robot: a joint-count mismatch.
+    std::fs::write(dir.path().join("j.csv"), "q1,q2,q3\n0,0,0\n").unwrap();
+    let out = armcal(
+        &["predict", "--calibration", "cal.bin", "--joints", "j.csv"],
+        dir.path(),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("j.csv:1:1: missing column 'q4'"),
+        "{stderr}"
+    );
+    assert!(out.stdout.is_empty());
+}
