@@ -30,9 +30,20 @@ use crate::{Convention, Link, Real};
 #[inline]
 pub fn link_transform<T: Real>(convention: Convention, link: &Link<T>, q: T) -> IsometryMatrix3<T> {
     let (theta, s) = link.joint_values(q);
+    transform(convention, theta, s, link.a, link.alpha.sin_cos())
+}
+
+/// `A_m` from its four parameters, with the twist given by `(sin α, cos α)` so that
+/// a caller that evaluates the same link many times computes them once.
+#[inline]
+pub fn transform<T: Real>(
+    convention: Convention,
+    theta: T,
+    s: T,
+    a: T,
+    (sa, ca): (T, T),
+) -> IsometryMatrix3<T> {
     let (st, ct) = theta.sin_cos();
-    let (sa, ca) = link.alpha.sin_cos();
-    let a = link.a;
     let z = T::zero();
     match convention {
         Convention::Dh => IsometryMatrix3::from_parts(

@@ -22,11 +22,9 @@
 //! frame. For a laser tracker that sees only the measured point `P`, a column
 //! maps to the point's displacement `dP = dη + νdφ × P` (eq. 8), see [`at_point`].
 
-use nalgebra::{
-    Dyn, IsometryMatrix3, MatrixView, Point3, Rotation3, SMatrix, U1, U6, Vector3, Vector6,
-};
+use nalgebra::{Dyn, IsometryMatrix3, MatrixView, Point3, SMatrix, U1, U6, Vector3, Vector6};
 
-use crate::{Chain, Frame, FrameAxis, JointType, LinkAxes, MAX_JOINTS, Param, Real};
+use crate::{Chain, FrameAxes, FrameAxis, JointType, LinkAxes, MAX_JOINTS, Param, Real};
 
 /// A Jacobian column or an end-effector error: `[νdφ; dη]`, rotation first.
 pub type Twist<T> = Vector6<T>;
@@ -151,12 +149,33 @@ impl<T: Real> Chain<T> {
 
     /// The column of the base parameter `axis`.
     pub fn base_column(&self, axis: FrameAxis) -> Twist<T> {
-        frame_column(&IsometryMatrix3::identity(), &self.base_frame, axis)
+        frame_column(&IsometryMatrix3::identity(), &self.base_axes, axis)
     }
 
     /// The column of the tool parameter `axis`.
     pub fn tool_column(&self, axis: FrameAxis) -> Twist<T> {
-        frame_column(&self.flange, &self.tool_frame, axis)
+        frame_column(&self.flange, &self.tool_axes, axis)
+    }
+
+    /// The columns of all six base parameters, in the order of [`FrameAxis::ALL`].
+    /// They do not depend on the configuration.
+    pub fn base_columns(&self) -> [Twist<T>; 6] {
+        FrameAxis::ALL.map(|ax| self.base_column(ax))
+    }
+
+    /// The columns of all six tool parameters, in the order of [`FrameAxis::ALL`].
+    pub fn tool_columns(&self) -> [Twist<T>; 6] {
+        let r = self.flange.rotation.matrix();
+        let origin = self.flange * self.tool_axes.origin;
+        let axes = &self.tool_axes;
+        [
+            prismatic_twist(&r.column(0).into_owned()),
+            prismatic_twist(&r.column(1).into_owned()),
+            prismatic_twist(&r.column(2).into_owned()),
+            revolute_twist(&(r * axes.roll), &origin),
+            revolute_twist(&(r * axes.pitch), &origin),
+            revolute_twist(&(r * axes.yaw), &origin),
+        ]
     }
 
     /// The column of any geometric parameter.
@@ -175,28 +194,21 @@ impl<T: Real> Chain<T> {
     }
 }
 
-/// The column of one parameter of `frame = Trans(xyz) Rot_z(yaw) Rot_y(pitch) Rot_x(roll)`
-/// that follows `parent` in the chain.
+/// The column of one parameter of a base or tool frame whose parent is `parent`
+/// (the identity for the base, the flange for the tool), from the frame's lines.
 fn frame_column<T: Real>(
     parent: &IsometryMatrix3<T>,
-    frame: &Frame<T>,
+    axes: &FrameAxes<T>,
     axis: FrameAxis,
 ) -> Twist<T> {
     let r = parent.rotation.matrix();
-    let origin = parent * Point3::from(frame.xyz);
-    let (pitch, yaw) = (frame.rpy.y, frame.rpy.z);
+    let origin = parent * axes.origin;
     match axis {
         FrameAxis::X => prismatic_twist(&r.column(0).into_owned()),
         FrameAxis::Y => prismatic_twist(&r.column(1).into_owned()),
         FrameAxis::Z => prismatic_twist(&r.column(2).into_owned()),
-        FrameAxis::Rz => revolute_twist(&r.column(2).into_owned(), &origin),
-        FrameAxis::Ry => {
-            let axis = r * (Rotation3::from_euler_angles(T::zero(), T::zero(), yaw) * Vector3::y());
-            revolute_twist(&axis, &origin)
-        }
-        FrameAxis::Rx => {
-            let axis = r * (Rotation3::from_euler_angles(T::zero(), pitch, yaw) * Vector3::x());
-            revolute_twist(&axis, &origin)
-        }
+        FrameAxis::Rz => revolute_twist(&(r * axes.yaw), &origin),
+        FrameAxis::Ry => revolute_twist(&(r * axes.pitch), &origin),
+        FrameAxis::Rx => revolute_twist(&(r * axes.roll), &origin),
     }
 }

@@ -16,8 +16,8 @@
 use heapless::Vec;
 use nalgebra::{IsometryMatrix3, Point3, Vector3};
 
-use crate::dh::link_transform;
-use crate::{Convention, Frame, JointType, MAX_JOINTS, ModelError, Real, Robot};
+use crate::dh::transform;
+use crate::{Convention, Frame, JointType, Link, MAX_JOINTS, ModelError, Real, Robot};
 
 /// The two lines of link `m` in the measurement frame: the z line of θ_m and s_m,
 /// the x line of α_m and a_m.
@@ -48,10 +48,10 @@ pub struct Chain<T: Real> {
     pub end: IsometryMatrix3<T>,
     /// The joint type of each link.
     pub joints: Vec<JointType, MAX_JOINTS>,
-    /// The base frame's parameters (for the base columns).
-    pub base_frame: Frame<T>,
-    /// The tool frame's parameters (for the tool columns).
-    pub tool_frame: Frame<T>,
+    /// The lines of the base frame's parameters, in the measurement frame.
+    pub base_axes: FrameAxes<T>,
+    /// The lines of the tool frame's parameters, in the flange frame.
+    pub tool_axes: FrameAxes<T>,
 }
 
 impl<T: Real> Chain<T> {
@@ -68,15 +68,84 @@ impl<T: Real> Chain<T> {
     }
 }
 
+/// The lines of the six elementary motions of a base or tool frame
+/// `Trans(x, y, z) Rot_z(yaw) Rot_y(pitch) Rot_x(roll)`, in its parent frame:
+/// the translations run along the parent's axes, and the rotations turn about
+/// lines through the frame's origin along the parent's `z` (yaw),
+/// `Rot_z(yaw)·y` (pitch) and `Rot_z(yaw) Rot_y(pitch)·x` (roll).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameAxes<T: Real> {
+    /// The frame's origin in its parent.
+    pub origin: Point3<T>,
+    /// Axis of the roll rotation.
+    pub roll: Vector3<T>,
+    /// Axis of the pitch rotation.
+    pub pitch: Vector3<T>,
+    /// Axis of the yaw rotation (the parent's z).
+    pub yaw: Vector3<T>,
+}
+
+impl<T: Real> FrameAxes<T> {
+    /// The axes of `frame`.
+    pub fn of(frame: &Frame<T>) -> Self {
+        let (sy, cy) = frame.rpy.z.sin_cos();
+        let (sp, cp) = frame.rpy.y.sin_cos();
+        Self {
+            origin: Point3::from(frame.xyz),
+            // Rot_z(yaw) Rot_y(pitch) x = (cy cp, sy cp, −sp); Rot_z(yaw) y = (−sy, cy, 0).
+            roll: Vector3::new(cy * cp, sy * cp, -sp),
+            pitch: Vector3::new(-sy, cy, T::zero()),
+            yaw: Vector3::z(),
+        }
+    }
+}
+
+/// One link ready for repeated evaluation: the sine and cosine of its constant
+/// twist computed once.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct PreparedLink<T: Real> {
+    link: Link<T>,
+    sin_cos_alpha: (T, T),
+}
+
+/// A robot made ready for many evaluations: the trigonometry of every constant
+/// angle (link twists, base and tool rotations) computed once, so that a forward
+/// kinematics costs one sine and cosine per joint. Identification prepares the
+/// model once per parameter update and evaluates it at every pose; the
+/// controller prepares it once per calibration load.
+#[derive(Clone, Debug)]
+pub struct Prepared<T: Real> {
+    convention: Convention,
+    links: Vec<PreparedLink<T>, MAX_JOINTS>,
+    base: IsometryMatrix3<T>,
+    tool: IsometryMatrix3<T>,
+    base_axes: FrameAxes<T>,
+    tool_axes: FrameAxes<T>,
+}
+
 impl<T: Real> Robot<T> {
+    /// This robot made ready for repeated evaluation.
+    pub fn prepare(&self) -> Prepared<T> {
+        Prepared {
+            convention: self.convention,
+            links: self
+                .links
+                .iter()
+                .map(|l| PreparedLink {
+                    link: *l,
+                    sin_cos_alpha: l.alpha.sin_cos(),
+                })
+                .collect(),
+            base: self.base.isometry(),
+            tool: self.tool.isometry(),
+            base_axes: FrameAxes::of(&self.base),
+            tool_axes: FrameAxes::of(&self.tool),
+        }
+    }
+
     /// The measured frame `base · A_1(q_1) ⋯ A_M(q_M) · tool`.
     pub fn forward(&self, q: &[T]) -> Result<IsometryMatrix3<T>, ModelError> {
-        self.check_joints(q)?;
-        let mut t = self.base.isometry();
-        for (link, &qm) in self.links.iter().zip(q) {
-            t *= link_transform(self.convention, link, qm);
-        }
-        Ok(t * self.tool.isometry())
+        self.prepare().forward(q)
     }
 
     /// The measured point: the origin of [`Robot::forward`].
@@ -86,13 +155,70 @@ impl<T: Real> Robot<T> {
 
     /// Every link frame and line at configuration `q`.
     pub fn chain(&self, q: &[T]) -> Result<Chain<T>, ModelError> {
+        self.prepare().chain(q)
+    }
+}
+
+impl<T: Real> Prepared<T> {
+    /// The number of joints, M.
+    #[inline]
+    pub fn dof(&self) -> usize {
+        self.links.len()
+    }
+
+    fn check_joints(&self, q: &[T]) -> Result<(), ModelError> {
+        if q.len() == self.dof() {
+            Ok(())
+        } else {
+            Err(ModelError::JointCount {
+                expected: self.dof(),
+                got: q.len(),
+            })
+        }
+    }
+
+    #[inline]
+    fn link(&self, l: &PreparedLink<T>, q: T) -> IsometryMatrix3<T> {
+        let (theta, s) = l.link.joint_values(q);
+        transform(self.convention, theta, s, l.link.a, l.sin_cos_alpha)
+    }
+
+    /// The measured frame `base · A_1(q_1) ⋯ A_M(q_M) · tool`.
+    pub fn forward(&self, q: &[T]) -> Result<IsometryMatrix3<T>, ModelError> {
         self.check_joints(q)?;
-        let base = self.base.isometry();
-        let mut links = Vec::new();
-        let mut axes = Vec::new();
-        let mut before = base;
-        for (link, &qm) in self.links.iter().zip(q) {
-            let after = before * link_transform(self.convention, link, qm);
+        let mut t = self.base;
+        for (l, &qm) in self.links.iter().zip(q) {
+            t *= self.link(l, qm);
+        }
+        Ok(t * self.tool)
+    }
+
+    /// Every link frame and line at configuration `q`.
+    pub fn chain(&self, q: &[T]) -> Result<Chain<T>, ModelError> {
+        let mut chain = Chain {
+            base: self.base,
+            links: Vec::new(),
+            axes: Vec::new(),
+            flange: self.base,
+            end: self.base,
+            joints: Vec::new(),
+            base_axes: self.base_axes,
+            tool_axes: self.tool_axes,
+        };
+        self.chain_into(q, &mut chain)?;
+        Ok(chain)
+    }
+
+    /// [`Prepared::chain`] into an existing [`Chain`], which a caller evaluating
+    /// many configurations reuses instead of moving a new one out each time.
+    pub fn chain_into(&self, q: &[T], chain: &mut Chain<T>) -> Result<(), ModelError> {
+        self.check_joints(q)?;
+        chain.links.clear();
+        chain.axes.clear();
+        chain.joints.clear();
+        let mut before = self.base;
+        for (l, &qm) in self.links.iter().zip(q) {
+            let after = before * self.link(l, qm);
             // The z line and the x line of this link, from the frame that carries each.
             let (zf, xf) = match self.convention {
                 Convention::Dh => (&before, &after),
@@ -104,21 +230,17 @@ impl<T: Real> Robot<T> {
                 u: xf.rotation.matrix().column(0).into_owned(),
                 sigma: Point3::from(xf.translation.vector),
             };
-            // Capacity is MAX_JOINTS on both sides: a Robot never holds more links.
-            let _ = links.push(after);
-            let _ = axes.push(line);
+            // Capacity is MAX_JOINTS on all three: a Robot never holds more links.
+            let _ = chain.links.push(after);
+            let _ = chain.axes.push(line);
+            let _ = chain.joints.push(l.link.joint);
             before = after;
         }
-        let end = before * self.tool.isometry();
-        Ok(Chain {
-            base,
-            links,
-            axes,
-            flange: before,
-            end,
-            joints: self.links.iter().map(|l| l.joint).collect(),
-            base_frame: self.base,
-            tool_frame: self.tool,
-        })
+        chain.base = self.base;
+        chain.flange = before;
+        chain.end = before * self.tool;
+        chain.base_axes = self.base_axes;
+        chain.tool_axes = self.tool_axes;
+        Ok(())
     }
 }

@@ -46,7 +46,7 @@ pub mod units;
 
 pub use calibration::{Calibration, CalibrationError, ParamError};
 pub use jacobian::{SpecialJacobians, Twist};
-pub use kinematics::{Chain, LinkAxes};
+pub use kinematics::{Chain, FrameAxes, LinkAxes, Prepared};
 pub use model::{Convention, Frame, JointType, Link, LinkMass, MAX_JOINTS, ModelError, Robot};
 pub use param::{FrameAxis, Param};
 pub use pose_error::{pose_error, position_error, rotation_error};

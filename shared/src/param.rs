@@ -40,6 +40,11 @@ impl FrameAxis {
         FrameAxis::Rz,
     ];
 
+    /// The position of this axis in [`FrameAxis::ALL`].
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
     /// The suffix used in names: `x`, ..., `rz`.
     pub fn suffix(self) -> &'static str {
         match self {

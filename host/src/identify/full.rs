@@ -237,7 +237,15 @@ pub fn identify_full(
     // noise the residuals show if it is larger.
     let start = robot.clone();
     let mut noise_scale = 1.0;
-    let (mut free_params, mut fixed, mut iterations, mut converged, mut cost, mut equations);
+    let (
+        mut free_params,
+        mut fixed,
+        mut iterations,
+        mut converged,
+        mut cost,
+        mut equations,
+        mut sys,
+    );
     loop {
         let system = LinearSystem::build(&robot, data, &params, weights);
         equations = system.j.nrows();
@@ -252,21 +260,34 @@ pub fn identify_full(
         free_params = free.iter().map(|&k| params[k]).collect::<Vec<Param>>();
         // Parameters held fixed keep their nominal value (base and tool: their
         // closed-form estimate).
+        let mut moved = false;
         for (p, _) in &fixed {
             let keep = match p {
                 Param::Base(_) | Param::Tool(_) => start.param(*p),
                 _ => nominal.param(*p),
             };
             if let (Some(v), Some(slot)) = (keep, robot.param_mut(*p)) {
+                moved |= *slot != v;
                 *slot = v;
             }
         }
-        (iterations, converged, cost) =
-            levenberg_marquardt(&mut robot, data, &free_params, weights, options)?;
+        // The linearisation of every parameter serves the first iteration unless a
+        // held parameter was just moved back.
+        let first = if moved {
+            LinearSystem::build(&robot, data, &free_params, weights)
+        } else {
+            system.select_columns(&free)
+        };
+        (iterations, converged, cost, sys) =
+            levenberg_marquardt(&mut robot, data, &free_params, weights, options, first)?;
         let dof = equations.saturating_sub(free_params.len());
         let variance_factor = if dof > 0 { cost / dof as f64 } else { 1.0 };
+        // Select again only if the noise is significantly larger than stated: the
+        // variance factor of correctly stated noise scatters about 1 with a
+        // standard deviation of √(2/dof).
+        let significant = 1.0 + 3.0 * (2.0 / dof.max(1) as f64).sqrt();
         let new_scale = variance_factor.sqrt();
-        if new_scale <= noise_scale * 1.01 {
+        if variance_factor <= significant * noise_scale * noise_scale {
             break;
         }
         let system = LinearSystem::build(&robot, data, &params, weights);
@@ -277,8 +298,7 @@ pub fn identify_full(
         }
     }
 
-    // Statistics at the solution.
-    let sys = LinearSystem::build(&robot, data, &free_params, weights);
+    // Statistics at the solution (the last linearisation is at the solution).
     let (g, _, scale) = sys.scaled_normal_equations();
     let dof = equations.saturating_sub(free_params.len());
     let variance_factor = if dof > 0 { cost / dof as f64 } else { 1.0 };
@@ -315,7 +335,7 @@ pub fn identify_full(
     correlations.sort_by(|a, b| b.2.abs().total_cmp(&a.2.abs()));
     correlations.truncate(5);
 
-    let (position_rms, orientation_rms) = residual_rms(&robot, data);
+    let (position_rms, orientation_rms) = sys.residual_rms(data, weights);
     let mut fixed_reason = fixed
         .into_iter()
         .collect::<std::collections::HashMap<_, _>>();
@@ -369,14 +389,21 @@ fn levenberg_marquardt(
     free_params: &[Param],
     weights: (f64, f64),
     options: &FullOptions,
-) -> Result<(usize, bool, f64), FullError> {
-    let mut cost = LinearSystem::cost(robot, data, weights);
+    mut sys: LinearSystem,
+) -> Result<(usize, bool, f64, LinearSystem), FullError> {
+    // One linearisation per trial: an accepted trial's Jacobian is the next
+    // iteration's, so each iteration costs one pass over the poses. `sys` is the
+    // linearisation at `robot`.
+    let mut trial_sys = LinearSystem {
+        j: sys.j.clone(),
+        r: sys.r.clone(),
+    };
+    let mut cost = sys.cost();
     let mut lambda = 1e-3;
     let mut iterations = 0;
     let mut converged = false;
-    while iterations < options.max_iterations {
+    while iterations < options.max_iterations && !converged {
         iterations += 1;
-        let sys = LinearSystem::build(robot, data, free_params, weights);
         let (g, rhs, scale) = sys.scaled_normal_equations();
         let mut accepted = false;
         for _ in 0..30 {
@@ -395,38 +422,40 @@ fn levenberg_marquardt(
             if step.iter().any(|s| !s.is_finite()) {
                 return Err(FullError::NonFinite);
             }
-            let mut trial = robot.clone();
-            apply(&mut trial, free_params, &step);
-            let trial_cost = LinearSystem::cost(&trial, data, weights);
-            // The largest change of any prediction, in units of its noise: |ds_k| since
-            // every scaled column has unit norm.
-            let effect = (0..free_params.len())
+            // The step in scaled parameters: its effect on the predictions in units
+            // of their noise is at most |ds_k| per column (unit-norm columns).
+            let size = (0..free_params.len())
                 .map(|k| ds[(k, 0)].abs())
                 .fold(0.0, f64::max);
+            let mut trial = robot.clone();
+            apply(&mut trial, free_params, &step);
+            trial_sys.fill(&trial, data, free_params, weights);
+            let trial_cost = trial_sys.cost();
             if trial_cost <= cost {
-                *robot = trial;
-                let done =
-                    effect < 1e-10 || cost - trial_cost <= 1e-15 * cost.max(f64::MIN_POSITIVE);
-                cost = trial_cost;
+                // Converged when the step no longer matters: below 1e-10 of the noise,
+                // or lowering the sum of squares by less than 1e-8 of it (the
+                // parameters then move by about 1e-4 of a standard error).
+                converged = size < 1e-10 || cost - trial_cost <= 1e-8 * cost;
+                (*robot, cost) = (trial, trial_cost);
+                std::mem::swap(&mut sys, &mut trial_sys);
                 lambda = (lambda / 10.0).max(1e-12);
                 accepted = true;
-                converged = done;
                 break;
             }
-            if effect < 1e-10 {
-                // A step this small changes nothing measurable: converged at a minimum.
+            if size < 1e-10 {
+                // A step this small changes nothing measurable: at a minimum.
                 accepted = true;
                 converged = true;
                 break;
             }
             lambda *= 10.0;
         }
-        if !accepted || converged {
-            converged |= !accepted && cost == 0.0;
+        if !accepted {
+            converged = cost == 0.0;
             break;
         }
     }
-    Ok((iterations, converged, cost))
+    Ok((iterations, converged, cost, sys))
 }
 
 /// Wraps an angle to (−π, π].
@@ -468,17 +497,40 @@ impl LinearSystem {
         robot: &Robot<f64>,
         data: &[Observation],
         params: &[Param],
-        (wp, wr): (f64, f64),
+        weights: (f64, f64),
     ) -> Self {
         let rows = Self::rows(data);
-        let mut j = Mat::<f64>::zeros(rows, params.len());
-        let mut r = Mat::<f64>::zeros(rows, 1);
+        let mut sys = Self {
+            j: Mat::zeros(rows, params.len()),
+            r: Mat::zeros(rows, 1),
+        };
+        sys.fill(robot, data, params, weights);
+        sys
+    }
+
+    /// Overwrites every entry with the linearisation at `robot` (the shape must be
+    /// the one `build` gave for the same data and parameters): a system reused
+    /// across iterations allocates nothing.
+    fn fill(
+        &mut self,
+        robot: &Robot<f64>,
+        data: &[Observation],
+        params: &[Param],
+        (wp, wr): (f64, f64),
+    ) {
+        let Self { j, r } = self;
         let mut row = 0;
+        let kinematics = robot.prepare();
+        let Some(Ok(mut chain)) = data.first().map(|o| kinematics.chain(&o.q)) else {
+            return;
+        };
+        let base_columns = chain.base_columns();
         for obs in data {
             // Joint counts were checked on entry.
-            let Ok(chain) = robot.chain(&obs.q) else {
+            if kinematics.chain_into(&obs.q, &mut chain).is_err() {
                 continue;
-            };
+            }
+            let tool_columns = chain.tool_columns();
             let p = chain.point();
             let dp = obs.position - p;
             for i in 0..3 {
@@ -488,7 +540,11 @@ impl LinearSystem {
                 .orientation
                 .map(|q| rotation_error(&q.to_rotation_matrix(), &chain.end.rotation));
             for (k, &pm) in params.iter().enumerate() {
-                let col: Twist<f64> = chain.column(pm);
+                let col: Twist<f64> = match pm {
+                    Param::Base(ax) => base_columns[ax.index()],
+                    Param::Tool(ax) => tool_columns[ax.index()],
+                    _ => chain.column(pm),
+                };
                 let v = at_point(&col, &p);
                 for i in 0..3 {
                     j[(row + i, k)] = v[i] * wp;
@@ -507,23 +563,45 @@ impl LinearSystem {
                 row += 3;
             }
         }
-        Self { j, r }
     }
 
-    /// The weighted sum of squares of the residual of `robot`.
-    fn cost(robot: &Robot<f64>, data: &[Observation], (wp, wr): (f64, f64)) -> f64 {
-        data.iter()
-            .map(|obs| {
-                let Ok(t) = robot.forward(&obs.q) else {
-                    return f64::INFINITY;
-                };
-                let dp = (obs.position.coords - t.translation.vector).norm_squared() * wp * wp;
-                let dr = obs.orientation.map_or(0.0, |q| {
-                    rotation_error(&q.to_rotation_matrix(), &t.rotation).norm_squared() * wr * wr
-                });
-                dp + dr
-            })
-            .sum()
+    /// The system of the parameters `columns` (indices into this one's).
+    fn select_columns(&self, columns: &[usize]) -> Self {
+        Self {
+            j: Mat::from_fn(self.j.nrows(), columns.len(), |i, c| {
+                self.j[(i, columns[c])]
+            }),
+            r: self.r.clone(),
+        }
+    }
+
+    /// RMS of the unweighted position residual (3-D distance, m) and of the
+    /// orientation residual angle (rad), from the rows of this system.
+    fn residual_rms(&self, data: &[Observation], (wp, wr): (f64, f64)) -> (f64, f64) {
+        let (mut pos, mut rot, mut n_rot, mut row) = (0.0, 0.0, 0usize, 0);
+        for obs in data {
+            pos += (0..3).map(|i| self.r[(row + i, 0)].powi(2)).sum::<f64>() / (wp * wp);
+            row += 3;
+            if obs.orientation.is_some() {
+                rot += (0..3).map(|i| self.r[(row + i, 0)].powi(2)).sum::<f64>() / (wr * wr);
+                n_rot += 1;
+                row += 3;
+            }
+        }
+        let n = data.len().max(1) as f64;
+        (
+            (pos / n).sqrt(),
+            if n_rot > 0 {
+                (rot / n_rot as f64).sqrt()
+            } else {
+                0.0
+            },
+        )
+    }
+
+    /// The weighted sum of squares of this residual.
+    fn cost(&self) -> f64 {
+        self.r.squared_norm_l2()
     }
 
     /// `(Gs, Jsᵀr, scale)`: the normal matrix of the columns scaled to unit norm,
@@ -676,8 +754,9 @@ fn geometry_reason(param: Param, robot: &Robot<f64>, data: &[Observation]) -> Op
 /// RMS of the position residual (m) and of the orientation angle (rad).
 pub fn residual_rms(robot: &Robot<f64>, data: &[Observation]) -> (f64, f64) {
     let (mut pos, mut rot, mut n_rot) = (0.0, 0.0, 0usize);
+    let kinematics = robot.prepare();
     for obs in data {
-        if let Ok(t) = robot.forward(&obs.q) {
+        if let Ok(t) = kinematics.forward(&obs.q) {
             pos += (obs.position.coords - t.translation.vector).norm_squared();
             if let Some(q) = obs.orientation {
                 rot += rotation_error(&q.to_rotation_matrix(), &t.rotation).norm_squared();
@@ -698,14 +777,13 @@ pub fn residual_rms(robot: &Robot<f64>, data: &[Observation]) -> (f64, f64) {
 
 /// The closed-form estimate of base and tool with the nominal joints (see the module header).
 fn initial_base_tool(robot: &mut Robot<f64>, data: &[Observation]) {
+    let mut bare = robot.clone();
+    bare.base = armcal_shared::Frame::identity();
+    bare.tool = armcal_shared::Frame::identity();
+    let bare = bare.prepare();
     let flange: Vec<IsometryMatrix3<f64>> = data
         .iter()
-        .filter_map(|o| {
-            let mut r = robot.clone();
-            r.base = armcal_shared::Frame::identity();
-            r.tool = armcal_shared::Frame::identity();
-            r.forward(&o.q).ok()
-        })
+        .filter_map(|o| bare.forward(&o.q).ok())
         .collect();
     if flange.len() != data.len() || data.len() < 3 {
         return;
@@ -715,7 +793,20 @@ fn initial_base_tool(robot: &mut Robot<f64>, data: &[Observation]) {
         .collect();
     let mut base = robot.base.isometry();
     let mut tool = robot.tool.isometry();
-    let before = LinearSystem::cost(robot, data, (1.0, 1.0));
+    // Sums of squares from the flange frames already computed: base · flange · tool.
+    let frames_cost = |b: &IsometryMatrix3<f64>, t: &IsometryMatrix3<f64>| -> f64 {
+        data.iter()
+            .zip(&flange)
+            .map(|(obs, f)| {
+                let m = b * f * t;
+                let dp = (obs.position.coords - m.translation.vector).norm_squared();
+                dp + obs.orientation.map_or(0.0, |q| {
+                    rotation_error(&q.to_rotation_matrix(), &m.rotation).norm_squared()
+                })
+            })
+            .sum()
+    };
+    let before = frames_cost(&base, &tool);
     for _ in 0..20 {
         if with_orientation.len() >= 2 {
             // Rotations: R_meas = R_b R_f R_t, alternating chordal means.
@@ -780,7 +871,7 @@ fn initial_base_tool(robot: &mut Robot<f64>, data: &[Observation]) {
     if with_orientation.len() < 2 {
         trial.tool.rpy = robot.tool.rpy; // not observable from positions: keep nominal
     }
-    if LinearSystem::cost(&trial, data, (1.0, 1.0)) < before {
+    if frames_cost(&trial.base.isometry(), &trial.tool.isometry()) < before {
         *robot = trial;
     }
 }
