@@ -167,14 +167,7 @@ impl<T: Real> Prepared<T> {
     }
 
     fn check_joints(&self, q: &[T]) -> Result<(), ModelError> {
-        if q.len() == self.dof() {
-            Ok(())
-        } else {
-            Err(ModelError::JointCount {
-                expected: self.dof(),
-                got: q.len(),
-            })
-        }
+        crate::model::check_joint_count(self.dof(), q.len())
     }
 
     #[inline]

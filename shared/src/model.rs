@@ -165,6 +165,16 @@ impl core::fmt::Display for ModelError {
 #[cfg(feature = "std")]
 impl std::error::Error for ModelError {}
 
+/// `Ok` if `got` joint values fit a model of `expected` joints.
+#[inline]
+pub(crate) fn check_joint_count(expected: usize, got: usize) -> Result<(), ModelError> {
+    if got == expected {
+        Ok(())
+    } else {
+        Err(ModelError::JointCount { expected, got })
+    }
+}
+
 /// A serial robot: its links base to tip, the base frame (the robot in the
 /// measurement frame), the tool frame (the measured point and frame in the last
 /// link frame) and, optionally, gravity.
@@ -206,14 +216,7 @@ impl<T: Real> Robot<T> {
     /// Checks that `q` has one value per joint.
     #[inline]
     pub fn check_joints(&self, q: &[T]) -> Result<(), ModelError> {
-        if q.len() == self.dof() {
-            Ok(())
-        } else {
-            Err(ModelError::JointCount {
-                expected: self.dof(),
-                got: q.len(),
-            })
-        }
+        check_joint_count(self.dof(), q.len())
     }
 
     /// The same robot in another scalar type (`f64` → `f32` for the controller).

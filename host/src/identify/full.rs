@@ -588,15 +588,7 @@ impl LinearSystem {
                 row += 3;
             }
         }
-        let n = data.len().max(1) as f64;
-        (
-            (pos / n).sqrt(),
-            if n_rot > 0 {
-                (rot / n_rot as f64).sqrt()
-            } else {
-                0.0
-            },
-        )
+        rms_pair(pos, data.len(), rot, n_rot)
     }
 
     /// The weighted sum of squares of this residual.
@@ -764,15 +756,13 @@ pub fn residual_rms(robot: &Robot<f64>, data: &[Observation]) -> (f64, f64) {
             }
         }
     }
-    let n = data.len().max(1) as f64;
-    (
-        (pos / n).sqrt(),
-        if n_rot > 0 {
-            (rot / n_rot as f64).sqrt()
-        } else {
-            0.0
-        },
-    )
+    rms_pair(pos, data.len(), rot, n_rot)
+}
+
+/// `(√(pos / n), √(rot / n_rot))` from sums of squares, 0 for an empty sum.
+fn rms_pair(pos: f64, n: usize, rot: f64, n_rot: usize) -> (f64, f64) {
+    let rms = |sum: f64, k: usize| if k > 0 { (sum / k as f64).sqrt() } else { 0.0 };
+    (rms(pos, n), rms(rot, n_rot))
 }
 
 /// The closed-form estimate of base and tool with the nominal joints (see the module header).
