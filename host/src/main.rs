@@ -146,6 +146,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             print!("{}", reproduce::mirman_gupta::table2_report(&induced, &fit));
             println!();
             print!("{}", reproduce::mirman_gupta::table3_report());
+            println!();
+            print!("{}", reproduce::mirman_gupta::table6_7_report());
         }
         Command::Identify {
             model,
