@@ -195,6 +195,13 @@ xyz = [2500, -1200, 300]
 rpy = [0, 0, 120]
 "#;
 
+    /// The mm/deg industrial arm, parsed.
+    pub fn industrial_mm_deg() -> Robot<f64> {
+        parse_model(INDUSTRIAL_MM_DEG, "industrial6.toml")
+            .unwrap()
+            .robot
+    }
+
     fn robots() -> Vec<(&'static str, Robot<f64>)> {
         vec![
             ("puma560", load_model("puma560").unwrap().robot),
@@ -341,6 +348,69 @@ mod identification_noise {
             (mean_z2 - 1.0).abs() < 0.25,
             "mean z² = {mean_z2} over {count} values"
         );
+    }
+
+    /// One noisy draw on each robot (positions σ = 50 µm, orientations σ = 50 µrad):
+    /// every identified parameter lies within 4 standard errors of its built-in
+    /// value (for ~30 normal z-values the chance that one exceeds 4 is 0.2 %).
+    #[test]
+    fn every_estimate_is_within_four_standard_errors() {
+        let industrial = super::identification::industrial_mm_deg();
+        let robots = [
+            ("puma560", load_model("puma560").unwrap().robot),
+            ("ur10e", load_model("ur10e").unwrap().robot),
+            ("industrial6", industrial),
+        ];
+        for (seed, (name, nominal)) in robots.into_iter().enumerate() {
+            for orientation in [false, true] {
+                let mut r = rng(40 + seed as u64);
+                let configs = random_configurations(&nominal, 80, &mut r);
+                let fixed = not_separable(&nominal, &configs, orientation);
+                let free: Vec<Param> = full_params(&nominal, orientation)
+                    .into_iter()
+                    .filter(|p| !fixed.contains(p))
+                    .collect();
+                let (truth, _) = with_random_errors(&nominal, &free, 1e-3, 1e-3, &mut r);
+                let noise = 50e-6;
+                let data = measure(
+                    &truth,
+                    &configs,
+                    noise,
+                    orientation.then_some(noise),
+                    &mut r,
+                );
+                let options = FullOptions {
+                    position_noise: noise,
+                    orientation_noise: noise,
+                    ..FullOptions::default()
+                };
+                let fit = identify_full(&nominal, &data, &options).unwrap();
+                for p in &fit.params {
+                    if let Status::Identified { std } = p.status {
+                        let want = truth.param(p.param).unwrap() - nominal.param(p.param).unwrap();
+                        let z = (p.error - want) / std;
+                        assert!(
+                            z.abs() <= 4.0,
+                            "{name} (orientation {orientation}) {}: z = {z:.2}",
+                            p.param
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    /// Fewer equations than identifiable parameters is refused with the counts.
+    #[test]
+    fn too_few_poses_are_refused() {
+        let nominal = load_model("ur10e").unwrap().robot;
+        let mut r = rng(5);
+        let configs = random_configurations(&nominal, 6, &mut r);
+        let data = measure(&nominal, &configs, 0.0, None, &mut r);
+        let err = identify_full(&nominal, &data, &FullOptions::default()).unwrap_err();
+        let text = err.to_string();
+        assert!(text.contains("18 equations"), "{text}");
+        assert!(text.contains("measure more poses"), "{text}");
     }
 
     /// Parallel consecutive axes are found and named: the PUMA's axes 2 and 3

@@ -16,23 +16,13 @@
 
 use std::fmt::Write as _;
 
-use armcal_shared::{JointType, Robot};
+use armcal_shared::JointType;
+
+pub use crate::identify::full::independent_parameter_count;
 use nalgebra::UnitQuaternion;
 
 use crate::measurements::Measurements;
 use crate::model_file::RobotModel;
-
-/// The count of independent geometric parameters of a full calibration of
-/// `robot`: `4R + 2P + 6` with orientation data, `4R + 2P + 3` with positions only.
-pub fn independent_parameter_count(robot: &Robot<f64>, full_pose: bool) -> usize {
-    let revolute = robot
-        .links
-        .iter()
-        .filter(|l| l.joint == JointType::Revolute)
-        .count();
-    let prismatic = robot.dof() - revolute;
-    4 * revolute + 2 * prismatic + if full_pose { 6 } else { 3 }
-}
 
 /// Error statistics of the nominal model over all poses.
 #[derive(Clone, Debug, PartialEq)]

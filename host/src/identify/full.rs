@@ -56,7 +56,7 @@
 //! correlations of the estimates.
 
 use armcal_shared::jacobian::at_point;
-use armcal_shared::{FrameAxis, Param, Robot, Twist, rotation_error};
+use armcal_shared::{FrameAxis, JointType, Param, Robot, Twist, rotation_error};
 use faer::linalg::solvers::{DenseSolveCore, Solve};
 use faer::{Mat, Side};
 use nalgebra::{IsometryMatrix3, Matrix3, Point3, Rotation3, UnitQuaternion, Vector3};
@@ -166,7 +166,7 @@ pub struct FullFit {
 #[non_exhaustive]
 pub enum FullError {
     /// Fewer equations than identifiable parameters.
-    #[error("{equations} equations for {unknowns} identifiable parameters: measure more poses")]
+    #[error("{equations} equations for {unknowns} independent parameters: measure more poses")]
     TooFewEquations {
         /// Rows.
         equations: usize,
@@ -186,6 +186,18 @@ pub enum FullError {
     /// A non-finite value appeared (the data or the model are unusable).
     #[error("the fit produced a value that is not finite: check units and joint order")]
     NonFinite,
+}
+
+/// The count of independent geometric parameters of a full calibration of
+/// `robot`: `4R + 2P + 6` with orientation data, `4R + 2P + 3` with positions only.
+pub fn independent_parameter_count(robot: &Robot<f64>, full_pose: bool) -> usize {
+    let revolute = robot
+        .links
+        .iter()
+        .filter(|l| l.joint == JointType::Revolute)
+        .count();
+    let prismatic = robot.dof() - revolute;
+    4 * revolute + 2 * prismatic + if full_pose { 6 } else { 3 }
 }
 
 /// The unknowns of the full model, in the order of preference: base, tool, joints.
@@ -223,6 +235,17 @@ pub fn identify_full(
     }
     let orientation = data.iter().any(|o| o.orientation.is_some());
     let params = full_params(nominal, orientation);
+    // However the columns happen to fall, fewer equations than the model's
+    // independent parameters (Everett, Driels & Mooring) cannot determine it.
+    let equations = LinearSystem::rows(data);
+    let unknowns =
+        independent_parameter_count(nominal, data.iter().all(|o| o.orientation.is_some()));
+    if equations < unknowns {
+        return Err(FullError::TooFewEquations {
+            equations,
+            unknowns,
+        });
+    }
     let weights = (
         1.0 / options.position_noise,
         1.0 / options.orientation_noise,
