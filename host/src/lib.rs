@@ -14,6 +14,7 @@
 //! | [`predict`] | `armcal predict`: the calibrated model's tool point (and frame) for each row of joint readings |
 //! | [`simulate`] | true robots with built-in errors and their noisy measurements |
 //! | [`reproduce`] | `armcal reproduce`: the seed papers' examples |
+//! | [`compensate`] | `armcal compensate`: corrected joint commands for the calibrated robot |
 //! | [`check`] | `armcal check`: what was read, and the error of the nominal model against the data |
 //!
 //! Units: inside the program everything is SI (m, rad, kg), as in `armcal-shared`;
@@ -22,6 +23,7 @@
 
 pub mod builtin;
 pub mod check;
+pub mod compensate;
 pub mod identify;
 pub mod input_error;
 pub mod measurements;

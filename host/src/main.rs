@@ -14,7 +14,7 @@ use armcal::identify::full::FullOptions;
 use armcal::identify::paper::PaperOptions;
 use armcal::identify::{self, ParamSet};
 use armcal::input_error::InputError;
-use armcal::{builtin, measurements, model_file, output, predict, reproduce};
+use armcal::{builtin, compensate, measurements, model_file, output, predict, reproduce};
 use clap::{Parser, Subcommand};
 
 /// armcal makes serial robot arms accurate: it identifies the errors of their
@@ -81,6 +81,19 @@ enum Command {
         joints: String,
         /// Write the predictions here (otherwise they are printed).
         #[arg(long, value_name = "P.csv")]
+        out: Option<PathBuf>,
+    },
+    /// For each row of joint commands computed by the nominal model, the commands
+    /// that make the calibrated robot reach the pose the nominal model intended.
+    Compensate {
+        /// The calibration file written by `armcal identify --out`.
+        #[arg(long, value_name = "CAL")]
+        calibration: String,
+        /// Joint commands: a CSV with q1..qM in the model's units, rows in the order sent.
+        #[arg(long, value_name = "J.csv")]
+        joints: String,
+        /// Write the corrected commands here (otherwise they are printed).
+        #[arg(long, value_name = "C.csv")]
         out: Option<PathBuf>,
     },
     /// List the built-in robot models and data sets.
@@ -208,6 +221,23 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 print!("{}", result.summary(&model, &data));
             }
             output::write_all(&outputs)?;
+        }
+        Command::Compensate {
+            calibration,
+            joints,
+            out,
+        } => {
+            let cal = predict::load_calibration(&calibration)?;
+            let rows = measurements::load_joints(&joints, &cal.nominal, &cal.units)?;
+            let result = compensate::compensate(&cal, &rows);
+            let csv = result.to_csv(&cal, &calibration);
+            for w in rows.warnings.iter().chain(&result.warnings(&joints)) {
+                eprintln!("armcal: warning: {w}");
+            }
+            match &out {
+                Some(path) => output::write_atomically(path, csv.as_bytes())?,
+                None => print!("{csv}"),
+            }
         }
         Command::Predict {
             calibration,

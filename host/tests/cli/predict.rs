@@ -317,3 +317,83 @@ fn refuses_a_bad_joint_value_with_file_line_column() {
     );
     assert!(out.stdout.is_empty());
 }
+
+/// `armcal compensate`: the calibrated robot at each corrected command reaches
+/// the nominal model's pose at the command (to the compensation's f64 tolerance,
+/// 1 nm, plus the rounding of the printed values), rows in order, in model units.
+#[test]
+fn compensate_makes_the_calibrated_robot_reach_the_nominal_pose() {
+    let model = load_model("ur10e").unwrap();
+    let cal = calibration(
+        &model,
+        true,
+        &[
+            ("alpha2", 1.2e-3),
+            ("a3", -0.8e-3),
+            ("theta4", 0.9e-3),
+            ("s5", 0.6e-3),
+            ("base.x", 2e-3),
+        ],
+    );
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("cal.bin"), cal.to_bytes().unwrap()).unwrap();
+    // Commands in a well-conditioned part of the workspace (elbow and wrist bent).
+    let commands: Vec<Vec<f64>> = (0..12)
+        .map(|r| {
+            let t = r as f64 * 0.1;
+            vec![
+                0.3 + t,
+                -1.2 + 0.5 * t,
+                1.5 - 0.3 * t,
+                -1.0 + t,
+                1.2 + 0.2 * t,
+                0.4 - t,
+            ]
+        })
+        .collect();
+    let mut text = String::from("q1,q2,q3,q4,q5,q6\n");
+    for q in &commands {
+        let v: Vec<String> = q.iter().map(|x| format!("{x}")).collect();
+        text.push_str(&(v.join(",") + "\n"));
+    }
+    std::fs::write(dir.path().join("cmd.csv"), text).unwrap();
+    let out = armcal(
+        &[
+            "compensate",
+            "--calibration",
+            "cal.bin",
+            "--joints",
+            "cmd.csv",
+            "--out",
+            "c.csv",
+        ],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        out.stderr.is_empty(),
+        "no row reported: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let (header, rows) =
+        read_predictions(&std::fs::read_to_string(dir.path().join("c.csv")).unwrap());
+    assert_eq!(header, "q1,q2,q3,q4,q5,q6");
+    assert_eq!(rows.len(), commands.len());
+    let calibrated = cal.calibrated();
+    for (q, q_cmd) in rows.iter().zip(&commands) {
+        let target = cal.nominal.forward(q_cmd).unwrap();
+        let reached = calibrated.forward(q).unwrap();
+        let dp = (target.translation.vector - reached.translation.vector).norm();
+        assert!(dp < 1e-9, "{dp:e} m at {q_cmd:?}");
+        let moved = q
+            .iter()
+            .zip(q_cmd)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(moved > 1e-5, "the commands were corrected");
+    }
+}

@@ -1,0 +1,100 @@
+//! `armcal compensate`: for each row of joint commands that the controller's
+//! nominal model computed, the commands that make the calibrated robot reach the
+//! pose the nominal model intended.
+//!
+//! The computation is [`armcal_shared::compensation::Compensator`] in `f64`, the
+//! same code the firmware runs in `f32`: the perturbation approach of Kirchner,
+//! Gurumoorthy & Prinz (1985), section 4 (eq. 4.9), refined until the residual is
+//! below its tolerance, full pose when the calibration has orientation and
+//! position with the minimum-norm correction otherwise. Rows are taken in the
+//! order they are sent: each row's correction may change from the previous row's
+//! by at most the per-tick bound, as on the controller.
+//!
+//! Units: commands are read in the calibration's model units (the angle unit for
+//! revolute joints, the length unit for prismatic ones) and written back in them,
+//! `q1..qM` with Rust's shortest round-trip formatting. A row whose correction was
+//! bounded, did not converge or could not be computed is named on standard error
+//! with its line; a row that could not be computed keeps its nominal command.
+
+use core::fmt::Write as _;
+
+use armcal_shared::compensation::{Compensator, Correction, Fault, Limits};
+use armcal_shared::{Calibration, JointType};
+
+use crate::measurements::JointRows;
+
+/// The corrected commands of every row, in order, with what each row reported.
+#[derive(Clone, Debug)]
+pub struct Compensated {
+    /// `(line, correction)` per input row.
+    pub rows: Vec<(usize, Correction<f64>)>,
+}
+
+/// Compensates every row of `commands` in order.
+pub fn compensate(cal: &Calibration, commands: &JointRows) -> Compensated {
+    let compensator = Compensator::<f64>::from_calibration(cal, Limits::default());
+    let mut previous: Option<Vec<f64>> = None;
+    let rows = commands
+        .rows
+        .iter()
+        .map(|row| {
+            let c = compensator.correct(&row.q, previous.as_deref());
+            previous = Some(c.q.iter().zip(&row.q).map(|(q, q_cmd)| q - q_cmd).collect());
+            (row.line, c)
+        })
+        .collect();
+    Compensated { rows }
+}
+
+impl Compensated {
+    /// The CSV `q1..qM` in the model's units, with a comment line naming its origin.
+    pub fn to_csv(&self, cal: &Calibration, calibration_file: &str) -> String {
+        let units = &cal.units;
+        let joints: Vec<JointType> = cal.nominal.links.iter().map(|l| l.joint).collect();
+        let mut out = String::new();
+        let _ = writeln!(
+            out,
+            "# armcal compensate: commands for the calibrated robot from {calibration_file}; joints in {} (revolute) and {} (prismatic)",
+            units.angle, units.length
+        );
+        let header: Vec<String> = (1..=joints.len()).map(|m| format!("q{m}")).collect();
+        let _ = writeln!(out, "{}", header.join(","));
+        for (_, c) in &self.rows {
+            let values: Vec<String> =
+                c.q.iter()
+                    .zip(&joints)
+                    .map(|(q, j)| {
+                        let v = units.joint_from_si(*j, *q);
+                        if v == 0.0 {
+                            "0".to_string()
+                        } else {
+                            format!("{v}")
+                        }
+                    })
+                    .collect();
+            let _ = writeln!(out, "{}", values.join(","));
+        }
+        out
+    }
+
+    /// One line per row that reported something, for standard error.
+    pub fn warnings(&self, commands_file: &str) -> Vec<String> {
+        self.rows
+            .iter()
+            .filter_map(|(line, c)| {
+                c.fault.map(|f| {
+                    let what = match f {
+                        Fault::NonFinite => "not computable (a value was not finite): nominal command kept".to_string(),
+                        Fault::JointCount => "wrong joint count: nominal command kept".to_string(),
+                        Fault::NotConverged => {
+                            format!("did not converge (residual {:.3e} m): near a singularity or out of reach", c.residual)
+                        }
+                        Fault::Limited => "correction bounded (size or change per tick)".to_string(),
+                        _ => format!("{f:?}"),
+                    };
+                    format!("{commands_file}:{line}: {what}")
+                })
+            })
+            .collect()
+    }
+}
