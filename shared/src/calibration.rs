@@ -44,9 +44,9 @@ pub const HEADER_LEN: usize = 24;
 /// Bytes of the trailing CRC.
 const CRC_LEN: usize = 4;
 
-/// The most identified parameters a calibration holds: four per joint, six of
-/// the base and six of the tool.
-pub const MAX_PARAMS: usize = 4 * MAX_JOINTS + 12;
+/// The most identified parameters a calibration holds: the four D-H parameters
+/// and Hayati's tilt per joint, six of the base and six of the tool.
+pub const MAX_PARAMS: usize = 5 * MAX_JOINTS + 12;
 
 /// The largest calibration file, bytes: the receive buffer a loader needs.
 pub const MAX_FILE_LEN: usize = 4096;

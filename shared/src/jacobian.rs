@@ -127,6 +127,13 @@ impl<T: Real> Chain<T> {
         prismatic_twist(&self.axes[m].u)
     }
 
+    /// The column of Hayati's tilt `β_m` (rotation about the line `(v, τ)`).
+    #[inline]
+    pub fn beta_column(&self, m: usize) -> Twist<T> {
+        let LinkAxes { v, tau, .. } = &self.axes[m];
+        revolute_twist(v, tau)
+    }
+
     /// The four special Jacobians.
     pub fn special_jacobians(&self) -> SpecialJacobians<T> {
         let n = self.dof();
@@ -188,6 +195,7 @@ impl<T: Real> Chain<T> {
             Param::S(m) => self.s_column(m),
             Param::A(m) => self.a_column(m),
             Param::Alpha(m) => self.alpha_column(m),
+            Param::Beta(m) => self.beta_column(m),
             Param::Base(ax) => self.base_column(ax),
             Param::Tool(ax) => self.tool_column(ax),
         }

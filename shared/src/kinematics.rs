@@ -31,6 +31,10 @@ pub struct LinkAxes<T: Real> {
     pub u: Vector3<T>,
     /// `σ_{m+1}`: a point on the common normal (the origin of the frame that carries it).
     pub sigma: Point3<T>,
+    /// The axis of Hayati's tilt `β_m`: the y axis of the frame in which it turns.
+    pub v: Vector3<T>,
+    /// A point on that axis.
+    pub tau: Point3<T>,
 }
 
 /// Every frame of the robot at one joint configuration, in the measurement frame.
@@ -85,6 +89,17 @@ pub struct FrameAxes<T: Real> {
     pub yaw: Vector3<T>,
 }
 
+/// `Rot_y(β)` from `(sin β, cos β)`.
+fn rot_y<T: Real>((s, c): (T, T)) -> IsometryMatrix3<T> {
+    let (z, one) = (T::zero(), T::one());
+    IsometryMatrix3::from_parts(
+        nalgebra::Translation3::identity(),
+        nalgebra::Rotation3::from_matrix_unchecked(nalgebra::Matrix3::new(
+            c, z, s, z, one, z, -s, z, c,
+        )),
+    )
+}
+
 impl<T: Real> FrameAxes<T> {
     /// The axes of `frame`.
     pub fn of(frame: &Frame<T>) -> Self {
@@ -106,6 +121,7 @@ impl<T: Real> FrameAxes<T> {
 struct PreparedLink<T: Real> {
     link: Link<T>,
     sin_cos_alpha: (T, T),
+    sin_cos_beta: (T, T),
 }
 
 /// A robot made ready for many evaluations: the trigonometry of every constant
@@ -134,6 +150,7 @@ impl<T: Real> Robot<T> {
                 .map(|l| PreparedLink {
                     link: *l,
                     sin_cos_alpha: l.alpha.sin_cos(),
+                    sin_cos_beta: l.beta.sin_cos(),
                 })
                 .collect(),
             base: self.base.isometry(),
@@ -173,7 +190,21 @@ impl<T: Real> Prepared<T> {
     #[inline]
     fn link(&self, l: &PreparedLink<T>, q: T) -> IsometryMatrix3<T> {
         let (theta, s) = l.link.joint_values(q);
-        transform(self.convention, theta, s, l.link.a, l.sin_cos_alpha)
+        if l.link.beta == T::zero() {
+            return transform(self.convention, theta, s, l.link.a, l.sin_cos_alpha);
+        }
+        let tilt = rot_y(l.sin_cos_beta);
+        let (z, one) = (T::zero(), T::one());
+        match self.convention {
+            // Rot_z(θ) Trans_z(s) Trans_x(a) Rot_x(α) · Rot_y(β)
+            Convention::Dh => transform(Convention::Dh, theta, s, l.link.a, l.sin_cos_alpha) * tilt,
+            // Rot_x(α) Trans_x(a) · Rot_y(β) · Rot_z(θ) Trans_z(s)
+            Convention::Mdh => {
+                transform(Convention::Mdh, z, z, l.link.a, l.sin_cos_alpha)
+                    * tilt
+                    * transform(Convention::Dh, theta, s, z, (z, one))
+            }
+        }
     }
 
     /// The measured frame `base · A_1(q_1) ⋯ A_M(q_M) · tool`.
@@ -213,15 +244,28 @@ impl<T: Real> Prepared<T> {
         for (l, &qm) in self.links.iter().zip(q) {
             let after = before * self.link(l, qm);
             // The z line and the x line of this link, from the frame that carries each.
-            let (zf, xf) = match self.convention {
-                Convention::Dh => (&before, &after),
-                Convention::Mdh => (&after, &before),
-            };
-            let line = LinkAxes {
-                w: zf.rotation.matrix().column(2).into_owned(),
-                rho: Point3::from(zf.translation.vector),
-                u: xf.rotation.matrix().column(0).into_owned(),
-                sigma: Point3::from(xf.translation.vector),
+            let (sb, cb) = l.sin_cos_beta;
+            let (sa, ca) = l.sin_cos_alpha;
+            let line = match self.convention {
+                // The x line is that of the frame before Rot_y(β): after·Rot_y(−β)·x;
+                // β turns about that frame's y, which Rot_y(β) leaves in place.
+                Convention::Dh => LinkAxes {
+                    w: before.rotation.matrix().column(2).into_owned(),
+                    rho: Point3::from(before.translation.vector),
+                    u: after.rotation * Vector3::new(cb, T::zero(), sb),
+                    sigma: Point3::from(after.translation.vector),
+                    v: after.rotation.matrix().column(1).into_owned(),
+                    tau: Point3::from(after.translation.vector),
+                },
+                // β turns about the y axis of before·Rot_x(α)·Trans_x(a).
+                Convention::Mdh => LinkAxes {
+                    w: after.rotation.matrix().column(2).into_owned(),
+                    rho: Point3::from(after.translation.vector),
+                    u: before.rotation.matrix().column(0).into_owned(),
+                    sigma: Point3::from(before.translation.vector),
+                    v: before.rotation * Vector3::new(T::zero(), ca, sa),
+                    tau: before * Point3::new(l.link.a, T::zero(), T::zero()),
+                },
             };
             // Capacity is MAX_JOINTS on all three: a Robot never holds more links.
             let _ = chain.links.push(after);

@@ -63,6 +63,12 @@ pub struct Link<T: Real> {
     pub a: T,
     /// Rotation about x (link twist), rad.
     pub alpha: T,
+    /// Hayati's tilt about y, rad: 0 in the D-H model of the file. Standard D-H
+    /// cannot express a small tilt between nominally parallel axes (the common
+    /// normal runs away); the `parallel_axis_tilt` effect identifies this instead.
+    /// `A_m = Rot_z(θ) Trans_z(s) Trans_x(a) Rot_x(α) Rot_y(β)` in D-H,
+    /// `Rot_x(α) Trans_x(a) Rot_y(β) Rot_z(θ) Trans_z(s)` in modified D-H.
+    pub beta: T,
     /// Joint limits in joint units (rad or m), if the maker gives them.
     pub limits: Option<[T; 2]>,
     /// Mass properties of the link this joint moves, if known.
@@ -78,6 +84,7 @@ impl<T: Real> Link<T> {
             s,
             a,
             alpha,
+            beta: T::zero(),
             limits: None,
             mass: None,
         }
@@ -236,6 +243,7 @@ impl<T: Real> Robot<T> {
                 s: c(l.s),
                 a: c(l.a),
                 alpha: c(l.alpha),
+                beta: c(l.beta),
                 limits: l.limits.map(|[lo, hi]| [c(lo), c(hi)]),
                 mass: l.mass.map(|m| LinkMass {
                     mass: c(m.mass),

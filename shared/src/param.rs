@@ -87,6 +87,9 @@ pub enum Param {
     A(usize),
     /// `α` of joint `i`: the link twist.
     Alpha(usize),
+    /// `β` of joint `i`: Hayati's tilt about y (the `parallel_axis_tilt` effect);
+    /// not among [`crate::Robot::params`], the D-H parameters of the file.
+    Beta(usize),
     /// A parameter of the base frame.
     Base(FrameAxis),
     /// A parameter of the tool frame.
@@ -97,7 +100,7 @@ impl Param {
     /// True if the parameter is an angle (rad), false if a length (m).
     pub fn is_angle(self) -> bool {
         match self {
-            Self::Theta(_) | Self::Alpha(_) => true,
+            Self::Theta(_) | Self::Alpha(_) | Self::Beta(_) => true,
             Self::S(_) | Self::A(_) => false,
             Self::Base(ax) | Self::Tool(ax) => ax.is_angle(),
         }
@@ -111,6 +114,7 @@ impl fmt::Display for Param {
             Self::S(i) => write!(f, "s{}", i + 1),
             Self::A(i) => write!(f, "a{}", i + 1),
             Self::Alpha(i) => write!(f, "alpha{}", i + 1),
+            Self::Beta(i) => write!(f, "beta{}", i + 1),
             Self::Base(ax) => write!(f, "base.{}", ax.suffix()),
             Self::Tool(ax) => write!(f, "tool.{}", ax.suffix()),
         }
@@ -145,9 +149,10 @@ impl FromStr for Param {
         }
         // Longest prefixes first: "alpha" before "a".
         type MakeJointParam = fn(usize) -> Param;
-        let joint: [(&str, MakeJointParam); 4] = [
+        let joint: [(&str, MakeJointParam); 5] = [
             ("theta", Self::Theta),
             ("alpha", Self::Alpha),
+            ("beta", Self::Beta),
             ("s", Self::S),
             ("a", Self::A),
         ];
@@ -179,6 +184,7 @@ impl<T: crate::Real> crate::Robot<T> {
             Param::S(m) => self.links.get(m).map(|l| l.s),
             Param::A(m) => self.links.get(m).map(|l| l.a),
             Param::Alpha(m) => self.links.get(m).map(|l| l.alpha),
+            Param::Beta(m) => self.links.get(m).map(|l| l.beta),
             Param::Base(axis) => Some(frame(&self.base, axis)),
             Param::Tool(axis) => Some(frame(&self.tool, axis)),
         }
@@ -198,6 +204,7 @@ impl<T: crate::Real> crate::Robot<T> {
             Param::S(m) => self.links.get_mut(m).map(|l| &mut l.s),
             Param::A(m) => self.links.get_mut(m).map(|l| &mut l.a),
             Param::Alpha(m) => self.links.get_mut(m).map(|l| &mut l.alpha),
+            Param::Beta(m) => self.links.get_mut(m).map(|l| &mut l.beta),
             Param::Base(axis) => Some(frame(&mut self.base, axis)),
             Param::Tool(axis) => Some(frame(&mut self.tool, axis)),
         }

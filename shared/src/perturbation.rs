@@ -109,7 +109,7 @@ use nalgebra::{IsometryMatrix3, Matrix3, Matrix4, Vector3};
 use crate::{Chain, Convention, FrameAxis, MAX_JOINTS, ModelError, Param, Real, Robot, Twist};
 
 /// Slots of the chain order: six base factors, four per joint, six tool factors.
-const SLOTS: usize = 6 + 4 * MAX_JOINTS + 6;
+const SLOTS: usize = 6 + 5 * MAX_JOINTS + 6;
 
 /// The order of a frame's six factors in `Trans(x, y, z) Rot_z Rot_y Rot_x`.
 const FRAME_ORDER: [FrameAxis; 6] = [
@@ -159,18 +159,19 @@ impl std::error::Error for PerturbationError {}
 
 /// The position of `param`'s elementary factor in the chain, base to tool (for
 /// joint indices below [`MAX_JOINTS`]): the order of `L_ij`'s product `ξ̂_i ξ̂_j`.
-/// Within a link, `θ, s, a, α` in standard D-H and `α, a, θ, s` in modified D-H;
+/// Within a link, `θ, s, a, α, β` in standard D-H and `α, a, β, θ, s` in modified D-H;
 /// in base and tool, `x, y, z, yaw, pitch, roll`.
 pub fn chain_order(convention: Convention, param: Param) -> usize {
     let frame = |ax: FrameAxis| FRAME_ORDER.iter().position(|&a| a == ax).unwrap_or(0);
-    let link = |m: usize, k: usize| 6 + 4 * m + k;
+    let link = |m: usize, k: usize| 6 + 5 * m + k;
     match (convention, param) {
         (_, Param::Base(ax)) => frame(ax),
         (Convention::Dh, Param::Theta(m)) | (Convention::Mdh, Param::Alpha(m)) => link(m, 0),
         (Convention::Dh, Param::S(m)) | (Convention::Mdh, Param::A(m)) => link(m, 1),
-        (Convention::Dh, Param::A(m)) | (Convention::Mdh, Param::Theta(m)) => link(m, 2),
-        (Convention::Dh, Param::Alpha(m)) | (Convention::Mdh, Param::S(m)) => link(m, 3),
-        (_, Param::Tool(ax)) => 6 + 4 * MAX_JOINTS + frame(ax),
+        (Convention::Dh, Param::A(m)) | (Convention::Mdh, Param::Beta(m)) => link(m, 2),
+        (Convention::Dh, Param::Alpha(m)) | (Convention::Mdh, Param::Theta(m)) => link(m, 3),
+        (Convention::Dh, Param::Beta(m)) | (Convention::Mdh, Param::S(m)) => link(m, 4),
+        (_, Param::Tool(ax)) => 6 + 5 * MAX_JOINTS + frame(ax),
     }
 }
 
@@ -179,13 +180,25 @@ fn slot_param(convention: Convention, slot: usize) -> Param {
     if slot < 6 {
         return Param::Base(FRAME_ORDER[slot]);
     }
-    if slot >= 6 + 4 * MAX_JOINTS {
-        return Param::Tool(FRAME_ORDER[slot - 6 - 4 * MAX_JOINTS]);
+    if slot >= 6 + 5 * MAX_JOINTS {
+        return Param::Tool(FRAME_ORDER[slot - 6 - 5 * MAX_JOINTS]);
     }
-    let (m, k) = ((slot - 6) / 4, (slot - 6) % 4);
+    let (m, k) = ((slot - 6) / 5, (slot - 6) % 5);
     let order = match convention {
-        Convention::Dh => [Param::Theta(m), Param::S(m), Param::A(m), Param::Alpha(m)],
-        Convention::Mdh => [Param::Alpha(m), Param::A(m), Param::Theta(m), Param::S(m)],
+        Convention::Dh => [
+            Param::Theta(m),
+            Param::S(m),
+            Param::A(m),
+            Param::Alpha(m),
+            Param::Beta(m),
+        ],
+        Convention::Mdh => [
+            Param::Alpha(m),
+            Param::A(m),
+            Param::Beta(m),
+            Param::Theta(m),
+            Param::S(m),
+        ],
     };
     order[k]
 }
@@ -193,7 +206,7 @@ fn slot_param(convention: Convention, slot: usize) -> Param {
 /// The joint index of a link parameter, if it is one.
 fn joint_of(param: Param) -> Option<usize> {
     match param {
-        Param::Theta(m) | Param::S(m) | Param::A(m) | Param::Alpha(m) => Some(m),
+        Param::Theta(m) | Param::S(m) | Param::A(m) | Param::Alpha(m) | Param::Beta(m) => Some(m),
         Param::Base(_) | Param::Tool(_) => None,
     }
 }

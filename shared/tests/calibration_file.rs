@@ -94,7 +94,8 @@ fn the_largest_calibration_fits_the_loader_buffer() {
     cal.nominal = Robot::new(Convention::Mdh, &[link; MAX_JOINTS]).unwrap();
     cal.nominal.gravity = Some(Vector3::new(0.0, 0.0, -9.81));
     cal.errors.clear();
-    let params: Vec<Param> = cal.nominal.params().collect();
+    let tilts = (0..MAX_JOINTS).map(Param::Beta);
+    let params: Vec<Param> = cal.nominal.params().chain(tilts).collect();
     assert_eq!(params.len(), MAX_PARAMS);
     for param in params {
         // Values that need all eight bytes.

@@ -105,7 +105,9 @@ fn assert_twist_close<T: Real>(
 /// Every parameter column and every joint column of one robot in scalar `T`.
 fn check_all_columns<T: Real>(robot: &Robot<T>, q: &[T]) -> Result<(), TestCaseError> {
     let chain = robot.chain(q).expect("joint count matches");
-    for param in robot.params() {
+    // The D-H parameters of the file and Hayati's tilt of every link.
+    let tilts = (0..robot.dof()).map(Param::Beta);
+    for param in robot.params().chain(tilts) {
         let value = robot.param(param).expect("param of this robot").to_f64();
         let (h, tol_rot, tol_trans) = fd_budget(robot, q, value);
         let frame_at = |d: T| {
@@ -149,6 +151,20 @@ proptest! {
 
     #[test]
     fn columns_match_finite_differences_f64((robot, q) in robot_strategy()) {
+        check_all_columns(&robot, &q)?;
+    }
+
+    /// With Hayati tilts on the links (the `parallel_axis_tilt` effect), every
+    /// column, the tilts' own included, still matches the finite differences.
+    #[test]
+    fn columns_with_tilted_links_match_finite_differences(
+        (robot, q) in robot_strategy(),
+        tilts in prop::collection::vec(-0.5..0.5f64, 8),
+    ) {
+        let mut robot = robot;
+        for (link, beta) in robot.links.iter_mut().zip(&tilts) {
+            link.beta = *beta;
+        }
         check_all_columns(&robot, &q)?;
     }
 
