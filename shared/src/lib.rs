@@ -12,6 +12,7 @@
 //! | [`pose_error`](mod@pose_error) | the end-effector error of Mirman & Gupta eqs. 12–15, full pose and position only |
 //! | [`perturbation`] | the forward solution to second order in the parameter errors, `K_i` and `L_ij` of Kirchner, Gurumoorthy & Prinz (1985) eq. 2.22 |
 //! | [`compensation`] | the corrected joint commands that make the calibrated robot reach the nominal model's pose, Kirchner et al. section 4 (eq. 4.9) |
+//! | [`effects`] | non-geometric effects (joint compliance, gear transmission, backlash, thermal expansion, encoder scale) and the model that carries them |
 //! | [`calibration`] | the calibration file the calibrator writes and the controller loads: magic, version, model hash, CRC, postcard payload |
 //! | [`units`] | the model file's length and angle units, and their conversion to SI |
 //! | [`param`] | the names of the geometric parameters (`theta3`, `alpha1`, `base.rx`, `tool.z`, ...) |
@@ -37,6 +38,7 @@ extern crate std;
 pub mod calibration;
 pub mod compensation;
 pub mod dh;
+pub mod effects;
 pub mod jacobian;
 pub mod kinematics;
 pub mod model;

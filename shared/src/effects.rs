@@ -1,0 +1,384 @@
+//! Non-geometric effects: what a D-H model of rigid links cannot express, and how
+//! each one moves the robot.
+//!
+//! A calibrated robot is its geometric model plus a list of [`Effect`]s. Most
+//! effects add a correction `Δq_j` to one joint's reading before the forward
+//! kinematics, as the joint's real position differs from what its encoder
+//! reports; thermal expansion scales the link lengths instead. With the effects,
+//! the measured frame is
+//!
+//! ```text
+//! T = base · A_1(q_1 + Δq_1; L(T)) ⋯ A_M(q_M + Δq_M; L(T)) · tool
+//! ```
+//!
+//! | effect | physics | correction |
+//! | --- | --- | --- |
+//! | [`Effect::JointCompliance`] | a joint's drive and gearbox twist under the gravity torque they carry, linearly (Hooke) | `Δq_j = c_j τ_j(q, payload)` |
+//! | [`Effect::GearTransmission`] | eccentricity and tooth errors of the gears make the output lag or lead periodically with the joint angle | `Δq_j = Σ_{k=1,2} (s_k sin k q_j + c_k cos k q_j)` |
+//! | [`Effect::Backlash`] | the lost motion between gear flanks: the output stays on the flank of the last approach | `Δq_j = b_j σ_j`, `σ_j = ±1` the approach direction, `b_j` half the lost motion |
+//! | [`Effect::ThermalExpansion`] | the links lengthen with temperature (one coefficient: one material) | `a_i, s_i → a_i, s_i · (1 + κ (T − T_ref))` |
+//! | [`Effect::EncoderScale`] | a gear-ratio (encoder scale) error of one joint | `Δq_j = ε_j q_j` |
+//!
+//! A tilt between nominally parallel axes is geometric: it is Hayati's `β` of the
+//! link ([`crate::Link::beta`], [`crate::Param::Beta`]), not an entry here.
+//!
+//! ## The gravity torque
+//! `τ_j = w_j · Σ_{k ≥ j} (r_k − ρ_j) × m_k g` for a revolute joint (N·m) and
+//! `w_j · Σ_{k ≥ j} m_k g` for a prismatic one (N), where the sum runs over the
+//! links that joint `j` moves and the payload: `m_k` and `r_k` are the mass and
+//! centre of mass of link `k` (its `com` in the frame after `A_k`), the payload
+//! sits at the tool point, `g` is the model's gravity (default `[0, 0, −9.81]` in
+//! the base frame), and `w_j`, `ρ_j` the joint's axis and a point on it
+//! ([`crate::LinkAxes`]). A model without masses gets a proxy from its kinematic
+//! structure: 1 kg at the origin of each link frame; the identified compliance
+//! then absorbs the unknown scale, and only its product with the proxy torque is
+//! meaningful.
+//!
+//! Units: SI (rad, m, kg, N·m, °C); compliance in rad/(N·m) (m/N for a prismatic
+//! joint), κ in 1/°C.
+
+use heapless::Vec;
+use nalgebra::{Point3, Vector3};
+use serde::{Deserialize, Serialize};
+
+use crate::kinematics::Prepared;
+use crate::{Chain, JointType, MAX_JOINTS, ModelError, Param, Real, Robot};
+
+/// The most effects a calibration carries.
+pub const MAX_EFFECTS: usize = 16;
+
+/// What the effects depend on at one pose, besides the joint readings.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Context<T: Real> {
+    /// Temperature, °C, if measured.
+    pub temperature: Option<T>,
+    /// Payload mass at the tool point, kg, if known (0 otherwise).
+    pub payload: Option<T>,
+    /// The approach direction of each joint (+1, −1, or 0 when unknown), empty
+    /// when not known at all.
+    pub approach: Vec<i8, MAX_JOINTS>,
+}
+
+/// One non-geometric effect and its parameters (see the module header).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Effect<T: Real> {
+    /// `Δq_j = compliance · τ_j`.
+    JointCompliance {
+        /// Joint, 0-based.
+        joint: usize,
+        /// rad/(N·m), or m/N for a prismatic joint.
+        compliance: T,
+    },
+    /// `Δq_j = sin1 sin q + cos1 cos q + sin2 sin 2q + cos2 cos 2q`.
+    GearTransmission {
+        /// Joint, 0-based.
+        joint: usize,
+        /// Once-per-revolution amplitudes (sine, cosine), rad.
+        first: [T; 2],
+        /// Twice-per-revolution amplitudes (sine, cosine), rad.
+        second: [T; 2],
+    },
+    /// `Δq_j = half_lost_motion · σ_j`.
+    Backlash {
+        /// Joint, 0-based.
+        joint: usize,
+        /// Half the lost motion, rad (m for a prismatic joint).
+        half_lost_motion: T,
+    },
+    /// Link lengths `a, s` scaled by `1 + coefficient · (T − reference)`.
+    ThermalExpansion {
+        /// κ, 1/°C.
+        coefficient: T,
+        /// The temperature at which the lengths are the model's, °C.
+        reference: T,
+    },
+    /// `Δq_j = scale · q_j`.
+    EncoderScale {
+        /// Joint, 0-based.
+        joint: usize,
+        /// Relative error of the gear ratio.
+        scale: T,
+    },
+}
+
+impl<T: Real> Effect<T> {
+    /// The effect name used in reports and JSON (`INTERFACE.md`).
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::JointCompliance { .. } => "joint_compliance",
+            Self::GearTransmission { .. } => "gear_transmission",
+            Self::Backlash { .. } => "backlash",
+            Self::ThermalExpansion { .. } => "thermal_expansion",
+            Self::EncoderScale { .. } => "encoder_scale",
+        }
+    }
+
+    /// The joint a joint effect acts on.
+    pub fn joint(&self) -> Option<usize> {
+        match *self {
+            Self::JointCompliance { joint, .. }
+            | Self::GearTransmission { joint, .. }
+            | Self::Backlash { joint, .. }
+            | Self::EncoderScale { joint, .. } => Some(joint),
+            Self::ThermalExpansion { .. } => None,
+        }
+    }
+
+    /// The same effect in another scalar type.
+    pub fn cast<U: Real>(&self) -> Effect<U> {
+        let c = |x: T| U::lit(x.to_f64());
+        match *self {
+            Self::JointCompliance { joint, compliance } => Effect::JointCompliance {
+                joint,
+                compliance: c(compliance),
+            },
+            Self::GearTransmission {
+                joint,
+                first,
+                second,
+            } => Effect::GearTransmission {
+                joint,
+                first: first.map(c),
+                second: second.map(c),
+            },
+            Self::Backlash {
+                joint,
+                half_lost_motion,
+            } => Effect::Backlash {
+                joint,
+                half_lost_motion: c(half_lost_motion),
+            },
+            Self::ThermalExpansion {
+                coefficient,
+                reference,
+            } => Effect::ThermalExpansion {
+                coefficient: c(coefficient),
+                reference: c(reference),
+            },
+            Self::EncoderScale { joint, scale } => Effect::EncoderScale {
+                joint,
+                scale: c(scale),
+            },
+        }
+    }
+
+    /// The joint correction this effect adds, given the reading `q_j`, the gravity
+    /// torques `tau` and the context; 0 for thermal expansion.
+    fn joint_correction(&self, q: &[T], tau: &[T], ctx: &Context<T>) -> (usize, T) {
+        match *self {
+            Self::JointCompliance { joint, compliance } => (joint, compliance * tau[joint]),
+            Self::GearTransmission {
+                joint,
+                first,
+                second,
+            } => {
+                let (s1, c1) = q[joint].sin_cos();
+                let (s2, c2) = (q[joint] + q[joint]).sin_cos();
+                (
+                    joint,
+                    first[0] * s1 + first[1] * c1 + second[0] * s2 + second[1] * c2,
+                )
+            }
+            Self::Backlash {
+                joint,
+                half_lost_motion,
+            } => (joint, half_lost_motion * approach_sign(ctx, joint)),
+            Self::EncoderScale { joint, scale } => (joint, scale * q[joint]),
+            Self::ThermalExpansion { .. } => (0, T::zero()),
+        }
+    }
+}
+
+/// `σ_j` of the context as a scalar (0 when unknown).
+fn approach_sign<T: Real>(ctx: &Context<T>, joint: usize) -> T {
+    match ctx.approach.get(joint) {
+        Some(s) if *s > 0 => T::one(),
+        Some(s) if *s < 0 => -T::one(),
+        _ => T::zero(),
+    }
+}
+
+/// Why effects cannot be evaluated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum EffectError {
+    /// The joint count or the model is unusable.
+    Model(ModelError),
+    /// An effect names a joint the model does not have.
+    NoSuchJoint {
+        /// The joint, 0-based.
+        joint: usize,
+    },
+}
+
+impl From<ModelError> for EffectError {
+    fn from(e: ModelError) -> Self {
+        Self::Model(e)
+    }
+}
+
+impl core::fmt::Display for EffectError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Model(e) => e.fmt(f),
+            Self::NoSuchJoint { joint } => write!(
+                f,
+                "an effect acts on joint {}, which the model does not have",
+                joint + 1
+            ),
+        }
+    }
+}
+
+#[cfg(feature = "std")]
+impl std::error::Error for EffectError {}
+
+/// The gravity torque (N·m) or force (N) on every joint at `chain` (see the
+/// module header), with `payload` kg at the tool point.
+pub fn gravity_torques<T: Real>(
+    robot: &Robot<T>,
+    chain: &Chain<T>,
+    payload: T,
+) -> Vec<T, MAX_JOINTS> {
+    let g_base = robot
+        .gravity
+        .unwrap_or_else(|| Vector3::new(T::zero(), T::zero(), T::lit(-9.81)));
+    let g = chain.base.rotation * g_base;
+    let uses_masses = robot.links.iter().any(|l| l.mass.is_some());
+    // The mass and its position for each link k (link k moves with joint k).
+    let mut masses: Vec<(T, Point3<T>), MAX_JOINTS> = Vec::new();
+    for (k, link) in robot.links.iter().enumerate() {
+        let frame = &chain.links[k];
+        let (m, r) = match (uses_masses, link.mass) {
+            (true, Some(lm)) => (lm.mass, frame * Point3::from(lm.com)),
+            (true, None) => (T::zero(), Point3::from(frame.translation.vector)),
+            (false, _) => (T::one(), Point3::from(frame.translation.vector)),
+        };
+        let _ = masses.push((m, r));
+    }
+    let tool_point = chain.point();
+    let mut out: Vec<T, MAX_JOINTS> = Vec::new();
+    for (j, axes) in chain.axes.iter().enumerate() {
+        let tau = match chain.joints[j] {
+            JointType::Revolute => {
+                let moment = |m: T, r: &Point3<T>| (r - axes.rho).cross(&(g * m));
+                let links: Vector3<T> = masses[j..].iter().map(|(m, r)| moment(*m, r)).sum();
+                axes.w.dot(&(links + moment(payload, &tool_point)))
+            }
+            JointType::Prismatic => {
+                let total: T = masses[j..]
+                    .iter()
+                    .map(|(m, _)| *m)
+                    .fold(payload, |a, b| a + b);
+                axes.w.dot(&(g * total))
+            }
+        };
+        let _ = out.push(tau);
+    }
+    out
+}
+
+/// A geometric model with its effects, ready for evaluation.
+#[derive(Clone, Debug)]
+pub struct EffectModel<T: Real> {
+    /// The geometric (calibrated) model at the reference temperature.
+    pub robot: Robot<T>,
+    /// The effects.
+    pub effects: Vec<Effect<T>, MAX_EFFECTS>,
+}
+
+impl<T: Real> EffectModel<T> {
+    /// A model with effects; refuses an effect on a joint the robot lacks.
+    pub fn new(robot: Robot<T>, effects: &[Effect<T>]) -> Result<Self, EffectError> {
+        let mut list = Vec::new();
+        for e in effects {
+            if let Some(joint) = e.joint().filter(|j| *j >= robot.dof()) {
+                return Err(EffectError::NoSuchJoint { joint });
+            }
+            let _ = list.push(*e);
+        }
+        Ok(Self {
+            robot,
+            effects: list,
+        })
+    }
+
+    /// The geometric model at the context's temperature (lengths scaled by
+    /// thermal expansion, when there is such an effect and a temperature).
+    pub fn robot_at(&self, ctx: &Context<T>) -> Robot<T> {
+        let mut robot = self.robot.clone();
+        for e in &self.effects {
+            if let (
+                Effect::ThermalExpansion {
+                    coefficient,
+                    reference,
+                },
+                Some(t),
+            ) = (e, ctx.temperature)
+            {
+                let f = T::one() + *coefficient * (t - *reference);
+                for l in robot.links.iter_mut() {
+                    l.a *= f;
+                    l.s *= f;
+                }
+            }
+        }
+        robot
+    }
+
+    /// The joint values the robot really takes at readings `q`: `q + Δq`.
+    pub fn joint_values(
+        &self,
+        robot: &Prepared<T>,
+        geometric: &Robot<T>,
+        q: &[T],
+        ctx: &Context<T>,
+    ) -> Result<Vec<T, MAX_JOINTS>, EffectError> {
+        let mut out: Vec<T, MAX_JOINTS> = q.iter().copied().collect();
+        if self
+            .effects
+            .iter()
+            .all(|e| matches!(e, Effect::ThermalExpansion { .. }))
+        {
+            return Ok(out);
+        }
+        let needs_torque = self
+            .effects
+            .iter()
+            .any(|e| matches!(e, Effect::JointCompliance { .. }));
+        let tau: Vec<T, MAX_JOINTS> = if needs_torque {
+            let chain = robot.chain(q)?;
+            gravity_torques(geometric, &chain, ctx.payload.unwrap_or(T::zero()))
+        } else {
+            q.iter().map(|_| T::zero()).collect()
+        };
+        for e in &self.effects {
+            let (j, d) = e.joint_correction(q, &tau, ctx);
+            if let Some(v) = out.get_mut(j) {
+                *v += d;
+            }
+        }
+        Ok(out)
+    }
+
+    /// The measured frame at readings `q` in context `ctx`.
+    pub fn forward(
+        &self,
+        q: &[T],
+        ctx: &Context<T>,
+    ) -> Result<nalgebra::IsometryMatrix3<T>, EffectError> {
+        let robot = self.robot_at(ctx);
+        let prepared = robot.prepare();
+        let qe = self.joint_values(&prepared, &robot, q, ctx)?;
+        Ok(prepared.forward(&qe)?)
+    }
+}
+
+/// The joint parameter a joint's reading moves (θ revolute, s prismatic), whose
+/// column is the effect of a joint correction.
+pub fn joint_param(robot: &Robot<impl Real>, joint: usize) -> Param {
+    match robot.links[joint].joint {
+        JointType::Revolute => Param::Theta(joint),
+        JointType::Prismatic => Param::S(joint),
+    }
+}
