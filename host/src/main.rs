@@ -14,7 +14,7 @@ use armcal::identify::full::FullOptions;
 use armcal::identify::paper::PaperOptions;
 use armcal::identify::{self, ParamSet};
 use armcal::input_error::InputError;
-use armcal::{builtin, compensate, measurements, model_file, output, predict, reproduce};
+use armcal::{builtin, compensate, measurements, model_file, output, predict, reproduce, simulate};
 use clap::{Parser, Subcommand};
 
 /// armcal makes serial robot arms accurate: it identifies the errors of their
@@ -95,6 +95,41 @@ enum Command {
         /// Write the corrected commands here (otherwise they are printed).
         #[arg(long, value_name = "C.csv")]
         out: Option<PathBuf>,
+    },
+    /// Simulate a measurement session: a true robot (nominal + random geometric,
+    /// base and tool errors + hidden effects) measured with noise; writes the
+    /// measurements (FORMAT.md) and, with --truth, what was built in.
+    Simulate {
+        /// Robot model: a TOML file or the name of a built-in model.
+        #[arg(long, value_name = "M.toml|NAME")]
+        model: String,
+        /// Poses to measure.
+        #[arg(long, default_value_t = 200)]
+        poses: usize,
+        /// A hidden effect, `NAME[:JOINT[:VALUE]]` (joint from 1, value in SI units);
+        /// repeat for several. Names: joint_compliance, gear_transmission, backlash,
+        /// thermal_expansion, encoder_scale.
+        #[arg(long = "effect", value_name = "NAME[:JOINT[:VALUE]]")]
+        effects: Vec<String>,
+        /// A hidden Hayati tilt `JOINT:BETA` (rad) between nominally parallel axes.
+        #[arg(long = "tilt", value_name = "JOINT:BETA")]
+        tilts: Vec<String>,
+        /// Position noise, one standard deviation per axis, model length unit
+        /// (default 20 µm).
+        #[arg(long, value_name = "LENGTH")]
+        noise: Option<f64>,
+        /// Also measure orientations, with this noise (model angle unit).
+        #[arg(long, value_name = "ANGLE")]
+        orientation_noise: Option<f64>,
+        /// Seed of every random draw.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Write the measurements here.
+        #[arg(long, value_name = "D.csv")]
+        out: PathBuf,
+        /// Write what was built in (errors and effects) here, as JSON.
+        #[arg(long, value_name = "T.json")]
+        truth: Option<PathBuf>,
     },
     /// List the built-in robot models and data sets.
     Models,
@@ -219,6 +254,75 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             if outputs.is_empty() {
                 print!("{}", result.summary(&model, &data));
+            }
+            output::write_all(&outputs)?;
+        }
+        Command::Simulate {
+            model,
+            poses,
+            effects,
+            tilts,
+            noise,
+            orientation_noise,
+            seed,
+            out,
+            truth,
+        } => {
+            let model = model_file::load_model(&model)?;
+            let u = model.units;
+            let dof = model.robot.dof();
+            let mut scenario = simulate::Scenario::tracker(poses, seed);
+            if let Some(n) = noise {
+                anyhow::ensure!(
+                    n.is_finite() && n >= 0.0,
+                    "--noise {n}: must be a non-negative number"
+                );
+                scenario.position_noise = u.length_to_si(n);
+            }
+            if let Some(n) = orientation_noise {
+                anyhow::ensure!(
+                    n.is_finite() && n >= 0.0,
+                    "--orientation-noise {n}: must be a non-negative number"
+                );
+                scenario.orientation_noise = Some(u.angle_to_si(n));
+            }
+            for spec in &effects {
+                scenario.effects.push(
+                    simulate::parse_effect(spec, dof)
+                        .map_err(|e| anyhow::anyhow!("--effect {e}"))?,
+                );
+            }
+            for spec in &tilts {
+                let parsed = spec
+                    .split_once(':')
+                    .and_then(|(j, b)| Some((j.parse::<usize>().ok()?, b.parse::<f64>().ok()?)));
+                match parsed {
+                    Some((j, b)) if (1..=dof).contains(&j) && b.is_finite() => {
+                        scenario.tilts.push((j - 1, b))
+                    }
+                    _ => anyhow::bail!(
+                        "--tilt {spec}: expected JOINT:BETA with a joint from 1 to {dof} and β in rad"
+                    ),
+                }
+            }
+            anyhow::ensure!(poses >= 1, "--poses must be at least 1");
+            let session = simulate::simulate(&model.robot, &scenario)?;
+            let description = format!(
+                "armcal simulate --model {} --poses {poses} --seed {seed}{}{}",
+                model.name,
+                effects
+                    .iter()
+                    .map(|e| format!(" --effect {e}"))
+                    .collect::<String>(),
+                tilts
+                    .iter()
+                    .map(|t| format!(" --tilt {t}"))
+                    .collect::<String>()
+            );
+            let mut outputs = vec![(out.as_path(), session.to_csv(&u, &description).into_bytes())];
+            if let Some(path) = &truth {
+                let json = serde_json::to_string_pretty(&session.truth_json(&model.robot, &u))?;
+                outputs.push((path.as_path(), json.into_bytes()));
             }
             output::write_all(&outputs)?;
         }

@@ -256,3 +256,80 @@ fn identify_refuses_data_of_another_robot_naming_the_place() {
     assert!(stderr.contains("q7"), "{stderr}");
     assert!(!dir.path().join("p.cal").exists());
 }
+
+/// `armcal simulate` writes a FORMAT.md file that the readers accept: pure
+/// geometry is explained by the geometric fit down to the noise (variance factor
+/// near 1), a hidden joint compliance is not (the residual stays well above it).
+#[test]
+fn simulate_writes_data_that_identify_reads() {
+    let dir = tempfile::tempdir().unwrap();
+    let vf = |file: &str| -> f64 {
+        let out = armcal(
+            &[
+                "identify",
+                "--model",
+                "ur10e",
+                "--data",
+                file,
+                "--position-noise",
+                "2e-5",
+                "--json",
+                "r.json",
+            ],
+            dir.path(),
+        );
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.path().join("r.json")).unwrap()).unwrap();
+        json["variance_factor"].as_f64().unwrap()
+    };
+    let run = |args: &[&str]| {
+        let out = armcal(args, dir.path());
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    };
+    run(&[
+        "simulate",
+        "--model",
+        "ur10e",
+        "--poses",
+        "300",
+        "--out",
+        "geometry.csv",
+    ]);
+    run(&[
+        "simulate",
+        "--model",
+        "ur10e",
+        "--poses",
+        "300",
+        "--effect",
+        "joint_compliance:2",
+        "--out",
+        "compliance.csv",
+        "--truth",
+        "truth.json",
+    ]);
+    // 300 positions, ~33 parameters: the variance factor of pure noise is 1 ± 0.05.
+    let geometric = vf("geometry.csv");
+    assert!(
+        (geometric - 1.0).abs() < 0.25,
+        "pure geometry: variance factor {geometric}"
+    );
+    let with_effect = vf("compliance.csv");
+    assert!(
+        with_effect > 4.0,
+        "hidden compliance: variance factor {with_effect}"
+    );
+    let truth: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("truth.json")).unwrap()).unwrap();
+    assert_eq!(truth["effects"][0]["name"], "joint_compliance");
+    assert_eq!(truth["effects"][0]["joint"], 2);
+}
