@@ -85,6 +85,7 @@ pub fn measure(
                 q: q.clone(),
                 position,
                 orientation,
+                context: Default::default(),
             }
         })
         .collect()
@@ -194,7 +195,10 @@ pub fn simulate(
         let temp =
             scenario.temperature.0 + frac * (scenario.temperature.1 - scenario.temperature.0);
         let load = scenario.payloads.get(i / block).copied().unwrap_or(0.0);
-        let approach = approach_signs(if i == 0 { None } else { Some(&q[i - 1]) }, qi);
+        let approach = armcal_shared::effects::approach_signs(
+            if i == 0 { None } else { Some(&q[i - 1][..]) },
+            qi,
+        );
         let ctx = Context {
             temperature: Some(temp),
             payload: Some(load),
@@ -211,28 +215,13 @@ pub fn simulate(
             q: qi.clone(),
             position,
             orientation,
+            context: ctx,
         });
         session.t.push(10.0 * i as f64);
         session.temp.push(temp);
         session.load.push(load);
     }
     Ok(session)
-}
-
-/// The approach direction of each joint: the sign of its change from the
-/// previous reading (0 for the first pose or no change).
-pub fn approach_signs(
-    previous: Option<&[f64]>,
-    q: &[f64],
-) -> heapless::Vec<i8, { armcal_shared::MAX_JOINTS }> {
-    q.iter()
-        .enumerate()
-        .map(|(j, qj)| match previous.map(|p| qj - p[j]) {
-            Some(d) if d > 0.0 => 1,
-            Some(d) if d < 0.0 => -1,
-            _ => 0,
-        })
-        .collect()
 }
 
 impl Session {

@@ -189,6 +189,22 @@ impl<T: Real> Effect<T> {
     }
 }
 
+/// The approach direction of each joint: the sign of its change from the
+/// previous reading (0 for the first pose, or when it did not move). This is how
+/// `FORMAT.md` reads row order, and how the controller reads its command stream.
+pub fn approach_signs<T: Real>(previous: Option<&[T]>, q: &[T]) -> Vec<i8, MAX_JOINTS> {
+    q.iter()
+        .enumerate()
+        .map(
+            |(j, qj)| match previous.and_then(|p| p.get(j)).map(|p| *qj - *p) {
+                Some(d) if d > T::zero() => 1,
+                Some(d) if d < T::zero() => -1,
+                _ => 0,
+            },
+        )
+        .collect()
+}
+
 /// `σ_j` of the context as a scalar (0 when unknown).
 fn approach_sign<T: Real>(ctx: &Context<T>, joint: usize) -> T {
     match ctx.approach.get(joint) {

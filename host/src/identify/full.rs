@@ -70,6 +70,8 @@ pub struct Observation {
     pub position: Point3<f64>,
     /// Measured tool orientation, if measured.
     pub orientation: Option<UnitQuaternion<f64>>,
+    /// What non-geometric effects depend on at this pose.
+    pub context: armcal_shared::effects::Context<f64>,
 }
 
 /// Settings of the full identification.

@@ -102,14 +102,26 @@ pub enum IdentifyError {
     Calibration(#[from] armcal_shared::CalibrationError),
 }
 
-/// The observations of `data`, SI.
+/// The observations of `data`, SI, with each pose's context: temperature and
+/// payload from the `temp` and `load` columns, and the approach direction of
+/// every joint from row order (the sign of its change from the previous row).
 pub fn observations(data: &Measurements) -> Vec<Observation> {
+    let mut previous: Option<&[f64]> = None;
     data.poses
         .iter()
-        .map(|p| Observation {
-            q: p.q.clone(),
-            position: p.position,
-            orientation: p.orientation,
+        .map(|p| {
+            let context = armcal_shared::effects::Context {
+                temperature: p.temp,
+                payload: p.load,
+                approach: armcal_shared::effects::approach_signs(previous, &p.q),
+            };
+            previous = Some(&p.q);
+            Observation {
+                q: p.q.clone(),
+                position: p.position,
+                orientation: p.orientation,
+                context,
+            }
         })
         .collect()
 }
