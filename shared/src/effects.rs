@@ -124,6 +124,57 @@ impl<T: Real> Effect<T> {
         }
     }
 
+    /// The number of parameters the effect has (its unknowns in a fit).
+    pub fn parameter_count(&self) -> usize {
+        match self {
+            Self::GearTransmission { .. } => 4,
+            _ => 1,
+        }
+    }
+
+    /// Parameter `i` (see [`Effect::parameter_mut`] for the order).
+    pub fn parameter(&self, i: usize) -> Option<T> {
+        let mut copy = *self;
+        copy.parameter_mut(i).map(|v| *v)
+    }
+
+    /// Parameter `i`: the compliance, the four harmonic amplitudes (sin 1, cos 1,
+    /// sin 2, cos 2), half the lost motion, κ, or the scale error. The thermal
+    /// reference temperature is not a parameter: the fit fixes it.
+    pub fn parameter_mut(&mut self, i: usize) -> Option<&mut T> {
+        match (self, i) {
+            (Self::JointCompliance { compliance, .. }, 0) => Some(compliance),
+            (Self::GearTransmission { first, .. }, 0) => Some(&mut first[0]),
+            (Self::GearTransmission { first, .. }, 1) => Some(&mut first[1]),
+            (Self::GearTransmission { second, .. }, 2) => Some(&mut second[0]),
+            (Self::GearTransmission { second, .. }, 3) => Some(&mut second[1]),
+            (
+                Self::Backlash {
+                    half_lost_motion, ..
+                },
+                0,
+            ) => Some(half_lost_motion),
+            (Self::ThermalExpansion { coefficient, .. }, 0) => Some(coefficient),
+            (Self::EncoderScale { scale, .. }, 0) => Some(scale),
+            _ => None,
+        }
+    }
+
+    /// How parameter `i` enters the joint correction: `∂Δq_j/∂p_i` at reading
+    /// `q_j`, gravity torque `tau_j` and approach sign (0 for thermal expansion).
+    pub fn joint_sensitivity(&self, i: usize, q_j: T, tau_j: T, ctx: &Context<T>) -> T {
+        match (*self, i) {
+            (Self::JointCompliance { .. }, _) => tau_j,
+            (Self::GearTransmission { .. }, 0) => q_j.sin(),
+            (Self::GearTransmission { .. }, 1) => q_j.cos(),
+            (Self::GearTransmission { .. }, 2) => (q_j + q_j).sin(),
+            (Self::GearTransmission { .. }, _) => (q_j + q_j).cos(),
+            (Self::Backlash { joint, .. }, _) => approach_sign(ctx, joint),
+            (Self::EncoderScale { .. }, _) => q_j,
+            (Self::ThermalExpansion { .. }, _) => T::zero(),
+        }
+    }
+
     /// The same effect in another scalar type.
     pub fn cast<U: Real>(&self) -> Effect<U> {
         let c = |x: T| U::lit(x.to_f64());

@@ -55,11 +55,87 @@
 //! O1 of Borm & Menq (1991), `(σ_1 ⋯ σ_p)^{1/p} / √n`, and the strongest
 //! correlations of the estimates.
 
+use armcal_shared::effects::{Effect, EffectModel, gravity_torques, joint_param};
 use armcal_shared::jacobian::at_point;
 use armcal_shared::{FrameAxis, JointType, Param, Robot, Twist, rotation_error};
 use faer::linalg::solvers::{DenseSolveCore, Solve};
 use faer::{Mat, Side};
 use nalgebra::{IsometryMatrix3, Matrix3, Point3, Rotation3, UnitQuaternion, Vector3};
+
+/// One unknown of the fit: a geometric parameter, or parameter `component` of
+/// effect `effect` of the model's effect list.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Unknown {
+    /// A D-H, base or tool parameter.
+    Param(Param),
+    /// A parameter of a non-geometric effect.
+    Effect {
+        /// Index into the effect list.
+        effect: usize,
+        /// Which of its parameters ([`Effect::parameter_mut`]).
+        component: usize,
+    },
+}
+
+/// The model being fitted: the geometric robot and its effects.
+#[derive(Clone, Debug)]
+pub struct Model {
+    /// The geometric model (Hayati tilts included).
+    pub robot: Robot<f64>,
+    /// The non-geometric effects.
+    pub effects: Vec<Effect<f64>>,
+}
+
+impl Model {
+    fn get(&self, u: Unknown) -> Option<f64> {
+        match u {
+            Unknown::Param(p) => self.robot.param(p),
+            Unknown::Effect { effect, component } => self.effects.get(effect)?.parameter(component),
+        }
+    }
+
+    fn get_mut(&mut self, u: Unknown) -> Option<&mut f64> {
+        match u {
+            Unknown::Param(p) => self.robot.param_mut(p),
+            Unknown::Effect { effect, component } => {
+                self.effects.get_mut(effect)?.parameter_mut(component)
+            }
+        }
+    }
+
+    /// The name of an unknown in reports: the parameter name, or the effect
+    /// parameter's (`c2` compliance of joint 2, `g2.sin1` … `g2.cos2` its gear
+    /// harmonics, `b2` half its lost motion, `e2` its scale error, `kappa`).
+    pub fn name(&self, u: Unknown) -> String {
+        match u {
+            Unknown::Param(p) => p.to_string(),
+            Unknown::Effect { effect, component } => match self.effects.get(effect) {
+                Some(e) => effect_parameter_name(e, component),
+                None => format!("effect{effect}.{component}"),
+            },
+        }
+    }
+}
+
+/// The report name of parameter `component` of `effect`.
+pub fn effect_parameter_name(effect: &Effect<f64>, component: usize) -> String {
+    let j = effect.joint().map_or(0, |j| j + 1);
+    match effect {
+        Effect::JointCompliance { .. } => format!("c{j}"),
+        Effect::GearTransmission { .. } => {
+            format!(
+                "g{j}.{}",
+                ["sin1", "cos1", "sin2", "cos2"]
+                    .get(component)
+                    .copied()
+                    .unwrap_or("?")
+            )
+        }
+        Effect::Backlash { .. } => format!("b{j}"),
+        Effect::ThermalExpansion { .. } => "kappa".into(),
+        Effect::EncoderScale { .. } => format!("e{j}"),
+    }
+}
 
 /// One measured pose in SI units.
 #[derive(Clone, Debug)]
@@ -158,9 +234,21 @@ pub struct FullFit {
     /// The a-posteriori variance factor `s² = Σr²/(n − p)`, in units of the stated noise².
     pub variance_factor: f64,
     /// The strongest correlations between identified parameters, strongest first.
-    pub correlations: Vec<(Param, Param, f64)>,
+    pub correlations: Vec<(String, String, f64)>,
+    /// The effects fitted with the geometry, with their parameters' statuses.
+    pub effects: Vec<EffectFit>,
     /// Equations (rows) and identified parameters.
     pub equations: usize,
+}
+
+/// One effect of the result: its identified parameters and their statuses (in
+/// the order of [`Effect::parameter_mut`]).
+#[derive(Clone, Debug)]
+pub struct EffectFit {
+    /// The effect with its identified parameters (SI).
+    pub effect: Effect<f64>,
+    /// Each parameter's status (standard error, or why it is held at zero).
+    pub status: Vec<Status>,
 }
 
 /// Why the identification could not run.
@@ -184,6 +272,12 @@ pub enum FullError {
         expected: usize,
         /// Values given.
         got: usize,
+    },
+    /// An effect acts on a joint the model does not have.
+    #[error("an effect acts on joint {joint}, which the model does not have")]
+    EffectJoint {
+        /// 1-based joint.
+        joint: usize,
     },
     /// A non-finite value appeared (the data or the model are unusable).
     #[error("the fit produced a value that is not finite: check units and joint order")]
@@ -226,6 +320,28 @@ pub fn identify_full(
     data: &[Observation],
     options: &FullOptions,
 ) -> Result<FullFit, FullError> {
+    identify_with_effects(nominal, &[], &[], data, options)
+}
+
+/// Identifies the geometry of `nominal` together with the parameters of
+/// `effects` (their starting values are the initial guesses, usually zero) and
+/// the `extra` geometric parameters (Hayati tilts `Param::Beta` between nominally
+/// parallel axes): the extended model of `armcal diagnose`. They come after the
+/// model's own parameters in the order of preference.
+pub fn identify_with_effects(
+    nominal: &Robot<f64>,
+    effects: &[Effect<f64>],
+    extra: &[Param],
+    data: &[Observation],
+    options: &FullOptions,
+) -> Result<FullFit, FullError> {
+    if let Some(joint) = effects
+        .iter()
+        .filter_map(|e| e.joint())
+        .find(|j| *j >= nominal.dof())
+    {
+        return Err(FullError::EffectJoint { joint: joint + 1 });
+    }
     for (i, obs) in data.iter().enumerate() {
         if obs.q.len() != nominal.dof() {
             return Err(FullError::JointCount {
@@ -236,7 +352,16 @@ pub fn identify_full(
         }
     }
     let orientation = data.iter().any(|o| o.orientation.is_some());
-    let params = full_params(nominal, orientation);
+    let mut params: Vec<Unknown> = full_params(nominal, orientation)
+        .into_iter()
+        .map(Unknown::Param)
+        .collect();
+    params.extend(extra.iter().map(|p| Unknown::Param(*p)));
+    for (effect, e) in effects.iter().enumerate() {
+        params.extend(
+            (0..e.parameter_count()).map(|component| Unknown::Effect { effect, component }),
+        );
+    }
     // However the columns happen to fall, fewer equations than the model's
     // independent parameters (Everett, Driels & Mooring) cannot determine it.
     let equations = LinearSystem::rows(data);
@@ -253,9 +378,12 @@ pub fn identify_full(
         1.0 / options.orientation_noise,
     );
 
-    let mut robot = nominal.clone();
+    let mut robot = Model {
+        robot: nominal.clone(),
+        effects: effects.to_vec(),
+    };
     if options.initial_estimate {
-        initial_base_tool(&mut robot, data);
+        initial_base_tool(&mut robot.robot, data);
     }
 
     // Identifiability at the initial estimate with the stated noise; again with the
@@ -282,16 +410,17 @@ pub fn identify_full(
                 unknowns: free.len(),
             });
         }
-        free_params = free.iter().map(|&k| params[k]).collect::<Vec<Param>>();
+        free_params = free.iter().map(|&k| params[k]).collect::<Vec<Unknown>>();
         // Parameters held fixed keep their nominal value (base and tool: their
         // closed-form estimate).
         let mut moved = false;
         for (p, _) in &fixed {
-            let keep = match p {
-                Param::Base(_) | Param::Tool(_) => start.param(*p),
-                _ => nominal.param(*p),
+            let keep = match *p {
+                Unknown::Param(Param::Base(_) | Param::Tool(_)) => start.get(*p),
+                Unknown::Param(q) => nominal.param(q),
+                Unknown::Effect { .. } => start.get(*p),
             };
-            if let (Some(v), Some(slot)) = (keep, robot.param_mut(*p)) {
+            if let (Some(v), Some(slot)) = (keep, robot.get_mut(*p)) {
                 moved |= *slot != v;
                 *slot = v;
             }
@@ -353,7 +482,7 @@ pub fn identify_full(
             std_of[k] = (variance_factor * c[(k, k)]).sqrt() * scale[k];
             for l in 0..k {
                 let rho = c[(k, l)] / (c[(k, k)] * c[(l, l)]).sqrt();
-                correlations.push((free_params[l], free_params[k], rho));
+                correlations.push((robot.name(free_params[l]), robot.name(free_params[k]), rho));
             }
         }
     }
@@ -364,22 +493,38 @@ pub fn identify_full(
     let mut fixed_reason = fixed
         .into_iter()
         .collect::<std::collections::HashMap<_, _>>();
+    let mut status_of = |u: Unknown| match free_params.iter().position(|p| *p == u) {
+        Some(k) => Status::Identified { std: std_of[k] },
+        None => Status::Fixed {
+            reason: fixed_reason
+                .remove(&u)
+                .unwrap_or_else(|| "not separable".into()),
+        },
+    };
+    let effect_fits: Vec<EffectFit> = robot
+        .effects
+        .iter()
+        .enumerate()
+        .map(|(effect, e)| EffectFit {
+            effect: *e,
+            status: (0..e.parameter_count())
+                .map(|component| status_of(Unknown::Effect { effect, component }))
+                .collect(),
+        })
+        .collect();
     let results = params
         .iter()
-        .map(|&param| {
+        .filter_map(|u| match u {
+            Unknown::Param(p) => Some(*p),
+            Unknown::Effect { .. } => None,
+        })
+        .map(|param| {
             let nominal_value = nominal.param(param).unwrap_or(0.0);
-            let mut error = robot.param(param).unwrap_or(0.0) - nominal_value;
+            let mut error = robot.robot.param(param).unwrap_or(0.0) - nominal_value;
             if param.is_angle() {
                 error = wrap_angle(error);
             }
-            let status = match free_params.iter().position(|p| *p == param) {
-                Some(k) => Status::Identified { std: std_of[k] },
-                None => Status::Fixed {
-                    reason: fixed_reason
-                        .remove(&param)
-                        .unwrap_or_else(|| "not separable".into()),
-                },
-            };
+            let status = status_of(Unknown::Param(param));
             ParamResult {
                 param,
                 nominal: nominal_value,
@@ -393,7 +538,8 @@ pub fn identify_full(
     }
     Ok(FullFit {
         params: results,
-        calibrated: robot,
+        calibrated: robot.robot,
+        effects: effect_fits,
         iterations,
         converged,
         position_rms,
@@ -409,9 +555,9 @@ pub fn identify_full(
 /// Levenberg–Marquardt on `free` from `robot`: iterations, convergence and the
 /// final weighted sum of squares.
 fn levenberg_marquardt(
-    robot: &mut Robot<f64>,
+    robot: &mut Model,
     data: &[Observation],
-    free_params: &[Param],
+    free_params: &[Unknown],
     weights: (f64, f64),
     options: &FullOptions,
     mut sys: LinearSystem,
@@ -495,9 +641,9 @@ fn wrap_angle(x: f64) -> f64 {
 }
 
 /// Adds `step` to `params` of `robot`.
-fn apply(robot: &mut Robot<f64>, params: &[Param], step: &[f64]) {
+fn apply(robot: &mut Model, params: &[Unknown], step: &[f64]) {
     for (p, d) in params.iter().zip(step) {
-        if let Some(v) = robot.param_mut(*p) {
+        if let Some(v) = robot.get_mut(*p) {
             *v += d;
         }
     }
@@ -518,12 +664,7 @@ impl LinearSystem {
             .sum()
     }
 
-    fn build(
-        robot: &Robot<f64>,
-        data: &[Observation],
-        params: &[Param],
-        weights: (f64, f64),
-    ) -> Self {
+    fn build(robot: &Model, data: &[Observation], params: &[Unknown], weights: (f64, f64)) -> Self {
         let rows = Self::rows(data);
         let mut sys = Self {
             j: Mat::zeros(rows, params.len()),
@@ -533,26 +674,73 @@ impl LinearSystem {
         sys
     }
 
-    /// Overwrites every entry with the linearisation at `robot` (the shape must be
+    /// Overwrites every entry with the linearisation at `model` (the shape must be
     /// the one `build` gave for the same data and parameters): a system reused
-    /// across iterations allocates nothing.
+    /// across iterations allocates nothing for a geometric model.
+    ///
+    /// With effects, each pose is evaluated at its temperature (thermal expansion
+    /// scales the lengths) and at the joint values `q + Δq(q, context)`; a joint
+    /// effect's column is the joint's column times `∂Δq_j/∂p`, thermal
+    /// expansion's is `ΔT Σ_i (a_i ∂/∂a_i + s_i ∂/∂s_i)`. The dependence of `Δq`
+    /// on the geometry (through the gravity torque) is left out of the Jacobian:
+    /// it only slows convergence, the residuals stay exact.
     fn fill(
         &mut self,
-        robot: &Robot<f64>,
+        model: &Model,
         data: &[Observation],
-        params: &[Param],
+        params: &[Unknown],
         (wp, wr): (f64, f64),
     ) {
         let Self { j, r } = self;
         let mut row = 0;
+        let robot = &model.robot;
         let kinematics = robot.prepare();
         let Some(Ok(mut chain)) = data.first().map(|o| kinematics.chain(&o.q)) else {
             return;
         };
         let base_columns = chain.base_columns();
+        let effects = (!model.effects.is_empty())
+            .then(|| EffectModel::new(robot.clone(), &model.effects).ok())
+            .flatten();
+        let thermal = model.effects.iter().find_map(|e| match e {
+            Effect::ThermalExpansion {
+                coefficient,
+                reference,
+            } => Some((*coefficient, *reference)),
+            _ => None,
+        });
+        let needs_torque = model
+            .effects
+            .iter()
+            .any(|e| matches!(e, Effect::JointCompliance { .. }));
         for obs in data {
             // Joint counts were checked on entry.
-            if kinematics.chain_into(&obs.q, &mut chain).is_err() {
+            let ctx = &obs.context;
+            let delta_t = match (thermal, ctx.temperature) {
+                (Some((_, reference)), Some(t)) => t - reference,
+                _ => 0.0,
+            };
+            let scaled;
+            let kin = match (&effects, delta_t != 0.0) {
+                (Some(em), true) => {
+                    scaled = em.robot_at(ctx).prepare();
+                    &scaled
+                }
+                _ => &kinematics,
+            };
+            let mut tau: Vec<f64> = Vec::new();
+            let q_eff = match &effects {
+                Some(em) => {
+                    if needs_torque && kin.chain_into(&obs.q, &mut chain).is_ok() {
+                        tau = gravity_torques(robot, &chain, ctx.payload.unwrap_or(0.0)).to_vec();
+                    }
+                    em.joint_values(kin, robot, &obs.q, ctx)
+                        .map(|v| v.to_vec())
+                        .unwrap_or_else(|_| obs.q.clone())
+                }
+                None => obs.q.clone(),
+            };
+            if kin.chain_into(&q_eff, &mut chain).is_err() {
                 continue;
             }
             let tool_columns = chain.tool_columns();
@@ -564,11 +752,40 @@ impl LinearSystem {
             let orientation = obs
                 .orientation
                 .map(|q| rotation_error(&q.to_rotation_matrix(), &chain.end.rotation));
-            for (k, &pm) in params.iter().enumerate() {
-                let col: Twist<f64> = match pm {
-                    Param::Base(ax) => base_columns[ax.index()],
-                    Param::Tool(ax) => tool_columns[ax.index()],
-                    _ => chain.column(pm),
+            let length_scale = thermal.map_or(1.0, |(k, _)| 1.0 + k * delta_t);
+            for (k, &u) in params.iter().enumerate() {
+                let col: Twist<f64> = match u {
+                    Unknown::Param(Param::Base(ax)) => base_columns[ax.index()],
+                    Unknown::Param(Param::Tool(ax)) => tool_columns[ax.index()],
+                    Unknown::Param(pm @ (Param::A(_) | Param::S(_))) => {
+                        chain.column(pm) * length_scale
+                    }
+                    Unknown::Param(pm) => chain.column(pm),
+                    Unknown::Effect { effect, component } => {
+                        let e = &model.effects[effect];
+                        match e.joint() {
+                            Some(jt) => {
+                                let sens = e.joint_sensitivity(
+                                    component,
+                                    obs.q[jt],
+                                    tau.get(jt).copied().unwrap_or(0.0),
+                                    ctx,
+                                );
+                                chain.column(joint_param(robot, jt)) * sens
+                            }
+                            // Thermal expansion: every length, scaled by ΔT.
+                            None => {
+                                (0..robot.dof())
+                                    .map(|i| {
+                                        let l = &robot.links[i];
+                                        chain.column(Param::A(i)) * l.a
+                                            + chain.column(Param::S(i)) * l.s
+                                    })
+                                    .fold(Twist::zeros(), |acc, c| acc + c)
+                                    * delta_t
+                            }
+                        }
+                    }
                 };
                 let v = at_point(&col, &p);
                 for i in 0..3 {
@@ -648,12 +865,12 @@ impl LinearSystem {
 /// reason each is not.
 fn separable_subset(
     sys: &LinearSystem,
-    params: &[Param],
-    robot: &Robot<f64>,
+    params: &[Unknown],
+    robot: &Model,
     data: &[Observation],
     options: &FullOptions,
     noise_scale: f64,
-) -> (Vec<usize>, Vec<(Param, String)>) {
+) -> (Vec<usize>, Vec<(Unknown, String)>) {
     let tolerance = options.separability;
     let (g, _, scale) = sys.scaled_normal_equations();
     let n = g.nrows();
@@ -682,13 +899,13 @@ fn separable_subset(
         let d = g[(k, k)] - lk.iter().map(|x| x * x).sum::<f64>();
         // The standard error this parameter would have beside the ones kept so far.
         let std = noise_scale * scale[k] / d.max(0.0).sqrt();
-        let limit = if params[k].is_angle() {
-            options.max_std_angle
-        } else {
-            options.max_std_length
+        // Effect parameters have units of their own: only exact dependence holds them.
+        let (limit, unit) = match params[k] {
+            Unknown::Param(p) if p.is_angle() => (options.max_std_angle, "rad"),
+            Unknown::Param(_) => (options.max_std_length, "m"),
+            Unknown::Effect { .. } => (f64::INFINITY, ""),
         };
         if d > tol2 && std > limit {
-            let unit = if params[k].is_angle() { "rad" } else { "m" };
             fixed.push((
                 params[k],
                 format!("not determined by these data: its standard error would be {std:.2e} {unit}, above {limit:.0e} {unit}"),
@@ -715,15 +932,15 @@ fn dependence_reason(
     k: usize,
     kept: &[usize],
     g: &Mat<f64>,
-    params: &[Param],
-    robot: &Robot<f64>,
+    params: &[Unknown],
+    robot: &Model,
     data: &[Observation],
 ) -> String {
     // Least-squares coefficients of column k on the kept columns: G_SS c = G_Sk.
     let n = kept.len();
     let gss = Mat::from_fn(n, n, |a, b| g[(kept[a], kept[b])]);
     let gsk = Mat::from_fn(n, 1, |a, _| g[(kept[a], k)]);
-    let mut names: Vec<(f64, Param)> = match gss.llt(Side::Lower) {
+    let mut names: Vec<(f64, Unknown)> = match gss.llt(Side::Lower) {
         Ok(llt) => {
             let c = llt.solve(&gsk);
             (0..n).map(|a| (c[(a, 0)].abs(), params[kept[a]])).collect()
@@ -736,14 +953,18 @@ fn dependence_reason(
         .iter()
         .take_while(|x| x.0 >= 0.1 * top && x.0 > 0.0)
         .take(3)
-        .map(|x| x.1.to_string())
+        .map(|x| robot.name(x.1))
         .collect();
     let mut reason = if list.is_empty() {
         "not separable by these data".to_string()
     } else {
         format!("not separable from {}", list.join(", "))
     };
-    if let Some(geometry) = geometry_reason(params[k], robot, data) {
+    let geometry = match params[k] {
+        Unknown::Param(p) => geometry_reason(p, &robot.robot, data),
+        Unknown::Effect { .. } => None,
+    };
+    if let Some(geometry) = geometry {
         reason.push_str(": ");
         reason.push_str(&geometry);
     }
