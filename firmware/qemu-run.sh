@@ -1,17 +1,22 @@
 #!/usr/bin/env bash
-# Boots the firmware under QEMU and prints its defmt log.
+# Boots the firmware under QEMU, lets it run its boot self-check, halts it over
+# the serial link and prints its defmt log.
 #
 #   ./qemu-run.sh [ELF]
 #
 # Without ELF it builds the release binary first. QEMU's netduinoplus2 is an
 # STM32F405 like the controller; semihosting carries the defmt frames to stdout
-# and the firmware's exit code back. The log is decoded with defmt-print
+# and the firmware's exit code back. After the self-check the firmware serves
+# the link on USART1 (QEMU's first -serial), here a pair of FIFOs; this script
+# writes the Halt request into it (the 3 bytes of armcal_shared::link::HALT_FRAME,
+# checked by that crate's tests) and the firmware exits. The link itself is
+# tested by qemu-link-test.sh. The log is decoded with defmt-print
 # (`cargo install defmt-print`) when it is installed; otherwise the raw frames are
 # kept in a file next to the ELF.
 #
-# Exit code: the firmware's (0 when the boot self-check passed, 1 on an error,
-# panic or hard fault), 124 when it did not exit within QEMU_TIMEOUT seconds
-# (default 60).
+# Exit code: the firmware's (0 when the boot self-check passed and it halted, 1
+# on an error, panic or hard fault), 124 when it did not exit within
+# QEMU_TIMEOUT seconds (default 60).
 set -euo pipefail
 
 if [[ $# -ge 1 ]]; then
@@ -24,9 +29,27 @@ else
 fi
 [[ -f $elf ]] || { echo "qemu-run.sh: no firmware ELF at $elf" >&2; exit 2; }
 
-qemu=(qemu-system-arm -cpu cortex-m4 -machine netduinoplus2 -nographic
+# The link: QEMU reads link.in and writes link.out. QEMU's USART drops what
+# arrives before the firmware turns it on (after the self-check), so the Halt
+# request is repeated every half second until QEMU exits; a frame cut by the
+# drop is refused by the firmware and the next one is read whole.
+fifo_dir=$(mktemp -d)
+halter=
+cleanup() {
+    [[ -n $halter ]] && kill "$halter" 2>/dev/null
+    rm -rf "$fifo_dir"
+}
+trap cleanup EXIT
+mkfifo "$fifo_dir/link.in" "$fifo_dir/link.out"
+# Held open read-write here too, so that neither QEMU nor the writes block.
+exec 3<>"$fifo_dir/link.in" 4<>"$fifo_dir/link.out"
+qemu=(qemu-system-arm -cpu cortex-m4 -machine netduinoplus2 -display none -monitor none
+      -chardev "pipe,id=link,path=$fifo_dir/link" -serial chardev:link
       -semihosting-config "enable=on,target=native" -kernel "$elf")
 timeout_s=${QEMU_TIMEOUT:-60}
+# A lone 0x00 ends any partial frame, then the Halt request.
+(for _ in $(seq $((timeout_s * 2))); do printf '\000\002\003\000' >&3; sleep 0.5; done) &
+halter=$!
 
 echo "qemu-run.sh: booting $elf (timeout ${timeout_s}s)"
 if command -v defmt-print >/dev/null; then

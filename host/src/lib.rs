@@ -14,7 +14,9 @@
 //! | [`predict`] | `armcal predict`: the calibrated model's tool point (and frame) for each row of joint readings |
 //! | [`simulate`] | true robots with built-in errors and their noisy measurements |
 //! | [`reproduce`] | `armcal reproduce`: the seed papers' examples |
+//! | [`link`] | `armcal stream`: the serial link to the controller (TCP or serial port), calibration load and command stream |
 //! | [`compensate`] | `armcal compensate`: corrected joint commands for the calibrated robot |
+//! | [`diagnose`] | `armcal diagnose`: blunders, candidate effects ranked by cross-validation and a χ² test, the extended fit, held-out gain |
 //! | [`check`] | `armcal check`: what was read, and the error of the nominal model against the data |
 //!
 //! Units: inside the program everything is SI (m, rad, kg), as in `armcal-shared`;
@@ -24,8 +26,10 @@
 pub mod builtin;
 pub mod check;
 pub mod compensate;
+pub mod diagnose;
 pub mod identify;
 pub mod input_error;
+pub mod link;
 pub mod measurements;
 pub mod model_file;
 pub mod output;

@@ -14,7 +14,11 @@ use armcal::identify::full::FullOptions;
 use armcal::identify::paper::PaperOptions;
 use armcal::identify::{self, ParamSet};
 use armcal::input_error::InputError;
-use armcal::{builtin, compensate, measurements, model_file, output, predict, reproduce, simulate};
+use armcal::{
+    builtin, compensate, link, measurements, model_file, output, predict, reproduce, simulate,
+};
+use armcal_shared::Calibration;
+use armcal_shared::link::Request;
 use clap::{Parser, Subcommand};
 
 /// armcal makes serial robot arms accurate: it identifies the errors of their
@@ -130,6 +134,35 @@ enum Command {
         /// Write what was built in (errors and effects) here, as JSON.
         #[arg(long, value_name = "T.json")]
         truth: Option<PathBuf>,
+    },
+    /// Load a calibration into the controller over its serial link, stream joint
+    /// commands through it row by row and write the corrected commands it
+    /// returns (model units, like `compensate`); report its faults and deadline
+    /// misses. A calibration the controller refuses is named with its reason
+    /// (exit status 2).
+    #[command(group = clap::ArgGroup::new("port").required(true).multiple(false))]
+    Stream {
+        /// The calibration file written by `armcal identify --out`, sent as it is.
+        #[arg(long, value_name = "CAL")]
+        calibration: String,
+        /// Joint commands: a CSV with q1..qM in the model's units (and optionally
+        /// temp, load), rows in the order sent.
+        #[arg(long, value_name = "J.csv")]
+        joints: String,
+        /// The controller's link over TCP (a serial-to-network bridge, or QEMU's
+        /// `-serial tcp:…`).
+        #[arg(long, value_name = "HOST:PORT", group = "port")]
+        tcp: Option<String>,
+        /// The controller's serial port (115200 baud, 8N1).
+        #[arg(long, value_name = "PATH", group = "port")]
+        serial: Option<String>,
+        /// Write the corrected commands here (otherwise they are printed).
+        #[arg(long, value_name = "C.csv")]
+        out: Option<PathBuf>,
+        /// After the stream, ask the controller to halt (under QEMU this ends the
+        /// emulation; a real controller waits for a reset).
+        #[arg(long)]
+        halt: bool,
     },
     /// List the built-in robot models and data sets.
     Models,
@@ -365,6 +398,64 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             paper: Paper::Kirchner,
         } => {
             print!("{}", reproduce::kirchner::report());
+        }
+        Command::Stream {
+            calibration,
+            joints,
+            tcp,
+            serial,
+            out,
+            halt,
+        } => {
+            let bytes =
+                std::fs::read(&calibration).map_err(|e| InputError::unreadable(&calibration, e))?;
+            // Read locally first, so that a bad joints file is refused before the
+            // controller is touched; a calibration this armcal refuses is still
+            // sent, and the controller says why it refuses it too.
+            let local = Calibration::decode(&bytes);
+            let rows = match &local {
+                Ok(cal) => Some(measurements::load_joints(
+                    &joints,
+                    &cal.nominal,
+                    &cal.units,
+                )?),
+                Err(_) => None,
+            };
+            let (port, name) = match (tcp, serial) {
+                (Some(address), _) => (link::open_tcp(&address)?, address),
+                (None, Some(path)) => (link::open_serial(&path)?, path),
+                (None, None) => anyhow::bail!("give --tcp HOST:PORT or --serial PATH"),
+            };
+            let (mut session, _) = link::Session::open(port)?;
+            match session.load_calibration(&bytes) {
+                Ok(_) => {}
+                Err(link::StreamError::Refused(reason)) => {
+                    let mut message = format!("the controller refused the calibration: {reason}");
+                    if let Err(e) = &local {
+                        message.push_str(&format!(" (this armcal reads it as: {e})"));
+                    }
+                    return Err(InputError::new(&calibration, 0, 0, message).into());
+                }
+                Err(e) => return Err(e.into()),
+            }
+            let (Ok(cal), Some(rows)) = (local, rows) else {
+                anyhow::bail!(
+                    "{calibration}: the controller accepted a calibration this armcal refuses: update armcal"
+                );
+            };
+            let streamed = link::stream_rows(&mut session, &rows)?;
+            if halt {
+                session.status(Request::Halt)?;
+            }
+            let csv = streamed.to_csv(&cal, &calibration, &name);
+            for w in rows.warnings.iter().chain(&streamed.warnings(&joints)) {
+                eprintln!("armcal: warning: {w}");
+            }
+            eprintln!("armcal: {}", streamed.summary());
+            match &out {
+                Some(path) => output::write_atomically(path, csv.as_bytes())?,
+                None => print!("{csv}"),
+            }
         }
         Command::Models => {
             println!("built-in robot models (use as --model NAME):");

@@ -43,7 +43,7 @@ pub fn transform<T: Real>(
     a: T,
     (sa, ca): (T, T),
 ) -> IsometryMatrix3<T> {
-    let (st, ct) = theta.sin_cos();
+    let (st, ct) = theta.sincos();
     let z = T::zero();
     match convention {
         Convention::Dh => IsometryMatrix3::from_parts(

@@ -14,6 +14,7 @@
 //! | [`compensation`] | the corrected joint commands that make the calibrated robot reach the nominal model's pose, Kirchner et al. section 4 (eq. 4.9) |
 //! | [`effects`] | non-geometric effects (joint compliance, gear transmission, backlash, thermal expansion, encoder scale) and the model that carries them |
 //! | [`calibration`] | the calibration file the calibrator writes and the controller loads: magic, version, model hash, CRC, postcard payload |
+//! | [`link`] | the serial link to the controller: wire messages (postcard + COBS), and the controller's side of the protocol |
 //! | [`units`] | the model file's length and angle units, and their conversion to SI |
 //! | [`param`] | the names of the geometric parameters (`theta3`, `alpha1`, `base.rx`, `tool.z`, ...) |
 //!
@@ -41,6 +42,7 @@ pub mod dh;
 pub mod effects;
 pub mod jacobian;
 pub mod kinematics;
+pub mod link;
 pub mod model;
 pub mod param;
 pub mod perturbation;

@@ -1,0 +1,177 @@
+#!/usr/bin/env bash
+# The controller's serial link under QEMU, against `armcal stream`.
+#
+#   firmware/qemu-link-test.sh [ELF]
+#
+# 1. armcal identifies the FIGAROH UR10e (built-in model and data) and writes
+#    its calibration; a copy with one payload byte flipped is the corrupt one.
+# 2. The joint commands: 200 ticks of a smooth motion (0.3 rad sine waves)
+#    around the data set's first pose. (Its 23 poses in a row are no servo
+#    stream: far apart, most corrections hit the change-per-tick bound and some
+#    do not converge, and an unconverged correction is the best point of a
+#    search that f32 and f64 arithmetic end differently, so the two sides'
+#    commands then differ by millimetres for the ticks after it.)
+# 3. QEMU (netduinoplus2, -icount shift=3) boots the firmware with USART1 on a
+#    TCP socket on 127.0.0.1 and the instruction-counting plugin
+#    (qemu-insn-count.c, built here with cc) on bench_start/bench_end.
+# 4. `armcal stream` with the corrupt calibration must exit 2 and say why (CRC);
+#    then with the good one it streams every row, writes the corrected commands
+#    and halts the firmware, which must exit with success.
+# 5. Both the controller's f32 commands and `armcal compensate`'s f64 ones are
+#    evaluated with the calibrated model (`armcal predict`): every tool point
+#    must agree within 2 um.
+# 6. Prints the instruction counts, the controller's summary (deadline misses,
+#    stack high-water mark) and the firmware's size.
+#
+# Timing under QEMU is not real: with -icount shift=3 every instruction counts
+# 8 ns, so the firmware's SysTick measures instructions x 1.344 cycles.
+# KEEP_WORK=1 keeps the files it writes (calibrations, commands, logs).
+# Bounded: QEMU runs under `timeout` (QEMU_TIMEOUT, default 150 s), every
+# armcal call under its own. Exit code 0 when every check passed.
+set -euo pipefail
+
+here=$(cd "$(dirname "$0")" && pwd)
+root=$(dirname "$here")
+if [[ $# -ge 1 ]]; then
+    elf=$(realpath "$1")
+else
+    (cd "$here" && cargo build --release)
+    elf="${CARGO_TARGET_DIR:-$here/target}/thumbv7em-none-eabihf/release/armcal-firmware"
+fi
+[[ -f $elf ]] || { echo "qemu-link-test.sh: no firmware ELF at $elf" >&2; exit 2; }
+armcal=${ARMCAL:-}
+if [[ -z $armcal ]]; then
+    (cd "$root" && cargo build -p armcal)
+    armcal="${CARGO_TARGET_DIR:-$root/target}/debug/armcal"
+fi
+tools="$(rustc --print sysroot)/lib/rustlib/$(rustc -vV | sed -n 's/^host: //p')/bin"
+timeout_s=${QEMU_TIMEOUT:-150}
+
+work=$(mktemp -d)
+qemu_pid=
+cleanup() {
+    [[ -n $qemu_pid ]] && kill "$qemu_pid" 2>/dev/null
+    if [[ -n ${KEEP_WORK:-} ]]; then echo "work files kept in $work"; else rm -rf "$work"; fi
+}
+trap cleanup EXIT
+fail() {
+    echo "qemu-link-test.sh: FAILED: $*" >&2
+    exit 1
+}
+run() { timeout 60 "$armcal" "$@"; }
+
+echo "== calibration and commands"
+run identify --model figaroh-ur10e-camera --data figaroh-ur10e-camera --out "$work/ur10e.cal" >/dev/null
+cp "$work/ur10e.cal" "$work/corrupt.cal"
+printf '\x5a' | dd of="$work/corrupt.cal" bs=1 seek=100 conv=notrunc status=none
+data="$root/data/figaroh-ur10e-camera/measurements.csv"
+awk -F, '
+    /^#/ || /^q1/ { next }
+    !n++ { for (j = 1; j <= 6; j++) q0[j] = $j }
+    END {
+        print "q1,q2,q3,q4,q5,q6"
+        for (t = 0; t < 200; t++) {
+            line = ""
+            for (j = 1; j <= 6; j++)
+                line = line (j > 1 ? "," : "") sprintf("%.9f", q0[j] + 0.3 * sin(6.283185307179586 * t / 200 + j))
+            print line
+        }
+    }' "$data" >"$work/joints.csv"
+rows=$(($(wc -l <"$work/joints.csv") - 1))
+echo "$rows rows of joint commands"
+
+echo "== QEMU"
+cc -shared -fPIC -O2 -Wall -o "$work/insn-count.so" "$here/qemu-insn-count.c"
+symbol() {
+    "$tools/llvm-nm" -C "$elf" | awk -v name="armcal_firmware::$1::" 'index($0, " " name) && !found++ { print "0x" $1 }'
+}
+start=$(symbol bench_start)
+end=$(symbol bench_end)
+[[ -n $start && -n $end ]] || fail "no bench_start/bench_end symbols in $elf"
+# A port of this process's own, on 127.0.0.1 only; the next one if it is taken.
+listening=
+for try in 0 1 2 3 4; do
+    port=$((20000 + ($$ + 977 * try) % 20000))
+    timeout "$timeout_s" qemu-system-arm -cpu cortex-m4 -machine netduinoplus2 \
+        -display none -monitor none -icount shift=3 \
+        -serial "tcp:127.0.0.1:$port,server=on,wait=on" \
+        -semihosting-config enable=on,target=native \
+        -plugin "$work/insn-count.so,start=$start,end=$end" -d plugin -D "$work/insn-count.log" \
+        -kernel "$elf" >"$work/defmt.raw" 2>"$work/qemu.err" &
+    qemu_pid=$!
+    for _ in $(seq 100); do
+        grep -q "waiting for connection" "$work/qemu.err" 2>/dev/null && { listening=1; break; }
+        kill -0 "$qemu_pid" 2>/dev/null || break
+        sleep 0.1
+    done
+    [[ -n $listening ]] && break
+    kill "$qemu_pid" 2>/dev/null || true
+    wait "$qemu_pid" 2>/dev/null || true
+    qemu_pid=
+    cat "$work/qemu.err" >&2
+done
+[[ -n $listening ]] || fail "QEMU did not start"
+echo "QEMU listening on 127.0.0.1:$port"
+
+echo "== a corrupt calibration is refused with its reason"
+set +e
+run stream --calibration "$work/corrupt.cal" --joints "$work/joints.csv" \
+    --tcp "127.0.0.1:$port" --out "$work/never.csv" 2>"$work/corrupt.err"
+rc=$?
+set -e
+cat "$work/corrupt.err"
+[[ $rc -eq 2 ]] || fail "armcal stream with a corrupt calibration exited $rc, not 2"
+grep -q "the controller refused the calibration: damaged: the CRC does not match" "$work/corrupt.err" ||
+    fail "the refusal does not give the CRC as the reason"
+[[ ! -e $work/never.csv ]] || fail "a refused stream wrote its output"
+
+echo "== the good calibration, every row, then halt"
+run stream --calibration "$work/ur10e.cal" --joints "$work/joints.csv" \
+    --tcp "127.0.0.1:$port" --out "$work/controller.csv" --halt 2>"$work/stream.err" ||
+    { cat "$work/stream.err" >&2; fail "armcal stream failed"; }
+grep -v "warning:" "$work/stream.err" || true
+echo "($(grep -c "warning:" "$work/stream.err" || true) rows reported bounded or not converged, as armcal compensate reports them)"
+set +e
+wait "$qemu_pid"
+rc=$?
+set -e
+qemu_pid=
+if command -v defmt-print >/dev/null; then
+    defmt-print -e "$elf" <"$work/defmt.raw" || true
+fi
+[[ $rc -eq 0 ]] || fail "the firmware exited with $rc"
+echo "firmware exited with success"
+
+echo "== the controller's f32 commands against armcal compensate's f64 ones, at the tool point"
+run compensate --calibration "$work/ur10e.cal" --joints "$work/joints.csv" --out "$work/host.csv" 2>/dev/null
+run predict --calibration "$work/ur10e.cal" --joints "$work/controller.csv" --out "$work/controller-pose.csv" 2>/dev/null
+run predict --calibration "$work/ur10e.cal" --joints "$work/host.csv" --out "$work/host-pose.csv" 2>/dev/null
+# The model's length unit is m: 2 um = 2e-6.
+paste -d, <(grep -v '^#' "$work/controller-pose.csv") <(grep -v '^#' "$work/host-pose.csv") | awk -F, -v rows="$rows" '
+    NR == 1 { half = NF / 2; next }
+    {
+        d = sqrt(($1 - $(half + 1))^2 + ($2 - $(half + 2))^2 + ($3 - $(half + 3))^2)
+        if (d > worst) { worst = d; at = NR - 1 }
+        n++
+    }
+    END {
+        printf "%d rows, worst tool-point difference %.3g m (row %d), bound 2e-6 m\n", n, worst, at
+        if (n != rows || worst > 2e-6) exit 1
+    }' || fail "the controller's commands disagree with armcal compensate's"
+
+echo "== instructions per correction (bench_start .. bench_end)"
+grep "insn-count" "$work/insn-count.log" >"$work/spans" || fail "no instruction counts"
+awk -v bench=8 '
+    /span [0-9]+:/ {
+        n++; c = $NF
+        if (n <= bench) { b += c; if (c > bmax) bmax = c } else { l += c; ln++; if (c > lmax) lmax = c }
+    }
+    END {
+        printf "boot benchmark (UR10e, joint errors only, converged): %d corrections, mean %d, max %d instructions\n", bench, b / bench, bmax
+        if (ln) printf "link (the FIGAROH calibration, bounded corrections): %d corrections, mean %d, max %d instructions\n", ln, l / ln, lmax
+    }' "$work/spans"
+tail -n 1 "$work/spans"
+
+echo "== size"
+"$tools/llvm-size" -A "$elf" | grep -E '^(section|\.vector_table|\.text|\.rodata|\.data|\.bss) '
+echo "qemu-link-test.sh: all checks passed"

@@ -1,0 +1,276 @@
+//! `armcal stream` as a user runs it, against a controller on 127.0.0.1 that
+//! runs the firmware's protocol code (`armcal_shared::link::Device`, in f32)
+//! in a thread of the test: a calibration is loaded and every row comes back
+//! corrected, exactly as that device computes it and within 2 µm at the tool
+//! point of `armcal compensate`'s f64 commands; a damaged calibration is refused
+//! with the controller's reason, exit status 2 and nothing written; the
+//! controller in force is left as it was.
+
+use std::io::{Read, Write};
+use std::net::TcpListener;
+use std::thread::JoinHandle;
+
+use crate::armcal;
+use armcal::model_file::load_model;
+use armcal_shared::link::{
+    self, Command, Device, FrameBuffer, MAX_FRAME, Request, Response, StatusReport,
+};
+use armcal_shared::{Calibration, Param, ParamError};
+
+/// A controller on a free port of 127.0.0.1 for one connection. The first
+/// `drop_first` bytes it receives are lost, as a UART that is not on yet loses
+/// them. Returns the address and the thread, which ends with the device's
+/// counters when the host closes the link or after `Halt`.
+fn controller(drop_first: usize) -> (String, JoinHandle<StatusReport>) {
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let address = listener.local_addr().unwrap().to_string();
+    let thread = std::thread::spawn(move || {
+        let (mut stream, _) = listener.accept().unwrap();
+        let mut device = Device::new(168_000);
+        let mut frames = FrameBuffer::new();
+        let mut dropped = 0;
+        let mut buf = [0u8; 256];
+        loop {
+            let n = match stream.read(&mut buf) {
+                Ok(0) | Err(_) => return device.status(&()),
+                Ok(n) => n,
+            };
+            for &byte in &buf[..n] {
+                if dropped < drop_first {
+                    dropped += 1;
+                    continue;
+                }
+                let Some(frame) = frames.push(byte) else {
+                    continue;
+                };
+                let request = frame.and_then(link::decode::<Request>);
+                let response = match &request {
+                    Ok(r) => device.handle(r, &mut ()),
+                    Err(e) => device.frame_error(*e),
+                };
+                let mut out = [0u8; MAX_FRAME];
+                stream
+                    .write_all(link::encode(&response, &mut out).unwrap())
+                    .unwrap();
+                if matches!(request, Ok(Request::Halt)) {
+                    return device.status(&());
+                }
+            }
+        }
+    });
+    (address, thread)
+}
+
+/// The UR10e (m, rad) with joint errors of a few millimetres and milliradians.
+fn calibration() -> Calibration {
+    let model = load_model("ur10e").unwrap();
+    let mut cal = Calibration::nominal(model.robot.clone(), true, model.units);
+    for (name, error) in [
+        ("theta2", -6e-4),
+        ("a2", -6e-3),
+        ("theta3", 1e-3),
+        ("a3", -5e-3),
+        ("alpha3", -8e-3),
+        ("theta5", 1.5e-3),
+        ("alpha5", 2.6e-3),
+    ] {
+        let param: Param = name.parse().unwrap();
+        cal.errors.push(ParamError { param, error }).unwrap();
+    }
+    cal
+}
+
+/// `rows` ticks of a smooth motion, rad.
+fn trajectory(rows: usize) -> Vec<[f64; 6]> {
+    let q0 = [1.589, 0.578, -1.675, 0.351, 1.784, 2.232];
+    (0..rows)
+        .map(|t| {
+            let mut q = q0;
+            for (j, qj) in q.iter_mut().enumerate() {
+                *qj += 0.2 * (0.05 * t as f64 + j as f64).sin();
+            }
+            q
+        })
+        .collect()
+}
+
+fn write_joints(path: &std::path::Path, rows: &[[f64; 6]]) {
+    let mut text = String::from("q1,q2,q3,q4,q5,q6,temp\n");
+    for q in rows {
+        let values: Vec<String> = q.iter().map(|v| format!("{v}")).collect();
+        text.push_str(&format!("{},25\n", values.join(",")));
+    }
+    std::fs::write(path, text).unwrap();
+}
+
+/// The joint rows of a commands CSV (a comment line, a header, numbers).
+fn read_commands(path: &std::path::Path) -> Vec<Vec<f64>> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    assert!(lines.next().unwrap().starts_with("# "));
+    assert_eq!(lines.next().unwrap(), "q1,q2,q3,q4,q5,q6");
+    lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect()
+}
+
+#[test]
+fn streams_every_row_through_the_controller() {
+    let dir = tempfile::tempdir().unwrap();
+    let cal = calibration();
+    std::fs::write(dir.path().join("cal.bin"), cal.to_bytes().unwrap()).unwrap();
+    let rows = trajectory(40);
+    write_joints(&dir.path().join("j.csv"), &rows);
+    // The first frame is cut: the session opens on a later Hello.
+    let (address, thread) = controller(5);
+    let out = armcal(
+        &[
+            "stream",
+            "--calibration",
+            "cal.bin",
+            "--joints",
+            "j.csv",
+            "--tcp",
+            &address,
+            "--out",
+            "c.csv",
+            "--halt",
+        ],
+        dir.path(),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("40 commands, 40 corrected to tolerance")
+            && stderr.contains("0 deadline misses"),
+        "{stderr}"
+    );
+    let status = thread.join().unwrap();
+    assert_eq!((status.loads, status.ticks, status.faults), (1, 40, 0));
+    assert!(status.frame_errors <= 1, "only the cut frame: {status:?}");
+
+    // Exactly what the firmware's code computes from the same calibration.
+    let got = read_commands(&dir.path().join("c.csv"));
+    let mut replay = Device::new(168_000);
+    let file = cal.to_bytes().unwrap();
+    for (i, chunk) in file.chunks(link::CHUNK_LEN).enumerate() {
+        replay.handle(
+            &Request::CalibrationChunk {
+                total: file.len() as u16,
+                offset: (i * link::CHUNK_LEN) as u16,
+                bytes: chunk.iter().copied().collect(),
+            },
+            &mut (),
+        );
+    }
+    assert!(replay.is_calibrated());
+    for (seq, (q, row)) in rows.iter().zip(&got).enumerate() {
+        let request = Request::Command(Command {
+            seq: seq as u32,
+            q: q.iter().map(|&v| v as f32).collect(),
+            context: None,
+        });
+        let Response::Corrected(want) = replay.handle(&request, &mut ()) else {
+            panic!("not a correction");
+        };
+        let want: Vec<f64> = want.q.iter().map(|&v| f64::from(v)).collect();
+        assert_eq!(row, &want, "row {seq}");
+    }
+
+    // And where armcal compensate's f64 commands put the calibrated tool point,
+    // within 2 µm (f32 rounding of a 1.3 m arm: a few tenths of a micrometre).
+    let out = armcal(
+        &[
+            "compensate",
+            "--calibration",
+            "cal.bin",
+            "--joints",
+            "j.csv",
+            "--out",
+            "h.csv",
+        ],
+        dir.path(),
+    );
+    assert!(out.status.success());
+    let host = read_commands(&dir.path().join("h.csv"));
+    let robot = cal.calibrated();
+    for (i, (a, b)) in got.iter().zip(&host).enumerate() {
+        let pa = robot.measured_point(a).unwrap();
+        let pb = robot.measured_point(b).unwrap();
+        let d = (pa - pb).norm();
+        assert!(d < 2e-6, "row {i}: {d:e} m apart");
+    }
+}
+
+#[test]
+fn a_damaged_calibration_is_refused_with_the_controllers_reason() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bytes = calibration().to_bytes().unwrap();
+    bytes[60] ^= 0x01;
+    std::fs::write(dir.path().join("cal.bin"), &bytes).unwrap();
+    write_joints(&dir.path().join("j.csv"), &trajectory(3));
+    let (address, thread) = controller(0);
+    let out = armcal(
+        &[
+            "stream",
+            "--calibration",
+            "cal.bin",
+            "--joints",
+            "j.csv",
+            "--tcp",
+            &address,
+            "--out",
+            "c.csv",
+        ],
+        dir.path(),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains(
+            "cal.bin: the controller refused the calibration: damaged: the CRC does not match"
+        ),
+        "{stderr}"
+    );
+    assert!(!dir.path().join("c.csv").exists(), "nothing written");
+    let status = thread.join().unwrap();
+    assert_eq!(status.loads, 0);
+    assert_eq!(status.ticks, 0, "no command was sent");
+    assert_eq!(
+        status.last_rejection,
+        Some(armcal_shared::link::Rejection::Crc)
+    );
+}
+
+#[test]
+fn no_controller_is_an_error_not_a_hang() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("cal.bin"),
+        calibration().to_bytes().unwrap(),
+    )
+    .unwrap();
+    write_joints(&dir.path().join("j.csv"), &trajectory(3));
+    // A port that was just free: nothing listens there.
+    let port = TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    let address = format!("127.0.0.1:{port}");
+    let out = armcal(
+        &[
+            "stream",
+            "--calibration",
+            "cal.bin",
+            "--joints",
+            "j.csv",
+            "--tcp",
+            &address,
+        ],
+        dir.path(),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("cannot connect to"), "{stderr}");
+}
