@@ -23,6 +23,41 @@ use armcal_shared::{Calibration, JointType};
 
 use crate::measurements::JointRows;
 
+/// A CSV of joint commands `q1..qM` (SI in, the calibration's model units out,
+/// shortest round-trip formatting) after a `#` comment line.
+pub fn joints_csv(
+    comment: &str,
+    cal: &Calibration,
+    rows: impl Iterator<Item = Vec<f64>>,
+) -> String {
+    let units = &cal.units;
+    let joints: Vec<JointType> = cal.nominal.links.iter().map(|l| l.joint).collect();
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "# {comment}; joints in {} (revolute) and {} (prismatic)",
+        units.angle, units.length
+    );
+    let header: Vec<String> = (1..=joints.len()).map(|m| format!("q{m}")).collect();
+    let _ = writeln!(out, "{}", header.join(","));
+    for q in rows {
+        let values: Vec<String> = q
+            .iter()
+            .zip(&joints)
+            .map(|(q, j)| {
+                let v = units.joint_from_si(*j, *q);
+                if v == 0.0 {
+                    "0".to_string()
+                } else {
+                    format!("{v}")
+                }
+            })
+            .collect();
+        let _ = writeln!(out, "{}", values.join(","));
+    }
+    out
+}
+
 /// The corrected commands of every row, in order, with what each row reported.
 #[derive(Clone, Debug)]
 pub struct Compensated {
@@ -49,32 +84,13 @@ pub fn compensate(cal: &Calibration, commands: &JointRows) -> Compensated {
 impl Compensated {
     /// The CSV `q1..qM` in the model's units, with a comment line naming its origin.
     pub fn to_csv(&self, cal: &Calibration, calibration_file: &str) -> String {
-        let units = &cal.units;
-        let joints: Vec<JointType> = cal.nominal.links.iter().map(|l| l.joint).collect();
-        let mut out = String::new();
-        let _ = writeln!(
-            out,
-            "# armcal compensate: commands for the calibrated robot from {calibration_file}; joints in {} (revolute) and {} (prismatic)",
-            units.angle, units.length
-        );
-        let header: Vec<String> = (1..=joints.len()).map(|m| format!("q{m}")).collect();
-        let _ = writeln!(out, "{}", header.join(","));
-        for (_, c) in &self.rows {
-            let values: Vec<String> =
-                c.q.iter()
-                    .zip(&joints)
-                    .map(|(q, j)| {
-                        let v = units.joint_from_si(*j, *q);
-                        if v == 0.0 {
-                            "0".to_string()
-                        } else {
-                            format!("{v}")
-                        }
-                    })
-                    .collect();
-            let _ = writeln!(out, "{}", values.join(","));
-        }
-        out
+        joints_csv(
+            &format!(
+                "armcal compensate: commands for the calibrated robot from {calibration_file}"
+            ),
+            cal,
+            self.rows.iter().map(|(_, c)| c.q.to_vec()),
+        )
     }
 
     /// One line per row that reported something, for standard error.

@@ -21,16 +21,15 @@
 //! the wire carries SI `f32` (rad, m); the corrected commands are written back
 //! in the model's units, `q1..qM`, like `armcal compensate`'s.
 
-use core::fmt::Write as _;
 use std::io::{ErrorKind, Read, Write};
 use std::net::{TcpStream, ToSocketAddrs};
 use std::time::{Duration, Instant};
 
+use armcal_shared::Calibration;
 use armcal_shared::link::{
     self, CHUNK_LEN, Command, Context, Corrected, FrameBuffer, MAX_FRAME, Rejection, Request,
     Response, StatusReport, TickStatus,
 };
-use armcal_shared::{Calibration, JointType};
 
 use crate::measurements::JointRows;
 
@@ -331,32 +330,15 @@ pub fn stream_rows(session: &mut Session, commands: &JointRows) -> Result<Stream
 impl Streamed {
     /// The CSV `q1..qM` in the model's units, with a comment line naming its origin.
     pub fn to_csv(&self, cal: &Calibration, calibration_file: &str, link: &str) -> String {
-        let units = &cal.units;
-        let joints: Vec<JointType> = cal.nominal.links.iter().map(|l| l.joint).collect();
-        let mut out = String::new();
-        let _ = writeln!(
-            out,
-            "# armcal stream: commands corrected by the controller at {link} with {calibration_file}; joints in {} (revolute) and {} (prismatic)",
-            units.angle, units.length
-        );
-        let header: Vec<String> = (1..=joints.len()).map(|m| format!("q{m}")).collect();
-        let _ = writeln!(out, "{}", header.join(","));
-        for (_, c) in &self.rows {
-            let values: Vec<String> =
-                c.q.iter()
-                    .zip(&joints)
-                    .map(|(q, j)| {
-                        let v = units.joint_from_si(*j, f64::from(*q));
-                        if v == 0.0 {
-                            "0".to_string()
-                        } else {
-                            format!("{v}")
-                        }
-                    })
-                    .collect();
-            let _ = writeln!(out, "{}", values.join(","));
-        }
-        out
+        crate::compensate::joints_csv(
+            &format!(
+                "armcal stream: commands corrected by the controller at {link} with {calibration_file}"
+            ),
+            cal,
+            self.rows
+                .iter()
+                .map(|(_, c)| c.q.iter().map(|q| f64::from(*q)).collect()),
+        )
     }
 
     /// One line per row whose status was not `Corrected`, for standard error.
