@@ -404,3 +404,196 @@ fn dof(fit: &FullFit) -> f64 {
             .count();
     (fit.equations as f64 - identified as f64).max(1.0)
 }
+
+/// A parameter of a found effect in the model's units: angles (gear amplitudes,
+/// half the lost motion of a revolute joint, a compliance's rad per N·m) in the
+/// angle unit, lengths in the length unit, ratios as they are.
+fn effect_value(
+    robot: &Robot<f64>,
+    effect: &Effect<f64>,
+    units: &armcal_shared::units::Units,
+    v: f64,
+) -> f64 {
+    let revolute = effect
+        .joint()
+        .is_some_and(|j| robot.links[j].joint == JointType::Revolute);
+    match effect {
+        Effect::ThermalExpansion { .. } | Effect::EncoderScale { .. } => v,
+        _ if revolute => units.angle_from_si(v),
+        _ => units.length_from_si(v),
+    }
+}
+
+impl Diagnosis {
+    /// The JSON of `INTERFACE.md` (`noise_estimate_mm`, `holdout`, `effects`,
+    /// `outlier_rows`), plus every candidate's first-round gain.
+    pub fn to_json(
+        &self,
+        model: &crate::model_file::RobotModel,
+        lines: &[usize],
+        options: &DiagnoseOptions,
+    ) -> serde_json::Value {
+        use serde_json::json;
+        let mm = |x: f64| x * 1e3;
+        let (nominal, geometric, extended) = self.holdout;
+        let effects: Vec<serde_json::Value> = self
+            .findings
+            .iter()
+            .map(|f| {
+                let mut parameters = serde_json::Map::new();
+                if let Some(e) = self.fit.effects.iter().find(|e| Some(e.effect.name()) == f.candidate.effect.map(|c| c.name()) && e.effect.joint() == f.candidate.effect.and_then(|c| c.joint())) {
+                    for i in 0..e.effect.parameter_count() {
+                        let v = e.effect.parameter(i).unwrap_or(0.0);
+                        parameters.insert(
+                            crate::identify::full::effect_parameter_name(&e.effect, i),
+                            json!(effect_value(&model.robot, &e.effect, &model.units, v)),
+                        );
+                    }
+                }
+                for p in &f.candidate.extra {
+                    if let Some(r) = self.fit.params.iter().find(|r| r.param == *p) {
+                        parameters.insert(p.to_string(), json!(model.units.angle_from_si(r.error)));
+                    }
+                }
+                json!({
+                    "name": f.candidate.name,
+                    "joints": f.candidate.joints.iter().map(|j| j + 1).collect::<Vec<_>>(),
+                    "parameters": parameters,
+                    "gain": f.gain,
+                    "evidence": format!(
+                        "held-out RMS {:.1}% lower with it ({}-fold); sum of squares down by {:.1} noise² against the 99.9% threshold {:.1}",
+                        100.0 * (1.0 - 1.0 / f.gain), options.folds, f.chi2.0, f.chi2.1
+                    ),
+                })
+            })
+            .collect();
+        json!({
+            "noise_estimate_mm": mm(self.noise),
+            "holdout": {
+                "method": format!("{}-fold", options.folds),
+                "nominal_rms_mm": mm(nominal.rms),
+                "geometric_rms_mm": mm(geometric.rms),
+                "extended_rms_mm": mm(extended.rms),
+                "nominal_mean_mm": mm(nominal.mean), "nominal_max_mm": mm(nominal.max),
+                "geometric_mean_mm": mm(geometric.mean), "geometric_max_mm": mm(geometric.max),
+                "extended_mean_mm": mm(extended.mean), "extended_max_mm": mm(extended.max),
+            },
+            "effects": effects,
+            "outlier_rows": self.blunders.iter().map(|&i| lines.get(i).copied().unwrap_or(0)).collect::<Vec<_>>(),
+            "candidates": self.tried.iter().map(|(c, g)| json!({
+                "name": c.name,
+                "joints": c.joints.iter().map(|j| j + 1).collect::<Vec<_>>(),
+                "gain": g,
+            })).collect::<Vec<_>>(),
+        })
+    }
+
+    /// The human summary.
+    pub fn summary(&self, lines: &[usize], options: &DiagnoseOptions) -> String {
+        use std::fmt::Write as _;
+        let mut out = String::new();
+        let mm = |x: f64| x * 1e3;
+        let _ = writeln!(out, "noise estimate {:.4} mm per axis", mm(self.noise));
+        if !self.blunders.is_empty() {
+            let rows: Vec<String> = self
+                .blunders
+                .iter()
+                .map(|&i| lines.get(i).copied().unwrap_or(0).to_string())
+                .collect();
+            let _ = writeln!(
+                out,
+                "set aside as blunders (data lines): {}",
+                rows.join(", ")
+            );
+        }
+        if self.findings.is_empty() {
+            let _ = writeln!(
+                out,
+                "nothing beyond geometry: the geometric model explains the data to the noise"
+            );
+        }
+        for f in &self.findings {
+            let joints: Vec<String> = f
+                .candidate
+                .joints
+                .iter()
+                .map(|j| (j + 1).to_string())
+                .collect();
+            let _ = writeln!(
+                out,
+                "found {} (joints {}): held-out gain ×{:.2}, χ² {:.1} > {:.1}",
+                f.candidate.name,
+                if joints.is_empty() {
+                    "all".into()
+                } else {
+                    joints.join(", ")
+                },
+                f.gain,
+                f.chi2.0,
+                f.chi2.1
+            );
+        }
+        let (n, g, e) = self.holdout;
+        let _ = writeln!(
+            out,
+            "\nheld-out position error ({}-fold), mm:   rms      mean     max",
+            options.folds
+        );
+        for (label, h) in [
+            ("nominal model", n),
+            ("geometric calibration", g),
+            ("extended calibration", e),
+        ] {
+            let _ = writeln!(
+                out,
+                "  {label:<24} {:>8.4} {:>8.4} {:>8.4}",
+                mm(h.rms),
+                mm(h.mean),
+                mm(h.max)
+            );
+        }
+        let mut tried = self.tried.clone();
+        tried.sort_by(|a, b| b.1.total_cmp(&a.1));
+        let _ = writeln!(
+            out,
+            "\nstrongest candidates (held-out gain on the geometric model):"
+        );
+        for (c, gain) in tried.iter().take(6) {
+            let joints: Vec<String> = c.joints.iter().map(|j| (j + 1).to_string()).collect();
+            let _ = writeln!(
+                out,
+                "  {:<20} joints {:<6} ×{:.3}",
+                c.name,
+                joints.join(","),
+                gain
+            );
+        }
+        out
+    }
+
+    /// The calibration of the extended model: its geometric errors (Hayati tilts
+    /// included) and its effects.
+    pub fn calibration(
+        &self,
+        nominal: &Robot<f64>,
+        orientation: bool,
+        units: armcal_shared::units::Units,
+    ) -> armcal_shared::Calibration {
+        let mut cal = armcal_shared::Calibration::nominal(nominal.clone(), orientation, units);
+        for p in self
+            .fit
+            .params
+            .iter()
+            .filter(|p| matches!(p.status, Status::Identified { .. }) && p.error != 0.0)
+        {
+            let _ = cal.errors.push(armcal_shared::calibration::ParamError {
+                param: p.param,
+                error: p.error,
+            });
+        }
+        for e in &self.fit.effects {
+            let _ = cal.effects.push(e.effect);
+        }
+        cal
+    }
+}

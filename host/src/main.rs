@@ -164,6 +164,29 @@ enum Command {
         #[arg(long)]
         halt: bool,
     },
+    /// Fit the geometry, show what it gets wrong, name the cause, extend the model
+    /// and measure the gain on held-out poses.
+    Diagnose {
+        /// Robot model: a TOML file or the name of a built-in model.
+        #[arg(long, value_name = "M.toml|NAME")]
+        model: String,
+        /// Measurements: a CSV file or the name of a built-in data set.
+        #[arg(long, value_name = "D.csv|NAME")]
+        data: String,
+        /// Write the extended calibration (geometry and effects) here.
+        #[arg(long, value_name = "CAL")]
+        out: Option<PathBuf>,
+        /// Write the report as JSON here.
+        #[arg(long, value_name = "R.json")]
+        json: Option<PathBuf>,
+        /// Position noise, one standard deviation per axis, model length unit
+        /// (default 0.1 mm; only the relative weight of orientations depends on it).
+        #[arg(long, value_name = "LENGTH")]
+        position_noise: Option<f64>,
+        /// Folds of the cross-validation.
+        #[arg(long, default_value_t = 10)]
+        folds: usize,
+    },
     /// List the built-in robot models and data sets.
     Models,
     /// Rebuild the worked examples of a seed paper and print them as the paper does.
@@ -359,12 +382,63 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             output::write_all(&outputs)?;
         }
+        Command::Diagnose {
+            model,
+            data,
+            out,
+            json,
+            position_noise,
+            folds,
+        } => {
+            let model = model_file::load_model(&model)?;
+            let data = measurements::load_measurements(&data, &model)?;
+            let full_pose = data.poses.iter().all(|p| p.orientation.is_some());
+            data.require_poses(check::independent_parameter_count(&model.robot, full_pose))?;
+            anyhow::ensure!(folds >= 2, "--folds {folds}: at least 2");
+            let mut options = armcal::diagnose::DiagnoseOptions {
+                folds,
+                ..Default::default()
+            };
+            if let Some(n) = position_noise {
+                anyhow::ensure!(
+                    n.is_finite() && n > 0.0,
+                    "--position-noise {n}: must be a positive number"
+                );
+                options.fit.position_noise = model.units.length_to_si(n);
+            }
+            let observations = identify::observations(&data);
+            let diagnosis = armcal::diagnose::diagnose(&model.robot, &observations, &options)?;
+            let lines: Vec<usize> = data.poses.iter().map(|p| p.line).collect();
+            let mut outputs = Vec::new();
+            if let Some(path) = &out {
+                let cal = diagnosis.calibration(&model.robot, full_pose, model.units);
+                outputs.push((path.as_path(), cal.to_bytes()?));
+            }
+            if let Some(path) = &json {
+                let text =
+                    serde_json::to_string_pretty(&diagnosis.to_json(&model, &lines, &options))?;
+                outputs.push((path.as_path(), text.into_bytes()));
+            }
+            if outputs.is_empty() {
+                print!("{}", diagnosis.summary(&lines, &options));
+            }
+            output::write_all(&outputs)?;
+        }
         Command::Compensate {
             calibration,
             joints,
             out,
         } => {
             let cal = predict::load_calibration(&calibration)?;
+            anyhow::ensure!(
+                cal.effects.is_empty(),
+                "{calibration}: it carries non-geometric effects ({}), which compensate does not apply yet: use a geometric calibration (armcal identify --out)",
+                cal.effects
+                    .iter()
+                    .map(|e| e.name())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
             let rows = measurements::load_joints(&joints, &cal.nominal, &cal.units)?;
             let result = compensate::compensate(&cal, &rows);
             let csv = result.to_csv(&cal, &calibration);

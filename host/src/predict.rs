@@ -21,10 +21,9 @@
 //! written with the shortest decimal that reads back to the same `f64` (Rust's
 //! `{}`), so nothing is lost to formatting.
 //!
-//! Geometric calibrations only, for now: the `t`, `temp` and `load` columns are
-//! read and kept on each [`JointRow`](crate::measurements::JointRow), but not used
-//! yet — a calibration of non-geometric effects (temperature, load, approach
-//! direction) is a later issue, and its prediction will use them.
+//! Non-geometric effects (`armcal diagnose`) are applied in each row's context:
+//! the `temp` and `load` columns, and the approach direction of each joint from
+//! the previous row (row order is motion order, as in `FORMAT.md`).
 
 use core::fmt::Write as _;
 
@@ -82,11 +81,20 @@ pub fn load_calibration(path: &str) -> Result<Calibration, InputError> {
 /// `&cal.units`); a row with another number of joint values is refused, naming
 /// its file and line. Only the joint readings are used (see [the module](self)).
 pub fn predict(cal: &Calibration, rows: &JointRows) -> Result<Predictions, InputError> {
-    let robot = cal.calibrated();
+    let model = cal.model();
     let mut out = Vec::with_capacity(rows.len());
+    let mut previous: Option<&[f64]> = None;
     for row in &rows.rows {
-        let frame = robot
-            .forward(&row.q)
+        // The context of the effects: temperature and payload from the row, the
+        // approach direction of each joint from the previous row.
+        let ctx = armcal_shared::effects::Context {
+            temperature: row.temp,
+            payload: row.load,
+            approach: armcal_shared::effects::approach_signs(previous, &row.q),
+        };
+        previous = Some(&row.q);
+        let frame = model
+            .forward(&row.q, &ctx)
             .map_err(|e| InputError::new(&rows.file, row.line, 1, e.to_string()))?;
         let orientation = cal.orientation.then(|| {
             let q = UnitQuaternion::from_rotation_matrix(&frame.rotation);
@@ -103,12 +111,18 @@ pub fn predict(cal: &Calibration, rows: &JointRows) -> Result<Predictions, Input
         });
     }
     let n = cal.errors.len();
+    let effects: Vec<&str> = cal.effects.iter().map(|e| e.name()).collect();
     Ok(Predictions {
         calibration: format!(
-            "{} joints, model hash {:#018x}, {n} identified parameter error{}, {}",
+            "{} joints, model hash {:#018x}, {n} identified parameter error{}, effects: {}, {}",
             cal.nominal.dof(),
             model_hash(&cal.nominal),
             if n == 1 { "" } else { "s" },
+            if effects.is_empty() {
+                "none".to_string()
+            } else {
+                effects.join(" ")
+            },
             if cal.orientation {
                 "position and orientation"
             } else {
@@ -146,7 +160,7 @@ impl Predictions {
         };
         let _ = writeln!(
             out,
-            "# armcal predict: calibration {calibration}; joints {}; x, y, z in {} in the measurement frame{}; geometric model (t, temp, load not used)",
+            "# armcal predict: calibration {calibration}; joints {}; x, y, z in {} in the measurement frame{}; effects applied in each row's context (temp, load, approach from row order)",
             one_line(&self.joints_file),
             units.length,
             if self.orientation {
@@ -221,7 +235,7 @@ mod tests {
         let (comment, header, values) = read_back(&p.to_csv(&cal.units));
         assert!(comment.starts_with("# armcal predict: calibration 6 joints"));
         assert!(comment.contains("x, y, z in in"), "{comment}");
-        assert!(comment.contains("0 identified parameter errors, position only"));
+        assert!(comment.contains("0 identified parameter errors, effects: none, position only"), "{comment}");
         assert_eq!(header, "x,y,z");
         for (row, v) in rows.rows.iter().zip(&values) {
             let expected = model.robot.measured_point(&row.q).unwrap();

@@ -29,6 +29,7 @@ use core::fmt;
 use heapless::Vec;
 use serde::{Deserialize, Serialize};
 
+use crate::effects::{Effect, EffectModel, MAX_EFFECTS};
 use crate::units::Units;
 use crate::{MAX_JOINTS, Param, Robot};
 
@@ -36,7 +37,7 @@ use crate::{MAX_JOINTS, Param, Robot};
 pub const MAGIC: [u8; 8] = *b"\x89ARMCAL\n";
 
 /// The format version this build writes and the newest it reads.
-pub const FORMAT_VERSION: u16 = 1;
+pub const FORMAT_VERSION: u16 = 2;
 
 /// Bytes before the payload.
 pub const HEADER_LEN: usize = 24;
@@ -74,6 +75,8 @@ pub struct Calibration {
     pub orientation: bool,
     /// The units of the model file, in which results are reported.
     pub units: Units,
+    /// The non-geometric effects identified with the geometry (`armcal diagnose`).
+    pub effects: Vec<Effect<f64>, MAX_EFFECTS>,
 }
 
 /// Why a calibration file was refused, or could not be written.
@@ -101,7 +104,7 @@ pub enum CalibrationError {
         /// The file's version.
         found: u16,
     },
-    /// A version number that was never issued (0).
+    /// A version this build does not read (0, or an older one).
     BadVersion {
         /// The file's version.
         found: u16,
@@ -136,6 +139,8 @@ pub enum CalibrationError {
         /// The parameter.
         param: Param,
     },
+    /// An effect acts on a joint the model does not have.
+    EffectJoint,
     /// The same parameter is identified twice.
     DuplicateParam {
         /// The parameter.
@@ -165,9 +170,10 @@ impl fmt::Display for CalibrationError {
                 f,
                 "calibration format version {found} is newer than this build reads ({FORMAT_VERSION}): update the reader"
             ),
-            Self::BadVersion { found } => {
-                write!(f, "calibration format version {found} does not exist")
-            }
+            Self::BadVersion { found } => write!(
+                f,
+                "calibration format version {found} is not the one this build reads ({FORMAT_VERSION}): identify again"
+            ),
             Self::Crc { stored, computed } => write!(
                 f,
                 "calibration damaged: CRC {computed:#010x} of the bytes read, {stored:#010x} stored"
@@ -191,6 +197,9 @@ impl fmt::Display for CalibrationError {
                 )
             }
             Self::DuplicateParam { param } => write!(f, "calibration identifies {param} twice"),
+            Self::EffectJoint => {
+                f.write_str("calibration has an effect on a joint its model does not have")
+            }
             Self::BufferTooSmall => write!(
                 f,
                 "output buffer too small (at most {MAX_FILE_LEN} bytes needed)"
@@ -238,6 +247,7 @@ impl Calibration {
             errors: Vec::new(),
             orientation,
             units,
+            effects: Vec::new(),
         }
     }
 
@@ -250,6 +260,16 @@ impl Calibration {
             }
         }
         robot
+    }
+
+    /// The calibrated model with its effects, for evaluation in context.
+    pub fn model(&self) -> EffectModel<f64> {
+        // `validate` (run by `decode` and `encode`) checked every effect's joint;
+        // a calibration built in memory and never validated falls back to geometry.
+        EffectModel::new(self.calibrated(), &self.effects).unwrap_or_else(|_| EffectModel {
+            robot: self.calibrated(),
+            effects: Vec::new(),
+        })
     }
 
     /// Writes the calibration file into `buf` and returns the bytes written.
@@ -320,7 +340,7 @@ impl Calibration {
         if version > FORMAT_VERSION {
             return Err(CalibrationError::NewerVersion { found: version });
         }
-        if version == 0 {
+        if version != FORMAT_VERSION {
             return Err(CalibrationError::BadVersion { found: version });
         }
         let payload_len = u32_at(20) as usize;
@@ -392,6 +412,16 @@ impl Calibration {
             .all(|f| finite3(&f.xyz) && finite3(&f.rpy));
         if !links_finite || !frames_finite || !model.gravity.as_ref().is_none_or(finite3) {
             return Err(CalibrationError::NonFinite);
+        }
+        for e in &self.effects {
+            let finite =
+                (0..e.parameter_count()).all(|i| e.parameter(i).is_some_and(f64::is_finite));
+            if !finite {
+                return Err(CalibrationError::NonFinite);
+            }
+            if e.joint().is_some_and(|j| j >= model.dof()) {
+                return Err(CalibrationError::EffectJoint);
+            }
         }
         for (i, e) in self.errors.iter().enumerate() {
             if !e.error.is_finite() {

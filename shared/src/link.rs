@@ -209,6 +209,8 @@ pub enum Rejection {
     ErrorTooLarge,
     /// A chunk that does not continue the file being received (wrong offset or total).
     ChunkOutOfOrder,
+    /// A calibration with non-geometric effects, which this firmware does not apply yet.
+    UnsupportedEffects,
     /// Any other reason.
     Other,
 }
@@ -228,6 +230,7 @@ impl From<&CalibrationError> for Rejection {
             CalibrationError::NonFinite => Self::NonFinite,
             CalibrationError::UnknownParam { .. } => Self::UnknownParam,
             CalibrationError::DuplicateParam { .. } => Self::DuplicateParam,
+            CalibrationError::EffectJoint => Self::UnknownParam,
             CalibrationError::BufferTooSmall => Self::Other,
         }
     }
@@ -253,6 +256,9 @@ impl Rejection {
                 "an identified error above 0.5 rad or 0.5 m: fix the nominal model instead"
             }
             Self::ChunkOutOfOrder => "chunks out of order: send the file again from offset 0",
+            Self::UnsupportedEffects => {
+                "it carries non-geometric effects, which this firmware does not apply yet: send a geometric calibration (armcal identify)"
+            }
             Self::Other => "refused",
         }
     }
@@ -455,6 +461,9 @@ pub fn check_magnitudes(calibration: &Calibration) -> Result<(), Rejection> {
     });
     if too_large || calibration.nominal.dof() > MAX_JOINTS {
         return Err(Rejection::ErrorTooLarge);
+    }
+    if !calibration.effects.is_empty() {
+        return Err(Rejection::UnsupportedEffects);
     }
     Ok(())
 }
