@@ -308,10 +308,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 let text = serde_json::to_string_pretty(&result.to_json(&model.units))?;
                 outputs.push((path.as_path(), text.into_bytes()));
             }
-            if outputs.is_empty() {
-                print!("{}", result.summary(&model, &data));
-            }
-            output::write_all(&outputs)?;
+            finish(&outputs, || result.summary(&model, &data))?;
         }
         Command::Simulate {
             model,
@@ -419,10 +416,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     serde_json::to_string_pretty(&diagnosis.to_json(&model, &lines, &options))?;
                 outputs.push((path.as_path(), text.into_bytes()));
             }
-            if outputs.is_empty() {
-                print!("{}", diagnosis.summary(&lines, &options));
-            }
-            output::write_all(&outputs)?;
+            finish(&outputs, || diagnosis.summary(&lines, &options))?;
         }
         Command::Compensate {
             calibration,
@@ -543,4 +537,16 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// Writes the requested outputs (every one prepared before the first byte is
+/// written), or prints the human summary when none was asked for.
+fn finish(
+    outputs: &[(&std::path::Path, Vec<u8>)],
+    summary: impl FnOnce() -> String,
+) -> anyhow::Result<()> {
+    if outputs.is_empty() {
+        print!("{}", summary());
+    }
+    output::write_all(outputs)
 }

@@ -235,7 +235,10 @@ mod tests {
         let (comment, header, values) = read_back(&p.to_csv(&cal.units));
         assert!(comment.starts_with("# armcal predict: calibration 6 joints"));
         assert!(comment.contains("x, y, z in in"), "{comment}");
-        assert!(comment.contains("0 identified parameter errors, effects: none, position only"), "{comment}");
+        assert!(
+            comment.contains("0 identified parameter errors, effects: none, position only"),
+            "{comment}"
+        );
         assert_eq!(header, "x,y,z");
         for (row, v) in rows.rows.iter().zip(&values) {
             let expected = model.robot.measured_point(&row.q).unwrap();
