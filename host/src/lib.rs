@@ -12,6 +12,7 @@
 //! | [`identify`] | `armcal identify`: the paper's iterative regression and the full model, report and calibration |
 //! | [`output`] | result files written atomically |
 //! | [`predict`] | `armcal predict`: the calibrated model's tool point (and frame) for each row of joint readings |
+//! | [`sweep`] | `armcal sweep`: detection and false-positive rates of the diagnosis over many simulated sessions |
 //! | [`simulate`] | true robots with built-in errors and their noisy measurements |
 //! | [`reproduce`] | `armcal reproduce`: the seed papers' examples |
 //! | [`link`] | `armcal stream`: the serial link to the controller (TCP or serial port), calibration load and command stream |
@@ -36,6 +37,7 @@ pub mod output;
 pub mod predict;
 pub mod reproduce;
 pub mod simulate;
+pub mod sweep;
 
 #[cfg(test)]
 mod test_support;

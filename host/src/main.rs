@@ -187,6 +187,19 @@ enum Command {
         #[arg(long, default_value_t = 10)]
         folds: usize,
     },
+    /// Measure the diagnosis: hide a random effect (or none) in many simulated
+    /// sessions and count how often it is named.
+    Sweep {
+        /// Cases to run.
+        #[arg(long, default_value_t = 100)]
+        cases: usize,
+        /// Seed of every draw.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Write every case as JSON here.
+        #[arg(long, value_name = "R.json")]
+        json: Option<PathBuf>,
+    },
     /// List the built-in robot models and data sets.
     Models,
     /// Rebuild the worked examples of a seed paper and print them as the paper does.
@@ -417,6 +430,52 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 outputs.push((path.as_path(), text.into_bytes()));
             }
             finish(&outputs, || diagnosis.summary(&lines, &options))?;
+        }
+        Command::Sweep { cases, seed, json } => {
+            use std::io::IsTerminal as _;
+            let tty = std::io::stderr().is_terminal();
+            let results = armcal::sweep::sweep(cases, seed, |i, c| {
+                if tty {
+                    eprint!(
+                        "\rcase {}/{cases}: {} {:?} → {:?}      ",
+                        i + 1,
+                        c.robot,
+                        c.hidden,
+                        c.found.as_ref().map(|f| f.0)
+                    );
+                }
+            });
+            if tty {
+                eprintln!();
+            }
+            let ((det, strong), (fp, pure), secs) = armcal::sweep::rates(&results);
+            println!(
+                "{} cases: detected {det} of {strong} hidden effects with signal ≥ 5× ({:.0}%); false positives {fp} of {pure} pure-geometry cases ({:.0}%); {:.2} s per diagnosis",
+                results.len(),
+                100.0 * det as f64 / strong.max(1) as f64,
+                100.0 * fp as f64 / pure.max(1) as f64,
+                secs
+            );
+            for c in results
+                .iter()
+                .filter(|c| c.hidden.is_some() && c.signal >= 5.0 && !c.detected())
+            {
+                println!(
+                    "  missed: {} {:?} joints {:?} (signal {:.1}×) → {:?}",
+                    c.robot, c.hidden, c.joints, c.signal, c.found
+                );
+            }
+            if let Some(path) = &json {
+                let rows: Vec<serde_json::Value> = results
+                    .iter()
+                    .map(|c| serde_json::json!({
+                        "robot": c.robot, "hidden": c.hidden, "joints": c.joints.iter().map(|j| j + 1).collect::<Vec<_>>(),
+                        "signal": c.signal, "found": c.found.as_ref().map(|f| f.0), "named": c.named, "seconds": c.seconds,
+                        "detected": c.detected(),
+                    }))
+                    .collect();
+                output::write_atomically(path, serde_json::to_string_pretty(&rows)?.as_bytes())?;
+            }
         }
         Command::Compensate {
             calibration,
