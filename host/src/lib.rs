@@ -14,6 +14,7 @@
 //! | [`predict`] | `armcal predict`: the calibrated model's tool point (and frame) for each row of joint readings |
 //! | [`sweep`] | `armcal sweep`: detection and false-positive rates of the diagnosis over many simulated sessions |
 //! | [`simulate`] | true robots with built-in errors and their noisy measurements |
+//! | [`report`] | the self-contained HTML page of `armcal diagnose --html` (inline SVG) |
 //! | [`reproduce`] | `armcal reproduce`: the seed papers' examples |
 //! | [`link`] | `armcal stream`: the serial link to the controller (TCP or serial port), calibration load and command stream |
 //! | [`compensate`] | `armcal compensate`: corrected joint commands for the calibrated robot |
@@ -35,6 +36,7 @@ pub mod measurements;
 pub mod model_file;
 pub mod output;
 pub mod predict;
+pub mod report;
 pub mod reproduce;
 pub mod simulate;
 pub mod sweep;

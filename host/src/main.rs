@@ -179,6 +179,9 @@ enum Command {
         /// Write the report as JSON here.
         #[arg(long, value_name = "R.json")]
         json: Option<PathBuf>,
+        /// Write a self-contained HTML page (inline SVG plots) here.
+        #[arg(long, value_name = "R.html")]
+        html: Option<PathBuf>,
         /// Position noise, one standard deviation per axis, model length unit
         /// (default 0.1 mm; only the relative weight of orientations depends on it).
         #[arg(long, value_name = "LENGTH")]
@@ -397,6 +400,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             data,
             out,
             json,
+            html,
             position_noise,
             folds,
         } => {
@@ -428,6 +432,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 let text =
                     serde_json::to_string_pretty(&diagnosis.to_json(&model, &lines, &options))?;
                 outputs.push((path.as_path(), text.into_bytes()));
+            }
+            if let Some(path) = &html {
+                let page =
+                    armcal::report::html(&model, &data.file, &diagnosis, &observations, &options);
+                outputs.push((path.as_path(), page.into_bytes()));
             }
             finish(&outputs, || diagnosis.summary(&lines, &options))?;
         }
