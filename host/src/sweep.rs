@@ -51,9 +51,102 @@ impl Case {
     }
 }
 
-/// A log-uniform draw in `[lo, hi]`.
-fn log_uniform(r: &mut rand::rngs::StdRng, lo: f64, hi: f64) -> f64 {
-    (r.random_range(lo.ln()..hi.ln())).exp()
+/// The simulated session of one case: a hidden effect of `kind` (0 compliance,
+/// 1 gear transmission, 2 backlash, 3 thermal expansion, 4 encoder scale, 5 a tilt
+/// between the second and third axes; `None` pure geometry) on `joint`, its size
+/// scaled so that the geometric fit leaves about `target` times the noise (capped
+/// at what real arms show), 300 tracker positions, `seed`. Returns the scenario,
+/// the hidden effect's name and its joints; `None` if the trial fit failed.
+pub fn hidden_case(
+    nominal: &Robot<f64>,
+    kind: Option<usize>,
+    joint: usize,
+    target: f64,
+    seed: u64,
+    fit: &FullOptions,
+) -> Option<(Scenario, Option<&'static str>, Vec<usize>)> {
+    let mut scenario = Scenario::tracker(300, seed);
+    // Unit-size starting shapes; the scaling below sets the size.
+    let (hidden, joints): (Option<&'static str>, Vec<usize>) = match kind {
+        Some(0) => {
+            scenario.effects.push(Effect::JointCompliance {
+                joint,
+                compliance: 3e-6,
+            });
+            (Some("joint_compliance"), vec![joint])
+        }
+        Some(1) => {
+            let a = 2e-4;
+            scenario.effects.push(Effect::GearTransmission {
+                joint,
+                first: [a, -a / 2.0],
+                second: [a / 3.0, 0.0],
+            });
+            (Some("gear_transmission"), vec![joint])
+        }
+        Some(2) => {
+            scenario.effects.push(Effect::Backlash {
+                joint,
+                half_lost_motion: 2e-4,
+            });
+            (Some("backlash"), vec![joint])
+        }
+        Some(3) => {
+            scenario.effects.push(Effect::ThermalExpansion {
+                coefficient: 2.3e-5,
+                reference: 20.0,
+            });
+            (Some("thermal_expansion"), vec![])
+        }
+        Some(4) => {
+            scenario
+                .effects
+                .push(Effect::EncoderScale { joint, scale: 2e-4 });
+            (Some("encoder_scale"), vec![joint])
+        }
+        Some(_) => {
+            scenario
+                .tilts
+                .push((1, if seed.is_multiple_of(2) { 1e-3 } else { -1e-3 }));
+            (Some("parallel_axis_tilt"), vec![1, 2])
+        }
+        None => (None, vec![]),
+    };
+    if hidden.is_none() {
+        return Some((scenario, hidden, joints));
+    }
+    // Scale the effect so that the geometric fit leaves the target signal: the
+    // effect's share of the residual, √(rms² − 3σ²), is linear in its size.
+    let noise_rms = scenario.position_noise * 3f64.sqrt();
+    let trial = simulate(nominal, &scenario).ok()?;
+    let geometric = crate::identify::full::identify_full(nominal, &trial.observations, fit).ok()?;
+    let effect_rms = (geometric.position_rms.powi(2) - noise_rms.powi(2))
+        .max(1e-18)
+        .sqrt();
+    let k = noise_rms * (target * target - 1.0).sqrt() / effect_rms;
+    // Within what a real arm shows: an effect that would need more to be seen (a
+    // joint whose axis runs near the measured point) stays weak, and its case
+    // counts below 5× instead of as a miss.
+    for e in scenario.effects.iter_mut() {
+        let cap = match e {
+            Effect::JointCompliance { .. } => 5e-5,
+            Effect::ThermalExpansion { .. } => 1e-4,
+            _ => 2e-3,
+        };
+        let largest = (0..e.parameter_count())
+            .filter_map(|c| e.parameter(c))
+            .fold(0.0f64, |m, v| m.max(v.abs()));
+        let k = k.min(cap / largest.max(f64::MIN_POSITIVE));
+        for c in 0..e.parameter_count() {
+            if let Some(v) = e.parameter_mut(c) {
+                *v *= k;
+            }
+        }
+    }
+    for t in scenario.tilts.iter_mut() {
+        t.1 = (t.1 * k).clamp(-1e-2, 1e-2);
+    }
+    Some((scenario, hidden, joints))
 }
 
 /// Runs `cases` cases from `seed`; `progress` is called after each.
@@ -76,99 +169,19 @@ pub fn sweep(cases: usize, seed: u64, mut progress: impl FnMut(usize, &Case)) ->
         let (name, nominal) = &robots[r.random_range(0..robots.len())];
         // PUMA in SI is a 1 m class arm like the others; the UR and PUMA axes 2, 3
         // are nominally parallel (tilt candidates).
-        let dof = nominal.dof();
-        let joint = r.random_range(0..dof);
-        let mut scenario = Scenario::tracker(300, seed.wrapping_mul(1000).wrapping_add(i as u64));
-        let kind = if i % 5 == 4 { 6 } else { r.random_range(0..6) };
-        let (hidden, joints): (Option<&'static str>, Vec<usize>) = match kind {
-            0 => {
-                scenario.effects.push(Effect::JointCompliance {
-                    joint,
-                    compliance: log_uniform(&mut r, 1e-6, 1e-5),
-                });
-                (Some("joint_compliance"), vec![joint])
-            }
-            1 => {
-                let a = log_uniform(&mut r, 5e-5, 5e-4);
-                scenario.effects.push(Effect::GearTransmission {
-                    joint,
-                    first: [a, -a / 2.0],
-                    second: [a / 3.0, 0.0],
-                });
-                (Some("gear_transmission"), vec![joint])
-            }
-            2 => {
-                scenario.effects.push(Effect::Backlash {
-                    joint,
-                    half_lost_motion: log_uniform(&mut r, 5e-5, 5e-4),
-                });
-                (Some("backlash"), vec![joint])
-            }
-            3 => {
-                let k = log_uniform(&mut r, 1e-5, 5e-5);
-                scenario.effects.push(Effect::ThermalExpansion {
-                    coefficient: k,
-                    reference: 20.0,
-                });
-                (Some("thermal_expansion"), vec![])
-            }
-            4 => {
-                scenario.effects.push(Effect::EncoderScale {
-                    joint,
-                    scale: log_uniform(&mut r, 5e-5, 5e-4),
-                });
-                (Some("encoder_scale"), vec![joint])
-            }
-            5 => {
-                scenario.tilts.push((
-                    1,
-                    log_uniform(&mut r, 3e-4, 3e-3)
-                        * if r.random_range(0..2) == 0 { 1.0 } else { -1.0 },
-                ));
-                (Some("parallel_axis_tilt"), vec![1, 2])
-            }
-            _ => (None, vec![]),
+        let kind = if i % 5 == 4 {
+            None
+        } else {
+            Some(r.random_range(0..6))
         };
-        // Scale the effect so that the geometric fit leaves the target signal: the
-        // effect's share of the residual, √(rms² − 3σ²), is linear in its size.
-        let noise_rms = 20e-6 * 3f64.sqrt();
+        let joint = r.random_range(0..nominal.dof());
         let target: f64 = r.random_range(5.0..20.0);
-        if hidden.is_some() {
-            let Ok(trial) = simulate(nominal, &scenario) else {
-                continue;
-            };
-            let Ok(fit) =
-                crate::identify::full::identify_full(nominal, &trial.observations, &options.fit)
-            else {
-                continue;
-            };
-            let effect_rms = (fit.position_rms.powi(2) - noise_rms.powi(2))
-                .max(1e-18)
-                .sqrt();
-            let k = noise_rms * (target * target - 1.0).sqrt() / effect_rms;
-            // Within what a real arm shows: an effect that would need more to be
-            // seen (a joint whose axis runs near the measured point) stays weak,
-            // and its case counts below 5× instead of as a miss.
-            for e in scenario.effects.iter_mut() {
-                let cap = match e {
-                    Effect::JointCompliance { .. } => 5e-5,
-                    Effect::ThermalExpansion { .. } => 1e-4,
-                    _ => 2e-3,
-                };
-                let largest = (0..e.parameter_count())
-                    .filter_map(|c| e.parameter(c))
-                    .fold(0.0f64, |m, v| m.max(v.abs()));
-                let k = k.min(cap / largest.max(f64::MIN_POSITIVE));
-                for c in 0..e.parameter_count() {
-                    if let Some(v) = e.parameter_mut(c) {
-                        *v *= k;
-                    }
-                }
-            }
-            for t in scenario.tilts.iter_mut() {
-                t.1 = (t.1 * k).clamp(-1e-2, 1e-2);
-            }
-        }
+        let case_seed = seed.wrapping_mul(1000).wrapping_add(i as u64);
+        let Some((scenario, hidden, joints)) =
+            hidden_case(nominal, kind, joint, target, case_seed, &options.fit)
+        else {
+            continue;
+        };
         let Ok(session) = simulate(nominal, &scenario) else {
             continue;
         };
