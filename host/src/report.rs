@@ -47,9 +47,9 @@ struct Plot {
     after: Vec<(f64, f64)>,
 }
 
-/// An SVG scatter plot, 560 × 300, with its axes' ranges labelled.
-fn svg(plot: &Plot) -> String {
-    let (w, h, m) = (560.0, 300.0, 50.0);
+/// An SVG scatter plot, `w × h` pixels, with its axes' ranges labelled.
+fn svg(plot: &Plot, w: f64, h: f64) -> String {
+    let m = 50.0;
     let all = plot.before.iter().chain(&plot.after);
     let (mut x0, mut x1, mut y0, mut y1) = (
         f64::INFINITY,
@@ -102,7 +102,7 @@ fn svg(plot: &Plot) -> String {
         yb = h - m,
         ymax = y1,
         ymin = y0,
-        lx = w - m - 150.0,
+        lx = (w - m - 150.0).max(m),
     );
     s
 }
@@ -210,6 +210,87 @@ fn plots(model: &RobotModel, d: &Diagnosis, data: &[Observation]) -> Vec<Plot> {
     out
 }
 
+/// One pose of a joint's panels: its index, the joint's direction of motion at
+/// the tool point, and the joint reading, gravity torque and approach sign.
+type PanelRow = (usize, Vector3<f64>, f64, f64, f64);
+
+/// Which variable of a [`PanelRow`] a panel plots against.
+type Pick = dyn Fn(&PanelRow) -> f64;
+
+/// The panels of every variable a calibration engineer would look at (see the
+/// section's text in [`html`]).
+fn panels(model: &RobotModel, d: &Diagnosis, data: &[Observation]) -> Vec<Plot> {
+    let (before, after) = (residuals(&d.geometric, data), residuals(&d.fit, data));
+    let robot = &d.geometric.calibrated;
+    let mut out = Vec::new();
+    for j in 0..robot.dof() {
+        // Direction of joint j's motion at the tool point, and the three variables.
+        let mut rows = Vec::new();
+        for (i, o) in data.iter().enumerate() {
+            let Ok(chain) = robot.chain(&o.q) else {
+                continue;
+            };
+            let v = at_point(&chain.column(joint_param(robot, j)), &chain.point());
+            let dir = v / v.norm().max(f64::MIN_POSITIVE);
+            let tau = gravity_torques(robot, &chain, o.context.payload.unwrap_or(0.0))[j];
+            let sigma = f64::from(o.context.approach.get(j).copied().unwrap_or(0));
+            rows.push((
+                i,
+                dir,
+                model.units.joint_from_si(robot.links[j].joint, o.q[j]),
+                tau,
+                sigma,
+            ));
+        }
+        let series = |r: &[Vector3<f64>], pick: &dyn Fn(&PanelRow) -> f64| -> Vec<(f64, f64)> {
+            rows.iter()
+                .filter_map(|row| r.get(row.0).map(|res| (pick(row), res.dot(&row.1) * 1e3)))
+                .collect()
+        };
+        let unit = model.units.joint_unit(robot.links[j].joint);
+        let variables: [(String, &Pick); 3] = [
+            (format!("joint {} reading [{unit}]", j + 1), &|r| r.2),
+            (format!("gravity torque on joint {} [N·m]", j + 1), &|r| {
+                r.3
+            }),
+            (format!("approach direction of joint {}", j + 1), &|r| r.4),
+        ];
+        for (label, pick) in variables {
+            out.push(Plot {
+                title: format!("along joint {}'s motion", j + 1),
+                x_label: label,
+                before: series(&before, pick),
+                after: series(&after, pick),
+            });
+        }
+    }
+    let norm_against =
+        |label: &str, x: &dyn Fn(usize, &Observation) -> Option<f64>| -> Option<Plot> {
+            let pts = |r: &[Vector3<f64>]| -> Vec<(f64, f64)> {
+                data.iter()
+                    .enumerate()
+                    .filter_map(|(i, o)| Some((x(i, o)?, r.get(i)?.norm() * 1e3)))
+                    .collect()
+            };
+            let (b, a) = (pts(&before), pts(&after));
+            (!b.is_empty()).then(|| Plot {
+                title: "residual length".into(),
+                x_label: label.into(),
+                before: b,
+                after: a,
+            })
+        };
+    // Time: the rows are in measurement order (FORMAT.md), so the row stands for it.
+    out.extend(norm_against("row (measurement order: time)", &|i, _| {
+        Some(i as f64)
+    }));
+    out.extend(norm_against("temperature [°C]", &|_, o| {
+        o.context.temperature
+    }));
+    out.extend(norm_against("payload [kg]", &|_, o| o.context.payload));
+    out
+}
+
 /// The whole page.
 pub fn html(
     model: &RobotModel,
@@ -258,7 +339,14 @@ pub fn html(
     }
     let _ = write!(s, "</ul><div class=\"plots\">");
     for p in plots(model, d, data) {
-        s.push_str(&svg(&p));
+        s.push_str(&svg(&p, 560.0, 300.0));
+    }
+    let _ = write!(
+        s,
+        "</div><h2>Residuals against what could explain them</h2><p>The residual of the geometric calibration (red) and of the extended one (blue) along each joint's direction of motion at the tool point, against that joint's reading, the gravity torque on it and its approach direction; the residual length against time (row order), temperature and payload.</p><div class=\"plots\">"
+    );
+    for p in panels(model, d, data) {
+        s.push_str(&svg(&p, 380.0, 220.0));
     }
     let (n, g, e) = d.holdout;
     let _ = write!(
