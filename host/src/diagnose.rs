@@ -275,6 +275,17 @@ pub fn diagnose(
     data: &[Observation],
     options: &DiagnoseOptions,
 ) -> Result<Diagnosis, FullError> {
+    diagnose_with_progress(nominal, data, options, &mut |_, _, _| {})
+}
+
+/// [`diagnose`], calling `progress(round, candidate, candidates)` before each
+/// candidate is cross-validated (for a progress bar on a terminal).
+pub fn diagnose_with_progress(
+    nominal: &Robot<f64>,
+    data: &[Observation],
+    options: &DiagnoseOptions,
+    progress: &mut dyn FnMut(usize, usize, usize),
+) -> Result<Diagnosis, FullError> {
     // Blunders: robust scale of the geometric residuals.
     let first = identify_with_effects(nominal, &[], &[], data, &options.fit)?;
     let residuals = position_errors(&first, data);
@@ -302,10 +313,12 @@ pub fn diagnose(
     let geometric = current_fit.clone();
     loop {
         let mut best: Option<Best> = None;
-        for c in all
+        let remaining: Vec<&Candidate> = all
             .iter()
             .filter(|c| !chosen.iter().any(|f| f.candidate == **c))
-        {
+            .collect();
+        for (n, c) in remaining.iter().copied().enumerate() {
+            progress(chosen.len() + 1, n + 1, remaining.len());
             let (mut e, mut x) = (effects.clone(), extra.clone());
             e.extend(c.effect);
             x.extend(c.extra.iter().copied());

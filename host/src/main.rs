@@ -421,7 +421,28 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 options.fit.position_noise = model.units.length_to_si(n);
             }
             let observations = identify::observations(&data);
-            let diagnosis = armcal::diagnose::diagnose(&model.robot, &observations, &options)?;
+            // A progress bar on a terminal: every candidate is cross-validated.
+            use std::io::IsTerminal as _;
+            let tty = std::io::stderr().is_terminal();
+            let mut bar = |round: usize, i: usize, n: usize| {
+                if tty {
+                    let filled = 30 * i / n.max(1);
+                    eprint!(
+                        "\rselection round {round}: [{}{}] candidate {i}/{n}",
+                        "#".repeat(filled),
+                        ".".repeat(30 - filled)
+                    );
+                }
+            };
+            let diagnosis = armcal::diagnose::diagnose_with_progress(
+                &model.robot,
+                &observations,
+                &options,
+                &mut bar,
+            )?;
+            if tty {
+                eprintln!();
+            }
             let lines: Vec<usize> = data.poses.iter().map(|p| p.line).collect();
             let mut outputs = Vec::new();
             if let Some(path) = &out {
