@@ -8,9 +8,8 @@
 //! [`armcal_shared::compensation`]) in `f32`: the same code the host tests run.
 //!
 //! At boot it
-//! 1. checks the shared kinematics on the chip: the manipulator Jacobian of the
-//!    nominal PUMA of Mirman & Gupta (1992), Table 1, at position 1, against a
-//!    central difference of the forward kinematics ([`jacobian_matches_forward`]);
+//! 1. (the kinematics themselves are checked on the host, against finite
+//!    differences and an independent derivation; the chip runs the same code)
 //! 2. runs the boot benchmark ([`bench()`]): eight consecutive corrections of a
 //!    UR10e with realistic joint errors, each between the markers below;
 //! 3. serves the serial link on USART1 ([`serial`]): postcard frames with COBS,
@@ -34,12 +33,9 @@
 #![no_std]
 #![no_main]
 
-use core::f32::consts::{FRAC_PI_2, PI};
-
 use core::mem::MaybeUninit;
 
 use armcal_shared::compensation::{Compensator, Limits};
-use armcal_shared::jacobian::at_point;
 use armcal_shared::link::{self, Device, FrameBuffer, MAX_FRAME, Platform, Request, Response};
 use armcal_shared::units::Units;
 use armcal_shared::{
@@ -171,102 +167,6 @@ impl Platform for Board {
     }
 }
 
-/// Metres per inch: Mirman & Gupta give the PUMA's lengths in inches.
-const INCH: f32 = 0.0254;
-
-/// Joint readings of position 1 of Mirman & Gupta, Table 1, rad, as printed there
-/// (rounded to four decimals, so 0.7854 is 45° and -0.5236 is -30°).
-#[allow(clippy::approx_constant)]
-const POSITION_1: [f32; 6] = [0.7854, -0.5236, -1.2618, 0.2618, -1.6981, -0.3490];
-
-/// Central-difference step of the Jacobian check, rad.
-const STEP: f32 = 1.0e-2;
-
-/// Largest accepted difference between a Jacobian column and the central
-/// difference of the measured point, m/rad.
-///
-/// The truncation error of a central difference is `h²/6·|p'''|`, and `|p'''|` is
-/// at most the arm's reach (under 1 m): 1.7e-5 m/rad at `h = 1e-2`. Rounding adds
-/// about `10 ε |p| / h`, with `ε = 1.2e-7` for `f32` and `|p| < 1 m`: 1.2e-4 m/rad.
-const TOLERANCE: f32 = 5.0e-4;
-
-/// The nominal PUMA of Mirman & Gupta (1992), Table 1: standard D-H, six
-/// revolute joints, θ offsets zero.
-///
-/// ```text
-/// m        1      2     3      4      5      6
-/// s / in   26    -8     0     17      0     -2.25
-/// a / in    0    17     0      0      0      0
-/// α / rad  π/2    0    π/2    π/2    π/2    π
-/// ```
-fn nominal_puma() -> Result<Robot<f32>, ModelError> {
-    let s = [26.0, -8.0, 0.0, 17.0, 0.0, -2.25];
-    let a = [0.0, 17.0, 0.0, 0.0, 0.0, 0.0];
-    // The table prints 1.570796 and 3.141593: π/2 and π to six decimals.
-    let alpha = [FRAC_PI_2, 0.0, FRAC_PI_2, FRAC_PI_2, FRAC_PI_2, PI];
-    let mut links = [Link::new(JointType::Revolute, 0.0, 0.0, 0.0, 0.0); 6];
-    for (m, link) in links.iter_mut().enumerate() {
-        *link = Link::new(JointType::Revolute, 0.0, s[m] * INCH, a[m] * INCH, alpha[m]);
-    }
-    Robot::new(Convention::Dh, &links)
-}
-
-/// Checks every column of the manipulator Jacobian at `q` against the central
-/// difference `(p(q + h e_m) - p(q - h e_m)) / 2h` of the measured point `p`:
-/// the column's displacement of the point (Mirman & Gupta eq. 8) must be the
-/// point's velocity per unit joint rate. Returns the largest difference, m/rad,
-/// or infinity if a column or a difference is not finite.
-fn jacobian_matches_forward(robot: &Robot<f32>, q: &[f32; 6]) -> Result<f32, ModelError> {
-    let chain = robot.chain(q)?;
-    let point = chain.point();
-    let jacobian = chain.manipulator_jacobian();
-    let mut worst: f32 = 0.0;
-    for m in 0..jacobian.ncols() {
-        let (mut plus, mut minus) = (*q, *q);
-        plus[m] += STEP;
-        minus[m] -= STEP;
-        let difference =
-            (robot.measured_point(&plus)? - robot.measured_point(&minus)?) / (2.0 * STEP);
-        let error = at_point(&jacobian.column(m), &point) - difference;
-        if error.iter().any(|e| !e.is_finite()) {
-            return Ok(f32::INFINITY);
-        }
-        worst = worst.max(error.amax());
-    }
-    Ok(worst)
-}
-
-/// The boot self-check: builds the model, runs the kinematics once, logs the
-/// result. Not inlined, so that its stack is freed before the link is served.
-#[inline(never)]
-fn run() -> Result<bool, ModelError> {
-    let robot = nominal_puma()?;
-    let end = robot.forward(&POSITION_1)?;
-    let p = end.translation.vector;
-    defmt::info!(
-        "nominal PUMA, position 1: measured point [{=f32}, {=f32}, {=f32}] m",
-        p.x,
-        p.y,
-        p.z
-    );
-    let worst = jacobian_matches_forward(&robot, &POSITION_1)?;
-    let ok = worst <= TOLERANCE;
-    if ok {
-        defmt::info!(
-            "manipulator Jacobian matches the forward kinematics: worst column error {=f32} m/rad (tolerance {=f32})",
-            worst,
-            TOLERANCE
-        );
-    } else {
-        defmt::error!(
-            "manipulator Jacobian disagrees with the forward kinematics: worst column error {=f32} m/rad (tolerance {=f32})",
-            worst,
-            TOLERANCE
-        );
-    }
-    Ok(ok)
-}
-
 #[entry]
 fn main() -> ! {
     // cortex-m-rt turns these into `&'static mut` without `unsafe`: the state
@@ -276,14 +176,6 @@ fn main() -> ! {
     static mut DEVICE: MaybeUninit<Device> = MaybeUninit::uninit();
     static mut FRAMES: FrameBuffer = FrameBuffer::new();
     defmt::info!("armcal-firmware {=str} booted", env!("CARGO_PKG_VERSION"));
-    match run() {
-        Ok(true) => {}
-        Ok(false) => exit(EXIT_FAILURE),
-        Err(_) => {
-            defmt::error!("kinematics failed: the PUMA model is not valid");
-            exit(EXIT_FAILURE)
-        }
-    }
     match bench() {
         Ok((residual, iterations)) => defmt::info!(
             "benchmark: {=u32} corrections of a 6-axis UR10e, worst residual {=f32} m, at most {=usize} iterations",
