@@ -28,6 +28,7 @@
 
 use armcal_shared::effects::{Effect, EffectModel};
 use armcal_shared::{JointType, Param, Robot};
+use nalgebra::Vector3;
 
 use crate::identify::full::{
     FullError, FullFit, FullOptions, Observation, Status, identify_with_effects,
@@ -71,6 +72,16 @@ pub struct Candidate {
 }
 
 impl Candidate {
+    /// Its joints as a reader counts them, `"2, 3"`, or `"all"` for thermal expansion.
+    pub fn joints_label(&self) -> String {
+        let joints: Vec<String> = self.joints.iter().map(|j| (j + 1).to_string()).collect();
+        if joints.is_empty() {
+            "all".into()
+        } else {
+            joints.join(", ")
+        }
+    }
+
     /// Parameters the candidate adds.
     pub fn parameter_count(&self) -> usize {
         self.effect.map_or(0, |e| e.parameter_count()) + self.extra.len()
@@ -170,20 +181,28 @@ pub fn candidates(robot: &Robot<f64>, data: &[Observation]) -> Vec<Candidate> {
     out
 }
 
-/// Position errors (m) of a fitted model at held-out observations.
-fn position_errors(fit: &FullFit, data: &[Observation]) -> Vec<f64> {
+/// The residual vectors `P_measured − P_model` (m) of a fitted model, effects
+/// included, at every observation, in order (zero where the model cannot be
+/// evaluated; joint counts are checked before any fit, so that does not happen).
+pub fn residuals(fit: &FullFit, data: &[Observation]) -> Vec<Vector3<f64>> {
     let effects: Vec<Effect<f64>> = fit.effects.iter().map(|e| e.effect).collect();
     let Ok(model) = EffectModel::new(fit.calibrated.clone(), &effects) else {
         return Vec::new();
     };
     data.iter()
-        .filter_map(|o| {
+        .map(|o| {
             model
                 .forward(&o.q, &o.context)
-                .ok()
-                .map(|t| (o.position.coords - t.translation.vector).norm())
+                .map_or(Vector3::zeros(), |t| {
+                    o.position.coords - t.translation.vector
+                })
         })
         .collect()
+}
+
+/// Position errors (m) of a fitted model at the observations.
+fn position_errors(fit: &FullFit, data: &[Observation]) -> Vec<f64> {
+    residuals(fit, data).iter().map(|r| r.norm()).collect()
 }
 
 /// Held-out statistics: RMS, mean and max of the position error, m.
@@ -526,21 +545,11 @@ impl Diagnosis {
             );
         }
         for f in &self.findings {
-            let joints: Vec<String> = f
-                .candidate
-                .joints
-                .iter()
-                .map(|j| (j + 1).to_string())
-                .collect();
             let _ = writeln!(
                 out,
                 "found {} (joints {}): held-out gain ×{:.2}, χ² {:.1} > {:.1}",
                 f.candidate.name,
-                if joints.is_empty() {
-                    "all".into()
-                } else {
-                    joints.join(", ")
-                },
+                f.candidate.joints_label(),
                 f.gain,
                 f.chi2.0,
                 f.chi2.1
@@ -572,12 +581,11 @@ impl Diagnosis {
             "\nstrongest candidates (held-out gain on the geometric model):"
         );
         for (c, gain) in tried.iter().take(6) {
-            let joints: Vec<String> = c.joints.iter().map(|j| (j + 1).to_string()).collect();
             let _ = writeln!(
                 out,
                 "  {:<20} joints {:<6} ×{:.3}",
                 c.name,
-                joints.join(","),
+                c.joints_label(),
                 gain
             );
         }

@@ -13,31 +13,14 @@
 
 use std::fmt::Write as _;
 
-use armcal_shared::effects::{Effect, EffectModel, gravity_torques, joint_param};
+use armcal_shared::effects::{Effect, gravity_torques, joint_param};
 use armcal_shared::jacobian::at_point;
 use armcal_shared::{Param, Twist};
 use nalgebra::Vector3;
 
-use crate::diagnose::{DiagnoseOptions, Diagnosis};
-use crate::identify::full::{FullFit, Observation, Status};
+use crate::diagnose::{DiagnoseOptions, Diagnosis, residuals};
+use crate::identify::full::{Observation, Status};
 use crate::model_file::RobotModel;
-
-/// Residual vectors (m) of a fitted model (effects included) at every observation.
-fn residuals(fit: &FullFit, data: &[Observation]) -> Vec<Vector3<f64>> {
-    let effects: Vec<Effect<f64>> = fit.effects.iter().map(|e| e.effect).collect();
-    let Ok(model) = EffectModel::new(fit.calibrated.clone(), &effects) else {
-        return Vec::new();
-    };
-    data.iter()
-        .map(|o| {
-            model
-                .forward(&o.q, &o.context)
-                .map_or(Vector3::zeros(), |t| {
-                    o.position.coords - t.translation.vector
-                })
-        })
-        .collect()
-}
 
 /// One scatter plot: points `(x, y)` in two series (before, after).
 struct Plot {
@@ -174,21 +157,11 @@ fn plots(model: &RobotModel, d: &Diagnosis, data: &[Observation]) -> Vec<Plot> {
             ),
             None => "row (measurement order)".into(),
         };
-        let joints: Vec<String> = f
-            .candidate
-            .joints
-            .iter()
-            .map(|j| (j + 1).to_string())
-            .collect();
         out.push(Plot {
             title: format!(
                 "{} (joints {}): residual along the effect's direction",
                 f.candidate.name,
-                if joints.is_empty() {
-                    "all".into()
-                } else {
-                    joints.join(", ")
-                }
+                f.candidate.joints_label()
             ),
             x_label,
             before: series(&before),
@@ -317,21 +290,11 @@ pub fn html(
     }
     let _ = write!(s, "<ul>");
     for f in &d.findings {
-        let joints: Vec<String> = f
-            .candidate
-            .joints
-            .iter()
-            .map(|j| (j + 1).to_string())
-            .collect();
         let _ = write!(
             s,
             "<li><b>{}</b> (joints {}): held-out RMS ×{:.2} better; sum of squares down by {:.1} noise², 99.9 % threshold {:.1}</li>",
             f.candidate.name,
-            if joints.is_empty() {
-                "all".into()
-            } else {
-                joints.join(", ")
-            },
+            f.candidate.joints_label(),
             f.gain,
             f.chi2.0,
             f.chi2.1
