@@ -19,6 +19,7 @@
 //! | [`link`] | `armcal stream`: the serial link to the controller (TCP or serial port), calibration load and command stream |
 //! | [`compensate`] | `armcal compensate`: corrected joint commands for the calibrated robot |
 //! | [`diagnose`] | `armcal diagnose`: blunders, candidate effects ranked by cross-validation and a χ² test, the extended fit, held-out gain |
+//! | [`demo`] | `armcal demo`: a simulated PUMA with a hidden effect, diagnosed, compensated, reported |
 //! | [`check`] | `armcal check`: what was read, and the error of the nominal model against the data |
 //!
 //! Units: inside the program everything is SI (m, rad, kg), as in `armcal-shared`;
@@ -28,6 +29,7 @@
 pub mod builtin;
 pub mod check;
 pub mod compensate;
+pub mod demo;
 pub mod diagnose;
 pub mod identify;
 pub mod input_error;

@@ -149,6 +149,19 @@ pub fn hidden_case(
     Some((scenario, hidden, joints))
 }
 
+/// The diagnosis settings for a simulated tracker session
+/// ([`Scenario::tracker`], σ = 20 µm): 5-fold cross-validation.
+pub fn tracker_diagnosis() -> DiagnoseOptions {
+    DiagnoseOptions {
+        folds: 5,
+        fit: FullOptions {
+            position_noise: Scenario::tracker(0, 0).position_noise,
+            ..FullOptions::default()
+        },
+        ..DiagnoseOptions::default()
+    }
+}
+
 /// Runs `cases` cases from `seed`; `progress` is called after each.
 pub fn sweep(cases: usize, seed: u64, mut progress: impl FnMut(usize, &Case)) -> Vec<Case> {
     let robots: Vec<(&'static str, Robot<f64>)> = ["puma560", "ur5e", "ur10e"]
@@ -156,14 +169,7 @@ pub fn sweep(cases: usize, seed: u64, mut progress: impl FnMut(usize, &Case)) ->
         .filter_map(|n| crate::model_file::load_model(n).ok().map(|m| (n, m.robot)))
         .collect();
     let mut r = rng(seed);
-    let options = DiagnoseOptions {
-        folds: 5,
-        fit: FullOptions {
-            position_noise: 20e-6,
-            ..FullOptions::default()
-        },
-        ..DiagnoseOptions::default()
-    };
+    let options = tracker_diagnosis();
     let mut out = Vec::with_capacity(cases);
     for i in 0..cases {
         let (name, nominal) = &robots[r.random_range(0..robots.len())];

@@ -552,6 +552,83 @@ pub fn identify_with_effects(
     })
 }
 
+/// The weighted linearisation of a fitted model, extended: the Jacobian columns
+/// of `fit`'s identified unknowns (geometry, then its effects' parameters), then of
+/// the `extra` geometric parameters, then of the parameters of `effects` (at their
+/// values, usually zero), all at `fit`'s solution; and the weighted residual.
+/// Rows as in the fit: per pose 3 position rows (divided by the position noise),
+/// then 3 orientation rows when measured. What [`crate::diagnose`] screens
+/// candidate extensions with, by one Gauss–Newton step per fold.
+pub fn linearize(
+    fit: &FullFit,
+    effects: &[Effect<f64>],
+    extra: &[Param],
+    data: &[Observation],
+    options: &FullOptions,
+) -> Linearization {
+    let mut model = Model {
+        robot: fit.calibrated.clone(),
+        effects: fit.effects.iter().map(|e| e.effect).collect(),
+    };
+    let identified = |s: &Status| matches!(s, Status::Identified { .. });
+    let mut unknowns: Vec<Unknown> = fit
+        .params
+        .iter()
+        .filter(|p| identified(&p.status))
+        .map(|p| Unknown::Param(p.param))
+        .collect();
+    for (effect, e) in fit.effects.iter().enumerate() {
+        unknowns.extend(
+            e.status
+                .iter()
+                .enumerate()
+                .filter(|(_, s)| identified(s))
+                .map(|(component, _)| Unknown::Effect { effect, component }),
+        );
+    }
+    let base = unknowns.len();
+    unknowns.extend(extra.iter().map(|p| Unknown::Param(*p)));
+    for e in effects {
+        let effect = model.effects.len();
+        model.effects.push(*e);
+        unknowns.extend(
+            (0..e.parameter_count()).map(|component| Unknown::Effect { effect, component }),
+        );
+    }
+    let weights = (
+        1.0 / options.position_noise,
+        1.0 / options.orientation_noise,
+    );
+    let sys = LinearSystem::build(&model, data, &unknowns, weights);
+    let mut first_rows = Vec::with_capacity(data.len());
+    let mut row = 0;
+    for obs in data {
+        first_rows.push(row);
+        row += if obs.orientation.is_some() { 6 } else { 3 };
+    }
+    Linearization {
+        j: sys.j,
+        r: sys.r,
+        first_rows,
+        fitted: base,
+        position_noise: options.position_noise,
+    }
+}
+
+/// A weighted linearisation ([`linearize`]).
+pub struct Linearization {
+    /// Weighted Jacobian, rows × unknowns.
+    pub j: Mat<f64>,
+    /// Weighted residual, rows × 1.
+    pub r: Mat<f64>,
+    /// The first row of each pose (its 3 position rows; then 3 orientation rows if measured).
+    pub first_rows: Vec<usize>,
+    /// How many leading columns are the fit's own unknowns.
+    pub fitted: usize,
+    /// The position noise the rows are divided by, m.
+    pub position_noise: f64,
+}
+
 /// Levenberg–Marquardt on `free` from `robot`: iterations, convergence and the
 /// final weighted sum of squares.
 fn levenberg_marquardt(

@@ -6,6 +6,7 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 mod check_identify;
+mod demo;
 mod link;
 mod predict;
 
