@@ -167,7 +167,7 @@ awk -v bench=8 '
         if (n <= bench) { b += c; if (c > bmax) bmax = c } else { l += c; ln++; if (c > lmax) lmax = c }
     }
     END {
-        printf "boot benchmark (UR10e, joint errors only, converged): %d corrections, mean %d, max %d instructions\n", bench, b / bench, bmax
+        printf "boot benchmark (UR10e, joint errors and every effect, converged): %d corrections, mean %d, max %d instructions\n", bench, b / bench, bmax
         if (ln) printf "link (the FIGAROH calibration, bounded corrections): %d corrections, mean %d, max %d instructions\n", ln, l / ln, lmax
     }' "$work/spans"
 tail -n 1 "$work/spans"

@@ -11,12 +11,14 @@
 //! 1. (the kinematics themselves are checked on the host, against finite
 //!    differences and an independent derivation; the chip runs the same code)
 //! 2. runs the boot benchmark ([`bench()`]): eight consecutive corrections of a
-//!    UR10e with realistic joint errors, each between the markers below;
+//!    UR10e with realistic joint errors and every kind of non-geometric effect,
+//!    at 35 °C with a 5 kg payload, each between the markers below;
 //! 3. serves the serial link on USART1 ([`serial`]): postcard frames with COBS,
 //!    one response per request (the message table is in [`armcal_shared::link`]).
 //!    A calibration arrives in chunks and is validated whole before it replaces
 //!    the one in force; it is converted to `f32` once. Each command is corrected
-//!    with the previous tick's correction as the change bound; its duration, from
+//!    in its context (temperature, payload), with the previous tick's correction
+//!    as the change bound and its commands for the approach directions; its duration, from
 //!    the frame's last byte to the encoded response, is measured with SysTick
 //!    ([`clock`]) against [`TICK_PERIOD_CYCLES`] and a longer one counted as a
 //!    deadline miss. Nothing allocates (there is no allocator) and the work per
@@ -35,7 +37,8 @@
 
 use core::mem::MaybeUninit;
 
-use armcal_shared::compensation::{Compensator, Limits};
+use armcal_shared::compensation::{Compensator, Conditions, Limits, Previous};
+use armcal_shared::effects::one_of_each;
 use armcal_shared::link::{self, Device, FrameBuffer, MAX_FRAME, Platform, Request, Response};
 use armcal_shared::units::Units;
 use armcal_shared::{
@@ -72,7 +75,9 @@ pub fn bench_end() {
 /// table, m and rad) with the joint errors armcal identifies from the FIGAROH
 /// UR10e data set (`armcal identify --model figaroh-ur10e-camera --data
 /// figaroh-ur10e-camera`), without its base and tool errors: a robot whose base
-/// and tool are registered, whose corrections stay within their bounds.
+/// and tool are registered, whose corrections stay within their bounds; with one
+/// effect of each kind ([`one_of_each`]), so that the benchmark is a correction
+/// with every effect active.
 fn bench_calibration() -> Result<Calibration, ModelError> {
     use core::f64::consts::FRAC_PI_2;
     let rows = [
@@ -108,6 +113,10 @@ fn bench_calibration() -> Result<Calibration, ModelError> {
         // 13 of MAX_PARAMS: always room.
         let _ = cal.errors.push(ParamError { param, error });
     }
+    for effect in one_of_each() {
+        // 5 of MAX_EFFECTS: always room.
+        let _ = cal.effects.push(effect);
+    }
     Ok(cal)
 }
 
@@ -116,8 +125,8 @@ const BENCH_TICKS: u32 = 8;
 
 /// The boot benchmark: [`BENCH_TICKS`] consecutive 1 kHz ticks of a smooth
 /// motion (about 1 mrad per tick per joint) of the UR10e of
-/// [`bench_calibration`], each correction between [`bench_start`] and
-/// [`bench_end`], with the previous tick's correction as the change bound.
+/// [`bench_calibration`] at 35 °C with 5 kg, each correction between
+/// [`bench_start`] and [`bench_end`], with the previous tick as sent.
 /// These are the first spans `qemu-insn-count.c` counts. Returns the worst
 /// residual, m, and the most iterations. Not inlined: its 13 KB of locals (a
 /// calibration and a compensator) are freed before the link is served.
@@ -126,21 +135,26 @@ fn bench() -> Result<(f32, usize), ModelError> {
     let cal = bench_calibration()?;
     let compensator = Compensator::<f32>::from_calibration(&cal, Limits::default());
     let q0 = [1.589f32, 0.578, -1.675, 0.351, 1.784, 2.232];
-    let mut previous: Option<[f32; 6]> = None;
+    let conditions = Conditions {
+        temperature: Some(35.0),
+        payload: Some(5.0),
+    };
+    let mut previous: Option<([f32; 6], [f32; 6])> = None;
     let (mut worst, mut iterations) = (0.0f32, 0);
     for t in 0..BENCH_TICKS {
         let mut q = q0;
         for (m, qm) in q.iter_mut().enumerate() {
             *qm += 1e-3 * t as f32 * (1.0 + m as f32 / 6.0);
         }
+        let last = previous.as_ref().map(|(q_cmd, q)| Previous { q_cmd, q });
         bench_start();
-        let c = compensator.correct(&q, previous.as_ref().map(|p| &p[..]));
+        let c = compensator.correct(&q, last, &conditions);
         bench_end();
-        let mut correction = [0.0f32; 6];
-        for (d, (a, b)) in correction.iter_mut().zip(c.q.iter().zip(&q)) {
-            *d = a - b;
+        let mut sent = [0.0f32; 6];
+        for (s, c) in sent.iter_mut().zip(&c.q) {
+            *s = *c;
         }
-        previous = Some(correction);
+        previous = Some((q, sent));
         if c.fault.is_some() {
             defmt::warn!("benchmark tick {=u32}: not corrected to tolerance", t);
         }

@@ -10,6 +10,13 @@
 //! order they are sent: each row's correction may change from the previous row's
 //! by at most the per-tick bound, as on the controller.
 //!
+//! Non-geometric effects (a calibration from `armcal diagnose`) are compensated
+//! in each row's conditions, its `temp` and `load` columns
+//! ([`crate::predict::row_conditions`], as `armcal predict` reads them), and
+//! with the approach direction of each joint from the previous row's corrected
+//! commands (the commands sent; see [`armcal_shared::compensation`]): `armcal
+//! predict` on the output rows, with the same columns, gives the nominal poses.
+//!
 //! Units: commands are read in the calibration's model units (the angle unit for
 //! revolute joints, the length unit for prismatic ones) and written back in them,
 //! `q1..qM` with Rust's shortest round-trip formatting. A row whose correction was
@@ -18,10 +25,11 @@
 
 use core::fmt::Write as _;
 
-use armcal_shared::compensation::{Compensator, Correction, Fault, Limits};
+use armcal_shared::compensation::{Compensator, Correction, Fault, Limits, Previous};
 use armcal_shared::{Calibration, JointType};
 
 use crate::measurements::JointRows;
+use crate::predict::row_conditions;
 
 /// A CSV of joint commands `q1..qM` (SI in, the calibration's model units out,
 /// shortest round-trip formatting) after a `#` comment line.
@@ -68,16 +76,19 @@ pub struct Compensated {
 /// Compensates every row of `commands` in order.
 pub fn compensate(cal: &Calibration, commands: &JointRows) -> Compensated {
     let compensator = Compensator::<f64>::from_calibration(cal, Limits::default());
-    let mut previous: Option<Vec<f64>> = None;
-    let rows = commands
-        .rows
-        .iter()
-        .map(|row| {
-            let c = compensator.correct(&row.q, previous.as_deref());
-            previous = Some(c.q.iter().zip(&row.q).map(|(q, q_cmd)| q - q_cmd).collect());
-            (row.line, c)
-        })
-        .collect();
+    let mut rows: Vec<(usize, Correction<f64>)> = Vec::with_capacity(commands.len());
+    let mut last: Option<&[f64]> = None;
+    for row in &commands.rows {
+        let previous = last
+            .zip(rows.last())
+            .map(|(q_cmd, (_, c))| Previous { q_cmd, q: &c.q[..] });
+        let c = compensator.correct(&row.q, previous, &row_conditions(row));
+        // As on the controller: after a row that could not be computed the next
+        // one is a first tick.
+        last =
+            (!matches!(c.fault, Some(Fault::NonFinite | Fault::JointCount))).then_some(&row.q[..]);
+        rows.push((row.line, c));
+    }
     Compensated { rows }
 }
 

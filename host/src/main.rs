@@ -532,15 +532,6 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             out,
         } => {
             let cal = predict::load_calibration(&calibration)?;
-            anyhow::ensure!(
-                cal.effects.is_empty(),
-                "{calibration}: it carries non-geometric effects ({}), which compensate does not apply yet: use a geometric calibration (armcal identify --out)",
-                cal.effects
-                    .iter()
-                    .map(|e| e.name())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            );
             let rows = measurements::load_joints(&joints, &cal.nominal, &cal.units)?;
             let result = compensate::compensate(&cal, &rows);
             let csv = result.to_csv(&cal, &calibration);

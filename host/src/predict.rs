@@ -33,7 +33,10 @@ use armcal_shared::units::Units;
 use nalgebra::{Point3, UnitQuaternion};
 
 use crate::input_error::InputError;
-use crate::measurements::JointRows;
+use armcal_shared::compensation::Conditions;
+use armcal_shared::effects::{Context, approach_signs};
+
+use crate::measurements::{JointRow, JointRows};
 
 /// The predicted pose of one row.
 #[derive(Clone, Debug, PartialEq)]
@@ -74,6 +77,27 @@ pub fn load_calibration(path: &str) -> Result<Calibration, InputError> {
     Calibration::decode(&bytes).map_err(|e| InputError::new(path, 0, 0, e.to_string()))
 }
 
+/// The conditions of a row that effects depend on: its `temp` (°C) and `load`
+/// (kg) columns.
+pub fn row_conditions(row: &JointRow) -> Conditions<f64> {
+    Conditions {
+        temperature: row.temp,
+        payload: row.load,
+    }
+}
+
+/// The context of the effects at a row: its conditions ([`row_conditions`]) and
+/// the approach direction of each joint from `previous`, the joint values of the
+/// row before (row order is motion order, `FORMAT.md`).
+pub fn row_context(row: &JointRow, previous: Option<&[f64]>) -> Context<f64> {
+    let conditions = row_conditions(row);
+    Context {
+        temperature: conditions.temperature,
+        payload: conditions.payload,
+        approach: approach_signs(previous, &row.q),
+    }
+}
+
 /// The pose of the calibrated model for each row of `rows`, in row order.
 ///
 /// `rows` must have been read against the calibration's nominal model
@@ -85,13 +109,7 @@ pub fn predict(cal: &Calibration, rows: &JointRows) -> Result<Predictions, Input
     let mut out = Vec::with_capacity(rows.len());
     let mut previous: Option<&[f64]> = None;
     for row in &rows.rows {
-        // The context of the effects: temperature and payload from the row, the
-        // approach direction of each joint from the previous row.
-        let ctx = armcal_shared::effects::Context {
-            temperature: row.temp,
-            payload: row.load,
-            approach: armcal_shared::effects::approach_signs(previous, &row.q),
-        };
+        let ctx = row_context(row, previous);
         previous = Some(&row.q);
         let frame = model
             .forward(&row.q, &ctx)

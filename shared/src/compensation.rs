@@ -40,23 +40,91 @@
 //! - Any non-finite input or intermediate value returns the nominal command with
 //!   [`Fault::NonFinite`]: the controller never sends a wild command.
 //!
-//! A step is taken only if it lowers the residual: the second-order step, else the
+//! A geometric step is taken only if it lowers the residual: the second-order step, else the
 //! first-order one, each halved up to three times; near a singularity the
 //! linearisation overshoots, and the best point found is kept. The cost per call
 //! is bounded by [`Limits::max_iterations`]: each iteration is one to eight chains
 //! of the calibrated model (one when the step succeeds, as it does away from
 //! singularities), one second-order expansion and two 6 × 6 (or 3 × 3) Cholesky
 //! solves; no allocation.
+//!
+//! # Non-geometric effects
+//!
+//! A calibration from `armcal diagnose` adds effects ([`crate::effects`]) to the
+//! geometry: the calibrated robot at commands (= joint readings) `q`, in the
+//! tick's conditions (temperature `T`, payload `m`) and with approach signs `σ`, is
+//!
+//! ```text
+//! T_cal(q; T, m, σ) = G_T(p),   p_j = q_j + Δq_j(q; m, σ_j)
+//! Δq_j = c_j τ_j(q, m) + Σ_k (s_jk sin k q_j + c_jk cos k q_j) + ε_j q_j + b_j σ_j
+//! ```
+//!
+//! with `G_T` the calibrated geometry whose lengths `a`, `s` are scaled by
+//! `1 + κ (T − T_ref)` (thermal expansion), `τ_j` the gravity torque at the
+//! readings (N·m, or N for a prismatic joint), `c_j` the compliance (rad/(N·m)),
+//! the gear harmonics (rad), `ε_j` the encoder-scale error and `b_j` half the lost
+//! motion (rad or m). The effects act on the joint readings only, so the solution
+//! is found in two steps:
+//!
+//! 1. the geometric problem above on `G_T`: the real joint positions `p` with
+//!    `G_T(p) = T_nom(q_cmd)`;
+//! 2. the commands that put the joints at `p`: `q_j = (p_j − o_j(q) − b_j σ_j) /
+//!    (1 + ε_j)`, with `o_j` the compliance and gear terms evaluated at the
+//!    current `q` (one chain for the gravity torques when there is a compliance),
+//!    repeated until no joint changes by more than [`Limits::tolerance`] /
+//!    [`Limits::length_scale`] rad, at most [`Limits::max_iterations`] times. The
+//!    encoder scale is inverted exactly; `o_j` changes with `q` by a factor of
+//!    about 10⁻³ of the change in `q` (c·∂τ/∂q, the harmonic amplitudes), so each
+//!    repetition gains three orders of magnitude: two or three suffice.
+//!
+//! **Approach direction.** The controller sends `q`, so `σ_j = sign(q_j −
+//! q_prev_j)` of the commands *sent* (the corrected ones) at this and the previous
+//! tick, 0 when the joint does not move and at the first tick: exactly what
+//! [`crate::effects::approach_signs`] gives for the stream of sent commands, as
+//! the calibration was identified from readings in row order. For a joint with
+//! backlash, with `d_j = (p_j − o_j)/(1 + ε_j) − q_prev_j` the move that reaches
+//! `p_j` without lost motion, `σ_j = sign(d_j)` and `q_j = q_prev_j + d_j − b_j σ_j
+//! / (1 + ε_j)`, which is consistent when that move still has the sign `σ_j` (`|d_j|
+//! > |b_j|/(1 + ε_j)`): the usual case, a joint moving on or reversing by more
+//! than its lost motion. Otherwise the target lies within the lost motion (a
+//! standstill after a motion, the first ticks of a reversal): no command reaches
+//! it in this model, the joint is held at `q_prev_j` (`σ_j = 0`), and the pose is
+//! missed by at most the lost motion at the joint's lever; the correction is
+//! flagged [`Fault::NotConverged`] with that residual.
+//!
+//! The tick's conditions are [`Conditions`]: temperature °C, payload kg (0 when
+//! not given); without a temperature the lengths are the reference ones. A
+//! geometric calibration takes exactly the steps of the geometric problem.
 
 use heapless::Vec;
-use nalgebra::{Matrix3, Matrix6, SMatrix, Vector3, Vector6};
+use nalgebra::{IsometryMatrix3, SMatrix, Vector3, Vector6};
 
+use crate::effects::{Effect, EffectModel, MAX_EFFECTS, gravity_torques};
 use crate::jacobian::at_point;
 use crate::kinematics::Prepared;
 use crate::perturbation::expand;
 use crate::{
     Calibration, Chain, Convention, JointType, MAX_JOINTS, Param, Real, Robot, rotation_error,
 };
+
+/// The conditions of one tick that non-geometric effects depend on.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Conditions<T: Real> {
+    /// Temperature, °C; `None`: the reference temperature of thermal expansion.
+    pub temperature: Option<T>,
+    /// Payload at the tool point, kg; `None`: none.
+    pub payload: Option<T>,
+}
+
+/// The previous tick, as it was sent: for the change bound of the correction and
+/// the approach direction of each joint.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Previous<'a, T: Real> {
+    /// The nominal commands of the previous tick.
+    pub q_cmd: &'a [T],
+    /// The commands sent at the previous tick (its corrected `q`).
+    pub q: &'a [T],
+}
 
 /// Bounds and tolerances of the compensation, SI units.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -131,7 +199,7 @@ pub struct Correction<T: Real> {
 }
 
 /// The compensation for one calibration: the nominal and the calibrated model,
-/// prepared once.
+/// prepared once, and the calibration's effects.
 #[derive(Clone, Debug)]
 pub struct Compensator<T: Real> {
     nominal: Prepared<T>,
@@ -139,6 +207,9 @@ pub struct Compensator<T: Real> {
     convention: Convention,
     joints: Vec<JointType, MAX_JOINTS>,
     orientation: bool,
+    /// The calibrated geometry (its masses and gravity, for the torques) and the
+    /// effects; none for a geometric calibration.
+    effects: EffectModel<T>,
     /// The bounds and tolerances in force.
     pub limits: Limits<T>,
 }
@@ -152,22 +223,60 @@ impl<T: Real> Compensator<T> {
         orientation: bool,
         limits: Limits<T>,
     ) -> Self {
+        Self::with_effects(
+            nominal,
+            EffectModel {
+                robot: calibrated.clone(),
+                effects: Vec::new(),
+            },
+            orientation,
+            limits,
+        )
+    }
+
+    /// A compensator for a calibrated model with non-geometric effects.
+    pub fn with_effects(
+        nominal: &Robot<T>,
+        calibrated: EffectModel<T>,
+        orientation: bool,
+        limits: Limits<T>,
+    ) -> Self {
         Self {
             nominal: nominal.prepare(),
-            calibrated: calibrated.prepare(),
-            convention: calibrated.convention,
-            joints: calibrated.links.iter().map(|l| l.joint).collect(),
+            calibrated: calibrated.robot.prepare(),
+            convention: calibrated.robot.convention,
+            joints: calibrated.robot.links.iter().map(|l| l.joint).collect(),
             orientation,
+            effects: calibrated,
             limits,
         }
     }
 
-    /// A compensator for a calibration file's models, in the scalar `T` (`f32` on
-    /// the controller), with full-pose compensation if it was identified from full poses.
+    /// A compensator for a calibration file's models and effects, in the scalar
+    /// `T` (`f32` on the controller), with full-pose compensation if it was
+    /// identified from full poses.
     pub fn from_calibration(calibration: &Calibration, limits: Limits<T>) -> Self {
-        Self::new(
+        // The identified errors are added in `T` (in f32 the sum rounds once more,
+        // by at most an f32 unit in the last place): the controller then needs no
+        // f64 arithmetic.
+        let mut robot: Robot<T> = calibration.nominal.cast();
+        for e in &calibration.errors {
+            if let Some(v) = robot.param_mut(e.param) {
+                *v += T::lit(e.error);
+            }
+        }
+        let effects: Vec<Effect<T>, MAX_EFFECTS> =
+            calibration.effects.iter().map(|e| e.cast()).collect();
+        // `Calibration::decode` checked every effect's joint; a calibration built
+        // in memory with an effect on a missing joint is compensated geometrically,
+        // as `Calibration::model` evaluates it.
+        let model = EffectModel::new(robot.clone(), &effects).unwrap_or(EffectModel {
+            robot,
+            effects: Vec::new(),
+        });
+        Self::with_effects(
             &calibration.nominal.cast(),
-            &calibration.calibrated().cast(),
+            model,
             calibration.orientation,
             limits,
         )
@@ -186,9 +295,30 @@ impl<T: Real> Compensator<T> {
         }
     }
 
-    /// The corrected commands for `q_cmd`. `previous` is the correction sent at the
-    /// previous tick (`q − q_cmd`), to bound its change; `None` at the first tick.
-    pub fn correct(&self, q_cmd: &[T], previous: Option<&[T]>) -> Correction<T> {
+    /// The size bound and the change-per-tick bound of joint `m`'s correction.
+    fn bounds(&self, m: usize) -> (T, T) {
+        match self.joints[m] {
+            JointType::Revolute => (
+                self.limits.max_correction_angle,
+                self.limits.max_change_angle,
+            ),
+            JointType::Prismatic => (
+                self.limits.max_correction_length,
+                self.limits.max_change_length,
+            ),
+        }
+    }
+
+    /// The corrected commands for `q_cmd` in the tick's `conditions`. `previous`
+    /// is the previous tick as sent (`None` at the first tick): its correction
+    /// bounds the change of this one, and its commands give each joint's approach
+    /// direction (see the module header).
+    pub fn correct(
+        &self,
+        q_cmd: &[T],
+        previous: Option<Previous<'_, T>>,
+        conditions: &Conditions<T>,
+    ) -> Correction<T> {
         let n = self.dof();
         let unchanged = |fault| Correction {
             q: q_cmd.iter().copied().take(MAX_JOINTS).collect(),
@@ -196,28 +326,103 @@ impl<T: Real> Compensator<T> {
             iterations: 0,
             residual: T::zero(),
         };
-        if q_cmd.len() != n || previous.is_some_and(|p| p.len() != n) {
+        if q_cmd.len() != n || previous.is_some_and(|p| p.q_cmd.len() != n || p.q.len() != n) {
             return unchanged(Fault::JointCount);
         }
         let finite = |v: &[T]| v.iter().all(|x| x.is_finite());
-        if !finite(q_cmd) || previous.is_some_and(|p| !finite(p)) {
+        let conditions_finite = [conditions.temperature, conditions.payload]
+            .iter()
+            .all(|c| c.is_none_or(|x| x.is_finite()));
+        if !finite(q_cmd)
+            || previous.is_some_and(|p| !finite(p.q_cmd) || !finite(p.q))
+            || !conditions_finite
+        {
             return unchanged(Fault::NonFinite);
         }
         let Ok(target) = self.nominal.forward(q_cmd) else {
             return unchanged(Fault::JointCount);
         };
+        // The calibrated geometry at the tick's temperature.
+        let factor = self.effects.length_factor(conditions.temperature);
+        let scaled;
+        let geometry = if factor == T::one() {
+            &self.calibrated
+        } else {
+            scaled = self.calibrated.with_length_factor(factor);
+            &scaled
+        };
+        // 1. The real joint positions p that reach the target.
         let mut q: Vec<T, MAX_JOINTS> = q_cmd.iter().copied().collect();
-        let Ok(mut chain) = self.calibrated.chain(&q) else {
+        let Ok(mut chain) = geometry.chain(&q) else {
             return unchanged(Fault::JointCount);
         };
+        let (iterations, mut residual) = match self.solve(geometry, &target, &mut q, &mut chain) {
+            Ok(solved) => solved,
+            Err(fault) => return unchanged(fault),
+        };
+        let mut fault = (residual > self.limits.tolerance).then_some(Fault::NotConverged);
+        // 2. The commands that put the joints at p.
+        if self.effects.corrects_joints() {
+            let sent = previous.map(|p| p.q);
+            match self.invert(geometry, &mut q, sent, conditions, &mut chain) {
+                None => return unchanged(Fault::NonFinite),
+                Some(None) => {}
+                Some(Some(held)) => {
+                    if geometry.chain_into(&held, &mut chain).is_err() {
+                        return unchanged(Fault::JointCount);
+                    }
+                    residual = self.residual(&target, &chain.end).1;
+                    fault = (residual > self.limits.tolerance).then_some(Fault::NotConverged);
+                }
+            }
+        }
+        // Bounds: the size of the correction, then its change since the last tick.
+        for m in 0..n {
+            let (max, change) = self.bounds(m);
+            let mut c = q[m] - q_cmd[m];
+            let mut clip = |lo: T, hi: T| {
+                if c < lo || c > hi {
+                    c = c.clamp(lo, hi);
+                    fault = fault.or(Some(Fault::Limited));
+                }
+            };
+            // The change per tick first, then the size: the size bound always holds,
+            // and when the previous correction was within it (as every correction
+            // this returns is) both do.
+            if let Some(p) = previous {
+                let prev = p.q[m] - p.q_cmd[m];
+                clip(prev - change, prev + change);
+            }
+            clip(-max, max);
+            q[m] = q_cmd[m] + c;
+        }
+        if !finite(&q) || !residual.is_finite() {
+            return unchanged(Fault::NonFinite);
+        }
+        Correction {
+            q,
+            fault,
+            iterations,
+            residual,
+        }
+    }
+
+    /// The geometric problem: refines `q` (from the command) until `geometry`
+    /// reaches `target` (eq. 4.9, repeated; see the module header). Returns the
+    /// iterations and the residual's norm; `chain` ends at the returned `q`.
+    fn solve(
+        &self,
+        geometry: &Prepared<T>,
+        target: &IsometryMatrix3<T>,
+        q: &mut Vec<T, MAX_JOINTS>,
+        chain: &mut Chain<T>,
+    ) -> Result<(usize, T), Fault> {
         let mut iterations = 0;
-        let mut residual = self.residual(&target, &chain);
+        let mut residual = self.residual(target, &chain.end);
         let mut trial_q = q.clone();
         while residual.1 > self.limits.tolerance && iterations < self.limits.max_iterations {
             iterations += 1;
-            let Some((first, second)) = self.step(&chain, &residual.0) else {
-                return unchanged(Fault::NonFinite);
-            };
+            let (first, second) = self.step(chain, &residual.0).ok_or(Fault::NonFinite)?;
             // Take a step only if it lowers the residual: the second-order one (eq.
             // 4.9) first, then the first-order one, each halved up to three times.
             // Near a singularity the linearisation overshoots and the second-order
@@ -229,10 +434,7 @@ impl<T: Real> Compensator<T> {
                 // one step (near a singularity the step is otherwise huge).
                 let mut scale = T::one();
                 for (m, d) in step.iter().enumerate() {
-                    let max = match self.joints[m] {
-                        JointType::Revolute => self.limits.max_correction_angle,
-                        JointType::Prismatic => self.limits.max_correction_length,
-                    };
+                    let max = self.bounds(m).0;
                     if d.abs() * scale > max {
                         scale = max / d.abs();
                     }
@@ -242,13 +444,13 @@ impl<T: Real> Compensator<T> {
                     for ((t, qm), d) in trial_q.iter_mut().zip(q.iter()).zip(step.iter()) {
                         *t = *qm + *d;
                     }
-                    if self.calibrated.chain_into(&trial_q, &mut chain).is_err() {
-                        return unchanged(Fault::JointCount);
-                    }
-                    let trial = self.residual(&target, &chain);
+                    geometry
+                        .chain_into(&trial_q, chain)
+                        .map_err(|_| Fault::JointCount)?;
+                    let trial = self.residual(target, &chain.end);
                     if trial.1 < residual.1 {
                         (residual, improved) = (trial, true);
-                        core::mem::swap(&mut q, &mut trial_q);
+                        core::mem::swap(q, &mut trial_q);
                         break 'candidates;
                     }
                     step.iter_mut().for_each(|d| *d *= T::lit(0.5));
@@ -256,58 +458,102 @@ impl<T: Real> Compensator<T> {
             }
             if !improved {
                 // `chain` holds the last trial: back to the best point.
-                if self.calibrated.chain_into(&q, &mut chain).is_err() {
-                    return unchanged(Fault::JointCount);
-                }
+                geometry
+                    .chain_into(q, chain)
+                    .map_err(|_| Fault::JointCount)?;
                 break;
             }
         }
-        let mut fault = (residual.1 > self.limits.tolerance).then_some(Fault::NotConverged);
-        // Bounds: the size of the correction, then its change since the last tick.
-        for m in 0..n {
-            let (max, change) = match self.joints[m] {
-                JointType::Revolute => (
-                    self.limits.max_correction_angle,
-                    self.limits.max_change_angle,
-                ),
-                JointType::Prismatic => (
-                    self.limits.max_correction_length,
-                    self.limits.max_change_length,
-                ),
-            };
-            let mut c = q[m] - q_cmd[m];
-            let mut clip = |lo: T, hi: T| {
-                if c < lo || c > hi {
-                    c = c.clamp(lo, hi);
-                    fault = fault.or(Some(Fault::Limited));
-                }
-            };
-            // The change per tick first, then the size: the size bound always holds,
-            // and when the previous correction was within it (as every correction
-            // this returns is) both do.
-            if let Some(prev) = previous {
-                clip(prev[m] - change, prev[m] + change);
+        Ok((iterations, residual.1))
+    }
+
+    /// The effects' inversion: replaces the joint positions `p` in `q` by the
+    /// commands `q` with `q + Δq(q) = p` (see the module header), `sent` the
+    /// previous tick's commands. `None` if a value was not finite; `Some(Some(p'))`
+    /// with the joint positions really reached when a joint was held within its
+    /// lost motion; `Some(None)` otherwise. `chain` is a work buffer.
+    #[allow(clippy::option_option)]
+    fn invert(
+        &self,
+        geometry: &Prepared<T>,
+        q: &mut Vec<T, MAX_JOINTS>,
+        sent: Option<&[T]>,
+        conditions: &Conditions<T>,
+        chain: &mut Chain<T>,
+    ) -> Option<Option<Vec<T, MAX_JOINTS>>> {
+        let p = q.clone();
+        let payload = conditions.payload.unwrap_or(T::zero());
+        let tolerance = self.limits.tolerance / self.limits.length_scale;
+        let sign = |x: T| {
+            if x > T::zero() {
+                T::one()
+            } else if x < T::zero() {
+                -T::one()
+            } else {
+                T::zero()
             }
-            clip(-max, max);
-            q[m] = q_cmd[m] + c;
+        };
+        let mut held = false;
+        let mut tau: Vec<T, MAX_JOINTS> = q.iter().map(|_| T::zero()).collect();
+        let mut terms = self.effects.joint_terms(q, &tau);
+        for _ in 0..self.limits.max_iterations.max(1) {
+            if self.effects.needs_torque() {
+                geometry.chain_into(q, chain).ok()?;
+                tau = gravity_torques(&self.effects.robot, chain, payload);
+            }
+            terms = self.effects.joint_terms(q, &tau);
+            let mut change = T::zero();
+            held = false;
+            for j in 0..q.len() {
+                let stretch = T::one() + terms.scale[j];
+                let mut next = (p[j] - terms.offset[j]) / stretch;
+                if let Some(prev) = sent.filter(|_| terms.backlash[j] != T::zero()) {
+                    let lost = terms.backlash[j] / stretch;
+                    let d = next - prev[j];
+                    let sigma = sign(d);
+                    if sign(d - lost * sigma) == sigma {
+                        next -= lost * sigma;
+                    } else {
+                        // Within the lost motion: held (σ = 0).
+                        next = prev[j];
+                        held = true;
+                    }
+                }
+                change = change.max((next - q[j]).abs());
+                q[j] = next;
+            }
+            if !change.is_finite() {
+                return None;
+            }
+            if change <= tolerance {
+                break;
+            }
         }
-        if !finite(&q) || !residual.1.is_finite() {
-            return unchanged(Fault::NonFinite);
+        if !held {
+            return Some(None);
         }
-        Correction {
-            q,
-            fault,
-            iterations,
-            residual: residual.1,
-        }
+        // Where the joints really go: q + Δq(q) with the approach of the commands.
+        let reached = q
+            .iter()
+            .enumerate()
+            .map(|(j, &qj)| {
+                let sigma = sent.map_or(T::zero(), |prev| sign(qj - prev[j]));
+                qj + terms.correction(j, qj, sigma)
+            })
+            .collect();
+        Some(Some(reached))
     }
 
     /// The residual `e` (rotation scaled to a length, then position; the rotation
     /// part is zero without orientation) and the position residual's norm.
-    fn residual(&self, target: &nalgebra::IsometryMatrix3<T>, chain: &Chain<T>) -> (Vector6<T>, T) {
-        let dp = target.translation.vector - chain.end.translation.vector;
+    fn residual(
+        &self,
+        target: &IsometryMatrix3<T>,
+        reached: &IsometryMatrix3<T>,
+    ) -> (Vector6<T>, T) {
+        let dp = target.translation.vector - reached.translation.vector;
         let dr = if self.orientation {
-            rotation_error(&target.rotation, &chain.end.rotation) * self.limits.length_scale
+            rotation_error(&target.rotation, &reached.rotation) * self.limits.length_scale
         } else {
             Vector3::zeros()
         };
@@ -335,7 +581,8 @@ impl<T: Real> Compensator<T> {
             let w = col.fixed_rows::<3>(0) * self.limits.length_scale;
             jac.set_column(m, &Vector6::new(w.x, w.y, w.z, v.x, v.y, v.z));
         }
-        let first = self.damped_solve(&jac, e)?;
+        let l = self.factor(&jac)?;
+        let first = self.damped_solve(&jac, &l, e)?;
         // Second-order change of the calibrated frame under δ₁ (eq. 2.22).
         let mut dq: Vec<(Param, T), MAX_JOINTS> = Vec::new();
         for (m, d) in first.iter().enumerate() {
@@ -353,43 +600,86 @@ impl<T: Real> Compensator<T> {
             second_point.y,
             second_point.z,
         );
-        let second = self.damped_solve(&jac, &(e - h))?;
+        let second = self.damped_solve(&jac, &l, &(e - h))?;
         Some((first, second))
     }
 
-    /// `Jᵀ (J Jᵀ + λ² I)⁻¹ r` over the rows in use (6 with orientation, 3 without).
+    /// The Cholesky factor `L` of `J Jᵀ + λ² I` over the rows in use (6 with
+    /// orientation, the 3 position rows without), in the lower triangle of a 6 × 6
+    /// array (the first 3 × 3 without orientation); `None` if not positive
+    /// definite or not finite. Written out rather than nalgebra's, so that one
+    /// small loop serves both sizes (flash on the controller) and one
+    /// factorisation serves both solves of a step.
+    fn factor(&self, jac: &SMatrix<T, 6, MAX_JOINTS>) -> Option<[[T; 6]; 6]> {
+        let (first, k) = self.rows();
+        let lambda2 = self.limits.damping * self.limits.damping;
+        let mut a = [[T::zero(); 6]; 6];
+        for i in 0..k {
+            for j in 0..=i {
+                let mut s = if i == j { lambda2 } else { T::zero() };
+                for m in 0..self.dof() {
+                    s += jac[(first + i, m)] * jac[(first + j, m)];
+                }
+                a[i][j] = s;
+            }
+        }
+        for j in 0..k {
+            let row_j = a[j];
+            let d = row_j[..j].iter().fold(row_j[j], |d, x| d - *x * *x);
+            // Not positive, or NaN.
+            if d.partial_cmp(&T::zero()) != Some(core::cmp::Ordering::Greater) {
+                return None;
+            }
+            let d = d.sqrt();
+            a[j][j] = d;
+            for row_i in a.iter_mut().take(k).skip(j + 1) {
+                let s = row_i[..j]
+                    .iter()
+                    .zip(&row_j[..j])
+                    .fold(row_i[j], |s, (x, y)| s - *x * *y);
+                row_i[j] = s / d;
+            }
+        }
+        Some(a)
+    }
+
+    /// The first row in use and their number: 0 and 6 with orientation, 3 and 3
+    /// without.
+    fn rows(&self) -> (usize, usize) {
+        if self.orientation { (0, 6) } else { (3, 3) }
+    }
+
+    /// `Jᵀ (J Jᵀ + λ² I)⁻¹ r` over the rows in use, with `l` from [`Self::factor`];
+    /// `None` if not finite.
     fn damped_solve(
         &self,
         jac: &SMatrix<T, 6, MAX_JOINTS>,
+        l: &[[T; 6]; 6],
         r: &Vector6<T>,
     ) -> Option<Vec<T, MAX_JOINTS>> {
-        let n = self.dof();
-        let lambda2 = self.limits.damping * self.limits.damping;
-        let y: Vector6<T> = if self.orientation {
-            let mut a = Matrix6::<T>::zeros();
-            for m in 0..n {
-                let c = jac.column(m);
-                a += c * c.transpose();
+        let (first, k) = self.rows();
+        // L y = r, then Lᵀ y = y.
+        let mut y = [T::zero(); 6];
+        for i in 0..k {
+            let mut s = r[first + i];
+            for p in 0..i {
+                s -= l[i][p] * y[p];
             }
-            for i in 0..6 {
-                a[(i, i)] += lambda2;
+            y[i] = s / l[i][i];
+        }
+        for i in (0..k).rev() {
+            let mut s = y[i];
+            for p in i + 1..k {
+                s -= l[p][i] * y[p];
             }
-            a.cholesky()?.solve(r)
-        } else {
-            let mut a = Matrix3::<T>::zeros();
-            for m in 0..n {
-                let c = jac.fixed_view::<3, 1>(3, m);
-                a += c * c.transpose();
-            }
-            for i in 0..3 {
-                a[(i, i)] += lambda2;
-            }
-            let yp = a.cholesky()?.solve(&r.fixed_rows::<3>(3).into_owned());
-            Vector6::new(T::zero(), T::zero(), T::zero(), yp.x, yp.y, yp.z)
-        };
+            y[i] = s / l[i][i];
+        }
         let mut out: Vec<T, MAX_JOINTS> = Vec::new();
-        for m in 0..n {
-            let d = jac.column(m).dot(&y);
+        for m in 0..self.dof() {
+            let mut d = T::zero();
+            for (i, yi) in y.iter().enumerate().take(k) {
+                d += jac[(first + i, m)] * *yi;
+            }
             if !d.is_finite() {
                 return None;
             }

@@ -30,7 +30,7 @@ use crate::{Convention, Link, Real};
 #[inline]
 pub fn link_transform<T: Real>(convention: Convention, link: &Link<T>, q: T) -> IsometryMatrix3<T> {
     let (theta, s) = link.joint_values(q);
-    transform(convention, theta, s, link.a, link.alpha.sin_cos())
+    transform(convention, theta, s, link.a, link.alpha.sincos())
 }
 
 /// `A_m` from its four parameters, with the twist given by `(sin α, cos α)` so that

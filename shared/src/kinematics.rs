@@ -103,8 +103,8 @@ fn rot_y<T: Real>((s, c): (T, T)) -> IsometryMatrix3<T> {
 impl<T: Real> FrameAxes<T> {
     /// The axes of `frame`.
     pub fn of(frame: &Frame<T>) -> Self {
-        let (sy, cy) = frame.rpy.z.sin_cos();
-        let (sp, cp) = frame.rpy.y.sin_cos();
+        let (sy, cy) = frame.rpy.z.sincos();
+        let (sp, cp) = frame.rpy.y.sincos();
         Self {
             origin: Point3::from(frame.xyz),
             // Rot_z(yaw) Rot_y(pitch) x = (cy cp, sy cp, −sp); Rot_z(yaw) y = (−sy, cy, 0).
@@ -149,8 +149,8 @@ impl<T: Real> Robot<T> {
                 .iter()
                 .map(|l| PreparedLink {
                     link: *l,
-                    sin_cos_alpha: l.alpha.sin_cos(),
-                    sin_cos_beta: l.beta.sin_cos(),
+                    sin_cos_alpha: l.alpha.sincos(),
+                    sin_cos_beta: l.beta.sincos(),
                 })
                 .collect(),
             base: self.base.isometry(),
@@ -181,6 +181,18 @@ impl<T: Real> Prepared<T> {
     #[inline]
     pub fn dof(&self) -> usize {
         self.links.len()
+    }
+
+    /// The same robot with every link length `a` and offset `s` multiplied by
+    /// `factor` (thermal expansion, [`crate::effects::Effect::ThermalExpansion`]):
+    /// what preparing the scaled robot gives, without recomputing any sine.
+    pub fn with_length_factor(&self, factor: T) -> Self {
+        let mut out = self.clone();
+        for l in out.links.iter_mut() {
+            l.link.a *= factor;
+            l.link.s *= factor;
+        }
+        out
     }
 
     fn check_joints(&self, q: &[T]) -> Result<(), ModelError> {

@@ -36,9 +36,11 @@
 //!
 //! Joint values are SI in `f32`: rad for revolute joints, m for prismatic ones,
 //! in the order of the model's joints. The optional [`Context`] carries the
-//! temperature (°C) and the payload mass (kg) of the tick, for the
-//! non-geometric effects of later calibrations; today's compensation does not
-//! use it. Durations are in core clock cycles.
+//! temperature (°C) and the payload mass (kg) of the tick, which the
+//! non-geometric effects of a calibration from `armcal diagnose` depend on
+//! ([`Conditions`]; none given: the reference temperature and no payload); the
+//! approach direction of each joint comes from the commands sent (see
+//! [`crate::compensation`]). Durations are in core clock cycles.
 //!
 //! # The controller's side
 //!
@@ -46,7 +48,8 @@
 //! tests run the same code: it assembles and validates the calibration
 //! ([`Calibration::decode`], then [`check_magnitudes`]), converts it to `f32`
 //! once ([`Compensator::<f32>::from_calibration`]), keeps the previous tick's
-//! correction for the per-tick change bound, and counts ticks, faults, sequence
+//! nominal and sent commands for the per-tick change bound and the approach
+//! directions, and counts ticks, faults, sequence
 //! gaps and deadline misses. With no calibration in force a command passes
 //! through unchanged with [`TickStatus::Uncalibrated`]. Its per-command cost is
 //! bounded by [`Limits::max_iterations`] and it never allocates.
@@ -56,7 +59,8 @@ use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
 use crate::calibration::{MAX_FILE_LEN, model_hash};
-use crate::compensation::{Compensator, Fault, Limits};
+use crate::compensation::{Compensator, Conditions, Fault, Limits, Previous};
+use crate::effects::Effect;
 use crate::{Calibration, CalibrationError, MAX_JOINTS};
 
 /// The most calibration bytes one [`Request::CalibrationChunk`] carries.
@@ -77,6 +81,22 @@ pub const MAX_ERROR_ANGLE: f64 = 0.5;
 
 /// Identified errors larger than this (m) are refused by [`check_magnitudes`].
 pub const MAX_ERROR_LENGTH: f64 = 0.5;
+
+/// Effect parameters at or above these are refused by [`check_magnitudes`], as
+/// beyond what a real arm shows (a diagnosis that found them found something
+/// else): compliance, rad/(N·m) or m/N (also with the proxy torques of a model
+/// without masses, a few times 10 N·m); gear-harmonic amplitudes and half the
+/// lost motion, rad or m; the thermal coefficient, 1/°C (metals: 1–3 · 10⁻⁵), and
+/// its reference temperature, °C; the encoder-scale error, relative.
+pub const MAX_COMPLIANCE: f64 = 1e-3;
+/// See [`MAX_COMPLIANCE`].
+pub const MAX_EFFECT_ANGLE: f64 = 0.05;
+/// See [`MAX_COMPLIANCE`].
+pub const MAX_EXPANSION: f64 = 1e-3;
+/// See [`MAX_COMPLIANCE`].
+pub const MAX_REFERENCE_TEMPERATURE: f64 = 200.0;
+/// See [`MAX_COMPLIANCE`].
+pub const MAX_SCALE_ERROR: f64 = 0.01;
 
 /// The conditions of a tick that non-geometric effects depend on.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -209,8 +229,8 @@ pub enum Rejection {
     ErrorTooLarge,
     /// A chunk that does not continue the file being received (wrong offset or total).
     ChunkOutOfOrder,
-    /// A calibration with non-geometric effects, which this firmware does not apply yet.
-    UnsupportedEffects,
+    /// An effect parameter beyond what a real arm shows (see [`check_magnitudes`]).
+    EffectTooLarge,
     /// Any other reason.
     Other,
 }
@@ -256,8 +276,8 @@ impl Rejection {
                 "an identified error above 0.5 rad or 0.5 m: fix the nominal model instead"
             }
             Self::ChunkOutOfOrder => "chunks out of order: send the file again from offset 0",
-            Self::UnsupportedEffects => {
-                "it carries non-geometric effects, which this firmware does not apply yet: send a geometric calibration (armcal identify)"
+            Self::EffectTooLarge => {
+                "an effect parameter beyond what a real arm shows: check the diagnosis"
             }
             Self::Other => "refused",
         }
@@ -448,8 +468,9 @@ impl FrameBuffer {
 }
 
 /// Refuses a calibration whose identified errors are too large for a
-/// correction: above [`MAX_ERROR_ANGLE`] (rad) or [`MAX_ERROR_LENGTH`] (m).
-/// (Its joint count is at most [`MAX_JOINTS`] by construction.)
+/// correction: above [`MAX_ERROR_ANGLE`] (rad) or [`MAX_ERROR_LENGTH`] (m); or
+/// whose effect parameters are beyond their bounds ([`MAX_COMPLIANCE`] and the
+/// others). (Its joint count is at most [`MAX_JOINTS`] by construction.)
 pub fn check_magnitudes(calibration: &Calibration) -> Result<(), Rejection> {
     let too_large = calibration.errors.iter().any(|e| {
         let max = if e.param.is_angle() {
@@ -462,8 +483,28 @@ pub fn check_magnitudes(calibration: &Calibration) -> Result<(), Rejection> {
     if too_large || calibration.nominal.dof() > MAX_JOINTS {
         return Err(Rejection::ErrorTooLarge);
     }
-    if !calibration.effects.is_empty() {
-        return Err(Rejection::UnsupportedEffects);
+    for e in &calibration.effects {
+        // At or beyond the bound, or NaN.
+        let beyond =
+            |x: f64, max: f64| x.abs().partial_cmp(&max) != Some(core::cmp::Ordering::Less);
+        let refused = match *e {
+            Effect::JointCompliance { compliance, .. } => beyond(compliance, MAX_COMPLIANCE),
+            Effect::GearTransmission { first, second, .. } => first
+                .iter()
+                .chain(&second)
+                .any(|a| beyond(*a, MAX_EFFECT_ANGLE)),
+            Effect::Backlash {
+                half_lost_motion, ..
+            } => beyond(half_lost_motion, MAX_EFFECT_ANGLE),
+            Effect::ThermalExpansion {
+                coefficient,
+                reference,
+            } => beyond(coefficient, MAX_EXPANSION) || beyond(reference, MAX_REFERENCE_TEMPERATURE),
+            Effect::EncoderScale { scale, .. } => beyond(scale, MAX_SCALE_ERROR),
+        };
+        if refused {
+            return Err(Rejection::EffectTooLarge);
+        }
     }
     Ok(())
 }
@@ -488,8 +529,9 @@ impl Platform for () {}
 #[derive(Clone, Debug)]
 pub struct Device {
     compensator: Option<Compensator<f32>>,
-    /// The previous tick's correction `q − q_cmd`, for the change bound.
-    previous: Option<Vec<f32, MAX_JOINTS>>,
+    /// The previous tick's nominal and sent commands, for the change bound and
+    /// the approach directions.
+    previous: Option<(Vec<f32, MAX_JOINTS>, Vec<f32, MAX_JOINTS>)>,
     last_seq: Option<u32>,
     /// The calibration file being received.
     file: Vec<u8, MAX_FILE_LEN>,
@@ -640,19 +682,23 @@ impl Device {
             };
         };
         platform.before_correct();
-        let c = compensator.correct(&command.q, self.previous.as_deref());
+        let previous = self
+            .previous
+            .as_ref()
+            .map(|(q_cmd, q)| Previous { q_cmd, q });
+        let context = command.context.unwrap_or_default();
+        let conditions = Conditions {
+            temperature: context.temperature,
+            payload: context.payload,
+        };
+        let c = compensator.correct(&command.q, previous, &conditions);
         platform.after_correct();
         let status = TickStatus::from(c.fault);
-        // The correction sent: q − q_cmd; none (the nominal command) after a
-        // non-finite command or a joint-count mismatch.
+        // The tick as sent; none after a non-finite command or a joint-count
+        // mismatch (the next tick is then a first one).
         self.previous = match status {
             TickStatus::NonFinite | TickStatus::JointCount => None,
-            _ => Some(
-                c.q.iter()
-                    .zip(&command.q)
-                    .map(|(q, q_cmd)| q - q_cmd)
-                    .collect(),
-            ),
+            _ => Some((command.q.clone(), c.q.clone())),
         };
         if !matches!(status, TickStatus::Corrected) {
             s.faults = s.faults.wrapping_add(1);
@@ -673,6 +719,7 @@ mod tests {
 
     use super::*;
     use crate::compensation::Compensator;
+    use crate::effects::one_of_each;
     use crate::units::Units;
     use crate::{Convention, JointType, Link, Param, ParamError, Robot};
     use std::vec;
@@ -917,16 +964,22 @@ mod tests {
             }
         );
         let compensator = Compensator::<f32>::from_calibration(&cal, Limits::default());
-        let mut previous: Option<StdVec<f32>> = None;
+        // The context of `command`.
+        let conditions = Conditions {
+            temperature: Some(21.5),
+            payload: None,
+        };
+        let mut previous: Option<(StdVec<f32>, StdVec<f32>)> = None;
         for seq in 1..20u32 {
             let q: StdVec<f32> = Q.iter().map(|q| q + 0.01 * seq as f32).collect();
             let got = tick(&mut device, seq, &q);
-            let want = compensator.correct(&q, previous.as_deref());
+            let last = previous.as_ref().map(|(q_cmd, q)| Previous { q_cmd, q });
+            let want = compensator.correct(&q, last, &conditions);
             assert_eq!(got.q, want.q);
             assert_eq!(got.status, TickStatus::from(want.fault));
             assert_eq!(got.status, TickStatus::Corrected);
             assert!(got.q.iter().zip(&q).any(|(a, b)| a != b), "it corrects");
-            previous = Some(want.q.iter().zip(&q).map(|(a, b)| a - b).collect());
+            previous = Some((q, want.q.to_vec()));
         }
         let s = device.status(&());
         assert_eq!(
@@ -1017,6 +1070,66 @@ mod tests {
         }
         let s = device.status(&());
         assert_eq!((s.deadline_misses, s.worst_tick_cycles), (2, 5000));
+    }
+
+    /// A calibration with every kind of effect is accepted, and its commands are
+    /// corrected in the tick's context exactly as `Compensator<f32>` does.
+    #[test]
+    fn accepts_effects_and_corrects_in_context() {
+        let mut cal = calibration();
+        for e in one_of_each() {
+            cal.effects.push(e).unwrap();
+        }
+        let mut device = Device::new(1000);
+        assert!(matches!(
+            load(&mut device, &bytes(&cal), CHUNK_LEN),
+            Response::CalibrationAccepted { .. }
+        ));
+        let c = tick(&mut device, 0, &Q);
+        let want = Compensator::<f32>::from_calibration(&cal, Limits::default()).correct(
+            &Q,
+            None,
+            &Conditions {
+                temperature: Some(21.5),
+                payload: None,
+            },
+        );
+        assert_eq!((c.status, c.q), (TickStatus::Corrected, want.q));
+    }
+
+    /// Effect parameters at their bounds (or not finite) are refused, below them accepted.
+    #[test]
+    fn effect_magnitude_bounds() {
+        let mut cal = calibration();
+        for e in one_of_each() {
+            cal.effects.push(e).unwrap();
+        }
+        assert_eq!(check_magnitudes(&cal), Ok(()));
+        let bounds = [
+            MAX_COMPLIANCE,
+            MAX_EFFECT_ANGLE,
+            MAX_EFFECT_ANGLE,
+            MAX_EXPANSION,
+            MAX_SCALE_ERROR,
+        ];
+        for (i, max) in bounds.into_iter().enumerate() {
+            for (value, ok) in [(0.99 * max, true), (-max, false), (f64::NAN, false)] {
+                let mut bad = cal.clone();
+                *bad.effects[i].parameter_mut(0).unwrap() = value;
+                let want = if ok {
+                    Ok(())
+                } else {
+                    Err(Rejection::EffectTooLarge)
+                };
+                assert_eq!(check_magnitudes(&bad), want, "{:?}", bad.effects[i]);
+            }
+        }
+        let mut bad = cal.clone();
+        bad.effects[3] = Effect::ThermalExpansion {
+            coefficient: 2.3e-5,
+            reference: MAX_REFERENCE_TEMPERATURE,
+        };
+        assert_eq!(check_magnitudes(&bad), Err(Rejection::EffectTooLarge));
     }
 
     /// Identified errors at the bounds are refused, just below them accepted.

@@ -124,7 +124,24 @@ impl<T: Real> Frame<T> {
     pub fn isometry(&self) -> IsometryMatrix3<T> {
         IsometryMatrix3::from_parts(
             Translation3::from(self.xyz),
-            Rotation3::from_euler_angles(self.rpy.x, self.rpy.y, self.rpy.z),
+            // nalgebra's `Rotation3::from_euler_angles`, with [`Real::sincos`] (in
+            // f32 the controller then links no libm sine).
+            {
+                let (sr, cr) = self.rpy.x.sincos();
+                let (sp, cp) = self.rpy.y.sincos();
+                let (sy, cy) = self.rpy.z.sincos();
+                Rotation3::from_matrix_unchecked(nalgebra::Matrix3::new(
+                    cy * cp,
+                    cy * sp * sr - sy * cr,
+                    cy * sp * cr + sy * sr,
+                    sy * cp,
+                    sy * sp * sr + cy * cr,
+                    sy * sp * cr - cy * sr,
+                    -sp,
+                    cp * sr,
+                    cp * cr,
+                ))
+            },
         )
     }
 }

@@ -12,8 +12,13 @@
 //! `π/2` split in three parts) and evaluates the minimax polynomials of Cephes'
 //! `sinf.c`/`cosf.c` (S. L. Moshier), about 40 instructions; its error against
 //! the exact sine and cosine of the same `f32` argument is below 1e-6 (tested on
-//! a dense grid, see the tests below) for `|x| ≤ 8192` rad, beyond which it falls
-//! back to libm.
+//! a dense grid, see the tests below) for `|x| ≤ 8192` rad. Beyond that (no
+//! joint turns so far) the argument is first reduced modulo `2π` in `f64`
+//! (`x − k·2π`, `2π` split in two parts so that `k·hi` is exact for `k < 2^26`):
+//! below 1e-6 up to 4e8 rad, a point of the unit circle beyond. Every
+//! `f32` sine and cosine of the crate goes through it (the constant angles of a
+//! model too), so that the controller links no libm `sinf`/`cosf`, whose `f64`
+//! kernels and software `f64` arithmetic take 8 KB of its 64 KB of flash.
 
 use nalgebra::RealField;
 
@@ -50,14 +55,16 @@ impl Real for f32 {
     }
 }
 
-/// Beyond this `|x|` (rad) the `f32` reduction would lose accuracy: libm instead.
+/// Beyond this `|x|` (rad) the `f32` reduction would lose accuracy: an exact
+/// reduction first.
 const REDUCTION_LIMIT: f32 = 8192.0;
 
 /// `(sin x, cos x)` in `f32` arithmetic only; see [the module](self).
 #[allow(clippy::excessive_precision)] // The constants as published (Cephes).
 pub fn sin_cos_f32(x: f32) -> (f32, f32) {
+    // Beyond the limit, or NaN.
     if x.is_nan() || x.abs() > REDUCTION_LIMIT {
-        return sin_cos_libm(x);
+        return sin_cos_wide(x);
     }
     // π/2 = P1 + P2 + P3, P1 and P2 with few significant bits so that k·P1 and
     // k·P2 are exact for |k| < 2^13 (Cephes' DP1..DP3, doubled).
@@ -82,12 +89,35 @@ pub fn sin_cos_f32(x: f32) -> (f32, f32) {
     }
 }
 
-/// libm's `sincosf` (the one nalgebra's `sin_cos` uses too, so no second copy),
-/// out of line: the rare case stays out of the hot path. NaN for NaN and infinities.
+/// Beyond [`REDUCTION_LIMIT`]: `x` reduced modulo `2π` in `f64` (see [the
+/// module](self)), then [`sin_cos_f32`]; out of line, the rare case stays out of
+/// the hot path. NaN for NaN and infinities.
 #[cold]
 #[inline(never)]
-fn sin_cos_libm(x: f32) -> (f32, f32) {
-    libm::sincosf(x)
+fn sin_cos_wide(x: f32) -> (f32, f32) {
+    if !x.is_finite() {
+        return (f32::NAN, f32::NAN);
+    }
+    // 2π = HI + LO, HI with 26 significant bits (k·HI exact for k < 2^26).
+    const HI: f64 = 6.283_185_362_815_857;
+    const LO: f64 = core::f64::consts::TAU - HI;
+    let x = f64::from(x);
+    // k: x/2π rounded to an integer (adding and removing 1.5·2^52 rounds to
+    // nearest below 2^51; beyond, every f64 is an integer already).
+    const ROUND: f64 = 6_755_399_441_055_744.0;
+    let q = x * (1.0 / core::f64::consts::TAU);
+    let k = if q.abs() < 2_251_799_813_685_248.0 {
+        (q + ROUND) - ROUND
+    } else {
+        q
+    };
+    let r = ((x - k * HI) - k * LO) as f32;
+    if r.abs() <= REDUCTION_LIMIT {
+        sin_cos_f32(r)
+    } else {
+        // Only where k·HI is far from exact (|x| > 1e15): any point of the circle.
+        (0.0, 1.0)
+    }
 }
 
 #[cfg(test)]
@@ -122,6 +152,16 @@ mod tests {
         std::eprintln!("sin_cos_f32: worst error {dense:e} on ±4π, {wide:e} on ±8192");
         assert!(dense < 1e-6, "worst error {dense:e} on ±4π");
         assert!(wide < 1e-6, "worst error {wide:e} on ±8192");
+        // Beyond the limit: the exact reduction modulo the f64 2π, whose error
+        // is |x| · 2.4e-16 / 2π, plus the polynomials' 1e-7.
+        for lo in [8192.0, 1e5, 1e7] {
+            let far = worst_error(lo, 4.0 * lo, 100_000).max(worst_error(-4.0 * lo, -lo, 100_000));
+            assert!(
+                far < 1e-6 + 4.0 * lo * 4e-17,
+                "worst error {far:e} beyond {lo}"
+            );
+        }
+        assert!(sin_cos_f32(f32::INFINITY).0.is_nan() && sin_cos_f32(f32::NAN).1.is_nan());
         // Around the quadrant boundaries, where the reduction switches polynomials.
         for k in -40..=40 {
             let b = k as f64 * core::f64::consts::FRAC_PI_2;
@@ -130,11 +170,18 @@ mod tests {
         }
     }
 
-    /// Beyond the reduction limit, and for non-finite input, it is libm's.
+    /// Beyond the reduction limit it is libm's (the correctly reduced value)
+    /// within 1e-6 up to 4e8 rad; for any finite `x` a point of the unit circle;
+    /// NaN for non-finite input.
     #[test]
-    fn sin_cos_f32_falls_back_to_libm() {
-        for x in [1e4f32, -3e5, 1e30] {
-            assert_eq!(sin_cos_f32(x), libm::sincosf(x));
+    fn sin_cos_f32_beyond_the_limit() {
+        for x in [1e4f32, -3e5, 1e8, -3.9e8] {
+            let ((s, c), (ls, lc)) = (sin_cos_f32(x), libm::sincosf(x));
+            assert!((s - ls).abs() <= 1e-6 && (c - lc).abs() <= 1e-6, "{x}");
+        }
+        for x in [1e9f32, 3e12, 1e16, 1e30, -f32::MAX] {
+            let (s, c) = sin_cos_f32(x);
+            assert!((s * s + c * c - 1.0).abs() < 1e-6, "{x}");
         }
         let (s, c) = sin_cos_f32(f32::NAN);
         assert!(s.is_nan() && c.is_nan());

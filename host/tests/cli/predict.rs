@@ -318,26 +318,9 @@ fn refuses_a_bad_joint_value_with_file_line_column() {
     assert!(out.stdout.is_empty());
 }
 
-/// `armcal compensate`: the calibrated robot at each corrected command reaches
-/// the nominal model's pose at the command (to the compensation's f64 tolerance,
-/// 1 nm, plus the rounding of the printed values), rows in order, in model units.
-#[test]
-fn compensate_makes_the_calibrated_robot_reach_the_nominal_pose() {
-    let model = load_model("ur10e").unwrap();
-    let cal = calibration(
-        &model,
-        true,
-        &[
-            ("alpha2", 1.2e-3),
-            ("a3", -0.8e-3),
-            ("theta4", 0.9e-3),
-            ("s5", 0.6e-3),
-            ("base.x", 2e-3),
-        ],
-    );
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("cal.bin"), cal.to_bytes().unwrap()).unwrap();
-    // Commands in a well-conditioned part of the workspace (elbow and wrist bent).
+/// Commands in a well-conditioned part of the UR10e's workspace (elbow and wrist
+/// bent), 0.1 rad apart, as CSV rows `q1..q6` followed by `extra(row)`.
+fn ur10e_commands(extra: impl Fn(usize) -> String) -> (Vec<Vec<f64>>, String) {
     let commands: Vec<Vec<f64>> = (0..12)
         .map(|r| {
             let t = r as f64 * 0.1;
@@ -351,11 +334,19 @@ fn compensate_makes_the_calibrated_robot_reach_the_nominal_pose() {
             ]
         })
         .collect();
-    let mut text = String::from("q1,q2,q3,q4,q5,q6\n");
-    for q in &commands {
+    let mut text = String::new();
+    for (r, q) in commands.iter().enumerate() {
         let v: Vec<String> = q.iter().map(|x| format!("{x}")).collect();
-        text.push_str(&(v.join(",") + "\n"));
+        text.push_str(&(v.join(",") + &extra(r) + "\n"));
     }
+    (commands, text)
+}
+
+/// Runs `armcal compensate` with `cal` on the joints file `text`; checks that it
+/// succeeds and reports no row; returns the corrected rows.
+fn compensate_rows(cal: &Calibration, text: &str) -> Vec<Vec<f64>> {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("cal.bin"), cal.to_bytes().unwrap()).unwrap();
     std::fs::write(dir.path().join("cmd.csv"), text).unwrap();
     let out = armcal(
         &[
@@ -382,6 +373,28 @@ fn compensate_makes_the_calibrated_robot_reach_the_nominal_pose() {
     let (header, rows) =
         read_predictions(&std::fs::read_to_string(dir.path().join("c.csv")).unwrap());
     assert_eq!(header, "q1,q2,q3,q4,q5,q6");
+    rows
+}
+
+/// `armcal compensate`: the calibrated robot at each corrected command reaches
+/// the nominal model's pose at the command (to the compensation's f64 tolerance,
+/// 1 nm, plus the rounding of the printed values), rows in order, in model units.
+#[test]
+fn compensate_makes_the_calibrated_robot_reach_the_nominal_pose() {
+    let model = load_model("ur10e").unwrap();
+    let cal = calibration(
+        &model,
+        true,
+        &[
+            ("alpha2", 1.2e-3),
+            ("a3", -0.8e-3),
+            ("theta4", 0.9e-3),
+            ("s5", 0.6e-3),
+            ("base.x", 2e-3),
+        ],
+    );
+    let (commands, text) = ur10e_commands(|_| String::new());
+    let rows = compensate_rows(&cal, &format!("q1,q2,q3,q4,q5,q6\n{text}"));
     assert_eq!(rows.len(), commands.len());
     let calibrated = cal.calibrated();
     for (q, q_cmd) in rows.iter().zip(&commands) {
@@ -396,4 +409,53 @@ fn compensate_makes_the_calibrated_robot_reach_the_nominal_pose() {
             .fold(0.0, f64::max);
         assert!(moved > 1e-5, "the commands were corrected");
     }
+}
+
+/// `armcal compensate` with a calibration from `armcal diagnose` (geometry and
+/// every kind of effect) applies the effects in each row's conditions (the
+/// `temp` and `load` columns) with the approach direction of each joint from the
+/// previous output row: the calibrated model with its effects, evaluated as
+/// `armcal predict` evaluates it on the output rows with the same columns,
+/// reaches the nominal pose. Tolerance: 1 nm of the geometric step plus at most
+/// 1e-9 rad per joint left by the inversion at the UR10e's 1.6 m reach, 11 nm
+/// (see `shared/tests/compensation.rs`); the printed values read back exactly.
+/// Without the columns (20 °C, no payload) the commands differ.
+#[test]
+fn compensate_applies_the_effects_in_each_rows_context() {
+    use armcal_shared::effects::{Context, approach_signs, one_of_each};
+    let model = load_model("ur10e").unwrap();
+    let mut cal = calibration(&model, true, &[("alpha2", 1.2e-3), ("a3", -0.8e-3)]);
+    for effect in one_of_each() {
+        cal.effects.push(effect).unwrap();
+    }
+    let temp = |r: usize| 20.0 + 1.5 * r as f64;
+    let load = |r: usize| if r < 6 { 0.0 } else { 5.0 };
+    let (commands, text) = ur10e_commands(|r| format!(",{},{}", temp(r), load(r)));
+    let rows = compensate_rows(&cal, &format!("q1,q2,q3,q4,q5,q6,temp,load\n{text}"));
+    let effect_model = cal.model();
+    let mut previous: Option<&[f64]> = None;
+    for (r, (q, q_cmd)) in rows.iter().zip(&commands).enumerate() {
+        let ctx = Context {
+            temperature: Some(temp(r)),
+            payload: Some(load(r)),
+            approach: approach_signs(previous, q),
+        };
+        previous = Some(q);
+        let target = cal.nominal.forward(q_cmd).unwrap();
+        let reached = effect_model.forward(q, &ctx).unwrap();
+        let dp = (target.translation.vector - reached.translation.vector).norm();
+        assert!(dp < 1.1e-8, "{dp:e} m at row {r}");
+    }
+    let (_, plain) = ur10e_commands(|_| String::new());
+    let without = compensate_rows(&cal, &format!("q1,q2,q3,q4,q5,q6\n{plain}"));
+    let differ = rows
+        .iter()
+        .flatten()
+        .zip(without.iter().flatten())
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        differ > 1e-5,
+        "the context columns are used: {differ:e} rad"
+    );
 }
