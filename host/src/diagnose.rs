@@ -30,7 +30,9 @@
 //!    and the extended one, on the same folds.
 //!
 //! The noise is estimated from the data: the RMS per axis of the final model's
-//! residuals, corrected for the parameters fitted (`√(RSS / (3n − p))`).
+//! position residuals, corrected for the parameters fitted (`√(RSS / (3n − p))`
+//! for positions; with orientations, the position rows' share of the degrees of
+//! freedom).
 //! Units: SI inside; `_mm` fields in millimetres.
 
 use armcal_shared::effects::{Effect, EffectModel, gravity_torques};
@@ -566,7 +568,7 @@ pub fn diagnose_with_progress(
             .collect();
         HeldOut::of(&errors)
     };
-    let noise = options.fit.position_noise * current_fit.variance_factor.sqrt();
+    let noise = position_noise(&current_fit);
     Ok(Diagnosis {
         findings: chosen,
         fit: current_fit,
@@ -585,6 +587,15 @@ struct Best {
     chi2: (f64, f64),
     fit: FullFit,
     held: HeldOut,
+}
+
+/// The position noise per axis (m) that a fit's residuals show: the mean square
+/// position residual per axis, `position_rms² / 3`, corrected for the parameters
+/// fitted by the share of the degrees of freedom that falls to the position rows
+/// (`dof / equations`, all of them when only positions are measured). The
+/// orientation rows do not enter: their noise is another instrument's.
+fn position_noise(fit: &FullFit) -> f64 {
+    fit.position_rms * (fit.equations as f64 / (3.0 * dof(fit))).sqrt()
 }
 
 /// Degrees of freedom of a fit: equations minus identified unknowns.
@@ -738,6 +749,16 @@ impl Diagnosis {
                 mm(h.rms),
                 mm(h.mean),
                 mm(h.max)
+            );
+        }
+        if g.rms > n.rms {
+            let equations = self.geometric.equations;
+            let _ = writeln!(
+                out,
+                "warning: the geometric calibration predicts poses it was not fitted to worse than \
+                 the nominal model: {equations} equations for {:.0} identified parameters are too \
+                 few (or the poses too alike) to determine them; measure more, and more varied, poses",
+                equations as f64 - dof(&self.geometric)
             );
         }
         let mut tried = self.tried.clone();
