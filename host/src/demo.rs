@@ -18,8 +18,9 @@
 //!    model puts the tool point, `T_nom(q_cmd)`. Each is reached by a short move
 //!    (from 0.02 rad away in every joint, from a random side) whose two commands
 //!    are compensated with the diagnosis's calibration, effects included
-//!    ([`crate::compensate::compensate`]), at 25 °C (the middle of the
-//!    session's drift) with no payload. The true robot (its geometry and hidden
+//!    ([`crate::compensate::compensate`]), for the warm, loaded arm (30 °C
+//!    and 5 kg, the ends of what the session measured, so that every effect
+//!    matters there: the diagnosis refers temperature to the session's mean). The true robot (its geometry and hidden
 //!    effects, evaluated as the simulator does, each joint approaching from the
 //!    direction of its last move) is sent the nominal commands and then the
 //!    compensated ones; the distance of its tool point from the target is the
@@ -42,10 +43,10 @@ use crate::sweep::{hidden_case, tracker_diagnosis};
 
 /// Targets the compensation is checked at.
 pub const TARGETS: usize = 50;
-/// Temperature of the compensated moves, °C.
-pub const TEMPERATURE: f64 = 25.0;
-/// Payload of the compensated moves, kg.
-pub const PAYLOAD: f64 = 0.0;
+/// Temperature of the compensated moves, °C: the warm end of the session.
+pub const TEMPERATURE: f64 = 30.0;
+/// Payload of the compensated moves, kg: the heavier of the session's.
+pub const PAYLOAD: f64 = 5.0;
 /// Targets are this far from singularities: the smallest singular value of the
 /// tool point's position Jacobian, m/rad (a 1 mm error needs at most 10 mrad).
 pub const SIGMA_MIN: f64 = 0.1;
