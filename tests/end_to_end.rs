@@ -856,20 +856,14 @@ mod diagnosis {
     //! Hide an effect in simulated data and require the diagnosis to find it.
 
     use armcal::diagnose::{DiagnoseOptions, diagnose};
-    use armcal::identify::full::FullOptions;
     use armcal::model_file::load_model;
     use armcal::simulate::{Scenario, simulate};
+    use armcal::sweep::tracker_diagnosis;
     use armcal_shared::effects::Effect;
 
+    /// 5-fold, σ = 20 µm: the simulated tracker's noise.
     fn options() -> DiagnoseOptions {
-        DiagnoseOptions {
-            folds: 5,
-            fit: FullOptions {
-                position_noise: 20e-6,
-                ..FullOptions::default()
-            },
-            ..DiagnoseOptions::default()
-        }
+        tracker_diagnosis()
     }
 
     /// A hidden compliance of joint 2 is named, with its joint, and the extended
@@ -999,11 +993,11 @@ mod diagnosis_random {
     //! a UR arm, a mm/deg industrial arm), random joint, a magnitude leaving 5–20×
     //! the noise after a geometric fit, a random seed.
 
-    use armcal::diagnose::{DiagnoseOptions, cross_validate, diagnose};
-    use armcal::identify::full::{FullOptions, identify_full};
+    use armcal::diagnose::{cross_validate, diagnose};
+    use armcal::identify::full::identify_full;
     use armcal::model_file::load_model;
     use armcal::simulate::{rng, simulate};
-    use armcal::sweep::hidden_case;
+    use armcal::sweep::{hidden_case, tracker_diagnosis};
     use armcal_shared::effects::Effect;
     use armcal_shared::{Param, Robot};
     use rand::RngExt;
@@ -1018,14 +1012,7 @@ mod diagnosis_random {
             ("ur10e", load_model("ur10e").unwrap().robot),
             ("industrial6", super::identification::industrial_mm_deg()),
         ];
-        let options = DiagnoseOptions {
-            folds: 5,
-            fit: FullOptions {
-                position_noise: 20e-6,
-                ..FullOptions::default()
-            },
-            ..DiagnoseOptions::default()
-        };
+        let options = tracker_diagnosis();
         let mut r = rng(2024);
         let noise_rms = 20e-6 * 3f64.sqrt();
         for kind in 0..6 {
