@@ -680,15 +680,21 @@ mod compensation_of_effects {
             assert!(tried < 50, "no motion away from singularities");
             let q0 = random_configurations(&nominal, 1, &mut r).remove(0);
             ticks.clear();
+            let mut last_p: Vec<f64> = Vec::new();
             for q_cmd in motion(&q0) {
                 let last = ticks.last();
-                let previous = last.map(|(q_cmd, q, ..)| Previous { q_cmd, q });
+                let previous = last.map(|(q_cmd, q, ..)| Previous {
+                    q_cmd,
+                    q,
+                    p: &last_p,
+                });
                 let c = compensator.correct(&q_cmd, previous, &conditions);
                 if c.fault.is_some() {
                     break;
                 }
                 let ctx = context(&c.q, last.map(|(_, q, ..)| &q[..]));
                 let plain = context(&q_cmd, last.map(|(q_cmd, ..)| &q_cmd[..]));
+                last_p = c.p.to_vec();
                 ticks.push((q_cmd, c.q.to_vec(), ctx, plain));
             }
             if ticks.len() == 60 {

@@ -139,22 +139,23 @@ fn bench() -> Result<(f32, usize), ModelError> {
         temperature: Some(35.0),
         payload: Some(5.0),
     };
-    let mut previous: Option<([f32; 6], [f32; 6])> = None;
+    let mut previous: Option<([f32; 6], [f32; 6], [f32; 6])> = None;
     let (mut worst, mut iterations) = (0.0f32, 0);
     for t in 0..BENCH_TICKS {
         let mut q = q0;
         for (m, qm) in q.iter_mut().enumerate() {
             *qm += 1e-3 * t as f32 * (1.0 + m as f32 / 6.0);
         }
-        let last = previous.as_ref().map(|(q_cmd, q)| Previous { q_cmd, q });
+        let last = previous
+            .as_ref()
+            .map(|(q_cmd, q, p)| Previous { q_cmd, q, p });
         bench_start();
         let c = compensator.correct(&q, last, &conditions);
         bench_end();
-        let mut sent = [0.0f32; 6];
-        for (s, c) in sent.iter_mut().zip(&c.q) {
-            *s = *c;
-        }
-        previous = Some((q, sent));
+        let (mut sent, mut p) = ([0.0f32; 6], [0.0f32; 6]);
+        sent.copy_from_slice(&c.q);
+        p.copy_from_slice(&c.p);
+        previous = Some((q, sent, p));
         if c.fault.is_some() {
             defmt::warn!("benchmark tick {=u32}: not corrected to tolerance", t);
         }

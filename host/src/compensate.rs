@@ -79,9 +79,11 @@ pub fn compensate(cal: &Calibration, commands: &JointRows) -> Compensated {
     let mut rows: Vec<(usize, Correction<f64>)> = Vec::with_capacity(commands.len());
     let mut last: Option<&[f64]> = None;
     for row in &commands.rows {
-        let previous = last
-            .zip(rows.last())
-            .map(|(q_cmd, (_, c))| Previous { q_cmd, q: &c.q[..] });
+        let previous = last.zip(rows.last()).map(|(q_cmd, (_, c))| Previous {
+            q_cmd,
+            q: &c.q[..],
+            p: &c.p[..],
+        });
         let c = compensator.correct(&row.q, previous, &row_conditions(row));
         // As on the controller: after a row that could not be computed the next
         // one is a first tick.

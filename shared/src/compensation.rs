@@ -97,15 +97,12 @@
 //! geometric calibration takes exactly the steps of the geometric problem.
 
 use heapless::Vec;
-use nalgebra::{IsometryMatrix3, SMatrix, Vector3, Vector6};
+use nalgebra::{IsometryMatrix3, Matrix3, Point3, Vector3, Vector6};
 
-use crate::effects::{Effect, EffectModel, MAX_EFFECTS, gravity_torques};
+use crate::effects::{Effect, EffectModel, JointTerms, MAX_EFFECTS, gravity_torques};
 use crate::jacobian::at_point;
 use crate::kinematics::Prepared;
-use crate::perturbation::expand;
-use crate::{
-    Calibration, Chain, Convention, JointType, MAX_JOINTS, Param, Real, Robot, rotation_error,
-};
+use crate::{Calibration, Chain, JointType, MAX_JOINTS, Param, Real, Robot, Twist, rotation_error};
 
 /// The conditions of one tick that non-geometric effects depend on.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -124,6 +121,9 @@ pub struct Previous<'a, T: Real> {
     pub q_cmd: &'a [T],
     /// The commands sent at the previous tick (its corrected `q`).
     pub q: &'a [T],
+    /// The joint positions the previous tick's commands aimed at (its
+    /// [`Correction::p`]): the start of this tick's search.
+    pub p: &'a [T],
 }
 
 /// Bounds and tolerances of the compensation, SI units.
@@ -189,6 +189,10 @@ pub enum Fault {
 pub struct Correction<T: Real> {
     /// The corrected joint commands (rad or m).
     pub q: Vec<T, MAX_JOINTS>,
+    /// The real joint positions these commands aim at (the solution of the
+    /// geometric problem, before bounding; `q_cmd` after a fault that returns
+    /// it): give it back as [`Previous::p`] at the next tick.
+    pub p: Vec<T, MAX_JOINTS>,
     /// Something to report, if any; the commands are still safe to send.
     pub fault: Option<Fault>,
     /// Iterations run.
@@ -204,7 +208,6 @@ pub struct Correction<T: Real> {
 pub struct Compensator<T: Real> {
     nominal: Prepared<T>,
     calibrated: Prepared<T>,
-    convention: Convention,
     joints: Vec<JointType, MAX_JOINTS>,
     orientation: bool,
     /// The calibrated geometry (its masses and gravity, for the torques) and the
@@ -244,7 +247,6 @@ impl<T: Real> Compensator<T> {
         Self {
             nominal: nominal.prepare(),
             calibrated: calibrated.robot.prepare(),
-            convention: calibrated.robot.convention,
             joints: calibrated.robot.links.iter().map(|l| l.joint).collect(),
             orientation,
             effects: calibrated,
@@ -311,8 +313,8 @@ impl<T: Real> Compensator<T> {
 
     /// The corrected commands for `q_cmd` in the tick's `conditions`. `previous`
     /// is the previous tick as sent (`None` at the first tick): its correction
-    /// bounds the change of this one, and its commands give each joint's approach
-    /// direction (see the module header).
+    /// bounds the change of this one, its commands give each joint's approach
+    /// direction, and its joint positions start the search (see the module header).
     pub fn correct(
         &self,
         q_cmd: &[T],
@@ -322,11 +324,14 @@ impl<T: Real> Compensator<T> {
         let n = self.dof();
         let unchanged = |fault| Correction {
             q: q_cmd.iter().copied().take(MAX_JOINTS).collect(),
+            p: q_cmd.iter().copied().take(MAX_JOINTS).collect(),
             fault: Some(fault),
             iterations: 0,
             residual: T::zero(),
         };
-        if q_cmd.len() != n || previous.is_some_and(|p| p.q_cmd.len() != n || p.q.len() != n) {
+        if q_cmd.len() != n
+            || previous.is_some_and(|p| p.q_cmd.len() != n || p.q.len() != n || p.p.len() != n)
+        {
             return unchanged(Fault::JointCount);
         }
         let finite = |v: &[T]| v.iter().all(|x| x.is_finite());
@@ -334,7 +339,7 @@ impl<T: Real> Compensator<T> {
             .iter()
             .all(|c| c.is_none_or(|x| x.is_finite()));
         if !finite(q_cmd)
-            || previous.is_some_and(|p| !finite(p.q_cmd) || !finite(p.q))
+            || previous.is_some_and(|p| !finite(p.q_cmd) || !finite(p.q) || !finite(p.p))
             || !conditions_finite
         {
             return unchanged(Fault::NonFinite);
@@ -342,37 +347,45 @@ impl<T: Real> Compensator<T> {
         let Ok(target) = self.nominal.forward(q_cmd) else {
             return unchanged(Fault::JointCount);
         };
-        // The calibrated geometry at the tick's temperature.
-        let factor = self.effects.length_factor(conditions.temperature);
-        let scaled;
-        let geometry = if factor == T::one() {
-            &self.calibrated
-        } else {
-            scaled = self.calibrated.with_length_factor(factor);
-            &scaled
+        // The calibrated geometry at the tick's temperature: its lengths times
+        // the thermal factor, applied inside each chain.
+        let geometry = Geometry {
+            model: &self.calibrated,
+            factor: self.effects.length_factor(conditions.temperature),
         };
-        // 1. The real joint positions p that reach the target.
-        let mut q: Vec<T, MAX_JOINTS> = q_cmd.iter().copied().collect();
-        let Ok(mut chain) = geometry.chain(&q) else {
+        // 1. The real joint positions p that reach the target, from the previous
+        // tick's correction of them when it is within the bounds (warm start).
+        let mut p: Vec<T, MAX_JOINTS> = q_cmd.iter().copied().collect();
+        if let Some(prev) = previous {
+            let warm = (0..n).all(|m| (prev.p[m] - prev.q_cmd[m]).abs() <= self.bounds(m).0);
+            if warm {
+                for m in 0..n {
+                    p[m] += prev.p[m] - prev.q_cmd[m];
+                }
+            }
+        }
+        let mut chain = self.calibrated.empty_chain();
+        if geometry.chain(&p, &mut chain).is_err() {
             return unchanged(Fault::JointCount);
-        };
-        let (iterations, mut residual) = match self.solve(geometry, &target, &mut q, &mut chain) {
+        }
+        let (iterations, mut residual2) = match self.solve(&geometry, &target, &mut p, &mut chain) {
             Ok(solved) => solved,
             Err(fault) => return unchanged(fault),
         };
-        let mut fault = (residual > self.limits.tolerance).then_some(Fault::NotConverged);
+        let tolerance2 = self.limits.tolerance * self.limits.tolerance;
+        let mut fault = (residual2 > tolerance2).then_some(Fault::NotConverged);
         // 2. The commands that put the joints at p.
+        let mut q = p.clone();
         if self.effects.corrects_joints() {
-            let sent = previous.map(|p| p.q);
-            match self.invert(geometry, &mut q, sent, conditions, &mut chain) {
+            match self.invert(&geometry, &mut q, previous, conditions, &mut chain) {
                 None => return unchanged(Fault::NonFinite),
                 Some(None) => {}
                 Some(Some(held)) => {
-                    if geometry.chain_into(&held, &mut chain).is_err() {
+                    if geometry.chain(&held, &mut chain).is_err() {
                         return unchanged(Fault::JointCount);
                     }
-                    residual = self.residual(&target, &chain.end).1;
-                    fault = (residual > self.limits.tolerance).then_some(Fault::NotConverged);
+                    residual2 = self.residual(&target, &chain.end).1;
+                    fault = (residual2 > tolerance2).then_some(Fault::NotConverged);
                 }
             }
         }
@@ -389,38 +402,41 @@ impl<T: Real> Compensator<T> {
             // The change per tick first, then the size: the size bound always holds,
             // and when the previous correction was within it (as every correction
             // this returns is) both do.
-            if let Some(p) = previous {
-                let prev = p.q[m] - p.q_cmd[m];
-                clip(prev - change, prev + change);
+            if let Some(prev) = previous {
+                let last = prev.q[m] - prev.q_cmd[m];
+                clip(last - change, last + change);
             }
             clip(-max, max);
             q[m] = q_cmd[m] + c;
         }
-        if !finite(&q) || !residual.is_finite() {
+        if !finite(&q) || !finite(&p) || !residual2.is_finite() {
             return unchanged(Fault::NonFinite);
         }
         Correction {
             q,
+            p,
             fault,
             iterations,
-            residual,
+            residual: residual2.sqrt(),
         }
     }
 
-    /// The geometric problem: refines `q` (from the command) until `geometry`
-    /// reaches `target` (eq. 4.9, repeated; see the module header). Returns the
-    /// iterations and the residual's norm; `chain` ends at the returned `q`.
+    /// The geometric problem: refines the joint positions `p` until `geometry`
+    /// reaches `target` (eq. 4.9, repeated; see the module header). `chain` is at
+    /// `p` on entry and on return. Returns the iterations and the squared norm of
+    /// the residual.
     fn solve(
         &self,
-        geometry: &Prepared<T>,
+        geometry: &Geometry<'_, T>,
         target: &IsometryMatrix3<T>,
-        q: &mut Vec<T, MAX_JOINTS>,
+        p: &mut Vec<T, MAX_JOINTS>,
         chain: &mut Chain<T>,
     ) -> Result<(usize, T), Fault> {
+        let tolerance2 = self.limits.tolerance * self.limits.tolerance;
         let mut iterations = 0;
         let mut residual = self.residual(target, &chain.end);
-        let mut trial_q = q.clone();
-        while residual.1 > self.limits.tolerance && iterations < self.limits.max_iterations {
+        let mut trial_p = p.clone();
+        while residual.1 > tolerance2 && iterations < self.limits.max_iterations {
             iterations += 1;
             let (first, second) = self.step(chain, &residual.0).ok_or(Fault::NonFinite)?;
             // Take a step only if it lowers the residual: the second-order one (eq.
@@ -441,16 +457,14 @@ impl<T: Real> Compensator<T> {
                 }
                 step.iter_mut().for_each(|d| *d *= scale);
                 for _ in 0..4 {
-                    for ((t, qm), d) in trial_q.iter_mut().zip(q.iter()).zip(step.iter()) {
-                        *t = *qm + *d;
+                    for ((t, pm), d) in trial_p.iter_mut().zip(p.iter()).zip(step.iter()) {
+                        *t = *pm + *d;
                     }
-                    geometry
-                        .chain_into(&trial_q, chain)
-                        .map_err(|_| Fault::JointCount)?;
+                    geometry.chain(&trial_p, chain)?;
                     let trial = self.residual(target, &chain.end);
                     if trial.1 < residual.1 {
                         (residual, improved) = (trial, true);
-                        core::mem::swap(q, &mut trial_q);
+                        core::mem::swap(p, &mut trial_p);
                         break 'candidates;
                     }
                     step.iter_mut().for_each(|d| *d *= T::lit(0.5));
@@ -458,9 +472,7 @@ impl<T: Real> Compensator<T> {
             }
             if !improved {
                 // `chain` holds the last trial: back to the best point.
-                geometry
-                    .chain_into(q, chain)
-                    .map_err(|_| Fault::JointCount)?;
+                geometry.chain(p, chain)?;
                 break;
             }
         }
@@ -468,20 +480,32 @@ impl<T: Real> Compensator<T> {
     }
 
     /// The effects' inversion: replaces the joint positions `p` in `q` by the
-    /// commands `q` with `q + Δq(q) = p` (see the module header), `sent` the
-    /// previous tick's commands. `None` if a value was not finite; `Some(Some(p'))`
-    /// with the joint positions really reached when a joint was held within its
-    /// lost motion; `Some(None)` otherwise. `chain` is a work buffer.
+    /// commands `q` with `q + Δq(q) = p` (see the module header), starting from
+    /// `p` minus the previous tick's `Δq`. `None` if a value was not finite;
+    /// `Some(Some(p'))` with the joint positions really reached when a joint was
+    /// held within its lost motion; `Some(None)` otherwise. `chain` is a work
+    /// buffer.
     #[allow(clippy::option_option)]
     fn invert(
         &self,
-        geometry: &Prepared<T>,
+        geometry: &Geometry<'_, T>,
         q: &mut Vec<T, MAX_JOINTS>,
-        sent: Option<&[T]>,
+        previous: Option<Previous<'_, T>>,
         conditions: &Conditions<T>,
         chain: &mut Chain<T>,
     ) -> Option<Option<Vec<T, MAX_JOINTS>>> {
         let p = q.clone();
+        let sent = previous.map(|prev| prev.q);
+        if let Some(prev) = previous {
+            // Warm start: the previous tick's joint correction Δq = p − q, when
+            // within the bounds.
+            let n = q.len();
+            if (0..n).all(|m| (prev.p[m] - prev.q[m]).abs() <= self.bounds(m).0) {
+                for m in 0..n {
+                    q[m] -= prev.p[m] - prev.q[m];
+                }
+            }
+        }
         let payload = conditions.payload.unwrap_or(T::zero());
         let tolerance = self.limits.tolerance / self.limits.length_scale;
         let sign = |x: T| {
@@ -495,10 +519,14 @@ impl<T: Real> Compensator<T> {
         };
         let mut held = false;
         let mut tau: Vec<T, MAX_JOINTS> = q.iter().map(|_| T::zero()).collect();
-        let mut terms = self.effects.joint_terms(q, &tau);
+        let mut terms = JointTerms {
+            offset: Vec::new(),
+            scale: Vec::new(),
+            backlash: Vec::new(),
+        };
         for _ in 0..self.limits.max_iterations.max(1) {
             if self.effects.needs_torque() {
-                geometry.chain_into(q, chain).ok()?;
+                geometry.chain(q, chain).ok()?;
                 tau = gravity_torques(&self.effects.robot, chain, payload);
             }
             terms = self.effects.joint_terms(q, &tau);
@@ -545,7 +573,7 @@ impl<T: Real> Compensator<T> {
     }
 
     /// The residual `e` (rotation scaled to a length, then position; the rotation
-    /// part is zero without orientation) and the position residual's norm.
+    /// part is zero without orientation) and its squared norm.
     fn residual(
         &self,
         target: &IsometryMatrix3<T>,
@@ -560,7 +588,7 @@ impl<T: Real> Compensator<T> {
         // The size the steps lower: the norm of the whole residual, the orientation
         // counting as the position error it causes at `length_scale`.
         let e = Vector6::new(dr.x, dr.y, dr.z, dp.x, dp.y, dp.z);
-        (e, e.norm())
+        (e, e.norm_squared())
     }
 
     /// The first-order step `δ₁ = J⁺ e` and the second-order one
@@ -573,71 +601,75 @@ impl<T: Real> Compensator<T> {
     ) -> Option<(Vec<T, MAX_JOINTS>, Vec<T, MAX_JOINTS>)> {
         let n = self.dof();
         let p = chain.point();
-        // Rows of J_r: rotation (scaled) and the tool point's displacement.
-        let mut jac = SMatrix::<T, 6, MAX_JOINTS>::zeros();
+        // The joints' twists, and the rows of J_r: rotation (scaled) and the tool
+        // point's displacement.
+        let mut twists: Vec<Twist<T>, MAX_JOINTS> = Vec::new();
+        let mut jac: Vec<[T; 6], MAX_JOINTS> = Vec::new();
         for m in 0..n {
             let col = chain.column(self.joint_param(m));
             let v = at_point(&col, &p);
-            let w = col.fixed_rows::<3>(0) * self.limits.length_scale;
-            jac.set_column(m, &Vector6::new(w.x, w.y, w.z, v.x, v.y, v.z));
+            let s = self.limits.length_scale;
+            // n ≤ MAX_JOINTS: always room.
+            let _ = jac.push([col[0] * s, col[1] * s, col[2] * s, v.x, v.y, v.z]);
+            let _ = twists.push(col);
         }
         let l = self.factor(&jac)?;
         let first = self.damped_solve(&jac, &l, e)?;
         // Second-order change of the calibrated frame under δ₁ (eq. 2.22).
-        let mut dq: Vec<(Param, T), MAX_JOINTS> = Vec::new();
-        for (m, d) in first.iter().enumerate() {
-            let _ = dq.push((self.joint_param(m), *d));
-        }
-        let expansion = expand(chain, self.convention, &dq).ok()?;
-        let first_point = at_point(&expansion.first, &p);
-        let second_point = expansion.point_error() - first_point;
-        let second_rot = expansion.second_twist().fixed_rows::<3>(0) * self.limits.length_scale;
-        let h = Vector6::new(
-            second_rot.x,
-            second_rot.y,
-            second_rot.z,
-            second_point.x,
-            second_point.y,
-            second_point.z,
-        );
+        let (rot, point) = joint_second_order(&twists, &first, &p);
+        let rot = rot * self.limits.length_scale;
+        let h = Vector6::new(rot.x, rot.y, rot.z, point.x, point.y, point.z);
         let second = self.damped_solve(&jac, &l, &(e - h))?;
         Some((first, second))
     }
 
-    /// The Cholesky factor `L` of `J Jᵀ + λ² I` over the rows in use (6 with
-    /// orientation, the 3 position rows without), in the lower triangle of a 6 × 6
-    /// array (the first 3 × 3 without orientation); `None` if not positive
-    /// definite or not finite. Written out rather than nalgebra's, so that one
-    /// small loop serves both sizes (flash on the controller) and one
-    /// factorisation serves both solves of a step.
-    fn factor(&self, jac: &SMatrix<T, 6, MAX_JOINTS>) -> Option<[[T; 6]; 6]> {
+    /// The `L D Lᵀ` factors of `J Jᵀ + λ² I` over the rows in use (6 with
+    /// orientation, the 3 position rows without): `L` (unit diagonal) below the
+    /// diagonal of a 6 × 6 array, `1/D` on it (the first 3 × 3 without
+    /// orientation); `None` if not positive definite or not finite. Written out
+    /// rather than nalgebra's, so that one small loop serves both sizes (flash
+    /// on the controller), one factorisation serves both solves of a step, and
+    /// no square root is taken (a software routine on the controller).
+    // Triangular index arithmetic reads best with indices.
+    #[allow(clippy::needless_range_loop)]
+    fn factor(&self, jac: &[[T; 6]]) -> Option<[[T; 6]; 6]> {
         let (first, k) = self.rows();
         let lambda2 = self.limits.damping * self.limits.damping;
         let mut a = [[T::zero(); 6]; 6];
         for i in 0..k {
             for j in 0..=i {
                 let mut s = if i == j { lambda2 } else { T::zero() };
-                for m in 0..self.dof() {
-                    s += jac[(first + i, m)] * jac[(first + j, m)];
+                for col in jac {
+                    s += col[first + i] * col[first + j];
                 }
                 a[i][j] = s;
             }
         }
+        // Column by column: D_j = A_jj − Σ_p L_jp² D_p, L_ij = (A_ij − Σ_p L_ip L_jp D_p) / D_j.
         for j in 0..k {
-            let row_j = a[j];
-            let d = row_j[..j].iter().fold(row_j[j], |d, x| d - *x * *x);
+            let mut d = a[j][j];
+            for p in 0..j {
+                d -= a[j][p] * a[j][p] * a[p][p];
+            }
             // Not positive, or NaN.
             if d.partial_cmp(&T::zero()) != Some(core::cmp::Ordering::Greater) {
                 return None;
             }
-            let d = d.sqrt();
-            a[j][j] = d;
-            for row_i in a.iter_mut().take(k).skip(j + 1) {
-                let s = row_i[..j]
-                    .iter()
-                    .zip(&row_j[..j])
-                    .fold(row_i[j], |s, (x, y)| s - *x * *y);
-                row_i[j] = s / d;
+            let inv = T::one() / d;
+            a[j][j] = inv;
+            for i in j + 1..k {
+                // Here a[i][p] (p < j) holds L_ip D_p, and a[j][p] L_jp D_p.
+                let mut s = a[i][j];
+                for p in 0..j {
+                    s -= a[i][p] * a[j][p] * a[p][p];
+                }
+                a[i][j] = s;
+            }
+        }
+        // a[i][j] holds L_ij D_j below the diagonal: divide by D_j.
+        for j in 0..k {
+            for i in j + 1..k {
+                a[i][j] *= a[j][j];
             }
         }
         Some(a)
@@ -651,34 +683,39 @@ impl<T: Real> Compensator<T> {
 
     /// `Jᵀ (J Jᵀ + λ² I)⁻¹ r` over the rows in use, with `l` from [`Self::factor`];
     /// `None` if not finite.
+    // Triangular index arithmetic reads best with indices.
+    #[allow(clippy::needless_range_loop)]
     fn damped_solve(
         &self,
-        jac: &SMatrix<T, 6, MAX_JOINTS>,
+        jac: &[[T; 6]],
         l: &[[T; 6]; 6],
         r: &Vector6<T>,
     ) -> Option<Vec<T, MAX_JOINTS>> {
         let (first, k) = self.rows();
-        // L y = r, then Lᵀ y = y.
+        // L z = r, y = z / D, then Lᵀ y = y.
         let mut y = [T::zero(); 6];
         for i in 0..k {
             let mut s = r[first + i];
             for p in 0..i {
                 s -= l[i][p] * y[p];
             }
-            y[i] = s / l[i][i];
+            y[i] = s;
+        }
+        for i in 0..k {
+            y[i] *= l[i][i];
         }
         for i in (0..k).rev() {
             let mut s = y[i];
             for p in i + 1..k {
                 s -= l[p][i] * y[p];
             }
-            y[i] = s / l[i][i];
+            y[i] = s;
         }
         let mut out: Vec<T, MAX_JOINTS> = Vec::new();
-        for m in 0..self.dof() {
+        for col in jac {
             let mut d = T::zero();
             for (i, yi) in y.iter().enumerate().take(k) {
-                d += jac[(first + i, m)] * *yi;
+                d += col[first + i] * *yi;
             }
             if !d.is_finite() {
                 return None;
@@ -686,5 +723,96 @@ impl<T: Real> Compensator<T> {
             let _ = out.push(d);
         }
         Some(out)
+    }
+}
+
+/// The calibrated geometry at one tick's temperature: the prepared model and
+/// the thermal length factor its chains apply.
+struct Geometry<'a, T: Real> {
+    model: &'a Prepared<T>,
+    factor: T,
+}
+
+impl<T: Real> Geometry<'_, T> {
+    /// The chain at joint positions `p`, into `chain`.
+    fn chain(&self, p: &[T], chain: &mut Chain<T>) -> Result<(), Fault> {
+        self.model
+            .chain_scaled_into(p, self.factor, chain)
+            .map_err(|_| Fault::JointCount)
+    }
+}
+
+/// The second-order term `H(δ, δ)` of the compensation for joint changes `δ`
+/// only, with `twists` the joints' twists `ξ_m = [w_m; v_m]` in chain order:
+/// the rotation `vee(skew E₂_R)` and the displacement `E₂_R p + e₂_t` of the
+/// point `p`, where `E₂ = Σ_m (S_m + ½X_m) X_m`, `X_m = ξ̂_m δ_m`, `S_m = Σ_{i<m}
+/// X_i` ([`crate::perturbation`], eq. 2.22). With `ŵ` the skew matrix of `w`,
+/// the rotation block of `S_m + ½X_m` is `â` with `a = Σ_{i<m} w_i δ_i + ½ w_m
+/// δ_m`, and `â ŵ = w aᵀ − (a·w) I`, `â v = a × v`: a few products per joint
+/// instead of the 4 × 4 ones of [`crate::perturbation::expand`], which it equals.
+fn joint_second_order<T: Real>(
+    twists: &[Twist<T>],
+    delta: &[T],
+    p: &Point3<T>,
+) -> (Vector3<T>, Vector3<T>) {
+    let half = T::lit(0.5);
+    let mut s = Vector3::zeros();
+    let mut e_r = Matrix3::zeros();
+    let mut e_t = Vector3::zeros();
+    for (xi, &d) in twists.iter().zip(delta) {
+        let w = Vector3::new(xi[0], xi[1], xi[2]) * d;
+        let v = Vector3::new(xi[3], xi[4], xi[5]) * d;
+        let a = s + w * half;
+        e_r += w * a.transpose();
+        let aw = a.dot(&w);
+        for i in 0..3 {
+            e_r[(i, i)] -= aw;
+        }
+        e_t += a.cross(&v);
+        s += w;
+    }
+    let rot = Vector3::new(e_r.m32 - e_r.m23, e_r.m13 - e_r.m31, e_r.m21 - e_r.m12) * half;
+    (rot, e_r * p.coords + e_t)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::perturbation::expand;
+    use crate::{Convention, Link};
+
+    /// [`joint_second_order`] is the second-order part of [`expand`] for joint
+    /// errors, in both conventions, with revolute and prismatic joints.
+    #[test]
+    fn joint_second_order_equals_expand() {
+        let (r, p) = (JointType::Revolute, JointType::Prismatic);
+        let links = [
+            Link::new(r, 0.1, 0.3, 0.2, 1.2),
+            Link::new(p, -0.4, 0.1, 0.5, -0.7),
+            Link::new(r, 0.7, -0.2, 0.3, 0.4),
+            Link::new(r, -1.1, 0.15, -0.25, -1.3),
+        ];
+        let q = [0.3, 0.05, -0.8, 1.9];
+        let delta = [0.02, -0.01, 0.03, -0.015];
+        for convention in [Convention::Dh, Convention::Mdh] {
+            let robot = Robot::new(convention, &links).unwrap();
+            let chain = robot.chain(&q).unwrap();
+            let params = [
+                Param::Theta(0),
+                Param::S(1),
+                Param::Theta(2),
+                Param::Theta(3),
+            ];
+            let twists: Vec<Twist<f64>, MAX_JOINTS> =
+                params.iter().map(|&m| chain.column(m)).collect();
+            let point = chain.point();
+            let (rot, disp) = joint_second_order(&twists, &delta, &point);
+            let errors: Vec<(Param, f64), MAX_JOINTS> = params.iter().copied().zip(delta).collect();
+            let e = expand(&chain, convention, &errors).unwrap();
+            let want_disp = e.point_error() - at_point(&e.first, &point);
+            let want_rot = e.second_twist().fixed_rows::<3>(0).into_owned();
+            assert!((rot - want_rot).norm() < 1e-15, "{convention:?}");
+            assert!((disp - want_disp).norm() < 1e-15, "{convention:?}");
+        }
     }
 }

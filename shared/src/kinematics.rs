@@ -89,6 +89,38 @@ pub struct FrameAxes<T: Real> {
     pub yaw: Vector3<T>,
 }
 
+/// Column `j` of the rotation of `frame`.
+#[inline]
+fn column<T: Real>(frame: &IsometryMatrix3<T>, j: usize) -> Vector3<T> {
+    let c = &frame.rotation.matrix().data.0[j];
+    Vector3::new(c[0], c[1], c[2])
+}
+
+/// The product `a · b` of two rigid transforms, written out on the column-major
+/// arrays: nalgebra's generic product costs more on the controller.
+#[inline]
+pub fn compose<T: Real>(a: &IsometryMatrix3<T>, b: &IsometryMatrix3<T>) -> IsometryMatrix3<T> {
+    let ra = &a.rotation.matrix().data.0;
+    let rb = &b.rotation.matrix().data.0;
+    let tb = &b.translation.vector;
+    // Column j of Ra·Rb is Ra·(column j of Rb); the translation is ta + Ra·tb.
+    let rot = |v: [T; 3]| -> [T; 3] {
+        let mut out = [T::zero(); 3];
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = ra[0][i] * v[0] + ra[1][i] * v[1] + ra[2][i] * v[2];
+        }
+        out
+    };
+    let t = rot([tb.x, tb.y, tb.z]);
+    let ta = &a.translation.vector;
+    IsometryMatrix3::from_parts(
+        nalgebra::Translation3::new(ta.x + t[0], ta.y + t[1], ta.z + t[2]),
+        nalgebra::Rotation3::from_matrix_unchecked(nalgebra::Matrix3::from_data(
+            nalgebra::ArrayStorage([rot(rb[0]), rot(rb[1]), rot(rb[2])]),
+        )),
+    )
+}
+
 /// `Rot_y(β)` from `(sin β, cos β)`.
 fn rot_y<T: Real>((s, c): (T, T)) -> IsometryMatrix3<T> {
     let (z, one) = (T::zero(), T::one());
@@ -199,23 +231,32 @@ impl<T: Real> Prepared<T> {
         crate::model::check_joint_count(self.dof(), q.len())
     }
 
+    /// `A_m` of link `l` at reading `q`, with its lengths `a`, `s` times `factor`
+    /// (the joint's own travel of a prismatic joint is not scaled).
     #[inline]
-    fn link(&self, l: &PreparedLink<T>, q: T) -> IsometryMatrix3<T> {
-        let (theta, s) = l.link.joint_values(q);
-        if l.link.beta == T::zero() {
-            return transform(self.convention, theta, s, l.link.a, l.sin_cos_alpha);
+    fn link(&self, l: &PreparedLink<T>, q: T, factor: T) -> IsometryMatrix3<T> {
+        let link = &l.link;
+        let (theta, s) = match link.joint {
+            JointType::Revolute => (link.theta + q, link.s * factor),
+            JointType::Prismatic => (link.theta, link.s * factor + q),
+        };
+        let a = link.a * factor;
+        if link.beta == T::zero() {
+            return transform(self.convention, theta, s, a, l.sin_cos_alpha);
         }
         let tilt = rot_y(l.sin_cos_beta);
         let (z, one) = (T::zero(), T::one());
         match self.convention {
             // Rot_z(θ) Trans_z(s) Trans_x(a) Rot_x(α) · Rot_y(β)
-            Convention::Dh => transform(Convention::Dh, theta, s, l.link.a, l.sin_cos_alpha) * tilt,
+            Convention::Dh => compose(
+                &transform(Convention::Dh, theta, s, a, l.sin_cos_alpha),
+                &tilt,
+            ),
             // Rot_x(α) Trans_x(a) · Rot_y(β) · Rot_z(θ) Trans_z(s)
-            Convention::Mdh => {
-                transform(Convention::Mdh, z, z, l.link.a, l.sin_cos_alpha)
-                    * tilt
-                    * transform(Convention::Dh, theta, s, z, (z, one))
-            }
+            Convention::Mdh => compose(
+                &compose(&transform(Convention::Mdh, z, z, a, l.sin_cos_alpha), &tilt),
+                &transform(Convention::Dh, theta, s, z, (z, one)),
+            ),
         }
     }
 
@@ -224,14 +265,23 @@ impl<T: Real> Prepared<T> {
         self.check_joints(q)?;
         let mut t = self.base;
         for (l, &qm) in self.links.iter().zip(q) {
-            t *= self.link(l, qm);
+            t = compose(&t, &self.link(l, qm, T::one()));
         }
-        Ok(t * self.tool)
+        Ok(compose(&t, &self.tool))
     }
 
     /// Every link frame and line at configuration `q`.
     pub fn chain(&self, q: &[T]) -> Result<Chain<T>, ModelError> {
-        let mut chain = Chain {
+        let mut chain = self.empty_chain();
+        self.chain_into(q, &mut chain)?;
+        Ok(chain)
+    }
+
+    /// A chain without links, to be filled by [`Prepared::chain_into`]: cheap to
+    /// make (its link storage is not initialised), unlike a [`Chain`] moved out
+    /// of a `Result`.
+    pub fn empty_chain(&self) -> Chain<T> {
+        Chain {
             base: self.base,
             links: Vec::new(),
             axes: Vec::new(),
@@ -240,21 +290,31 @@ impl<T: Real> Prepared<T> {
             joints: Vec::new(),
             base_axes: self.base_axes,
             tool_axes: self.tool_axes,
-        };
-        self.chain_into(q, &mut chain)?;
-        Ok(chain)
+        }
     }
 
     /// [`Prepared::chain`] into an existing [`Chain`], which a caller evaluating
     /// many configurations reuses instead of moving a new one out each time.
     pub fn chain_into(&self, q: &[T], chain: &mut Chain<T>) -> Result<(), ModelError> {
+        self.chain_scaled_into(q, T::one(), chain)
+    }
+
+    /// [`Prepared::chain_into`] with every link length `a` and offset `s` times
+    /// `factor`: the chain of [`Prepared::with_length_factor`]`(factor)`, without
+    /// copying the model (two multiplications per link).
+    pub fn chain_scaled_into(
+        &self,
+        q: &[T],
+        factor: T,
+        chain: &mut Chain<T>,
+    ) -> Result<(), ModelError> {
         self.check_joints(q)?;
         chain.links.clear();
         chain.axes.clear();
         chain.joints.clear();
         let mut before = self.base;
         for (l, &qm) in self.links.iter().zip(q) {
-            let after = before * self.link(l, qm);
+            let after = compose(&before, &self.link(l, qm, factor));
             // The z line and the x line of this link, from the frame that carries each.
             let (sb, cb) = l.sin_cos_beta;
             let (sa, ca) = l.sin_cos_alpha;
@@ -262,21 +322,23 @@ impl<T: Real> Prepared<T> {
                 // The x line is that of the frame before Rot_y(β): after·Rot_y(−β)·x;
                 // β turns about that frame's y, which Rot_y(β) leaves in place.
                 Convention::Dh => LinkAxes {
-                    w: before.rotation.matrix().column(2).into_owned(),
+                    w: column(&before, 2),
                     rho: Point3::from(before.translation.vector),
-                    u: after.rotation * Vector3::new(cb, T::zero(), sb),
+                    u: column(&after, 0) * cb + column(&after, 2) * sb,
                     sigma: Point3::from(after.translation.vector),
-                    v: after.rotation.matrix().column(1).into_owned(),
+                    v: column(&after, 1),
                     tau: Point3::from(after.translation.vector),
                 },
                 // β turns about the y axis of before·Rot_x(α)·Trans_x(a).
                 Convention::Mdh => LinkAxes {
-                    w: after.rotation.matrix().column(2).into_owned(),
+                    w: column(&after, 2),
                     rho: Point3::from(after.translation.vector),
-                    u: before.rotation.matrix().column(0).into_owned(),
+                    u: column(&before, 0),
                     sigma: Point3::from(before.translation.vector),
-                    v: before.rotation * Vector3::new(T::zero(), ca, sa),
-                    tau: before * Point3::new(l.link.a, T::zero(), T::zero()),
+                    v: column(&before, 1) * ca + column(&before, 2) * sa,
+                    tau: Point3::from(
+                        before.translation.vector + column(&before, 0) * (l.link.a * factor),
+                    ),
                 },
             };
             // Capacity is MAX_JOINTS on all three: a Robot never holds more links.
@@ -287,7 +349,7 @@ impl<T: Real> Prepared<T> {
         }
         chain.base = self.base;
         chain.flange = before;
-        chain.end = before * self.tool;
+        chain.end = compose(&before, &self.tool);
         chain.base_axes = self.base_axes;
         chain.tool_axes = self.tool_axes;
         Ok(())

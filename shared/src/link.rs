@@ -525,13 +525,21 @@ pub trait Platform {
 /// No markers, no stack measurement (host tests).
 impl Platform for () {}
 
+/// The previous tick as [`Device`] keeps it: nominal commands, sent commands,
+/// joint positions.
+type Previous3 = (
+    Vec<f32, MAX_JOINTS>,
+    Vec<f32, MAX_JOINTS>,
+    Vec<f32, MAX_JOINTS>,
+);
+
 /// The controller's side of the protocol: see [the module](self).
 #[derive(Clone, Debug)]
 pub struct Device {
     compensator: Option<Compensator<f32>>,
-    /// The previous tick's nominal and sent commands, for the change bound and
-    /// the approach directions.
-    previous: Option<(Vec<f32, MAX_JOINTS>, Vec<f32, MAX_JOINTS>)>,
+    /// The previous tick's nominal and sent commands and its joint positions,
+    /// for the change bound, the approach directions and the warm start.
+    previous: Option<Previous3>,
     last_seq: Option<u32>,
     /// The calibration file being received.
     file: Vec<u8, MAX_FILE_LEN>,
@@ -685,7 +693,7 @@ impl Device {
         let previous = self
             .previous
             .as_ref()
-            .map(|(q_cmd, q)| Previous { q_cmd, q });
+            .map(|(q_cmd, q, p)| Previous { q_cmd, q, p });
         let context = command.context.unwrap_or_default();
         let conditions = Conditions {
             temperature: context.temperature,
@@ -698,7 +706,7 @@ impl Device {
         // mismatch (the next tick is then a first one).
         self.previous = match status {
             TickStatus::NonFinite | TickStatus::JointCount => None,
-            _ => Some((command.q.clone(), c.q.clone())),
+            _ => Some((command.q.clone(), c.q.clone(), c.p.clone())),
         };
         if !matches!(status, TickStatus::Corrected) {
             s.faults = s.faults.wrapping_add(1);
@@ -969,17 +977,19 @@ mod tests {
             temperature: Some(21.5),
             payload: None,
         };
-        let mut previous: Option<(StdVec<f32>, StdVec<f32>)> = None;
+        let mut previous: Option<(StdVec<f32>, StdVec<f32>, StdVec<f32>)> = None;
         for seq in 1..20u32 {
             let q: StdVec<f32> = Q.iter().map(|q| q + 0.01 * seq as f32).collect();
             let got = tick(&mut device, seq, &q);
-            let last = previous.as_ref().map(|(q_cmd, q)| Previous { q_cmd, q });
+            let last = previous
+                .as_ref()
+                .map(|(q_cmd, q, p)| Previous { q_cmd, q, p });
             let want = compensator.correct(&q, last, &conditions);
             assert_eq!(got.q, want.q);
             assert_eq!(got.status, TickStatus::from(want.fault));
             assert_eq!(got.status, TickStatus::Corrected);
             assert!(got.q.iter().zip(&q).any(|(a, b)| a != b), "it corrects");
-            previous = Some((q, want.q.to_vec()));
+            previous = Some((q, want.q.to_vec(), want.p.to_vec()));
         }
         let s = device.status(&());
         assert_eq!(

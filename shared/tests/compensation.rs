@@ -55,7 +55,7 @@ proptest! {
             .collect();
         // The previous tick commanded q_cmd too and sent q_cmd + prev.
         let sent: Vec<f64> = q_cmd.iter().zip(&prev).map(|(q, p)| q + p).collect();
-        let last = Previous { q_cmd: &q_cmd, q: &sent };
+        let last = Previous { q_cmd: &q_cmd, q: &sent, p: &sent };
         let prev = &prev[..];
         for previous in [None, Some(prev)] {
             let c = comp.correct(&q_cmd, previous.map(|_| last), &Conditions::default());
@@ -92,7 +92,7 @@ proptest! {
         }
         // A non-finite previous command, temperature or payload is refused the same way.
         let prev = vec![f64::NAN; q.len()];
-        let last = Some(Previous { q_cmd: &q, q: &prev });
+        let last = Some(Previous { q_cmd: &q, q: &prev, p: &q });
         prop_assert_eq!(comp.correct(&q, last, &none).fault, Some(Fault::NonFinite));
         for conditions in [
             Conditions { temperature: Some(bad), payload: None },
@@ -167,7 +167,7 @@ proptest! {
         let conditions = Conditions { temperature: Some(temperature), payload: Some(payload) };
         let first = comp.correct(&q, None, &conditions);
         let q_cmd: Vec<f64> = q.iter().zip(&step).map(|(q, s)| q + s).collect();
-        let last = Previous { q_cmd: &q, q: &first.q };
+        let last = Previous { q_cmd: &q, q: &first.q, p: &first.p };
         let c = comp.correct(&q_cmd, Some(last), &conditions);
         for (m, link) in robot.links.iter().enumerate() {
             let (max, change) = match link.joint {
@@ -261,22 +261,22 @@ fn run<T: armcal_shared::Real>(
         payload: conditions.payload.map(T::lit),
     };
     let mut out = Vec::new();
-    let mut last: Option<(Vec<T>, Vec<T>)> = None;
+    let mut last: Option<(Vec<T>, Vec<T>, Vec<T>)> = None;
     for q_cmd in commands {
         let q_cmd = cast(q_cmd);
-        let previous = last.as_ref().map(|(q_cmd, q)| Previous { q_cmd, q });
+        let previous = last.as_ref().map(|(q_cmd, q, p)| Previous { q_cmd, q, p });
         let c = comp.correct(&q_cmd, previous, &conditions);
         let q: Vec<f64> = c.q.iter().map(|x| x.to_f64()).collect();
         let sent: Option<Vec<f64>> = last
             .as_ref()
-            .map(|(_, q)| q.iter().map(|x| x.to_f64()).collect());
+            .map(|(_, q, _)| q.iter().map(|x| x.to_f64()).collect());
         let ctx = Context {
             temperature: conditions.temperature.map(|x| x.to_f64()),
             payload: conditions.payload.map(|x| x.to_f64()),
             approach: approach_signs(sent.as_deref(), &q),
         };
         out.push((q, c.fault, ctx));
-        last = Some((q_cmd, c.q.to_vec()));
+        last = Some((q_cmd, c.q.to_vec(), c.p.to_vec()));
     }
     out
 }
