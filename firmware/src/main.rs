@@ -12,7 +12,9 @@
 //!    differences and an independent derivation; the chip runs the same code)
 //! 2. runs the boot benchmark ([`bench()`]): eight consecutive corrections of a
 //!    UR10e with realistic joint errors and every kind of non-geometric effect,
-//!    at 35 °C with a 5 kg payload, each between the markers below;
+//!    at 35 °C with a 5 kg payload, each between the markers below: the first
+//!    a cold tick, the others warm-started from the previous tick (a smooth
+//!    motion, as in service);
 //! 3. serves the serial link on USART1 ([`serial`]): postcard frames with COBS,
 //!    one response per request (the message table is in [`armcal_shared::link`]).
 //!    A calibration arrives in chunks and is validated whole before it replaces

@@ -45,8 +45,17 @@
 //! linearisation overshoots, and the best point found is kept. The cost per call
 //! is bounded by [`Limits::max_iterations`]: each iteration is one to eight chains
 //! of the calibrated model (one when the step succeeds, as it does away from
-//! singularities), one second-order expansion and two 6 × 6 (or 3 × 3) Cholesky
+//! singularities), the joint-only second-order term (`â ŵ = w aᵀ − (a·w) I` per
+//! joint instead of the 4 × 4 products of [`crate::perturbation::expand`]) and
+//! one `L D Lᵀ` factorisation of `J Jᵀ + λ² I` (no square root) for both
 //! solves; no allocation.
+//!
+//! **Warm start.** The search starts from the previous tick's joint positions
+//! ([`Previous::p`]): `p = q_cmd + (p_prev − q_cmd_prev)`, the inversion of the
+//! effects from `q = p − (p_prev − q_prev)`, each when that correction is within
+//! the size bound (else from `q_cmd` and `p`, as at the first tick). On a smooth
+//! motion one step then reaches the tolerance and one pass of the inversion
+//! converges; the result is the same solution to within the tolerance.
 //!
 //! # Non-geometric effects
 //!
@@ -60,7 +69,9 @@
 //! ```
 //!
 //! with `G_T` the calibrated geometry whose lengths `a`, `s` are scaled by
-//! `1 + κ (T − T_ref)` (thermal expansion), `τ_j` the gravity torque at the
+//! `1 + κ (T − T_ref)` (thermal expansion; applied inside each chain,
+//! [`Prepared::chain_scaled_into`], two multiplications per link, the model is
+//! not copied), `τ_j` the gravity torque at the
 //! readings (N·m, or N for a prismatic joint), `c_j` the compliance (rad/(N·m)),
 //! the gear harmonics (rad), `ε_j` the encoder-scale error and `b_j` half the lost
 //! motion (rad or m). The effects act on the joint readings only, so the solution

@@ -12,6 +12,12 @@
 //! and a point `σ_{m+1}` on it. In standard D-H the z line belongs to the frame
 //! before `A_m` and the x line to the frame after it; in modified D-H it is the
 //! other way round. The same four vectors then serve both conventions.
+//!
+//! Frames are composed by [`compose`], the product of two rigid transforms
+//! written out on nalgebra's column-major arrays (cheaper on the controller than
+//! the generic product). [`Prepared::chain_scaled_into`] evaluates the chain
+//! with every length `a`, `s` times a factor (thermal expansion) without
+//! copying the model, and [`Prepared::chain_into`] fills a chain in place.
 
 use heapless::Vec;
 use nalgebra::{IsometryMatrix3, Point3, Vector3};
