@@ -41,7 +41,7 @@ use nalgebra::Vector3;
 
 use crate::identify::full::{
     FullError, FullFit, FullOptions, Linearization, Observation, Status, identify_with_effects,
-    linearize,
+    linearize, unit_diagonal_scale,
 };
 use faer::linalg::solvers::Solve;
 use faer::{Mat, Side};
@@ -339,15 +339,7 @@ fn screen(lin: &Linearization, folds: usize, separability: f64) -> Option<Screen
     }
     // Scale to a unit diagonal; the Cholesky factor's diagonal entry squared is then
     // what each column keeps beside the columns before it.
-    let scale: Vec<f64> = (0..columns)
-        .map(|c| {
-            if a[(c, c)] > 0.0 {
-                1.0 / a[(c, c)].sqrt()
-            } else {
-                0.0
-            }
-        })
-        .collect();
+    let scale = unit_diagonal_scale(&a);
     let solve = |a: &Mat<f64>, b: &Mat<f64>| {
         let m = Mat::from_fn(columns, columns, |c, d| {
             let (c, d) = if d > c { (d, c) } else { (c, d) };

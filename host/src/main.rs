@@ -264,13 +264,25 @@ fn main() -> ExitCode {
     }
 }
 
+/// The model and the measurements of a session, refused if the poses give fewer
+/// equations than the model's independent parameters.
+fn load_session(
+    model: &str,
+    data: &str,
+) -> anyhow::Result<(model_file::RobotModel, measurements::Measurements)> {
+    let model = model_file::load_model(model)?;
+    let data = measurements::load_measurements(data, &model)?;
+    data.require_poses(check::independent_parameter_count(
+        &model.robot,
+        data.has_orientation(),
+    ))?;
+    Ok((model, data))
+}
+
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Check { model, data } => {
-            let model = model_file::load_model(&model)?;
-            let data = measurements::load_measurements(&data, &model)?;
-            let full_pose = data.poses.iter().all(|p| p.orientation.is_some());
-            data.require_poses(check::independent_parameter_count(&model.robot, full_pose))?;
+            let (model, data) = load_session(&model, &data)?;
             print!("{}", check::report(&model, &data));
         }
         Command::Reproduce {
@@ -292,10 +304,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             position_noise,
             orientation_noise,
         } => {
-            let model = model_file::load_model(&model)?;
-            let data = measurements::load_measurements(&data, &model)?;
-            let full_pose = data.poses.iter().all(|p| p.orientation.is_some());
-            data.require_poses(check::independent_parameter_count(&model.robot, full_pose))?;
+            let (model, data) = load_session(&model, &data)?;
             let mut options = FullOptions::default();
             let u = &model.units;
             let noise = [
@@ -418,10 +427,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             position_noise,
             folds,
         } => {
-            let model = model_file::load_model(&model)?;
-            let data = measurements::load_measurements(&data, &model)?;
-            let full_pose = data.poses.iter().all(|p| p.orientation.is_some());
-            data.require_poses(check::independent_parameter_count(&model.robot, full_pose))?;
+            let (model, data) = load_session(&model, &data)?;
             anyhow::ensure!(folds >= 2, "--folds {folds}: at least 2");
             let mut options = armcal::diagnose::DiagnoseOptions {
                 folds,
@@ -460,7 +466,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let lines: Vec<usize> = data.poses.iter().map(|p| p.line).collect();
             let mut outputs = Vec::new();
             if let Some(path) = &out {
-                let cal = diagnosis.calibration(&model.robot, full_pose, model.units);
+                let cal = diagnosis.calibration(&model.robot, data.has_orientation(), model.units);
                 outputs.push((path.as_path(), cal.to_bytes()?));
             }
             if let Some(path) = &json {

@@ -921,20 +921,26 @@ impl LinearSystem {
     fn scaled_normal_equations(&self) -> (Mat<f64>, Mat<f64>, Vec<f64>) {
         let g = self.j.transpose() * &self.j;
         let n = g.nrows();
-        let scale: Vec<f64> = (0..n)
-            .map(|k| {
-                if g[(k, k)] > 0.0 {
-                    1.0 / g[(k, k)].sqrt()
-                } else {
-                    0.0
-                }
-            })
-            .collect();
+        let scale = unit_diagonal_scale(&g);
         let gs = Mat::from_fn(n, n, |a, b| g[(a, b)] * scale[a] * scale[b]);
         let jtr = self.j.transpose() * &self.r;
         let rhs = Mat::from_fn(n, 1, |a, _| jtr[(a, 0)] * scale[a]);
         (gs, rhs, scale)
     }
+}
+
+/// The factors `1/√G_kk` that scale a normal matrix `G = JᵀJ` to a unit diagonal
+/// (its columns of `J` to unit norm); 0 for a zero column, which cannot move anything.
+pub(crate) fn unit_diagonal_scale(g: &Mat<f64>) -> Vec<f64> {
+    (0..g.nrows())
+        .map(|k| {
+            if g[(k, k)] > 0.0 {
+                1.0 / g[(k, k)].sqrt()
+            } else {
+                0.0
+            }
+        })
+        .collect()
 }
 
 /// The rank-revealing Cholesky of the scaled normal matrix in the order of
