@@ -1,6 +1,6 @@
 //! `armcal check` and `armcal identify`.
 
-use crate::{armcal, files_in};
+use crate::{armcal, assert_success, files_in};
 
 #[test]
 fn check_on_builtin_model_and_data_prints_the_summary() {
@@ -16,11 +16,7 @@ fn check_on_builtin_model_and_data_prints_the_summary() {
         dir.path(),
     );
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     for needle in [
         "ur10e_d435",
         "6 joints",
@@ -116,11 +112,7 @@ fn identify_writes_the_interface_json_and_a_calibration_the_firmware_format_read
         ],
         dir.path(),
     );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     assert!(
         out.stdout.is_empty(),
         "with --out/--json nothing is printed"
@@ -184,11 +176,7 @@ fn identify_without_outputs_prints_a_summary_and_writes_nothing() {
         ],
         dir.path(),
     );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     let stdout = String::from_utf8_lossy(&out.stdout);
     for needle in [
         "converged",
@@ -278,22 +266,14 @@ fn simulate_writes_data_that_identify_reads() {
             ],
             dir.path(),
         );
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        assert_success(&out);
         let json: serde_json::Value =
             serde_json::from_slice(&std::fs::read(dir.path().join("r.json")).unwrap()).unwrap();
         json["variance_factor"].as_f64().unwrap()
     };
     let run = |args: &[&str]| {
         let out = armcal(args, dir.path());
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        assert_success(&out);
     };
     run(&[
         "simulate",
@@ -344,11 +324,7 @@ fn diagnose_names_a_hidden_compliance_and_its_calibration_carries_it() {
     let dir = tempfile::tempdir().unwrap();
     let run = |args: &[&str]| {
         let out = armcal(args, dir.path());
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        assert_success(&out);
         out
     };
     run(&[
@@ -430,11 +406,7 @@ fn diagnose_html_is_self_contained_and_renders_in_chromium() {
     let dir = tempfile::tempdir().unwrap();
     let run = |args: &[&str]| {
         let out = armcal(args, dir.path());
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        assert_success(&out);
     };
     run(&[
         "simulate",

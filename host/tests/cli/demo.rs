@@ -1,7 +1,7 @@
 //! `armcal demo`: a simulated PUMA with a hidden effect, diagnosed, compensated
 //! and reported, with no input files.
 
-use crate::armcal;
+use crate::{armcal, assert_success};
 
 /// The `rms` column of the row of the printed table that starts with `label`, mm.
 fn rms(stdout: &str, label: &str) -> f64 {
@@ -26,11 +26,7 @@ fn demo_writes_the_report_and_prints_the_gain() {
         dir.path(),
     );
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     assert!(stdout.lines().count() <= 25, "short output:\n{stdout}");
     for needle in ["--seed 3", "hidden:", "named:", "report: "] {
         assert!(stdout.contains(needle), "missing {needle:?} in:\n{stdout}");

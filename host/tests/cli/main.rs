@@ -19,6 +19,15 @@ pub fn armcal(args: &[&str], dir: &Path) -> Output {
         .expect("armcal runs")
 }
 
+/// Asserts that a run of `armcal` succeeded, showing its standard error if not.
+pub fn assert_success(out: &Output) {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
 /// The names of the files in `dir`, sorted.
 pub fn files_in(dir: &Path) -> Vec<String> {
     let mut names: Vec<String> = std::fs::read_dir(dir)

@@ -3,7 +3,7 @@
 //! a damaged, truncated or foreign calibration and a bad joints file are refused
 //! with exit status 2, naming the file and the reason, and nothing is written.
 
-use crate::armcal;
+use crate::{armcal, assert_success};
 use armcal::model_file::{RobotModel, load_model, parse_model};
 use armcal_shared::{Calibration, Param, ParamError};
 
@@ -86,11 +86,7 @@ fn predicts_the_calibrated_forward_kinematics(
         ],
         dir.path(),
     );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     assert!(out.stdout.is_empty(), "--out prints nothing");
     let csv = std::fs::read_to_string(dir.path().join("p.csv")).unwrap();
     let first = csv.lines().next().unwrap();
@@ -360,11 +356,7 @@ fn compensate_rows(cal: &Calibration, text: &str) -> Vec<Vec<f64>> {
         ],
         dir.path(),
     );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     assert!(
         out.stderr.is_empty(),
         "no row reported: {}",
