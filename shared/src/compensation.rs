@@ -108,12 +108,12 @@
 //! geometric calibration takes exactly the steps of the geometric problem.
 
 use heapless::Vec;
-use nalgebra::{IsometryMatrix3, Matrix3, Point3, Vector3, Vector6};
+use nalgebra::{IsometryMatrix3, Vector3};
 
-use crate::effects::{Effect, EffectModel, JointTerms, MAX_EFFECTS, gravity_torques};
-use crate::jacobian::at_point;
+use crate::effects::{Effect, EffectModel, JointEffect, MAX_EFFECTS, Masses};
 use crate::kinematics::Prepared;
-use crate::{Calibration, Chain, JointType, MAX_JOINTS, Param, Real, Robot, Twist, rotation_error};
+use crate::servo_chain::{JointLine, ServoChain, Wanted};
+use crate::{Calibration, JointType, MAX_JOINTS, Real, Robot};
 
 /// The conditions of one tick that non-geometric effects depend on.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -221,11 +221,79 @@ pub struct Compensator<T: Real> {
     calibrated: Prepared<T>,
     joints: Vec<JointType, MAX_JOINTS>,
     orientation: bool,
-    /// The calibrated geometry (its masses and gravity, for the torques) and the
-    /// effects; none for a geometric calibration.
+    /// The calibrated geometry and the effects; none for a geometric calibration.
     effects: EffectModel<T>,
+    /// The effects of each joint, summed.
+    joint_effects: Vec<JointEffect<T>, MAX_JOINTS>,
+    /// The calibrated model's masses and gravity, for the torques of a compliance.
+    masses: Masses<T>,
+    /// How fast the effects' joint offsets change with the joints.
+    slopes: Slopes<T>,
     /// The bounds and tolerances in force.
     pub limits: Limits<T>,
+}
+
+/// One value per joint, sized for the most joints: the tick's work arrays
+/// (fixed size, on the stack, no allocation).
+type Joints<T> = [T; MAX_JOINTS];
+
+/// What bounds the slope of the effects' joint offsets `o_j(q)` (compliance
+/// times gravity torque, gear harmonics), for the stopping rule of the
+/// inversion (see the module header).
+#[derive(Clone, Debug)]
+struct Slopes<T: Real> {
+    /// Per joint: the compliance's magnitude times `|g|` times the mass the
+    /// joint carries without the payload (`Σ_{k ≥ j} m_k`), and times `|g|`
+    /// alone (for the payload), each divided by the least `1 + ε_j`.
+    carried: Vec<(T, T), MAX_JOINTS>,
+    /// Per joint: the gear harmonics' largest slope `|s₁| + |c₁| + 2 (|s₂| +
+    /// |c₂|)` divided by the least `1 + ε_j`.
+    gear: Vec<T, MAX_JOINTS>,
+    /// A bound on the distance between any two of the joint axes' points, the
+    /// centres of mass and the tool point at the reference lengths, without the
+    /// travel of prismatic joints: `Σ (|a| + |s|) + |tool| + max |com|`, m.
+    reach: T,
+}
+
+impl<T: Real> Slopes<T> {
+    fn of(robot: &Robot<T>, effects: &[JointEffect<T>], masses: &Masses<T>) -> Self {
+        let gravity = masses.gravity.norm();
+        let mut carried: Vec<(T, T), MAX_JOINTS> = Vec::new();
+        let mut gear: Vec<T, MAX_JOINTS> = Vec::new();
+        let mut total = T::zero();
+        for (j, e) in effects.iter().enumerate().rev() {
+            total += masses.mass[j];
+            let stretch = T::one() - e.scale.abs();
+            let per_mass = e.compliance.abs() * gravity / stretch;
+            let _ = carried.push((per_mass * total, per_mass));
+            let slope = e.first[0].abs()
+                + e.first[1].abs()
+                + T::lit(2.0) * (e.second[0].abs() + e.second[1].abs());
+            let _ = gear.push(slope / stretch);
+        }
+        carried.reverse();
+        gear.reverse();
+        let mut reach = robot.tool.xyz.norm();
+        let mut com = T::zero();
+        for l in &robot.links {
+            reach += l.a.abs() + l.s.abs();
+            if let Some(m) = &l.mass {
+                com = larger(com, m.com.norm());
+            }
+        }
+        Self {
+            carried,
+            gear,
+            reach: reach + com,
+        }
+    }
+}
+
+/// The larger of two values (a comparison; `max` is a library call in f32 on
+/// the controller).
+#[inline(always)]
+fn larger<T: Real>(a: T, b: T) -> T {
+    if b > a { b } else { a }
 }
 
 impl<T: Real> Compensator<T> {
@@ -255,11 +323,17 @@ impl<T: Real> Compensator<T> {
         orientation: bool,
         limits: Limits<T>,
     ) -> Self {
+        let robot = &calibrated.robot;
+        let masses = Masses::of(robot, &robot.base.isometry());
+        let joint_effects = calibrated.joint_effects(robot.dof());
         Self {
             nominal: nominal.prepare(),
-            calibrated: calibrated.robot.prepare(),
-            joints: calibrated.robot.links.iter().map(|l| l.joint).collect(),
+            calibrated: robot.prepare(),
+            joints: robot.links.iter().map(|l| l.joint).collect(),
             orientation,
+            slopes: Slopes::of(robot, &joint_effects, &masses),
+            joint_effects,
+            masses,
             effects: calibrated,
             limits,
         }
@@ -267,7 +341,9 @@ impl<T: Real> Compensator<T> {
 
     /// A compensator for a calibration file's models and effects, in the scalar
     /// `T` (`f32` on the controller), with full-pose compensation if it was
-    /// identified from full poses.
+    /// identified from full poses. Never inlined: a constructor runs once per
+    /// calibration load, and one copy of it keeps the controller's flash small.
+    #[inline(never)]
     pub fn from_calibration(calibration: &Calibration, limits: Limits<T>) -> Self {
         // The identified errors are added in `T` (in f32 the sum rounds once more,
         // by at most an f32 unit in the last place): the controller then needs no
@@ -298,14 +374,6 @@ impl<T: Real> Compensator<T> {
     /// The number of joints.
     pub fn dof(&self) -> usize {
         self.joints.len()
-    }
-
-    /// The joint parameter that a joint's command moves.
-    fn joint_param(&self, m: usize) -> Param {
-        match self.joints[m] {
-            JointType::Revolute => Param::Theta(m),
-            JointType::Prismatic => Param::S(m),
-        }
     }
 
     /// The size bound and the change-per-tick bound of joint `m`'s correction.
@@ -355,44 +423,85 @@ impl<T: Real> Compensator<T> {
         {
             return unchanged(Fault::NonFinite);
         }
-        let Ok(target) = self.nominal.forward(q_cmd) else {
-            return unchanged(Fault::JointCount);
+        // The pose the nominal model intended.
+        let mut chain = ServoChain {
+            lines: Vec::new(),
+            centres: Vec::new(),
+            end: self.nominal.base,
         };
+        let target = Wanted {
+            lines: false,
+            centres: false,
+            rotation: self.orientation,
+        };
+        if self
+            .nominal
+            .servo_chain_into(q_cmd, T::one(), target, &mut chain)
+            .is_err()
+        {
+            return unchanged(Fault::JointCount);
+        }
+        let target = chain.end;
         // The calibrated geometry at the tick's temperature: its lengths times
         // the thermal factor, applied inside each chain.
         let geometry = Geometry {
             model: &self.calibrated,
             factor: self.effects.length_factor(conditions.temperature),
+            rotation: self.orientation,
         };
-        // 1. The real joint positions p that reach the target, from the previous
-        // tick's correction of them when it is within the bounds (warm start).
-        let mut p: Vec<T, MAX_JOINTS> = q_cmd.iter().copied().collect();
+        // The start: the previous tick's correction applied to this command,
+        // when it is within the bounds (warm start). With joint effects it is
+        // the estimate of the commands `q` (where the gravity torques are
+        // evaluated); without, of the joint positions `p`, which then equal `q`.
+        let corrects_joints = self.effects.corrects_joints();
+        let mut x: Joints<T> = [T::zero(); MAX_JOINTS];
+        x[..n].copy_from_slice(q_cmd);
         if let Some(prev) = previous {
-            let warm = (0..n).all(|m| (prev.p[m] - prev.q_cmd[m]).abs() <= self.bounds(m).0);
-            if warm {
+            let from = if corrects_joints { prev.q } else { prev.p };
+            if (0..n).all(|m| (from[m] - prev.q_cmd[m]).abs() <= self.bounds(m).0) {
                 for m in 0..n {
-                    p[m] += prev.p[m] - prev.q_cmd[m];
+                    x[m] += from[m] - prev.q_cmd[m];
                 }
             }
         }
-        let mut chain = self.calibrated.empty_chain();
-        if geometry.chain(&p, &mut chain).is_err() {
+        // One chain at the start serves the geometric step (joint lines,
+        // measured frame) and the gravity torques (centres of mass).
+        let needs_torque = self.effects.needs_torque();
+        if geometry.full(&x[..n], needs_torque, &mut chain).is_err() {
             return unchanged(Fault::JointCount);
         }
-        let (iterations, mut residual2) = match self.solve(&geometry, &target, &mut p, &mut chain) {
-            Ok(solved) => solved,
-            Err(fault) => return unchanged(fault),
-        };
+        let payload = conditions.payload.unwrap_or(T::zero());
+        let mut tau: Joints<T> = [T::zero(); MAX_JOINTS];
+        if needs_torque {
+            self.torques(&chain, payload, &mut tau[..n]);
+        }
+        // 1. The real joint positions p that reach the target.
+        let mut p = x;
+        let (iterations, mut residual2) =
+            match self.solve(&geometry, &target, &mut p[..n], &mut chain) {
+                Ok(solved) => solved,
+                Err(fault) => return unchanged(fault),
+            };
         let tolerance2 = self.limits.tolerance * self.limits.tolerance;
         let mut fault = (residual2 > tolerance2).then_some(Fault::NotConverged);
-        // 2. The commands that put the joints at p.
-        let mut q = p.clone();
-        if self.effects.corrects_joints() {
-            match self.invert(&geometry, &mut q, previous, conditions, &mut chain) {
+        // 2. The commands that put the joints at p, from the start and its torques.
+        let mut q = p;
+        if corrects_joints {
+            q = x;
+            let mut reached = p;
+            match self.invert(
+                &geometry,
+                &mut q[..n],
+                &mut reached[..n],
+                &mut tau[..n],
+                previous,
+                payload,
+                &mut chain,
+            ) {
                 None => return unchanged(Fault::NonFinite),
-                Some(None) => {}
-                Some(Some(held)) => {
-                    if geometry.chain(&held, &mut chain).is_err() {
+                Some(false) => {}
+                Some(true) => {
+                    if geometry.chain(&reached[..n], false, &mut chain).is_err() {
                         return unchanged(Fault::JointCount);
                     }
                     residual2 = self.residual(&target, &chain.end).1;
@@ -420,12 +529,12 @@ impl<T: Real> Compensator<T> {
             clip(-max, max);
             q[m] = q_cmd[m] + c;
         }
-        if !finite(&q) || !finite(&p) || !residual2.is_finite() {
+        if !finite(&q[..n]) || !finite(&p[..n]) || !residual2.is_finite() {
             return unchanged(Fault::NonFinite);
         }
         Correction {
-            q,
-            p,
+            q: q[..n].iter().copied().collect(),
+            p: p[..n].iter().copied().collect(),
             fault,
             iterations,
             residual: residual2.sqrt(),
@@ -434,31 +543,32 @@ impl<T: Real> Compensator<T> {
 
     /// The geometric problem: refines the joint positions `p` until `geometry`
     /// reaches `target` (eq. 4.9, repeated; see the module header). `chain` is at
-    /// `p` on entry and on return. Returns the iterations and the squared norm of
-    /// the residual.
+    /// `p` with its joint lines on entry, a work buffer after. Returns the
+    /// iterations and the squared residual (or the square of its bound, when
+    /// the last step was taken on its bound).
     fn solve(
         &self,
         geometry: &Geometry<'_, T>,
         target: &IsometryMatrix3<T>,
-        p: &mut Vec<T, MAX_JOINTS>,
-        chain: &mut Chain<T>,
+        p: &mut [T],
+        chain: &mut ServoChain<T>,
     ) -> Result<(usize, T), Fault> {
-        let tolerance2 = self.limits.tolerance * self.limits.tolerance;
+        let n = p.len();
+        let tolerance = self.limits.tolerance;
+        let tolerance2 = tolerance * tolerance;
         let mut iterations = 0;
         let mut residual = self.residual(target, &chain.end);
-        let mut trial_p = p.clone();
+        let mut first: Joints<T> = [T::zero(); MAX_JOINTS];
+        let mut second: Joints<T> = [T::zero(); MAX_JOINTS];
+        let mut trial: Joints<T> = [T::zero(); MAX_JOINTS];
         while residual.1 > tolerance2 && iterations < self.limits.max_iterations {
             iterations += 1;
-            let (first, second) = self.step(chain, &residual.0).ok_or(Fault::NonFinite)?;
-            // Take a step only if it lowers the residual: the second-order one (eq.
-            // 4.9) first, then the first-order one, each halved up to three times.
-            // Near a singularity the linearisation overshoots and the second-order
-            // term, built on an overshooting first step, can mislead; otherwise the
-            // full second-order step is taken at once.
-            let mut improved = false;
-            'candidates: for mut step in [second, first] {
-                // Trust region: no joint moves by more than its correction bound in
-                // one step (near a singularity the step is otherwise huge).
+            let bound = self
+                .step(chain, &residual.0, &mut first[..n], &mut second[..n])
+                .ok_or(Fault::NonFinite)?;
+            // Trust region: no joint moves by more than its correction bound in
+            // one step (near a singularity the step is otherwise huge).
+            let trust = |step: &mut [T]| {
                 let mut scale = T::one();
                 for (m, d) in step.iter().enumerate() {
                     let max = self.bounds(m).0;
@@ -467,15 +577,34 @@ impl<T: Real> Compensator<T> {
                     }
                 }
                 step.iter_mut().for_each(|d| *d *= scale);
+                scale == T::one()
+            };
+            let whole = trust(&mut second[..n]);
+            // The residual after δ₂ is bounded below the tolerance: taken
+            // without evaluating the chain there.
+            if let Some(bound) = bound.filter(|b| whole && *b <= tolerance) {
+                for (pm, d) in p.iter_mut().zip(&second[..n]) {
+                    *pm += *d;
+                }
+                return Ok((iterations, bound * bound));
+            }
+            trust(&mut first[..n]);
+            // Take a step only if it lowers the residual: the second-order one (eq.
+            // 4.9) first, then the first-order one, each halved up to three times.
+            // Near a singularity the linearisation overshoots and the second-order
+            // term, built on an overshooting first step, can mislead; otherwise the
+            // full second-order step is taken at once.
+            let mut improved = false;
+            'candidates: for step in [&mut second[..n], &mut first[..n]] {
                 for _ in 0..4 {
-                    for ((t, pm), d) in trial_p.iter_mut().zip(p.iter()).zip(step.iter()) {
+                    for ((t, pm), d) in trial.iter_mut().zip(p.iter()).zip(step.iter()) {
                         *t = *pm + *d;
                     }
-                    geometry.chain(&trial_p, chain)?;
-                    let trial = self.residual(target, &chain.end);
-                    if trial.1 < residual.1 {
-                        (residual, improved) = (trial, true);
-                        core::mem::swap(p, &mut trial_p);
+                    geometry.chain(&trial[..n], true, chain)?;
+                    let candidate = self.residual(target, &chain.end);
+                    if candidate.1 < residual.1 {
+                        (residual, improved) = (candidate, true);
+                        p.copy_from_slice(&trial[..n]);
                         break 'candidates;
                     }
                     step.iter_mut().for_each(|d| *d *= T::lit(0.5));
@@ -483,42 +612,35 @@ impl<T: Real> Compensator<T> {
             }
             if !improved {
                 // `chain` holds the last trial: back to the best point.
-                geometry.chain(p, chain)?;
+                geometry.chain(p, true, chain)?;
                 break;
             }
         }
         Ok((iterations, residual.1))
     }
 
-    /// The effects' inversion: replaces the joint positions `p` in `q` by the
-    /// commands `q` with `q + Δq(q) = p` (see the module header), starting from
-    /// `p` minus the previous tick's `Δq`. `None` if a value was not finite;
-    /// `Some(Some(p'))` with the joint positions really reached when a joint was
-    /// held within its lost motion; `Some(None)` otherwise. `chain` is a work
-    /// buffer.
-    #[allow(clippy::option_option)]
+    /// The effects' inversion: the commands `q` with `q + Δq(q) = p` (see the
+    /// module header), from the start in `q`, whose gravity torques `tau` are
+    /// (zero without a compliance). `None` if a value was not finite;
+    /// `Some(true)` when a joint was held within its lost motion, with the joint
+    /// positions really reached in `reached` (which holds `p` on entry);
+    /// `Some(false)` otherwise. `chain` is a work buffer.
+    #[allow(clippy::too_many_arguments)]
     fn invert(
         &self,
         geometry: &Geometry<'_, T>,
-        q: &mut Vec<T, MAX_JOINTS>,
+        q: &mut [T],
+        reached: &mut [T],
+        tau: &mut [T],
         previous: Option<Previous<'_, T>>,
-        conditions: &Conditions<T>,
-        chain: &mut Chain<T>,
-    ) -> Option<Option<Vec<T, MAX_JOINTS>>> {
-        let p = q.clone();
+        payload: T,
+        chain: &mut ServoChain<T>,
+    ) -> Option<bool> {
+        let n = q.len();
+        let p: &[T] = reached;
         let sent = previous.map(|prev| prev.q);
-        if let Some(prev) = previous {
-            // Warm start: the previous tick's joint correction Δq = p − q, when
-            // within the bounds.
-            let n = q.len();
-            if (0..n).all(|m| (prev.p[m] - prev.q[m]).abs() <= self.bounds(m).0) {
-                for m in 0..n {
-                    q[m] -= prev.p[m] - prev.q[m];
-                }
-            }
-        }
-        let payload = conditions.payload.unwrap_or(T::zero());
         let tolerance = self.limits.tolerance / self.limits.length_scale;
+        let slope = self.slope(payload, geometry.factor, q);
         let sign = |x: T| {
             if x > T::zero() {
                 T::one()
@@ -529,135 +651,242 @@ impl<T: Real> Compensator<T> {
             }
         };
         let mut held = false;
-        let mut tau: Vec<T, MAX_JOINTS> = q.iter().map(|_| T::zero()).collect();
-        let mut terms = JointTerms {
-            offset: Vec::new(),
-            scale: Vec::new(),
-            backlash: Vec::new(),
-        };
-        for _ in 0..self.limits.max_iterations.max(1) {
-            if self.effects.needs_torque() {
-                geometry.chain(q, chain).ok()?;
-                tau = gravity_torques(&self.effects.robot, chain, payload);
+        let needs_torque = self.effects.needs_torque();
+        for iteration in 0..self.limits.max_iterations.max(1) {
+            if needs_torque && iteration > 0 {
+                geometry.full(q, true, chain).ok()?;
+                self.torques(chain, payload, tau);
             }
-            terms = self.effects.joint_terms(q, &tau);
             let mut change = T::zero();
             held = false;
-            for j in 0..q.len() {
-                let stretch = T::one() + terms.scale[j];
-                let mut next = (p[j] - terms.offset[j]) / stretch;
-                if let Some(prev) = sent.filter(|_| terms.backlash[j] != T::zero()) {
-                    let lost = terms.backlash[j] / stretch;
-                    let d = next - prev[j];
-                    let sigma = sign(d);
-                    if sign(d - lost * sigma) == sigma {
-                        next -= lost * sigma;
+            for (j, e) in self.joint_effects.iter().enumerate().take(n) {
+                let stretch = T::one() + e.scale;
+                let mut next = (p[j] - e.offset(q[j], tau[j])) / stretch;
+                if let Some(prev) = sent.filter(|_| e.backlash != T::zero()) {
+                    let lost = e.backlash / stretch;
+                    let sigma = sign(next - prev[j]);
+                    // Consistent when the command, lost motion taken off,
+                    // still moves the joint the way σ says (tested on the
+                    // rounded command: it is what is sent).
+                    let moved = next - lost * sigma;
+                    if sign(moved - prev[j]) == sigma {
+                        next = moved;
                     } else {
                         // Within the lost motion: held (σ = 0).
                         next = prev[j];
                         held = true;
                     }
                 }
-                change = change.max((next - q[j]).abs());
+                change = larger(change, (next - q[j]).abs());
                 q[j] = next;
             }
             if !change.is_finite() {
                 return None;
             }
-            if change <= tolerance {
+            // The offsets change by at most `slope` times the change of q: the
+            // fixed point is within slope / (1 − slope) of this change.
+            if change <= tolerance
+                || (slope < T::lit(0.5) && slope * change <= (T::one() - slope) * tolerance)
+            {
                 break;
             }
         }
-        if !held {
-            return Some(None);
+        if held {
+            // Where the joints really go: q + Δq(q) with the approach of the
+            // commands, the offsets at the torques of the last evaluation.
+            for (j, e) in self.joint_effects.iter().enumerate().take(n) {
+                let sigma = sent.map_or(T::zero(), |prev| sign(q[j] - prev[j]));
+                reached[j] = q[j] + e.offset(q[j], tau[j]) + e.scale * q[j] + e.backlash * sigma;
+            }
         }
-        // Where the joints really go: q + Δq(q) with the approach of the commands.
-        let reached = q
-            .iter()
-            .enumerate()
-            .map(|(j, &qj)| {
-                let sigma = sent.map_or(T::zero(), |prev| sign(qj - prev[j]));
-                qj + terms.correction(j, qj, sigma)
-            })
-            .collect();
-        Some(Some(reached))
+        Some(held)
+    }
+
+    /// The gravity torques at `chain` (with its lines and centres) into `tau`.
+    fn torques(&self, chain: &ServoChain<T>, payload: T, tau: &mut [T]) {
+        let (lines, centres) = (&chain.lines, &chain.centres);
+        self.masses.torques(
+            payload,
+            &chain.point(),
+            |j| (lines[j].w, lines[j].rho),
+            |k| centres[k],
+            tau,
+        );
+    }
+
+    /// A bound on how much the joint offsets `o_j(q)` divided by `1 + ε_j`
+    /// change per radian (metre) of change of `q`, in the largest joint, with
+    /// `payload` kg and the lengths times `factor`, near `q`: the gravity torque
+    /// `τ_j = Σ_{k≥j} m_k (w_j × (r_k − ρ_j))·g` changes by at most `2 R |g| M_j`
+    /// per radian of any revolute joint (the lever and the axis both turn; `R`
+    /// bounds every lever) and by `|g| M_j` per metre of a prismatic one, with
+    /// `M_j` the mass carried; a harmonic `s sin kq` by `k |s|`.
+    fn slope(&self, payload: T, factor: T, q: &[T]) -> T {
+        let s = &self.slopes;
+        let mut reach = s.reach * larger(factor, T::one());
+        let (mut revolute, mut prismatic) = (T::zero(), T::zero());
+        for (m, joint) in self.joints.iter().enumerate() {
+            match joint {
+                JointType::Revolute => revolute += T::one(),
+                JointType::Prismatic => {
+                    prismatic += T::one();
+                    reach += q[m].abs() + self.limits.max_correction_length;
+                }
+            }
+        }
+        let levers = T::lit(2.0) * reach * revolute + prismatic;
+        let mut worst = T::zero();
+        for ((links, per_payload), gear) in s.carried.iter().zip(&s.gear) {
+            worst = larger(
+                worst,
+                (*links + *per_payload * payload.abs()) * levers + *gear,
+            );
+        }
+        worst
     }
 
     /// The residual `e` (rotation scaled to a length, then position; the rotation
-    /// part is zero without orientation) and its squared norm.
-    fn residual(
-        &self,
-        target: &IsometryMatrix3<T>,
-        reached: &IsometryMatrix3<T>,
-    ) -> (Vector6<T>, T) {
+    /// part is zero without orientation) and its squared norm. The rotation
+    /// part is `φ`, the vector of the skew-symmetric part of `R_target R_reachedᵀ`
+    /// (`½ Σ_i r_i × t_i` over the columns, eq. 15's `νdφ`): zero exactly where
+    /// the rotations agree, the rotation vector to third order.
+    fn residual(&self, target: &IsometryMatrix3<T>, reached: &IsometryMatrix3<T>) -> ([T; 6], T) {
         let dp = target.translation.vector - reached.translation.vector;
-        let dr = if self.orientation {
-            rotation_error(&target.rotation, &reached.rotation) * self.limits.length_scale
-        } else {
-            Vector3::zeros()
-        };
+        let mut dr = Vector3::zeros();
+        if self.orientation {
+            let (t, r) = (target.rotation.matrix(), reached.rotation.matrix());
+            for i in 0..3 {
+                dr += r.column(i).cross(&t.column(i));
+            }
+            dr *= T::lit(0.5) * self.limits.length_scale;
+        }
         // The size the steps lower: the norm of the whole residual, the orientation
         // counting as the position error it causes at `length_scale`.
-        let e = Vector6::new(dr.x, dr.y, dr.z, dp.x, dp.y, dp.z);
-        (e, e.norm_squared())
+        let e = [dr.x, dr.y, dr.z, dp.x, dp.y, dp.z];
+        (e, e.iter().fold(T::zero(), |s, x| s + *x * *x))
     }
 
-    /// The first-order step `δ₁ = J⁺ e` and the second-order one
-    /// `δq = J⁺ (e − H(δ₁, δ₁))` (eq. 4.9); `None` if not finite.
-    #[allow(clippy::type_complexity)]
+    /// The first-order step `δ₁ = J⁺ e` into `first`, the second-order one `δ₂ =
+    /// J⁺ (e − H(δ₁, δ₁))` (eq. 4.9) into `second`; returns the bound on the
+    /// residual after `δ₂` of the module header, if it applies; `None` if not
+    /// finite. `chain` carries the joint lines.
     fn step(
         &self,
-        chain: &Chain<T>,
-        e: &Vector6<T>,
-    ) -> Option<(Vec<T, MAX_JOINTS>, Vec<T, MAX_JOINTS>)> {
-        let n = self.dof();
-        let p = chain.point();
-        // The joints' twists, and the rows of J_r: rotation (scaled) and the tool
-        // point's displacement.
-        let mut twists: Vec<Twist<T>, MAX_JOINTS> = Vec::new();
+        chain: &ServoChain<T>,
+        e: &[T; 6],
+        first: &mut [T],
+        second: &mut [T],
+    ) -> Option<Option<T>> {
+        let p = chain.end.translation.vector;
+        let ls = self.limits.length_scale;
+        // The rows of J_r: each joint's rotation (scaled; zero without
+        // orientation) and the tool point's displacement; `reach` bounds the
+        // levers |v_m| (1-norm), at least ls.
+        let rotation = if self.orientation { ls } else { T::zero() };
         let mut jac: Vec<[T; 6], MAX_JOINTS> = Vec::new();
-        for m in 0..n {
-            let col = chain.column(self.joint_param(m));
-            let v = at_point(&col, &p);
-            let s = self.limits.length_scale;
+        let mut reach = ls;
+        for (line, joint) in chain.lines.iter().zip(&self.joints) {
+            let w = line.w;
+            let col = match joint {
+                JointType::Revolute => {
+                    let v = w.cross(&(p - line.rho.coords));
+                    reach = larger(reach, v.x.abs() + v.y.abs() + v.z.abs());
+                    let r = w * rotation;
+                    [r.x, r.y, r.z, v.x, v.y, v.z]
+                }
+                JointType::Prismatic => [T::zero(), T::zero(), T::zero(), w.x, w.y, w.z],
+            };
             // n ≤ MAX_JOINTS: always room.
-            let _ = jac.push([col[0] * s, col[1] * s, col[2] * s, v.x, v.y, v.z]);
-            let _ = twists.push(col);
+            let _ = jac.push(col);
         }
-        let l = self.factor(&jac)?;
-        let first = self.damped_solve(&jac, &l, e)?;
-        // Second-order change of the calibrated frame under δ₁ (eq. 2.22).
-        let (rot, point) = joint_second_order(&twists, &first, &p);
-        let rot = rot * self.limits.length_scale;
-        let h = Vector6::new(rot.x, rot.y, rot.z, point.x, point.y, point.z);
-        let second = self.damped_solve(&jac, &l, &(e - h))?;
-        Some((first, second))
+        let mut l = [[T::zero(); 6]; 6];
+        self.factor(&jac, &mut l)?;
+        self.damped_solve(&jac, &l, e, first)?;
+        let h = second_order(&self.joints, &chain.lines, &jac, first, ls);
+        let mut r = *e;
+        r.iter_mut().zip(h).for_each(|(r, h)| *r -= h);
+        let y = self.damped_solve(&jac, &l, &r, second)?;
+        Some(self.step_bound(&chain.lines, e, first, second, &y, reach))
     }
 
-    /// The `L D Lᵀ` factors of `J Jᵀ + λ² I` over the rows in use (6 with
-    /// orientation, the 3 position rows without): `L` (unit diagonal) below the
-    /// diagonal of a 6 × 6 array, `1/D` on it (the first 3 × 3 without
-    /// orientation); `None` if not positive definite or not finite. Written out
-    /// rather than nalgebra's, so that one small loop serves both sizes (flash
-    /// on the controller), one factorisation serves both solves of a step, and
-    /// no square root is taken (a software routine on the controller).
+    /// The bound of the module header on the residual after the second-order
+    /// step, or `None` where it does not apply (a step over 0.1 rad, a rotation
+    /// error over 0.4 rad).
+    fn step_bound(
+        &self,
+        lines: &[JointLine<T>],
+        e: &[T; 6],
+        first: &[T],
+        second: &[T],
+        y: &[T; 6],
+        reach: T,
+    ) -> Option<T> {
+        let ls = self.limits.length_scale;
+        // σ(δ) = Σ_revolute |δ_m| + Σ_prismatic |δ_m| / R; s_r the revolute part.
+        let (mut diff, mut sum, mut size, mut turn) = (T::zero(), T::zero(), T::zero(), T::zero());
+        let mut theta = Vector3::zeros();
+        for (m, joint) in self.joints.iter().enumerate() {
+            let (d1, d2) = (first[m], second[m]);
+            let unit = match joint {
+                JointType::Revolute => {
+                    turn += d2.abs();
+                    theta += lines[m].w * d2;
+                    T::one()
+                }
+                JointType::Prismatic => T::one() / reach,
+            };
+            diff += (d1 - d2).abs() * unit;
+            sum += (d1 + d2).abs() * unit;
+            size += d2.abs() * unit;
+        }
+        if size > T::lit(0.1) {
+            return None;
+        }
+        let damped = y.iter().fold(T::zero(), |s, v| s + v.abs());
+        let lambda2 = self.limits.damping * self.limits.damping;
+        let mut bound = lambda2 * damped;
+        let lever = reach + if self.orientation { ls } else { T::zero() };
+        bound += lever * (T::lit(0.5) * diff * sum + T::lit(0.2) * size * size * size);
+        if self.orientation {
+            let phi = Vector3::new(e[0], e[1], e[2]) / ls;
+            let phi1 = phi.x.abs() + phi.y.abs() + phi.z.abs();
+            if phi1 > T::lit(0.4) {
+                return None;
+            }
+            let cross = phi.cross(&theta);
+            let cross1 = cross.x.abs() + cross.y.abs() + cross.z.abs();
+            bound += ls
+                * (T::lit(0.5) * cross1
+                    + T::lit(0.55) * phi1 * turn * turn
+                    + T::lit(0.65) * phi1 * phi1 * turn);
+        }
+        Some(bound)
+    }
+
+    /// The `L D Lᵀ` factors of `J Jᵀ + λ² I` into `a`: `L` (unit diagonal) below
+    /// the diagonal, `1/D` on it; `None` if not positive definite or not
+    /// finite. Always the six rows (without orientation the rotation rows of
+    /// `J` and of the residual are zero, their block is `λ² I` and their part of
+    /// the solution zero: the same step as the three position rows alone), so
+    /// that every loop has a fixed length; one factorisation serves both solves
+    /// of a step, and no square root is taken (a software routine on the
+    /// controller).
     // Triangular index arithmetic reads best with indices.
     #[allow(clippy::needless_range_loop)]
-    fn factor(&self, jac: &[[T; 6]]) -> Option<[[T; 6]; 6]> {
-        let (first, k) = self.rows();
+    fn factor(&self, jac: &[[T; 6]], a: &mut [[T; 6]; 6]) -> Option<()> {
         let lambda2 = self.limits.damping * self.limits.damping;
-        let mut a = [[T::zero(); 6]; 6];
-        for i in 0..k {
-            for j in 0..=i {
-                let mut s = if i == j { lambda2 } else { T::zero() };
-                for col in jac {
-                    s += col[first + i] * col[first + j];
+        for i in 0..6 {
+            a[i][i] = lambda2;
+        }
+        for col in jac {
+            for i in 0..6 {
+                for j in 0..=i {
+                    a[i][j] += col[i] * col[j];
                 }
-                a[i][j] = s;
             }
         }
         // Column by column: D_j = A_jj − Σ_p L_jp² D_p, L_ij = (A_ij − Σ_p L_ip L_jp D_p) / D_j.
-        for j in 0..k {
+        for j in 0..6 {
             let mut d = a[j][j];
             for p in 0..j {
                 d -= a[j][p] * a[j][p] * a[p][p];
@@ -668,7 +897,7 @@ impl<T: Real> Compensator<T> {
             }
             let inv = T::one() / d;
             a[j][j] = inv;
-            for i in j + 1..k {
+            for i in j + 1..6 {
                 // Here a[i][p] (p < j) holds L_ip D_p, and a[j][p] L_jp D_p.
                 let mut s = a[i][j];
                 for p in 0..j {
@@ -678,124 +907,141 @@ impl<T: Real> Compensator<T> {
             }
         }
         // a[i][j] holds L_ij D_j below the diagonal: divide by D_j.
-        for j in 0..k {
-            for i in j + 1..k {
+        for j in 0..6 {
+            for i in j + 1..6 {
                 a[i][j] *= a[j][j];
             }
         }
-        Some(a)
+        Some(())
     }
 
-    /// The first row in use and their number: 0 and 6 with orientation, 3 and 3
-    /// without.
-    fn rows(&self) -> (usize, usize) {
-        if self.orientation { (0, 6) } else { (3, 3) }
-    }
-
-    /// `Jᵀ (J Jᵀ + λ² I)⁻¹ r` over the rows in use, with `l` from [`Self::factor`];
-    /// `None` if not finite.
+    /// `Jᵀ y` into `out`, with `y = (J Jᵀ + λ² I)⁻¹ r` and `l` from
+    /// [`Self::factor`]; returns `y`, or `None` if not finite.
     // Triangular index arithmetic reads best with indices.
     #[allow(clippy::needless_range_loop)]
     fn damped_solve(
         &self,
         jac: &[[T; 6]],
         l: &[[T; 6]; 6],
-        r: &Vector6<T>,
-    ) -> Option<Vec<T, MAX_JOINTS>> {
-        let (first, k) = self.rows();
+        r: &[T; 6],
+        out: &mut [T],
+    ) -> Option<[T; 6]> {
         // L z = r, y = z / D, then Lᵀ y = y.
-        let mut y = [T::zero(); 6];
-        for i in 0..k {
-            let mut s = r[first + i];
+        let mut y = *r;
+        for i in 0..6 {
             for p in 0..i {
-                s -= l[i][p] * y[p];
+                y[i] -= l[i][p] * y[p];
             }
-            y[i] = s;
         }
-        for i in 0..k {
+        for i in 0..6 {
             y[i] *= l[i][i];
         }
-        for i in (0..k).rev() {
-            let mut s = y[i];
-            for p in i + 1..k {
-                s -= l[p][i] * y[p];
+        for i in (0..6).rev() {
+            for p in i + 1..6 {
+                y[i] -= l[p][i] * y[p];
             }
-            y[i] = s;
         }
-        let mut out: Vec<T, MAX_JOINTS> = Vec::new();
-        for col in jac {
+        let mut finite = true;
+        for (o, col) in out.iter_mut().zip(jac) {
             let mut d = T::zero();
-            for (i, yi) in y.iter().enumerate().take(k) {
-                d += col[first + i] * *yi;
+            for i in 0..6 {
+                d += col[i] * y[i];
             }
-            if !d.is_finite() {
-                return None;
-            }
-            let _ = out.push(d);
+            finite &= d.is_finite();
+            *o = d;
         }
-        Some(out)
+        finite.then_some(y)
     }
 }
 
-/// The calibrated geometry at one tick's temperature: the prepared model and
-/// the thermal length factor its chains apply.
+/// The calibrated geometry at one tick's temperature: the prepared model, the
+/// thermal length factor its chains apply, and whether the measured frame's
+/// rotation is wanted.
 struct Geometry<'a, T: Real> {
     model: &'a Prepared<T>,
     factor: T,
+    rotation: bool,
 }
 
 impl<T: Real> Geometry<'_, T> {
-    /// The chain at joint positions `p`, into `chain`.
-    fn chain(&self, p: &[T], chain: &mut Chain<T>) -> Result<(), Fault> {
+    /// The chain at joint positions `p` into `chain`, with the joint lines if `lines`.
+    fn chain(&self, p: &[T], lines: bool, chain: &mut ServoChain<T>) -> Result<(), Fault> {
+        let wanted = Wanted {
+            lines,
+            centres: false,
+            rotation: self.rotation,
+        };
         self.model
-            .chain_scaled_into(p, self.factor, chain)
+            .servo_chain_into(p, self.factor, wanted, chain)
+            .map_err(|_| Fault::JointCount)
+    }
+
+    /// The chain at `q` into `chain` with the joint lines, and the centres of
+    /// mass if `centres` (for the gravity torques).
+    fn full(&self, q: &[T], centres: bool, chain: &mut ServoChain<T>) -> Result<(), Fault> {
+        let wanted = Wanted {
+            lines: true,
+            centres,
+            rotation: self.rotation,
+        };
+        self.model
+            .servo_chain_into(q, self.factor, wanted, chain)
             .map_err(|_| Fault::JointCount)
     }
 }
 
-/// The second-order term `H(δ, δ)` of the compensation for joint changes `δ`
-/// only, with `twists` the joints' twists `ξ_m = [w_m; v_m]` in chain order:
-/// the rotation `vee(skew E₂_R)` and the displacement `E₂_R p + e₂_t` of the
-/// point `p`, where `E₂ = Σ_m (S_m + ½X_m) X_m`, `X_m = ξ̂_m δ_m`, `S_m = Σ_{i<m}
-/// X_i` ([`crate::perturbation`], eq. 2.22). With `ŵ` the skew matrix of `w`,
-/// the rotation block of `S_m + ½X_m` is `â` with `a = Σ_{i<m} w_i δ_i + ½ w_m
-/// δ_m`, and `â ŵ = w aᵀ − (a·w) I`, `â v = a × v`: a few products per joint
-/// instead of the 4 × 4 ones of [`crate::perturbation::expand`], which it equals.
-fn joint_second_order<T: Real>(
-    twists: &[Twist<T>],
+/// The second-order term `H(δ, δ)` for joint changes `δ`, as a residual row
+/// (rotation scaled by `ls`, then displacement of the tool point), from the
+/// joint lines and the Jacobian's displacement rows `v_m` (the velocity of the
+/// tool point per unit of joint `m`): with the coordinates' origin at the tool
+/// point, each joint's twist is `[w_m; v_m]` and eq. 2.22's `E₂ = Σ_m (S_m +
+/// ½X_m) X_m`, `X_m = ξ̂_m δ_m`, `S_m = Σ_{i<m} X_i`, moves the point by `Σ_m a_m
+/// × v_m δ_m` and turns by `½ Σ_m a_m × w_m δ_m` (the vector of the
+/// skew-symmetric part of its rotation block), with `a_m = Σ_{i<m} w_i δ_i + ½
+/// w_m δ_m` (zero `w` for a prismatic joint). A few products per joint instead
+/// of the 4 × 4 ones of [`crate::perturbation::expand`], which it equals
+/// (tested).
+fn second_order<T: Real>(
+    joints: &[JointType],
+    lines: &[JointLine<T>],
+    jac: &[[T; 6]],
     delta: &[T],
-    p: &Point3<T>,
-) -> (Vector3<T>, Vector3<T>) {
+    ls: T,
+) -> [T; 6] {
     let half = T::lit(0.5);
     let mut s = Vector3::zeros();
-    let mut e_r = Matrix3::zeros();
-    let mut e_t = Vector3::zeros();
-    for (xi, &d) in twists.iter().zip(delta) {
-        let w = Vector3::new(xi[0], xi[1], xi[2]) * d;
-        let v = Vector3::new(xi[3], xi[4], xi[5]) * d;
+    let mut rot = Vector3::zeros();
+    let mut disp = Vector3::zeros();
+    for (m, joint) in joints.iter().enumerate() {
+        let d = delta[m];
+        let v = Vector3::new(jac[m][3], jac[m][4], jac[m][5]) * d;
+        let w = match joint {
+            JointType::Revolute => lines[m].w * d,
+            JointType::Prismatic => Vector3::zeros(),
+        };
+        // a = s + ½ w, and a × w = s × w.
         let a = s + w * half;
-        e_r += w * a.transpose();
-        let aw = a.dot(&w);
-        for i in 0..3 {
-            e_r[(i, i)] -= aw;
-        }
-        e_t += a.cross(&v);
+        rot += s.cross(&w);
+        disp += a.cross(&v);
         s += w;
     }
-    let rot = Vector3::new(e_r.m32 - e_r.m23, e_r.m13 - e_r.m31, e_r.m21 - e_r.m12) * half;
-    (rot, e_r * p.coords + e_t)
+    rot *= half * ls;
+    [rot.x, rot.y, rot.z, disp.x, disp.y, disp.z]
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::jacobian::at_point;
     use crate::perturbation::expand;
-    use crate::{Convention, Link};
+    use crate::servo_chain::Wanted;
+    use crate::{Convention, Link, Param};
 
-    /// [`joint_second_order`] is the second-order part of [`expand`] for joint
-    /// errors, in both conventions, with revolute and prismatic joints.
+    /// [`second_order`] is the second-order part of [`expand`] for joint
+    /// errors, in both conventions, with revolute and prismatic joints, with
+    /// the rotation rows scaled by a length scale of 0.7 m.
     #[test]
-    fn joint_second_order_equals_expand() {
+    fn second_order_equals_expand() {
         let (r, p) = (JointType::Revolute, JointType::Prismatic);
         let links = [
             Link::new(r, 0.1, 0.3, 0.2, 1.2),
@@ -803,27 +1049,49 @@ mod tests {
             Link::new(r, 0.7, -0.2, 0.3, 0.4),
             Link::new(r, -1.1, 0.15, -0.25, -1.3),
         ];
+        let joints = [r, p, r, r];
         let q = [0.3, 0.05, -0.8, 1.9];
         let delta = [0.02, -0.01, 0.03, -0.015];
+        let ls = 0.7;
         for convention in [Convention::Dh, Convention::Mdh] {
             let robot = Robot::new(convention, &links).unwrap();
             let chain = robot.chain(&q).unwrap();
+            let mut servo = ServoChain::default();
+            let wanted = Wanted {
+                lines: true,
+                centres: false,
+                rotation: true,
+            };
+            robot
+                .prepare()
+                .servo_chain_into(&q, 1.0, wanted, &mut servo)
+                .unwrap();
             let params = [
                 Param::Theta(0),
                 Param::S(1),
                 Param::Theta(2),
                 Param::Theta(3),
             ];
-            let twists: Vec<Twist<f64>, MAX_JOINTS> =
-                params.iter().map(|&m| chain.column(m)).collect();
             let point = chain.point();
-            let (rot, disp) = joint_second_order(&twists, &delta, &point);
+            let jac: Vec<[f64; 6], MAX_JOINTS> = params
+                .iter()
+                .map(|&m| {
+                    let col = chain.column(m);
+                    let v = at_point(&col, &point);
+                    [col[0] * ls, col[1] * ls, col[2] * ls, v.x, v.y, v.z]
+                })
+                .collect();
+            let h = second_order(&joints, &servo.lines, &jac, &delta, ls);
             let errors: Vec<(Param, f64), MAX_JOINTS> = params.iter().copied().zip(delta).collect();
             let e = expand(&chain, convention, &errors).unwrap();
             let want_disp = e.point_error() - at_point(&e.first, &point);
-            let want_rot = e.second_twist().fixed_rows::<3>(0).into_owned();
+            let want_rot = e.second_twist().fixed_rows::<3>(0).into_owned() * ls;
+            let rot = Vector3::new(h[0], h[1], h[2]);
+            let disp = Vector3::new(h[3], h[4], h[5]);
             assert!((rot - want_rot).norm() < 1e-15, "{convention:?}");
             assert!((disp - want_disp).norm() < 1e-15, "{convention:?}");
+            // Not vacuous: the terms are 1e4 times the tolerance above.
+            assert!(want_disp.norm() > 1e-5 && want_rot.norm() > 1e-5);
         }
     }
 }

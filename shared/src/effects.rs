@@ -212,34 +212,6 @@ impl<T: Real> Effect<T> {
             },
         }
     }
-
-    /// The joint correction this effect adds, split as `Δq_j = offset + scale · q_j
-    /// + backlash · σ_j` (see [`JointTerms`]), given the readings `q` and the
-    /// gravity torques `tau`; `None` for thermal expansion.
-    fn joint_term(&self, q: &[T], tau: &[T]) -> Option<(usize, [T; 3])> {
-        let z = T::zero();
-        match *self {
-            Self::JointCompliance { joint, compliance } => {
-                Some((joint, [compliance * tau[joint], z, z]))
-            }
-            Self::GearTransmission {
-                joint,
-                first,
-                second,
-            } => {
-                let (s1, c1) = q[joint].sincos();
-                let (s2, c2) = (q[joint] + q[joint]).sincos();
-                let offset = first[0] * s1 + first[1] * c1 + second[0] * s2 + second[1] * c2;
-                Some((joint, [offset, z, z]))
-            }
-            Self::Backlash {
-                joint,
-                half_lost_motion,
-            } => Some((joint, [z, z, half_lost_motion])),
-            Self::EncoderScale { joint, scale } => Some((joint, [z, scale, z])),
-            Self::ThermalExpansion { .. } => None,
-        }
-    }
 }
 
 /// The joint corrections of all effects at one configuration, split by how they
@@ -262,6 +234,53 @@ impl<T: Real> JointTerms<T> {
     #[inline]
     pub fn correction(&self, j: usize, q_j: T, sigma_j: T) -> T {
         self.offset[j] + self.scale[j] * q_j + self.backlash[j] * sigma_j
+    }
+}
+
+/// The joint effects of one joint, summed over the calibration's effects:
+/// `Δq_j = compliance · τ_j + first · (sin q_j, cos q_j) + second · (sin 2q_j,
+/// cos 2q_j) + scale · q_j + backlash · σ_j` (the table of the module header).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct JointEffect<T: Real> {
+    /// rad/(N·m) (m/N).
+    pub compliance: T,
+    /// Once-per-revolution gear amplitudes (sine, cosine), rad.
+    pub first: [T; 2],
+    /// Twice-per-revolution gear amplitudes (sine, cosine), rad.
+    pub second: [T; 2],
+    /// Encoder-scale error, relative.
+    pub scale: T,
+    /// Half the lost motion, rad (m).
+    pub backlash: T,
+}
+
+impl<T: Real> JointEffect<T> {
+    /// No effect.
+    pub fn none() -> Self {
+        let z = T::zero();
+        Self {
+            compliance: z,
+            first: [z, z],
+            second: [z, z],
+            scale: z,
+            backlash: z,
+        }
+    }
+
+    /// The part of `Δq_j` that varies slowly with the reading: compliance times
+    /// the gravity torque `tau`, and the gear harmonics at `q` (the double angle
+    /// from the single one: one sine and cosine).
+    #[inline]
+    pub fn offset(&self, q: T, tau: T) -> T {
+        let z = T::zero();
+        let mut offset = self.compliance * tau;
+        if self.first != [z, z] || self.second != [z, z] {
+            let (s1, c1) = q.sincos();
+            let (s2, c2) = ((s1 + s1) * c1, (c1 - s1) * (c1 + s1));
+            offset +=
+                self.first[0] * s1 + self.first[1] * c1 + self.second[0] * s2 + self.second[1] * c2;
+        }
+        offset
     }
 }
 
@@ -364,42 +383,85 @@ pub fn gravity_torques<T: Real>(
     chain: &Chain<T>,
     payload: T,
 ) -> Vec<T, MAX_JOINTS> {
-    let g_base = robot
-        .gravity
-        .unwrap_or_else(|| Vector3::new(T::zero(), T::zero(), T::lit(-9.81)));
-    let g = chain.base.rotation * g_base;
-    let uses_masses = robot.links.iter().any(|l| l.mass.is_some());
-    // The mass and its position for each link k (link k moves with joint k).
-    let mut masses: Vec<(T, Point3<T>), MAX_JOINTS> = Vec::new();
-    for (k, link) in robot.links.iter().enumerate() {
-        let frame = &chain.links[k];
-        let (m, r) = match (uses_masses, link.mass) {
-            (true, Some(lm)) => (lm.mass, frame * Point3::from(lm.com)),
-            (true, None) => (T::zero(), Point3::from(frame.translation.vector)),
-            (false, _) => (T::one(), Point3::from(frame.translation.vector)),
-        };
-        let _ = masses.push((m, r));
-    }
-    let tool_point = chain.point();
-    let mut out: Vec<T, MAX_JOINTS> = Vec::new();
-    for (j, axes) in chain.axes.iter().enumerate() {
-        let tau = match chain.joints[j] {
-            JointType::Revolute => {
-                let moment = |m: T, r: &Point3<T>| (r - axes.rho).cross(&(g * m));
-                let links: Vector3<T> = masses[j..].iter().map(|(m, r)| moment(*m, r)).sum();
-                axes.w.dot(&(links + moment(payload, &tool_point)))
-            }
-            JointType::Prismatic => {
-                let total: T = masses[j..]
-                    .iter()
-                    .map(|(m, _)| *m)
-                    .fold(payload, |a, b| a + b);
-                axes.w.dot(&(g * total))
-            }
-        };
-        let _ = out.push(tau);
-    }
+    let masses = Masses::of(robot, &chain.base);
+    let mut out: Vec<T, MAX_JOINTS> = chain.axes.iter().map(|_| T::zero()).collect();
+    masses.torques(
+        payload,
+        &chain.point(),
+        |j| (chain.axes[j].w, chain.axes[j].rho),
+        |j| match &robot.links[j].mass {
+            Some(lm) => chain.links[j] * Point3::from(lm.com),
+            None => Point3::from(chain.links[j].translation.vector),
+        },
+        &mut out,
+    );
     out
+}
+
+/// What the gravity torques need of a model besides its configuration: the
+/// joint types, each link's mass (kg; the proxy's 1 kg for a model without
+/// masses, 0 for a link without mass in a model with them) and gravity in the
+/// measurement frame (m/s²).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Masses<T: Real> {
+    /// The joint types.
+    pub joints: Vec<JointType, MAX_JOINTS>,
+    /// Each link's mass, kg.
+    pub mass: Vec<T, MAX_JOINTS>,
+    /// Gravity in the measurement frame, m/s².
+    pub gravity: Vector3<T>,
+}
+
+impl<T: Real> Masses<T> {
+    /// The masses of `robot`, whose base frame is `base`.
+    pub fn of(robot: &Robot<T>, base: &nalgebra::IsometryMatrix3<T>) -> Self {
+        let g_base = robot
+            .gravity
+            .unwrap_or_else(|| Vector3::new(T::zero(), T::zero(), T::lit(-9.81)));
+        let uses_masses = robot.links.iter().any(|l| l.mass.is_some());
+        Self {
+            joints: robot.links.iter().map(|l| l.joint).collect(),
+            mass: robot
+                .links
+                .iter()
+                .map(|l| match (uses_masses, &l.mass) {
+                    (true, Some(lm)) => lm.mass,
+                    (true, None) => T::zero(),
+                    (false, _) => T::one(),
+                })
+                .collect(),
+            gravity: base.rotation * g_base,
+        }
+    }
+
+    /// The gravity torque on every joint into `out`, with `payload` kg at `tool` (the
+    /// measured point), joint `j`'s axis line `line(j) = (w_j, ρ_j)` and link
+    /// `k`'s centre of mass `centre(k)`: in one pass from the tip, carrying the
+    /// mass `M_j = Σ_{k ≥ j} m_k + payload` and its first moment `F_j = Σ_{k ≥ j}
+    /// m_k r_k + payload · tool`, as `τ_j = w_j · ((F_j − M_j ρ_j) × g)` for a
+    /// revolute joint and `M_j w_j · g` for a prismatic one: the module header's
+    /// sums, in O(M) instead of O(M²).
+    pub fn torques(
+        &self,
+        payload: T,
+        tool: &Point3<T>,
+        line: impl Fn(usize) -> (Vector3<T>, Point3<T>),
+        centre: impl Fn(usize) -> Point3<T>,
+        out: &mut [T],
+    ) {
+        let mut total = payload;
+        let mut moment = tool.coords * payload;
+        for j in (0..self.joints.len().min(out.len())).rev() {
+            let m = self.mass[j];
+            total += m;
+            moment += centre(j).coords * m;
+            let (w, rho) = line(j);
+            out[j] = match self.joints[j] {
+                JointType::Revolute => w.dot(&(moment - rho.coords * total).cross(&self.gravity)),
+                JointType::Prismatic => w.dot(&self.gravity) * total,
+            };
+        }
+    }
 }
 
 /// A geometric model with its effects, ready for evaluation.
@@ -474,25 +536,47 @@ impl<T: Real> EffectModel<T> {
             .any(|e| matches!(e, Effect::JointCompliance { .. }))
     }
 
+    /// Each joint's effects summed ([`JointEffect`]); effects on joints beyond
+    /// `dof` are left out.
+    pub fn joint_effects(&self, dof: usize) -> Vec<JointEffect<T>, MAX_JOINTS> {
+        let mut out: Vec<JointEffect<T>, MAX_JOINTS> =
+            (0..dof).map(|_| JointEffect::none()).collect();
+        for e in &self.effects {
+            let Some(j) = e.joint().filter(|j| *j < out.len()) else {
+                continue;
+            };
+            let je = &mut out[j];
+            match *e {
+                Effect::JointCompliance { compliance, .. } => je.compliance += compliance,
+                Effect::GearTransmission { first, second, .. } => {
+                    for k in 0..2 {
+                        je.first[k] += first[k];
+                        je.second[k] += second[k];
+                    }
+                }
+                Effect::Backlash {
+                    half_lost_motion, ..
+                } => je.backlash += half_lost_motion,
+                Effect::EncoderScale { scale, .. } => je.scale += scale,
+                Effect::ThermalExpansion { .. } => {}
+            }
+        }
+        out
+    }
+
     /// The joint corrections at readings `q` with gravity torques `tau`, split as
     /// [`JointTerms`] states.
     pub fn joint_terms(&self, q: &[T], tau: &[T]) -> JointTerms<T> {
-        let zeros = || q.iter().map(|_| T::zero()).collect();
-        let mut terms = JointTerms {
-            offset: zeros(),
-            scale: zeros(),
-            backlash: zeros(),
-        };
-        for e in &self.effects {
-            if let Some((j, [o, s, b])) = e.joint_term(q, tau)
-                && j < q.len()
-            {
-                terms.offset[j] += o;
-                terms.scale[j] += s;
-                terms.backlash[j] += b;
-            }
+        let effects = self.joint_effects(q.len());
+        JointTerms {
+            offset: effects
+                .iter()
+                .zip(q.iter().zip(tau))
+                .map(|(e, (q, tau))| e.offset(*q, *tau))
+                .collect(),
+            scale: effects.iter().map(|e| e.scale).collect(),
+            backlash: effects.iter().map(|e| e.backlash).collect(),
         }
-        terms
     }
 
     /// The joint values the robot really takes at readings `q`: `q + Δq`.

@@ -156,10 +156,10 @@ impl<T: Real> FrameAxes<T> {
 /// One link ready for repeated evaluation: the sine and cosine of its constant
 /// twist computed once.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct PreparedLink<T: Real> {
-    link: Link<T>,
-    sin_cos_alpha: (T, T),
-    sin_cos_beta: (T, T),
+pub(crate) struct PreparedLink<T: Real> {
+    pub(crate) link: Link<T>,
+    pub(crate) sin_cos_alpha: (T, T),
+    pub(crate) sin_cos_beta: (T, T),
 }
 
 /// A robot made ready for many evaluations: the trigonometry of every constant
@@ -169,10 +169,10 @@ struct PreparedLink<T: Real> {
 /// controller prepares it once per calibration load.
 #[derive(Clone, Debug)]
 pub struct Prepared<T: Real> {
-    convention: Convention,
-    links: Vec<PreparedLink<T>, MAX_JOINTS>,
-    base: IsometryMatrix3<T>,
-    tool: IsometryMatrix3<T>,
+    pub(crate) convention: Convention,
+    pub(crate) links: Vec<PreparedLink<T>, MAX_JOINTS>,
+    pub(crate) base: IsometryMatrix3<T>,
+    pub(crate) tool: IsometryMatrix3<T>,
     base_axes: FrameAxes<T>,
     tool_axes: FrameAxes<T>,
 }

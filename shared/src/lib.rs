@@ -48,6 +48,7 @@ pub mod param;
 pub mod perturbation;
 pub mod pose_error;
 pub mod scalar;
+pub mod servo_chain;
 pub mod units;
 
 pub use calibration::{Calibration, CalibrationError, ParamError};
