@@ -272,15 +272,20 @@ impl<T: Real> JointEffect<T> {
     /// from the single one: one sine and cosine).
     #[inline]
     pub fn offset(&self, q: T, tau: T) -> T {
+        self.compliance * tau + self.harmonics(q)
+    }
+
+    /// The gear harmonics at `q`: 0 without amplitudes, else one sine and
+    /// cosine (the double angle from the single one).
+    #[inline]
+    pub fn harmonics(&self, q: T) -> T {
         let z = T::zero();
-        let mut offset = self.compliance * tau;
-        if self.first != [z, z] || self.second != [z, z] {
-            let (s1, c1) = q.sincos();
-            let (s2, c2) = ((s1 + s1) * c1, (c1 - s1) * (c1 + s1));
-            offset +=
-                self.first[0] * s1 + self.first[1] * c1 + self.second[0] * s2 + self.second[1] * c2;
+        if self.first == [z, z] && self.second == [z, z] {
+            return z;
         }
-        offset
+        let (s1, c1) = q.sincos();
+        let (s2, c2) = ((s1 + s1) * c1, (c1 - s1) * (c1 + s1));
+        self.first[0] * s1 + self.first[1] * c1 + self.second[0] * s2 + self.second[1] * c2
     }
 }
 
@@ -393,6 +398,7 @@ pub fn gravity_torques<T: Real>(
             Some(lm) => chain.links[j] * Point3::from(lm.com),
             None => Point3::from(chain.links[j].translation.vector),
         },
+        u32::MAX,
         &mut out,
     );
     out
@@ -441,20 +447,27 @@ impl<T: Real> Masses<T> {
     /// m_k r_k + payload · tool`, as `τ_j = w_j · ((F_j − M_j ρ_j) × g)` for a
     /// revolute joint and `M_j w_j · g` for a prismatic one: the module header's
     /// sums, in O(M) instead of O(M²).
+    /// Only the joints whose bit is set in `which` get their torque (the others
+    /// keep their value in `out`), and the pass stops at the lowest of them.
     pub fn torques(
         &self,
         payload: T,
         tool: &Point3<T>,
         line: impl Fn(usize) -> (Vector3<T>, Point3<T>),
         centre: impl Fn(usize) -> Point3<T>,
+        which: u32,
         out: &mut [T],
     ) {
         let mut total = payload;
         let mut moment = tool.coords * payload;
-        for j in (0..self.joints.len().min(out.len())).rev() {
+        let lowest = which.trailing_zeros() as usize;
+        for j in (lowest..self.joints.len().min(out.len())).rev() {
             let m = self.mass[j];
             total += m;
             moment += centre(j).coords * m;
+            if which & (1 << j) == 0 {
+                continue;
+            }
             let (w, rho) = line(j);
             out[j] = match self.joints[j] {
                 JointType::Revolute => w.dot(&(moment - rho.coords * total).cross(&self.gravity)),
