@@ -173,7 +173,9 @@ pub struct Previous<'a, T: Real> {
     /// The commands sent at the previous tick (its corrected `q`).
     pub q: &'a [T],
     /// The joint positions the previous tick's commands aimed at (its
-    /// [`Correction::p`]): the start of this tick's search.
+    /// [`Correction::p`]): the start of this tick's search when the calibration
+    /// has no joint effects (with them the search starts from the commands
+    /// sent, [`Previous::q`]).
     pub p: &'a [T],
 }
 
@@ -249,7 +251,9 @@ pub struct Correction<T: Real> {
     /// Iterations run.
     pub iterations: usize,
     /// The remaining residual before bounding, m: the norm of the position error
-    /// and of the orientation error times [`Limits::length_scale`].
+    /// and of the orientation error times [`Limits::length_scale`]; when the
+    /// last step was taken on its bound (see the module header), that bound,
+    /// which the residual does not exceed.
     pub residual: T,
 }
 
