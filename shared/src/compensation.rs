@@ -150,7 +150,7 @@
 use heapless::Vec;
 use nalgebra::{IsometryMatrix3, Vector3};
 
-use crate::effects::{Effect, EffectModel, JointEffect, MAX_EFFECTS, Masses};
+use crate::effects::{Effect, EffectModel, JointEffect, MAX_EFFECTS, Masses, direction};
 use crate::kinematics::Prepared;
 use crate::servo_chain::{JointLine, ServoChain, Wanted};
 use crate::{Calibration, JointType, MAX_JOINTS, Real, Robot};
@@ -530,7 +530,10 @@ impl<T: Real> Compensator<T> {
         // One chain at the start serves the geometric step (joint lines,
         // measured frame) and the gravity torques (centres of mass).
         let needs_torque = self.compliant != 0;
-        if geometry.full(&x[..n], needs_torque, &mut chain).is_err() {
+        if geometry
+            .chain(&x[..n], true, needs_torque, &mut chain)
+            .is_err()
+        {
             return unchanged(Fault::JointCount);
         }
         let payload = conditions.payload.unwrap_or(T::zero());
@@ -566,7 +569,10 @@ impl<T: Real> Compensator<T> {
                     // Held within a lost motion: where the joints really go.
                     let mut reached: Joints<T> = [T::zero(); MAX_JOINTS];
                     self.reached(&q[..n], &tau[..n], previous, &mut reached[..n]);
-                    if geometry.chain(&reached[..n], false, &mut chain).is_err() {
+                    if geometry
+                        .chain(&reached[..n], false, false, &mut chain)
+                        .is_err()
+                    {
                         return unchanged(Fault::JointCount);
                     }
                     residual2 = self.residual(&target, &chain.end).1;
@@ -665,7 +671,7 @@ impl<T: Real> Compensator<T> {
                     for ((t, pm), d) in trial.iter_mut().zip(p.iter()).zip(step.iter()) {
                         *t = *pm + *d;
                     }
-                    geometry.chain(&trial[..n], true, chain)?;
+                    geometry.chain(&trial[..n], true, false, chain)?;
                     let candidate = self.residual(target, &chain.end);
                     if candidate.1 < residual.1 {
                         (residual, improved) = (candidate, true);
@@ -677,7 +683,7 @@ impl<T: Real> Compensator<T> {
             }
             if !improved {
                 // `chain` holds the last trial: back to the best point.
-                geometry.chain(p, true, chain)?;
+                geometry.chain(p, true, false, chain)?;
                 break;
             }
         }
@@ -704,20 +710,11 @@ impl<T: Real> Compensator<T> {
         let n = q.len();
         let sent = previous.map(|prev| prev.q);
         let tolerance = self.limits.tolerance / self.limits.length_scale;
-        let sign = |x: T| {
-            if x > T::zero() {
-                T::one()
-            } else if x < T::zero() {
-                -T::one()
-            } else {
-                T::zero()
-            }
-        };
         let mut held = false;
         let needs_torque = self.compliant != 0;
         for iteration in 0..self.limits.max_iterations.max(1) {
             if needs_torque && iteration > 0 {
-                geometry.full(q, true, chain).ok()?;
+                geometry.chain(q, true, true, chain).ok()?;
                 self.torques(chain, payload, tau);
             }
             let mut change = T::zero();
@@ -727,12 +724,12 @@ impl<T: Real> Compensator<T> {
                 let mut next = (p[j] - self.offset(j, q[j], tau[j])) / stretch;
                 if let Some(prev) = sent.filter(|_| e.backlash != T::zero()) {
                     let lost = e.backlash / stretch;
-                    let sigma = sign(next - prev[j]);
+                    let sigma = direction(next - prev[j]);
                     // Consistent when the command, lost motion taken off,
                     // still moves the joint the way σ says (tested on the
                     // rounded command: it is what is sent).
                     let moved = next - lost * sigma;
-                    if sign(moved - prev[j]) == sigma {
+                    if direction(moved - prev[j]) == sigma {
                         next = moved;
                     } else {
                         // Within the lost motion: held (σ = 0).
@@ -778,12 +775,8 @@ impl<T: Real> Compensator<T> {
     fn reached(&self, q: &[T], tau: &[T], previous: Option<Previous<'_, T>>, out: &mut [T]) {
         let sent = previous.map(|prev| prev.q);
         for (j, e) in self.joint_effects.iter().enumerate().take(out.len()) {
-            let sigma = match sent.map(|prev| q[j] - prev[j]) {
-                Some(d) if d > T::zero() => T::one(),
-                Some(d) if d < T::zero() => -T::one(),
-                _ => T::zero(),
-            };
-            out[j] = q[j] + self.offset(j, q[j], tau[j]) + e.scale * q[j] + e.backlash * sigma;
+            let sigma = sent.map_or(T::zero(), |prev| direction(q[j] - prev[j]));
+            out[j] = q[j] + e.correction(q[j], tau[j], sigma);
         }
     }
 
@@ -1050,28 +1043,22 @@ struct Geometry<'a, T: Real> {
 }
 
 impl<T: Real> Geometry<'_, T> {
-    /// The chain at joint positions `p` into `chain`, with the joint lines if `lines`.
-    fn chain(&self, p: &[T], lines: bool, chain: &mut ServoChain<T>) -> Result<(), Fault> {
+    /// The chain at joint positions `p` into `chain`, with the joint lines if
+    /// `lines` and the centres of mass (for the gravity torques) if `centres`.
+    fn chain(
+        &self,
+        p: &[T],
+        lines: bool,
+        centres: bool,
+        chain: &mut ServoChain<T>,
+    ) -> Result<(), Fault> {
         let wanted = Wanted {
             lines,
-            centres: false,
-            rotation: self.rotation,
-        };
-        self.model
-            .servo_chain_into(p, self.factor, wanted, chain)
-            .map_err(|_| Fault::JointCount)
-    }
-
-    /// The chain at `q` into `chain` with the joint lines, and the centres of
-    /// mass if `centres` (for the gravity torques).
-    fn full(&self, q: &[T], centres: bool, chain: &mut ServoChain<T>) -> Result<(), Fault> {
-        let wanted = Wanted {
-            lines: true,
             centres,
             rotation: self.rotation,
         };
         self.model
-            .servo_chain_into(q, self.factor, wanted, chain)
+            .servo_chain_into(p, self.factor, wanted, chain)
             .map_err(|_| Fault::JointCount)
     }
 }

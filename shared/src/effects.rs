@@ -214,29 +214,6 @@ impl<T: Real> Effect<T> {
     }
 }
 
-/// The joint corrections of all effects at one configuration, split by how they
-/// depend on the reading: `Δq_j = offset_j + scale_j q_j + backlash_j σ_j`, where
-/// `offset_j` (compliance times gravity torque, gear harmonics) varies slowly with
-/// the readings, `scale_j` is the encoder-scale error and `backlash_j` half the lost
-/// motion. The compensation inverts `p_j = q_j + Δq_j` with this split.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct JointTerms<T: Real> {
-    /// `offset_j`, rad (m for a prismatic joint).
-    pub offset: Vec<T, MAX_JOINTS>,
-    /// `scale_j`, relative.
-    pub scale: Vec<T, MAX_JOINTS>,
-    /// `backlash_j`, rad (m).
-    pub backlash: Vec<T, MAX_JOINTS>,
-}
-
-impl<T: Real> JointTerms<T> {
-    /// `Δq_j` at reading `q_j` and approach sign `sigma_j`.
-    #[inline]
-    pub fn correction(&self, j: usize, q_j: T, sigma_j: T) -> T {
-        self.offset[j] + self.scale[j] * q_j + self.backlash[j] * sigma_j
-    }
-}
-
 /// The joint effects of one joint, summed over the calibration's effects:
 /// `Δq_j = compliance · τ_j + first · (sin q_j, cos q_j) + second · (sin 2q_j,
 /// cos 2q_j) + scale · q_j + backlash · σ_j` (the table of the module header).
@@ -286,6 +263,26 @@ impl<T: Real> JointEffect<T> {
         let (s1, c1) = q.sincos();
         let (s2, c2) = ((s1 + s1) * c1, (c1 - s1) * (c1 + s1));
         self.first[0] * s1 + self.first[1] * c1 + self.second[0] * s2 + self.second[1] * c2
+    }
+
+    /// `Δq_j` at reading `q` with gravity torque `tau` and approach sign `sigma`
+    /// (+1, −1 or 0).
+    #[inline]
+    pub fn correction(&self, q: T, tau: T, sigma: T) -> T {
+        self.offset(q, tau) + self.scale * q + self.backlash * sigma
+    }
+}
+
+/// The sign of a change as an approach direction: +1, −1, or 0 when there is
+/// none (a joint that did not move, or NaN).
+#[inline]
+pub fn direction<T: Real>(d: T) -> T {
+    if d > T::zero() {
+        T::one()
+    } else if d < T::zero() {
+        -T::one()
+    } else {
+        T::zero()
     }
 }
 
@@ -577,21 +574,6 @@ impl<T: Real> EffectModel<T> {
         out
     }
 
-    /// The joint corrections at readings `q` with gravity torques `tau`, split as
-    /// [`JointTerms`] states.
-    pub fn joint_terms(&self, q: &[T], tau: &[T]) -> JointTerms<T> {
-        let effects = self.joint_effects(q.len());
-        JointTerms {
-            offset: effects
-                .iter()
-                .zip(q.iter().zip(tau))
-                .map(|(e, (q, tau))| e.offset(*q, *tau))
-                .collect(),
-            scale: effects.iter().map(|e| e.scale).collect(),
-            backlash: effects.iter().map(|e| e.backlash).collect(),
-        }
-    }
-
     /// The joint values the robot really takes at readings `q`: `q + Δq`.
     pub fn joint_values(
         &self,
@@ -609,10 +591,12 @@ impl<T: Real> EffectModel<T> {
         } else {
             q.iter().map(|_| T::zero()).collect()
         };
-        let terms = self.joint_terms(q, &tau);
+        let effects = self.joint_effects(q.len());
         Ok(q.iter()
+            .zip(&tau)
+            .zip(&effects)
             .enumerate()
-            .map(|(j, &qj)| qj + terms.correction(j, qj, approach_sign(ctx, j)))
+            .map(|(j, ((&qj, &tau), e))| qj + e.correction(qj, tau, approach_sign(ctx, j)))
             .collect())
     }
 
