@@ -39,7 +39,7 @@
 
 use core::mem::MaybeUninit;
 
-use armcal_shared::compensation::{Compensator, Conditions, Limits, Previous};
+use armcal_shared::compensation::{Compensator, Conditions, Limits, Previous, Workspace};
 use armcal_shared::effects::one_of_each;
 use armcal_shared::link::{self, Device, FrameBuffer, MAX_FRAME, Platform, Request, Response};
 use armcal_shared::units::Units;
@@ -142,6 +142,7 @@ fn bench() -> Result<(f32, usize), ModelError> {
         payload: Some(5.0),
     };
     let mut previous: Option<([f32; 6], [f32; 6], [f32; 6])> = None;
+    let mut work = Workspace::new();
     let (mut worst, mut iterations) = (0.0f32, 0);
     for t in 0..BENCH_TICKS {
         let mut q = q0;
@@ -152,7 +153,7 @@ fn bench() -> Result<(f32, usize), ModelError> {
             .as_ref()
             .map(|(q_cmd, q, p)| Previous { q_cmd, q, p });
         bench_start();
-        let c = compensator.correct(&q, last, &conditions);
+        let c = compensator.correct_with(&q, last, &conditions, &mut work);
         bench_end();
         let (mut sent, mut p) = ([0.0f32; 6], [0.0f32; 6]);
         sent.copy_from_slice(&c.q);

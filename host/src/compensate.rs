@@ -25,7 +25,7 @@
 
 use core::fmt::Write as _;
 
-use armcal_shared::compensation::{Compensator, Correction, Fault, Limits, Previous};
+use armcal_shared::compensation::{Compensator, Correction, Fault, Limits, Previous, Workspace};
 use armcal_shared::{Calibration, JointType};
 
 use crate::measurements::JointRows;
@@ -78,13 +78,14 @@ pub fn compensate(cal: &Calibration, commands: &JointRows) -> Compensated {
     let compensator = Compensator::<f64>::from_calibration(cal, Limits::default());
     let mut rows: Vec<(usize, Correction<f64>)> = Vec::with_capacity(commands.len());
     let mut last: Option<&[f64]> = None;
+    let mut work = Workspace::new();
     for row in &commands.rows {
         let previous = last.zip(rows.last()).map(|(q_cmd, (_, c))| Previous {
             q_cmd,
             q: &c.q[..],
             p: &c.p[..],
         });
-        let c = compensator.correct(&row.q, previous, &row_conditions(row));
+        let c = compensator.correct_with(&row.q, previous, &row_conditions(row), &mut work);
         // As on the controller: after a row that could not be computed the next
         // one is a first tick.
         last =

@@ -59,7 +59,7 @@ use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
 use crate::calibration::{MAX_FILE_LEN, model_hash};
-use crate::compensation::{Compensator, Conditions, Fault, Limits, Previous};
+use crate::compensation::{Compensator, Conditions, Fault, Limits, Previous, Workspace};
 use crate::effects::Effect;
 use crate::{Calibration, CalibrationError, MAX_JOINTS};
 
@@ -540,6 +540,8 @@ pub struct Device {
     /// The previous tick's nominal and sent commands and its joint positions,
     /// for the change bound, the approach directions and the warm start.
     previous: Option<Previous3>,
+    /// The last step's factors, for the next tick.
+    work: Workspace<f32>,
     last_seq: Option<u32>,
     /// The calibration file being received.
     file: Vec<u8, MAX_FILE_LEN>,
@@ -553,6 +555,7 @@ impl Device {
         Self {
             compensator: None,
             previous: None,
+            work: Workspace::new(),
             last_seq: None,
             file: Vec::new(),
             file_total: 0,
@@ -654,6 +657,7 @@ impl Device {
                 let model_hash = model_hash(&cal.nominal);
                 self.compensator = Some(compensator);
                 self.previous = None;
+                self.work = Workspace::new();
                 self.last_seq = None;
                 self.file.clear();
                 self.file_total = 0;
@@ -699,7 +703,7 @@ impl Device {
             temperature: context.temperature,
             payload: context.payload,
         };
-        let c = compensator.correct(&command.q, previous, &conditions);
+        let c = compensator.correct_with(&command.q, previous, &conditions, &mut self.work);
         platform.after_correct();
         let status = TickStatus::from(c.fault);
         // The tick as sent; none after a non-finite command or a joint-count
@@ -978,13 +982,14 @@ mod tests {
             payload: None,
         };
         let mut previous: Option<(StdVec<f32>, StdVec<f32>, StdVec<f32>)> = None;
+        let mut work = Workspace::new();
         for seq in 1..20u32 {
             let q: StdVec<f32> = Q.iter().map(|q| q + 0.01 * seq as f32).collect();
             let got = tick(&mut device, seq, &q);
             let last = previous
                 .as_ref()
                 .map(|(q_cmd, q, p)| Previous { q_cmd, q, p });
-            let want = compensator.correct(&q, last, &conditions);
+            let want = compensator.correct_with(&q, last, &conditions, &mut work);
             assert_eq!(got.q, want.q);
             assert_eq!(got.status, TickStatus::from(want.fault));
             assert_eq!(got.status, TickStatus::Corrected);

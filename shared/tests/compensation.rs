@@ -4,7 +4,7 @@
 //! non-geometric effects, the corrected commands make the calibrated model with
 //! its effects, in the tick's context, reach the nominal model's pose.
 
-use armcal_shared::compensation::{Compensator, Conditions, Fault, Limits, Previous};
+use armcal_shared::compensation::{Compensator, Conditions, Fault, Limits, Previous, Workspace};
 use armcal_shared::effects::{Context, Effect, EffectModel, approach_signs, one_of_each};
 use armcal_shared::{Convention, JointType, Link, Param, Robot};
 use nalgebra::IsometryMatrix3;
@@ -248,7 +248,7 @@ fn pose_residual(a: &IsometryMatrix3<f64>, b: &IsometryMatrix3<f64>) -> f64 {
 }
 
 /// Runs `comp` along `commands` in `conditions`, each tick with the previous
-/// one as sent; returns each correction and the context the calibrated model
+/// one as sent and its workspace (as a controller does); returns each correction and the context the calibrated model
 /// evaluates its commands in (approach from the commands sent).
 fn run<T: armcal_shared::Real>(
     comp: &Compensator<T>,
@@ -262,10 +262,11 @@ fn run<T: armcal_shared::Real>(
     };
     let mut out = Vec::new();
     let mut last: Option<(Vec<T>, Vec<T>, Vec<T>)> = None;
+    let mut work = Workspace::new();
     for q_cmd in commands {
         let q_cmd = cast(q_cmd);
         let previous = last.as_ref().map(|(q_cmd, q, p)| Previous { q_cmd, q, p });
-        let c = comp.correct(&q_cmd, previous, &conditions);
+        let c = comp.correct_with(&q_cmd, previous, &conditions, &mut work);
         let q: Vec<f64> = c.q.iter().map(|x| x.to_f64()).collect();
         let sent: Option<Vec<f64>> = last
             .as_ref()
@@ -420,27 +421,34 @@ proptest! {
     /// within that bound: the calibrated model at the returned joint positions
     /// misses the target by no more than the residual reported. Random robots
     /// (both conventions, revolute and prismatic joints, 1–8 joints), parameter
-    /// errors of 0.1 to 10 mm/mrad, full pose and position only, cold (from the
-    /// command) and warm (from the previous tick's joint positions after a move
-    /// of 1 mrad per joint), at a tolerance of 1 µm so that the bound decides.
+    /// errors of 0.1 to 10 mm/mrad, full pose and position only, with and
+    /// without joint effects (whose offsets the warm ticks predict), cold (from
+    /// the command) and two warm ticks (from the previous tick's correction
+    /// after a move of 1 mrad per joint, with its factors), at a tolerance of
+    /// 1 µm so that the bound decides.
     #[test]
     fn a_step_taken_on_its_bound_is_within_it(
         (robot, q) in robot_strategy(),
         draws in prop::collection::vec(-1.0..1.0f64, 8..16),
+        effect_draws in prop::collection::vec(-1.0..1.0f64, 12),
         scale in prop_oneof![Just(1e-4), Just(1e-3), Just(1e-2)],
         orientation in any::<bool>(),
+        effects in any::<bool>(),
     ) {
         let cal = calibrated(&robot, &draws, scale);
         let limits = Limits { tolerance: 1e-6, ..Limits::default() };
-        let comp = Compensator::new(&robot, &cal, orientation, limits);
-        let cold = comp.correct(&q, None, &Conditions::default());
-        let next: Vec<f64> = q.iter().map(|x| x + 1e-3).collect();
-        let warm = comp.correct(
-            &next,
-            Some(Previous { q_cmd: &q, q: &cold.q, p: &cold.p }),
-            &Conditions::default(),
-        );
-        for (q_cmd, c) in [(&q, &cold), (&next, &warm)] {
+        let list = if effects { random_effects(robot.dof(), &effect_draws) } else { Vec::new() };
+        let model = EffectModel::new(cal.clone(), &list).unwrap();
+        let comp = Compensator::with_effects(&robot, model, orientation, limits);
+        let mut work = Workspace::new();
+        let mut ticks: Vec<(Vec<f64>, armcal_shared::compensation::Correction<f64>)> = Vec::new();
+        for t in 0..3 {
+            let q_cmd: Vec<f64> = q.iter().map(|x| x + 1e-3 * t as f64).collect();
+            let previous = ticks.last().map(|(q_cmd, c)| Previous { q_cmd, q: &c.q, p: &c.p });
+            let c = comp.correct_with(&q_cmd, previous, &Conditions::default(), &mut work);
+            ticks.push((q_cmd, c));
+        }
+        for (q_cmd, c) in &ticks {
             if c.fault.is_some() {
                 continue;
             }
