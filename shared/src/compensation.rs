@@ -99,12 +99,15 @@
 //! q_cmd_prev)` ([`Previous::p`]), the estimate of the joint positions, when it
 //! has none. The one chain at `x` serves both the geometric step (from `x`) and
 //! the gravity torques of the inversion (at `x`). The first step's predictor is
-//! the previous tick's step from the commands to the joint positions, `δ₀ =
-//! p_prev − q_prev` (the joint effects' offsets; zero without effects, where
-//! `x` is already the estimate of the positions). On a smooth motion the
-//! previous tick's factors then solve the step (one refinement), and a tick is
-//! one chain of the nominal model, one of the calibrated model, no
-//! factorisation, two triangular solves and three products with `J`.
+//! the previous tick's step from the commands to the joint positions, `p_prev −
+//! q_prev` (the joint effects' offsets; zero without effects, where `x` is
+//! already the estimate of the positions), plus the last change of the
+//! correction `p − q_cmd` (from the [`Workspace`], after two warm ticks that
+//! converged): the correction extrapolated linearly, which leaves `r` about
+//! the tolerance (each tick's solution is only that exact). On a smooth motion
+//! the previous tick's factors then solve the step without refinement, and a
+//! tick is one chain of the nominal model, one of the calibrated model, no
+//! factorisation, one pair of triangular solves and two products with `J`.
 
 //! # Non-geometric effects
 //!
@@ -284,13 +287,24 @@ pub struct Correction<T: Real> {
 /// only slower.
 #[derive(Clone, Debug, Default)]
 pub struct Workspace<T: Real> {
+    /// The factors of the last step's system.
     factors: Option<Factors<T>>,
+    /// The last tick's change of the joint positions' correction `p − q_cmd`
+    /// from the tick before (valid when [`Self::rate_valid`]): the next
+    /// predictor extrapolates it.
+    rate: Option<Joints<T>>,
+    /// Whether the last tick was a warm one that converged.
+    rate_valid: bool,
 }
 
 impl<T: Real> Workspace<T> {
     /// An empty workspace: the first step factors afresh.
     pub const fn new() -> Self {
-        Self { factors: None }
+        Self {
+            factors: None,
+            rate: None,
+            rate_valid: false,
+        }
     }
 }
 
@@ -592,15 +606,17 @@ impl<T: Real> Compensator<T> {
         x[..n].copy_from_slice(q_cmd);
         // The first step's predictor from there: the previous tick's step
         // from the commands to the joint positions (`p − q`, the joint
-        // effects' offset; none without them, the start being the positions).
+        // effects' offset; none without them, the start being the positions),
+        // plus the last change of the correction `p − q_cmd` when known.
         let mut predictor: Joints<T> = [T::zero(); MAX_JOINTS];
         let mut predicted = false;
         if let Some(prev) = previous {
             let from = if corrects_joints { prev.q } else { prev.p };
             if (0..n).all(|m| (from[m] - prev.q_cmd[m]).abs() <= self.bounds[m].0) {
+                let rate = work.rate.as_ref().filter(|_| work.rate_valid);
                 for m in 0..n {
                     x[m] += from[m] - prev.q_cmd[m];
-                    predictor[m] = prev.p[m] - from[m];
+                    predictor[m] = prev.p[m] - from[m] + rate.map_or(T::zero(), |r| r[m]);
                 }
                 predicted = true;
             }
@@ -634,6 +650,15 @@ impl<T: Real> Compensator<T> {
         };
         let tolerance2 = self.limits.tolerance * self.limits.tolerance;
         let mut fault = (residual2 > tolerance2).then_some(Fault::NotConverged);
+        // The change of the correction since the last tick, for the next one.
+        work.rate_valid = false;
+        if let Some(prev) = previous.filter(|_| predicted && fault.is_none()) {
+            let rate = work.rate.get_or_insert([T::zero(); MAX_JOINTS]);
+            for m in 0..n {
+                rate[m] = (p[m] - q_cmd[m]) - (prev.p[m] - prev.q_cmd[m]);
+            }
+            work.rate_valid = true;
+        }
         // 2. The commands that put the joints at p, from the start and its torques.
         let mut q = p;
         if corrects_joints {
@@ -724,8 +749,14 @@ impl<T: Real> Compensator<T> {
         while residual.1 > tolerance2 && iterations < self.limits.max_iterations {
             iterations += 1;
             let reach = self.jacobian(chain, &mut jac);
-            // The last factors first (they are those of a nearby
-            // configuration on a smooth motion), then fresh ones.
+            // The step from the predictor, with the last factors first (they
+            // are those of a nearby configuration on a smooth motion), then
+            // fresh ones.
+            let mut r = ([T::zero(); 6], T::zero());
+            if let Some(d) = predictor {
+                first[..n].copy_from_slice(d);
+                r = self.predicted(chain, &jac, &residual.0, &first[..n]);
+            }
             let mut fresh = work.factors.is_none();
             loop {
                 if fresh {
@@ -734,13 +765,11 @@ impl<T: Real> Compensator<T> {
                 let Some(l) = &work.factors else {
                     return Err(Fault::NonFinite);
                 };
-                let start = match predictor {
-                    Some(d) => {
-                        first[..n].copy_from_slice(d);
+                let start = predictor.is_some()
+                    || damped_solve(&jac, l, &residual.0, &mut first[..n]).is_some_and(|_| {
+                        r = self.predicted(chain, &jac, &residual.0, &first[..n]);
                         true
-                    }
-                    None => damped_solve(&jac, l, &residual.0, &mut first[..n]).is_some(),
-                };
+                    });
                 let bound = if start {
                     self.step(
                         chain,
@@ -749,6 +778,7 @@ impl<T: Real> Compensator<T> {
                         !fresh,
                         &residual.0,
                         &first[..n],
+                        &r.0,
                         &mut second[..n],
                         reach,
                     )
@@ -759,9 +789,7 @@ impl<T: Real> Compensator<T> {
                 // The residual after the step is bounded below the tolerance:
                 // taken without evaluating the chain there.
                 if let Some(bound) = bound.flatten().filter(|b| whole && *b <= tolerance) {
-                    for (pm, d) in p.iter_mut().zip(&second[..n]) {
-                        *pm += *d;
-                    }
+                    take(p, &second[..n]);
                     return Ok((iterations, bound * bound));
                 }
                 if fresh {
@@ -793,7 +821,7 @@ impl<T: Real> Compensator<T> {
                     let candidate = self.residual(target, &chain.end);
                     if candidate.1 < residual.1 {
                         (residual, improved) = (candidate, true);
-                        p.copy_from_slice(&trial[..n]);
+                        take(p, step);
                         break 'candidates;
                     }
                     step.iter_mut().for_each(|d| *d *= T::lit(0.5));
@@ -1012,8 +1040,8 @@ impl<T: Real> Compensator<T> {
     }
 
     /// The second-order step from the predictor `first = δ₀` into `second`
-    /// (eq. 4.9 about the predicted point): with `r = e − J δ₀ − H(δ₀, δ₀)`
-    /// the residual there to second order, `δ = δ₀ + J⁺ r` with `J⁺` from the
+    /// (eq. 4.9 about the predicted point): with `r` the residual there to
+    /// second order ([`Self::predicted`]), `δ = δ₀ + J⁺ r` with `J⁺` from the
     /// factors `l` (of this `jac` or of a nearby one), and `ℓ = r − J (δ − δ₀)`
     /// what is left of the linear part. Returns the bound of the module header
     /// on the residual after `δ` with `|ℓ|₁` as its linear share, if it
@@ -1027,23 +1055,12 @@ impl<T: Real> Compensator<T> {
         refine: bool,
         e: &[T; 6],
         first: &[T],
+        r: &[T; 6],
         second: &mut [T],
         reach: T,
     ) -> Option<Option<T>> {
-        let h = second_order(
-            &self.joints,
-            &chain.lines,
-            jac,
-            first,
-            self.limits.length_scale,
-        );
-        let mut r = *e;
-        let moved = apply(jac, first);
-        for i in 0..6 {
-            r[i] -= moved[i] + h[i];
-        }
-        damped_solve(jac, l, &r, second)?;
-        let mut linear = self.linear_residual(jac, &r, second);
+        damped_solve(jac, l, r, second)?;
+        let mut linear = self.linear_residual(jac, r, second);
         // Factors of a nearby configuration leave a part of order `|J − J'|
         // |δ − δ₀|`: one refinement with them removes most of it.
         if refine && linear.1 > self.limits.tolerance * T::lit(0.25) {
@@ -1052,7 +1069,7 @@ impl<T: Real> Compensator<T> {
             for (d, x) in second.iter_mut().zip(extra) {
                 *d += x;
             }
-            linear = self.linear_residual(jac, &r, second);
+            linear = self.linear_residual(jac, r, second);
         }
         let linear = linear.1;
         for (d, d0) in second.iter_mut().zip(first) {
@@ -1062,6 +1079,32 @@ impl<T: Real> Compensator<T> {
             return None;
         }
         Some(self.step_bound(&chain.lines, e, first, second, linear, reach))
+    }
+
+    /// `r = e − J δ₀ − H(δ₀, δ₀)`: the residual at `p + δ₀` (`δ₀ = first`) to
+    /// second order, and its 1-norm.
+    fn predicted(
+        &self,
+        chain: &ServoChain<T>,
+        jac: &[[T; 6]],
+        e: &[T; 6],
+        first: &[T],
+    ) -> ([T; 6], T) {
+        let h = second_order(
+            &self.joints,
+            &chain.lines,
+            jac,
+            first,
+            self.limits.length_scale,
+        );
+        let moved = apply(jac, first);
+        let mut r = *e;
+        let mut size = T::zero();
+        for i in 0..6 {
+            r[i] -= moved[i] + h[i];
+            size += r[i].abs();
+        }
+        (r, size)
     }
 
     /// `ℓ = r − J d`, the part of `r` a step `d` leaves to first order, and
@@ -1220,6 +1263,13 @@ fn damped_solve<T: Real>(
         *o = d;
     }
     finite.then_some(y)
+}
+
+/// Takes the step `d`: `p += d`.
+fn take<T: Real>(p: &mut [T], d: &[T]) {
+    for (pm, dm) in p.iter_mut().zip(d) {
+        *pm += *dm;
+    }
 }
 
 /// `J v`: the residual row a joint change `v` moves the measured frame by, to
