@@ -357,6 +357,9 @@ struct Slopes<T: Real> {
     /// centres of mass and the tool point at the reference lengths, without the
     /// travel of prismatic joints: `Σ (|a| + |s|) + |tool| + max |com|`, m.
     reach: T,
+    /// The number of revolute joints, and of prismatic ones.
+    revolute: T,
+    prismatic: T,
 }
 
 impl<T: Real> Slopes<T> {
@@ -385,10 +388,19 @@ impl<T: Real> Slopes<T> {
                 com = larger(com, m.com.norm());
             }
         }
+        let (mut revolute, mut prismatic) = (T::zero(), T::zero());
+        for l in &robot.links {
+            match l.joint {
+                JointType::Revolute => revolute += T::one(),
+                JointType::Prismatic => prismatic += T::one(),
+            }
+        }
         Self {
             carried,
             gear,
             reach: reach + com,
+            revolute,
+            prismatic,
         }
     }
 }
@@ -562,11 +574,16 @@ impl<T: Real> Compensator<T> {
         // infinity survives the sum), unless it overflows, beyond 10³⁸ even in
         // `f32`: no joint value or condition is that large, and such a value is
         // refused too. One addition a value.
-        let mut inputs = sum(q_cmd)
-            + conditions.temperature.unwrap_or(T::zero())
-            + conditions.payload.unwrap_or(T::zero());
-        if let Some(prev) = previous {
-            inputs += sum(prev.q_cmd) + sum(prev.q) + sum(prev.p);
+        let mut inputs =
+            conditions.temperature.unwrap_or(T::zero()) + conditions.payload.unwrap_or(T::zero());
+        match previous {
+            Some(prev) => {
+                let values = q_cmd.iter().zip(prev.q_cmd).zip(prev.q).zip(prev.p);
+                for (((a, b), c), d) in values {
+                    inputs += *a + *b + *c + *d;
+                }
+            }
+            None => inputs += sum(q_cmd),
         }
         if !is_finite(inputs) {
             return unchanged(Fault::NonFinite);
@@ -708,12 +725,17 @@ impl<T: Real> Compensator<T> {
             clip(-max, max);
             q[m] = q_cmd[m] + c;
         }
-        if !is_finite(sum(&q[..n]) + sum(&p[..n]) + residual2) {
+        let mut outputs = residual2;
+        for m in 0..n {
+            outputs += q[m] + p[m];
+        }
+        if !is_finite(outputs) {
             return unchanged(Fault::NonFinite);
         }
         Correction {
-            q: q[..n].iter().copied().collect(),
-            p: p[..n].iter().copied().collect(),
+            // n ≤ MAX_JOINTS: always room.
+            q: Vec::from_slice(&q[..n]).unwrap_or_default(),
+            p: Vec::from_slice(&p[..n]).unwrap_or_default(),
             fault,
             iterations,
             residual: residual2.sqrt(),
@@ -964,17 +986,14 @@ impl<T: Real> Compensator<T> {
     fn slope(&self, payload: T, factor: T, q: &[T]) -> T {
         let s = &self.slopes;
         let mut reach = s.reach * larger(factor, T::one());
-        let (mut revolute, mut prismatic) = (T::zero(), T::zero());
-        for (m, joint) in self.joints.iter().enumerate() {
-            match joint {
-                JointType::Revolute => revolute += T::one(),
-                JointType::Prismatic => {
-                    prismatic += T::one();
+        if s.prismatic > T::zero() {
+            for (m, joint) in self.joints.iter().enumerate() {
+                if *joint == JointType::Prismatic {
                     reach += q[m].abs() + self.limits.max_correction_length;
                 }
             }
         }
-        let levers = T::lit(2.0) * reach * revolute + prismatic;
+        let levers = T::lit(2.0) * reach * s.revolute + s.prismatic;
         let mut worst = T::zero();
         for ((links, per_payload), gear) in s.carried.iter().zip(&s.gear) {
             worst = larger(

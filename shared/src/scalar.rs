@@ -13,12 +13,13 @@
 //! `sinf.c`/`cosf.c` (S. L. Moshier), about 40 instructions; its error against
 //! the exact sine and cosine of the same `f32` argument is below 1e-6 (tested on
 //! a dense grid, see the tests below) for `|x| ≤ 8192` rad. Beyond that (no
-//! joint turns so far) the argument is first reduced modulo `2π` in `f64`
-//! (`x − k·2π`, `2π` split in two parts so that `k·hi` is exact for `k < 2^26`):
-//! below 1e-6 up to 4e8 rad, a point of the unit circle beyond. Every
-//! `f32` sine and cosine of the crate goes through it (the constant angles of a
-//! model too), so that the controller links no libm `sinf`/`cosf`, whose `f64`
-//! kernels and software `f64` arithmetic take 8 KB of its 64 KB of flash.
+//! joint turns so far) the argument is first reduced modulo `2π` exactly, in
+//! integer arithmetic (Payne–Hanek: the 24-bit significand times the 64 bits
+//! of `1/2π` at its exponent, modulo 2⁶⁴, is the fraction of a turn to 2⁻⁴⁰):
+//! below 1e-6 for every finite `f32`. Every `f32` sine and cosine of the crate
+//! goes through it (the constant angles of a model too), so that the
+//! controller links no libm `sinf`/`cosf` and no software `f64` arithmetic,
+//! which would take 8 KB of its 64 KB of flash.
 
 use nalgebra::RealField;
 
@@ -89,35 +90,45 @@ pub fn sin_cos_f32(x: f32) -> (f32, f32) {
     }
 }
 
-/// Beyond [`REDUCTION_LIMIT`]: `x` reduced modulo `2π` in `f64` (see [the
-/// module](self)), then [`sin_cos_f32`]; out of line, the rare case stays out of
-/// the hot path. NaN for NaN and infinities.
+/// Beyond [`REDUCTION_LIMIT`]: `x` reduced modulo `2π` exactly, in integer
+/// arithmetic (Payne–Hanek; see [the module](self)), then [`sin_cos_f32`]; out
+/// of line, the rare case stays out of the hot path. NaN for NaN and
+/// infinities.
 #[cold]
 #[inline(never)]
 fn sin_cos_wide(x: f32) -> (f32, f32) {
     if !x.is_finite() {
         return (f32::NAN, f32::NAN);
     }
-    // 2π = HI + LO, HI with 26 significant bits (k·HI exact for k < 2^26).
-    const HI: f64 = 6.283_185_362_815_857;
-    const LO: f64 = core::f64::consts::TAU - HI;
-    let x = f64::from(x);
-    // k: x/2π rounded to an integer (adding and removing 1.5·2^52 rounds to
-    // nearest below 2^51; beyond, every f64 is an integer already).
-    const ROUND: f64 = 6_755_399_441_055_744.0;
-    let q = x * (1.0 / core::f64::consts::TAU);
-    let k = if q.abs() < 2_251_799_813_685_248.0 {
-        (q + ROUND) - ROUND
-    } else {
-        q
-    };
-    let r = ((x - k * HI) - k * LO) as f32;
-    if r.abs() <= REDUCTION_LIMIT {
-        sin_cos_f32(r)
-    } else {
-        // Only where k·HI is far from exact (|x| > 1e15): any point of the circle.
-        (0.0, 1.0)
-    }
+    // 1/2π in binary, 32 bits a word, after a word of zeros: bit `g` (from the
+    // left, 0-based) has the weight 2^(31 − g).
+    const INV_TAU: [u32; 7] = [
+        0,
+        0x28be_60db,
+        0x9391_054a,
+        0x7f09_d5f4,
+        0x7d4d_3770,
+        0x36d8_a566,
+        0x4f10_e410,
+    ];
+    // |x| = m · 2^e, m the 24-bit significand; |x| > 8192 makes it normal,
+    // with −10 ≤ e ≤ 104.
+    let bits = x.abs().to_bits();
+    let e = ((bits >> 23) & 0xff) as i32 - 150;
+    let m = u64::from((bits & 0x7f_ffff) | 0x80_0000);
+    // x / 2π = m · 2^e · (1/2π): the bits of 1/2π of weight 2^(−e) and up,
+    // times m, are whole turns. The 64 bits after them (from bit g = e + 32),
+    // times m modulo 2^64, are the fraction of a turn, short by less than
+    // m · 2^−64 < 2^−40 turns.
+    let g = (e + 32) as u32;
+    let (k, s) = ((g / 32) as usize, g % 32);
+    let high = (u64::from(INV_TAU[k]) << 32) | u64::from(INV_TAU[k + 1]);
+    let window = (high << s) | ((u64::from(INV_TAU[k + 2]) << s) >> 32);
+    // As a signed fraction, a turn in [−½, ½), then radians.
+    let turns = m.wrapping_mul(window) as i64;
+    const RADIANS_PER_UNIT: f32 = core::f32::consts::TAU / 18_446_744_073_709_551_616.0;
+    let r = turns as f32 * RADIANS_PER_UNIT;
+    sin_cos_f32(if x < 0.0 { -r } else { r })
 }
 
 #[cfg(test)]
@@ -152,14 +163,10 @@ mod tests {
         std::eprintln!("sin_cos_f32: worst error {dense:e} on ±4π, {wide:e} on ±8192");
         assert!(dense < 1e-6, "worst error {dense:e} on ±4π");
         assert!(wide < 1e-6, "worst error {wide:e} on ±8192");
-        // Beyond the limit: the exact reduction modulo the f64 2π, whose error
-        // is |x| · 2.4e-16 / 2π, plus the polynomials' 1e-7.
-        for lo in [8192.0, 1e5, 1e7] {
+        // Beyond the limit: the exact reduction, to the same 1e-6 at any size.
+        for lo in [8192.0, 1e5, 1e7, 1e12, 1e20, 1e30, 8e37] {
             let far = worst_error(lo, 4.0 * lo, 100_000).max(worst_error(-4.0 * lo, -lo, 100_000));
-            assert!(
-                far < 1e-6 + 4.0 * lo * 4e-17,
-                "worst error {far:e} beyond {lo}"
-            );
+            assert!(far < 1e-6, "worst error {far:e} beyond {lo}");
         }
         assert!(sin_cos_f32(f32::INFINITY).0.is_nan() && sin_cos_f32(f32::NAN).1.is_nan());
         // Around the quadrant boundaries, where the reduction switches polynomials.
@@ -170,18 +177,41 @@ mod tests {
         }
     }
 
-    /// Beyond the reduction limit it is libm's (the correctly reduced value)
-    /// within 1e-6 up to 4e8 rad; for any finite `x` a point of the unit circle;
-    /// NaN for non-finite input.
+    /// Beyond the reduction limit it is the correctly reduced value within
+    /// 1e-6, up to the largest `f32`, and on both sides of every exponent step
+    /// (where the window into the bits of 1/2π moves); NaN for non-finite input.
     #[test]
     fn sin_cos_f32_beyond_the_limit() {
-        for x in [1e4f32, -3e5, 1e8, -3.9e8] {
-            let ((s, c), (ls, lc)) = (sin_cos_f32(x), libm::sincosf(x));
-            assert!((s - ls).abs() <= 1e-6 && (c - lc).abs() <= 1e-6, "{x}");
-        }
-        for x in [1e9f32, 3e12, 1e16, 1e30, -f32::MAX] {
+        let check = |x: f32| {
             let (s, c) = sin_cos_f32(x);
-            assert!((s * s + c * c - 1.0).abs() < 1e-6, "{x}");
+            let (s64, c64) = f64::from(x).sin_cos();
+            let worst = (f64::from(s) - s64).abs().max((f64::from(c) - c64).abs());
+            assert!(worst <= 1e-6, "{x:e}: {worst:e}");
+        };
+        for x in [
+            1e4f32,
+            -3e5,
+            1e8,
+            -3.9e8,
+            1e9,
+            3e12,
+            1e16,
+            1e30,
+            -f32::MAX,
+            f32::MAX,
+        ] {
+            check(x);
+        }
+        for exponent in 13..128 {
+            let step = 2.0f32.powi(exponent);
+            for x in [
+                step,
+                f32::from_bits(step.to_bits() - 1),
+                f32::from_bits(step.to_bits() + 1),
+            ] {
+                check(x);
+                check(-x);
+            }
         }
         let (s, c) = sin_cos_f32(f32::NAN);
         assert!(s.is_nan() && c.is_nan());
