@@ -287,14 +287,19 @@ pub struct Correction<T: Real> {
 /// only slower.
 #[derive(Clone, Debug, Default)]
 pub struct Workspace<T: Real> {
-    /// The factors of the last step's system.
+    /// The factors of the last step's system (valid when [`Self::factored`]).
     factors: Option<Factors<T>>,
+    /// Whether [`Self::factors`] holds the factors of a step.
+    factored: bool,
     /// The last tick's change of the joint positions' correction `p − q_cmd`
     /// from the tick before (valid when [`Self::rate_valid`]): the next
     /// predictor extrapolates it.
     rate: Option<Joints<T>>,
     /// Whether the last tick was a warm one that converged.
     rate_valid: bool,
+    /// Whether the last tick converged (its factors are then those of a
+    /// configuration near this tick's).
+    converged: bool,
 }
 
 impl<T: Real> Workspace<T> {
@@ -302,8 +307,10 @@ impl<T: Real> Workspace<T> {
     pub const fn new() -> Self {
         Self {
             factors: None,
+            factored: false,
             rate: None,
             rate_valid: false,
+            converged: false,
         }
     }
 }
@@ -669,6 +676,7 @@ impl<T: Real> Compensator<T> {
         let mut fault = (residual2 > tolerance2).then_some(Fault::NotConverged);
         // The change of the correction since the last tick, for the next one.
         work.rate_valid = false;
+        work.converged = fault.is_none();
         if let Some(prev) = previous.filter(|_| predicted && fault.is_none()) {
             let rate = work.rate.get_or_insert([T::zero(); MAX_JOINTS]);
             for m in 0..n {
@@ -779,17 +787,29 @@ impl<T: Real> Compensator<T> {
                 first[..n].copy_from_slice(d);
                 r = self.predicted(chain, &jac, &residual.0, &first[..n]);
             }
-            let mut fresh = work.factors.is_none();
+            // Stale factors only in the first iteration after a tick that
+            // converged: otherwise the configuration has moved by more than a
+            // tick's motion.
+            let mut fresh =
+                !(work.factored && iterations == 1 && work.converged && predictor.is_some());
             loop {
+                // The factors are written in place (a copy of them costs as
+                // much as a solve on the controller).
+                let l = work.factors.get_or_insert_with(|| [[T::zero(); 6]; 6]);
                 if fresh {
-                    work.factors = Some(self.factor(&jac).ok_or(Fault::NonFinite)?);
+                    work.factored = false;
+                    self.factor(&jac, l).ok_or(Fault::NonFinite)?;
+                    work.factored = true;
                 }
-                let Some(l) = &work.factors else {
-                    return Err(Fault::NonFinite);
-                };
+                let l = &*l;
                 let start = predictor.is_some()
-                    || damped_solve(&jac, l, &residual.0, &mut first[..n]).is_some_and(|_| {
-                        r = self.predicted(chain, &jac, &residual.0, &first[..n]);
+                    || damped_solve(&jac, l, &residual.0, &mut first[..n]).is_some_and(|y| {
+                        r = if fresh {
+                            // These factors leave exactly `e − J δ₁ = λ² y₁`.
+                            self.damped_residual(chain, &jac, &y, &first[..n])
+                        } else {
+                            self.predicted(chain, &jac, &residual.0, &first[..n])
+                        };
                         true
                     });
                 let bound = if start {
@@ -797,7 +817,7 @@ impl<T: Real> Compensator<T> {
                         chain,
                         &jac,
                         l,
-                        !fresh,
+                        fresh,
                         &residual.0,
                         &first[..n],
                         &r.0,
@@ -823,7 +843,7 @@ impl<T: Real> Compensator<T> {
                 fresh = true;
             }
             // The fallback's first candidate after the step: the first-order step.
-            if let (Some(_), Some(l)) = (predictor.take(), &work.factors) {
+            if let (Some(_), Some(l), true) = (predictor.take(), &work.factors, work.factored) {
                 damped_solve(&jac, l, &residual.0, &mut first[..n]).ok_or(Fault::NonFinite)?;
             }
             trust(&mut first[..n]);
@@ -1054,8 +1074,8 @@ impl<T: Real> Compensator<T> {
 
     /// The `L D Lᵀ` factors of `J Jᵀ + λ² I` ([`factor`]) with this
     /// compensator's damping.
-    fn factor(&self, jac: &[[T; 6]]) -> Option<Factors<T>> {
-        factor(jac, self.limits.damping * self.limits.damping)
+    fn factor(&self, jac: &[[T; 6]], a: &mut Factors<T>) -> Option<()> {
+        factor(jac, self.limits.damping * self.limits.damping, a)
     }
 
     /// The second-order step from the predictor `first = δ₀` into `second`
@@ -1071,26 +1091,31 @@ impl<T: Real> Compensator<T> {
         chain: &ServoChain<T>,
         jac: &[[T; 6]],
         l: &Factors<T>,
-        refine: bool,
+        fresh: bool,
         e: &[T; 6],
         first: &[T],
         r: &[T; 6],
         second: &mut [T],
         reach: T,
     ) -> Option<Option<T>> {
-        damped_solve(jac, l, r, second)?;
-        let mut linear = self.linear_residual(jac, r, second);
-        // Factors of a nearby configuration leave a part of order `|J − J'|
-        // |δ − δ₀|`: one refinement with them removes most of it.
-        if refine && linear.1 > self.limits.tolerance * T::lit(0.25) {
-            let mut extra: Joints<T> = [T::zero(); MAX_JOINTS];
-            damped_solve(jac, l, &linear.0, &mut extra[..second.len()])?;
-            for (d, x) in second.iter_mut().zip(extra) {
-                *d += x;
+        let y = damped_solve(jac, l, r, second)?;
+        let linear = if fresh {
+            // The factors of this `J` leave exactly `λ² y`.
+            self.limits.damping * self.limits.damping * y.iter().fold(T::zero(), |s, v| s + v.abs())
+        } else {
+            let mut linear = self.linear_residual(jac, r, second);
+            // Factors of a nearby configuration leave a part of order `|J −
+            // J'| |δ − δ₀|`: one refinement with them removes most of it.
+            if linear.1 > self.limits.tolerance * T::lit(0.25) {
+                let mut extra: Joints<T> = [T::zero(); MAX_JOINTS];
+                damped_solve(jac, l, &linear.0, &mut extra[..second.len()])?;
+                for (d, x) in second.iter_mut().zip(extra) {
+                    *d += x;
+                }
+                linear = self.linear_residual(jac, r, second);
             }
-            linear = self.linear_residual(jac, r, second);
-        }
-        let linear = linear.1;
+            linear.1
+        };
         for (d, d0) in second.iter_mut().zip(first) {
             *d += *d0;
         }
@@ -1098,6 +1123,33 @@ impl<T: Real> Compensator<T> {
             return None;
         }
         Some(self.step_bound(&chain.lines, e, first, second, linear, reach))
+    }
+
+    /// [`Self::predicted`] for the first-order step `δ₁ = first` of fresh
+    /// factors, which leave `e − J δ₁ = λ² y₁` (`y` of that solve): `r = λ² y₁
+    /// − H(δ₁, δ₁)`, without a product with `J`.
+    fn damped_residual(
+        &self,
+        chain: &ServoChain<T>,
+        jac: &[[T; 6]],
+        y: &[T; 6],
+        first: &[T],
+    ) -> ([T; 6], T) {
+        let h = second_order(
+            &self.joints,
+            &chain.lines,
+            jac,
+            first,
+            self.limits.length_scale,
+        );
+        let lambda2 = self.limits.damping * self.limits.damping;
+        let mut r = [T::zero(); 6];
+        let mut size = T::zero();
+        for i in 0..6 {
+            r[i] = lambda2 * y[i] - h[i];
+            size += r[i].abs();
+        }
+        (r, size)
     }
 
     /// `r = e − J δ₀ − H(δ₀, δ₀)`: the residual at `p + δ₀` (`δ₀ = first`) to
@@ -1109,6 +1161,10 @@ impl<T: Real> Compensator<T> {
         e: &[T; 6],
         first: &[T],
     ) -> ([T; 6], T) {
+        // A zero predictor (no joint effects, no known rate): `r = e`.
+        if first.iter().all(|d| *d == T::zero()) {
+            return (*e, e.iter().fold(T::zero(), |s, x| s + x.abs()));
+        }
         let h = second_order(
             &self.joints,
             &chain.lines,
@@ -1197,16 +1253,18 @@ impl<T: Real> Compensator<T> {
 type Factors<T> = [[T; 6]; 6];
 
 /// The `L D Lᵀ` factors of `J Jᵀ + λ² I` (`lambda2 = λ²`) for the columns
-/// `jac`; `None` if not positive definite or not finite. Always the six rows
+/// `jac` into `a` (its lower triangle); `None` if not positive definite or not finite. Always the six rows
 /// (without orientation the rotation rows of `J` and of the residual are zero,
 /// their block is `λ² I` and their part of the solution zero: the same step as
 /// the three position rows alone), so that every loop has a fixed length; no
 /// square root is taken (a software routine on the controller).
 // Triangular index arithmetic reads best with indices.
 #[allow(clippy::needless_range_loop)]
-fn factor<T: Real>(jac: &[[T; 6]], lambda2: T) -> Option<Factors<T>> {
-    let mut a = [[T::zero(); 6]; 6];
+fn factor<T: Real>(jac: &[[T; 6]], lambda2: T, a: &mut Factors<T>) -> Option<()> {
     for i in 0..6 {
+        for j in 0..i {
+            a[i][j] = T::zero();
+        }
         a[i][i] = lambda2;
     }
     for col in jac {
@@ -1243,7 +1301,7 @@ fn factor<T: Real>(jac: &[[T; 6]], lambda2: T) -> Option<Factors<T>> {
             a[i][j] *= a[j][j];
         }
     }
-    Some(a)
+    Some(())
 }
 
 /// `Jᵀ y` into `out`, with `y = (J Jᵀ + λ² I)⁻¹ r` and `l` from [`factor`]
