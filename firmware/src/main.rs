@@ -20,7 +20,8 @@
 //!    A calibration arrives in chunks and is validated whole before it replaces
 //!    the one in force; it is converted to `f32` once. Each command is corrected
 //!    in its context (temperature, payload), with the previous tick's correction
-//!    as the change bound and its commands for the approach directions; its duration, from
+//!    as the change bound and its commands for the approach directions, and the
+//!    compensation's workspace (the predicted step, the last factors); its duration, from
 //!    the frame's last byte to the encoded response, is measured with SysTick
 //!    ([`clock`]) against [`TICK_PERIOD_CYCLES`] and a longer one counted as a
 //!    deadline miss. Nothing allocates (there is no allocator) and the work per
