@@ -785,7 +785,12 @@ impl<T: Real> Compensator<T> {
             let mut r = ([T::zero(); 6], T::zero());
             if let Some(d) = predictor {
                 first[..n].copy_from_slice(d);
-                r = self.predicted(chain, &jac, &residual.0, &first[..n]);
+                let left = if d.iter().any(|d| *d != T::zero()) {
+                    self.left(&jac, &residual.0, d)
+                } else {
+                    residual.0
+                };
+                r = self.predicted(chain, &jac, left, &first[..n]);
             }
             // Stale factors only in the first iteration after a tick that
             // converged: otherwise the configuration has moved by more than a
@@ -804,12 +809,14 @@ impl<T: Real> Compensator<T> {
                 let l = &*l;
                 let start = predictor.is_some()
                     || damped_solve(&jac, l, &residual.0, &mut first[..n]).is_some_and(|y| {
-                        r = if fresh {
+                        let left = if fresh {
                             // These factors leave exactly `e − J δ₁ = λ² y₁`.
-                            self.damped_residual(chain, &jac, &y, &first[..n])
+                            let lambda2 = self.limits.damping * self.limits.damping;
+                            y.map(|y| lambda2 * y)
                         } else {
-                            self.predicted(chain, &jac, &residual.0, &first[..n])
+                            self.left(&jac, &residual.0, &first[..n])
                         };
+                        r = self.predicted(chain, &jac, left, &first[..n]);
                         true
                     });
                 let bound = if start {
@@ -1125,74 +1132,46 @@ impl<T: Real> Compensator<T> {
         Some(self.step_bound(&chain.lines, e, first, second, linear, reach))
     }
 
-    /// [`Self::predicted`] for the first-order step `δ₁ = first` of fresh
-    /// factors, which leave `e − J δ₁ = λ² y₁` (`y` of that solve): `r = λ² y₁
-    /// − H(δ₁, δ₁)`, without a product with `J`.
-    fn damped_residual(
-        &self,
-        chain: &ServoChain<T>,
-        jac: &[[T; 6]],
-        y: &[T; 6],
-        first: &[T],
-    ) -> ([T; 6], T) {
-        let h = second_order(
-            &self.joints,
-            &chain.lines,
-            jac,
-            first,
-            self.limits.length_scale,
-        );
-        let lambda2 = self.limits.damping * self.limits.damping;
-        let mut r = [T::zero(); 6];
-        let mut size = T::zero();
-        for i in 0..6 {
-            r[i] = lambda2 * y[i] - h[i];
-            size += r[i].abs();
-        }
-        (r, size)
-    }
-
     /// `r = e − J δ₀ − H(δ₀, δ₀)`: the residual at `p + δ₀` (`δ₀ = first`) to
-    /// second order, and its 1-norm.
+    /// second order, and its 1-norm, from `left = e − J δ₀` (what the linear
+    /// part leaves: `λ² y₁` exactly when `δ₀` is the first-order step of fresh
+    /// factors, whose solve gave `y₁`).
     fn predicted(
         &self,
         chain: &ServoChain<T>,
         jac: &[[T; 6]],
-        e: &[T; 6],
+        left: [T; 6],
         first: &[T],
     ) -> ([T; 6], T) {
-        // A zero predictor (no joint effects, no known rate): `r = e`.
-        if first.iter().all(|d| *d == T::zero()) {
-            return (*e, e.iter().fold(T::zero(), |s, x| s + x.abs()));
+        let mut r = left;
+        // A zero predictor (no joint effects, no known rate) has no H.
+        if first.iter().any(|d| *d != T::zero()) {
+            let h = second_order(
+                &self.joints,
+                &chain.lines,
+                jac,
+                first,
+                self.limits.length_scale,
+            );
+            r.iter_mut().zip(h).for_each(|(r, h)| *r -= h);
         }
-        let h = second_order(
-            &self.joints,
-            &chain.lines,
-            jac,
-            first,
-            self.limits.length_scale,
-        );
-        let moved = apply(jac, first);
-        let mut r = *e;
-        let mut size = T::zero();
-        for i in 0..6 {
-            r[i] -= moved[i] + h[i];
-            size += r[i].abs();
-        }
+        let size = r.iter().fold(T::zero(), |s, x| s + x.abs());
         (r, size)
+    }
+
+    /// `e − J d`.
+    fn left(&self, jac: &[[T; 6]], e: &[T; 6], d: &[T]) -> [T; 6] {
+        let moved = apply(jac, d);
+        let mut left = *e;
+        left.iter_mut().zip(moved).for_each(|(l, m)| *l -= m);
+        left
     }
 
     /// `ℓ = r − J d`, the part of `r` a step `d` leaves to first order, and
     /// its 1-norm.
     fn linear_residual(&self, jac: &[[T; 6]], r: &[T; 6], d: &[T]) -> ([T; 6], T) {
-        let moved = apply(jac, d);
-        let mut left = *r;
-        let mut size = T::zero();
-        for (l, m) in left.iter_mut().zip(moved) {
-            *l -= m;
-            size += l.abs();
-        }
-        (left, size)
+        let left = self.left(jac, r, d);
+        (left, left.iter().fold(T::zero(), |s, x| s + x.abs()))
     }
 
     /// The bound of the module header on the residual after the second-order
