@@ -412,8 +412,8 @@ impl<T: Real> Slopes<T> {
     }
 }
 
-/// The sum of `v` (see [`is_finite`]). Out of line: one copy for its call
-/// sites (the optimiser unrolls it at each).
+/// The sum of `v` (see [`is_finite`]). Out of line: the optimiser unrolls it
+/// where it is inlined, at a cost in flash.
 #[inline(never)]
 fn sum<T: Real>(v: &[T]) -> T {
     v.iter().fold(T::zero(), |s, x| s + *x)
@@ -775,14 +775,13 @@ impl<T: Real> Compensator<T> {
         let mut first: Joints<T> = [T::zero(); MAX_JOINTS];
         let mut second: Joints<T> = [T::zero(); MAX_JOINTS];
         let mut jac: Vec<[T; 6], MAX_JOINTS> = Vec::new();
-        let trust = |step: &mut [T]| self.trust(step);
         while residual.1 > tolerance2 && iterations < self.limits.max_iterations {
             iterations += 1;
             let reach = self.jacobian(chain, &mut jac);
             // The step from the predictor, with the last factors first (they
             // are those of a nearby configuration on a smooth motion), then
             // fresh ones.
-            let mut r = ([T::zero(); 6], T::zero());
+            let mut r = [T::zero(); 6];
             if let Some(d) = predictor {
                 first[..n].copy_from_slice(d);
                 let left = if d.iter().any(|d| *d != T::zero()) {
@@ -803,7 +802,7 @@ impl<T: Real> Compensator<T> {
                 let l = work.factors.get_or_insert_with(|| [[T::zero(); 6]; 6]);
                 if fresh {
                     work.factored = false;
-                    self.factor(&jac, l).ok_or(Fault::NonFinite)?;
+                    factor(&jac, self.damping2(), l).ok_or(Fault::NonFinite)?;
                     work.factored = true;
                 }
                 let l = &*l;
@@ -811,7 +810,7 @@ impl<T: Real> Compensator<T> {
                     || damped_solve(&jac, l, &residual.0, &mut first[..n]).is_some_and(|y| {
                         let left = if fresh {
                             // These factors leave exactly `e − J δ₁ = λ² y₁`.
-                            let lambda2 = self.limits.damping * self.limits.damping;
+                            let lambda2 = self.damping2();
                             y.map(|y| lambda2 * y)
                         } else {
                             self.left(&jac, &residual.0, &first[..n])
@@ -827,14 +826,14 @@ impl<T: Real> Compensator<T> {
                         fresh,
                         &residual.0,
                         &first[..n],
-                        &r.0,
+                        &r,
                         &mut second[..n],
                         reach,
                     )
                 } else {
                     None
                 };
-                let whole = trust(&mut second[..n]);
+                let whole = self.trust(&mut second[..n]);
                 // The residual after the step is bounded below the tolerance:
                 // taken without evaluating the chain there.
                 if let Some(bound) = bound.flatten().filter(|b| whole && *b <= tolerance) {
@@ -849,11 +848,12 @@ impl<T: Real> Compensator<T> {
                 }
                 fresh = true;
             }
-            // The fallback's first candidate after the step: the first-order step.
-            if let (Some(_), Some(l), true) = (predictor.take(), &work.factors, work.factored) {
+            // The fallback's first candidate after the step: the first-order
+            // step (the loop above left fresh factors).
+            if let (Some(_), Some(l)) = (predictor.take(), &work.factors) {
                 damped_solve(&jac, l, &residual.0, &mut first[..n]).ok_or(Fault::NonFinite)?;
             }
-            trust(&mut first[..n]);
+            self.trust(&mut first[..n]);
             // Take a step only if it lowers the residual: the second-order one (eq.
             // 4.9) first, then the first-order one, each halved up to three times.
             // Near a singularity the linearisation overshoots and the second-order
@@ -1079,10 +1079,9 @@ impl<T: Real> Compensator<T> {
         reach
     }
 
-    /// The `L D Lᵀ` factors of `J Jᵀ + λ² I` ([`factor`]) with this
-    /// compensator's damping.
-    fn factor(&self, jac: &[[T; 6]], a: &mut Factors<T>) -> Option<()> {
-        factor(jac, self.limits.damping * self.limits.damping, a)
+    /// `λ²`, the square of the damping of the step's least-squares inverse.
+    fn damping2(&self) -> T {
+        self.limits.damping * self.limits.damping
     }
 
     /// The second-order step from the predictor `first = δ₀` into `second`
@@ -1108,7 +1107,7 @@ impl<T: Real> Compensator<T> {
         let y = damped_solve(jac, l, r, second)?;
         let linear = if fresh {
             // The factors of this `J` leave exactly `λ² y`.
-            self.limits.damping * self.limits.damping * y.iter().fold(T::zero(), |s, v| s + v.abs())
+            self.damping2() * y.iter().fold(T::zero(), |s, v| s + v.abs())
         } else {
             let mut linear = self.linear_residual(jac, r, second);
             // Factors of a nearby configuration leave a part of order `|J −
@@ -1133,7 +1132,7 @@ impl<T: Real> Compensator<T> {
     }
 
     /// `r = e − J δ₀ − H(δ₀, δ₀)`: the residual at `p + δ₀` (`δ₀ = first`) to
-    /// second order, and its 1-norm, from `left = e − J δ₀` (what the linear
+    /// second order, from `left = e − J δ₀` (what the linear
     /// part leaves: `λ² y₁` exactly when `δ₀` is the first-order step of fresh
     /// factors, whose solve gave `y₁`).
     fn predicted(
@@ -1142,7 +1141,7 @@ impl<T: Real> Compensator<T> {
         jac: &[[T; 6]],
         left: [T; 6],
         first: &[T],
-    ) -> ([T; 6], T) {
+    ) -> [T; 6] {
         let mut r = left;
         // A zero predictor (no joint effects, no known rate) has no H.
         if first.iter().any(|d| *d != T::zero()) {
@@ -1155,8 +1154,7 @@ impl<T: Real> Compensator<T> {
             );
             r.iter_mut().zip(h).for_each(|(r, h)| *r -= h);
         }
-        let size = r.iter().fold(T::zero(), |s, x| s + x.abs());
-        (r, size)
+        r
     }
 
     /// `e − J d`.

@@ -540,7 +540,8 @@ pub struct Device {
     /// The previous tick's nominal and sent commands and its joint positions,
     /// for the change bound, the approach directions and the warm start.
     previous: Option<Previous3>,
-    /// The last step's factors, for the next tick.
+    /// The compensation's workspace (the last step's factors, the
+    /// correction's last change), for the next tick.
     work: Workspace<f32>,
     last_seq: Option<u32>,
     /// The calibration file being received.
