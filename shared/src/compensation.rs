@@ -174,6 +174,7 @@ use nalgebra::{IsometryMatrix3, Vector3};
 
 use crate::effects::{Effect, EffectModel, JointEffect, MAX_EFFECTS, Masses, direction};
 use crate::kinematics::Prepared;
+use crate::model::bounded;
 use crate::servo_chain::{JointLine, ServoChain, Wanted};
 use crate::{Calibration, JointType, MAX_JOINTS, Real, Robot};
 
@@ -434,6 +435,12 @@ fn larger<T: Real>(a: T, b: T) -> T {
     if b > a { b } else { a }
 }
 
+/// The smaller of two values (see [`larger`]).
+#[inline(always)]
+fn smaller<T: Real>(a: T, b: T) -> T {
+    if b < a { b } else { a }
+}
+
 impl<T: Real> Compensator<T> {
     /// A compensator from the nominal model (the controller's) and the calibrated
     /// one (the real robot's), with full-pose compensation if `orientation`.
@@ -474,14 +481,10 @@ impl<T: Real> Compensator<T> {
         let zero = [T::zero(), T::zero()];
         let compliant = mask(&|e| e.compliance != T::zero());
         let harmonic = mask(&|e| e.first != zero || e.second != zero);
-        let bounds = robot
-            .links
-            .iter()
-            .map(|l| match l.joint {
-                JointType::Revolute => (limits.max_correction_angle, limits.max_change_angle),
-                JointType::Prismatic => (limits.max_correction_length, limits.max_change_length),
-            })
-            .collect();
+        let bounds = bounded(robot.links.iter().map(|l| match l.joint {
+            JointType::Revolute => (limits.max_correction_angle, limits.max_change_angle),
+            JointType::Prismatic => (limits.max_correction_length, limits.max_change_length),
+        }));
         Self {
             compliant,
             harmonic,
@@ -489,7 +492,7 @@ impl<T: Real> Compensator<T> {
             bounds,
             nominal: nominal.prepare(),
             calibrated: robot.prepare(),
-            joints: robot.links.iter().map(|l| l.joint).collect(),
+            joints: bounded(robot.links.iter().map(|l| l.joint)),
             orientation,
             slopes: Slopes::of(robot, &joint_effects, &masses),
             joint_effects,
@@ -515,7 +518,7 @@ impl<T: Real> Compensator<T> {
             }
         }
         let effects: Vec<Effect<T>, MAX_EFFECTS> =
-            calibration.effects.iter().map(|e| e.cast()).collect();
+            bounded(calibration.effects.iter().map(|e| e.cast()));
         // `Calibration::decode` checked every effect's joint; a calibration built
         // in memory with an effect on a missing joint is compensated geometrically,
         // as `Calibration::model` evaluates it.
@@ -566,8 +569,8 @@ impl<T: Real> Compensator<T> {
     ) -> Correction<T> {
         let n = self.dof();
         let unchanged = |fault| Correction {
-            q: q_cmd.iter().copied().take(MAX_JOINTS).collect(),
-            p: q_cmd.iter().copied().take(MAX_JOINTS).collect(),
+            q: bounded(q_cmd.iter().copied()),
+            p: bounded(q_cmd.iter().copied()),
             fault: Some(fault),
             iterations: 0,
             residual: T::zero(),
@@ -636,13 +639,24 @@ impl<T: Real> Compensator<T> {
         let mut predicted = false;
         if let Some(prev) = previous {
             let from = if corrects_joints { prev.q } else { prev.p };
-            if (0..n).all(|m| (from[m] - prev.q_cmd[m]).abs() <= self.bounds[m].0) {
-                let rate = work.rate.as_ref().filter(|_| work.rate_valid);
-                for m in 0..n {
-                    x[m] += from[m] - prev.q_cmd[m];
-                    predictor[m] = prev.p[m] - from[m] + rate.map_or(T::zero(), |r| r[m]);
+            // In one pass, undone below if a correction is out of its bound.
+            let mut within = true;
+            let start = x.iter_mut().zip(predictor.iter_mut()).zip(&self.bounds);
+            for ((((xm, dm), &(max, _)), f), (c, pp)) in
+                start.zip(from).zip(prev.q_cmd.iter().zip(prev.p))
+            {
+                let last = *f - *c;
+                within &= last.abs() <= max;
+                *xm += last;
+                *dm = *pp - *f;
+            }
+            if within {
+                if let Some(rate) = work.rate.as_ref().filter(|_| work.rate_valid) {
+                    predictor.iter_mut().zip(rate).for_each(|(d, r)| *d += *r);
                 }
                 predicted = true;
+            } else {
+                x[..n].copy_from_slice(q_cmd);
             }
         }
         // One chain at the start serves the geometric step (joint lines,
@@ -679,8 +693,11 @@ impl<T: Real> Compensator<T> {
         work.converged = fault.is_none();
         if let Some(prev) = previous.filter(|_| predicted && fault.is_none()) {
             let rate = work.rate.get_or_insert([T::zero(); MAX_JOINTS]);
-            for m in 0..n {
-                rate[m] = (p[m] - q_cmd[m]) - (prev.p[m] - prev.q_cmd[m]);
+            let now = p.iter().zip(q_cmd);
+            for ((r, (pm, c)), (pp, pc)) in
+                rate.iter_mut().zip(now).zip(prev.p.iter().zip(prev.q_cmd))
+            {
+                *r = (*pm - *c) - (*pp - *pc);
             }
             work.rate_valid = true;
         }
@@ -715,27 +732,31 @@ impl<T: Real> Compensator<T> {
             }
         }
         // Bounds: the size of the correction, then its change since the last tick.
-        for (m, &(max, change)) in self.bounds.iter().enumerate() {
-            let mut c = q[m] - q_cmd[m];
-            let mut clip = |lo: T, hi: T| {
-                if c < lo || c > hi {
-                    c = c.clamp(lo, hi);
-                    fault = fault.or(Some(Fault::Limited));
-                }
-            };
-            // The change per tick first, then the size: the size bound always holds,
-            // and when the previous correction was within it (as every correction
-            // this returns is) both do.
+        // The change per tick first, then the size: the size bound always holds,
+        // and when the previous correction was within it (as every correction
+        // this returns is) both do. As one interval: the change bound's, moved
+        // into the size bound's where they are disjoint.
+        let mut limited = false;
+        let mut outputs = residual2;
+        let joints = q.iter_mut().zip(&p).zip(q_cmd).zip(&self.bounds);
+        for (m, (((qm, pm), c), &(max, change))) in joints.enumerate() {
+            let (mut lo, mut hi) = (-max, max);
             if let Some(prev) = previous {
                 let last = prev.q[m] - prev.q_cmd[m];
-                clip(last - change, last + change);
+                lo = larger(lo, smaller(last - change, max));
+                hi = smaller(hi, larger(last + change, lo));
             }
-            clip(-max, max);
-            q[m] = q_cmd[m] + c;
+            let mut correction = *qm - *c;
+            if correction < lo {
+                (correction, limited) = (lo, true);
+            } else if correction > hi {
+                (correction, limited) = (hi, true);
+            }
+            *qm = *c + correction;
+            outputs += *qm + *pm;
         }
-        let mut outputs = residual2;
-        for m in 0..n {
-            outputs += q[m] + p[m];
+        if limited {
+            fault = fault.or(Some(Fault::Limited));
         }
         if !is_finite(outputs) {
             return unchanged(Fault::NonFinite);

@@ -42,6 +42,7 @@ use nalgebra::{Point3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::kinematics::Prepared;
+use crate::model::bounded;
 use crate::{Chain, JointType, MAX_JOINTS, ModelError, Param, Real, Robot};
 
 /// The most effects a calibration carries.
@@ -423,16 +424,12 @@ impl<T: Real> Masses<T> {
             .unwrap_or_else(|| Vector3::new(T::zero(), T::zero(), T::lit(-9.81)));
         let uses_masses = robot.links.iter().any(|l| l.mass.is_some());
         Self {
-            joints: robot.links.iter().map(|l| l.joint).collect(),
-            mass: robot
-                .links
-                .iter()
-                .map(|l| match (uses_masses, &l.mass) {
-                    (true, Some(lm)) => lm.mass,
-                    (true, None) => T::zero(),
-                    (false, _) => T::one(),
-                })
-                .collect(),
+            joints: bounded(robot.links.iter().map(|l| l.joint)),
+            mass: bounded(robot.links.iter().map(|l| match (uses_masses, &l.mass) {
+                (true, Some(lm)) => lm.mass,
+                (true, None) => T::zero(),
+                (false, _) => T::one(),
+            })),
             gravity: base.rotation * g_base,
         }
     }
@@ -550,7 +547,7 @@ impl<T: Real> EffectModel<T> {
     /// `dof` are left out.
     pub fn joint_effects(&self, dof: usize) -> Vec<JointEffect<T>, MAX_JOINTS> {
         let mut out: Vec<JointEffect<T>, MAX_JOINTS> =
-            (0..dof).map(|_| JointEffect::none()).collect();
+            bounded((0..dof).map(|_| JointEffect::none()));
         for e in &self.effects {
             let Some(j) = e.joint().filter(|j| *j < out.len()) else {
                 continue;

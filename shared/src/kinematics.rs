@@ -182,15 +182,11 @@ impl<T: Real> Robot<T> {
     pub fn prepare(&self) -> Prepared<T> {
         Prepared {
             convention: self.convention,
-            links: self
-                .links
-                .iter()
-                .map(|l| PreparedLink {
-                    link: *l,
-                    sin_cos_alpha: l.alpha.sincos(),
-                    sin_cos_beta: l.beta.sincos(),
-                })
-                .collect(),
+            links: crate::model::bounded(self.links.iter().map(|l| PreparedLink {
+                link: *l,
+                sin_cos_alpha: l.alpha.sincos(),
+                sin_cos_beta: l.beta.sincos(),
+            })),
             base: self.base.isometry(),
             tool: self.tool.isometry(),
             base_axes: FrameAxes::of(&self.base),

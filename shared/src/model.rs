@@ -23,6 +23,20 @@ use crate::Real;
 /// array on the controller's stack small.
 pub const MAX_JOINTS: usize = 16;
 
+/// The items of `iter` in a fixed-capacity list, for sources that never hold
+/// more than its capacity (a model's links, one value per joint); any beyond
+/// it are left out. `collect` would link a panic for the overflow that cannot
+/// happen, and with it 2 KB of formatting code on the controller.
+pub(crate) fn bounded<T, const N: usize>(iter: impl IntoIterator<Item = T>) -> Vec<T, N> {
+    let mut list = Vec::new();
+    for item in iter {
+        if list.push(item).is_err() {
+            break;
+        }
+    }
+    list
+}
+
 /// The link convention of a model (`convention` in the model file).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Convention {
@@ -251,23 +265,19 @@ impl<T: Real> Robot<T> {
             xyz: v(&f.xyz),
             rpy: v(&f.rpy),
         };
-        let links = self
-            .links
-            .iter()
-            .map(|l| Link {
-                joint: l.joint,
-                theta: c(l.theta),
-                s: c(l.s),
-                a: c(l.a),
-                alpha: c(l.alpha),
-                beta: c(l.beta),
-                limits: l.limits.map(|[lo, hi]| [c(lo), c(hi)]),
-                mass: l.mass.map(|m| LinkMass {
-                    mass: c(m.mass),
-                    com: v(&m.com),
-                }),
-            })
-            .collect();
+        let links = bounded(self.links.iter().map(|l| Link {
+            joint: l.joint,
+            theta: c(l.theta),
+            s: c(l.s),
+            a: c(l.a),
+            alpha: c(l.alpha),
+            beta: c(l.beta),
+            limits: l.limits.map(|[lo, hi]| [c(lo), c(hi)]),
+            mass: l.mass.map(|m| LinkMass {
+                mass: c(m.mass),
+                com: v(&m.com),
+            }),
+        }));
         Robot {
             convention: self.convention,
             links,
