@@ -175,7 +175,7 @@ use nalgebra::{IsometryMatrix3, Vector3};
 use crate::effects::{Effect, EffectModel, JointEffect, MAX_EFFECTS, Masses, direction};
 use crate::kinematics::Prepared;
 use crate::model::bounded;
-use crate::servo_chain::{JointLine, ServoChain, Wanted};
+use crate::servo_chain::{Angles, JointLine, ServoChain, Sines, Wanted};
 use crate::{Calibration, JointType, MAX_JOINTS, Real, Robot};
 
 /// The conditions of one tick that non-geometric effects depend on.
@@ -280,22 +280,67 @@ pub struct Correction<T: Real> {
     pub residual: T,
 }
 
-/// What one tick leaves for the next besides [`Previous`]: the factors of the
-/// last step's linear system, which the next step tries first (see the module
-/// header). Keep one per stream of ticks and pass it to
+/// What one tick leaves for the next besides [`Previous`] (the factors of the
+/// last step's linear system, which the next step tries first, and the
+/// correction's last change; see the module header), and the tick's work
+/// arrays. Keep one per stream of ticks and pass it to
 /// [`Compensator::correct_with`]; any workspace is valid with any compensator
 /// (factors that no longer solve the step are replaced), so a fresh one is
 /// only slower.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct Workspace<T: Real> {
+    reuse: Reuse<T>,
+    tick: Tick<T>,
+}
+
+impl<T: Real> Default for Workspace<T> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<T: Real> Workspace<T> {
+    /// An empty workspace: the first step factors afresh.
+    pub fn new() -> Self {
+        let zeros = [T::zero(); MAX_JOINTS];
+        Self {
+            reuse: Reuse {
+                factors: [[T::zero(); 6]; 6],
+                factored: false,
+                rate: zeros,
+                rate_valid: false,
+                converged: false,
+            },
+            tick: Tick {
+                chain: ServoChain::default(),
+                angles: Angles::default(),
+                x: zeros,
+                predictor: zeros,
+                tau: zeros,
+                p: zeros,
+                q: zeros,
+                steps: Steps {
+                    first: zeros,
+                    second: zeros,
+                    trial: zeros,
+                    jac: [[T::zero(); 6]; MAX_JOINTS],
+                },
+            },
+        }
+    }
+}
+
+/// What a tick leaves for the next.
+#[derive(Clone, Debug)]
+struct Reuse<T: Real> {
     /// The factors of the last step's system (valid when [`Self::factored`]).
-    factors: Option<Factors<T>>,
+    factors: Factors<T>,
     /// Whether [`Self::factors`] holds the factors of a step.
     factored: bool,
     /// The last tick's change of the joint positions' correction `p − q_cmd`
     /// from the tick before (valid when [`Self::rate_valid`]): the next
     /// predictor extrapolates it.
-    rate: Option<Joints<T>>,
+    rate: Joints<T>,
     /// Whether the last tick was a warm one that converged.
     rate_valid: bool,
     /// Whether the last tick converged (its factors are then those of a
@@ -303,17 +348,41 @@ pub struct Workspace<T: Real> {
     converged: bool,
 }
 
-impl<T: Real> Workspace<T> {
-    /// An empty workspace: the first step factors afresh.
-    pub const fn new() -> Self {
-        Self {
-            factors: None,
-            factored: false,
-            rate: None,
-            rate_valid: false,
-            converged: false,
-        }
-    }
+/// The work arrays of one tick, kept in the [`Workspace`] so that none is
+/// cleared or copied per tick (on the controller that costs as much as a
+/// chain's worth of arithmetic). Between ticks their contents mean nothing:
+/// each is written before it is read.
+#[derive(Clone, Debug)]
+struct Tick<T: Real> {
+    /// The chain of the last evaluation.
+    chain: ServoChain<T>,
+    /// The nominal chain's joint angles, their sines and cosines.
+    angles: Angles<T>,
+    /// The start of the search (see the module header).
+    x: Joints<T>,
+    /// The first step's predictor.
+    predictor: Joints<T>,
+    /// The gravity torques at the last evaluation.
+    tau: Joints<T>,
+    /// The joint positions that reach the target.
+    p: Joints<T>,
+    /// The commands that put the joints there.
+    q: Joints<T>,
+    /// The geometric problem's.
+    steps: Steps<T>,
+}
+
+/// The work arrays of the geometric problem ([`Compensator::solve`]).
+#[derive(Clone, Debug)]
+struct Steps<T: Real> {
+    /// The first-order step (or the predictor).
+    first: Joints<T>,
+    /// The second-order step.
+    second: Joints<T>,
+    /// A trial point of the line search.
+    trial: Joints<T>,
+    /// The columns of `J`, one per joint.
+    jac: [[T; 6]; MAX_JOINTS],
 }
 
 /// The compensation for one calibration: the nominal and the calibrated model,
@@ -346,7 +415,7 @@ pub struct Compensator<T: Real> {
 }
 
 /// One value per joint, sized for the most joints: the tick's work arrays
-/// (fixed size, on the stack, no allocation).
+/// (fixed size, kept in the [`Workspace`], no allocation).
 type Joints<T> = [T; MAX_JOINTS];
 
 /// What bounds the slope of the effects' joint offsets `o_j(q)` (compliance
@@ -598,20 +667,29 @@ impl<T: Real> Compensator<T> {
         if !is_finite(inputs) {
             return unchanged(Fault::NonFinite);
         }
-        // The pose the nominal model intended.
-        let mut chain = ServoChain {
-            lines: Vec::new(),
-            centres: Vec::new(),
-            end: self.nominal.base,
-        };
+        let Workspace { reuse, tick } = work;
+        let Tick {
+            chain,
+            angles,
+            x,
+            predictor,
+            tau,
+            p,
+            q,
+            steps,
+        } = tick;
+        // The pose the nominal model intended, its joint angles' sines and
+        // cosines recorded: every chain of the calibrated model below is near
+        // them.
         let target = Wanted {
             lines: false,
             centres: false,
             rotation: self.orientation,
         };
+        let sines = Sines::Record(angles);
         if self
             .nominal
-            .servo_chain_into(q_cmd, T::one(), target, &mut chain)
+            .servo_chain_with(q_cmd, T::one(), target, sines, chain)
             .is_err()
         {
             return unchanged(Fault::JointCount);
@@ -623,65 +701,65 @@ impl<T: Real> Compensator<T> {
             model: &self.calibrated,
             factor: self.effects.length_factor(conditions.temperature),
             rotation: self.orientation,
+            angles,
         };
         // The start: the previous tick's correction applied to this command,
         // when it is within the bounds (warm start). With joint effects it is
         // the estimate of the commands `q` (where the gravity torques are
         // evaluated); without, of the joint positions `p`, which then equal `q`.
         let corrects_joints = self.corrects_joints;
-        let mut x: Joints<T> = [T::zero(); MAX_JOINTS];
-        x[..n].copy_from_slice(q_cmd);
         // The first step's predictor from there: the previous tick's step
         // from the commands to the joint positions (`p − q`, the joint
         // effects' offset; none without them, the start being the positions),
         // plus the last change of the correction `p − q_cmd` when known.
-        let mut predictor: Joints<T> = [T::zero(); MAX_JOINTS];
         let mut predicted = false;
         if let Some(prev) = previous {
             let from = if corrects_joints { prev.q } else { prev.p };
             // In one pass, undone below if a correction is out of its bound.
             let mut within = true;
             let start = x.iter_mut().zip(predictor.iter_mut()).zip(&self.bounds);
-            for ((((xm, dm), &(max, _)), f), (c, pp)) in
-                start.zip(from).zip(prev.q_cmd.iter().zip(prev.p))
-            {
-                let last = *f - *c;
-                within &= last.abs() <= max;
-                *xm += last;
+            let last = from.iter().zip(prev.q_cmd).zip(prev.p);
+            for ((((xm, dm), &(max, _)), ((f, c), pp)), qc) in start.zip(last).zip(q_cmd) {
+                let correction = *f - *c;
+                within &= correction.abs() <= max;
+                *xm = *qc + correction;
                 *dm = *pp - *f;
             }
             if within {
-                if let Some(rate) = work.rate.as_ref().filter(|_| work.rate_valid) {
-                    predictor.iter_mut().zip(rate).for_each(|(d, r)| *d += *r);
+                if reuse.rate_valid {
+                    predictor
+                        .iter_mut()
+                        .zip(&reuse.rate)
+                        .for_each(|(d, r)| *d += *r);
                 }
                 predicted = true;
-            } else {
-                x[..n].copy_from_slice(q_cmd);
             }
+        }
+        if !predicted {
+            x.iter_mut().zip(q_cmd).for_each(|(x, c)| *x = *c);
         }
         // One chain at the start serves the geometric step (joint lines,
         // measured frame) and the gravity torques (centres of mass).
         let needs_torque = self.compliant != 0;
-        if geometry
-            .chain(&x[..n], true, needs_torque, &mut chain)
-            .is_err()
-        {
+        if geometry.chain(&x[..n], true, needs_torque, chain).is_err() {
             return unchanged(Fault::JointCount);
         }
         let payload = conditions.payload.unwrap_or(T::zero());
-        let mut tau: Joints<T> = [T::zero(); MAX_JOINTS];
         if needs_torque {
-            self.torques(&chain, payload, &mut tau[..n]);
+            self.torques(chain, payload, &mut tau[..n]);
+        } else {
+            tau.iter_mut().take(n).for_each(|t| *t = T::zero());
         }
         // 1. The real joint positions p that reach the target.
-        let mut p = x;
+        p.iter_mut().zip(&x[..n]).for_each(|(p, x)| *p = *x);
         let (iterations, mut residual2) = match self.solve(
             &geometry,
             &target,
             &mut p[..n],
             predicted.then_some(&predictor[..n]),
-            &mut chain,
-            work,
+            chain,
+            reuse,
+            steps,
         ) {
             Ok(solved) => solved,
             Err(fault) => return unchanged(fault),
@@ -689,22 +767,24 @@ impl<T: Real> Compensator<T> {
         let tolerance2 = self.limits.tolerance * self.limits.tolerance;
         let mut fault = (residual2 > tolerance2).then_some(Fault::NotConverged);
         // The change of the correction since the last tick, for the next one.
-        work.rate_valid = false;
-        work.converged = fault.is_none();
+        reuse.rate_valid = false;
+        reuse.converged = fault.is_none();
         if let Some(prev) = previous.filter(|_| predicted && fault.is_none()) {
-            let rate = work.rate.get_or_insert([T::zero(); MAX_JOINTS]);
             let now = p.iter().zip(q_cmd);
-            for ((r, (pm, c)), (pp, pc)) in
-                rate.iter_mut().zip(now).zip(prev.p.iter().zip(prev.q_cmd))
+            for ((r, (pm, c)), (pp, pc)) in reuse
+                .rate
+                .iter_mut()
+                .zip(now)
+                .zip(prev.p.iter().zip(prev.q_cmd))
             {
                 *r = (*pm - *c) - (*pp - *pc);
             }
-            work.rate_valid = true;
+            reuse.rate_valid = true;
         }
         // 2. The commands that put the joints at p, from the start and its torques.
-        let mut q = p;
+        let from = if corrects_joints { &x[..n] } else { &p[..n] };
+        q.iter_mut().zip(from).for_each(|(q, f)| *q = *f);
         if corrects_joints {
-            q = x;
             match self.invert(
                 &geometry,
                 &mut q[..n],
@@ -712,18 +792,15 @@ impl<T: Real> Compensator<T> {
                 &mut tau[..n],
                 previous,
                 payload,
-                &mut chain,
+                chain,
             ) {
                 None => return unchanged(Fault::NonFinite),
                 Some(false) => {}
                 Some(true) => {
-                    // Held within a lost motion: where the joints really go.
-                    let mut reached: Joints<T> = [T::zero(); MAX_JOINTS];
-                    self.reached(&q[..n], &tau[..n], previous, &mut reached[..n]);
-                    if geometry
-                        .chain(&reached[..n], false, false, &mut chain)
-                        .is_err()
-                    {
+                    // Held within a lost motion: where the joints really go
+                    // (into `x`, no longer needed).
+                    self.reached(&q[..n], &tau[..n], previous, &mut x[..n]);
+                    if geometry.chain(&x[..n], false, false, chain).is_err() {
                         return unchanged(Fault::JointCount);
                     }
                     residual2 = self.residual(&target, &chain.end).1;
@@ -738,7 +815,7 @@ impl<T: Real> Compensator<T> {
         // into the size bound's where they are disjoint.
         let mut limited = false;
         let mut outputs = residual2;
-        let joints = q.iter_mut().zip(&p).zip(q_cmd).zip(&self.bounds);
+        let joints = q.iter_mut().zip(p.iter()).zip(q_cmd).zip(&self.bounds);
         for (m, (((qm, pm), c), &(max, change))) in joints.enumerate() {
             let (mut lo, mut hi) = (-max, max);
             if let Some(prev) = previous {
@@ -776,9 +853,11 @@ impl<T: Real> Compensator<T> {
     /// `p` with its joint lines on entry, a work buffer after. The first step
     /// starts from `predictor` when given (the previous tick's step, on a warm
     /// tick), else from the first-order step; each step solves with the factors
-    /// `work` holds while they give a step within its bound, else with fresh
+    /// `reuse` holds while they give a step within its bound, else with fresh
     /// ones. Returns the iterations and the squared residual (or the square of
-    /// its bound, when the last step was taken on its bound).
+    /// its bound, when the last step was taken on its bound). `steps` are
+    /// work arrays.
+    #[allow(clippy::too_many_arguments)]
     fn solve(
         &self,
         geometry: &Geometry<'_, T>,
@@ -786,19 +865,24 @@ impl<T: Real> Compensator<T> {
         p: &mut [T],
         mut predictor: Option<&[T]>,
         chain: &mut ServoChain<T>,
-        work: &mut Workspace<T>,
+        reuse: &mut Reuse<T>,
+        steps: &mut Steps<T>,
     ) -> Result<(usize, T), Fault> {
+        let Steps {
+            first,
+            second,
+            trial,
+            jac,
+        } = steps;
         let n = p.len();
         let tolerance = self.limits.tolerance;
         let tolerance2 = tolerance * tolerance;
         let mut iterations = 0;
         let mut residual = self.residual(target, &chain.end);
-        let mut first: Joints<T> = [T::zero(); MAX_JOINTS];
-        let mut second: Joints<T> = [T::zero(); MAX_JOINTS];
-        let mut jac: Vec<[T; 6], MAX_JOINTS> = Vec::new();
+        let jac = &mut jac[..n];
         while residual.1 > tolerance2 && iterations < self.limits.max_iterations {
             iterations += 1;
-            let reach = self.jacobian(chain, &mut jac);
+            let reach = self.jacobian(chain, jac);
             // The step from the predictor, with the last factors first (they
             // are those of a nearby configuration on a smooth motion), then
             // fresh ones.
@@ -806,43 +890,42 @@ impl<T: Real> Compensator<T> {
             if let Some(d) = predictor {
                 first[..n].copy_from_slice(d);
                 let left = if d.iter().any(|d| *d != T::zero()) {
-                    self.left(&jac, &residual.0, d)
+                    self.left(jac, &residual.0, d)
                 } else {
                     residual.0
                 };
-                r = self.predicted(chain, &jac, left, &first[..n]);
+                r = self.predicted(chain, jac, left, &first[..n]);
             }
             // Stale factors only in the first iteration after a tick that
             // converged: otherwise the configuration has moved by more than a
             // tick's motion.
             let mut fresh =
-                !(work.factored && iterations == 1 && work.converged && predictor.is_some());
+                !(reuse.factored && iterations == 1 && reuse.converged && predictor.is_some());
             loop {
                 // The factors are written in place (a copy of them costs as
                 // much as a solve on the controller).
-                let l = work.factors.get_or_insert_with(|| [[T::zero(); 6]; 6]);
                 if fresh {
-                    work.factored = false;
-                    factor(&jac, self.damping2(), l).ok_or(Fault::NonFinite)?;
-                    work.factored = true;
+                    reuse.factored = false;
+                    factor(jac, self.damping2(), &mut reuse.factors).ok_or(Fault::NonFinite)?;
+                    reuse.factored = true;
                 }
-                let l = &*l;
+                let l = &reuse.factors;
                 let start = predictor.is_some()
-                    || damped_solve(&jac, l, &residual.0, &mut first[..n]).is_some_and(|y| {
+                    || damped_solve(jac, l, &residual.0, &mut first[..n]).is_some_and(|y| {
                         let left = if fresh {
                             // These factors leave exactly `e − J δ₁ = λ² y₁`.
                             let lambda2 = self.damping2();
                             y.map(|y| lambda2 * y)
                         } else {
-                            self.left(&jac, &residual.0, &first[..n])
+                            self.left(jac, &residual.0, &first[..n])
                         };
-                        r = self.predicted(chain, &jac, left, &first[..n]);
+                        r = self.predicted(chain, jac, left, &first[..n]);
                         true
                     });
                 let bound = if start {
                     self.step(
                         chain,
-                        &jac,
+                        jac,
                         l,
                         fresh,
                         &residual.0,
@@ -871,8 +954,9 @@ impl<T: Real> Compensator<T> {
             }
             // The fallback's first candidate after the step: the first-order
             // step (the loop above left fresh factors).
-            if let (Some(_), Some(l)) = (predictor.take(), &work.factors) {
-                damped_solve(&jac, l, &residual.0, &mut first[..n]).ok_or(Fault::NonFinite)?;
+            if predictor.take().is_some() {
+                damped_solve(jac, &reuse.factors, &residual.0, &mut first[..n])
+                    .ok_or(Fault::NonFinite)?;
             }
             self.trust(&mut first[..n]);
             // Take a step only if it lowers the residual: the second-order one (eq.
@@ -881,7 +965,6 @@ impl<T: Real> Compensator<T> {
             // term, built on an overshooting first step, can mislead; otherwise the
             // full second-order step is taken at once.
             let mut improved = false;
-            let mut trial: Joints<T> = [T::zero(); MAX_JOINTS];
             'candidates: for step in [&mut second[..n], &mut first[..n]] {
                 for _ in 0..4 {
                     for ((t, pm), d) in trial.iter_mut().zip(p.iter()).zip(step.iter()) {
@@ -1013,7 +1096,7 @@ impl<T: Real> Compensator<T> {
 
     /// The gravity torques at `chain` (with its lines and centres) into `tau`.
     fn torques(&self, chain: &ServoChain<T>, payload: T, tau: &mut [T]) {
-        let (lines, centres) = (&chain.lines, &chain.centres);
+        let (lines, centres) = (chain.lines(), chain.centres());
         self.masses.torques(
             payload,
             &chain.point(),
@@ -1077,13 +1160,12 @@ impl<T: Real> Compensator<T> {
     /// `[T; 6]` per joint: its rotation (scaled by the length scale; zero without
     /// orientation) and the tool point's displacement; and `reach`, a bound on
     /// the levers `|v_m|` (1-norm), at least the length scale.
-    fn jacobian(&self, chain: &ServoChain<T>, jac: &mut Vec<[T; 6], MAX_JOINTS>) -> T {
+    fn jacobian(&self, chain: &ServoChain<T>, jac: &mut [[T; 6]]) -> T {
         let p = chain.end.translation.vector;
         let ls = self.limits.length_scale;
         let rotation = if self.orientation { ls } else { T::zero() };
-        jac.clear();
         let mut reach = ls;
-        for (line, joint) in chain.lines.iter().zip(&self.joints) {
+        for ((out, line), joint) in jac.iter_mut().zip(chain.lines()).zip(&self.joints) {
             let w = line.w;
             let col = match joint {
                 JointType::Revolute => {
@@ -1094,8 +1176,7 @@ impl<T: Real> Compensator<T> {
                 }
                 JointType::Prismatic => [T::zero(), T::zero(), T::zero(), w.x, w.y, w.z],
             };
-            // n ≤ MAX_JOINTS: always room.
-            let _ = jac.push(col);
+            *out = col;
         }
         reach
     }
@@ -1149,7 +1230,7 @@ impl<T: Real> Compensator<T> {
         if !linear.is_finite() {
             return None;
         }
-        Some(self.step_bound(&chain.lines, e, first, second, linear, reach))
+        Some(self.step_bound(chain.lines(), e, first, second, linear, reach))
     }
 
     /// `r = e − J δ₀ − H(δ₀, δ₀)`: the residual at `p + δ₀` (`δ₀ = first`) to
@@ -1168,7 +1249,7 @@ impl<T: Real> Compensator<T> {
         if first.iter().any(|d| *d != T::zero()) {
             let h = second_order(
                 &self.joints,
-                &chain.lines,
+                chain.lines(),
                 jac,
                 first,
                 self.limits.length_scale,
@@ -1361,12 +1442,14 @@ fn apply<T: Real>(jac: &[[T; 6]], v: &[T]) -> [T; 6] {
 }
 
 /// The calibrated geometry at one tick's temperature: the prepared model, the
-/// thermal length factor its chains apply, and whether the measured frame's
-/// rotation is wanted.
+/// thermal length factor its chains apply, whether the measured frame's
+/// rotation is wanted, and the nominal chain's angles, near which its chains'
+/// sines and cosines are found ([`Sines::Near`]).
 struct Geometry<'a, T: Real> {
     model: &'a Prepared<T>,
     factor: T,
     rotation: bool,
+    angles: &'a Angles<T>,
 }
 
 impl<T: Real> Geometry<'_, T> {
@@ -1385,7 +1468,7 @@ impl<T: Real> Geometry<'_, T> {
             rotation: self.rotation,
         };
         self.model
-            .servo_chain_into(p, self.factor, wanted, chain)
+            .servo_chain_with(p, self.factor, wanted, Sines::Near(self.angles), chain)
             .map_err(|_| Fault::JointCount)
     }
 }
@@ -1481,7 +1564,7 @@ mod tests {
                     [col[0] * ls, col[1] * ls, col[2] * ls, v.x, v.y, v.z]
                 })
                 .collect();
-            let h = second_order(&joints, &servo.lines, &jac, &delta, ls);
+            let h = second_order(&joints, servo.lines(), &jac, &delta, ls);
             let errors: Vec<(Param, f64), MAX_JOINTS> = params.iter().copied().zip(delta).collect();
             let e = expand(&chain, convention, &errors).unwrap();
             let want_disp = e.point_error() - at_point(&e.first, &point);

@@ -160,6 +160,38 @@ pub(crate) struct PreparedLink<T: Real> {
     pub(crate) link: Link<T>,
     pub(crate) sin_cos_alpha: (T, T),
     pub(crate) sin_cos_beta: (T, T),
+    /// The twist when it is exactly none or a quarter turn.
+    pub(crate) twist: Twist,
+}
+
+/// A link's twist `α` when it is one of the angles of most nominal models
+/// exactly: the frame then turns about its x axis by moving two axes (and
+/// negating one) instead of twelve products ([`crate::servo_chain`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Twist {
+    /// `α = 0`.
+    None,
+    /// `α = π/2`: `y' = z`, `z' = −y`.
+    Quarter,
+    /// `α = −π/2`: `y' = −z`, `z' = y`.
+    MinusQuarter,
+    /// Any other: by `sin_cos_alpha`.
+    Other,
+}
+
+impl Twist {
+    fn of<T: Real>(alpha: T) -> Self {
+        let quarter = T::lit(core::f64::consts::FRAC_PI_2);
+        if alpha == T::zero() {
+            Self::None
+        } else if alpha == quarter {
+            Self::Quarter
+        } else if alpha == -quarter {
+            Self::MinusQuarter
+        } else {
+            Self::Other
+        }
+    }
 }
 
 /// A robot made ready for many evaluations: the trigonometry of every constant
@@ -186,6 +218,7 @@ impl<T: Real> Robot<T> {
                 link: *l,
                 sin_cos_alpha: l.alpha.sincos(),
                 sin_cos_beta: l.beta.sincos(),
+                twist: Twist::of(l.alpha),
             })),
             base: self.base.isometry(),
             tool: self.tool.isometry(),

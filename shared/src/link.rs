@@ -552,7 +552,7 @@ pub struct Device {
 
 impl Device {
     /// A controller with no calibration, whose ticks last `tick_period_cycles`.
-    pub const fn new(tick_period_cycles: u32) -> Self {
+    pub fn new(tick_period_cycles: u32) -> Self {
         Self {
             compensator: None,
             previous: None,
