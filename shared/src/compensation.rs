@@ -994,14 +994,17 @@ impl<T: Real> Compensator<T> {
     /// whether it was whole. Out of line: one copy for its call sites.
     #[inline(never)]
     fn trust(&self, step: &mut [T]) -> bool {
-        let mut scale = T::one();
+        // The largest share of its bound that a joint's step takes.
+        let mut worst = T::zero();
         for (d, &(max, _)) in step.iter().zip(&self.bounds) {
-            if d.abs() * scale > max {
-                scale = max / d.abs();
-            }
+            worst = larger(worst, d.abs() / max);
         }
+        if worst <= T::one() {
+            return true;
+        }
+        let scale = T::one() / worst;
         step.iter_mut().for_each(|d| *d *= scale);
-        scale == T::one()
+        false
     }
 
     /// The effects' inversion: the commands `q` with `q + Δq(q) = p` (see the
@@ -1021,7 +1024,6 @@ impl<T: Real> Compensator<T> {
         payload: T,
         chain: &mut ServoChain<T>,
     ) -> Option<bool> {
-        let n = q.len();
         let sent = previous.map(|prev| prev.q);
         let tolerance = self.limits.tolerance / self.limits.length_scale;
         let mut held = false;
@@ -1033,9 +1035,15 @@ impl<T: Real> Compensator<T> {
             }
             let mut change = T::zero();
             held = false;
-            for (j, e) in self.joint_effects.iter().enumerate().take(n) {
+            let joints = self
+                .joint_effects
+                .iter()
+                .zip(q.iter_mut())
+                .zip(p)
+                .zip(&*tau);
+            for (j, (((e, qj), pj), tj)) in joints.enumerate() {
                 let stretch = T::one() + e.scale;
-                let mut next = (p[j] - self.offset(j, q[j], tau[j])) / stretch;
+                let mut next = (*pj - self.offset(j, e, *qj, *tj)) / stretch;
                 if let Some(prev) = sent.filter(|_| e.backlash != T::zero()) {
                     let lost = e.backlash / stretch;
                     let sigma = direction(next - prev[j]);
@@ -1051,8 +1059,8 @@ impl<T: Real> Compensator<T> {
                         held = true;
                     }
                 }
-                change = larger(change, (next - q[j]).abs());
-                q[j] = next;
+                change = larger(change, (next - *qj).abs());
+                *qj = next;
             }
             if !change.is_finite() {
                 return None;
@@ -1070,11 +1078,10 @@ impl<T: Real> Compensator<T> {
         Some(held)
     }
 
-    /// [`JointEffect::offset`] of joint `j`, the harmonics skipped by a mask
+    /// [`JointEffect::offset`] of joint `j` (its effects `e`), the harmonics skipped by a mask
     /// test on joints without them (instead of four comparisons).
     #[inline]
-    fn offset(&self, j: usize, q: T, tau: T) -> T {
-        let e = &self.joint_effects[j];
+    fn offset(&self, j: usize, e: &JointEffect<T>, q: T, tau: T) -> T {
         let harmonics = if self.harmonic & (1 << j) != 0 {
             e.harmonics(q)
         } else {
@@ -1290,12 +1297,12 @@ impl<T: Real> Compensator<T> {
         // σ(δ) = Σ_revolute |δ_m| + Σ_prismatic |δ_m| / R; s_r the revolute part.
         let (mut diff, mut sum, mut size, mut turn) = (T::zero(), T::zero(), T::zero(), T::zero());
         let mut theta = Vector3::zeros();
-        for (m, joint) in self.joints.iter().enumerate() {
-            let (d1, d2) = (first[m], second[m]);
+        let steps = first.iter().zip(second);
+        for ((joint, line), (&d1, &d2)) in self.joints.iter().zip(lines).zip(steps) {
             let unit = match joint {
                 JointType::Revolute => {
                     turn += d2.abs();
-                    theta += lines[m].w * d2;
+                    theta += line.w * d2;
                     T::one()
                 }
                 JointType::Prismatic => T::one() / reach,
@@ -1409,16 +1416,18 @@ fn damped_solve<T: Real>(
             y[i] -= l[p][i] * y[p];
         }
     }
-    let mut finite = true;
+    // Finite when the sum is (see `is_finite`; a sum beyond 10³⁸ even in
+    // `f32` counts as not finite: no step is that large).
+    let mut sum = T::zero();
     for (o, col) in out.iter_mut().zip(jac) {
         let mut d = T::zero();
         for i in 0..6 {
             d += col[i] * y[i];
         }
-        finite &= d.is_finite();
+        sum += d;
         *o = d;
     }
-    finite.then_some(y)
+    is_finite(sum).then_some(y)
 }
 
 /// Takes the step `d`: `p += d`.
