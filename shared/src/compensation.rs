@@ -315,7 +315,6 @@ impl<T: Real> Workspace<T> {
                 chain: ServoChain::default(),
                 angles: Angles::default(),
                 x: zeros,
-                predictor: zeros,
                 tau: zeros,
                 p: zeros,
                 q: zeros,
@@ -360,8 +359,6 @@ struct Tick<T: Real> {
     angles: Angles<T>,
     /// The start of the search (see the module header).
     x: Joints<T>,
-    /// The first step's predictor.
-    predictor: Joints<T>,
     /// The gravity torques at the last evaluation.
     tau: Joints<T>,
     /// The joint positions that reach the target.
@@ -482,9 +479,8 @@ impl<T: Real> Slopes<T> {
     }
 }
 
-/// The sum of `v` (see [`is_finite`]). Out of line: the optimiser unrolls it
-/// where it is inlined, at a cost in flash.
-#[inline(never)]
+/// The sum of `v` (see [`is_finite`]).
+#[inline]
 fn sum<T: Real>(v: &[T]) -> T {
     v.iter().fold(T::zero(), |s, x| s + *x)
 }
@@ -672,7 +668,6 @@ impl<T: Real> Compensator<T> {
             chain,
             angles,
             x,
-            predictor,
             tau,
             p,
             q,
@@ -717,6 +712,7 @@ impl<T: Real> Compensator<T> {
             let from = if corrects_joints { prev.q } else { prev.p };
             // In one pass, undone below if a correction is out of its bound.
             let mut within = true;
+            let predictor = &mut steps.first;
             let start = x.iter_mut().zip(predictor.iter_mut()).zip(&self.bounds);
             let last = from.iter().zip(prev.q_cmd).zip(prev.p);
             for ((((xm, dm), &(max, _)), ((f, c), pp)), qc) in start.zip(last).zip(q_cmd) {
@@ -756,7 +752,7 @@ impl<T: Real> Compensator<T> {
             &geometry,
             &target,
             &mut p[..n],
-            predicted.then_some(&predictor[..n]),
+            predicted,
             chain,
             reuse,
             steps,
@@ -851,19 +847,19 @@ impl<T: Real> Compensator<T> {
     /// The geometric problem: refines the joint positions `p` until `geometry`
     /// reaches `target` (eq. 4.9, repeated; see the module header). `chain` is at
     /// `p` with its joint lines on entry, a work buffer after. The first step
-    /// starts from `predictor` when given (the previous tick's step, on a warm
-    /// tick), else from the first-order step; each step solves with the factors
-    /// `reuse` holds while they give a step within its bound, else with fresh
-    /// ones. Returns the iterations and the squared residual (or the square of
-    /// its bound, when the last step was taken on its bound). `steps` are
-    /// work arrays.
+    /// starts from the predictor in `steps.first` when `predicted` (the
+    /// previous tick's step, on a warm tick), else from the first-order step;
+    /// each step solves with the factors `reuse` holds while they give a step
+    /// within its bound, else with fresh ones. Returns the iterations and the
+    /// squared residual (or the square of its bound, when the last step was
+    /// taken on its bound). `steps` are work arrays.
     #[allow(clippy::too_many_arguments)]
     fn solve(
         &self,
         geometry: &Geometry<'_, T>,
         target: &IsometryMatrix3<T>,
         p: &mut [T],
-        mut predictor: Option<&[T]>,
+        mut predicted: bool,
         chain: &mut ServoChain<T>,
         reuse: &mut Reuse<T>,
         steps: &mut Steps<T>,
@@ -887,8 +883,8 @@ impl<T: Real> Compensator<T> {
             // are those of a nearby configuration on a smooth motion), then
             // fresh ones.
             let mut r = [T::zero(); 6];
-            if let Some(d) = predictor {
-                first[..n].copy_from_slice(d);
+            if predicted {
+                let d = &first[..n];
                 let left = if d.iter().any(|d| *d != T::zero()) {
                     self.left(jac, &residual.0, d)
                 } else {
@@ -899,8 +895,7 @@ impl<T: Real> Compensator<T> {
             // Stale factors only in the first iteration after a tick that
             // converged: otherwise the configuration has moved by more than a
             // tick's motion.
-            let mut fresh =
-                !(reuse.factored && iterations == 1 && reuse.converged && predictor.is_some());
+            let mut fresh = !(reuse.factored && iterations == 1 && reuse.converged && predicted);
             loop {
                 // The factors are written in place (a copy of them costs as
                 // much as a solve on the controller).
@@ -910,7 +905,7 @@ impl<T: Real> Compensator<T> {
                     reuse.factored = true;
                 }
                 let l = &reuse.factors;
-                let start = predictor.is_some()
+                let start = predicted
                     || damped_solve(jac, l, &residual.0, &mut first[..n]).is_some_and(|y| {
                         let left = if fresh {
                             // These factors leave exactly `e − J δ₁ = λ² y₁`.
@@ -954,7 +949,8 @@ impl<T: Real> Compensator<T> {
             }
             // The fallback's first candidate after the step: the first-order
             // step (the loop above left fresh factors).
-            if predictor.take().is_some() {
+            if predicted {
+                predicted = false;
                 damped_solve(jac, &reuse.factors, &residual.0, &mut first[..n])
                     .ok_or(Fault::NonFinite)?;
             }
@@ -991,8 +987,8 @@ impl<T: Real> Compensator<T> {
 
     /// Trust region: scales `step` so that no joint moves by more than its
     /// correction bound (near a singularity the step is otherwise huge);
-    /// whether it was whole. Out of line: one copy for its call sites.
-    #[inline(never)]
+    /// whether it was whole.
+    #[inline]
     fn trust(&self, step: &mut [T]) -> bool {
         // The largest share of its bound that a joint's step takes.
         let mut worst = T::zero();
@@ -1438,8 +1434,8 @@ fn take<T: Real>(p: &mut [T], d: &[T]) {
 }
 
 /// `J v`: the residual row a joint change `v` moves the measured frame by, to
-/// first order. Out of line: one copy for its call sites.
-#[inline(never)]
+/// first order.
+#[inline]
 fn apply<T: Real>(jac: &[[T; 6]], v: &[T]) -> [T; 6] {
     let mut out = [T::zero(); 6];
     for (col, d) in jac.iter().zip(v) {
@@ -1504,11 +1500,10 @@ fn second_order<T: Real>(
     let mut s = Vector3::zeros();
     let mut rot = Vector3::zeros();
     let mut disp = Vector3::zeros();
-    for (m, joint) in joints.iter().enumerate() {
-        let d = delta[m];
-        let v = Vector3::new(jac[m][3], jac[m][4], jac[m][5]) * d;
+    for (((joint, line), col), &d) in joints.iter().zip(lines).zip(jac).zip(delta) {
+        let v = Vector3::new(col[3], col[4], col[5]) * d;
         let w = match joint {
-            JointType::Revolute => lines[m].w * d,
+            JointType::Revolute => line.w * d,
             JointType::Prismatic => Vector3::zeros(),
         };
         // a = s + ½ w, and a × w = s × w.
