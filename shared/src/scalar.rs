@@ -75,6 +75,7 @@ const REDUCTION_LIMIT: f32 = 8192.0;
 
 /// `(sin x, cos x)` in `f32` arithmetic only; see [the module](self).
 #[inline]
+#[allow(clippy::excessive_precision)] // The constants as published (Cephes).
 pub fn sin_cos_f32(x: f32) -> (f32, f32) {
     // Beyond the limit, or NaN.
     if x.is_nan() || x.abs() > REDUCTION_LIMIT {
