@@ -885,12 +885,13 @@ impl<T: Real> Compensator<T> {
             let mut r = [T::zero(); 6];
             if predicted {
                 let d = &first[..n];
-                let left = if d.iter().any(|d| *d != T::zero()) {
-                    self.left(jac, &residual.0, d)
+                // A zero predictor (no joint effects, no known rate) moves
+                // nothing: `r = e`.
+                r = if d.iter().any(|d| *d != T::zero()) {
+                    self.predicted(chain, jac, self.left(jac, &residual.0, d), d)
                 } else {
                     residual.0
                 };
-                r = self.predicted(chain, jac, left, &first[..n]);
             }
             // Stale factors only in the first iteration after a tick that
             // converged: otherwise the configuration has moved by more than a
@@ -1248,17 +1249,14 @@ impl<T: Real> Compensator<T> {
         first: &[T],
     ) -> [T; 6] {
         let mut r = left;
-        // A zero predictor (no joint effects, no known rate) has no H.
-        if first.iter().any(|d| *d != T::zero()) {
-            let h = second_order(
-                &self.joints,
-                chain.lines(),
-                jac,
-                first,
-                self.limits.length_scale,
-            );
-            r.iter_mut().zip(h).for_each(|(r, h)| *r -= h);
-        }
+        let h = second_order(
+            &self.joints,
+            chain.lines(),
+            jac,
+            first,
+            self.limits.length_scale,
+        );
+        r.iter_mut().zip(h).for_each(|(r, h)| *r -= h);
         r
     }
 
