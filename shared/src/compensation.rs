@@ -676,7 +676,7 @@ impl<T: Real> Compensator<T> {
         // The pose the nominal model intended, its joint angles' sines and
         // cosines recorded: every chain of the calibrated model below is near
         // them.
-        let target = Wanted {
+        let wanted = Wanted {
             lines: false,
             centres: false,
             rotation: self.orientation,
@@ -684,7 +684,7 @@ impl<T: Real> Compensator<T> {
         let sines = Sines::Record(angles);
         if self
             .nominal
-            .servo_chain_with(q_cmd, T::one(), target, sines, chain)
+            .servo_chain_with(q_cmd, T::one(), wanted, sines, chain)
             .is_err()
         {
             return unchanged(Fault::JointCount);

@@ -18,7 +18,14 @@
 //! ```
 //!
 //! about 40 multiplications a link instead of 63, and the tool frame's rotation
-//! only when the calibration has orientation. The joint line is that of the
+//! only when the calibration has orientation. A twist `α` of exactly 0 or
+//! ±π/2 (most nominal links) turns the frame by moving two axes instead
+//! (`y'' = ±z`, `z'' = ∓y`). The sines and cosines of the joint angles come
+//! from [`Sines`]: evaluated, or, for a chain near one whose angles were
+//! recorded ([`Angles`]: the calibrated model's chains of a tick near its
+//! nominal chain), the recorded ones turned by the small difference `d`,
+//! `sin(θ₀ + d) = s₀ cos d + c₀ sin d`, `cos(θ₀ + d) = c₀ cos d − s₀ sin d`,
+//! with `|d| ≤ π/4` so that `sin d`, `cos d` need no range reduction. The joint line is that of the
 //! frame before `A_m` in D-H and after it in modified D-H, as in
 //! [`crate::LinkAxes`]; the centre of mass of link `m` is its `com` in the frame
 //! after `A_m` ([`crate::LinkMass`]), the frame's origin for a link without
