@@ -390,8 +390,9 @@ pub struct Compensator<T: Real> {
     calibrated: Prepared<T>,
     joints: Vec<JointType, MAX_JOINTS>,
     orientation: bool,
-    /// The calibrated geometry and the effects; none for a geometric calibration.
-    effects: EffectModel<T>,
+    /// The thermal expansions among the effects: coefficient (1/°C) and
+    /// reference temperature (°C).
+    thermal: Vec<(T, T), MAX_EFFECTS>,
     /// The effects of each joint, summed.
     joint_effects: Vec<JointEffect<T>, MAX_JOINTS>,
     /// Bit `j` set when joint `j` has a compliance (needs its gravity torque).
@@ -479,12 +480,6 @@ impl<T: Real> Slopes<T> {
     }
 }
 
-/// The sum of `v` (see [`is_finite`]).
-#[inline]
-fn sum<T: Real>(v: &[T]) -> T {
-    v.iter().fold(T::zero(), |s, x| s + *x)
-}
-
 /// Whether `x` is finite: `x − x` is 0 for a finite `x` and NaN otherwise (one
 /// subtraction; `is_finite` is two comparisons).
 #[inline(always)]
@@ -498,12 +493,6 @@ fn is_finite<T: Real>(x: T) -> bool {
 #[inline(always)]
 fn larger<T: Real>(a: T, b: T) -> T {
     if b > a { b } else { a }
-}
-
-/// The smaller of two values (see [`larger`]).
-#[inline(always)]
-fn smaller<T: Real>(a: T, b: T) -> T {
-    if b < a { b } else { a }
 }
 
 impl<T: Real> Compensator<T> {
@@ -562,9 +551,27 @@ impl<T: Real> Compensator<T> {
             slopes: Slopes::of(robot, &joint_effects, &masses),
             joint_effects,
             masses,
-            effects: calibrated,
+            thermal: bounded(calibrated.effects.iter().filter_map(|e| match e {
+                Effect::ThermalExpansion {
+                    coefficient,
+                    reference,
+                } => Some((*coefficient, *reference)),
+                _ => None,
+            })),
             limits,
         }
+    }
+
+    /// [`EffectModel::length_factor`]: `Π (1 + κ (T − T_ref))` over the
+    /// thermal expansions, 1 without a temperature.
+    fn length_factor(&self, temperature: Option<T>) -> T {
+        let mut f = T::one();
+        if let Some(t) = temperature {
+            for (coefficient, reference) in &self.thermal {
+                f *= T::one() + *coefficient * (t - *reference);
+            }
+        }
+        f
     }
 
     /// A compensator for a calibration file's models and effects, in the scalar
@@ -645,24 +652,6 @@ impl<T: Real> Compensator<T> {
         {
             return unchanged(Fault::JointCount);
         }
-        // The sum of the values is finite exactly when each is (a NaN or an
-        // infinity survives the sum), unless it overflows, beyond 10³⁸ even in
-        // `f32`: no joint value or condition is that large, and such a value is
-        // refused too. One addition a value.
-        let mut inputs =
-            conditions.temperature.unwrap_or(T::zero()) + conditions.payload.unwrap_or(T::zero());
-        match previous {
-            Some(prev) => {
-                let values = q_cmd.iter().zip(prev.q_cmd).zip(prev.q).zip(prev.p);
-                for (((a, b), c), d) in values {
-                    inputs += *a + *b + *c + *d;
-                }
-            }
-            None => inputs += sum(q_cmd),
-        }
-        if !is_finite(inputs) {
-            return unchanged(Fault::NonFinite);
-        }
         let Workspace { reuse, tick } = work;
         let Tick {
             chain,
@@ -673,6 +662,58 @@ impl<T: Real> Compensator<T> {
             q,
             steps,
         } = tick;
+        // The start: the previous tick's correction applied to this command,
+        // when it is within the bounds (warm start). With joint effects it is
+        // the estimate of the commands `q` (where the gravity torques are
+        // evaluated); without, of the joint positions `p`, which then equal `q`.
+        let corrects_joints = self.corrects_joints;
+        // The first step's predictor from there: the previous tick's step
+        // from the commands to the joint positions (`p − q`, the joint
+        // effects' offset; none without them, the start being the positions),
+        // plus the last change of the correction `p − q_cmd` when known.
+        //
+        // In the same pass, the inputs' check: their sum is finite exactly
+        // when each is (a NaN or an infinity survives the sum), unless it
+        // overflows, beyond 10³⁸ even in `f32`: no joint value or condition
+        // is that large, and such a value is refused too. One addition a
+        // value, and nothing is evaluated before it passes.
+        let mut inputs =
+            conditions.temperature.unwrap_or(T::zero()) + conditions.payload.unwrap_or(T::zero());
+        let mut predicted = false;
+        match previous {
+            Some(prev) => {
+                // In one pass, undone below if a correction is out of its bound.
+                let mut within = true;
+                let start = x.iter_mut().zip(steps.first.iter_mut()).zip(&self.bounds);
+                let last = prev.q.iter().zip(prev.q_cmd).zip(prev.p);
+                for ((((xm, dm), &(max, _)), ((pq, pc), pp)), qc) in start.zip(last).zip(q_cmd) {
+                    inputs += *qc + *pc + *pq + *pp;
+                    let from = if corrects_joints { *pq } else { *pp };
+                    let correction = from - *pc;
+                    within &= correction.abs() <= max;
+                    *xm = *qc + correction;
+                    *dm = *pp - from;
+                }
+                if within {
+                    if reuse.rate_valid {
+                        let first = steps.first.iter_mut().take(n);
+                        first.zip(&reuse.rate).for_each(|(d, r)| *d += *r);
+                    }
+                    predicted = true;
+                } else {
+                    x.iter_mut().zip(q_cmd).for_each(|(x, c)| *x = *c);
+                }
+            }
+            None => {
+                for (xm, qc) in x.iter_mut().zip(q_cmd) {
+                    inputs += *qc;
+                    *xm = *qc;
+                }
+            }
+        }
+        if !is_finite(inputs) {
+            return unchanged(Fault::NonFinite);
+        }
         // The pose the nominal model intended, its joint angles' sines and
         // cosines recorded: every chain of the calibrated model below is near
         // them.
@@ -694,46 +735,10 @@ impl<T: Real> Compensator<T> {
         // the thermal factor, applied inside each chain.
         let geometry = Geometry {
             model: &self.calibrated,
-            factor: self.effects.length_factor(conditions.temperature),
+            factor: self.length_factor(conditions.temperature),
             rotation: self.orientation,
             angles,
         };
-        // The start: the previous tick's correction applied to this command,
-        // when it is within the bounds (warm start). With joint effects it is
-        // the estimate of the commands `q` (where the gravity torques are
-        // evaluated); without, of the joint positions `p`, which then equal `q`.
-        let corrects_joints = self.corrects_joints;
-        // The first step's predictor from there: the previous tick's step
-        // from the commands to the joint positions (`p − q`, the joint
-        // effects' offset; none without them, the start being the positions),
-        // plus the last change of the correction `p − q_cmd` when known.
-        let mut predicted = false;
-        if let Some(prev) = previous {
-            let from = if corrects_joints { prev.q } else { prev.p };
-            // In one pass, undone below if a correction is out of its bound.
-            let mut within = true;
-            let predictor = &mut steps.first;
-            let start = x.iter_mut().zip(predictor.iter_mut()).zip(&self.bounds);
-            let last = from.iter().zip(prev.q_cmd).zip(prev.p);
-            for ((((xm, dm), &(max, _)), ((f, c), pp)), qc) in start.zip(last).zip(q_cmd) {
-                let correction = *f - *c;
-                within &= correction.abs() <= max;
-                *xm = *qc + correction;
-                *dm = *pp - *f;
-            }
-            if within {
-                if reuse.rate_valid {
-                    predictor
-                        .iter_mut()
-                        .zip(&reuse.rate)
-                        .for_each(|(d, r)| *d += *r);
-                }
-                predicted = true;
-            }
-        }
-        if !predicted {
-            x.iter_mut().zip(q_cmd).for_each(|(x, c)| *x = *c);
-        }
         // One chain at the start serves the geometric step (joint lines,
         // measured frame) and the gravity torques (centres of mass).
         let needs_torque = self.compliant != 0;
@@ -746,11 +751,11 @@ impl<T: Real> Compensator<T> {
         } else {
             tau.iter_mut().take(n).for_each(|t| *t = T::zero());
         }
-        // 1. The real joint positions p that reach the target.
-        p.iter_mut().zip(&x[..n]).for_each(|(p, x)| *p = *x);
+        // 1. The real joint positions p that reach the target, from the start.
         let (iterations, mut residual2) = match self.solve(
             &geometry,
             &target,
+            &x[..n],
             &mut p[..n],
             predicted,
             chain,
@@ -762,28 +767,14 @@ impl<T: Real> Compensator<T> {
         };
         let tolerance2 = self.limits.tolerance * self.limits.tolerance;
         let mut fault = (residual2 > tolerance2).then_some(Fault::NotConverged);
-        // The change of the correction since the last tick, for the next one.
-        reuse.rate_valid = false;
-        reuse.converged = fault.is_none();
-        if let Some(prev) = previous.filter(|_| predicted && fault.is_none()) {
-            let now = p.iter().zip(q_cmd);
-            for ((r, (pm, c)), (pp, pc)) in reuse
-                .rate
-                .iter_mut()
-                .zip(now)
-                .zip(prev.p.iter().zip(prev.q_cmd))
-            {
-                *r = (*pm - *c) - (*pp - *pc);
-            }
-            reuse.rate_valid = true;
-        }
-        // 2. The commands that put the joints at p, from the start and its torques.
-        let from = if corrects_joints { &x[..n] } else { &p[..n] };
-        q.iter_mut().zip(from).for_each(|(q, f)| *q = *f);
+        let solved = fault.is_none();
+        // 2. The commands that put the joints at p, from the start and its
+        // torques: in place of the start (without joint effects, p itself).
+        let q_sent = &mut x[..n];
         if corrects_joints {
             match self.invert(
                 &geometry,
-                &mut q[..n],
+                q_sent,
                 &p[..n],
                 &mut tau[..n],
                 previous,
@@ -794,40 +785,65 @@ impl<T: Real> Compensator<T> {
                 Some(false) => {}
                 Some(true) => {
                     // Held within a lost motion: where the joints really go
-                    // (into `x`, no longer needed).
-                    self.reached(&q[..n], &tau[..n], previous, &mut x[..n]);
-                    if geometry.chain(&x[..n], false, false, chain).is_err() {
+                    // (into `q`, a work array here).
+                    self.reached(q_sent, &tau[..n], previous, &mut q[..n]);
+                    if geometry.chain(&q[..n], false, false, chain).is_err() {
                         return unchanged(Fault::JointCount);
                     }
                     residual2 = self.residual(&target, &chain.end).1;
                     fault = (residual2 > tolerance2).then_some(Fault::NotConverged);
                 }
             }
+        } else {
+            q_sent.copy_from_slice(&p[..n]);
         }
-        // Bounds: the size of the correction, then its change since the last tick.
-        // The change per tick first, then the size: the size bound always holds,
-        // and when the previous correction was within it (as every correction
-        // this returns is) both do. As one interval: the change bound's, moved
-        // into the size bound's where they are disjoint.
+        // Bounds: the change of the correction since the last tick, then its
+        // size. The size bound always holds, and when the previous correction
+        // was within it (as every correction this returns is) both do. A
+        // clamp to one interval, then to the other, is the clamp to their
+        // intersection when they meet; when they do not, the size bound's end
+        // nearest the change bound's.
+        //
+        // In the same pass, the change of the correction `p − q_cmd` since the
+        // last tick, which the next tick's predictor extrapolates (kept when
+        // this tick was a warm one that converged).
         let mut limited = false;
         let mut outputs = residual2;
-        let joints = q.iter_mut().zip(p.iter()).zip(q_cmd).zip(&self.bounds);
-        for (m, (((qm, pm), c), &(max, change))) in joints.enumerate() {
-            let (mut lo, mut hi) = (-max, max);
-            if let Some(prev) = previous {
-                let last = prev.q[m] - prev.q_cmd[m];
-                lo = larger(lo, smaller(last - change, max));
-                hi = smaller(hi, larger(last + change, lo));
+        let clamp = |c: &mut T, lo: T, hi: T, limited: &mut bool| {
+            if *c < lo {
+                (*c, *limited) = (lo, true);
+            } else if *c > hi {
+                (*c, *limited) = (hi, true);
             }
-            let mut correction = *qm - *c;
-            if correction < lo {
-                (correction, limited) = (lo, true);
-            } else if correction > hi {
-                (correction, limited) = (hi, true);
+        };
+        let joints = q_sent.iter_mut().zip(p.iter()).zip(q_cmd).zip(&self.bounds);
+        match previous {
+            Some(prev) => {
+                let last = prev.q.iter().zip(prev.q_cmd).zip(prev.p);
+                let rates = reuse.rate.iter_mut();
+                for (((((qm, pm), c), &(max, change)), ((pq, pc), pp)), r) in
+                    joints.zip(last).zip(rates)
+                {
+                    *r = (*pm - *c) - (*pp - *pc);
+                    let last = *pq - *pc;
+                    let mut correction = *qm - *c;
+                    clamp(&mut correction, last - change, last + change, &mut limited);
+                    clamp(&mut correction, -max, max, &mut limited);
+                    *qm = *c + correction;
+                    outputs += *qm + *pm;
+                }
             }
-            *qm = *c + correction;
-            outputs += *qm + *pm;
+            None => {
+                for (((qm, pm), c), &(max, _)) in joints {
+                    let mut correction = *qm - *c;
+                    clamp(&mut correction, -max, max, &mut limited);
+                    *qm = *c + correction;
+                    outputs += *qm + *pm;
+                }
+            }
         }
+        reuse.converged = solved;
+        reuse.rate_valid = predicted && solved;
         if limited {
             fault = fault.or(Some(Fault::Limited));
         }
@@ -836,7 +852,7 @@ impl<T: Real> Compensator<T> {
         }
         Correction {
             // n ≤ MAX_JOINTS: always room.
-            q: Vec::from_slice(&q[..n]).unwrap_or_default(),
+            q: Vec::from_slice(q_sent).unwrap_or_default(),
             p: Vec::from_slice(&p[..n]).unwrap_or_default(),
             fault,
             iterations,
@@ -844,9 +860,10 @@ impl<T: Real> Compensator<T> {
         }
     }
 
-    /// The geometric problem: refines the joint positions `p` until `geometry`
-    /// reaches `target` (eq. 4.9, repeated; see the module header). `chain` is at
-    /// `p` with its joint lines on entry, a work buffer after. The first step
+    /// The geometric problem: the joint positions `p` where `geometry`
+    /// reaches `target`, refined from `start` (eq. 4.9, repeated; see the
+    /// module header). `chain` is at `start` with its joint lines on entry, a
+    /// work buffer after. The first step
     /// starts from the predictor in `steps.first` when `predicted` (the
     /// previous tick's step, on a warm tick), else from the first-order step;
     /// each step solves with the factors `reuse` holds while they give a step
@@ -858,6 +875,7 @@ impl<T: Real> Compensator<T> {
         &self,
         geometry: &Geometry<'_, T>,
         target: &IsometryMatrix3<T>,
+        start: &[T],
         p: &mut [T],
         mut predicted: bool,
         chain: &mut ServoChain<T>,
@@ -878,21 +896,14 @@ impl<T: Real> Compensator<T> {
         let jac = &mut jac[..n];
         while residual.1 > tolerance2 && iterations < self.limits.max_iterations {
             iterations += 1;
-            let reach = self.jacobian(chain, jac);
             // The step from the predictor, with the last factors first (they
             // are those of a nearby configuration on a smooth motion), then
             // fresh ones.
-            let mut r = [T::zero(); 6];
-            if predicted {
-                let d = &first[..n];
-                // A zero predictor (no joint effects, no known rate) moves
-                // nothing: `r = e`.
-                r = if d.iter().any(|d| *d != T::zero()) {
-                    self.predicted(chain, jac, self.left(jac, &residual.0, d), d)
-                } else {
-                    residual.0
-                };
-            }
+            let (reach, mut r) = if predicted {
+                self.jacobian_predicted(chain, jac, &residual.0, &first[..n])
+            } else {
+                (self.jacobian(chain, jac), [T::zero(); 6])
+            };
             // Stale factors only in the first iteration after a tick that
             // converged: otherwise the configuration has moved by more than a
             // tick's motion.
@@ -906,7 +917,7 @@ impl<T: Real> Compensator<T> {
                     reuse.factored = true;
                 }
                 let l = &reuse.factors;
-                let start = predicted
+                let predictor = predicted
                     || damped_solve(jac, l, &residual.0, &mut first[..n]).is_some_and(|y| {
                         let left = if fresh {
                             // These factors leave exactly `e − J δ₁ = λ² y₁`.
@@ -918,7 +929,7 @@ impl<T: Real> Compensator<T> {
                         r = self.predicted(chain, jac, left, &first[..n]);
                         true
                     });
-                let bound = if start {
+                let bound = if predictor {
                     self.step(
                         chain,
                         jac,
@@ -933,11 +944,16 @@ impl<T: Real> Compensator<T> {
                 } else {
                     None
                 };
-                let whole = self.trust(&mut second[..n]);
-                // The residual after the step is bounded below the tolerance:
-                // taken without evaluating the chain there.
-                if let Some(bound) = bound.flatten().filter(|b| whole && *b <= tolerance) {
-                    take(p, &second[..n]);
+                // The residual after the whole step is bounded below the
+                // tolerance: taken without evaluating the chain there.
+                let taken = bound.and_then(|(bound, whole)| bound.filter(|_| whole));
+                if let Some(bound) = taken.filter(|b| *b <= tolerance) {
+                    // From the start in the first iteration, else from p.
+                    if iterations == 1 {
+                        moved(p, start, &second[..n]);
+                    } else {
+                        take(p, &second[..n]);
+                    }
                     return Ok((iterations, bound * bound));
                 }
                 if fresh {
@@ -956,6 +972,9 @@ impl<T: Real> Compensator<T> {
                     .ok_or(Fault::NonFinite)?;
             }
             self.trust(&mut first[..n]);
+            if iterations == 1 {
+                p.copy_from_slice(start);
+            }
             // Take a step only if it lowers the residual: the second-order one (eq.
             // 4.9) first, then the first-order one, each halved up to three times.
             // Near a singularity the linearisation overshoots and the second-order
@@ -983,6 +1002,9 @@ impl<T: Real> Compensator<T> {
                 break;
             }
         }
+        if iterations == 0 {
+            p.copy_from_slice(start);
+        }
         Ok((iterations, residual.1))
     }
 
@@ -996,12 +1018,7 @@ impl<T: Real> Compensator<T> {
         for (d, &(max, _)) in step.iter().zip(&self.bounds) {
             worst = larger(worst, d.abs() / max);
         }
-        if worst <= T::one() {
-            return true;
-        }
-        let scale = T::one() / worst;
-        step.iter_mut().for_each(|d| *d *= scale);
-        false
+        shrink(step, worst)
     }
 
     /// The effects' inversion: the commands `q` with `q + Δq(q) = p` (see the
@@ -1166,23 +1183,51 @@ impl<T: Real> Compensator<T> {
     /// the levers `|v_m|` (1-norm), at least the length scale.
     fn jacobian(&self, chain: &ServoChain<T>, jac: &mut [[T; 6]]) -> T {
         let p = chain.end.translation.vector;
-        let ls = self.limits.length_scale;
-        let rotation = if self.orientation { ls } else { T::zero() };
-        let mut reach = ls;
+        let rotation = self.rotation_scale();
+        let mut reach = self.limits.length_scale;
         for ((out, line), joint) in jac.iter_mut().zip(chain.lines()).zip(&self.joints) {
-            let w = line.w;
-            let col = match joint {
-                JointType::Revolute => {
-                    let v = w.cross(&(p - line.rho.coords));
-                    reach = larger(reach, v.x.abs() + v.y.abs() + v.z.abs());
-                    let r = w * rotation;
-                    [r.x, r.y, r.z, v.x, v.y, v.z]
-                }
-                JointType::Prismatic => [T::zero(), T::zero(), T::zero(), w.x, w.y, w.z],
-            };
-            *out = col;
+            (*out, _) = column(*joint, line, &p, rotation, &mut reach);
         }
         reach
+    }
+
+    /// [`Self::jacobian`], and in the same pass the residual at the predicted
+    /// point `p + δ₀` to second order, `r = e − J δ₀ − H(δ₀, δ₀)` for the
+    /// predictor `delta = δ₀` (see [`Self::predicted`]): each joint's twist is
+    /// at hand for [`second_order`]'s sums, and `J δ₀` is their first-order
+    /// part (`Σ w_m δ_m` scaled, and `Σ v_m δ_m`).
+    fn jacobian_predicted(
+        &self,
+        chain: &ServoChain<T>,
+        jac: &mut [[T; 6]],
+        e: &[T; 6],
+        delta: &[T],
+    ) -> (T, [T; 6]) {
+        let p = chain.end.translation.vector;
+        let rotation = self.rotation_scale();
+        let mut reach = self.limits.length_scale;
+        let mut sums = SecondOrder::new();
+        let joints = jac.iter_mut().zip(chain.lines()).zip(&self.joints);
+        for (((out, line), joint), &d) in joints.zip(delta) {
+            let w;
+            (*out, w) = column(*joint, line, &p, rotation, &mut reach);
+            sums.add(w, Vector3::new(out[3], out[4], out[5]), d);
+        }
+        let (moved, h) = sums.finish(rotation);
+        let mut r = *e;
+        for ((r, m), h) in r.iter_mut().zip(moved).zip(h) {
+            *r -= m + h;
+        }
+        (reach, r)
+    }
+
+    /// The length scale of the rotation rows: zero without orientation.
+    fn rotation_scale(&self) -> T {
+        if self.orientation {
+            self.limits.length_scale
+        } else {
+            T::zero()
+        }
     }
 
     /// `λ²`, the square of the damping of the step's least-squares inverse.
@@ -1209,7 +1254,7 @@ impl<T: Real> Compensator<T> {
         r: &[T; 6],
         second: &mut [T],
         reach: T,
-    ) -> Option<Option<T>> {
+    ) -> Option<(Option<T>, bool)> {
         let y = damped_solve(jac, l, r, second)?;
         let linear = if fresh {
             // The factors of this `J` leave exactly `λ² y`.
@@ -1228,9 +1273,6 @@ impl<T: Real> Compensator<T> {
             }
             linear.1
         };
-        for (d, d0) in second.iter_mut().zip(first) {
-            *d += *d0;
-        }
         if !linear.is_finite() {
             return None;
         }
@@ -1254,7 +1296,7 @@ impl<T: Real> Compensator<T> {
             chain.lines(),
             jac,
             first,
-            self.limits.length_scale,
+            self.rotation_scale(),
         );
         r.iter_mut().zip(h).for_each(|(r, h)| *r -= h);
         r
@@ -1275,24 +1317,47 @@ impl<T: Real> Compensator<T> {
         (left, left.iter().fold(T::zero(), |s, x| s + x.abs()))
     }
 
-    /// The bound of the module header on the residual after the second-order
-    /// step, or `None` where it does not apply (a step over 0.1 rad, a rotation
-    /// error over 0.4 rad).
+    /// The second-order step `δ = δ₀ + (δ − δ₀)` into `second` (which holds
+    /// `δ − δ₀` on entry), held within its trust region ([`Self::trust`]),
+    /// and in the same pass the bound of the module header on the residual
+    /// after it, or `None` where that does not apply (a step over 0.1 rad, a
+    /// rotation error over 0.4 rad); whether the step was whole (the bound is
+    /// that of the whole step).
     fn step_bound(
         &self,
         lines: &[JointLine<T>],
         e: &[T; 6],
         first: &[T],
-        second: &[T],
+        second: &mut [T],
         linear: T,
         reach: T,
-    ) -> Option<T> {
+    ) -> (Option<T>, bool) {
+        let (bound, worst) = self.whole_step_bound(lines, e, first, second, linear, reach);
+        (bound, shrink(second, worst))
+    }
+
+    /// [`Self::step_bound`] before the trust region, and the largest share
+    /// of its bound that a joint's step takes.
+    #[inline(always)]
+    fn whole_step_bound(
+        &self,
+        lines: &[JointLine<T>],
+        e: &[T; 6],
+        first: &[T],
+        second: &mut [T],
+        linear: T,
+        reach: T,
+    ) -> (Option<T>, T) {
         let ls = self.limits.length_scale;
         // σ(δ) = Σ_revolute |δ_m| + Σ_prismatic |δ_m| / R; s_r the revolute part.
         let (mut diff, mut sum, mut size, mut turn) = (T::zero(), T::zero(), T::zero(), T::zero());
         let mut theta = Vector3::zeros();
-        let steps = first.iter().zip(second);
-        for ((joint, line), (&d1, &d2)) in self.joints.iter().zip(lines).zip(steps) {
+        let mut worst = T::zero();
+        let steps = first.iter().zip(second.iter_mut()).zip(&self.bounds);
+        for ((joint, line), ((&d1, d2), &(max, _))) in self.joints.iter().zip(lines).zip(steps) {
+            *d2 += d1;
+            let d2 = *d2;
+            worst = larger(worst, d2.abs() / max);
             let unit = match joint {
                 JointType::Revolute => {
                     turn += d2.abs();
@@ -1306,7 +1371,7 @@ impl<T: Real> Compensator<T> {
             size += d2.abs() * unit;
         }
         if size > T::lit(0.1) {
-            return None;
+            return (None, worst);
         }
         let mut bound = linear;
         let lever = reach + if self.orientation { ls } else { T::zero() };
@@ -1315,7 +1380,7 @@ impl<T: Real> Compensator<T> {
             let phi = Vector3::new(e[0], e[1], e[2]) / ls;
             let phi1 = phi.x.abs() + phi.y.abs() + phi.z.abs();
             if phi1 > T::lit(0.4) {
-                return None;
+                return (None, worst);
             }
             let cross = phi.cross(&theta);
             let cross1 = cross.x.abs() + cross.y.abs() + cross.z.abs();
@@ -1324,7 +1389,7 @@ impl<T: Real> Compensator<T> {
                     + T::lit(0.55) * phi1 * turn * turn
                     + T::lit(0.65) * phi1 * phi1 * turn);
         }
-        Some(bound)
+        (Some(bound), worst)
     }
 }
 
@@ -1424,6 +1489,26 @@ fn damped_solve<T: Real>(
     is_finite(sum).then_some(y)
 }
 
+/// Scales `step` by `1 / worst` when `worst`, the largest share of its bound
+/// that a joint's step takes, is over 1 (see [`Compensator::trust`]);
+/// whether it was whole.
+#[inline]
+fn shrink<T: Real>(step: &mut [T], worst: T) -> bool {
+    if worst <= T::one() {
+        return true;
+    }
+    let scale = T::one() / worst;
+    step.iter_mut().for_each(|d| *d *= scale);
+    false
+}
+
+/// The point `start + d` into `p`.
+fn moved<T: Real>(p: &mut [T], start: &[T], d: &[T]) {
+    for ((pm, s), dm) in p.iter_mut().zip(start).zip(d) {
+        *pm = *s + *dm;
+    }
+}
+
 /// Takes the step `d`: `p += d`.
 fn take<T: Real>(p: &mut [T], d: &[T]) {
     for (pm, dm) in p.iter_mut().zip(d) {
@@ -1494,24 +1579,89 @@ fn second_order<T: Real>(
     delta: &[T],
     ls: T,
 ) -> [T; 6] {
-    let half = T::lit(0.5);
-    let mut s = Vector3::zeros();
-    let mut rot = Vector3::zeros();
-    let mut disp = Vector3::zeros();
+    let mut sums = SecondOrder::new();
     for (((joint, line), col), &d) in joints.iter().zip(lines).zip(jac).zip(delta) {
-        let v = Vector3::new(col[3], col[4], col[5]) * d;
         let w = match joint {
-            JointType::Revolute => line.w * d,
+            JointType::Revolute => line.w,
             JointType::Prismatic => Vector3::zeros(),
         };
-        // a = s + ½ w, and a × w = s × w.
-        let a = s + w * half;
-        rot += s.cross(&w);
-        disp += a.cross(&v);
-        s += w;
+        sums.add(w, Vector3::new(col[3], col[4], col[5]), d);
     }
-    rot *= half * ls;
-    [rot.x, rot.y, rot.z, disp.x, disp.y, disp.z]
+    sums.finish(ls).1
+}
+
+/// The sums of [`second_order`], joint by joint from the base: `s = Σ_{i<m}
+/// w_i δ_i`, the rotation `Σ s × w_m δ_m`, the displacement `Σ a_m × v_m δ_m`,
+/// and `Σ v_m δ_m` (with `s`, the first-order change `J δ`).
+struct SecondOrder<T: Real> {
+    s: Vector3<T>,
+    rot: Vector3<T>,
+    disp: Vector3<T>,
+    lin: Vector3<T>,
+}
+
+impl<T: Real> SecondOrder<T> {
+    /// No joint yet.
+    #[inline(always)]
+    fn new() -> Self {
+        Self {
+            s: Vector3::zeros(),
+            rot: Vector3::zeros(),
+            disp: Vector3::zeros(),
+            lin: Vector3::zeros(),
+        }
+    }
+
+    /// Adds joint `m` with axis `w` (zero for a prismatic joint), tool-point
+    /// velocity `v` and change `d`.
+    #[inline(always)]
+    fn add(&mut self, w: Vector3<T>, v: Vector3<T>, d: T) {
+        let (w, v) = (w * d, v * d);
+        // a = s + ½ w, and a × w = s × w.
+        let a = self.s + w * T::lit(0.5);
+        self.rot += self.s.cross(&w);
+        self.disp += a.cross(&v);
+        self.s += w;
+        self.lin += v;
+    }
+
+    /// `J δ` and `H(δ, δ)` as residual rows, the rotation rows scaled by `ls`.
+    #[inline(always)]
+    fn finish(self, ls: T) -> ([T; 6], [T; 6]) {
+        let (s, lin) = (self.s * ls, self.lin);
+        let rot = self.rot * (T::lit(0.5) * ls);
+        let disp = self.disp;
+        (
+            [s.x, s.y, s.z, lin.x, lin.y, lin.z],
+            [rot.x, rot.y, rot.z, disp.x, disp.y, disp.z],
+        )
+    }
+}
+
+/// Joint `m`'s column of `J_r` at the tool point `p` (rotation rows scaled by
+/// `rotation`) and its rotation axis (zero for a prismatic joint); raises
+/// `reach` to the 1-norm of its lever.
+#[inline(always)]
+fn column<T: Real>(
+    joint: JointType,
+    line: &JointLine<T>,
+    p: &Vector3<T>,
+    rotation: T,
+    reach: &mut T,
+) -> ([T; 6], Vector3<T>) {
+    let w = line.w;
+    match joint {
+        JointType::Revolute => {
+            let v = w.cross(&(p - line.rho.coords));
+            *reach = larger(*reach, v.x.abs() + v.y.abs() + v.z.abs());
+            let r = w * rotation;
+            ([r.x, r.y, r.z, v.x, v.y, v.z], w)
+        }
+        JointType::Prismatic => (
+            [T::zero(), T::zero(), T::zero(), w.x, w.y, w.z],
+            Vector3::zeros(),
+        ),
+    }
 }
 
 #[cfg(test)]
