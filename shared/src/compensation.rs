@@ -421,13 +421,14 @@ type Joints<T> = [T; MAX_JOINTS];
 /// inversion (see the module header).
 #[derive(Clone, Debug)]
 struct Slopes<T: Real> {
-    /// Per joint: the compliance's magnitude times `|g|` times the mass the
-    /// joint carries without the payload (`Σ_{k ≥ j} m_k`), and times `|g|`
-    /// alone (for the payload), each divided by the least `1 + ε_j`.
-    carried: Vec<(T, T), MAX_JOINTS>,
-    /// Per joint: the gear harmonics' largest slope `|s₁| + |c₁| + 2 (|s₂| +
-    /// |c₂|)` divided by the least `1 + ε_j`.
-    gear: Vec<T, MAX_JOINTS>,
+    /// The largest over the joints of the compliance's magnitude times `|g|`
+    /// times the mass the joint carries without the payload (`Σ_{k ≥ j}
+    /// m_k`), each divided by the least `1 + ε_j`; the largest compliance
+    /// times `|g|` alone (for the payload), divided likewise; and the
+    /// largest gear harmonics' slope `|s₁| + |c₁| + 2 (|s₂| + |c₂|)`, divided
+    /// likewise. Each is the largest of its own, so that the slope's bound
+    /// from them is at least every joint's, in one product.
+    most: (T, T, T),
     /// A bound on the distance between any two of the joint axes' points, the
     /// centres of mass and the tool point at the reference lengths, without the
     /// travel of prismatic joints: `Σ (|a| + |s|) + |tool| + max |com|`, m.
@@ -440,21 +441,19 @@ struct Slopes<T: Real> {
 impl<T: Real> Slopes<T> {
     fn of(robot: &Robot<T>, effects: &[JointEffect<T>], masses: &Masses<T>) -> Self {
         let gravity = masses.gravity.norm();
-        let mut carried: Vec<(T, T), MAX_JOINTS> = Vec::new();
-        let mut gear: Vec<T, MAX_JOINTS> = Vec::new();
+        let mut most = (T::zero(), T::zero(), T::zero());
         let mut total = T::zero();
         for (j, e) in effects.iter().enumerate().rev() {
             total += masses.mass[j];
             let stretch = T::one() - e.scale.abs();
             let per_mass = e.compliance.abs() * gravity / stretch;
-            let _ = carried.push((per_mass * total, per_mass));
-            let slope = e.first[0].abs()
+            let gear = e.first[0].abs()
                 + e.first[1].abs()
                 + T::lit(2.0) * (e.second[0].abs() + e.second[1].abs());
-            let _ = gear.push(slope / stretch);
+            most.0 = larger(most.0, per_mass * total);
+            most.1 = larger(most.1, per_mass);
+            most.2 = larger(most.2, gear / stretch);
         }
-        carried.reverse();
-        gear.reverse();
         let mut reach = robot.tool.xyz.norm();
         let mut com = T::zero();
         for l in &robot.links {
@@ -471,8 +470,7 @@ impl<T: Real> Slopes<T> {
             }
         }
         Self {
-            carried,
-            gear,
+            most,
             reach: reach + com,
             revolute,
             prismatic,
@@ -752,7 +750,7 @@ impl<T: Real> Compensator<T> {
             tau.iter_mut().take(n).for_each(|t| *t = T::zero());
         }
         // 1. The real joint positions p that reach the target, from the start.
-        let (iterations, mut residual2) = match self.solve(
+        let (iterations, mut residual2, mut norm) = match self.solve(
             &geometry,
             &target,
             &x[..n],
@@ -791,6 +789,7 @@ impl<T: Real> Compensator<T> {
                         return unchanged(Fault::JointCount);
                     }
                     residual2 = self.residual(&target, &chain.end).1;
+                    norm = None;
                     fault = (residual2 > tolerance2).then_some(Fault::NotConverged);
                 }
             }
@@ -851,25 +850,24 @@ impl<T: Real> Compensator<T> {
             return unchanged(Fault::NonFinite);
         }
         Correction {
-            // n ≤ MAX_JOINTS: always room.
-            q: Vec::from_slice(q_sent).unwrap_or_default(),
-            p: Vec::from_slice(&p[..n]).unwrap_or_default(),
+            q: listed(x, n),
+            p: listed(p, n),
             fault,
             iterations,
-            residual: residual2.sqrt(),
+            residual: norm.unwrap_or_else(|| residual2.sqrt()),
         }
     }
 
     /// The geometric problem: the joint positions `p` where `geometry`
     /// reaches `target`, refined from `start` (eq. 4.9, repeated; see the
     /// module header). `chain` is at `start` with its joint lines on entry, a
-    /// work buffer after. The first step
-    /// starts from the predictor in `steps.first` when `predicted` (the
-    /// previous tick's step, on a warm tick), else from the first-order step;
-    /// each step solves with the factors `reuse` holds while they give a step
-    /// within its bound, else with fresh ones. Returns the iterations and the
-    /// squared residual (or the square of its bound, when the last step was
-    /// taken on its bound). `steps` are work arrays.
+    /// work buffer after. The first step starts from the predictor in
+    /// `steps.first` when `predicted` (the previous tick's step, on a warm
+    /// tick), else from the first-order step; each step solves with the
+    /// factors `reuse` holds while they give a step within its bound, else
+    /// with fresh ones. Returns the iterations and the squared residual, or,
+    /// when the last step was taken on its bound, the square of that bound
+    /// and the bound itself. `steps` are work arrays.
     #[allow(clippy::too_many_arguments)]
     fn solve(
         &self,
@@ -881,7 +879,7 @@ impl<T: Real> Compensator<T> {
         chain: &mut ServoChain<T>,
         reuse: &mut Reuse<T>,
         steps: &mut Steps<T>,
-    ) -> Result<(usize, T), Fault> {
+    ) -> Result<(usize, T, Option<T>), Fault> {
         let Steps {
             first,
             second,
@@ -954,7 +952,7 @@ impl<T: Real> Compensator<T> {
                     } else {
                         take(p, &second[..n]);
                     }
-                    return Ok((iterations, bound * bound));
+                    return Ok((iterations, bound * bound, Some(bound)));
                 }
                 if fresh {
                     if bound.is_none() {
@@ -1005,7 +1003,7 @@ impl<T: Real> Compensator<T> {
         if iterations == 0 {
             p.copy_from_slice(start);
         }
-        Ok((iterations, residual.1))
+        Ok((iterations, residual.1, None))
     }
 
     /// Trust region: scales `step` so that no joint moves by more than its
@@ -1134,7 +1132,9 @@ impl<T: Real> Compensator<T> {
     /// `τ_j = Σ_{k≥j} m_k (w_j × (r_k − ρ_j))·g` changes by at most `2 R |g| M_j`
     /// per radian of any revolute joint (the lever and the axis both turn; `R`
     /// bounds every lever) and by `|g| M_j` per metre of a prismatic one, with
-    /// `M_j` the mass carried; a harmonic `s sin kq` by `k |s|`.
+    /// `M_j` the mass carried; a harmonic `s sin kq` by `k |s|`. The
+    /// compliance's and the harmonics' shares are each the largest joint's
+    /// ([`Slopes::most`]): a bound on the largest joint's sum in O(1).
     fn slope(&self, payload: T, factor: T, q: &[T]) -> T {
         let s = &self.slopes;
         let mut reach = s.reach * larger(factor, T::one());
@@ -1146,14 +1146,8 @@ impl<T: Real> Compensator<T> {
             }
         }
         let levers = T::lit(2.0) * reach * s.revolute + s.prismatic;
-        let mut worst = T::zero();
-        for ((links, per_payload), gear) in s.carried.iter().zip(&s.gear) {
-            worst = larger(
-                worst,
-                (*links + *per_payload * payload.abs()) * levers + *gear,
-            );
-        }
-        worst
+        let (links, per_payload, gear) = s.most;
+        (links + per_payload * payload.abs()) * levers + gear
     }
 
     /// The residual `e` (rotation scaled to a length, then position; the rotation
@@ -1500,6 +1494,16 @@ fn shrink<T: Real>(step: &mut [T], worst: T) -> bool {
     let scale = T::one() / worst;
     step.iter_mut().for_each(|d| *d *= scale);
     false
+}
+
+/// The first `n` values of `joints` as a list: the whole array copied
+/// (a fixed-size copy, which the compiler writes in place of the result;
+/// from a slice, the values are copied twice), then cut to `n`.
+#[inline(always)]
+fn listed<T: Real>(joints: &Joints<T>, n: usize) -> Vec<T, MAX_JOINTS> {
+    let mut list = Vec::from_array(*joints);
+    list.truncate(n);
+    list
 }
 
 /// The point `start + d` into `p`.
