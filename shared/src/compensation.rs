@@ -51,9 +51,10 @@
 //! paper's `J⁺ (e − H(δ₁, δ₁))` up to the damping), and `ℓ = r − J (δ − δ₀)` is
 //! what it leaves of the linear part: `λ² y` for the factors of this `J`, a
 //! little more for those of a nearby configuration, which are tried first
-//! ([`Workspace`]: the previous tick's factors, refined once by `δ += J⁺ ℓ` when
-//! `ℓ` is over a quarter of the tolerance, and replaced by fresh ones when the
-//! step is then not within its bound).
+//! ([`Workspace`]: the factors the last step used, replaced by fresh ones when
+//! the step with them is not within its bound; `ℓ` grows with the distance from
+//! the configuration they were factored at, and on a smooth motion they serve
+//! for tens of ticks).
 //!
 //! **The step's bound.** After the step `δ` the residual is, exactly,
 //!
@@ -105,9 +106,9 @@
 //! correction `p − q_cmd` (from the [`Workspace`], after two warm ticks that
 //! converged): the correction extrapolated linearly, which leaves `r` about
 //! the tolerance (each tick's solution is only that exact). On a smooth motion
-//! the previous tick's factors then solve the step without refinement, and a
-//! tick is one chain of the nominal model, one of the calibrated model, no
-//! factorisation, one pair of triangular solves and two products with `J`.
+//! the factors of a recent tick then solve the step, and a tick is one chain
+//! of the nominal model, one of the calibrated model, no factorisation, one
+//! pair of triangular solves and two products with `J`.
 
 //! # Non-geometric effects
 //!
@@ -1235,7 +1236,8 @@ impl<T: Real> Compensator<T> {
     /// factors `l` (of this `jac` or of a nearby one), and `ℓ = r − J (δ − δ₀)`
     /// what is left of the linear part. Returns the bound of the module header
     /// on the residual after `δ` with `|ℓ|₁` as its linear share, if it
-    /// applies; `None` if not finite. `chain` carries the joint lines.
+    /// applies, and whether the step was whole ([`Self::step_bound`]); `None`
+    /// if not finite. `chain` carries the joint lines.
     #[allow(clippy::too_many_arguments)]
     fn step(
         &self,
@@ -1254,18 +1256,9 @@ impl<T: Real> Compensator<T> {
             // The factors of this `J` leave exactly `λ² y`.
             self.damping2() * y.iter().fold(T::zero(), |s, v| s + v.abs())
         } else {
-            let mut linear = self.linear_residual(jac, r, second);
             // Factors of a nearby configuration leave a part of order `|J −
-            // J'| |δ − δ₀|`: one refinement with them removes most of it.
-            if linear.1 > self.limits.tolerance * T::lit(0.25) {
-                let mut extra: Joints<T> = [T::zero(); MAX_JOINTS];
-                damped_solve(jac, l, &linear.0, &mut extra[..second.len()])?;
-                for (d, x) in second.iter_mut().zip(extra) {
-                    *d += x;
-                }
-                linear = self.linear_residual(jac, r, second);
-            }
-            linear.1
+            // J'| |δ − δ₀|` besides: measured.
+            self.linear_residual(jac, r, second)
         };
         if !linear.is_finite() {
             return None;
@@ -1304,11 +1297,11 @@ impl<T: Real> Compensator<T> {
         left
     }
 
-    /// `ℓ = r − J d`, the part of `r` a step `d` leaves to first order, and
-    /// its 1-norm.
-    fn linear_residual(&self, jac: &[[T; 6]], r: &[T; 6], d: &[T]) -> ([T; 6], T) {
+    /// The 1-norm of `ℓ = r − J d`, the part of `r` a step `d` leaves to
+    /// first order.
+    fn linear_residual(&self, jac: &[[T; 6]], r: &[T; 6], d: &[T]) -> T {
         let left = self.left(jac, r, d);
-        (left, left.iter().fold(T::zero(), |s, x| s + x.abs()))
+        left.iter().fold(T::zero(), |s, x| s + x.abs())
     }
 
     /// The second-order step `δ = δ₀ + (δ − δ₀)` into `second` (which holds

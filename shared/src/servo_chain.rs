@@ -25,7 +25,11 @@
 //! recorded ([`Angles`]: the calibrated model's chains of a tick near its
 //! nominal chain), the recorded ones turned by the small difference `d`,
 //! `sin(θ₀ + d) = s₀ cos d + c₀ sin d`, `cos(θ₀ + d) = c₀ cos d − s₀ sin d`,
-//! with `|d| ≤ π/4` so that `sin d`, `cos d` need no range reduction. The joint line is that of the
+//! with `|d| ≤ π/4` so that `sin d`, `cos d` need no range reduction; the
+//! recording chain's own sines are turned the same way from the angles it
+//! last evaluated (kept from tick to tick, re-evaluated beyond a quarter
+//! turn), so every sine is at most one turn from an evaluated one per
+//! chain and no rounding accumulates over ticks. The joint line is that of the
 //! frame before `A_m` in D-H and after it in modified D-H, as in
 //! [`crate::LinkAxes`]; the centre of mass of link `m` is its `com` in the frame
 //! after `A_m` ([`crate::LinkMass`]), the frame's origin for a link without
@@ -187,32 +191,41 @@ impl<T: Real> Axes<T> {
 /// Each link's angle `θ` of one chain, with its sine and cosine: a later
 /// chain at nearby angles (the calibrated model's near the nominal one's)
 /// turns these by the difference instead of evaluating new ones
-/// ([`Sines::Near`]).
+/// ([`Sines::Near`]). The recording chain's own sines come the same way from
+/// the last angles it *evaluated* (its base, kept from tick to tick while
+/// within a quarter turn): each is one turn of an evaluated value, so no
+/// rounding accumulates from tick to tick.
 #[derive(Clone, Debug)]
 pub struct Angles<T: Real> {
+    /// The recording chain's angles, sines and cosines.
+    recorded: Sampled<T>,
+    /// The last evaluated angle of each link, with its sine and cosine.
+    base: Sampled<T>,
+}
+
+/// Angles with their sines and cosines (valid below `count`).
+#[derive(Clone, Debug)]
+struct Sampled<T: Real> {
     theta: [T; MAX_JOINTS],
     sin_cos: [(T, T); MAX_JOINTS],
     count: usize,
 }
 
-impl<T: Real> Default for Angles<T> {
-    /// None recorded.
-    fn default() -> Self {
+impl<T: Real> Sampled<T> {
+    fn new() -> Self {
         Self {
             theta: [T::zero(); MAX_JOINTS],
             sin_cos: [(T::zero(), T::one()); MAX_JOINTS],
             count: 0,
         }
     }
-}
 
-impl<T: Real> Angles<T> {
-    /// `(sin θ, cos θ)` of link `m`'s angle `theta`: from the recorded angle
-    /// `θ₀` of that link by the angle-difference formulas when `|θ − θ₀| ≤ π/4`
-    /// (the small difference's sine and cosine are polynomials alone,
-    /// [`Real::sincos_small`]), else (or without a record) evaluated.
+    /// `(sin θ, cos θ)` of link `m`'s angle `theta`: from the angle `θ₀`
+    /// held for that link by the angle-difference formulas when `|θ − θ₀| ≤
+    /// π/4` (the small difference's sine and cosine are polynomials alone,
+    /// [`Real::sincos_small`]); `beyond(θ)` beyond, or with none held.
     #[inline(always)]
-    fn near(&self, m: usize, theta: T) -> (T, T) {
+    fn near(&self, m: usize, theta: T, beyond: impl FnOnce(T) -> (T, T)) -> (T, T) {
         if m < self.count {
             let d = theta - self.theta[m];
             let (s0, c0) = self.sin_cos[m];
@@ -222,7 +235,57 @@ impl<T: Real> Angles<T> {
                 return (s0 * cd + c0 * sd, c0 * cd - s0 * sd);
             }
         }
-        theta.sincos()
+        beyond(theta)
+    }
+
+    /// Holds `theta` and its `sin_cos` for link `m`.
+    #[inline(always)]
+    fn set(&mut self, m: usize, theta: T, sin_cos: (T, T)) {
+        self.theta[m] = theta;
+        self.sin_cos[m] = sin_cos;
+    }
+}
+
+impl<T: Real> Default for Angles<T> {
+    /// None recorded.
+    fn default() -> Self {
+        Self {
+            recorded: Sampled::new(),
+            base: Sampled::new(),
+        }
+    }
+}
+
+impl<T: Real> Angles<T> {
+    /// `(sin θ, cos θ)` of link `m`'s angle `theta`: near the recorded angle
+    /// of that link ([`Sampled::near`]), else evaluated.
+    #[inline(always)]
+    fn near(&self, m: usize, theta: T) -> (T, T) {
+        self.recorded.near(m, theta, T::sincos)
+    }
+
+    /// Records link `m`'s angle `theta` and returns its sine and cosine:
+    /// near the base ([`Sampled::near`]), else evaluated and made the base.
+    #[inline(always)]
+    fn record(&mut self, m: usize, theta: T) -> (T, T) {
+        let mut evaluated = false;
+        let sin_cos = self.base.near(m, theta, |theta| {
+            evaluated = true;
+            theta.sincos()
+        });
+        if evaluated {
+            self.base.set(m, theta, sin_cos);
+        }
+        self.recorded.set(m, theta, sin_cos);
+        sin_cos
+    }
+
+    /// Ends a recording of `n` links: every link below `n` has a base now
+    /// (held, or just evaluated).
+    #[inline(always)]
+    fn recorded(&mut self, n: usize) {
+        self.recorded.count = n;
+        self.base.count = self.base.count.max(n);
     }
 }
 
@@ -273,12 +336,7 @@ impl<T: Real> Prepared<T> {
             };
             let sin_cos = match &mut sines {
                 Sines::Evaluate => theta.sincos(),
-                Sines::Record(angles) => {
-                    let sin_cos = theta.sincos();
-                    angles.theta[m] = theta;
-                    angles.sin_cos[m] = sin_cos;
-                    sin_cos
-                }
+                Sines::Record(angles) => angles.record(m, theta),
                 Sines::Near(angles) => angles.near(m, theta),
             };
             let a = link.a * factor;
@@ -320,7 +378,7 @@ impl<T: Real> Prepared<T> {
             }
         }
         if let Sines::Record(angles) = &mut sines {
-            angles.count = n;
+            angles.recorded(n);
         }
         out.line_count = if wanted.lines { n } else { 0 };
         out.centre_count = if wanted.centres { n } else { 0 };
@@ -427,7 +485,10 @@ mod tests {
     /// units in the last place of the turned sines (their error below 2e-7,
     /// times levers under 1.5 m, summed over four links: 1e-6). Differences
     /// up to just under a quarter turn use the record, larger ones evaluate;
-    /// recording changes nothing.
+    /// the first recording (nothing held yet) evaluates, and changes
+    /// nothing. A recording chain's own sines, turned from the angles it last
+    /// evaluated (its base), are one turn from exact too; a chain near such
+    /// a record is two turns from exact (twice the error: 2e-6).
     #[test]
     fn sines_near_a_record_equal_evaluated_ones() {
         let (r, p) = (JointType::Revolute, JointType::Prismatic);
@@ -451,53 +512,78 @@ mod tests {
             [1.08, 0.3, -1.55, 1.2],
             [-0.4, -0.2, 0.0, 3.0],
         ];
-        let f32_gap = worst_gap::<f32>(&robot, &q0, &nearby, all);
-        assert!(f32_gap < 1e-6, "f32: {f32_gap:e}");
-        let f64_gap = worst_gap::<f64>(&robot, &q0, &nearby, all);
-        assert!(f64_gap < 1e-14, "f64: {f64_gap:e}");
+        let f32_gaps = gaps::<f32>(&robot, &q0, &nearby, all);
+        assert!(f32_gaps.near < 1e-6, "f32: {:e}", f32_gaps.near);
+        assert!(f32_gaps.recorded < 1e-6, "f32: {:e}", f32_gaps.recorded);
+        assert!(f32_gaps.twice < 2e-6, "f32: {:e}", f32_gaps.twice);
+        let f64_gaps = gaps::<f64>(&robot, &q0, &nearby, all);
+        for gap in [f64_gaps.near, f64_gaps.recorded, f64_gaps.twice] {
+            assert!(gap < 1e-14, "f64: {gap:e}");
+        }
     }
 
-    /// The largest difference of any frame entry, joint line or centre
-    /// between chains in `T` with sines near those recorded at `q0` and with
-    /// sines evaluated, at each of `nearby`; recording at `q0` must change
+    /// The largest differences from the chain with evaluated sines.
+    struct Gaps {
+        /// Of chains near the record at `q0`.
+        near: f64,
+        /// Of recording chains, each turned from the angles evaluated last.
+        recorded: f64,
+        /// Of chains near those records.
+        twice: f64,
+    }
+
+    /// [`Gaps`] of chains in `T` at each of `nearby` (and, near their
+    /// records, 0.01 rad further): the largest difference of any frame
+    /// entry, joint line or centre. Recording at `q0` first must change
     /// nothing.
-    fn worst_gap<T: Real>(robot: &Robot<f64>, q0: &[f64], nearby: &[[f64; 4]], all: Wanted) -> f64 {
+    fn gaps<T: Real>(robot: &Robot<f64>, q0: &[f64], nearby: &[[f64; 4]], all: Wanted) -> Gaps {
         let prepared = robot.cast::<T>().prepare();
         let cast = |q: &[f64]| -> heapless::Vec<T, MAX_JOINTS> {
             crate::model::bounded(q.iter().map(|x| T::lit(*x)))
         };
-        let (mut recorded, mut evaluated) = (ServoChain::default(), ServoChain::default());
-        let mut angles = Angles::default();
-        let sines = Sines::Record(&mut angles);
-        prepared
-            .servo_chain_with(&cast(q0), T::one(), all, sines, &mut recorded)
-            .unwrap();
-        prepared
-            .servo_chain_into(&cast(q0), T::one(), all, &mut evaluated)
-            .unwrap();
-        assert_eq!(recorded.end, evaluated.end);
-        let mut worst: f64 = 0.0;
-        for q in nearby {
-            let (mut near, mut exact) = (ServoChain::default(), ServoChain::default());
-            let sines = Sines::Near(&angles);
+        let chain = |q: &[f64], sines: Sines<'_, T>| {
+            let mut out = ServoChain::default();
             prepared
-                .servo_chain_with(&cast(q), T::one(), all, sines, &mut near)
+                .servo_chain_with(&cast(q), T::one(), all, sines, &mut out)
                 .unwrap();
-            prepared
-                .servo_chain_into(&cast(q), T::one(), all, &mut exact)
-                .unwrap();
-            let gap = (near.end.to_homogeneous() - exact.end.to_homogeneous())
+            out
+        };
+        let gap = |a: &ServoChain<T>, b: &ServoChain<T>| {
+            let mut worst = (a.end.to_homogeneous() - b.end.to_homogeneous())
                 .abs()
-                .max();
-            worst = worst.max(gap.to_f64());
-            for (a, b) in near.lines().iter().zip(exact.lines()) {
+                .max()
+                .to_f64();
+            for (a, b) in a.lines().iter().zip(b.lines()) {
                 worst = worst.max((a.w - b.w).norm().to_f64());
                 worst = worst.max((a.rho - b.rho).norm().to_f64());
             }
-            for (a, b) in near.centres().iter().zip(exact.centres()) {
+            for (a, b) in a.centres().iter().zip(b.centres()) {
                 worst = worst.max((a - b).norm().to_f64());
             }
+            worst
+        };
+        let mut angles = Angles::default();
+        let recorded = chain(q0, Sines::Record(&mut angles));
+        assert_eq!(recorded.end, chain(q0, Sines::Evaluate).end);
+        let mut gaps = Gaps {
+            near: 0.0,
+            recorded: 0.0,
+            twice: 0.0,
+        };
+        for q in nearby {
+            let exact = chain(q, Sines::Evaluate);
+            gaps.near = gaps.near.max(gap(&chain(q, Sines::Near(&angles)), &exact));
         }
-        worst
+        for q in nearby {
+            let exact = chain(q, Sines::Evaluate);
+            let recorded = chain(q, Sines::Record(&mut angles));
+            gaps.recorded = gaps.recorded.max(gap(&recorded, &exact));
+            let further: [f64; 4] = core::array::from_fn(|m| q[m] + 0.01);
+            let near = chain(&further, Sines::Near(&angles));
+            gaps.twice = gaps
+                .twice
+                .max(gap(&near, &chain(&further, Sines::Evaluate)));
+        }
+        gaps
     }
 }
