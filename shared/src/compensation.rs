@@ -77,7 +77,7 @@
 //! tick is one chain of the calibrated model and one step. The returned
 //! [`Correction::residual`] is then the bound (a property test checks that the
 //! model's real residual never exceeds it, on cold and warm ticks with and
-//! without joint effects; on random robots it is at most 0.93 of it).
+//! without joint effects; on random robots it is at most 0.99 of it).
 //!
 //! Otherwise a step is taken only if it lowers the residual: the second-order
 //! step, else the first-order one, each halved up to three times; near a
