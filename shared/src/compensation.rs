@@ -1236,8 +1236,9 @@ impl<T: Real> Compensator<T> {
     /// factors `l` (of this `jac` or of a nearby one), and `ℓ = r − J (δ − δ₀)`
     /// what is left of the linear part. Returns the bound of the module header
     /// on the residual after `δ` with `|ℓ|₁` as its linear share, if it
-    /// applies, and whether the step was whole ([`Self::step_bound`]); `None`
-    /// if not finite. `chain` carries the joint lines.
+    /// applies, and whether the step was whole (else it is scaled into its
+    /// trust region, [`Self::trust`]); `None` if not finite. `chain` carries
+    /// the joint lines.
     #[allow(clippy::too_many_arguments)]
     fn step(
         &self,
@@ -1263,7 +1264,8 @@ impl<T: Real> Compensator<T> {
         if !linear.is_finite() {
             return None;
         }
-        Some(self.step_bound(chain.lines(), e, first, second, linear, reach))
+        let (bound, worst) = self.step_bound(chain.lines(), e, first, second, linear, reach);
+        Some((bound, shrink(second, worst)))
     }
 
     /// `r = e − J δ₀ − H(δ₀, δ₀)`: the residual at `p + δ₀` (`δ₀ = first`) to
@@ -1305,28 +1307,13 @@ impl<T: Real> Compensator<T> {
     }
 
     /// The second-order step `δ = δ₀ + (δ − δ₀)` into `second` (which holds
-    /// `δ − δ₀` on entry), held within its trust region ([`Self::trust`]),
-    /// and in the same pass the bound of the module header on the residual
-    /// after it, or `None` where that does not apply (a step over 0.1 rad, a
-    /// rotation error over 0.4 rad); whether the step was whole (the bound is
-    /// that of the whole step).
-    fn step_bound(
-        &self,
-        lines: &[JointLine<T>],
-        e: &[T; 6],
-        first: &[T],
-        second: &mut [T],
-        linear: T,
-        reach: T,
-    ) -> (Option<T>, bool) {
-        let (bound, worst) = self.whole_step_bound(lines, e, first, second, linear, reach);
-        (bound, shrink(second, worst))
-    }
-
-    /// [`Self::step_bound`] before the trust region, and the largest share
-    /// of its bound that a joint's step takes.
+    /// `δ − δ₀` on entry), and in the same pass the bound of the module header
+    /// on the residual after it, or `None` where that does not apply (a step
+    /// over 0.1 rad, a rotation error over 0.4 rad); and the largest share of
+    /// its bound that a joint's step takes (for the trust region,
+    /// [`shrink`]).
     #[inline(always)]
-    fn whole_step_bound(
+    fn step_bound(
         &self,
         lines: &[JointLine<T>],
         e: &[T; 6],
