@@ -173,7 +173,9 @@
 use heapless::Vec;
 use nalgebra::{IsometryMatrix3, Vector3};
 
-use crate::effects::{Effect, EffectModel, JointEffect, MAX_EFFECTS, Masses, direction};
+use crate::effects::{
+    Effect, EffectModel, JointEffect, MAX_EFFECTS, Masses, direction, length_factor,
+};
 use crate::kinematics::Prepared;
 use crate::model::bounded;
 use crate::servo_chain::{Angles, JointLine, ServoChain, Sines, Wanted};
@@ -358,13 +360,14 @@ struct Tick<T: Real> {
     chain: ServoChain<T>,
     /// The nominal chain's joint angles, their sines and cosines.
     angles: Angles<T>,
-    /// The start of the search (see the module header).
+    /// The start of the search (see the module header), then, in place, the
+    /// commands that put the joints at `p`.
     x: Joints<T>,
     /// The gravity torques at the last evaluation.
     tau: Joints<T>,
     /// The joint positions that reach the target.
     p: Joints<T>,
-    /// The commands that put the joints there.
+    /// Where the joints really go when one is held within its lost motion.
     q: Joints<T>,
     /// The geometric problem's.
     steps: Steps<T>,
@@ -550,27 +553,19 @@ impl<T: Real> Compensator<T> {
             slopes: Slopes::of(robot, &joint_effects, &masses),
             joint_effects,
             masses,
-            thermal: bounded(calibrated.effects.iter().filter_map(|e| match e {
-                Effect::ThermalExpansion {
-                    coefficient,
-                    reference,
-                } => Some((*coefficient, *reference)),
-                _ => None,
-            })),
+            thermal: bounded(
+                calibrated
+                    .effects
+                    .iter()
+                    .filter_map(Effect::thermal_expansion),
+            ),
             limits,
         }
     }
 
-    /// [`EffectModel::length_factor`]: `Π (1 + κ (T − T_ref))` over the
-    /// thermal expansions, 1 without a temperature.
+    /// [`EffectModel::length_factor`], over the thermal expansions alone.
     fn length_factor(&self, temperature: Option<T>) -> T {
-        let mut f = T::one();
-        if let Some(t) = temperature {
-            for (coefficient, reference) in &self.thermal {
-                f *= T::one() + *coefficient * (t - *reference);
-            }
-        }
-        f
+        length_factor(self.thermal.iter().copied(), temperature)
     }
 
     /// A compensator for a calibration file's models and effects, in the scalar

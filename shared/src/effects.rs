@@ -114,6 +114,18 @@ impl<T: Real> Effect<T> {
         }
     }
 
+    /// A thermal expansion's coefficient (1/°C) and reference temperature
+    /// (°C); `None` for the other effects.
+    pub fn thermal_expansion(&self) -> Option<(T, T)> {
+        match self {
+            Self::ThermalExpansion {
+                coefficient,
+                reference,
+            } => Some((*coefficient, *reference)),
+            _ => None,
+        }
+    }
+
     /// The joint a joint effect acts on.
     pub fn joint(&self) -> Option<usize> {
         match *self {
@@ -285,6 +297,23 @@ pub fn direction<T: Real>(d: T) -> T {
     } else {
         T::zero()
     }
+}
+
+/// The factor `Π (1 + κ (T − T_ref))` of thermal expansion at `temperature`
+/// over `expansions` (coefficient `κ`, reference `T_ref`, as
+/// [`Effect::thermal_expansion`] gives them); 1 without a temperature.
+#[inline]
+pub fn length_factor<T: Real>(
+    expansions: impl IntoIterator<Item = (T, T)>,
+    temperature: Option<T>,
+) -> T {
+    let mut f = T::one();
+    if let Some(t) = temperature {
+        for (coefficient, reference) in expansions {
+            f *= T::one() + coefficient * (t - reference);
+        }
+    }
+    f
 }
 
 /// One effect of each kind, of the size a 1 m class arm shows (tenths of a
@@ -499,20 +528,8 @@ impl<T: Real> EffectModel<T> {
     /// The factor `1 + κ (T − T_ref)` of thermal expansion at `temperature` (the
     /// product over thermal effects; 1 without one or without a temperature).
     pub fn length_factor(&self, temperature: Option<T>) -> T {
-        let mut f = T::one();
-        for e in &self.effects {
-            if let (
-                Effect::ThermalExpansion {
-                    coefficient,
-                    reference,
-                },
-                Some(t),
-            ) = (e, temperature)
-            {
-                f *= T::one() + *coefficient * (t - *reference);
-            }
-        }
-        f
+        let expansions = self.effects.iter().filter_map(Effect::thermal_expansion);
+        length_factor(expansions, temperature)
     }
 
     /// The geometric model at the context's temperature (lengths scaled by

@@ -283,7 +283,7 @@ impl<T: Real> Angles<T> {
     /// Ends a recording of `n` links: every link below `n` has a base now
     /// (held, or just evaluated).
     #[inline(always)]
-    fn recorded(&mut self, n: usize) {
+    fn end_record(&mut self, n: usize) {
         self.recorded.count = n;
         self.base.count = self.base.count.max(n);
     }
@@ -378,7 +378,7 @@ impl<T: Real> Prepared<T> {
             }
         }
         if let Sines::Record(angles) = &mut sines {
-            angles.recorded(n);
+            angles.end_record(n);
         }
         out.line_count = if wanted.lines { n } else { 0 };
         out.centre_count = if wanted.centres { n } else { 0 };
