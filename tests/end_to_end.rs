@@ -517,7 +517,7 @@ mod compensation {
         let compensator = Compensator::<f64>::from_calibration(&cal, limits);
         let (mut before, mut after, mut counted) = (0.0, 0.0, 0);
         for q_cmd in &commands {
-            let c = compensator.correct(q_cmd, None, &Conditions::default());
+            let c = compensator.correct(q_cmd, &Conditions::default());
             if sigma_min(&calibrated, q_cmd) < 0.05 {
                 for (q, q0) in c.q.iter().zip(q_cmd) {
                     // The bound, plus the rounding of `q_cmd + correction`.
@@ -565,9 +565,9 @@ mod compensation {
             .iter()
             .filter(|q| sigma_min(&calibrated, q) >= 0.05)
         {
-            let a = c64.correct(q_cmd, None, &Conditions::default());
+            let a = c64.correct(q_cmd, &Conditions::default());
             let q32: Vec<f32> = q_cmd.iter().map(|&x| x as f32).collect();
-            let b = c32.correct(&q32, None, &Conditions::default());
+            let b = c32.correct(&q32, &Conditions::default());
             assert_eq!((a.fault, b.fault), (None, None), "{q_cmd:?}");
             let qb: Vec<f64> = b.q.iter().map(|&x| x as f64).collect();
             let pa = calibrated.measured_point(&a.q).unwrap();
@@ -586,7 +586,7 @@ mod compensation {
         let (_, cal, _) = setup();
         let comp = Compensator::<f32>::from_calibration(&cal, Limits::default());
         let q = [0.1, f32::NAN, 0.3, 0.4, 0.5, 0.6];
-        let c = comp.correct(&q, None, &Conditions::default());
+        let c = comp.correct(&q, &Conditions::default());
         assert_eq!(c.fault, Some(Fault::NonFinite));
         assert!(c.q.iter().zip(&q).all(|(a, b)| a.to_bits() == b.to_bits()));
     }
@@ -603,7 +603,7 @@ mod compensation_of_effects {
     use armcal::identify::full::FullOptions;
     use armcal::model_file::load_model;
     use armcal::simulate::{Scenario, simulate};
-    use armcal_shared::compensation::{Compensator, Conditions, Limits, Previous};
+    use armcal_shared::compensation::{Compensator, Conditions, Limits, Pacing, Stream};
     use armcal_shared::effects::{Context, Effect, EffectModel, approach_signs};
     use armcal_shared::units::Units;
     use armcal_tests::{random_configurations, rng};
@@ -680,21 +680,15 @@ mod compensation_of_effects {
             assert!(tried < 50, "no motion away from singularities");
             let q0 = random_configurations(&nominal, 1, &mut r).remove(0);
             ticks.clear();
-            let mut last_p: Vec<f64> = Vec::new();
+            let mut stream = Stream::new(Pacing::Servo);
             for q_cmd in motion(&q0) {
+                let c = stream.tick(&compensator, &q_cmd, &conditions);
                 let last = ticks.last();
-                let previous = last.map(|(q_cmd, q, ..)| Previous {
-                    q_cmd,
-                    q,
-                    p: &last_p,
-                });
-                let c = compensator.correct(&q_cmd, previous, &conditions);
                 if c.fault.is_some() {
                     break;
                 }
                 let ctx = context(&c.q, last.map(|(_, q, ..)| &q[..]));
                 let plain = context(&q_cmd, last.map(|(q_cmd, ..)| &q_cmd[..]));
-                last_p = c.p.to_vec();
                 ticks.push((q_cmd, c.q.to_vec(), ctx, plain));
             }
             if ticks.len() == 60 {

@@ -5,10 +5,12 @@
 //! The computation is [`armcal_shared::compensation::Compensator`] in `f64`, the
 //! same code the firmware runs in `f32`: the perturbation approach of Kirchner,
 //! Gurumoorthy & Prinz (1985), section 4 (eq. 4.9), refined until the residual is
-//! below its tolerance, full pose when the calibration has orientation and
-//! position with the minimum-norm correction otherwise. Rows are taken in the
-//! order they are sent: each row's correction may change from the previous row's
-//! by at most the per-tick bound, as on the controller.
+//! below its tolerance (the task, the frame of the targets and the uniqueness of
+//! the answer are that module's). Rows are taken in the order they are sent,
+//! with a [`Pacing`]: by default each row is a robot program's target point,
+//! solved alone to convergence; with `--servo` ([`Pacing::Servo`]) they are
+//! consecutive servo ticks, warm-started, each correction changing from the
+//! previous row's by at most the per-tick bound, as on the controller.
 //!
 //! Non-geometric effects (a calibration from `armcal diagnose`) are compensated
 //! in each row's conditions, its `temp` and `load` columns
@@ -25,7 +27,7 @@
 
 use core::fmt::Write as _;
 
-use armcal_shared::compensation::{Compensator, Correction, Fault, Limits, Previous, Workspace};
+use armcal_shared::compensation::{Compensator, Correction, Fault, Limits, Pacing, Stream};
 use armcal_shared::{Calibration, JointType};
 
 use crate::measurements::JointRows;
@@ -73,26 +75,32 @@ pub struct Compensated {
     pub rows: Vec<(usize, Correction<f64>)>,
 }
 
-/// Compensates every row of `commands` in order.
-pub fn compensate(cal: &Calibration, commands: &JointRows) -> Compensated {
-    let compensator = Compensator::<f64>::from_calibration(cal, Limits::default());
-    let mut rows: Vec<(usize, Correction<f64>)> = Vec::with_capacity(commands.len());
-    let mut last: Option<&[f64]> = None;
-    let mut work = Workspace::new();
-    for row in &commands.rows {
-        let previous = last.zip(rows.last()).map(|(q_cmd, (_, c))| Previous {
-            q_cmd,
-            q: &c.q[..],
-            p: &c.p[..],
-        });
-        let c = compensator.correct_with(&row.q, previous, &row_conditions(row), &mut work);
-        // As on the controller: after a row that could not be computed the next
-        // one is a first tick.
-        last =
-            (!matches!(c.fault, Some(Fault::NonFinite | Fault::JointCount))).then_some(&row.q[..]);
-        rows.push((row.line, c));
-    }
+/// Compensates every row of `commands` in order, with `pacing`.
+pub fn compensate(cal: &Calibration, commands: &JointRows, pacing: Pacing) -> Compensated {
+    let compensator = Compensator::<f64>::from_calibration(cal, limits(pacing));
+    let mut stream = Stream::new(pacing);
+    let rows = commands
+        .rows
+        .iter()
+        .map(|row| {
+            let c = stream.tick(&compensator, &row.q, &row_conditions(row));
+            (row.line, c)
+        })
+        .collect();
     Compensated { rows }
+}
+
+/// The bounds of `pacing`: the controller's for servo ticks; for a program's
+/// points the same size bound and tolerance, more iterations (each point
+/// starts from its own command, and the cost of a row is no servo deadline).
+pub fn limits(pacing: Pacing) -> Limits<f64> {
+    match pacing {
+        Pacing::Servo => Limits::default(),
+        Pacing::Program => Limits {
+            max_iterations: 20,
+            ..Limits::default()
+        },
+    }
 }
 
 impl Compensated {
@@ -119,7 +127,7 @@ impl Compensated {
                         Fault::NotConverged => {
                             format!("did not converge (residual {:.3e} m): near a singularity or out of reach", c.residual)
                         }
-                        Fault::Limited => "correction bounded (size or change per tick)".to_string(),
+                        Fault::Limited => "correction bounded (its size, or its change per servo tick)".to_string(),
                         _ => format!("{f:?}"),
                     };
                     format!("{commands_file}:{line}: {what}")

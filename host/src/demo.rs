@@ -29,6 +29,7 @@
 //! Units: SI inside; the summary prints millimetres (and the effects' parameters
 //! in SI); the HTML page is that of `armcal diagnose --html`.
 
+use armcal_shared::compensation::Pacing;
 use armcal_shared::effects::{Context, Effect, EffectModel, approach_signs};
 use armcal_shared::jacobian::at_point;
 use armcal_shared::{Calibration, JointType, Robot};
@@ -235,7 +236,7 @@ fn compensate_targets(
             columns_ignored: Vec::new(),
             warnings: Vec::new(),
         };
-        let result = crate::compensate::compensate(cal, &rows);
+        let result = crate::compensate::compensate(cal, &rows, Pacing::Program);
         flagged += usize::from(result.rows.iter().any(|(_, c)| c.fault.is_some()));
         let sent: Vec<Vec<f64>> = result.rows.iter().map(|(_, c)| c.q.to_vec()).collect();
         nominal.push(miss(commands, commands)?);

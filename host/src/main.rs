@@ -17,7 +17,8 @@ use armcal::input_error::InputError;
 use armcal::{
     builtin, compensate, link, measurements, model_file, output, predict, reproduce, simulate,
 };
-use armcal_shared::Calibration;
+use armcal_shared::{Calibration, TargetFrame};
+use armcal_shared::compensation::Pacing;
 use armcal_shared::link::Request;
 use clap::{Parser, Subcommand};
 
@@ -70,6 +71,12 @@ enum Command {
         /// unit (default: 0.1 mrad).
         #[arg(long, value_name = "ANGLE")]
         orientation_noise: Option<f64>,
+        /// The frame the compensation's targets will be given in: `world` (the
+        /// measurement frame of these data: the identified base is compensated)
+        /// or `base` (the robot's own base frame: the identified base, the
+        /// registration of the instrument, is not). Stored in the calibration.
+        #[arg(long, value_enum, default_value = "world")]
+        targets: Targets,
     },
     /// Where the calibrated robot puts its tool point (and how it turns its tool
     /// frame, when the calibration has orientation) for each row of joint
@@ -99,6 +106,12 @@ enum Command {
         /// Write the corrected commands here (otherwise they are printed).
         #[arg(long, value_name = "C.csv")]
         out: Option<PathBuf>,
+        /// Run the rows as consecutive servo ticks, as `armcal stream` and the
+        /// controller do (warm starts, the per-tick change bound). Without it
+        /// each row is a robot program's target point, solved alone to
+        /// convergence (the row order still gives the approach directions).
+        #[arg(long)]
+        servo: bool,
     },
     /// Simulate a measurement session: a true robot (nominal + random geometric,
     /// base and tool errors + hidden effects) measured with noise; writes the
@@ -189,6 +202,12 @@ enum Command {
         /// Folds of the cross-validation.
         #[arg(long, default_value_t = 10)]
         folds: usize,
+        /// The frame the compensation's targets will be given in: `world` (the
+        /// measurement frame of these data: the identified base is compensated)
+        /// or `base` (the robot's own base frame: the identified base, the
+        /// registration of the instrument, is not). Stored in the calibration.
+        #[arg(long, value_enum, default_value = "world")]
+        targets: Targets,
     },
     /// Measure the diagnosis: hide a random effect (or none) in many simulated
     /// sessions and count how often it is named.
@@ -233,6 +252,23 @@ enum Params {
     Full,
     /// The 3M position-independent model of Mirman & Gupta.
     Paper,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum Targets {
+    /// The world (measurement) frame.
+    World,
+    /// The robot's own base frame.
+    Base,
+}
+
+impl From<Targets> for TargetFrame {
+    fn from(t: Targets) -> Self {
+        match t {
+            Targets::World => TargetFrame::World,
+            Targets::Base => TargetFrame::Base,
+        }
+    }
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
@@ -303,6 +339,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             json,
             position_noise,
             orientation_noise,
+            targets,
         } => {
             let (model, data) = load_session(&model, &data)?;
             let mut options = FullOptions::default();
@@ -337,7 +374,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 Params::Full => ParamSet::Full,
                 Params::Paper => ParamSet::Paper,
             };
-            let result = identify::identify(&model, &data, set, &options)?;
+            let mut result = identify::identify(&model, &data, set, &options)?;
+            result.calibration.targets = targets.into();
             // Everything is computed and encoded before the first byte is written.
             let mut outputs = Vec::new();
             if let Some(path) = &out {
@@ -426,6 +464,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             html,
             position_noise,
             folds,
+            targets,
         } => {
             let (model, data) = load_session(&model, &data)?;
             anyhow::ensure!(folds >= 2, "--folds {folds}: at least 2");
@@ -466,7 +505,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let lines: Vec<usize> = data.poses.iter().map(|p| p.line).collect();
             let mut outputs = Vec::new();
             if let Some(path) = &out {
-                let cal = diagnosis.calibration(&model.robot, data.has_orientation(), model.units);
+                let mut cal =
+                    diagnosis.calibration(&model.robot, data.has_orientation(), model.units);
+                cal.targets = targets.into();
                 outputs.push((path.as_path(), cal.to_bytes()?));
             }
             if let Some(path) = &json {
@@ -536,10 +577,12 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             calibration,
             joints,
             out,
+            servo,
         } => {
             let cal = predict::load_calibration(&calibration)?;
             let rows = measurements::load_joints(&joints, &cal.nominal, &cal.units)?;
-            let result = compensate::compensate(&cal, &rows);
+            let pacing = if servo { Pacing::Servo } else { Pacing::Program };
+            let result = compensate::compensate(&cal, &rows, pacing);
             let csv = result.to_csv(&cal, &calibration);
             for w in rows.warnings.iter().chain(&result.warnings(&joints)) {
                 eprintln!("armcal: warning: {w}");

@@ -13,9 +13,13 @@
 //! 12       8    model hash: CRC-64/XZ of the nominal model's postcard bytes
 //! 20       4    payload length n
 //! 24       n    payload: postcard bytes of the Calibration (nominal model, identified
-//!               errors, whether orientation was calibrated, the model file's units)
+//!               errors, whether orientation was calibrated, the model file's units,
+//!               the effects, and from version 3 the frame of the targets)
 //! 24+n     4    CRC-32/ISO-HDLC of bytes 0 .. 24+n
 //! ```
+//!
+//! Version 2 files (without the frame of the targets) are read as targets in the
+//! world frame, what they meant.
 //!
 //! Lengths and angles are SI (m, rad) in `f64`; the controller converts to `f32`
 //! after validation. A file is accepted only whole: right magic, a version this
@@ -37,7 +41,10 @@ use crate::{MAX_JOINTS, Param, Robot};
 pub const MAGIC: [u8; 8] = *b"\x89ARMCAL\n";
 
 /// The format version this build writes and the newest it reads.
-pub const FORMAT_VERSION: u16 = 2;
+pub const FORMAT_VERSION: u16 = 3;
+
+/// The oldest format version this build reads.
+pub const OLDEST_VERSION: u16 = 2;
 
 /// Bytes before the payload.
 pub const HEADER_LEN: usize = 24;
@@ -80,6 +87,31 @@ pub struct Calibration {
     pub units: Units,
     /// The non-geometric effects identified with the geometry (`armcal diagnose`).
     pub effects: Vec<Effect<f64>, MAX_EFFECTS>,
+    /// The frame the targets of the compensation are given in.
+    pub targets: TargetFrame,
+}
+
+/// The frame the targets (the nominal model's poses) of the compensation are
+/// given in ([`crate::compensation`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum TargetFrame {
+    /// The world (measurement) frame the calibration was identified in: the
+    /// identified base is compensated with the arm.
+    #[default]
+    World,
+    /// The robot's own base frame: the identified base errors (the registration
+    /// of the measuring instrument) are not compensated.
+    Base,
+}
+
+/// A version 2 payload: a [`Calibration`] without [`Calibration::targets`].
+#[derive(Deserialize)]
+struct PayloadV2 {
+    nominal: Robot<f64>,
+    errors: Vec<ParamError, MAX_PARAMS>,
+    orientation: bool,
+    units: Units,
+    effects: Vec<Effect<f64>, MAX_EFFECTS>,
 }
 
 /// Why a calibration file was refused, or could not be written.
@@ -175,7 +207,7 @@ impl fmt::Display for CalibrationError {
             ),
             Self::BadVersion { found } => write!(
                 f,
-                "calibration format version {found} is not the one this build reads ({FORMAT_VERSION}): identify again"
+                "calibration format version {found} is older than this build reads ({OLDEST_VERSION} to {FORMAT_VERSION}): identify again"
             ),
             Self::Crc { stored, computed } => write!(
                 f,
@@ -260,7 +292,18 @@ impl Calibration {
             orientation,
             units,
             effects: Vec::new(),
+            targets: TargetFrame::World,
         }
+    }
+
+    /// The identified errors the compensation corrects: all of them for
+    /// targets in the world frame; without the base's for targets in the
+    /// robot's base frame.
+    pub fn compensated_errors(&self) -> impl Iterator<Item = &ParamError> {
+        let base_frame = self.targets == TargetFrame::Base;
+        self.errors
+            .iter()
+            .filter(move |e| !(base_frame && matches!(e.param, Param::Base(_))))
     }
 
     /// The calibrated model: the nominal model with every identified error added.
@@ -352,7 +395,7 @@ impl Calibration {
         if version > FORMAT_VERSION {
             return Err(CalibrationError::NewerVersion { found: version });
         }
-        if version != FORMAT_VERSION {
+        if version < OLDEST_VERSION {
             return Err(CalibrationError::BadVersion { found: version });
         }
         let payload_len = u32_at(20) as usize;
@@ -383,8 +426,23 @@ impl Calibration {
         if stored != computed {
             return Err(CalibrationError::Crc { stored, computed });
         }
-        let (cal, rest) = postcard::take_from_bytes::<Calibration>(&bytes[HEADER_LEN..body_end])
-            .map_err(|_| CalibrationError::Payload)?;
+        let payload = &bytes[HEADER_LEN..body_end];
+        let (cal, rest) = if version == OLDEST_VERSION {
+            let (v2, rest) = postcard::take_from_bytes::<PayloadV2>(payload)
+                .map_err(|_| CalibrationError::Payload)?;
+            let cal = Calibration {
+                nominal: v2.nominal,
+                errors: v2.errors,
+                orientation: v2.orientation,
+                units: v2.units,
+                effects: v2.effects,
+                targets: TargetFrame::World,
+            };
+            (cal, rest)
+        } else {
+            postcard::take_from_bytes::<Calibration>(payload)
+                .map_err(|_| CalibrationError::Payload)?
+        };
         if !rest.is_empty() {
             return Err(CalibrationError::Payload);
         }

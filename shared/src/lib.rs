@@ -51,7 +51,7 @@ pub mod scalar;
 pub mod servo_chain;
 pub mod units;
 
-pub use calibration::{Calibration, CalibrationError, ParamError};
+pub use calibration::{Calibration, CalibrationError, ParamError, TargetFrame};
 pub use jacobian::{SpecialJacobians, Twist};
 pub use kinematics::{Chain, FrameAxes, LinkAxes, Prepared};
 pub use model::{Convention, Frame, JointType, Link, LinkMass, MAX_JOINTS, ModelError, Robot};

@@ -47,9 +47,9 @@
 //! [`Device`] is the protocol state machine the firmware runs, and the host's
 //! tests run the same code: it assembles and validates the calibration
 //! ([`Calibration::decode`], then [`check_magnitudes`]), converts it to `f32`
-//! once ([`Compensator::<f32>::from_calibration`]), keeps the previous tick's
-//! nominal and sent commands for the per-tick change bound and the approach
-//! directions, and counts ticks, faults, sequence
+//! once ([`Compensator::<f32>::from_calibration`]), corrects the commands as
+//! one servo [`Stream`] (the per-tick change bound, the approach directions,
+//! the warm start), and counts ticks, faults, sequence
 //! gaps and deadline misses. With no calibration in force a command passes
 //! through unchanged with [`TickStatus::Uncalibrated`]. Its per-command cost is
 //! bounded by [`Limits::max_iterations`] and it never allocates.
@@ -59,7 +59,7 @@ use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
 use crate::calibration::{MAX_FILE_LEN, model_hash};
-use crate::compensation::{Compensator, Conditions, Fault, Limits, Previous, Workspace};
+use crate::compensation::{Compensator, Conditions, Fault, Limits, Pacing, Stream};
 use crate::effects::Effect;
 use crate::{Calibration, CalibrationError, MAX_JOINTS};
 
@@ -525,24 +525,12 @@ pub trait Platform {
 /// No markers, no stack measurement (host tests).
 impl Platform for () {}
 
-/// The previous tick as [`Device`] keeps it: nominal commands, sent commands,
-/// joint positions.
-type Previous3 = (
-    Vec<f32, MAX_JOINTS>,
-    Vec<f32, MAX_JOINTS>,
-    Vec<f32, MAX_JOINTS>,
-);
-
 /// The controller's side of the protocol: see [the module](self).
 #[derive(Clone, Debug)]
 pub struct Device {
     compensator: Option<Compensator<f32>>,
-    /// The previous tick's nominal and sent commands and its joint positions,
-    /// for the change bound, the approach directions and the warm start.
-    previous: Option<Previous3>,
-    /// The compensation's workspace (the last step's factors, the
-    /// correction's last change), for the next tick.
-    work: Workspace<f32>,
+    /// The servo stream: what each tick carries to the next.
+    stream: Stream<f32>,
     last_seq: Option<u32>,
     /// The calibration file being received.
     file: Vec<u8, MAX_FILE_LEN>,
@@ -555,8 +543,7 @@ impl Device {
     pub fn new(tick_period_cycles: u32) -> Self {
         Self {
             compensator: None,
-            previous: None,
-            work: Workspace::new(),
+            stream: Stream::new(Pacing::Servo),
             last_seq: None,
             file: Vec::new(),
             file_total: 0,
@@ -657,8 +644,7 @@ impl Device {
                 let joints = compensator.dof() as u8;
                 let model_hash = model_hash(&cal.nominal);
                 self.compensator = Some(compensator);
-                self.previous = None;
-                self.work = Workspace::new();
+                self.stream.reset();
                 self.last_seq = None;
                 self.file.clear();
                 self.file_total = 0;
@@ -695,24 +681,14 @@ impl Device {
             };
         };
         platform.before_correct();
-        let previous = self
-            .previous
-            .as_ref()
-            .map(|(q_cmd, q, p)| Previous { q_cmd, q, p });
         let context = command.context.unwrap_or_default();
         let conditions = Conditions {
             temperature: context.temperature,
             payload: context.payload,
         };
-        let c = compensator.correct_with(&command.q, previous, &conditions, &mut self.work);
+        let c = self.stream.tick(compensator, &command.q, &conditions);
         platform.after_correct();
         let status = TickStatus::from(c.fault);
-        // The tick as sent; none after a non-finite command or a joint-count
-        // mismatch (the next tick is then a first one).
-        self.previous = match status {
-            TickStatus::NonFinite | TickStatus::JointCount => None,
-            _ => Some((command.q.clone(), c.q.clone(), c.p.clone())),
-        };
         if !matches!(status, TickStatus::Corrected) {
             s.faults = s.faults.wrapping_add(1);
         }
@@ -982,20 +958,15 @@ mod tests {
             temperature: Some(21.5),
             payload: None,
         };
-        let mut previous: Option<(StdVec<f32>, StdVec<f32>, StdVec<f32>)> = None;
-        let mut work = Workspace::new();
+        let mut stream = Stream::new(Pacing::Servo);
         for seq in 1..20u32 {
             let q: StdVec<f32> = Q.iter().map(|q| q + 0.01 * seq as f32).collect();
             let got = tick(&mut device, seq, &q);
-            let last = previous
-                .as_ref()
-                .map(|(q_cmd, q, p)| Previous { q_cmd, q, p });
-            let want = compensator.correct_with(&q, last, &conditions, &mut work);
+            let want = stream.tick(&compensator, &q, &conditions);
             assert_eq!(got.q, want.q);
             assert_eq!(got.status, TickStatus::from(want.fault));
             assert_eq!(got.status, TickStatus::Corrected);
             assert!(got.q.iter().zip(&q).any(|(a, b)| a != b), "it corrects");
-            previous = Some((q, want.q.to_vec(), want.p.to_vec()));
         }
         let s = device.status(&());
         assert_eq!(
@@ -1104,7 +1075,6 @@ mod tests {
         let c = tick(&mut device, 0, &Q);
         let want = Compensator::<f32>::from_calibration(&cal, Limits::default()).correct(
             &Q,
-            None,
             &Conditions {
                 temperature: Some(21.5),
                 payload: None,

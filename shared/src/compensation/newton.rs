@@ -1,0 +1,316 @@
+//! The geometric problem: the joint positions `p` where the calibrated geometry
+//! reaches the target, by eq. 4.9 repeated from the search's start
+//! ([`super::start`]).
+//!
+//! Each iteration takes the step of [`super::step_bound`] from the predictor
+//! (the predicted step on the first iteration of a warm tick, else the
+//! first-order step), solved with the stale factors first when the previous
+//! tick converged, then with fresh ones ([`super::factors`]). A step whose
+//! bound on the residual after it is below the tolerance is taken without
+//! evaluating the chain there. Otherwise a step is taken only if it lowers the
+//! residual: the second-order step, else the first-order one (scaled into the
+//! trust region: no joint moves by more than its correction bound), each halved
+//! up to three times; near a singularity the linearisation overshoots, and the
+//! best point found is kept. The cost is bounded by
+//! [`Limits::max_iterations`](super::Limits::max_iterations): each iteration is
+//! one to eight chains of the calibrated model and at most one `L D Lᵀ`
+//! factorisation; no allocation.
+//!
+//! Where joints remain beyond the task's rows (a 6-axis arm in position, a
+//! 7-axis arm in full pose: `redundant` below) every solve is for the whole
+//! correction from `q_cmd`
+//! (`J⁺ (rhs + J c) − c`, `c` the correction at the point of linearisation):
+//! the least correction that reaches the target, from whichever start.
+
+use nalgebra::IsometryMatrix3;
+
+use super::factors::{Factors, Freshness, apply};
+use super::start::Start;
+use super::step_bound::Bounded;
+use super::{Compensator, Fault, Geometry, Joints, Tick};
+use crate::servo_chain::ServoChain;
+use crate::{MAX_JOINTS, Real};
+
+/// The work arrays of the geometric problem.
+#[derive(Clone, Debug)]
+pub(crate) struct Steps<T: Real> {
+    /// The first-order step (or the predictor).
+    pub first: Joints<T>,
+    /// The second-order step.
+    pub second: Joints<T>,
+    /// A trial point of the line search.
+    pub trial: Joints<T>,
+    /// The correction at the point of linearisation (redundant arms).
+    pub offset: Joints<T>,
+    /// The columns of `J`, one per joint.
+    pub jac: [[T; 6]; MAX_JOINTS],
+}
+
+impl<T: Real> Steps<T> {
+    pub fn new() -> Self {
+        let zeros = [T::zero(); MAX_JOINTS];
+        Self {
+            first: zeros,
+            second: zeros,
+            trial: zeros,
+            offset: zeros,
+            jac: [[T::zero(); 6]; MAX_JOINTS],
+        }
+    }
+}
+
+/// What a search found: in `p` of the [`Tick`].
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Solved<T: Real> {
+    /// Iterations run.
+    pub iterations: usize,
+    /// The squared residual, or the square of the bound on it.
+    pub residual2: T,
+    /// The bound on the residual, when the last step was taken on it.
+    pub bound: Option<T>,
+}
+
+impl<T: Real> Compensator<T> {
+    /// One search from the start in `tick.x` (written by [`Self::start`]):
+    /// the chain there serves the geometric step (joint lines, measured frame)
+    /// and the gravity torques of the inversion (centres of mass, into
+    /// `tick.tau`); the joint positions found go into `tick.p`.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn search(
+        &self,
+        geometry: &Geometry<'_, T>,
+        target: &IsometryMatrix3<T>,
+        q_cmd: &[T],
+        payload: T,
+        start: Start,
+        factors: &mut Factors<T>,
+        tick: &mut Tick<T>,
+    ) -> Result<Solved<T>, Fault> {
+        let n = self.dof();
+        let needs_torque = self.compliant != 0;
+        geometry.chain(&tick.x[..n], true, needs_torque, &mut tick.chain)?;
+        if needs_torque {
+            self.torques(&tick.chain, payload, &mut tick.tau[..n]);
+        } else {
+            tick.tau[..n].iter_mut().for_each(|t| *t = T::zero());
+        }
+        let solved = self.solve(geometry, target, q_cmd, start, factors, tick);
+        // Factors of a search that converged serve the next tick.
+        factors.freshness = match &solved {
+            Ok(s) if s.residual2 <= self.limits.tolerance * self.limits.tolerance => {
+                Freshness::Stale
+            }
+            _ => Freshness::None,
+        };
+        solved
+    }
+
+    /// The geometric problem from `tick.x`, with the chain there in
+    /// `tick.chain` (see the module header).
+    fn solve(
+        &self,
+        geometry: &Geometry<'_, T>,
+        target: &IsometryMatrix3<T>,
+        q_cmd: &[T],
+        start: Start,
+        factors: &mut Factors<T>,
+        tick: &mut Tick<T>,
+    ) -> Result<Solved<T>, Fault> {
+        let n = self.dof();
+        let Tick {
+            chain, x, p, steps, ..
+        } = tick;
+        let Steps {
+            first,
+            second,
+            trial,
+            offset,
+            jac,
+        } = steps;
+        let (p, first, second, trial, jac) = (
+            &mut p[..n],
+            &mut first[..n],
+            &mut second[..n],
+            &mut trial[..n],
+            &mut jac[..n],
+        );
+        p.copy_from_slice(&x[..n]);
+        let tolerance = self.limits.tolerance;
+        let mut predicted = start == Start::Warm;
+        let mut residual = self.residual(target, &chain.end);
+        let mut iterations = 0;
+        while residual.1 > tolerance * tolerance && iterations < self.limits.max_iterations {
+            iterations += 1;
+            let (reach, mut r) = if predicted {
+                self.jacobian_predicted(chain, jac, &residual.0, first)
+            } else {
+                (self.jacobian(chain, jac), [T::zero(); 6])
+            };
+            // Stale factors only in the first iteration of a warm tick:
+            // otherwise the configuration has moved by more than a tick's motion.
+            let mut fresh = !(predicted && iterations == 1 && factors.freshness == Freshness::Stale);
+            loop {
+                if fresh {
+                    factors
+                        .factor(jac, self.damping2())
+                        .ok_or(Fault::NonFinite)?;
+                }
+                if !predicted {
+                    // δ₀ = J⁺ e with fresh factors, which leave exactly `λ² y`.
+                    let c = self.offset(&mut offset[..n], p, q_cmd, None);
+                    let y = self
+                        .pseudo_solve(jac, factors, &residual.0, c, first)
+                        .ok_or(Fault::NonFinite)?;
+                    let lambda2 = self.damping2();
+                    r = self.predicted(chain, jac, y.map(|y| lambda2 * y), first);
+                }
+                let c = self.offset(&mut offset[..n], p, q_cmd, Some(first));
+                match self.step(chain, jac, factors, &residual.0, first, &r, c, second, reach) {
+                    Some(Bounded {
+                        bound: Some(bound),
+                        whole: true,
+                    }) if bound <= tolerance => {
+                        take(p, second);
+                        return Ok(Solved {
+                            iterations,
+                            residual2: bound * bound,
+                            bound: Some(bound),
+                        });
+                    }
+                    None if fresh => return Err(Fault::NonFinite),
+                    _ if fresh => break,
+                    _ => fresh = true,
+                }
+            }
+            // The fallback's first candidate after the step: the first-order
+            // step (the loop above left fresh factors).
+            if predicted {
+                predicted = false;
+                let c = self.offset(&mut offset[..n], p, q_cmd, None);
+                self.pseudo_solve(jac, factors, &residual.0, c, first)
+                    .ok_or(Fault::NonFinite)?;
+            }
+            self.trust(first);
+            // Take a step only if it lowers the residual: the second-order one
+            // (eq. 4.9) first, then the first-order one, each halved up to
+            // three times.
+            let mut improved = false;
+            'candidates: for step in [&mut *second, &mut *first] {
+                for _ in 0..4 {
+                    for ((t, pm), d) in trial.iter_mut().zip(p.iter()).zip(step.iter()) {
+                        *t = *pm + *d;
+                    }
+                    geometry.chain(trial, true, false, chain)?;
+                    let candidate = self.residual(target, &chain.end);
+                    if candidate.1 < residual.1 {
+                        (residual, improved) = (candidate, true);
+                        take(p, step);
+                        break 'candidates;
+                    }
+                    step.iter_mut().for_each(|d| *d *= T::lit(0.5));
+                }
+            }
+            if !improved {
+                break;
+            }
+        }
+        Ok(Solved {
+            iterations,
+            residual2: residual.1,
+            bound: None,
+        })
+    }
+
+    /// For a redundant arm, the correction at the point of linearisation, `p
+    /// − q_cmd` (plus the predictor `plus`), into `offset`; `None` otherwise.
+    fn offset<'a>(
+        &self,
+        offset: &'a mut [T],
+        p: &[T],
+        q_cmd: &[T],
+        plus: Option<&[T]>,
+    ) -> Option<&'a [T]> {
+        if !self.redundant {
+            return None;
+        }
+        for (m, o) in offset.iter_mut().enumerate() {
+            *o = p[m] - q_cmd[m] + plus.map_or(T::zero(), |d| d[m]);
+        }
+        Some(offset)
+    }
+
+    /// `J⁺ rhs` into `out`; for a redundant arm with the correction `c` at the
+    /// point of linearisation, `J⁺ (rhs + J c) − c`: the step to the least
+    /// whole correction that moves the frame by `rhs`, refined once. Returns
+    /// the `y` whose `λ² y` the solve leaves of `rhs` (with fresh factors), or
+    /// `None` if not finite.
+    fn pseudo_solve(
+        &self,
+        jac: &[[T; 6]],
+        factors: &Factors<T>,
+        rhs: &[T; 6],
+        c: Option<&[T]>,
+        out: &mut [T],
+    ) -> Option<[T; 6]> {
+        match c {
+            None => factors.solve(jac, rhs, out),
+            Some(c) => {
+                let mut whole = apply(jac, c);
+                whole.iter_mut().zip(rhs).for_each(|(w, r)| *w += *r);
+                let y = factors.solve(jac, &whole, out)?;
+                out.iter_mut().zip(c).for_each(|(o, c)| *o -= *c);
+                // The damping leaves `λ² y` of `rhs`, of the order of `λ²/σ²`
+                // times `J c`, which does not shrink as the search converges
+                // (the correction does not): one refinement with the same
+                // factors leaves `λ² y₂`, of order `(λ²/σ²)²`.
+                let lambda2 = self.damping2();
+                let left = y.map(|y| lambda2 * y);
+                let mut refined = [T::zero(); MAX_JOINTS];
+                let y2 = factors.solve(jac, &left, &mut refined[..out.len()])?;
+                out.iter_mut().zip(refined).for_each(|(o, d)| *o += d);
+                Some(y2)
+            }
+        }
+    }
+
+    /// The second-order step from the predictor `first = δ₀` into `second`:
+    /// `δ = δ₀ + J⁺ r` ([`Self::pseudo_solve`] with the correction `c` at the
+    /// predicted point), its bound with `|ℓ|₁` as the linear share (`λ² y` for
+    /// fresh factors, measured for stale ones), the step scaled into its trust
+    /// region; `None` if not finite.
+    #[allow(clippy::too_many_arguments)]
+    fn step(
+        &self,
+        chain: &ServoChain<T>,
+        jac: &[[T; 6]],
+        factors: &Factors<T>,
+        e: &[T; 6],
+        first: &[T],
+        r: &[T; 6],
+        c: Option<&[T]>,
+        second: &mut [T],
+        reach: T,
+    ) -> Option<Bounded<T>> {
+        let y = self.pseudo_solve(jac, factors, r, c, second)?;
+        let linear = match factors.freshness {
+            Freshness::Fresh => self.damping2() * y.iter().fold(T::zero(), |s, v| s + v.abs()),
+            // Factors of a nearby configuration leave a part of order `|J −
+            // J'| |δ − δ₀|` besides: measured, `ℓ = r − J (δ − δ₀)`.
+            _ => {
+                let moved = apply(jac, second);
+                r.iter().zip(moved).fold(T::zero(), |s, (r, m)| s + (*r - m).abs())
+            }
+        };
+        if !linear.is_finite() {
+            return None;
+        }
+        Some(self.step_bound(chain.lines(), e, first, second, linear, reach))
+    }
+}
+
+/// Takes the step `d`: `p += d`.
+fn take<T: Real>(p: &mut [T], d: &[T]) {
+    for (pm, dm) in p.iter_mut().zip(d) {
+        *pm += *dm;
+    }
+}

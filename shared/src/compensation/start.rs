@@ -1,0 +1,66 @@
+//! Where a tick's search starts (a speed device only: the answer is the same
+//! from either start, to within the tolerance; see [the module](super)).
+//!
+//! - [`Start::Cold`]: from `q_cmd`; the first step is the first-order one, `J⁺ e`.
+//! - [`Start::Warm`]: from the previous tick's correction applied to this
+//!   command, `x = q_cmd + (q_prev − q_cmd_prev)` with joint effects (the
+//!   estimate of the commands, where the gravity torques are evaluated) and `x =
+//!   q_cmd + (p_prev − q_cmd_prev)` without (the estimate of the joint
+//!   positions), when that correction is within the size bound. The first
+//!   step's predictor `δ₀` is the previous tick's step from the commands to the
+//!   joint positions, `p_prev − q_prev` (the joint effects' offsets; zero
+//!   without effects), plus the correction's last change (the
+//!   [`Workspace`](super::Workspace)'s rate, after two warm ticks that converged):
+//!   the correction extrapolated linearly, which on a smooth motion leaves a
+//!   residual of about the tolerance, so the factors of a recent tick solve the
+//!   step. `q_prev` is the previous answer before the change bound, so a tick
+//!   clipped by it does not bias the next start.
+
+use super::{Compensator, Joints, Previous, Tick};
+use crate::Real;
+
+/// How a tick's search starts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Start {
+    /// From the nominal command, with the first-order step.
+    Cold,
+    /// From the previous tick's correction, with the predicted step.
+    Warm,
+}
+
+impl<T: Real> Compensator<T> {
+    /// Writes the start into `tick.x` and, for a warm start, the predictor into
+    /// `tick.steps.first`; returns the start taken (cold when there is no
+    /// previous tick or its correction is beyond the size bound).
+    pub(crate) fn start(
+        &self,
+        q_cmd: &[T],
+        previous: Option<Previous<'_, T>>,
+        wanted: Start,
+        rate: &Option<Joints<T>>,
+        tick: &mut Tick<T>,
+    ) -> Start {
+        let x = &mut tick.x;
+        if let (Start::Warm, Some(prev)) = (wanted, previous) {
+            let mut within = true;
+            let predictor = &mut tick.steps.first;
+            let rate = rate.as_ref();
+            for (m, joint) in self.joints.iter().enumerate() {
+                let from = if self.corrects_joints {
+                    prev.q[m]
+                } else {
+                    prev.p[m]
+                };
+                let correction = from - prev.q_cmd[m];
+                within &= correction.abs() <= joint.max_correction;
+                x[m] = q_cmd[m] + correction;
+                predictor[m] = prev.p[m] - from + rate.map_or(T::zero(), |r| r[m]);
+            }
+            if within {
+                return Start::Warm;
+            }
+        }
+        x[..q_cmd.len()].copy_from_slice(q_cmd);
+        Start::Cold
+    }
+}
