@@ -297,3 +297,53 @@ fn industrial_mm_deg_positions() {
 fn industrial_mm_deg_full_pose() {
     every_effect("industrial-mm-deg", 2, Some(2), true);
 }
+
+/// Targets in the robot's own base frame: a calibration whose base is a
+/// camera's world frame (0.5 m and 0.3 rad from the robot's base, as the
+/// FIGAROH UR10e's) compensates the arm alone. Its corrections are those of
+/// the same calibration without base errors, exactly, and they converge
+/// within the size bound; with the targets in the world frame the same calibration would
+/// ask the joints to move the whole arm by the registration, which the size
+/// bound clips.
+#[test]
+fn targets_in_the_base_frame_leave_the_registration_alone() {
+    use armcal_shared::compensation::{Compensator, Conditions, Fault, Limits};
+    use armcal_shared::{FrameAxis, Param, ParamError};
+    let model = robot("ur10e");
+    let nominal = &model.robot;
+    let mut arm = Calibration::nominal(nominal.clone(), true, model.units);
+    for (param, error) in [
+        (Param::Theta(1), 1e-3),
+        (Param::A(2), -2e-3),
+        (Param::Alpha(3), 1.5e-3),
+        (Param::Tool(FrameAxis::Z), 1e-3),
+    ] {
+        arm.errors.push(ParamError { param, error }).unwrap();
+    }
+    let mut camera = arm.clone();
+    for (param, error) in [
+        (Param::Base(FrameAxis::X), 0.5),
+        (Param::Base(FrameAxis::Rz), 0.3),
+    ] {
+        camera.errors.push(ParamError { param, error }).unwrap();
+    }
+    camera.targets = TargetFrame::Base;
+    let limits = Limits::default();
+    let in_base = Compensator::<f64>::from_calibration(&camera, limits);
+    let alone = Compensator::<f64>::from_calibration(&arm, limits);
+    camera.targets = TargetFrame::World;
+    let in_world = Compensator::<f64>::from_calibration(&camera, limits);
+    let mut r = rng(5);
+    let none = Conditions::default();
+    let mut clipped = 0;
+    for q in random_configurations(nominal, 40, &mut r) {
+        if sigma_min(nominal, &q) < 0.05 {
+            continue;
+        }
+        let c = in_base.correct(&q, &none);
+        assert_eq!(c.fault, None, "{q:?}");
+        assert_eq!(c.q, alone.correct(&q, &none).q);
+        clipped += usize::from(in_world.correct(&q, &none).fault.is_some_and(|f| f == Fault::Limited || f == Fault::NotConverged));
+    }
+    assert!(clipped > 0, "the world frame would move the arm by the registration");
+}

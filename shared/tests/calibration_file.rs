@@ -2,7 +2,8 @@
 //! truncated, foreign or newer file is refused with its reason.
 
 use armcal_shared::calibration::{
-    FORMAT_VERSION, HEADER_LEN, MAGIC, MAX_FILE_LEN, MAX_PARAMS, model_hash,
+    FORMAT_VERSION, HEADER_LEN, MAGIC, MAX_FILE_LEN, MAX_PARAMS, OLDEST_VERSION, TargetFrame,
+    model_hash,
 };
 use armcal_shared::units::{AngleUnit, LengthUnit, Units};
 use armcal_shared::{
@@ -143,6 +144,43 @@ fn every_truncation_is_refused_as_truncated() {
         Calibration::decode(&long),
         Err(CalibrationError::TooLong { .. })
     ));
+}
+
+/// The frame of the targets is written and read back; a version 2 file (the
+/// same payload without that last field) reads as targets in the world frame,
+/// what version 2 meant; a version older than that is refused.
+#[test]
+fn the_frame_of_the_targets_and_version_2_files() {
+    let mut cal = sample();
+    cal.targets = TargetFrame::Base;
+    let bytes = bytes_of(&cal).unwrap();
+    assert_eq!(Calibration::decode(&bytes).unwrap().targets, TargetFrame::Base);
+    // The base frame leaves the base errors out of the compensation.
+    let compensated: Vec<Param> = cal.compensated_errors().map(|e| e.param).collect();
+    assert_eq!(compensated.len(), cal.errors.len() - 1);
+    assert!(!compensated.contains(&Param::Base(FrameAxis::Rz)));
+
+    // Version 2: the payload without its last byte (the enum's index), the
+    // version and length in the header, the CRC resealed.
+    let world = bytes_of(&sample()).unwrap();
+    let payload = u32::from_le_bytes(world[20..24].try_into().unwrap()) as usize;
+    assert_eq!(world[HEADER_LEN + payload - 1], 0, "World is the last byte");
+    let mut v2 = world[..HEADER_LEN + payload - 1].to_vec();
+    v2[8..10].copy_from_slice(&OLDEST_VERSION.to_le_bytes());
+    v2[20..24].copy_from_slice(&((payload - 1) as u32).to_le_bytes());
+    v2.extend_from_slice(&[0; 4]);
+    reseal(&mut v2);
+    assert_eq!(Calibration::decode(&v2).unwrap(), sample());
+
+    let mut older = v2.clone();
+    older[8..10].copy_from_slice(&(OLDEST_VERSION - 1).to_le_bytes());
+    reseal(&mut older);
+    assert_eq!(
+        Calibration::decode(&older),
+        Err(CalibrationError::BadVersion {
+            found: OLDEST_VERSION - 1
+        })
+    );
 }
 
 #[test]

@@ -177,11 +177,13 @@ fn streams_every_row_through_the_controller() {
         assert_eq!(row, &want, "row {seq}");
     }
 
-    // And where armcal compensate's f64 commands put the calibrated tool point,
-    // within 2 µm (f32 rounding of a 1.3 m arm: a few tenths of a micrometre).
+    // And where armcal compensate's f64 servo ticks put the calibrated tool
+    // point, within 2 µm (f32 rounding of a 1.3 m arm: a few tenths of a
+    // micrometre).
     let out = armcal(
         &[
             "compensate",
+            "--servo",
             "--calibration",
             "cal.bin",
             "--joints",

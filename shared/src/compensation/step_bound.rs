@@ -319,7 +319,7 @@ mod tests {
     use crate::servo_chain::Wanted;
     use crate::MAX_JOINTS;
     use heapless::Vec;
-    use crate::{Convention, Link, Param};
+    use crate::{Convention, Link, Param, Robot};
 
     /// [`second_order`] is the second-order part of [`expand`] for joint
     /// errors, in both conventions, with revolute and prismatic joints, with
