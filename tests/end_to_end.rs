@@ -604,7 +604,7 @@ mod compensation_of_effects {
     use armcal::model_file::load_model;
     use armcal::simulate::{Scenario, simulate};
     use armcal_shared::compensation::{Compensator, Conditions, Limits, Previous};
-    use armcal_shared::effects::{Context, Effect, EffectModel, approach_signs};
+    use armcal_shared::effects::{Approach, Context, Effect, EffectModel};
     use armcal_shared::units::Units;
     use armcal_tests::{random_configurations, rng};
 
@@ -667,10 +667,11 @@ mod compensation_of_effects {
                 })
                 .collect()
         };
-        let context = |q: &[f64], sent: Option<&[f64]>| Context {
+        // The context of a command, with the approach of the stream it is sent in.
+        let context = |q: &[f64], stream: &mut Approach| Context {
             temperature: conditions.temperature,
             payload: conditions.payload,
-            approach: approach_signs(sent, q),
+            approach: stream.next(q),
         };
         // The motion's ticks: command, corrected command and its context, and
         // the context of the command sent uncompensated.
@@ -681,6 +682,8 @@ mod compensation_of_effects {
             let q0 = random_configurations(&nominal, 1, &mut r).remove(0);
             ticks.clear();
             let mut last_p: Vec<f64> = Vec::new();
+            // The streams of compensated and of uncompensated commands.
+            let (mut sent, mut uncompensated) = (Approach::new(), Approach::new());
             for q_cmd in motion(&q0) {
                 let last = ticks.last();
                 let previous = last.map(|(q_cmd, q, ..)| Previous {
@@ -692,8 +695,8 @@ mod compensation_of_effects {
                 if c.fault.is_some() {
                     break;
                 }
-                let ctx = context(&c.q, last.map(|(_, q, ..)| &q[..]));
-                let plain = context(&q_cmd, last.map(|(q_cmd, ..)| &q_cmd[..]));
+                let ctx = context(&c.q, &mut sent);
+                let plain = context(&q_cmd, &mut uncompensated);
                 last_p = c.p.to_vec();
                 ticks.push((q_cmd, c.q.to_vec(), ctx, plain));
             }

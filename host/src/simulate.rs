@@ -155,13 +155,13 @@ impl Scenario {
 
 /// Simulates `scenario` on `nominal`. Poses are visited in random order, so that
 /// every joint approaches them from both sides; the approach direction of each
-/// joint is the sign of its change from the previous pose, as `FORMAT.md` reads
-/// row order.
+/// joint is the sign of its last change, held while it holds, as `FORMAT.md`
+/// reads row order ([`armcal_shared::effects::Approach`]).
 pub fn simulate(
     nominal: &Robot<f64>,
     scenario: &Scenario,
 ) -> Result<Session, armcal_shared::effects::EffectError> {
-    use armcal_shared::effects::{Context, EffectModel};
+    use armcal_shared::effects::{Approach, Context, EffectModel};
     let mut r = rng(scenario.seed);
     let params: Vec<Param> = nominal.params().collect();
     let (mut truth, _) = with_random_errors(
@@ -190,19 +190,16 @@ pub fn simulate(
         load: Vec::new(),
         observations: Vec::new(),
     };
+    let mut approach = Approach::new();
     for (i, qi) in q.iter().enumerate() {
         let frac = i as f64 / (n.max(2) - 1) as f64;
         let temp =
             scenario.temperature.0 + frac * (scenario.temperature.1 - scenario.temperature.0);
         let load = scenario.payloads.get(i / block).copied().unwrap_or(0.0);
-        let approach = armcal_shared::effects::approach_signs(
-            if i == 0 { None } else { Some(&q[i - 1][..]) },
-            qi,
-        );
         let ctx = Context {
             temperature: Some(temp),
             payload: Some(load),
-            approach,
+            approach: approach.next(qi),
         };
         let frame = model.forward(qi, &ctx)?;
         let mut draw3 = |s: f64| Vector3::from_fn(|_, _| s * normal.sample(&mut r));
