@@ -28,7 +28,7 @@ use armcal::measurements::{JointRow, JointRows};
 use armcal::model_file::{RobotModel, load_model, parse_model};
 use armcal::simulate::{Scenario, parse_effect, simulate};
 use armcal_shared::compensation::{Pacing, TargetFrame};
-use armcal_shared::effects::{Context, EffectModel};
+use armcal_shared::effects::{Approach, Context, EffectModel};
 use armcal_shared::{Calibration, Robot};
 use armcal_tests::{random_configurations, rng};
 
@@ -130,41 +130,22 @@ fn sigma_min(robot: &Robot<f64>, q: &[f64]) -> f64 {
     m.svd(false, false).singular_values.min()
 }
 
-/// Each joint's approach direction after the move from `previous` to `q`:
-/// the sign of the move, or the direction it had when it does not move.
-fn approach(previous: Option<(&[f64], &[i8])>, q: &[f64]) -> Vec<i8> {
-    match previous {
-        None => vec![0; q.len()],
-        Some((last, signs)) => q
-            .iter()
-            .zip(last)
-            .zip(signs)
-            .map(|((q, l), s)| match q.partial_cmp(l) {
-                Some(std::cmp::Ordering::Greater) => 1,
-                Some(std::cmp::Ordering::Less) => -1,
-                _ => *s,
-            })
-            .collect(),
-    }
-}
-
 /// The true robot's RMS miss of the targets when it is sent `sent` in order
 /// (m): targets are the nominal model's points at `commands`.
 fn rms_miss(truth: &EffectModel<f64>, nominal: &Robot<f64>, commands: &[Vec<f64>], sent: &[Vec<f64>]) -> f64 {
-    let mut signs: Vec<i8> = Vec::new();
+    // Each joint approaches from the direction of its last move, held while
+    // it holds.
+    let mut approach = Approach::new();
     let mut sum = 0.0;
-    for (i, (q_cmd, q)) in commands.iter().zip(sent).enumerate() {
-        let previous = (i > 0).then(|| (&sent[i - 1][..], &signs[..]));
-        let now = approach(previous, q);
+    for (q_cmd, q) in commands.iter().zip(sent) {
         let ctx = Context {
             temperature: Some(TEMPERATURE),
             payload: Some(PAYLOAD),
-            approach: now.iter().copied().collect(),
+            approach: approach.next(q),
         };
         let reached = truth.forward(q, &ctx).unwrap().translation.vector;
         let target = nominal.forward(q_cmd).unwrap().translation.vector;
         sum += (reached - target).norm_squared();
-        signs = now;
     }
     (sum / commands.len() as f64).sqrt()
 }

@@ -30,7 +30,7 @@
 //! in SI); the HTML page is that of `armcal diagnose --html`.
 
 use armcal_shared::compensation::Pacing;
-use armcal_shared::effects::{Context, Effect, EffectModel, approach_signs};
+use armcal_shared::effects::{Approach, Context, Effect, EffectModel};
 use armcal_shared::jacobian::at_point;
 use armcal_shared::{Calibration, JointType, Robot};
 use rand::RngExt;
@@ -208,10 +208,12 @@ fn compensate_targets(
     // that is from the target of the move `commanded`.
     let miss = |sent: &[Vec<f64>], commanded: &[Vec<f64>]| -> anyhow::Result<f64> {
         // Each joint approaches from the direction of its last move.
+        let mut approach = Approach::new();
+        let _ = approach.next(&sent[0]);
         let ctx = Context {
             temperature: Some(TEMPERATURE),
             payload: Some(PAYLOAD),
-            approach: approach_signs(Some(&sent[0][..]), &sent[1]),
+            approach: approach.next(&sent[1]),
         };
         let reached = truth.forward(&sent[1], &ctx)?.translation.vector;
         let target = cal.nominal.forward(&commanded[1])?.translation.vector;

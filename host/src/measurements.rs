@@ -2,7 +2,8 @@
 //!
 //! One row per measured pose, in the order the poses were measured (row order
 //! carries information: the direction from which each joint approached a pose is
-//! the sign of its change from the previous row, so rows are kept in file order).
+//! the sign of its last change, held through the rows where it holds, so rows are
+//! kept in file order).
 //! Lines that start with `#` are comments; the first other line is the header;
 //! blank lines are skipped; fields are trimmed.
 //!

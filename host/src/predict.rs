@@ -23,7 +23,8 @@
 //!
 //! Non-geometric effects (`armcal diagnose`) are applied in each row's context:
 //! the `temp` and `load` columns, and the approach direction of each joint from
-//! the previous row (row order is motion order, as in `FORMAT.md`).
+//! row order (row order is motion order, as in `FORMAT.md`): the sign of its last
+//! change, held while the joint holds.
 
 use core::fmt::Write as _;
 
@@ -34,7 +35,7 @@ use nalgebra::{Point3, UnitQuaternion};
 
 use crate::input_error::InputError;
 use armcal_shared::compensation::Conditions;
-use armcal_shared::effects::{Context, approach_signs};
+use armcal_shared::effects::{Approach, Context};
 
 use crate::measurements::{JointRow, JointRows};
 
@@ -87,14 +88,14 @@ pub fn row_conditions(row: &JointRow) -> Conditions<f64> {
 }
 
 /// The context of the effects at a row: its conditions ([`row_conditions`]) and
-/// the approach direction of each joint from `previous`, the joint values of the
-/// row before (row order is motion order, `FORMAT.md`).
-pub fn row_context(row: &JointRow, previous: Option<&[f64]>) -> Context<f64> {
+/// the approach direction of each joint from `approach`, which has seen the rows
+/// before (row order is motion order, `FORMAT.md`); the row is added to it.
+pub fn row_context(row: &JointRow, approach: &mut Approach) -> Context<f64> {
     let conditions = row_conditions(row);
     Context {
         temperature: conditions.temperature,
         payload: conditions.payload,
-        approach: approach_signs(previous, &row.q),
+        approach: approach.next(&row.q),
     }
 }
 
@@ -107,10 +108,9 @@ pub fn row_context(row: &JointRow, previous: Option<&[f64]>) -> Context<f64> {
 pub fn predict(cal: &Calibration, rows: &JointRows) -> Result<Predictions, InputError> {
     let model = cal.model();
     let mut out = Vec::with_capacity(rows.len());
-    let mut previous: Option<&[f64]> = None;
+    let mut approach = Approach::new();
     for row in &rows.rows {
-        let ctx = row_context(row, previous);
-        previous = Some(&row.q);
+        let ctx = row_context(row, &mut approach);
         let frame = model
             .forward(&row.q, &ctx)
             .map_err(|e| InputError::new(&rows.file, row.line, 1, e.to_string()))?;

@@ -60,6 +60,26 @@ pub fn random_configurations(robot: &Robot<f64>, n: usize, rng: &mut StdRng) -> 
         .collect()
 }
 
+/// Rows that visit `configurations` in order one joint at a time (single-joint
+/// sweeps): the first configuration is the first row; from each configuration
+/// to the next, joints 1, 2, … in turn move to their new value, one row per
+/// joint, while the others hold. `(K − 1) · M + 1` rows for `K` configurations
+/// of `M` joints; a row repeats the one before where a joint's value is the same
+/// in both configurations.
+pub fn one_joint_at_a_time(configurations: &[Vec<f64>]) -> Vec<Vec<f64>> {
+    let mut rows: Vec<Vec<f64>> = configurations.iter().take(1).cloned().collect();
+    for next in configurations.iter().skip(1) {
+        for (j, value) in next.iter().enumerate() {
+            let mut row = rows.last().cloned().unwrap_or_default();
+            if let Some(x) = row.get_mut(j) {
+                *x = *value;
+            }
+            rows.push(row);
+        }
+    }
+    rows
+}
+
 /// What the instrument measures of `truth` at `configs`: the tool point with
 /// Gaussian noise `position_noise` (m, per axis) and, when `orientation_noise` is
 /// given, the tool orientation with a Gaussian rotation-vector noise (rad, per axis).
@@ -155,13 +175,28 @@ impl Scenario {
 
 /// Simulates `scenario` on `nominal`. Poses are visited in random order, so that
 /// every joint approaches them from both sides; the approach direction of each
-/// joint is the sign of its change from the previous pose, as `FORMAT.md` reads
-/// row order.
+/// joint is the sign of its last change, held while it holds, as `FORMAT.md`
+/// reads row order ([`armcal_shared::effects::Approach`]).
 pub fn simulate(
     nominal: &Robot<f64>,
     scenario: &Scenario,
 ) -> Result<Session, armcal_shared::effects::EffectError> {
-    use armcal_shared::effects::{Context, EffectModel};
+    simulate_visiting(nominal, scenario, |r| {
+        random_configurations(nominal, scenario.poses, r)
+    })
+}
+
+/// [`simulate`], with the joint readings of the poses, in measurement order,
+/// from `visit` (given the session's generator after the geometric errors are
+/// drawn), instead of `scenario.poses` random configurations: for example
+/// [`one_joint_at_a_time`] over random configurations. The temperature drift
+/// and the payload blocks spread over the rows `visit` gives.
+pub fn simulate_visiting(
+    nominal: &Robot<f64>,
+    scenario: &Scenario,
+    visit: impl FnOnce(&mut StdRng) -> Vec<Vec<f64>>,
+) -> Result<Session, armcal_shared::effects::EffectError> {
+    use armcal_shared::effects::{Approach, Context, EffectModel};
     let mut r = rng(scenario.seed);
     let params: Vec<Param> = nominal.params().collect();
     let (mut truth, _) = with_random_errors(
@@ -177,8 +212,8 @@ pub fn simulate(
         }
     }
     let model = EffectModel::new(truth.clone(), &scenario.effects)?;
-    let q = random_configurations(nominal, scenario.poses, &mut r);
-    let n = scenario.poses.max(1);
+    let q = visit(&mut r);
+    let n = q.len().max(1);
     let block = n.div_ceil(scenario.payloads.len().max(1));
     let normal = Normal::new(0.0, 1.0).expect("unit normal");
     let mut session = Session {
@@ -190,19 +225,16 @@ pub fn simulate(
         load: Vec::new(),
         observations: Vec::new(),
     };
+    let mut approach = Approach::new();
     for (i, qi) in q.iter().enumerate() {
         let frac = i as f64 / (n.max(2) - 1) as f64;
         let temp =
             scenario.temperature.0 + frac * (scenario.temperature.1 - scenario.temperature.0);
         let load = scenario.payloads.get(i / block).copied().unwrap_or(0.0);
-        let approach = armcal_shared::effects::approach_signs(
-            if i == 0 { None } else { Some(&q[i - 1][..]) },
-            qi,
-        );
         let ctx = Context {
             temperature: Some(temp),
             payload: Some(load),
-            approach,
+            approach: approach.next(qi),
         };
         let frame = model.forward(qi, &ctx)?;
         let mut draw3 = |s: f64| Vector3::from_fn(|_, _| s * normal.sample(&mut r));

@@ -34,6 +34,20 @@
 //! then absorbs the unknown scale, and only its product with the proxy torque is
 //! meaningful.
 //!
+//! ## Backlash and the approach direction
+//! A gear with lost motion `2 b_j` leaves its output on the flank it last
+//! approached from, so the joint really is at `p_j = q_j + b_j σ_j`, with `σ_j`
+//! the direction of the last move of joint `j`'s command (reading): +1 when it
+//! last increased, −1 when it last decreased. A joint that holds (its value
+//! exactly unchanged from one row or tick to the next) stays on that flank and
+//! keeps its `σ_j`, through any number of standstills: in a single-joint sweep
+//! the joints that do not move keep the sign of their last move, not 0. Only
+//! before a joint has moved at all (the first row, or a joint that has not
+//! changed since) is `σ_j = 0`, the middle of its lost motion. [`Approach`]
+//! gives the signs of a stream of rows in this way (rows in measurement order,
+//! commands in the order sent), [`approach_sign`] one joint's step of it; the
+//! model, the fit and the simulator all read row order through it.
+//!
 //! Units: SI (rad, m, kg, N·m, °C); compliance in rad/(N·m) (m/N for a prismatic
 //! joint), κ in 1/°C.
 
@@ -56,7 +70,7 @@ pub struct Context<T: Real> {
     /// Payload mass at the tool point, kg, if known (0 otherwise).
     pub payload: Option<T>,
     /// The approach direction of each joint (+1, −1, or 0 when unknown), empty
-    /// when not known at all.
+    /// when not known at all: [`Approach`] gives it from row order.
     pub approach: Vec<i8, MAX_JOINTS>,
 }
 
@@ -182,7 +196,7 @@ impl<T: Real> Effect<T> {
             (Self::GearTransmission { .. }, 1) => q_j.cos(),
             (Self::GearTransmission { .. }, 2) => (q_j + q_j).sin(),
             (Self::GearTransmission { .. }, _) => (q_j + q_j).cos(),
-            (Self::Backlash { joint, .. }, _) => approach_sign(ctx, joint),
+            (Self::Backlash { joint, .. }, _) => context_sign(ctx, joint),
             (Self::EncoderScale { .. }, _) => q_j,
             (Self::ThermalExpansion { .. }, _) => T::zero(),
         }
@@ -286,8 +300,9 @@ impl<T: Real> JointEffect<T> {
     }
 }
 
-/// The sign of a change as an approach direction: +1, −1, or 0 when there is
-/// none (a joint that did not move, or NaN).
+/// The sign of a change: +1, −1, or 0 when there is none (no change, or NaN).
+/// A joint's approach direction is this sign only when the joint moved: one that
+/// holds keeps its previous direction ([`approach_sign`]).
 #[inline]
 pub fn direction<T: Real>(d: T) -> T {
     if d > T::zero() {
@@ -348,24 +363,70 @@ pub fn one_of_each() -> [Effect<f64>; 5] {
     ]
 }
 
-/// The approach direction of each joint: the sign of its change from the
-/// previous reading (0 for the first pose, or when it did not move). This is how
-/// `FORMAT.md` reads row order, and how the controller reads its command stream.
-pub fn approach_signs<T: Real>(previous: Option<&[T]>, q: &[T]) -> Vec<i8, MAX_JOINTS> {
-    q.iter()
-        .enumerate()
-        .map(
-            |(j, qj)| match previous.and_then(|p| p.get(j)).map(|p| *qj - *p) {
-                Some(d) if d > T::zero() => 1,
-                Some(d) if d < T::zero() => -1,
+/// One joint's approach direction after a change `change` of its value: +1 or
+/// −1, the sign of the change, or `previous` (the direction it had) when the
+/// change is exactly zero, or NaN: a joint that holds stays on the flank of its
+/// last move (see the module header).
+#[inline]
+pub fn approach_sign<T: Real>(change: T, previous: i8) -> i8 {
+    if change > T::zero() {
+        1
+    } else if change < T::zero() {
+        -1
+    } else {
+        previous
+    }
+}
+
+/// The approach direction of every joint along a stream of rows (readings in
+/// measurement order, or commands in the order sent): each joint's sign is
+/// that of its last change, held while the joint holds, and 0 until the joint
+/// has first moved (so every sign of the first row is 0). See the module header.
+///
+/// ```
+/// use armcal_shared::effects::Approach;
+/// let mut approach = Approach::new();
+/// assert_eq!(approach.next(&[0.0, 0.0]), [0, 0]);
+/// assert_eq!(approach.next(&[0.1, 0.0]), [1, 0]);
+/// assert_eq!(approach.next(&[0.1, -0.2]), [1, -1]);
+/// assert_eq!(approach.next(&[0.0, -0.2]), [-1, -1]);
+/// ```
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Approach {
+    /// The last row's values (as f64: exact for f32 and f64 values).
+    last: Vec<f64, MAX_JOINTS>,
+    /// Each joint's sign after the last row.
+    signs: Vec<i8, MAX_JOINTS>,
+}
+
+impl Approach {
+    /// No row yet.
+    pub const fn new() -> Self {
+        Self {
+            last: Vec::new(),
+            signs: Vec::new(),
+        }
+    }
+
+    /// The signs at row `q`, which follows the rows already given; `q` becomes
+    /// the last row. A joint the previous row did not have starts at 0.
+    pub fn next<T: Real>(&mut self, q: &[T]) -> Vec<i8, MAX_JOINTS> {
+        let signs: Vec<i8, MAX_JOINTS> = q
+            .iter()
+            .enumerate()
+            .map(|(j, qj)| match (self.last.get(j), self.signs.get(j)) {
+                (Some(last), Some(sign)) => approach_sign(qj.to_f64() - *last, *sign),
                 _ => 0,
-            },
-        )
-        .collect()
+            })
+            .collect();
+        self.last = q.iter().map(|qj| qj.to_f64()).collect();
+        self.signs.clone_from(&signs);
+        signs
+    }
 }
 
 /// `σ_j` of the context as a scalar (0 when unknown).
-fn approach_sign<T: Real>(ctx: &Context<T>, joint: usize) -> T {
+fn context_sign<T: Real>(ctx: &Context<T>, joint: usize) -> T {
     match ctx.approach.get(joint) {
         Some(s) if *s > 0 => T::one(),
         Some(s) if *s < 0 => -T::one(),
@@ -610,7 +671,7 @@ impl<T: Real> EffectModel<T> {
             .zip(&tau)
             .zip(&effects)
             .enumerate()
-            .map(|(j, ((&qj, &tau), e))| qj + e.correction(qj, tau, approach_sign(ctx, j)))
+            .map(|(j, ((&qj, &tau), e))| qj + e.correction(qj, tau, context_sign(ctx, j)))
             .collect())
     }
 

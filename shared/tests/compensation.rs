@@ -5,7 +5,7 @@
 //! its effects, in the tick's context, reach the nominal model's pose.
 
 use armcal_shared::compensation::{Compensator, Conditions, Fault, Limits, Previous, Workspace};
-use armcal_shared::effects::{Context, Effect, EffectModel, approach_signs, one_of_each};
+use armcal_shared::effects::{Approach, Context, Effect, EffectModel, one_of_each};
 use armcal_shared::{Convention, JointType, Link, Param, Robot};
 use nalgebra::IsometryMatrix3;
 use proptest::prelude::*;
@@ -263,18 +263,16 @@ fn run<T: armcal_shared::Real>(
     let mut out = Vec::new();
     let mut last: Option<(Vec<T>, Vec<T>, Vec<T>)> = None;
     let mut work = Workspace::new();
+    let mut approach = Approach::new();
     for q_cmd in commands {
         let q_cmd = cast(q_cmd);
         let previous = last.as_ref().map(|(q_cmd, q, p)| Previous { q_cmd, q, p });
         let c = comp.correct_with(&q_cmd, previous, &conditions, &mut work);
         let q: Vec<f64> = c.q.iter().map(|x| x.to_f64()).collect();
-        let sent: Option<Vec<f64>> = last
-            .as_ref()
-            .map(|(_, q, _)| q.iter().map(|x| x.to_f64()).collect());
         let ctx = Context {
             temperature: conditions.temperature.map(|x| x.to_f64()),
             payload: conditions.payload.map(|x| x.to_f64()),
-            approach: approach_signs(sent.as_deref(), &q),
+            approach: approach.next(&q),
         };
         out.push((q, c.fault, ctx));
         last = Some((q_cmd, c.q.to_vec(), c.p.to_vec()));

@@ -1,6 +1,8 @@
 //! The effect library: each correction is the physics its documentation states.
 
-use armcal_shared::effects::{Context, Effect, EffectModel, gravity_torques};
+use armcal_shared::effects::{
+    Approach, Context, Effect, EffectModel, approach_sign, gravity_torques,
+};
 use armcal_shared::{Convention, Frame, JointType, Link, LinkMass, Robot};
 use nalgebra::Vector3;
 use proptest::prelude::*;
@@ -115,6 +117,99 @@ proptest! {
         let unknown = model.forward(&q, &ctx(None)).unwrap().to_homogeneous();
         let plain = robot.forward(&q).unwrap().to_homogeneous();
         prop_assert!((at_ref - plain).abs().max() < 1e-15 && (unknown - plain).abs().max() == 0.0);
+    }
+}
+
+/// A joint's approach sign is the sign of its change, and the sign it had when
+/// the change is zero: a gear that holds stays on the flank it last approached.
+#[test]
+fn a_holding_joint_keeps_its_approach_sign() {
+    for previous in [-1i8, 0, 1] {
+        assert_eq!(approach_sign(0.3f64, previous), 1);
+        assert_eq!(approach_sign(-1e-300f64, previous), -1);
+        assert_eq!(approach_sign(f64::MIN_POSITIVE, previous), 1);
+        assert_eq!(approach_sign(0.0f64, previous), previous);
+        assert_eq!(approach_sign(-0.0f32, previous), previous);
+        assert_eq!(approach_sign(2.5e-7f32, previous), 1);
+    }
+}
+
+/// The rows of a single-joint sweep of a three-joint arm: the first row, a move
+/// of joint 1 up and joint 3 down, then joint 2 moving up in four steps and down
+/// in four while the others hold (joint 2 never moved before the sweep).
+fn single_joint_sweep() -> Vec<[f64; 3]> {
+    let mut rows = vec![[0.2, -0.4, 0.7], [0.5, -0.4, 0.3]];
+    for step in (1..=4).chain((0..4).rev()) {
+        rows.push([0.5, -0.4 + 0.1 * f64::from(step), 0.3]);
+    }
+    rows
+}
+
+/// A single-joint sweep: the first row has no history (every σ = 0); a joint
+/// keeps the sign of its last move while it holds (joints 1 and 3 through the
+/// whole sweep of joint 2), a joint that has not yet moved stays at 0 (joint 2
+/// before the sweep), and the sweeping joint takes the sign of each step.
+#[test]
+fn single_joint_sweep_holds_the_other_joints_signs() {
+    let mut approach = Approach::new();
+    let signs: Vec<Vec<i8>> = single_joint_sweep()
+        .iter()
+        .map(|q| approach.next(q).to_vec())
+        .collect();
+    let mut want = vec![vec![0, 0, 0], vec![1, 0, -1]];
+    want.extend((0..4).map(|_| vec![1, 1, -1]));
+    want.extend((0..4).map(|_| vec![1, -1, -1]));
+    assert_eq!(signs, want);
+    // f32 readings give the same signs.
+    let mut approach = Approach::new();
+    for (q, want) in single_joint_sweep().iter().zip(&want) {
+        let q32 = q.map(|x| x as f32);
+        assert_eq!(&approach.next(&q32)[..], &want[..]);
+    }
+}
+
+/// Along a single-joint sweep, a model with backlash `b_j` on every joint puts
+/// each joint at `q_j + b_j σ_j`, `σ_j` the direction of the joint's last move
+/// before this row (found here by looking back along the rows), 0 before its
+/// first move: the holding joints stay on their flank (±b), not in the middle.
+#[test]
+fn backlash_puts_a_holding_joint_on_the_flank_of_its_last_move() {
+    let links = [
+        Link::new(JointType::Revolute, 0.0, 0.3, 0.4, 1.2),
+        Link::new(JointType::Revolute, 0.5, 0.0, 0.6, -0.4),
+        Link::new(JointType::Revolute, -0.2, 0.1, 0.3, 0.0),
+    ];
+    let robot = Robot::new(Convention::Dh, &links).unwrap();
+    let b = [2e-3, -1e-3, 3e-3];
+    let effects: Vec<Effect<f64>> = (0..3)
+        .map(|joint| Effect::Backlash {
+            joint,
+            half_lost_motion: b[joint],
+        })
+        .collect();
+    let model = EffectModel::new(robot.clone(), &effects).unwrap();
+    let rows = single_joint_sweep();
+    let mut approach = Approach::new();
+    for (r, q) in rows.iter().enumerate() {
+        let ctx = Context {
+            approach: approach.next(q),
+            ..Context::default()
+        };
+        let last_move = |j: usize| -> f64 {
+            (1..=r)
+                .rev()
+                .map(|k| rows[k][j] - rows[k - 1][j])
+                .find(|d| *d != 0.0)
+                .map_or(0.0, f64::signum)
+        };
+        let reached: Vec<f64> = (0..3).map(|j| q[j] + b[j] * last_move(j)).collect();
+        // Exact: the model adds 0 + 0 · q + b σ to each reading.
+        let a = model.forward(q, &ctx).unwrap();
+        assert_eq!(a, robot.forward(&reached).unwrap(), "row {r}");
+        if r >= 2 {
+            // Joints 1 and 3 hold through the sweep, on their flanks.
+            assert_eq!((reached[0], reached[2]), (q[0] + b[0], q[2] - b[2]));
+        }
     }
 }
 

@@ -104,18 +104,18 @@ pub enum IdentifyError {
 
 /// The observations of `data`, SI, with each pose's context: temperature and
 /// payload from the `temp` and `load` columns, and the approach direction of
-/// every joint from row order (the sign of its change from the previous row).
+/// every joint from row order (the sign of its last change, held while the joint
+/// holds: [`armcal_shared::effects::Approach`]).
 pub fn observations(data: &Measurements) -> Vec<Observation> {
-    let mut previous: Option<&[f64]> = None;
+    let mut approach = armcal_shared::effects::Approach::new();
     data.poses
         .iter()
         .map(|p| {
             let context = armcal_shared::effects::Context {
                 temperature: p.temp,
                 payload: p.load,
-                approach: armcal_shared::effects::approach_signs(previous, &p.q),
+                approach: approach.next(&p.q),
             };
-            previous = Some(&p.q);
             Observation {
                 q: p.q.clone(),
                 position: p.position,

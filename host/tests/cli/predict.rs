@@ -406,7 +406,7 @@ fn compensate_makes_the_calibrated_robot_reach_the_nominal_pose() {
 /// `armcal compensate` with a calibration from `armcal diagnose` (geometry and
 /// every kind of effect) applies the effects in each row's conditions (the
 /// `temp` and `load` columns) with the approach direction of each joint from the
-/// previous output row: the calibrated model with its effects, evaluated as
+/// output rows before (held while the joint holds): the calibrated model with its effects, evaluated as
 /// `armcal predict` evaluates it on the output rows with the same columns,
 /// reaches the nominal pose. Tolerance: 1 nm of the geometric step plus at most
 /// 1e-9 rad per joint left by the inversion at the UR10e's 1.6 m reach, 11 nm
@@ -414,7 +414,7 @@ fn compensate_makes_the_calibrated_robot_reach_the_nominal_pose() {
 /// Without the columns (20 °C, no payload) the commands differ.
 #[test]
 fn compensate_applies_the_effects_in_each_rows_context() {
-    use armcal_shared::effects::{Context, approach_signs, one_of_each};
+    use armcal_shared::effects::{Approach, Context, one_of_each};
     let model = load_model("ur10e").unwrap();
     let mut cal = calibration(&model, true, &[("alpha2", 1.2e-3), ("a3", -0.8e-3)]);
     for effect in one_of_each() {
@@ -425,14 +425,13 @@ fn compensate_applies_the_effects_in_each_rows_context() {
     let (commands, text) = ur10e_commands(|r| format!(",{},{}", temp(r), load(r)));
     let rows = compensate_rows(&cal, &format!("q1,q2,q3,q4,q5,q6,temp,load\n{text}"));
     let effect_model = cal.model();
-    let mut previous: Option<&[f64]> = None;
+    let mut approach = Approach::new();
     for (r, (q, q_cmd)) in rows.iter().zip(&commands).enumerate() {
         let ctx = Context {
             temperature: Some(temp(r)),
             payload: Some(load(r)),
-            approach: approach_signs(previous, q),
+            approach: approach.next(q),
         };
-        previous = Some(q);
         let target = cal.nominal.forward(q_cmd).unwrap();
         let reached = effect_model.forward(q, &ctx).unwrap();
         let dp = (target.translation.vector - reached.translation.vector).norm();

@@ -33,8 +33,8 @@
 //! command *sent* to joint `j`: `sign(q_j − q_prev_j)`, and, when the joint does
 //! not move, the direction it had (a gear stays on the flank it last approached
 //! from); 0 only for a joint that has not moved since the stream began. This is
-//! [`crate::effects`]' convention for rows in measurement order, so the tick and
-//! the fit agree. For a joint with backlash, with `d_j = (p_j − o_j)/(1 + ε_j) −
+//! [`crate::effects::approach_sign`], the convention of the rows the calibration
+//! was fitted to, so the tick and the fit agree. For a joint with backlash, with `d_j = (p_j − o_j)/(1 + ε_j) −
 //! q_prev_j` the move that reaches `p_j` without lost motion, `σ_j = sign(d_j)`
 //! and `q_j = q_prev_j + d_j − b_j σ_j / (1 + ε_j)`, consistent when that move,
 //! as rounded, still has the sign `σ_j` (a joint moving on, or reversing by more
@@ -46,23 +46,21 @@
 //! [`Fault::NotConverged`](super::Fault::NotConverged) with that residual.
 
 use super::{Compensator, Geometry, larger};
-use crate::effects::{JointEffect, Masses, direction};
+use crate::effects::{JointEffect, Masses, approach_sign, direction};
 use crate::servo_chain::ServoChain;
 use crate::{JointType, Real, Robot};
 
 /// The context of the inversion: the commands sent at the previous tick and
 /// each joint's approach direction after them (−1, 0 or +1).
-pub(crate) type Approach<'a, T> = Option<(&'a [T], &'a [T])>;
+pub(crate) type Approach<'a, T> = Option<(&'a [T], &'a [i8])>;
 
-/// The approach direction after a move `change` of the command from a joint
-/// whose direction was `previous`: the move's sign, or `previous` when the
-/// joint did not move.
+/// An approach direction as a scalar.
 #[inline]
-pub fn held_direction<T: Real>(change: T, previous: T) -> T {
-    if change == T::zero() {
-        previous
-    } else {
-        direction(change)
+fn sign<T: Real>(s: i8) -> T {
+    match s {
+        1 => T::one(),
+        -1 => -T::one(),
+        _ => T::zero(),
     }
 }
 
@@ -139,7 +137,7 @@ impl<T: Real> Compensator<T> {
     pub(crate) fn reached(&self, q: &[T], tau: &[T], approach: Approach<'_, T>, out: &mut [T]) {
         for (m, joint) in self.joints.iter().enumerate().take(out.len()) {
             let sigma = approach.map_or(T::zero(), |(sent, signs)| {
-                held_direction(q[m] - sent[m], signs[m])
+                sign(approach_sign(q[m] - sent[m], signs[m]))
             });
             out[m] = q[m] + joint.effect.correction(q[m], tau[m], sigma);
         }

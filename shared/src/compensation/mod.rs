@@ -335,7 +335,7 @@ pub(crate) struct Previous<'a, T: Real> {
     /// The joint positions its commands aimed at.
     pub p: &'a [T],
     /// Each joint's approach direction after it: −1, 0 (never moved) or +1.
-    pub approach: &'a [T],
+    pub approach: &'a [i8],
 }
 
 /// Whether `x` is finite: `x − x` is 0 for a finite `x` and NaN otherwise.

@@ -23,7 +23,7 @@
 //! [`Fault::JointCount`]) the next one is a first tick: no approach direction
 //! is known and the search starts cold.
 
-use super::inversion::held_direction;
+use crate::effects::approach_sign;
 use super::start::Start;
 use super::{Compensator, Conditions, Correction, Fault, Joints, Previous, Workspace};
 use crate::{MAX_JOINTS, Real};
@@ -49,7 +49,7 @@ struct Sent<T: Real> {
     /// The joint positions they aimed at.
     p: Joints<T>,
     /// Each joint's approach direction after it: −1, 0 (never moved) or +1.
-    approach: Joints<T>,
+    approach: [i8; MAX_JOINTS],
     /// The number of joints; 0 before the first tick.
     joints: usize,
 }
@@ -72,7 +72,7 @@ impl<T: Real> Stream<T> {
                 sent: [T::zero(); MAX_JOINTS],
                 q: [T::zero(); MAX_JOINTS],
                 p: [T::zero(); MAX_JOINTS],
-                approach: [T::zero(); MAX_JOINTS],
+                approach: [0; MAX_JOINTS],
                 joints: 0,
             },
             work: Workspace::new(),
@@ -139,10 +139,10 @@ impl<T: Real> Stream<T> {
                 c.fault = c.fault.or(Some(Fault::Limited));
             }
         }
-        let mut approach = [T::zero(); MAX_JOINTS];
+        let mut approach = [0; MAX_JOINTS];
         if let Some(prev) = previous {
             for (m, a) in approach.iter_mut().enumerate().take(n) {
-                *a = held_direction(c.q[m] - prev.sent[m], prev.approach[m]);
+                *a = approach_sign(c.q[m] - prev.sent[m], prev.approach[m]);
             }
         }
         let last = &mut self.previous;
