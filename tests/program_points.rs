@@ -132,7 +132,12 @@ fn sigma_min(robot: &Robot<f64>, q: &[f64]) -> f64 {
 
 /// The true robot's RMS miss of the targets when it is sent `sent` in order
 /// (m): targets are the nominal model's points at `commands`.
-fn rms_miss(truth: &EffectModel<f64>, nominal: &Robot<f64>, commands: &[Vec<f64>], sent: &[Vec<f64>]) -> f64 {
+fn rms_miss(
+    truth: &EffectModel<f64>,
+    nominal: &Robot<f64>,
+    commands: &[Vec<f64>],
+    sent: &[Vec<f64>],
+) -> f64 {
     // Each joint approaches from the direction of its last move, held while
     // it holds.
     let mut approach = Approach::new();
@@ -154,7 +159,12 @@ fn rms_miss(truth: &EffectModel<f64>, nominal: &Robot<f64>, commands: &[Vec<f64>
 /// a tilt `tilt:JOINT`, or none), diagnosed, and 40 program points
 /// compensated; returns the true robot's RMS miss (m) with the nominal
 /// commands and with the compensated ones, and the calibration.
-fn program_points(robot_name: &str, hidden: Option<&str>, full_pose: bool, seed: u64) -> (f64, f64, Calibration) {
+fn program_points(
+    robot_name: &str,
+    hidden: Option<&str>,
+    full_pose: bool,
+    seed: u64,
+) -> (f64, f64, Calibration) {
     let model = robot(robot_name);
     let nominal = &model.robot;
     let dof = nominal.dof();
@@ -223,7 +233,12 @@ fn program_points(robot_name: &str, hidden: Option<&str>, full_pose: bool, seed:
 /// the compensated program points are within 0.04 mm RMS of their targets.
 fn every_effect(robot_name: &str, joint: usize, tilt: Option<usize>, full_pose: bool) {
     let mut hidden: Vec<Option<String>> = vec![None];
-    for effect in ["joint_compliance", "gear_transmission", "backlash", "encoder_scale"] {
+    for effect in [
+        "joint_compliance",
+        "gear_transmission",
+        "backlash",
+        "encoder_scale",
+    ] {
         hidden.push(Some(format!("{effect}:{joint}")));
     }
     hidden.push(Some("thermal_expansion".into()));
@@ -232,7 +247,8 @@ fn every_effect(robot_name: &str, joint: usize, tilt: Option<usize>, full_pose: 
     }
     let mut failures = Vec::new();
     for (i, h) in hidden.iter().enumerate() {
-        let (before, after, cal) = program_points(robot_name, h.as_deref(), full_pose, 11 + i as u64);
+        let (before, after, cal) =
+            program_points(robot_name, h.as_deref(), full_pose, 11 + i as u64);
         let found: Vec<String> = cal.effects.iter().map(|e| format!("{e:?}")).collect();
         eprintln!(
             "{robot_name} {} hidden {:?}: nominal {:.3} mm, compensated {:.4} mm RMS (calibration effects {found:?})",
@@ -241,12 +257,18 @@ fn every_effect(robot_name: &str, joint: usize, tilt: Option<usize>, full_pose: 
             before * 1e3,
             after * 1e3
         );
-        assert!(before > 2e-4, "the uncompensated robot misses by {before:e} m only");
+        assert!(
+            before > 2e-4,
+            "the uncompensated robot misses by {before:e} m only"
+        );
         if after > 4e-5 {
             failures.push(format!("{h:?}: {:.4} mm", after * 1e3));
         }
     }
-    assert!(failures.is_empty(), "{robot_name}: {failures:?} RMS, above 0.04 mm");
+    assert!(
+        failures.is_empty(),
+        "{robot_name}: {failures:?} RMS, above 0.04 mm"
+    );
 }
 
 #[test]
@@ -324,7 +346,15 @@ fn targets_in_the_base_frame_leave_the_registration_alone() {
         let c = in_base.correct(&q, &none);
         assert_eq!(c.fault, None, "{q:?}");
         assert_eq!(c.q, alone.correct(&q, &none).q);
-        clipped += usize::from(in_world.correct(&q, &none).fault.is_some_and(|f| f == Fault::Limited || f == Fault::NotConverged));
+        clipped += usize::from(
+            in_world
+                .correct(&q, &none)
+                .fault
+                .is_some_and(|f| f == Fault::Limited || f == Fault::NotConverged),
+        );
     }
-    assert!(clipped > 0, "the world frame would move the arm by the registration");
+    assert!(
+        clipped > 0,
+        "the world frame would move the arm by the registration"
+    );
 }

@@ -77,7 +77,7 @@ pub struct Compensated {
 
 /// Compensates every row of `commands` in order, with `pacing`.
 pub fn compensate(cal: &Calibration, commands: &JointRows, pacing: Pacing) -> Compensated {
-    let compensator = Compensator::<f64>::from_calibration(cal, limits(pacing));
+    let compensator = Compensator::<f64>::from_calibration(cal, Limits::of(pacing));
     let mut stream = Stream::new(pacing);
     let rows = commands
         .rows
@@ -88,19 +88,6 @@ pub fn compensate(cal: &Calibration, commands: &JointRows, pacing: Pacing) -> Co
         })
         .collect();
     Compensated { rows }
-}
-
-/// The bounds of `pacing`: the controller's for servo ticks; for a program's
-/// points the same size bound and tolerance, more iterations (each point
-/// starts from its own command, and the cost of a row is no servo deadline).
-pub fn limits(pacing: Pacing) -> Limits<f64> {
-    match pacing {
-        Pacing::Servo => Limits::default(),
-        Pacing::Program => Limits {
-            max_iterations: 20,
-            ..Limits::default()
-        },
-    }
 }
 
 impl Compensated {

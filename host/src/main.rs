@@ -17,9 +17,9 @@ use armcal::input_error::InputError;
 use armcal::{
     builtin, compensate, link, measurements, model_file, output, predict, reproduce, simulate,
 };
-use armcal_shared::{Calibration, TargetFrame};
 use armcal_shared::compensation::Pacing;
 use armcal_shared::link::Request;
+use armcal_shared::{Calibration, TargetFrame};
 use clap::{Parser, Subcommand};
 
 /// armcal makes serial robot arms accurate: it identifies the errors of their
@@ -581,7 +581,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         } => {
             let cal = predict::load_calibration(&calibration)?;
             let rows = measurements::load_joints(&joints, &cal.nominal, &cal.units)?;
-            let pacing = if servo { Pacing::Servo } else { Pacing::Program };
+            let pacing = if servo {
+                Pacing::Servo
+            } else {
+                Pacing::Program
+            };
             let result = compensate::compensate(&cal, &rows, pacing);
             let csv = result.to_csv(&cal, &calibration);
             for w in rows.warnings.iter().chain(&result.warnings(&joints)) {

@@ -154,7 +154,10 @@ fn the_frame_of_the_targets_and_version_2_files() {
     let mut cal = sample();
     cal.targets = TargetFrame::Base;
     let bytes = bytes_of(&cal).unwrap();
-    assert_eq!(Calibration::decode(&bytes).unwrap().targets, TargetFrame::Base);
+    assert_eq!(
+        Calibration::decode(&bytes).unwrap().targets,
+        TargetFrame::Base
+    );
     // The base frame leaves the base errors out of the compensation.
     let compensated: Vec<Param> = cal.compensated_errors().map(|e| e.param).collect();
     assert_eq!(compensated.len(), cal.errors.len() - 1);

@@ -246,4 +246,3 @@ impl<T: Real> Slopes<T> {
         }
     }
 }
-

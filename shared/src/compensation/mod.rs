@@ -96,11 +96,11 @@ pub mod start;
 pub mod step_bound;
 pub mod stream;
 
+pub use crate::calibration::TargetFrame;
 use factors::Factors;
 use inversion::Slopes;
 use newton::Steps;
 use start::Start;
-pub use crate::calibration::TargetFrame;
 pub use stream::{Pacing, Stream};
 
 /// The conditions of one tick that non-geometric effects depend on.
@@ -153,6 +153,22 @@ impl<T: Real> Default for Limits<T> {
             max_iterations: 4,
             damping: T::lit(1e-4),
             length_scale: T::one(),
+        }
+    }
+}
+
+impl<T: Real> Limits<T> {
+    /// The limits of a [`Pacing`]: [`Limits::default`] for servo ticks (the
+    /// controller's deadline fixes the iterations); for a program's points the
+    /// same bounds and tolerance with 20 iterations (each point starts from its
+    /// own command, and a row has no servo deadline).
+    pub fn of(pacing: Pacing) -> Self {
+        match pacing {
+            Pacing::Servo => Self::default(),
+            Pacing::Program => Self {
+                max_iterations: 20,
+                ..Self::default()
+            },
         }
     }
 }
@@ -533,7 +549,13 @@ impl<T: Real> Compensator<T> {
         };
         if self
             .nominal
-            .servo_chain_with(q_cmd, T::one(), wanted, Sines::Record(angles), &mut tick.chain)
+            .servo_chain_with(
+                q_cmd,
+                T::one(),
+                wanted,
+                Sines::Record(angles),
+                &mut tick.chain,
+            )
             .is_err()
         {
             return unchanged(Fault::JointCount);
@@ -587,7 +609,15 @@ impl<T: Real> Compensator<T> {
         let q = &mut x[..n];
         if self.corrects_joints {
             let approach = previous.map(|prev| (prev.sent, prev.approach));
-            match self.invert(&geometry, q, &p[..n], &mut tau[..n], approach, payload, chain) {
+            match self.invert(
+                &geometry,
+                q,
+                &p[..n],
+                &mut tau[..n],
+                approach,
+                payload,
+                chain,
+            ) {
                 None => return unchanged(Fault::NonFinite),
                 Some(false) => {}
                 Some(true) => {
@@ -608,7 +638,9 @@ impl<T: Real> Compensator<T> {
         let mut outputs = T::zero();
         for ((qm, c), joint) in q.iter_mut().zip(q_cmd).zip(&self.joints) {
             let correction = *qm - *c;
-            let bounded = correction.max(-joint.max_correction).min(joint.max_correction);
+            let bounded = correction
+                .max(-joint.max_correction)
+                .min(joint.max_correction);
             if bounded != correction {
                 fault = fault.or(Some(Fault::Limited));
             }

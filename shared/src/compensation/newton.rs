@@ -29,7 +29,7 @@ use super::start::Start;
 use super::step_bound::Bounded;
 use super::{Compensator, Fault, Geometry, Joints, Tick};
 use crate::servo_chain::ServoChain;
-use crate::{MAX_JOINTS, Real};
+use crate::{JointType, MAX_JOINTS, Real};
 
 /// The work arrays of the geometric problem.
 #[derive(Clone, Debug)]
@@ -139,7 +139,13 @@ impl<T: Real> Compensator<T> {
         let mut predicted = start == Start::Warm;
         let mut residual = self.residual(target, &chain.end);
         let mut iterations = 0;
-        while residual.1 > tolerance * tolerance && iterations < self.limits.max_iterations {
+        // Where joints remain beyond the task's rows, the least correction is
+        // reached when a step no longer moves the joints (the task's residual
+        // says nothing of the null space): until then the search goes on.
+        let mut settling = self.redundant;
+        while (residual.1 > tolerance * tolerance || settling)
+            && iterations < self.limits.max_iterations
+        {
             iterations += 1;
             let (reach, mut r) = if predicted {
                 self.jacobian_predicted(chain, jac, &residual.0, first)
@@ -148,8 +154,9 @@ impl<T: Real> Compensator<T> {
             };
             // Stale factors only in the first iteration of a warm tick:
             // otherwise the configuration has moved by more than a tick's motion.
-            let mut fresh = !(predicted && iterations == 1 && factors.freshness == Freshness::Stale);
-            loop {
+            let mut fresh =
+                !(predicted && iterations == 1 && factors.freshness == Freshness::Stale);
+            let bound = loop {
                 if fresh {
                     factors
                         .factor(jac, self.damping2())
@@ -165,22 +172,43 @@ impl<T: Real> Compensator<T> {
                     r = self.predicted(chain, jac, y.map(|y| lambda2 * y), first);
                 }
                 let c = self.offset(&mut offset[..n], p, q_cmd, Some(first));
-                match self.step(chain, jac, factors, &residual.0, first, &r, c, second, reach) {
+                match self.step(
+                    chain,
+                    jac,
+                    factors,
+                    &residual.0,
+                    first,
+                    &r,
+                    c,
+                    second,
+                    reach,
+                ) {
                     Some(Bounded {
                         bound: Some(bound),
                         whole: true,
-                    }) if bound <= tolerance => {
-                        take(p, second);
-                        return Ok(Solved {
-                            iterations,
-                            residual2: bound * bound,
-                            bound: Some(bound),
-                        });
-                    }
+                    }) if bound <= tolerance => break Some(bound),
                     None if fresh => return Err(Fault::NonFinite),
-                    _ if fresh => break,
+                    _ if fresh => break None,
                     _ => fresh = true,
                 }
+            };
+            if let Some(bound) = bound {
+                // The residual after the step is bounded below the tolerance:
+                // taken without evaluating the chain there, unless the null
+                // space is still settling.
+                take(p, second);
+                settling = self.redundant && !self.settled(second);
+                if !settling {
+                    return Ok(Solved {
+                        iterations,
+                        residual2: bound * bound,
+                        bound: Some(bound),
+                    });
+                }
+                geometry.chain(p, true, false, chain)?;
+                residual = self.residual(target, &chain.end);
+                predicted = false;
+                continue;
             }
             // The fallback's first candidate after the step: the first-order
             // step (the loop above left fresh factors).
@@ -191,9 +219,13 @@ impl<T: Real> Compensator<T> {
                     .ok_or(Fault::NonFinite)?;
             }
             self.trust(first);
-            // Take a step only if it lowers the residual: the second-order one
+            // Take a step only if it lowers the residual (or, settling the
+            // null space, keeps it within the tolerance): the second-order one
             // (eq. 4.9) first, then the first-order one, each halved up to
             // three times.
+            let acceptable = |candidate: T, current: T| {
+                candidate < current || (settling && candidate <= tolerance * tolerance)
+            };
             let mut improved = false;
             'candidates: for step in [&mut *second, &mut *first] {
                 for _ in 0..4 {
@@ -202,9 +234,10 @@ impl<T: Real> Compensator<T> {
                     }
                     geometry.chain(trial, true, false, chain)?;
                     let candidate = self.residual(target, &chain.end);
-                    if candidate.1 < residual.1 {
+                    if acceptable(candidate.1, residual.1) {
                         (residual, improved) = (candidate, true);
                         take(p, step);
+                        settling = self.redundant && !self.settled(step);
                         break 'candidates;
                     }
                     step.iter_mut().for_each(|d| *d *= T::lit(0.5));
@@ -218,6 +251,19 @@ impl<T: Real> Compensator<T> {
             iterations,
             residual2: residual.1,
             bound: None,
+        })
+    }
+
+    /// Whether a step `d` no longer moves the joints: each by at most the
+    /// tolerance (a revolute joint's turn weighed at the length scale).
+    fn settled(&self, d: &[T]) -> bool {
+        let ls = self.limits.length_scale;
+        self.joints.iter().zip(d).all(|(joint, d)| {
+            let moved = match joint.kind {
+                JointType::Revolute => d.abs() * ls,
+                JointType::Prismatic => d.abs(),
+            };
+            moved <= self.limits.tolerance
         })
     }
 
@@ -298,7 +344,9 @@ impl<T: Real> Compensator<T> {
             // J'| |δ − δ₀|` besides: measured, `ℓ = r − J (δ − δ₀)`.
             _ => {
                 let moved = apply(jac, second);
-                r.iter().zip(moved).fold(T::zero(), |s, (r, m)| s + (*r - m).abs())
+                r.iter()
+                    .zip(moved)
+                    .fold(T::zero(), |s, (r, m)| s + (*r - m).abs())
             }
         };
         if !linear.is_finite() {

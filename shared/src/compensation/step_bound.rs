@@ -310,16 +310,15 @@ fn column<T: Real>(
     }
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::MAX_JOINTS;
     use crate::jacobian::at_point;
     use crate::perturbation::expand;
     use crate::servo_chain::Wanted;
-    use crate::MAX_JOINTS;
-    use heapless::Vec;
     use crate::{Convention, Link, Param, Robot};
+    use heapless::Vec;
 
     /// [`second_order`] is the second-order part of [`expand`] for joint
     /// errors, in both conventions, with revolute and prismatic joints, with

@@ -23,9 +23,9 @@
 //! [`Fault::JointCount`]) the next one is a first tick: no approach direction
 //! is known and the search starts cold.
 
-use crate::effects::approach_sign;
 use super::start::Start;
 use super::{Compensator, Conditions, Correction, Fault, Joints, Previous, Workspace};
+use crate::effects::approach_sign;
 use crate::{MAX_JOINTS, Real};
 
 /// What the rows of a stream are.
