@@ -37,7 +37,9 @@
 //!   least correction `p − q_cmd` that reaches the target: each step solves for
 //!   the whole correction (`J⁺ (r + J c)` in place of `c + J⁺ r`, with `c` the
 //!   correction so far), so the null-space part of the correction is removed
-//!   at every step, from whichever start. It is measured from `q_cmd`, never
+//!   at every step, from whichever start, and the search goes on until a step
+//!   no longer moves the joints (the task's residual says nothing of the null
+//!   space). It is measured from `q_cmd`, never
 //!   from the previous tick, and it keeps the tool's orientation within the
 //!   correction's size of the nominal command's. Position rows alone with steps
 //!   from the previous tick would leave three directions free, along which a
