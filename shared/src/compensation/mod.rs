@@ -289,7 +289,7 @@ pub struct Workspace<T: Real> {
     /// The last servo tick's change of the correction `p − q_cmd` from the
     /// tick before, when both converged from a warm start: the next predictor
     /// extrapolates it.
-    pub(crate) rate: Option<Joints<T>>,
+    pub(crate) rate: Rate<T>,
     /// The nominal chain's joint angles, their sines and cosines.
     pub(crate) angles: Angles<T>,
     pub(crate) tick: Tick<T>,
@@ -307,7 +307,10 @@ impl<T: Real> Workspace<T> {
         let zeros = [T::zero(); MAX_JOINTS];
         Self {
             factors: Factors::new(),
-            rate: None,
+            rate: Rate {
+                change: [T::zero(); MAX_JOINTS],
+                known: false,
+            },
             angles: Angles::default(),
             tick: Tick {
                 chain: ServoChain::default(),
@@ -319,6 +322,14 @@ impl<T: Real> Workspace<T> {
             },
         }
     }
+}
+
+/// The last servo tick's change of the correction `p − q_cmd` from the tick
+/// before, known when both converged from a warm start.
+#[derive(Clone, Debug)]
+pub(crate) struct Rate<T: Real> {
+    pub change: Joints<T>,
+    pub known: bool,
 }
 
 /// The work arrays of one tick, kept in the [`Workspace`] so that none is
@@ -338,6 +349,34 @@ pub(crate) struct Tick<T: Real> {
     pub reached: Joints<T>,
     /// The geometric problem's.
     pub steps: Steps<T>,
+}
+
+/// What [`Compensator::compute`] found besides the commands and positions in
+/// the [`Tick`].
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Answer<T: Real> {
+    /// Whether the residual is below the tolerance.
+    pub converged: bool,
+    /// Whether it converged from a warm start (the correction's change is
+    /// then the next predictor's rate).
+    pub extrapolates: bool,
+    /// Iterations run.
+    pub iterations: usize,
+    /// The residual, m (or its bound).
+    pub residual: T,
+}
+
+impl<T: Real> Correction<T> {
+    /// The command itself, flagged.
+    pub(crate) fn unchanged(q_cmd: &[T], fault: Fault) -> Self {
+        Self {
+            q: bounded(q_cmd.iter().copied()),
+            p: bounded(q_cmd.iter().copied()),
+            fault: Some(fault),
+            iterations: 0,
+            residual: T::zero(),
+        }
+    }
 }
 
 /// The previous tick as sent, the context of this one: the approach direction
@@ -361,6 +400,19 @@ pub(crate) struct Previous<'a, T: Real> {
 #[allow(clippy::eq_op)]
 pub(crate) fn is_finite<T: Real>(x: T) -> bool {
     x - x == T::zero()
+}
+
+/// `x` clamped to `[lo, hi]` if it lies outside (comparisons; `max` and `min`
+/// are library calls in f32 on the controller), else `None`.
+#[inline(always)]
+pub(crate) fn clamp<T: Real>(x: T, lo: T, hi: T) -> Option<T> {
+    if x < lo {
+        Some(lo)
+    } else if x > hi {
+        Some(hi)
+    } else {
+        None
+    }
 }
 
 /// The larger of two values (a comparison; `max` is a library call in f32 on
@@ -504,9 +556,11 @@ impl<T: Real> Compensator<T> {
         Stream::new(Pacing::Program).tick(self, q_cmd, conditions)
     }
 
-    /// One tick: the correction for `q_cmd` in `conditions` after `previous`,
-    /// searched from `start`; the size bound applied (the change bound is the
-    /// [`Stream`]'s). A warm search that does not converge is repeated cold.
+    /// One tick's answer for `q_cmd` in `conditions` after `previous`,
+    /// searched from `start`: the commands into `work.tick.x`, the joint
+    /// positions into `work.tick.p`, before any bound (the [`Stream`] applies
+    /// the bounds, in the pass that keeps the tick for the next). A warm search
+    /// that does not converge is repeated cold.
     pub(crate) fn compute(
         &self,
         q_cmd: &[T],
@@ -514,17 +568,10 @@ impl<T: Real> Compensator<T> {
         start: Start,
         conditions: &Conditions<T>,
         work: &mut Workspace<T>,
-    ) -> Correction<T> {
+    ) -> Result<Answer<T>, Fault> {
         let n = self.dof();
-        let unchanged = |fault| Correction {
-            q: bounded(q_cmd.iter().copied()),
-            p: bounded(q_cmd.iter().copied()),
-            fault: Some(fault),
-            iterations: 0,
-            residual: T::zero(),
-        };
         if q_cmd.len() != n {
-            return unchanged(Fault::JointCount);
+            return Err(Fault::JointCount);
         }
         // The inputs' check: their sum is finite exactly when each is, unless
         // it overflows beyond 10³⁸, which no joint value or condition reaches
@@ -534,7 +581,7 @@ impl<T: Real> Compensator<T> {
             |s, q| s + *q,
         );
         if !is_finite(inputs) {
-            return unchanged(Fault::NonFinite);
+            return Err(Fault::NonFinite);
         }
         let Workspace {
             factors,
@@ -560,7 +607,7 @@ impl<T: Real> Compensator<T> {
             )
             .is_err()
         {
-            return unchanged(Fault::JointCount);
+            return Err(Fault::JointCount);
         }
         let target = tick.chain.end;
         let geometry = Geometry {
@@ -579,7 +626,7 @@ impl<T: Real> Compensator<T> {
             let solved = self.search(&geometry, &target, q_cmd, payload, start, factors, tick);
             let solved = match solved {
                 Ok(s) => s,
-                Err(fault) => return unchanged(fault),
+                Err(fault) => return Err(fault),
             };
             iterations += solved.iterations;
             if solved.residual2 <= tolerance2 || start == Start::Cold {
@@ -587,17 +634,9 @@ impl<T: Real> Compensator<T> {
             }
             start = self.start(q_cmd, None, Start::Cold, rate, tick);
         };
-        // The correction's change, for the next warm tick's predictor.
-        *rate = match (start, previous) {
-            (Start::Warm, Some(prev)) if solved.residual2 <= tolerance2 => {
-                let mut r = [T::zero(); MAX_JOINTS];
-                for m in 0..n {
-                    r[m] = (tick.p[m] - q_cmd[m]) - (prev.p[m] - prev.q_cmd[m]);
-                }
-                Some(r)
-            }
-            _ => None,
-        };
+        // The correction's change is known for the next warm tick's
+        // predictor when this one converged from a warm start.
+        let extrapolates = start == Start::Warm && solved.residual2 <= tolerance2;
         let (mut residual2, mut norm) = (solved.residual2, solved.bound);
         // 2. The commands that put the joints at p (in place of the start).
         let Tick {
@@ -620,13 +659,13 @@ impl<T: Real> Compensator<T> {
                 payload,
                 chain,
             ) {
-                None => return unchanged(Fault::NonFinite),
+                None => return Err(Fault::NonFinite),
                 Some(false) => {}
                 Some(true) => {
                     // Held within a lost motion: where the joints really go.
                     self.reached(q, &tau[..n], approach, &mut reached[..n]);
                     if geometry.chain(&reached[..n], false, false, chain).is_err() {
-                        return unchanged(Fault::JointCount);
+                        return Err(Fault::JointCount);
                     }
                     residual2 = self.residual(&target, &chain.end).1;
                     norm = None;
@@ -635,30 +674,12 @@ impl<T: Real> Compensator<T> {
         } else {
             q.copy_from_slice(&p[..n]);
         }
-        let mut fault = (residual2 > tolerance2).then_some(Fault::NotConverged);
-        // The size bound.
-        let mut outputs = T::zero();
-        for ((qm, c), joint) in q.iter_mut().zip(q_cmd).zip(&self.joints) {
-            let correction = *qm - *c;
-            let bounded = correction
-                .max(-joint.max_correction)
-                .min(joint.max_correction);
-            if bounded != correction {
-                fault = fault.or(Some(Fault::Limited));
-            }
-            *qm = *c + bounded;
-            outputs += *qm;
-        }
-        if !is_finite(outputs + p.iter().take(n).fold(residual2, |s, v| s + *v)) {
-            return unchanged(Fault::NonFinite);
-        }
-        Correction {
-            q: bounded(q.iter().copied()),
-            p: bounded(p[..n].iter().copied()),
-            fault,
+        Ok(Answer {
+            converged: residual2 <= tolerance2,
+            extrapolates,
             iterations,
             residual: norm.unwrap_or_else(|| residual2.sqrt()),
-        }
+        })
     }
 
     /// The residual `e` (rotation scaled to a length, then position; the rotation
@@ -696,6 +717,15 @@ impl<T: Real> Compensator<T> {
     pub(crate) fn damping2(&self) -> T {
         self.limits.damping * self.limits.damping
     }
+}
+
+/// The first `n` values of `joints` as a list: the whole array copied (a
+/// fixed-size copy, written in place of the result), then cut to `n`.
+#[inline(always)]
+pub(crate) fn listed<T: Real>(joints: &Joints<T>, n: usize) -> Vec<T, MAX_JOINTS> {
+    let mut list = Vec::from_array(*joints);
+    list.truncate(n);
+    list
 }
 
 /// The calibrated geometry at one tick's temperature: the prepared model, the

@@ -16,7 +16,7 @@
 //!   step. `q_prev` is the previous answer before the change bound, so a tick
 //!   clipped by it does not bias the next start.
 
-use super::{Compensator, Joints, Previous, Tick};
+use super::{Compensator, Previous, Rate, Tick};
 use crate::Real;
 
 /// How a tick's search starts.
@@ -37,24 +37,26 @@ impl<T: Real> Compensator<T> {
         q_cmd: &[T],
         previous: Option<Previous<'_, T>>,
         wanted: Start,
-        rate: &Option<Joints<T>>,
+        rate: &Rate<T>,
         tick: &mut Tick<T>,
     ) -> Start {
         let x = &mut tick.x;
         if let (Start::Warm, Some(prev)) = (wanted, previous) {
+            // Every slice cut to the joints' count: no bound checks below.
+            let n = self.joints.len();
+            let from = if self.corrects_joints { prev.q } else { prev.p };
+            let (from, q_cmd_prev, p_prev) = (&from[..n], &prev.q_cmd[..n], &prev.p[..n]);
+            let (x, q_cmd, predictor) = (&mut x[..n], &q_cmd[..n], &mut tick.steps.first[..n]);
             let mut within = true;
-            let predictor = &mut tick.steps.first;
-            let rate = rate.as_ref();
             for (m, joint) in self.joints.iter().enumerate() {
-                let from = if self.corrects_joints {
-                    prev.q[m]
-                } else {
-                    prev.p[m]
-                };
-                let correction = from - prev.q_cmd[m];
+                let correction = from[m] - q_cmd_prev[m];
                 within &= correction.abs() <= joint.max_correction;
                 x[m] = q_cmd[m] + correction;
-                predictor[m] = prev.p[m] - from + rate.map_or(T::zero(), |r| r[m]);
+                predictor[m] = p_prev[m] - from[m];
+            }
+            if rate.known {
+                let predicted = predictor.iter_mut().zip(&rate.change);
+                predicted.for_each(|(d, r)| *d += *r);
             }
             if within {
                 return Start::Warm;

@@ -24,7 +24,9 @@
 //! is known and the search starts cold.
 
 use super::start::Start;
-use super::{Compensator, Conditions, Correction, Fault, Joints, Previous, Workspace};
+use super::{
+    Compensator, Conditions, Correction, Fault, Joints, Previous, Workspace, clamp, is_finite, listed,
+};
 use crate::effects::approach_sign;
 use crate::{MAX_JOINTS, Real};
 
@@ -112,46 +114,79 @@ impl<T: Real> Stream<T> {
             Pacing::Program => Start::Cold,
             Pacing::Servo => Start::Warm,
         };
-        let mut c = compensator.compute(q_cmd, previous, start, conditions, &mut self.work);
-        if matches!(c.fault, Some(Fault::NonFinite | Fault::JointCount)) {
-            self.previous.joints = 0;
-            return c;
-        }
-        let mut answer = [T::zero(); MAX_JOINTS];
-        answer[..n].copy_from_slice(&c.q);
-        if let (Pacing::Servo, Some(prev)) = (self.pacing, previous) {
-            // The change bound, about the previous tick's sent correction.
-            let mut limited = false;
-            for (m, joint) in compensator.joints.iter().enumerate() {
-                let last = prev.sent[m] - prev.q_cmd[m];
-                let correction = c.q[m] - q_cmd[m];
-                let clipped = correction
-                    .max(last - joint.max_change)
-                    .min(last + joint.max_change)
-                    .max(-joint.max_correction)
-                    .min(joint.max_correction);
-                if clipped != correction {
+        let answer = match compensator.compute(q_cmd, previous, start, conditions, &mut self.work) {
+            Ok(answer) => answer,
+            Err(fault) => {
+                self.previous.joints = 0;
+                return Correction::unchanged(q_cmd, fault);
+            }
+        };
+        let known = previous.is_some();
+        let servo = self.pacing == Pacing::Servo && known;
+        let extrapolates = answer.extrapolates && known;
+        let Workspace { rate, tick, .. } = &mut self.work;
+        rate.known = extrapolates;
+        // One pass over the joints: the size bound, the change bound (servo
+        // ticks), the correction's change for the next predictor, each
+        // joint's approach direction, the outputs' check and the tick kept for
+        // the next. Every slice is cut to the joints' count (no bound checks).
+        let last = &mut self.previous;
+        let (q_cmd, q, p) = (&q_cmd[..n], &mut tick.x[..n], &tick.p[..n]);
+        let (last_q_cmd, last_sent) = (&mut last.q_cmd[..n], &mut last.sent[..n]);
+        let (last_q, last_p, last_approach) =
+            (&mut last.q[..n], &mut last.p[..n], &mut last.approach[..n]);
+        let rate = &mut rate.change[..n];
+        let (mut limited, mut outputs) = (false, answer.residual);
+        for (m, joint) in compensator.joints.iter().enumerate() {
+            let size = joint.max_correction;
+            if let Some(bounded) = clamp(q[m] - q_cmd[m], -size, size) {
+                limited = true;
+                q[m] = q_cmd[m] + bounded;
+            }
+            last_q[m] = q[m];
+            if servo {
+                // The change interval about the previous tick's sent
+                // correction, then the size interval: where they do not
+                // meet, the size bound's end nearest the change bound.
+                let before = last_sent[m] - last_q_cmd[m];
+                let change = joint.max_change;
+                if let Some(changed) = clamp(q[m] - q_cmd[m], before - change, before + change) {
+                    let bounded = clamp(changed, -size, size).unwrap_or(changed);
                     limited = true;
-                    c.q[m] = q_cmd[m] + clipped;
+                    q[m] = q_cmd[m] + bounded;
                 }
             }
-            if limited {
-                c.fault = c.fault.or(Some(Fault::Limited));
+            if extrapolates {
+                rate[m] = (p[m] - q_cmd[m]) - (last_p[m] - last_q_cmd[m]);
             }
+            last_approach[m] = if known {
+                approach_sign(q[m] - last_sent[m], last_approach[m])
+            } else {
+                0
+            };
+            outputs += q[m] + p[m];
+            last_q_cmd[m] = q_cmd[m];
+            last_sent[m] = q[m];
+            last_p[m] = p[m];
         }
-        let mut approach = [0; MAX_JOINTS];
-        if let Some(prev) = previous {
-            for (m, a) in approach.iter_mut().enumerate().take(n) {
-                *a = approach_sign(c.q[m] - prev.sent[m], prev.approach[m]);
-            }
+        if !is_finite(outputs) {
+            self.previous.joints = 0;
+            return Correction::unchanged(q_cmd, Fault::NonFinite);
         }
-        let last = &mut self.previous;
-        last.approach[..n].copy_from_slice(&approach[..n]);
-        last.q[..n].copy_from_slice(&answer[..n]);
-        last.q_cmd[..n].copy_from_slice(q_cmd);
-        last.sent[..n].copy_from_slice(&c.q);
-        last.p[..n].copy_from_slice(&c.p);
-        last.joints = n;
-        c
+        self.previous.joints = n;
+        let fault = if !answer.converged {
+            Some(Fault::NotConverged)
+        } else if limited {
+            Some(Fault::Limited)
+        } else {
+            None
+        };
+        Correction {
+            q: listed(&tick.x, n),
+            p: listed(&tick.p, n),
+            fault,
+            iterations: answer.iterations,
+            residual: answer.residual,
+        }
     }
 }
