@@ -561,6 +561,7 @@ impl<T: Real> Compensator<T> {
     /// positions into `work.tick.p`, before any bound (the [`Stream`] applies
     /// the bounds, in the pass that keeps the tick for the next). A warm search
     /// that does not converge is repeated cold.
+    #[inline(never)]
     pub(crate) fn compute(
         &self,
         q_cmd: &[T],

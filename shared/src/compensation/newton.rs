@@ -59,6 +59,14 @@ impl<T: Real> Steps<T> {
     }
 }
 
+/// The search's point: the start `x` until the first step is taken
+/// (`at_start`), then `p`.
+pub(crate) struct Point<'a, T: Real> {
+    x: &'a [T],
+    p: &'a mut [T],
+    at_start: &'a mut bool,
+}
+
 /// What a search found: in `p` of the [`Tick`].
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Solved<T: Real> {
@@ -134,7 +142,10 @@ impl<T: Real> Compensator<T> {
             &mut trial[..n],
             &mut jac[..n],
         );
-        p.copy_from_slice(&x[..n]);
+        // The search's point is the start `x` until the first step is taken
+        // (`p = x + δ` then; no copy of the start).
+        let x = &x[..n];
+        let mut at_start = true;
         let tolerance = self.limits.tolerance;
         let mut predicted = start == Start::Warm;
         let mut residual = self.residual(target, &chain.end);
@@ -164,14 +175,16 @@ impl<T: Real> Compensator<T> {
                 }
                 if !predicted {
                     // δ₀ = J⁺ e with fresh factors, which leave exactly `λ² y`.
-                    let c = self.offset(&mut offset[..n], p, q_cmd, None);
+                    let point = if at_start { x } else { &*p };
+                    let c = self.offset(&mut offset[..n], point, q_cmd, None);
                     let y = self
                         .pseudo_solve(jac, factors, &residual.0, c, first)
                         .ok_or(Fault::NonFinite)?;
                     let lambda2 = self.damping2();
                     r = self.predicted(chain, jac, y.map(|y| lambda2 * y), first);
                 }
-                let c = self.offset(&mut offset[..n], p, q_cmd, Some(first));
+                let point = if at_start { x } else { &*p };
+                let c = self.offset(&mut offset[..n], point, q_cmd, Some(first));
                 match self.step(
                     chain,
                     jac,
@@ -196,7 +209,7 @@ impl<T: Real> Compensator<T> {
                 // The residual after the step is bounded below the tolerance:
                 // taken without evaluating the chain there, unless the null
                 // space is still settling.
-                take(p, second);
+                advance(p, x, second, &mut at_start);
                 settling = self.redundant && !self.settled(second);
                 if !settling {
                     return Ok(Solved {
@@ -214,44 +227,75 @@ impl<T: Real> Compensator<T> {
             // step (the loop above left fresh factors).
             if predicted {
                 predicted = false;
-                let c = self.offset(&mut offset[..n], p, q_cmd, None);
+                let point = if at_start { x } else { &*p };
+                let c = self.offset(&mut offset[..n], point, q_cmd, None);
                 self.pseudo_solve(jac, factors, &residual.0, c, first)
                     .ok_or(Fault::NonFinite)?;
             }
             self.trust(first);
-            // Take a step only if it lowers the residual (or, settling the
-            // null space, keeps it within the tolerance): the second-order one
-            // (eq. 4.9) first, then the first-order one, each halved up to
-            // three times.
-            let acceptable = |candidate: T, current: T| {
-                candidate < current || (settling && candidate <= tolerance * tolerance)
+            let point = Point {
+                x,
+                p: &mut *p,
+                at_start: &mut at_start,
             };
-            let mut improved = false;
-            'candidates: for step in [&mut *second, &mut *first] {
-                for _ in 0..4 {
-                    for ((t, pm), d) in trial.iter_mut().zip(p.iter()).zip(step.iter()) {
-                        *t = *pm + *d;
-                    }
-                    geometry.chain(trial, true, false, chain)?;
-                    let candidate = self.residual(target, &chain.end);
-                    if acceptable(candidate.1, residual.1) {
-                        (residual, improved) = (candidate, true);
-                        take(p, step);
-                        settling = self.redundant && !self.settled(step);
-                        break 'candidates;
-                    }
-                    step.iter_mut().for_each(|d| *d *= T::lit(0.5));
-                }
-            }
-            if !improved {
+            let search = [&mut *second, &mut *first];
+            let improved =
+                self.line_search(geometry, target, point, search, trial, chain, &mut residual, settling)?;
+            let Some(step) = improved else {
                 break;
-            }
+            };
+            settling = self.redundant && !self.settled(step);
+        }
+        if at_start {
+            p.copy_from_slice(x);
         }
         Ok(Solved {
             iterations,
             residual2: residual.1,
             bound: None,
         })
+    }
+
+    /// The fallback near singularities: takes a step only if it lowers the
+    /// residual (or, settling the null space, keeps it within the tolerance):
+    /// the second-order one (eq. 4.9) first, then the first-order one, each
+    /// halved up to three times. Returns the step taken, if any; `residual`
+    /// is then the new point's. Out of line: it runs only where the step's
+    /// bound fails, and the warm tick's code stays small.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn line_search<'s>(
+        &self,
+        geometry: &Geometry<'_, T>,
+        target: &IsometryMatrix3<T>,
+        point: Point<'_, T>,
+        steps: [&'s mut [T]; 2],
+        trial: &mut [T],
+        chain: &mut ServoChain<T>,
+        residual: &mut ([T; 6], T),
+        settling: bool,
+    ) -> Result<Option<&'s [T]>, Fault> {
+        let tolerance2 = self.limits.tolerance * self.limits.tolerance;
+        let acceptable =
+            |candidate: T, current: T| candidate < current || (settling && candidate <= tolerance2);
+        let Point { x, p, at_start } = point;
+        for step in steps {
+            for _ in 0..4 {
+                let base = if *at_start { x } else { &*p };
+                for ((t, b), d) in trial.iter_mut().zip(base).zip(step.iter()) {
+                    *t = *b + *d;
+                }
+                geometry.chain(trial, true, false, chain)?;
+                let candidate = self.residual(target, &chain.end);
+                if acceptable(candidate.1, residual.1) {
+                    *residual = candidate;
+                    advance(p, x, step, at_start);
+                    return Ok(Some(step));
+                }
+                step.iter_mut().for_each(|d| *d *= T::lit(0.5));
+            }
+        }
+        Ok(None)
     }
 
     /// Whether a step `d` no longer moves the joints: each by at most the
@@ -269,6 +313,7 @@ impl<T: Real> Compensator<T> {
 
     /// For a redundant arm, the correction at the point of linearisation, `p
     /// − q_cmd` (plus the predictor `plus`), into `offset`; `None` otherwise.
+    #[inline(always)]
     fn offset<'a>(
         &self,
         offset: &'a mut [T],
@@ -290,6 +335,7 @@ impl<T: Real> Compensator<T> {
     /// whole correction that moves the frame by `rhs`, refined once. Returns
     /// the `y` whose `λ² y` the solve leaves of `rhs` (with fresh factors), or
     /// `None` if not finite.
+    #[inline(always)]
     fn pseudo_solve(
         &self,
         jac: &[[T; 6]],
@@ -356,9 +402,17 @@ impl<T: Real> Compensator<T> {
     }
 }
 
-/// Takes the step `d`: `p += d`.
-fn take<T: Real>(p: &mut [T], d: &[T]) {
-    for (pm, dm) in p.iter_mut().zip(d) {
-        *pm += *dm;
+/// Takes the step `d` from the search's point: `p = x + d` for the first
+/// step (`at_start`, then cleared), `p += d` after.
+fn advance<T: Real>(p: &mut [T], x: &[T], d: &[T], at_start: &mut bool) {
+    if *at_start {
+        for ((pm, xm), dm) in p.iter_mut().zip(x).zip(d) {
+            *pm = *xm + *dm;
+        }
+        *at_start = false;
+    } else {
+        for (pm, dm) in p.iter_mut().zip(d) {
+            *pm += *dm;
+        }
     }
 }

@@ -61,6 +61,7 @@ impl<T: Real> Compensator<T> {
     /// `[T; 6]` per joint: its rotation (scaled by the length scale; zero for
     /// [`Task::Position`]) and the tool point's displacement; returns `reach`, a
     /// bound on the levers `|v_m|` (1-norm), at least the length scale.
+    #[inline(never)]
     pub(crate) fn jacobian(&self, chain: &ServoChain<T>, jac: &mut [[T; 6]]) -> T {
         let p = chain.end.translation.vector;
         let rotation = self.rotation_scale();
@@ -75,6 +76,7 @@ impl<T: Real> Compensator<T> {
     /// point `p + δ₀` to second order, `r = e − J δ₀ − H(δ₀, δ₀)` for the
     /// predictor `delta = δ₀`: each joint's twist is at hand for the sums of
     /// `H`, and `J δ₀` is their first-order part.
+    #[inline(never)]
     pub(crate) fn jacobian_predicted(
         &self,
         chain: &ServoChain<T>,

@@ -50,7 +50,8 @@ struct Sent<T: Real> {
     q: Joints<T>,
     /// The joint positions they aimed at.
     p: Joints<T>,
-    /// Each joint's approach direction after it: −1, 0 (never moved) or +1.
+    /// Each joint's approach direction after it: −1, 0 (never moved) or +1;
+    /// kept for the joints with backlash, the only ones that read it.
     approach: [i8; MAX_JOINTS],
     /// The number of joints; 0 before the first tick.
     joints: usize,
@@ -159,11 +160,14 @@ impl<T: Real> Stream<T> {
             if extrapolates {
                 rate[m] = (p[m] - q_cmd[m]) - (last_p[m] - last_q_cmd[m]);
             }
-            last_approach[m] = if known {
-                approach_sign(q[m] - last_sent[m], last_approach[m])
-            } else {
-                0
-            };
+            // Only a joint with backlash reads its direction.
+            if joint.backlash {
+                last_approach[m] = if known {
+                    approach_sign(q[m] - last_sent[m], last_approach[m])
+                } else {
+                    0
+                };
+            }
             outputs += q[m] + p[m];
             last_q_cmd[m] = q_cmd[m];
             last_sent[m] = q[m];
