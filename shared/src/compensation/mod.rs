@@ -379,20 +379,22 @@ impl<T: Real> Correction<T> {
     }
 }
 
-/// The previous tick as sent, the context of this one: the approach direction
-/// of each joint and, on a warm start, the correction to start from.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Previous<'a, T: Real> {
-    /// The nominal commands of the previous tick.
-    pub q_cmd: &'a [T],
-    /// The commands it sent (after every bound).
-    pub sent: &'a [T],
-    /// Its commands before the change bound (the answer for its command).
-    pub q: &'a [T],
-    /// The joint positions its commands aimed at.
-    pub p: &'a [T],
-    /// Each joint's approach direction after it: −1, 0 (never moved) or +1.
-    pub approach: &'a [i8],
+/// The previous tick as sent, the context of this one (kept by the
+/// [`Stream`]): the approach direction of each joint and, on a warm start, the
+/// correction to start from. Vectors over the joints.
+#[derive(Clone, Debug)]
+pub(crate) struct Previous<T: Real> {
+    /// The nominal commands.
+    pub q_cmd: Joints<T>,
+    /// The commands sent (after every bound).
+    pub sent: Joints<T>,
+    /// The joint positions they aimed at.
+    pub p: Joints<T>,
+    /// Each joint's approach direction after it: −1, 0 (never moved) or +1;
+    /// kept for the joints with backlash, the only ones that read it.
+    pub approach: [i8; MAX_JOINTS],
+    /// The number of joints; 0 before the first tick.
+    pub joints: usize,
 }
 
 /// Whether `x` is finite: `x − x` is 0 for a finite `x` and NaN otherwise.
@@ -565,7 +567,7 @@ impl<T: Real> Compensator<T> {
     pub(crate) fn compute(
         &self,
         q_cmd: &[T],
-        previous: Option<Previous<'_, T>>,
+        previous: Option<&Previous<T>>,
         start: Start,
         conditions: &Conditions<T>,
         work: &mut Workspace<T>,
@@ -650,7 +652,7 @@ impl<T: Real> Compensator<T> {
         } = tick;
         let q = &mut x[..n];
         if self.corrects_joints {
-            let approach = previous.map(|prev| (prev.sent, prev.approach));
+            let approach = previous.map(|prev| (&prev.sent[..n], &prev.approach[..n]));
             match self.invert(
                 &geometry,
                 q,

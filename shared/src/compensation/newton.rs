@@ -239,8 +239,16 @@ impl<T: Real> Compensator<T> {
                 at_start: &mut at_start,
             };
             let search = [&mut *second, &mut *first];
-            let improved =
-                self.line_search(geometry, target, point, search, trial, chain, &mut residual, settling)?;
+            let improved = self.line_search(
+                geometry,
+                target,
+                point,
+                search,
+                trial,
+                chain,
+                &mut residual,
+                settling,
+            )?;
             let Some(step) = improved else {
                 break;
             };

@@ -13,8 +13,9 @@
 //!   [`Workspace`](super::Workspace)'s rate, after two warm ticks that converged):
 //!   the correction extrapolated linearly, which on a smooth motion leaves a
 //!   residual of about the tolerance, so the factors of a recent tick solve the
-//!   step. `q_prev` is the previous answer before the change bound, so a tick
-//!   clipped by it does not bias the next start.
+//!   step. `q_prev` is the command sent: after a tick that the change bound
+//!   clipped, the start is off by the clip and the search corrects it (a start
+//!   changes the time to the answer, not the answer).
 
 use super::{Compensator, Previous, Rate, Tick};
 use crate::Real;
@@ -35,7 +36,7 @@ impl<T: Real> Compensator<T> {
     pub(crate) fn start(
         &self,
         q_cmd: &[T],
-        previous: Option<Previous<'_, T>>,
+        previous: Option<&Previous<T>>,
         wanted: Start,
         rate: &Rate<T>,
         tick: &mut Tick<T>,
@@ -44,7 +45,11 @@ impl<T: Real> Compensator<T> {
         if let (Start::Warm, Some(prev)) = (wanted, previous) {
             // Every slice cut to the joints' count: no bound checks below.
             let n = self.joints.len();
-            let from = if self.corrects_joints { prev.q } else { prev.p };
+            let from = if self.corrects_joints {
+                &prev.sent
+            } else {
+                &prev.p
+            };
             let (from, q_cmd_prev, p_prev) = (&from[..n], &prev.q_cmd[..n], &prev.p[..n]);
             let (x, q_cmd, predictor) = (&mut x[..n], &q_cmd[..n], &mut tick.steps.first[..n]);
             let mut within = true;

@@ -2,8 +2,8 @@
 //!
 //! The controller, `armcal compensate` and the link all correct commands in
 //! order through a [`Stream`]: it keeps the previous tick as sent (for each
-//! joint's approach direction, [`super::inversion`]), the previous answer (the
-//! warm start, [`super::start`]) and the [`Workspace`] (the reused factors and
+//! joint's approach direction, [`super::inversion`], and the warm start,
+//! [`super::start`]) and the [`Workspace`] (the reused factors and
 //! the correction's last change). The answer for a command depends on the
 //! command, its conditions and the approach directions only; the rest is speed.
 //!
@@ -12,12 +12,12 @@
 //!   other. Each is solved alone from its own command (a cold start), to
 //!   convergence; the row order gives the approach directions only.
 //! - [`Pacing::Servo`]: servo ticks of a smooth motion. Each starts warm from
-//!   the previous answer, and the correction's change from the previous tick's
-//!   sent correction is bounded per tick ([`Limits::max_change_angle`](
-//!   super::Limits::max_change_angle), [`Limits::max_change_length`](
-//!   super::Limits::max_change_length)): a safety limit that clips a tick
-//!   ([`Fault::Limited`]) without changing the answer the next ticks start from
-//!   and converge to.
+//!   the previous tick's correction, and the correction's change from the
+//!   previous tick's sent correction is bounded per tick
+//!   ([`Limits::max_change_angle`](super::Limits::max_change_angle),
+//!   [`Limits::max_change_length`](super::Limits::max_change_length)): a
+//!   safety limit that clips a tick ([`Fault::Limited`]) without changing the
+//!   answer the next ticks converge to.
 //!
 //! After a command that could not be computed ([`Fault::NonFinite`],
 //! [`Fault::JointCount`]) the next one is a first tick: no approach direction
@@ -25,7 +25,7 @@
 
 use super::start::Start;
 use super::{
-    Compensator, Conditions, Correction, Fault, Joints, Previous, Workspace, clamp, is_finite, listed,
+    Compensator, Conditions, Correction, Fault, Previous, Workspace, clamp, is_finite, listed,
 };
 use crate::effects::approach_sign;
 use crate::{MAX_JOINTS, Real};
@@ -39,29 +39,11 @@ pub enum Pacing {
     Servo,
 }
 
-/// The previous tick: vectors over the joints.
-#[derive(Clone, Debug)]
-struct Sent<T: Real> {
-    /// The nominal commands.
-    q_cmd: Joints<T>,
-    /// The commands sent.
-    sent: Joints<T>,
-    /// The answer for the commands (before the change bound).
-    q: Joints<T>,
-    /// The joint positions they aimed at.
-    p: Joints<T>,
-    /// Each joint's approach direction after it: −1, 0 (never moved) or +1;
-    /// kept for the joints with backlash, the only ones that read it.
-    approach: [i8; MAX_JOINTS],
-    /// The number of joints; 0 before the first tick.
-    joints: usize,
-}
-
 /// The state of a stream of commands: see [the module](self).
 #[derive(Clone, Debug)]
 pub struct Stream<T: Real> {
     pacing: Pacing,
-    previous: Sent<T>,
+    previous: Previous<T>,
     work: Workspace<T>,
 }
 
@@ -70,10 +52,9 @@ impl<T: Real> Stream<T> {
     pub fn new(pacing: Pacing) -> Self {
         Self {
             pacing,
-            previous: Sent {
+            previous: Previous {
                 q_cmd: [T::zero(); MAX_JOINTS],
                 sent: [T::zero(); MAX_JOINTS],
-                q: [T::zero(); MAX_JOINTS],
                 p: [T::zero(); MAX_JOINTS],
                 approach: [0; MAX_JOINTS],
                 joints: 0,
@@ -104,13 +85,7 @@ impl<T: Real> Stream<T> {
     ) -> Correction<T> {
         let n = compensator.dof();
         let last = &self.previous;
-        let previous = (last.joints == n && q_cmd.len() == n).then_some(Previous {
-            q_cmd: &last.q_cmd[..n],
-            sent: &last.sent[..n],
-            q: &last.q[..n],
-            p: &last.p[..n],
-            approach: &last.approach[..n],
-        });
+        let previous = (last.joints == n && q_cmd.len() == n).then_some(last);
         let start = match self.pacing {
             Pacing::Program => Start::Cold,
             Pacing::Servo => Start::Warm,
@@ -134,8 +109,7 @@ impl<T: Real> Stream<T> {
         let last = &mut self.previous;
         let (q_cmd, q, p) = (&q_cmd[..n], &mut tick.x[..n], &tick.p[..n]);
         let (last_q_cmd, last_sent) = (&mut last.q_cmd[..n], &mut last.sent[..n]);
-        let (last_q, last_p, last_approach) =
-            (&mut last.q[..n], &mut last.p[..n], &mut last.approach[..n]);
+        let (last_p, last_approach) = (&mut last.p[..n], &mut last.approach[..n]);
         let rate = &mut rate.change[..n];
         let (mut limited, mut outputs) = (false, answer.residual);
         for (m, joint) in compensator.joints.iter().enumerate() {
@@ -144,7 +118,6 @@ impl<T: Real> Stream<T> {
                 limited = true;
                 q[m] = q_cmd[m] + bounded;
             }
-            last_q[m] = q[m];
             if servo {
                 // The change interval about the previous tick's sent
                 // correction, then the size interval: where they do not
