@@ -626,11 +626,7 @@ impl<T: Real> Compensator<T> {
         let mut start = self.start(q_cmd, previous, start, rate, tick);
         let mut iterations = 0;
         let solved = loop {
-            let solved = self.search(&geometry, &target, q_cmd, payload, start, factors, tick);
-            let solved = match solved {
-                Ok(s) => s,
-                Err(fault) => return Err(fault),
-            };
+            let solved = self.search(&geometry, &target, q_cmd, payload, start, factors, tick)?;
             iterations += solved.iterations;
             if solved.residual2 <= tolerance2 || start == Start::Cold {
                 break solved;
