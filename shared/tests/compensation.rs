@@ -999,6 +999,8 @@ proptest! {
                 let label = format!("{name}, orientation {orientation}, effects {effects}, task {:?}", comp.task());
                 let (agreement, compared, _) = compare_stream(&comp, &program, &model, commands, &conditions, false)
                     .map_err(|e| TestCaseError::fail(format!("{label}: {e}")))?;
+                // The figures (`-- --nocapture`): the largest differences.
+                eprintln!("{label}: {agreement:?}");
                 prop_assert!(
                     compared.last() == Some(&true),
                     "{}: the last tick, at the start, was not compared: {:?}", label, agreement
@@ -1070,6 +1072,7 @@ fn a_redundant_arm_streams_the_least_correction() {
             let (agreement, compared, corrections) =
                 compare_stream(&comp, &program, &model, &commands, &conditions, true)
                     .unwrap_or_else(|e| panic!("{label}: {e}"));
+            eprintln!("7R {label}: {agreement:?}");
             assert!(
                 compared.iter().all(|c| *c),
                 "{label}: not every tick compared: {agreement:?}"
