@@ -59,12 +59,42 @@ impl<T: Real> Steps<T> {
     }
 }
 
-/// The search's point: the start `x` until the first step is taken
-/// (`at_start`), then `p`.
-pub(crate) struct Point<'a, T: Real> {
+/// The search's point: the start `x` until the first step is taken, then
+/// `p = x + δ` and the steps after (no copy of the start).
+struct Point<'a, T: Real> {
     x: &'a [T],
     p: &'a mut [T],
-    at_start: &'a mut bool,
+    at_start: bool,
+}
+
+impl<T: Real> Point<'_, T> {
+    /// The point now.
+    #[inline(always)]
+    fn current(&self) -> &[T] {
+        if self.at_start { self.x } else { self.p }
+    }
+
+    /// Takes the step `d`.
+    #[inline(always)]
+    fn advance(&mut self, d: &[T]) {
+        if self.at_start {
+            for ((pm, xm), dm) in self.p.iter_mut().zip(self.x).zip(d) {
+                *pm = *xm + *dm;
+            }
+            self.at_start = false;
+        } else {
+            for (pm, dm) in self.p.iter_mut().zip(d) {
+                *pm += *dm;
+            }
+        }
+    }
+
+    /// Leaves the point in `p`.
+    fn finish(self) {
+        if self.at_start {
+            self.p.copy_from_slice(self.x);
+        }
+    }
 }
 
 /// What a search found: in `p` of the [`Tick`].
@@ -135,17 +165,17 @@ impl<T: Real> Compensator<T> {
             offset,
             jac,
         } = steps;
-        let (p, first, second, trial, jac) = (
-            &mut p[..n],
+        let (first, second, trial, jac) = (
             &mut first[..n],
             &mut second[..n],
             &mut trial[..n],
             &mut jac[..n],
         );
-        // The search's point is the start `x` until the first step is taken
-        // (`p = x + δ` then; no copy of the start).
-        let x = &x[..n];
-        let mut at_start = true;
+        let mut point = Point {
+            x: &x[..n],
+            p: &mut p[..n],
+            at_start: true,
+        };
         let tolerance = self.limits.tolerance;
         let mut predicted = start == Start::Warm;
         let mut residual = self.residual(target, &chain.end);
@@ -175,16 +205,14 @@ impl<T: Real> Compensator<T> {
                 }
                 if !predicted {
                     // δ₀ = J⁺ e with fresh factors, which leave exactly `λ² y`.
-                    let point = if at_start { x } else { &*p };
-                    let c = self.offset(&mut offset[..n], point, q_cmd, None);
+                    let c = self.offset(&mut offset[..n], &point, q_cmd, None);
                     let y = self
                         .pseudo_solve(jac, factors, &residual.0, c, first)
                         .ok_or(Fault::NonFinite)?;
                     let lambda2 = self.damping2();
                     r = self.predicted(chain, jac, y.map(|y| lambda2 * y), first);
                 }
-                let point = if at_start { x } else { &*p };
-                let c = self.offset(&mut offset[..n], point, q_cmd, Some(first));
+                let c = self.offset(&mut offset[..n], &point, q_cmd, Some(first));
                 match self.step(
                     chain,
                     jac,
@@ -209,7 +237,7 @@ impl<T: Real> Compensator<T> {
                 // The residual after the step is bounded below the tolerance:
                 // taken without evaluating the chain there, unless the null
                 // space is still settling.
-                advance(p, x, second, &mut at_start);
+                point.advance(second);
                 settling = self.redundant && !self.settled(second);
                 if !settling {
                     return Ok(Solved {
@@ -218,7 +246,7 @@ impl<T: Real> Compensator<T> {
                         bound: Some(bound),
                     });
                 }
-                geometry.chain(p, true, false, chain)?;
+                geometry.chain(point.current(), true, false, chain)?;
                 residual = self.residual(target, &chain.end);
                 predicted = false;
                 continue;
@@ -227,22 +255,16 @@ impl<T: Real> Compensator<T> {
             // step (the loop above left fresh factors).
             if predicted {
                 predicted = false;
-                let point = if at_start { x } else { &*p };
-                let c = self.offset(&mut offset[..n], point, q_cmd, None);
+                let c = self.offset(&mut offset[..n], &point, q_cmd, None);
                 self.pseudo_solve(jac, factors, &residual.0, c, first)
                     .ok_or(Fault::NonFinite)?;
             }
             self.trust(first);
-            let point = Point {
-                x,
-                p: &mut *p,
-                at_start: &mut at_start,
-            };
             let search = [&mut *second, &mut *first];
             let improved = self.line_search(
                 geometry,
                 target,
-                point,
+                &mut point,
                 search,
                 trial,
                 chain,
@@ -254,9 +276,7 @@ impl<T: Real> Compensator<T> {
             };
             settling = self.redundant && !self.settled(step);
         }
-        if at_start {
-            p.copy_from_slice(x);
-        }
+        point.finish();
         Ok(Solved {
             iterations,
             residual2: residual.1,
@@ -276,7 +296,7 @@ impl<T: Real> Compensator<T> {
         &self,
         geometry: &Geometry<'_, T>,
         target: &IsometryMatrix3<T>,
-        point: Point<'_, T>,
+        point: &mut Point<'_, T>,
         steps: [&'s mut [T]; 2],
         trial: &mut [T],
         chain: &mut ServoChain<T>,
@@ -286,10 +306,9 @@ impl<T: Real> Compensator<T> {
         let tolerance2 = self.limits.tolerance * self.limits.tolerance;
         let acceptable =
             |candidate: T, current: T| candidate < current || (settling && candidate <= tolerance2);
-        let Point { x, p, at_start } = point;
         for step in steps {
             for _ in 0..4 {
-                let base = if *at_start { x } else { &*p };
+                let base = point.current();
                 for ((t, b), d) in trial.iter_mut().zip(base).zip(step.iter()) {
                     *t = *b + *d;
                 }
@@ -297,7 +316,7 @@ impl<T: Real> Compensator<T> {
                 let candidate = self.residual(target, &chain.end);
                 if acceptable(candidate.1, residual.1) {
                     *residual = candidate;
-                    advance(p, x, step, at_start);
+                    point.advance(step);
                     return Ok(Some(step));
                 }
                 step.iter_mut().for_each(|d| *d *= T::lit(0.5));
@@ -319,19 +338,20 @@ impl<T: Real> Compensator<T> {
         })
     }
 
-    /// For a redundant arm, the correction at the point of linearisation, `p
-    /// − q_cmd` (plus the predictor `plus`), into `offset`; `None` otherwise.
+    /// For a redundant arm, the correction at the search's point, `p − q_cmd`
+    /// (plus the predictor `plus`), into `offset`; `None` otherwise.
     #[inline(always)]
     fn offset<'a>(
         &self,
         offset: &'a mut [T],
-        p: &[T],
+        point: &Point<'_, T>,
         q_cmd: &[T],
         plus: Option<&[T]>,
     ) -> Option<&'a [T]> {
         if !self.redundant {
             return None;
         }
+        let p = point.current();
         for (m, o) in offset.iter_mut().enumerate() {
             *o = p[m] - q_cmd[m] + plus.map_or(T::zero(), |d| d[m]);
         }
@@ -407,20 +427,5 @@ impl<T: Real> Compensator<T> {
             return None;
         }
         Some(self.step_bound(chain.lines(), e, first, second, linear, reach))
-    }
-}
-
-/// Takes the step `d` from the search's point: `p = x + d` for the first
-/// step (`at_start`, then cleared), `p += d` after.
-fn advance<T: Real>(p: &mut [T], x: &[T], d: &[T], at_start: &mut bool) {
-    if *at_start {
-        for ((pm, xm), dm) in p.iter_mut().zip(x).zip(d) {
-            *pm = *xm + *dm;
-        }
-        *at_start = false;
-    } else {
-        for (pm, dm) in p.iter_mut().zip(d) {
-            *pm += *dm;
-        }
     }
 }
