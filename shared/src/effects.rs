@@ -427,9 +427,17 @@ impl Approach {
 
 /// `σ_j` of the context as a scalar (0 when unknown).
 fn context_sign<T: Real>(ctx: &Context<T>, joint: usize) -> T {
-    match ctx.approach.get(joint) {
-        Some(s) if *s > 0 => T::one(),
-        Some(s) if *s < 0 => -T::one(),
+    ctx.approach
+        .get(joint)
+        .map_or(T::zero(), |s| sign_value(*s))
+}
+
+/// An approach direction (−1, 0, +1) as the scalar `σ` of the backlash term.
+#[inline]
+pub fn sign_value<T: Real>(sign: i8) -> T {
+    match sign {
+        s if s > 0 => T::one(),
+        s if s < 0 => -T::one(),
         _ => T::zero(),
     }
 }

@@ -67,7 +67,7 @@ pub struct Wanted {
 /// The frames of one configuration that a compensation tick needs.
 ///
 /// Fixed arrays with a count each, written by index: a compensation keeps one
-/// in its [`crate::compensation::Workspace`], so that nothing is cleared per
+/// in the workspace of its [`crate::compensation::Stream`], so that nothing is cleared per
 /// tick, and a store by index costs less than a push on the controller.
 #[derive(Clone, Debug)]
 pub struct ServoChain<T: Real> {

@@ -46,23 +46,13 @@
 //! [`Fault::NotConverged`](super::Fault::NotConverged) with that residual.
 
 use super::{Compensator, Geometry, larger};
-use crate::effects::{JointEffect, Masses, approach_sign, direction};
+use crate::effects::{JointEffect, Masses, approach_sign, direction, sign_value};
 use crate::servo_chain::ServoChain;
 use crate::{JointType, Real, Robot};
 
 /// The context of the inversion: the commands sent at the previous tick and
 /// each joint's approach direction after them (−1, 0 or +1).
 pub(crate) type Approach<'a, T> = Option<(&'a [T], &'a [i8])>;
-
-/// An approach direction as a scalar.
-#[inline]
-fn sign<T: Real>(s: i8) -> T {
-    match s {
-        1 => T::one(),
-        -1 => -T::one(),
-        _ => T::zero(),
-    }
-}
 
 impl<T: Real> Compensator<T> {
     /// The commands `q` with `q + Δq(q) = p` (see the module header), from the
@@ -137,7 +127,7 @@ impl<T: Real> Compensator<T> {
     pub(crate) fn reached(&self, q: &[T], tau: &[T], approach: Approach<'_, T>, out: &mut [T]) {
         for (m, joint) in self.joints.iter().enumerate().take(out.len()) {
             let sigma = approach.map_or(T::zero(), |(sent, signs)| {
-                sign(approach_sign(q[m] - sent[m], signs[m]))
+                sign_value(approach_sign(q[m] - sent[m], signs[m]))
             });
             out[m] = q[m] + joint.effect.correction(q[m], tau[m], sigma);
         }

@@ -241,8 +241,6 @@ pub(crate) struct JointSpec<T: Real> {
     pub max_correction: T,
     /// Its correction's largest change per servo tick, rad or m.
     pub max_change: T,
-    /// Whether it has a compliance (needs its gravity torque).
-    pub compliant: bool,
     /// Whether it has gear harmonics.
     pub harmonic: bool,
     /// Whether it has backlash.
@@ -283,7 +281,7 @@ pub struct Compensator<T: Real> {
 /// correction's last change) and its work arrays. [`Stream`] keeps one; a fresh
 /// one is only slower.
 #[derive(Clone, Debug)]
-pub struct Workspace<T: Real> {
+pub(crate) struct Workspace<T: Real> {
     /// The factors the last step used.
     pub(crate) factors: Factors<T>,
     /// The last servo tick's change of the correction `p − q_cmd` from the
@@ -295,20 +293,14 @@ pub struct Workspace<T: Real> {
     pub(crate) tick: Tick<T>,
 }
 
-impl<T: Real> Default for Workspace<T> {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
 impl<T: Real> Workspace<T> {
     /// An empty workspace: the first step factors afresh.
-    pub fn new() -> Self {
+    pub(crate) fn new() -> Self {
         let zeros = [T::zero(); MAX_JOINTS];
         Self {
             factors: Factors::new(),
             rate: Rate {
-                change: [T::zero(); MAX_JOINTS],
+                change: zeros,
                 known: false,
             },
             angles: Angles::default(),
@@ -469,15 +461,14 @@ impl<T: Real> Compensator<T> {
                     effect: *e,
                     max_correction,
                     max_change,
-                    compliant: e.compliance != T::zero(),
                     harmonic: e.first != zero || e.second != zero,
                     backlash: e.backlash != T::zero(),
                 }
             }));
-        let compliant = joints
+        let compliant = effects
             .iter()
             .enumerate()
-            .filter(|(_, j)| j.compliant)
+            .filter(|(_, e)| e.compliance != T::zero())
             .fold(0u32, |m, (j, _)| m | 1 << j);
         let task = if orientation {
             Task::Pose

@@ -10,7 +10,7 @@
 //!   step's predictor `δ₀` is the previous tick's step from the commands to the
 //!   joint positions, `p_prev − q_prev` (the joint effects' offsets; zero
 //!   without effects), plus the correction's last change (the
-//!   [`Workspace`](super::Workspace)'s rate, after two warm ticks that converged):
+//!   rate in the stream's workspace, after two warm ticks that converged):
 //!   the correction extrapolated linearly, which on a smooth motion leaves a
 //!   residual of about the tolerance, so the factors of a recent tick solve the
 //!   step. `q_prev` is the command sent: after a tick that the change bound

@@ -3,7 +3,7 @@
 //! The controller, `armcal compensate` and the link all correct commands in
 //! order through a [`Stream`]: it keeps the previous tick as sent (for each
 //! joint's approach direction, [`super::inversion`], and the warm start,
-//! [`super::start`]) and the [`Workspace`] (the reused factors and
+//! [`super::start`]) and the workspace (the reused factors and
 //! the correction's last change). The answer for a command depends on the
 //! command, its conditions and the approach directions only; the rest is speed.
 //!
