@@ -461,7 +461,7 @@ mod compensation {
     use armcal_shared::compensation::{Compensator, Conditions, Fault, Limits};
     use armcal_shared::units::Units;
     use armcal_shared::{Calibration, Robot};
-    use armcal_tests::{measure, random_configurations, rng, with_random_errors};
+    use armcal_tests::{measure, random_configurations, rng, sigma_min, with_random_errors};
 
     /// UR10e with ±1 mm / ±1 mrad errors, identified from 200 noisy full poses
     /// (σ = 20 µm, 20 µrad): the truth, the calibration, and 100 commands.
@@ -493,16 +493,6 @@ mod compensation {
         }
         let commands = random_configurations(&nominal, 100, &mut r);
         (truth, cal, commands)
-    }
-
-    /// The smallest singular value of the calibrated manipulator Jacobian at `q`
-    /// (rotation rows in rad, position rows in m: a 1 m lever): below about 0.05
-    /// the arm is near a singularity, where a small pose correction needs a large
-    /// joint motion.
-    fn sigma_min(robot: &Robot<f64>, q: &[f64]) -> f64 {
-        let j = robot.chain(q).unwrap().manipulator_jacobian();
-        let m = nalgebra::DMatrix::from_fn(6, robot.dof(), |r, c| j.column(c)[r]);
-        m.svd(false, false).singular_values.min()
     }
 
     /// Away from singularities (σ_min > 0.05) the robot's error at the target

@@ -24,13 +24,13 @@
 use armcal::compensate::compensate;
 use armcal::diagnose::{DiagnoseOptions, diagnose};
 use armcal::identify::full::FullOptions;
-use armcal::measurements::{JointRow, JointRows};
+use armcal::measurements::JointRows;
 use armcal::model_file::{RobotModel, load_model, parse_model};
 use armcal::simulate::{Scenario, parse_effect, simulate};
 use armcal_shared::compensation::{Pacing, TargetFrame};
 use armcal_shared::effects::{Approach, Context, EffectModel};
 use armcal_shared::{Calibration, Robot};
-use armcal_tests::{random_configurations, rng};
+use armcal_tests::{random_configurations, rng, sigma_min};
 
 /// An industrial 6-axis arm of the 1.65 m class given in millimetres and
 /// degrees (an ABB IRB 2600-type geometry with its link masses approximated),
@@ -121,15 +121,6 @@ fn robot(name: &str) -> RobotModel {
 const TEMPERATURE: f64 = 27.0;
 const PAYLOAD: f64 = 5.0;
 
-/// The smallest singular value of the nominal manipulator Jacobian at `q`
-/// (rotation rows weighed at 1 m): a program's points stay away from
-/// singularities (σ_min ≥ 0.05), where no small correction exists.
-fn sigma_min(robot: &Robot<f64>, q: &[f64]) -> f64 {
-    let j = robot.chain(q).unwrap().manipulator_jacobian();
-    let m = nalgebra::DMatrix::from_fn(6, robot.dof(), |r, c| j.column(c)[r]);
-    m.svd(false, false).singular_values.min()
-}
-
 /// The true robot's RMS miss of the targets when it is sent `sent` in order
 /// (m): targets are the nominal model's points at `commands`.
 fn rms_miss(
@@ -190,8 +181,7 @@ fn program_points(
         ..DiagnoseOptions::default()
     };
     let diagnosis = diagnose(nominal, &session.observations, &options).unwrap();
-    let mut cal = diagnosis.calibration(nominal, full_pose, model.units);
-    cal.targets = TargetFrame::World;
+    let cal = diagnosis.calibration(nominal, full_pose, model.units);
     let truth = EffectModel::new(session.truth.clone(), &session.effects).unwrap();
     // 40 targets away from singularities, in a program's order.
     let mut r = rng(seed + 1000);
@@ -202,23 +192,7 @@ fn program_points(
             commands.push(q);
         }
     }
-    let rows = JointRows {
-        file: "program.csv".into(),
-        rows: commands
-            .iter()
-            .enumerate()
-            .map(|(i, q)| JointRow {
-                line: i + 2,
-                q: q.clone(),
-                t: None,
-                temp: Some(TEMPERATURE),
-                load: Some(PAYLOAD),
-            })
-            .collect(),
-        columns_used: Vec::new(),
-        columns_ignored: Vec::new(),
-        warnings: Vec::new(),
-    };
+    let rows = JointRows::commands("program.csv", &commands, Some(TEMPERATURE), Some(PAYLOAD));
     let result = compensate(&cal, &rows, Pacing::Program);
     for w in result.warnings("program.csv") {
         eprintln!("{w}");

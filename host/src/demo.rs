@@ -37,7 +37,7 @@ use rand::RngExt;
 
 use crate::diagnose::{DiagnoseOptions, Diagnosis, HeldOut, diagnose};
 use crate::identify::full::{effect_parameter_name, identify_full};
-use crate::measurements::{JointRow, JointRows};
+use crate::measurements::JointRows;
 use crate::model_file::{RobotModel, load_model};
 use crate::simulate::{Session, random_configurations, rng, simulate};
 use crate::sweep::{hidden_case, tracker_diagnosis};
@@ -53,8 +53,6 @@ pub const PAYLOAD: f64 = 5.0;
 pub const SIGMA_MIN: f64 = 0.1;
 /// Each target is approached from a command this far in every joint, rad.
 pub const APPROACH: f64 = 0.02;
-/// Time between the two commands of a move, s.
-pub const TICK: f64 = 0.01;
 
 /// What was hidden in the simulated robot.
 #[derive(Clone, Debug)]
@@ -221,23 +219,7 @@ fn compensate_targets(
     };
     let (mut nominal, mut compensated, mut flagged) = (Vec::new(), Vec::new(), 0);
     for commands in moves {
-        let rows = JointRows {
-            file: "demo target".into(),
-            rows: commands
-                .iter()
-                .enumerate()
-                .map(|(i, q)| JointRow {
-                    line: i + 1,
-                    q: q.clone(),
-                    t: Some(i as f64 * TICK),
-                    temp: Some(TEMPERATURE),
-                    load: Some(PAYLOAD),
-                })
-                .collect(),
-            columns_used: Vec::new(),
-            columns_ignored: Vec::new(),
-            warnings: Vec::new(),
-        };
+        let rows = JointRows::commands("demo target", commands, Some(TEMPERATURE), Some(PAYLOAD));
         let result = crate::compensate::compensate(cal, &rows, Pacing::Program);
         flagged += usize::from(result.rows.iter().any(|(_, c)| c.fault.is_some()));
         let sent: Vec<Vec<f64>> = result.rows.iter().map(|(_, c)| c.q.to_vec()).collect();

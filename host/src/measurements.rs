@@ -219,6 +219,33 @@ pub struct JointRows {
 }
 
 impl JointRows {
+    /// Rows of joint values given in memory (SI), all in the same conditions,
+    /// named `file` and numbered from line 2 as under a header.
+    pub fn commands(
+        file: &str,
+        rows: &[Vec<f64>],
+        temperature: Option<f64>,
+        payload: Option<f64>,
+    ) -> Self {
+        Self {
+            file: file.into(),
+            rows: rows
+                .iter()
+                .enumerate()
+                .map(|(i, q)| JointRow {
+                    line: i + 2,
+                    q: q.clone(),
+                    t: None,
+                    temp: temperature,
+                    load: payload,
+                })
+                .collect(),
+            columns_used: Vec::new(),
+            columns_ignored: Vec::new(),
+            warnings: Vec::new(),
+        }
+    }
+
     /// The number of rows.
     pub fn len(&self) -> usize {
         self.rows.len()
