@@ -71,6 +71,11 @@ impl InputError {
         Self::new(file, 0, 0, format!("cannot read the file: {reason}"))
     }
 
+    /// A refused command-line argument: `flag` names it in place of a file.
+    pub fn argument(flag: impl Into<String>, message: impl Into<String>) -> Self {
+        Self::new(flag, 0, 0, message)
+    }
+
     fn render(&self) -> String {
         if self.line == 0 {
             format!("{}: {}", self.file, self.message)

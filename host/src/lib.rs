@@ -20,6 +20,7 @@
 //! | [`compensate`] | `armcal compensate`: corrected joint commands for the calibrated robot |
 //! | [`diagnose`] | `armcal diagnose`: blunders, candidate effects ranked by cross-validation and a χ² test, the extended fit, held-out gain |
 //! | [`demo`] | `armcal demo`: a simulated PUMA with a hidden effect, diagnosed, compensated, reported |
+//! | [`stats`] | Fisher's F distribution and its quantiles, for the diagnosis' tests |
 //! | [`check`] | `armcal check`: what was read, and the error of the nominal model against the data |
 //!
 //! Units: inside the program everything is SI (m, rad, kg), as in `armcal-shared`;
@@ -41,6 +42,7 @@ pub mod predict;
 pub mod report;
 pub mod reproduce;
 pub mod simulate;
+pub mod stats;
 pub mod sweep;
 
 #[cfg(test)]

@@ -11,6 +11,7 @@ use armcal::check;
 use std::path::PathBuf;
 
 use armcal::identify::full::FullOptions;
+use armcal::identify::noise::NoiseSource;
 use armcal::identify::paper::PaperOptions;
 use armcal::identify::{self, ParamSet};
 use armcal::input_error::InputError;
@@ -63,14 +64,8 @@ enum Command {
         /// Write the report as JSON here.
         #[arg(long, value_name = "R.json")]
         json: Option<PathBuf>,
-        /// Position noise of the measurements, one standard deviation per axis, in
-        /// the model's length unit (default: 0.1 mm).
-        #[arg(long, value_name = "LENGTH")]
-        position_noise: Option<f64>,
-        /// Orientation noise, one standard deviation per axis, in the model's angle
-        /// unit (default: 0.1 mrad).
-        #[arg(long, value_name = "ANGLE")]
-        orientation_noise: Option<f64>,
+        #[command(flatten)]
+        weights: Weights,
         /// The frame the compensation's targets will be given in: `world` (the
         /// measurement frame of these data: the identified base is compensated)
         /// or `base` (the robot's own base frame: the identified base, the
@@ -195,10 +190,8 @@ enum Command {
         /// Write a self-contained HTML page (inline SVG plots) here.
         #[arg(long, value_name = "R.html")]
         html: Option<PathBuf>,
-        /// Position noise, one standard deviation per axis, model length unit
-        /// (default 0.1 mm; only the relative weight of orientations depends on it).
-        #[arg(long, value_name = "LENGTH")]
-        position_noise: Option<f64>,
+        #[command(flatten)]
+        weights: Weights,
         /// Folds of the cross-validation.
         #[arg(long, default_value_t = 10)]
         folds: usize,
@@ -244,6 +237,60 @@ enum Command {
         #[arg(value_enum)]
         paper: Paper,
     },
+}
+
+/// The noise and the prior: what weighs the rows and the parameters.
+#[derive(clap::Args, Debug)]
+struct Weights {
+    /// Position noise of the measurements, one standard deviation per axis, in
+    /// the model's length unit (default: estimated from the residuals).
+    #[arg(long, value_name = "LENGTH")]
+    position_noise: Option<f64>,
+    /// Orientation noise, one standard deviation per axis, in the model's angle
+    /// unit (default: estimated from the residuals).
+    #[arg(long, value_name = "ANGLE")]
+    orientation_noise: Option<f64>,
+    /// Prior scale of a D-H length error (s, a), one standard deviation, model
+    /// length unit (default: the model file's `[prior]`, else 1 mm).
+    #[arg(long, value_name = "LENGTH")]
+    prior_length: Option<f64>,
+    /// Prior scale of a D-H angle error (θ, α), model angle unit (default: the
+    /// model file's `[prior]`, else 1 mrad).
+    #[arg(long, value_name = "ANGLE")]
+    prior_angle: Option<f64>,
+}
+
+impl Weights {
+    /// The fit options these flags and the model file's prior give.
+    fn options(&self, model: &model_file::RobotModel) -> Result<FullOptions, InputError> {
+        let u = &model.units;
+        let mut options = FullOptions {
+            prior: model.prior,
+            ..FullOptions::default()
+        };
+        let positive = |flag: &str, v: Option<f64>| match v {
+            Some(v) if !(v.is_finite() && v > 0.0) => Err(InputError::argument(
+                flag,
+                format!("{v}: must be a positive number"),
+            )),
+            _ => Ok(v),
+        };
+        if let Some(v) = positive("--position-noise", self.position_noise)? {
+            options.position_noise = u.length_to_si(v);
+            options.position_source = NoiseSource::Stated;
+        }
+        if let Some(v) = positive("--orientation-noise", self.orientation_noise)? {
+            options.orientation_noise = u.angle_to_si(v);
+            options.orientation_source = NoiseSource::Stated;
+        }
+        if let Some(v) = positive("--prior-length", self.prior_length)? {
+            options.prior.length = u.length_to_si(v);
+        }
+        if let Some(v) = positive("--prior-angle", self.prior_angle)? {
+            options.prior.angle = u.angle_to_si(v);
+        }
+        Ok(options)
+    }
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
@@ -337,39 +384,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             params,
             out,
             json,
-            position_noise,
-            orientation_noise,
+            weights,
             targets,
         } => {
             let (model, data) = load_session(&model, &data)?;
-            let mut options = FullOptions::default();
-            let u = &model.units;
-            let noise = [
-                (
-                    "--position-noise",
-                    position_noise,
-                    position_noise.map(|v| u.length_to_si(v)),
-                ),
-                (
-                    "--orientation-noise",
-                    orientation_noise,
-                    orientation_noise.map(|v| u.angle_to_si(v)),
-                ),
-            ];
-            for (flag, given, _) in &noise {
-                if let Some(v) = given {
-                    anyhow::ensure!(
-                        v.is_finite() && *v > 0.0,
-                        "{flag} {v}: must be a positive number"
-                    );
-                }
-            }
-            if let Some(si) = noise[0].2 {
-                options.position_noise = si;
-            }
-            if let Some(si) = noise[1].2 {
-                options.orientation_noise = si;
-            }
+            let options = weights.options(&model)?;
             let set = match params {
                 Params::Full => ParamSet::Full,
                 Params::Paper => ParamSet::Paper,
@@ -462,23 +481,19 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             out,
             json,
             html,
-            position_noise,
+            weights,
             folds,
             targets,
         } => {
             let (model, data) = load_session(&model, &data)?;
-            anyhow::ensure!(folds >= 2, "--folds {folds}: at least 2");
-            let mut options = armcal::diagnose::DiagnoseOptions {
+            if folds < 2 {
+                return Err(InputError::argument("--folds", format!("{folds}: at least 2")).into());
+            }
+            let options = armcal::diagnose::DiagnoseOptions {
                 folds,
+                fit: weights.options(&model)?,
                 ..Default::default()
             };
-            if let Some(n) = position_noise {
-                anyhow::ensure!(
-                    n.is_finite() && n > 0.0,
-                    "--position-noise {n}: must be a positive number"
-                );
-                options.fit.position_noise = model.units.length_to_si(n);
-            }
             let observations = identify::observations(&data);
             // A progress bar on a terminal: every candidate is cross-validated.
             use std::io::IsTerminal as _;
@@ -520,7 +535,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     armcal::report::html(&model, &data.file, &diagnosis, &observations, &options);
                 outputs.push((path.as_path(), page.into_bytes()));
             }
-            finish(&outputs, || diagnosis.summary(&lines, &options))?;
+            finish(&outputs, || diagnosis.summary(&lines, &options, &model.units))?;
         }
         Command::Demo { seed, html } => {
             let demo = armcal::demo::demo(seed)?;

@@ -5,7 +5,9 @@
 //! Trans_z(s) Trans_x(a) Rot_x(α)`, Mirman & Gupta eq. 5; `"mdh"`: Craig's
 //! `Rot_x(α) Trans_x(a) Rot_z(θ) Trans_z(s)`), `length_unit` (`m`, `mm`, `in`),
 //! `angle_unit` (`rad`, `deg`), an optional `gravity`, one `[[joint]]` table per
-//! joint (base to tip) and optional `[tool]` and `[base]` frames.
+//! joint (base to tip), optional `[tool]` and `[base]` frames, and an optional
+//! `[prior]` (this project's extension): `length` and `angle`, the scale of the
+//! D-H parameter errors the robot is built to, in the file's units.
 //!
 //! Units: every length and angle of the file is in the file's declared units,
 //! and so are the joint readings of its data files. [`parse_model`] converts them
@@ -33,6 +35,7 @@ use toml::Spanned;
 use toml::de::{DeString, DeTable, DeValue};
 
 use crate::builtin;
+use crate::identify::prior::Prior;
 use crate::input_error::{InputError, read_text};
 
 /// A robot model as read from a model file: its identity, its units and the
@@ -49,6 +52,9 @@ pub struct RobotModel {
     pub units: Units,
     /// The nominal robot, SI (m, rad, kg, m/s²).
     pub robot: Robot<f64>,
+    /// The prior scale of its D-H parameter errors (`[prior]`), SI; 1 mm and
+    /// 1 mrad when the file gives none.
+    pub prior: Prior,
 }
 
 impl RobotModel {
@@ -59,7 +65,7 @@ impl RobotModel {
 }
 
 /// The keys a model file may have at its top level.
-const TOP_KEYS: [&str; 9] = [
+const TOP_KEYS: [&str; 10] = [
     "name",
     "description",
     "convention",
@@ -69,7 +75,10 @@ const TOP_KEYS: [&str; 9] = [
     "joint",
     "tool",
     "base",
+    "prior",
 ];
+/// The keys a `[prior]` table may have.
+const PRIOR_KEYS: [&str; 2] = ["length", "angle"];
 /// The keys a `[[joint]]` table may have.
 const JOINT_KEYS: [&str; 9] = [
     "type", "theta", "s", "d", "a", "alpha", "limits", "mass", "com",
@@ -247,12 +256,14 @@ impl ModelReader<'_> {
         robot.tool = tool;
         robot.base = base;
         robot.gravity = gravity;
+        let prior = self.prior(doc, units)?;
         Ok(RobotModel {
             name: name.to_owned(),
             description,
             source: self.file.to_owned(),
             units,
             robot,
+            prior,
         })
     }
 
@@ -534,6 +545,43 @@ impl ModelReader<'_> {
         link.limits = limits;
         link.mass = mass.map(|mass| LinkMass { mass, com });
         Ok(link)
+    }
+
+    /// `[prior]`: the scale of a D-H length and angle error (one standard
+    /// deviation, positive, in the file's units); each defaults to the
+    /// [`Prior::default`] (1 mm, 1 mrad).
+    fn prior(&self, doc: &DeTable<'_>, units: Units) -> Result<Prior, InputError> {
+        let mut prior = Prior::default();
+        let Some((k, v)) = doc.get_key_value("prior") else {
+            return Ok(prior);
+        };
+        let ctx = "[prior]: ";
+        let DeValue::Table(t) = v.get_ref() else {
+            return Err(self.err(
+                k.span(),
+                format!(
+                    "`prior` must be a table ([prior] with length and angle), found {}",
+                    a_type(v.get_ref())
+                ),
+            ));
+        };
+        self.check_keys(t, &PRIOR_KEYS, ctx)?;
+        for (key, slot, to_si) in [
+            ("length", &mut prior.length, Units::length_to_si as fn(&Units, f64) -> f64),
+            ("angle", &mut prior.angle, Units::angle_to_si),
+        ] {
+            if let Some(v) = t.get(key) {
+                let x = self.number(v, key, ctx)?;
+                if x <= 0.0 {
+                    return Err(self.err(
+                        v.span(),
+                        format!("{ctx}`{key}` = {x}: the scale of an error must be positive"),
+                    ));
+                }
+                *slot = to_si(&units, x);
+            }
+        }
+        Ok(prior)
     }
 
     /// `[tool]` or `[base]`: identity when absent; `xyz` and `rpy` each default to zero.

@@ -292,12 +292,12 @@ pub fn html(
     for f in &d.findings {
         let _ = write!(
             s,
-            "<li><b>{}</b> (joints {}): held-out RMS ×{:.2} better; sum of squares down by {:.1} noise², 99.9 % threshold {:.1}</li>",
+            "<li><b>{}</b> (joints {}): held-out RMS ×{:.2} better; F = {:.1} above the {:.1} of a 1 % family-wise test</li>",
             f.candidate.name,
             f.candidate.joints_label(),
             f.gain,
-            f.chi2.0,
-            f.chi2.1
+            f.f_test.0,
+            f.f_test.1
         );
     }
     let _ = write!(s, "</ul><div class=\"plots\">");

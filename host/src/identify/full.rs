@@ -62,6 +62,9 @@ use faer::linalg::solvers::{DenseSolveCore, Solve};
 use faer::{Mat, Side};
 use nalgebra::{IsometryMatrix3, Matrix3, Point3, Rotation3, UnitQuaternion, Vector3};
 
+use super::noise::{ChannelNoise, NoiseEstimate, NoiseSource, SETTLED};
+use super::prior::{Geometry, Prior};
+
 /// One unknown of the fit: a geometric parameter, or parameter `component` of
 /// effect `effect` of the model's effect list.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -168,6 +171,25 @@ pub struct FullOptions {
     pub max_std_angle: f64,
     /// Estimate base and tool in closed form before iterating.
     pub initial_estimate: bool,
+    /// Whether `position_noise` is the user's or a starting value to estimate from.
+    pub position_source: NoiseSource,
+    /// Whether `orientation_noise` is the user's or a starting value to estimate from.
+    pub orientation_source: NoiseSource,
+    /// The prior on the D-H parameter errors ([`Prior::NONE`]: least squares).
+    pub prior: Prior,
+    /// Which parameters are free; the others are held at nominal.
+    pub geometry: Geometry,
+}
+
+impl FullOptions {
+    /// These options with both noises stated (as given), not estimated.
+    pub fn stated(self) -> Self {
+        Self {
+            position_source: NoiseSource::Stated,
+            orientation_source: NoiseSource::Stated,
+            ..self
+        }
+    }
 }
 
 impl Default for FullOptions {
@@ -180,6 +202,10 @@ impl Default for FullOptions {
             max_std_length: 0.01,
             max_std_angle: 0.01,
             initial_estimate: true,
+            position_source: NoiseSource::Estimated,
+            orientation_source: NoiseSource::Estimated,
+            prior: Prior::default(),
+            geometry: Geometry::Full,
         }
     }
 }
@@ -210,6 +236,10 @@ pub struct ParamResult {
     pub error: f64,
     /// Identified or fixed.
     pub status: Status,
+    /// The data's share in the estimate, 0 to 1 (the resolution matrix's
+    /// diagonal): 1 when the data alone determine it, near 0 when the prior
+    /// holds it, 0 when fixed.
+    pub data_share: f64,
 }
 
 /// The result of the full identification.
@@ -237,8 +267,13 @@ pub struct FullFit {
     pub correlations: Vec<(String, String, f64)>,
     /// The effects fitted with the geometry, with their parameters' statuses.
     pub effects: Vec<EffectFit>,
-    /// Equations (rows) and identified parameters.
+    /// Equations (rows).
     pub equations: usize,
+    /// The redundancy: equations less the parameters' share they determine
+    /// (`n − tr(H)`; `n − p` without a prior).
+    pub redundancy: f64,
+    /// The noise of each channel: used and shown by the residuals.
+    pub noise: NoiseEstimate,
 }
 
 /// One effect of the result: its identified parameters and their statuses (in
@@ -352,11 +387,31 @@ pub fn identify_with_effects(
         }
     }
     let orientation = data.iter().any(|o| o.orientation.is_some());
-    let mut params: Vec<Unknown> = full_params(nominal, orientation)
+    // Every parameter of the full model and the extra tilts; the chosen geometry
+    // frees some of the model's, the others are held at nominal.
+    let all: Vec<Param> = full_params(nominal, orientation)
         .into_iter()
-        .map(Unknown::Param)
+        .chain(extra.iter().copied())
         .collect();
-    params.extend(extra.iter().map(|p| Unknown::Param(*p)));
+    let frees = |p: &Param| options.geometry.frees(nominal, *p) || extra.contains(p);
+    let held_by_model: Vec<(Unknown, String)> = all
+        .iter()
+        .filter(|p| !frees(p))
+        .map(|p| {
+            (
+                Unknown::Param(*p),
+                format!(
+                    "held at nominal: the {} model does not free it",
+                    options.geometry.name()
+                ),
+            )
+        })
+        .collect();
+    let mut params: Vec<Unknown> = all
+        .iter()
+        .filter(|p| frees(p))
+        .map(|p| Unknown::Param(*p))
+        .collect();
     for (effect, e) in effects.iter().enumerate() {
         params.extend(
             (0..e.parameter_count()).map(|component| Unknown::Effect { effect, component }),
@@ -373,10 +428,6 @@ pub fn identify_with_effects(
             unknowns,
         });
     }
-    let weights = (
-        1.0 / options.position_noise,
-        1.0 / options.orientation_noise,
-    );
 
     let mut robot = Model {
         robot: nominal.clone(),
@@ -386,25 +437,28 @@ pub fn identify_with_effects(
         initial_base_tool(&mut robot.robot, data);
     }
 
-    // Identifiability at the initial estimate with the stated noise; again with the
-    // noise the residuals show if it is larger.
-    let start = robot.clone();
-    let mut noise_scale = 1.0;
-    let (
-        mut free_params,
-        mut fixed,
-        mut iterations,
-        mut converged,
-        mut cost,
-        mut equations,
-        mut sys,
+    // Identifiability at the initial estimate; the fit; then, for an estimated
+    // noise, the variance components and the fit again with their weights until
+    // they settle. A stated noise is kept, but when the fit shows it
+    // significantly larger the selection is made again with the noise the
+    // residuals show.
+    let estimate = (
+        options.position_source == NoiseSource::Estimated,
+        orientation && options.orientation_source == NoiseSource::Estimated,
     );
+    let start = robot.clone();
+    let mut noise = (options.position_noise, options.orientation_noise);
+    let mut noise_scale = 1.0;
+    let mut iterations = 0;
+    let (mut free_params, mut fixed, mut converged, mut sys, mut prior, mut post);
+    let mut round = 0;
     loop {
+        round += 1;
+        let weights = (1.0 / noise.0, 1.0 / noise.1);
         let system = LinearSystem::build(&robot, data, &params, weights);
-        equations = system.j.nrows();
         let (free, f) = separable_subset(&system, &params, &robot, data, options, noise_scale);
         fixed = f;
-        if equations < free.len() {
+        if equations < free.len() && options.prior == Prior::NONE {
             return Err(FullError::TooFewEquations {
                 equations,
                 unknowns: free.len(),
@@ -432,14 +486,45 @@ pub fn identify_with_effects(
         } else {
             system.select_columns(&free)
         };
-        (iterations, converged, cost, sys) =
-            levenberg_marquardt(&mut robot, data, &free_params, weights, options, first)?;
-        let dof = equations.saturating_sub(free_params.len());
-        let variance_factor = if dof > 0 { cost / dof as f64 } else { 1.0 };
+        prior = prior_terms(&free_params, nominal, &options.prior);
+        let run;
+        (run, converged, sys) = levenberg_marquardt(
+            &mut robot,
+            data,
+            &free_params,
+            weights,
+            options,
+            first,
+            &prior,
+        )?;
+        iterations += run;
+        post = Posterior::at(&sys, data, &prior);
+        if estimate.0 || estimate.1 {
+            let next = (
+                if estimate.0 {
+                    ChannelNoise::update(noise.0, post.omega.0, post.redundancy.0)
+                } else {
+                    noise.0
+                },
+                if estimate.1 {
+                    ChannelNoise::update(noise.1, post.omega.1, post.redundancy.1)
+                } else {
+                    noise.1
+                },
+            );
+            let settled = (next.0 / noise.0 - 1.0).abs() < SETTLED
+                && (next.1 / noise.1 - 1.0).abs() < SETTLED;
+            if settled || round >= MAX_NOISE_ROUNDS {
+                break;
+            }
+            noise = next;
+            continue;
+        }
+        let variance_factor = post.variance_factor();
         // Select again only if the noise is significantly larger than stated: the
         // variance factor of correctly stated noise scatters about 1 with a
         // standard deviation of √(2/dof).
-        let significant = 1.0 + 3.0 * (2.0 / dof.max(1) as f64).sqrt();
+        let significant = 1.0 + 3.0 * (2.0 / post.redundancy().max(1.0)).sqrt();
         let new_scale = variance_factor.sqrt();
         if variance_factor <= significant * noise_scale * noise_scale {
             break;
@@ -454,9 +539,7 @@ pub fn identify_with_effects(
 
     // Statistics at the solution (the last linearisation is at the solution).
     let (g, _, scale) = sys.scaled_normal_equations();
-    let dof = equations.saturating_sub(free_params.len());
-    let variance_factor = if dof > 0 { cost / dof as f64 } else { 1.0 };
-    let cov_scaled = g.llt(Side::Lower).map(|l| l.inverse()).ok();
+    let variance_factor = post.variance_factor();
     let eig = g.self_adjoint_eigenvalues(Side::Lower).unwrap_or_default();
     let (smin, smax) = (
         eig.first().copied().unwrap_or(0.0).max(0.0).sqrt(),
@@ -477,7 +560,7 @@ pub fn identify_with_effects(
     };
     let mut correlations = Vec::new();
     let mut std_of = vec![f64::NAN; free_params.len()];
-    if let Some(c) = &cov_scaled {
+    if let Some(c) = &post.cov {
         for k in 0..free_params.len() {
             std_of[k] = (variance_factor * c[(k, k)]).sqrt() * scale[k];
             for l in 0..k {
@@ -489,17 +572,49 @@ pub fn identify_with_effects(
     correlations.sort_by(|a, b| b.2.abs().total_cmp(&a.2.abs()));
     correlations.truncate(5);
 
+    let weights = (1.0 / noise.0, 1.0 / noise.1);
     let (position_rms, orientation_rms) = sys.residual_rms(data, weights);
+    let channel = |source: NoiseSource, used: f64, omega: f64, rows: usize, redundancy: f64| {
+        ChannelNoise {
+            source,
+            used,
+            shown: ChannelNoise::update(used, omega, redundancy),
+            rows,
+            redundancy,
+        }
+    };
+    let noise_estimate = NoiseEstimate {
+        position: channel(
+            options.position_source,
+            noise.0,
+            post.omega.0,
+            post.rows.0,
+            post.redundancy.0,
+        ),
+        orientation: orientation.then(|| {
+            channel(
+                options.orientation_source,
+                noise.1,
+                post.omega.1,
+                post.rows.1,
+                post.redundancy.1,
+            )
+        }),
+    };
     let mut fixed_reason = fixed
         .into_iter()
+        .chain(held_by_model)
         .collect::<std::collections::HashMap<_, _>>();
     let mut status_of = |u: Unknown| match free_params.iter().position(|p| *p == u) {
-        Some(k) => Status::Identified { std: std_of[k] },
-        None => Status::Fixed {
-            reason: fixed_reason
-                .remove(&u)
-                .unwrap_or_else(|| "not separable".into()),
-        },
+        Some(k) => (Status::Identified { std: std_of[k] }, post.share[k]),
+        None => (
+            Status::Fixed {
+                reason: fixed_reason
+                    .remove(&u)
+                    .unwrap_or_else(|| "not separable".into()),
+            },
+            0.0,
+        ),
     };
     let effect_fits: Vec<EffectFit> = robot
         .effects
@@ -508,32 +623,29 @@ pub fn identify_with_effects(
         .map(|(effect, e)| EffectFit {
             effect: *e,
             status: (0..e.parameter_count())
-                .map(|component| status_of(Unknown::Effect { effect, component }))
+                .map(|component| status_of(Unknown::Effect { effect, component }).0)
                 .collect(),
         })
         .collect();
-    let results = params
+    let results = all
         .iter()
-        .filter_map(|u| match u {
-            Unknown::Param(p) => Some(*p),
-            Unknown::Effect { .. } => None,
-        })
-        .map(|param| {
+        .map(|&param| {
             let nominal_value = nominal.param(param).unwrap_or(0.0);
             let mut error = robot.robot.param(param).unwrap_or(0.0) - nominal_value;
             if param.is_angle() {
                 error = wrap_angle(error);
             }
-            let status = status_of(Unknown::Param(param));
+            let (status, data_share) = status_of(Unknown::Param(param));
             ParamResult {
                 param,
                 nominal: nominal_value,
                 error,
                 status,
+                data_share,
             }
         })
         .collect();
-    if !cost.is_finite() {
+    if !sys.cost().is_finite() {
         return Err(FullError::NonFinite);
     }
     Ok(FullFit {
@@ -549,42 +661,147 @@ pub fn identify_with_effects(
         variance_factor,
         correlations,
         equations,
+        redundancy: post.redundancy(),
+        noise: noise_estimate,
     })
+}
+
+/// Most rounds of the variance-component iteration (each a fit from the last);
+/// they settle in a handful.
+const MAX_NOISE_ROUNDS: usize = 30;
+
+/// The prior of each free unknown: its precision `1/τ²` (0 for none) and its
+/// nominal value.
+fn prior_terms(free: &[Unknown], nominal: &Robot<f64>, prior: &Prior) -> Vec<(f64, f64)> {
+    free.iter()
+        .map(|u| match u {
+            Unknown::Param(p) => (prior.precision(*p), nominal.param(*p).unwrap_or(0.0)),
+            Unknown::Effect { .. } => (0.0, 0.0),
+        })
+        .collect()
+}
+
+/// `Σ (x − x_nominal)² / τ²` over the free unknowns of `robot`.
+fn prior_cost(robot: &Model, free: &[Unknown], prior: &[(f64, f64)]) -> f64 {
+    free.iter()
+        .zip(prior)
+        .filter(|(_, (precision, _))| *precision > 0.0)
+        .map(|(u, (precision, centre))| {
+            let d = robot.get(*u).unwrap_or(*centre) - centre;
+            precision * d * d
+        })
+        .sum()
+}
+
+/// The posterior at a solution: the covariance of the scaled unknowns, each
+/// channel's weighted sum of squares, rows and redundancy, and each unknown's
+/// data share (see [`super::noise`] and [`super::prior`]).
+struct Posterior {
+    /// `(G + P)⁻¹` in the unit-diagonal scaling of the data's normal matrix `G`.
+    cov: Option<Mat<f64>>,
+    /// Weighted sums of squares: positions, orientations.
+    omega: (f64, f64),
+    /// Rows: positions, orientations.
+    rows: (usize, usize),
+    /// Redundancies: positions, orientations.
+    redundancy: (f64, f64),
+    /// The diagonal of the resolution matrix `(G + P)⁻¹ G`.
+    share: Vec<f64>,
+}
+
+impl Posterior {
+    fn at(sys: &LinearSystem, data: &[Observation], prior: &[(f64, f64)]) -> Self {
+        let (g, _, scale) = sys.scaled_normal_equations();
+        let p = g.nrows();
+        // The position rows alone.
+        let mut position_rows = Vec::with_capacity(3 * data.len());
+        let mut row = 0;
+        for obs in data {
+            position_rows.extend(row..row + 3);
+            row += if obs.orientation.is_some() { 6 } else { 3 };
+        }
+        let rows = (position_rows.len(), sys.j.nrows() - position_rows.len());
+        let jp = Mat::from_fn(position_rows.len(), p, |i, k| {
+            sys.j[(position_rows[i], k)] * scale[k]
+        });
+        let gp = jp.transpose() * &jp;
+        let omega_p: f64 = position_rows.iter().map(|&i| sys.r[(i, 0)].powi(2)).sum();
+        let omega = (omega_p, sys.cost() - omega_p);
+        let mut n = g.clone();
+        for (k, (precision, _)) in prior.iter().enumerate() {
+            n[(k, k)] += precision * scale[k] * scale[k];
+        }
+        let cov = n.llt(Side::Lower).map(|l| l.inverse()).ok();
+        let trace = |a: &Mat<f64>| match &cov {
+            Some(c) => (0..p)
+                .map(|i| (0..p).map(|j| c[(i, j)] * a[(j, i)]).sum::<f64>())
+                .sum(),
+            None => p as f64,
+        };
+        let (tp, t) = (trace(&gp), trace(&g));
+        let share = (0..p)
+            .map(|k| match &cov {
+                Some(c) => (0..p).map(|j| c[(k, j)] * g[(j, k)]).sum::<f64>(),
+                None => 1.0,
+            })
+            .collect();
+        Self {
+            cov,
+            omega,
+            rows,
+            redundancy: (rows.0 as f64 - tp, rows.1 as f64 - (t - tp)),
+            share,
+        }
+    }
+
+    /// The total redundancy.
+    fn redundancy(&self) -> f64 {
+        self.redundancy.0 + self.redundancy.1
+    }
+
+    /// The a-posteriori variance factor: the weighted sum of squares over the redundancy.
+    fn variance_factor(&self) -> f64 {
+        let r = self.redundancy();
+        if r > 0.0 {
+            (self.omega.0 + self.omega.1) / r
+        } else {
+            1.0
+        }
+    }
 }
 
 /// The weighted linearisation of a fitted model, extended: the Jacobian columns
 /// of `fit`'s identified unknowns (geometry, then its effects' parameters), then of
 /// the `extra` geometric parameters, then of the parameters of `effects` (at their
 /// values, usually zero), all at `fit`'s solution; and the weighted residual.
-/// Rows as in the fit: per pose 3 position rows (divided by the position noise),
-/// then 3 orientation rows when measured. What [`crate::diagnose`] screens
-/// candidate extensions with, by one Gauss–Newton step per fold.
+/// Rows as in the fit: per pose 3 position rows (divided by the fit's position
+/// noise), then 3 orientation rows when measured. Each column carries its
+/// `prior` precision and its current offset from nominal, so that a solve
+/// on any subset of the poses is the MAP step of the fit. What
+/// [`crate::diagnose`] cross-validates models with, by one Gauss–Newton step per fold.
 pub fn linearize(
     fit: &FullFit,
     effects: &[Effect<f64>],
     extra: &[Param],
     data: &[Observation],
-    options: &FullOptions,
+    prior: &Prior,
 ) -> Linearization {
     let mut model = Model {
         robot: fit.calibrated.clone(),
         effects: fit.effects.iter().map(|e| e.effect).collect(),
     };
     let identified = |s: &Status| matches!(s, Status::Identified { .. });
-    let mut unknowns: Vec<Unknown> = fit
-        .params
-        .iter()
-        .filter(|p| identified(&p.status))
-        .map(|p| Unknown::Param(p.param))
-        .collect();
+    let mut unknowns: Vec<Unknown> = Vec::new();
+    let mut offset: Vec<f64> = Vec::new();
+    for p in fit.params.iter().filter(|p| identified(&p.status)) {
+        unknowns.push(Unknown::Param(p.param));
+        offset.push(p.error);
+    }
     for (effect, e) in fit.effects.iter().enumerate() {
-        unknowns.extend(
-            e.status
-                .iter()
-                .enumerate()
-                .filter(|(_, s)| identified(s))
-                .map(|(component, _)| Unknown::Effect { effect, component }),
-        );
+        for (component, _) in e.status.iter().enumerate().filter(|(_, s)| identified(s)) {
+            unknowns.push(Unknown::Effect { effect, component });
+            offset.push(0.0);
+        }
     }
     let base = unknowns.len();
     unknowns.extend(extra.iter().map(|p| Unknown::Param(*p)));
@@ -595,11 +812,22 @@ pub fn linearize(
             (0..e.parameter_count()).map(|component| Unknown::Effect { effect, component }),
         );
     }
-    let weights = (
-        1.0 / options.position_noise,
-        1.0 / options.orientation_noise,
+    offset.resize(unknowns.len(), 0.0);
+    let precision = unknowns
+        .iter()
+        .map(|u| match u {
+            Unknown::Param(p) => prior.precision(*p),
+            Unknown::Effect { .. } => 0.0,
+        })
+        .collect();
+    let position_noise = fit.noise.position.used;
+    let orientation_noise = fit.noise.orientation.map_or(1.0, |o| o.used);
+    let sys = LinearSystem::build(
+        &model,
+        data,
+        &unknowns,
+        (1.0 / position_noise, 1.0 / orientation_noise),
     );
-    let sys = LinearSystem::build(&model, data, &unknowns, weights);
     let mut first_rows = Vec::with_capacity(data.len());
     let mut row = 0;
     for obs in data {
@@ -611,7 +839,10 @@ pub fn linearize(
         r: sys.r,
         first_rows,
         fitted: base,
-        position_noise: options.position_noise,
+        position_noise,
+        unknowns,
+        precision,
+        offset,
     }
 }
 
@@ -627,10 +858,25 @@ pub struct Linearization {
     pub fitted: usize,
     /// The position noise the rows are divided by, m.
     pub position_noise: f64,
+    /// The unknown of each column.
+    pub unknowns: Vec<Unknown>,
+    /// The prior precision `1/τ²` of each column (0: none).
+    pub precision: Vec<f64>,
+    /// Each column's value less its nominal value (its prior's centre), SI.
+    pub offset: Vec<f64>,
 }
 
-/// Levenberg–Marquardt on `free` from `robot`: iterations, convergence and the
-/// final weighted sum of squares.
+impl Linearization {
+    /// The rows of pose `i`.
+    pub fn rows_of(&self, i: usize) -> std::ops::Range<usize> {
+        self.first_rows[i]..self.first_rows.get(i + 1).copied().unwrap_or(self.j.nrows())
+    }
+}
+
+/// Levenberg–Marquardt on `free` from `robot`, minimising the weighted sum of
+/// squares plus the prior's `Σ (x − x_nominal)²/τ²` (`prior`: precision and
+/// nominal value of each free unknown): iterations, convergence and the
+/// linearisation at the solution.
 fn levenberg_marquardt(
     robot: &mut Model,
     data: &[Observation],
@@ -638,7 +884,8 @@ fn levenberg_marquardt(
     weights: (f64, f64),
     options: &FullOptions,
     mut sys: LinearSystem,
-) -> Result<(usize, bool, f64, LinearSystem), FullError> {
+    prior: &[(f64, f64)],
+) -> Result<(usize, bool, LinearSystem), FullError> {
     // One linearisation per trial: an accepted trial's Jacobian is the next
     // iteration's, so each iteration costs one pass over the poses. `sys` is the
     // linearisation at `robot`.
@@ -646,13 +893,20 @@ fn levenberg_marquardt(
         j: sys.j.clone(),
         r: sys.r.clone(),
     };
-    let mut cost = sys.cost();
+    let mut cost = sys.cost() + prior_cost(robot, free_params, prior);
     let mut lambda = 1e-3;
     let mut iterations = 0;
     let mut converged = false;
     while iterations < options.max_iterations && !converged {
         iterations += 1;
-        let (g, rhs, scale) = sys.scaled_normal_equations();
+        let (mut g, mut rhs, scale) = sys.scaled_normal_equations();
+        for (k, (precision, centre)) in prior.iter().enumerate() {
+            if *precision > 0.0 {
+                let x = robot.get(free_params[k]).unwrap_or(*centre);
+                g[(k, k)] += precision * scale[k] * scale[k];
+                rhs[(k, 0)] += precision * scale[k] * (centre - x);
+            }
+        }
         let mut accepted = false;
         for _ in 0..30 {
             let mut a = g.clone();
@@ -678,7 +932,7 @@ fn levenberg_marquardt(
             let mut trial = robot.clone();
             apply(&mut trial, free_params, &step);
             trial_sys.fill(&trial, data, free_params, weights);
-            let trial_cost = trial_sys.cost();
+            let trial_cost = trial_sys.cost() + prior_cost(&trial, free_params, prior);
             if trial_cost <= cost {
                 // Converged when the step no longer matters: below 1e-10 of the noise,
                 // or lowering the sum of squares by less than 1e-8 of it (the
@@ -703,7 +957,7 @@ fn levenberg_marquardt(
             break;
         }
     }
-    Ok((iterations, converged, cost, sys))
+    Ok((iterations, converged, sys))
 }
 
 /// Wraps an angle to (−π, π].
@@ -983,7 +1237,9 @@ fn separable_subset(
         // The standard error this parameter would have beside the ones kept so far.
         let std = noise_scale * scale[k] / d.max(0.0).sqrt();
         // Effect parameters have units of their own: only exact dependence holds them.
+        // A parameter with a prior is held near nominal by the prior, not here.
         let (limit, unit) = match params[k] {
+            Unknown::Param(p) if options.prior.precision(p) > 0.0 => (f64::INFINITY, ""),
             Unknown::Param(p) if p.is_angle() => (options.max_std_angle, "rad"),
             Unknown::Param(_) => (options.max_std_length, "m"),
             Unknown::Effect { .. } => (f64::INFINITY, ""),

@@ -11,7 +11,9 @@
 //! angle to the model file's units (`mm`-suffixed fields excepted).
 
 pub mod full;
+pub mod noise;
 pub mod paper;
+pub mod prior;
 
 use std::fmt::Write as _;
 
