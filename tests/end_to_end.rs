@@ -240,7 +240,7 @@ rpy = [0, 0, 120]
                 // Which parameters these data cannot separate: ask the identification,
                 // then take their errors out of the truth.
                 let probe = measure(&truth, &configs, 0.0, orientation.then_some(0.0), &mut r);
-                let fit = identify_full(&nominal, &probe, &FullOptions::default()).unwrap();
+                let fit = identify_full(&nominal, &probe, &FullOptions::least_squares()).unwrap();
                 let fixed: Vec<Param> = fit
                     .params
                     .iter()
@@ -251,7 +251,7 @@ rpy = [0, 0, 120]
                     *truth.param_mut(*p).unwrap() = nominal.param(*p).unwrap();
                 }
                 let data = measure(&truth, &configs, 0.0, orientation.then_some(0.0), &mut r);
-                let fit = identify_full(&nominal, &data, &FullOptions::default()).unwrap();
+                let fit = identify_full(&nominal, &data, &FullOptions::least_squares()).unwrap();
                 assert!(
                     fit.converged,
                     "{name}: not converged after {} iterations",
@@ -295,7 +295,7 @@ mod identification_noise {
     fn not_separable(nominal: &Robot<f64>, configs: &[Vec<f64>], orientation: bool) -> Vec<Param> {
         let mut r = rng(0);
         let exact = measure(nominal, configs, 0.0, orientation.then_some(0.0), &mut r);
-        identify_full(nominal, &exact, &FullOptions::default())
+        identify_full(nominal, &exact, &FullOptions::least_squares())
             .unwrap()
             .params
             .iter()
@@ -325,7 +325,7 @@ mod identification_noise {
         let noise = 50e-6;
         let options = FullOptions {
             position_noise: noise,
-            ..FullOptions::default()
+            ..FullOptions::least_squares()
         };
         let (mut sum_z2, mut count, mut worst) = (0.0, 0usize, 0.0f64);
         for _ in 0..30 {
@@ -382,7 +382,7 @@ mod identification_noise {
                 let options = FullOptions {
                     position_noise: noise,
                     orientation_noise: noise,
-                    ..FullOptions::default()
+                    ..FullOptions::least_squares()
                 };
                 let fit = identify_full(&nominal, &data, &options).unwrap();
                 for p in &fit.params {
@@ -407,7 +407,7 @@ mod identification_noise {
         let mut r = rng(5);
         let configs = random_configurations(&nominal, 6, &mut r);
         let data = measure(&nominal, &configs, 0.0, None, &mut r);
-        let err = identify_full(&nominal, &data, &FullOptions::default()).unwrap_err();
+        let err = identify_full(&nominal, &data, &FullOptions::least_squares()).unwrap_err();
         let text = err.to_string();
         assert!(text.contains("18 equations"), "{text}");
         assert!(text.contains("measure more poses"), "{text}");
@@ -425,7 +425,7 @@ mod identification_noise {
             let mut r = rng(3);
             let configs = random_configurations(&nominal, 50, &mut r);
             let data = measure(&nominal, &configs, 0.0, Some(0.0), &mut r);
-            let fit = identify_full(&nominal, &data, &FullOptions::default()).unwrap();
+            let fit = identify_full(&nominal, &data, &FullOptions::least_squares()).unwrap();
             for want in expected {
                 let p = fit.params.iter().find(|p| p.param == want).unwrap();
                 match &p.status {
@@ -767,7 +767,7 @@ mod extended_fit {
             let session = simulate(&nominal, &scenario).unwrap();
             let options = FullOptions {
                 position_noise: 20e-6,
-                ..FullOptions::default()
+                ..FullOptions::default().stated()
             };
             let geometric = identify_full(&nominal, &session.observations, &options).unwrap();
             assert!(
@@ -877,7 +877,7 @@ mod extended_fit {
         );
         let options = FullOptions {
             position_noise: 20e-6,
-            ..FullOptions::default()
+            ..FullOptions::default().stated()
         };
         let mut start = effect;
         *start.parameter_mut(0).unwrap() = 0.0;
@@ -933,7 +933,7 @@ mod extended_fit {
         let session = simulate(&nominal, &scenario).unwrap();
         let options = FullOptions {
             position_noise: 20e-6,
-            ..FullOptions::default()
+            ..FullOptions::default().stated()
         };
         let fit = identify_with_effects(
             &nominal,
@@ -1136,7 +1136,7 @@ mod diagnosis_random {
                 let target: f64 = r.random_range(5.0..20.0);
                 let seed = r.random_range(0..u64::MAX / 2);
                 let Some((scenario, hidden, joints)) =
-                    hidden_case(nominal, Some(kind), joint, target, seed, &options.fit)
+                    hidden_case(nominal, Some(kind), joint, target, seed, 300, &options.fit)
                 else {
                     continue;
                 };

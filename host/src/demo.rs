@@ -112,9 +112,15 @@ pub fn demo(seed: u64) -> anyhow::Result<Demo> {
         let joint = r.random_range(0..nominal.dof());
         let target = r.random_range(8.0..15.0);
         let case_seed = r.random::<u64>();
-        let Some((scenario, Some(name), joints)) =
-            hidden_case(nominal, Some(kind), joint, target, case_seed, &options.fit)
-        else {
+        let Some((scenario, Some(name), joints)) = hidden_case(
+            nominal,
+            Some(kind),
+            joint,
+            target,
+            case_seed,
+            300,
+            &options.fit,
+        ) else {
             continue;
         };
         let session = simulate(nominal, &scenario)?;

@@ -211,6 +211,9 @@ enum Command {
         /// Seed of every draw.
         #[arg(long, default_value_t = 1)]
         seed: u64,
+        /// Tracker positions per simulated session.
+        #[arg(long, default_value_t = 300)]
+        poses: usize,
         /// Write every case as JSON here.
         #[arg(long, value_name = "R.json")]
         json: Option<PathBuf>,
@@ -535,17 +538,31 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     armcal::report::html(&model, &data.file, &diagnosis, &observations, &options);
                 outputs.push((path.as_path(), page.into_bytes()));
             }
-            finish(&outputs, || diagnosis.summary(&lines, &options, &model.units))?;
+            finish(&outputs, || {
+                diagnosis.summary(&lines, &options, &model.units)
+            })?;
         }
         Command::Demo { seed, html } => {
             let demo = armcal::demo::demo(seed)?;
             output::write_atomically(&html, demo.html().as_bytes())?;
             print!("{}", demo.summary(&html.display().to_string()));
         }
-        Command::Sweep { cases, seed, json } => {
+        Command::Sweep {
+            cases,
+            seed,
+            poses,
+            json,
+        } => {
+            if poses < 20 {
+                return Err(InputError::argument(
+                    "--poses",
+                    format!("{poses}: at least 20 positions per session"),
+                )
+                .into());
+            }
             use std::io::IsTerminal as _;
             let tty = std::io::stderr().is_terminal();
-            let results = armcal::sweep::sweep(cases, seed, |i, c| {
+            let results = armcal::sweep::sweep(cases, seed, poses, |i, c| {
                 if tty {
                     eprint!(
                         "\rcase {}/{cases}: {} {:?} → {:?}      ",

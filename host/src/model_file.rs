@@ -567,7 +567,11 @@ impl ModelReader<'_> {
         };
         self.check_keys(t, &PRIOR_KEYS, ctx)?;
         for (key, slot, to_si) in [
-            ("length", &mut prior.length, Units::length_to_si as fn(&Units, f64) -> f64),
+            (
+                "length",
+                &mut prior.length,
+                Units::length_to_si as fn(&Units, f64) -> f64,
+            ),
             ("angle", &mut prior.angle, Units::angle_to_si),
         ] {
             if let Some(v) = t.get(key) {

@@ -7,7 +7,7 @@
 //! scales the effect's magnitude so that the geometric fit leaves that much
 //! (residuals grow linearly with a small effect: one trial fit sets the scale);
 //! simulates 300
-//! tracker positions (σ = 20 µm, ±1 mm / ±1 mrad geometry, 20–30 °C, payloads 0
+//! (`--poses`) tracker positions (σ = 20 µm, ±1 mm / ±1 mrad geometry, 20–30 °C, payloads 0
 //! and 5 kg); runs the diagnosis (5-fold); and records whether the first finding
 //! is the hidden effect on its joints, whether anything was named for pure
 //! geometry, the signal (geometric held-out RMS over the noise-limited one) and
@@ -55,7 +55,7 @@ impl Case {
 /// 1 gear transmission, 2 backlash, 3 thermal expansion, 4 encoder scale, 5 a tilt
 /// between the second and third axes; `None` pure geometry) on `joint`, its size
 /// scaled so that the geometric fit leaves about `target` times the noise (capped
-/// at what real arms show), 300 tracker positions, `seed`. Returns the scenario,
+/// at what real arms show), `poses` tracker positions, `seed`. Returns the scenario,
 /// the hidden effect's name and its joints; `None` if the trial fit failed.
 pub fn hidden_case(
     nominal: &Robot<f64>,
@@ -63,9 +63,10 @@ pub fn hidden_case(
     joint: usize,
     target: f64,
     seed: u64,
+    poses: usize,
     fit: &FullOptions,
 ) -> Option<(Scenario, Option<&'static str>, Vec<usize>)> {
-    let mut scenario = Scenario::tracker(300, seed);
+    let mut scenario = Scenario::tracker(poses, seed);
     // Unit-size starting shapes; the scaling below sets the size.
     let (hidden, joints): (Option<&'static str>, Vec<usize>) = match kind {
         Some(0) => {
@@ -162,8 +163,14 @@ pub fn tracker_diagnosis() -> DiagnoseOptions {
     }
 }
 
-/// Runs `cases` cases from `seed`; `progress` is called after each.
-pub fn sweep(cases: usize, seed: u64, mut progress: impl FnMut(usize, &Case)) -> Vec<Case> {
+/// Runs `cases` cases of `poses` positions each from `seed`; `progress` is
+/// called after each.
+pub fn sweep(
+    cases: usize,
+    seed: u64,
+    poses: usize,
+    mut progress: impl FnMut(usize, &Case),
+) -> Vec<Case> {
     let robots: Vec<(&'static str, Robot<f64>)> = ["puma560", "ur5e", "ur10e"]
         .into_iter()
         .filter_map(|n| crate::model_file::load_model(n).ok().map(|m| (n, m.robot)))
@@ -184,7 +191,7 @@ pub fn sweep(cases: usize, seed: u64, mut progress: impl FnMut(usize, &Case)) ->
         let target: f64 = r.random_range(5.0..20.0);
         let case_seed = seed.wrapping_mul(1000).wrapping_add(i as u64);
         let Some((scenario, hidden, joints)) =
-            hidden_case(nominal, kind, joint, target, case_seed, &options.fit)
+            hidden_case(nominal, kind, joint, target, case_seed, poses, &options.fit)
         else {
             continue;
         };

@@ -22,10 +22,10 @@
 //! the paired test of [`crate::stats::significantly_smaller`] at 5 %) than the
 //! model fitted with it; either way the summary gives both figures.
 
-use faer::linalg::solvers::Solve;
+use faer::linalg::solvers::{DenseSolveCore, Solve};
 use faer::{Mat, Side};
 
-use super::cross_validation::{Folds, Subset};
+use super::cross_validation::{Folds, Role, Subset};
 use crate::identify::full::{FullFit, Linearization, unit_diagonal_scale};
 use crate::stats::f_quantile;
 
@@ -71,24 +71,21 @@ pub fn most_suspect(fit: &FullFit, lin: &Linearization) -> Option<Suspect> {
     let normal = Mat::from_fn(p, p, |i, j| {
         (a[(i, j)] + if i == j { lin.precision[i] } else { 0.0 }) * scale[i] * scale[j]
     });
-    let llt = normal.llt(Side::Lower).ok()?;
+    // N⁻¹ in the scaled unknowns, once.
+    let inverse = normal.llt(Side::Lower).ok()?.inverse();
     let omega = lin.r.squared_norm_l2();
     let redundancy = fit.redundancy;
     let mut worst: Option<Suspect> = None;
+    let mut thresholds = std::collections::HashMap::new();
     for i in 0..n {
         let rows = lin.rows_of(i);
         let k = rows.len();
         if redundancy - (k as f64) < 1.0 {
             return None;
         }
-        // X = N⁻¹ J_iᵀ, in the scaled unknowns.
-        let jt = Mat::from_fn(p, k, |c, r| lin.j[(rows.start + r, c)] * scale[c]);
-        let x = llt.solve(&jt);
-        let h = Mat::from_fn(k, k, |r, s| {
-            (0..p)
-                .map(|c| lin.j[(rows.start + r, c)] * scale[c] * x[(c, s)])
-                .sum::<f64>()
-        });
+        // The pose's scaled rows J_i, then H_ii = J_i N⁻¹ J_iᵀ.
+        let ji = Mat::from_fn(k, p, |r, c| lin.j[(rows.start + r, c)] * scale[c]);
+        let h = &ji * &inverse * ji.transpose();
         let i_minus_h = Mat::from_fn(k, k, |r, s| if r == s { 1.0 } else { 0.0 } - h[(r, s)]);
         let ri = Mat::from_fn(k, 1, |r, _| lin.r[(rows.start + r, 0)]);
         let Ok(f) = i_minus_h.llt(Side::Lower) else {
@@ -98,7 +95,10 @@ pub fn most_suspect(fit: &FullFit, lin: &Linearization) -> Option<Suspect> {
         let t: f64 = (0..k).map(|r| ri[(r, 0)] * deleted[(r, 0)]).sum();
         let rest = (omega - t).max(f64::MIN_POSITIVE) / (redundancy - k as f64);
         let stat = (t / k as f64) / rest;
-        let threshold = f_quantile(1.0 - ALPHA / n as f64, k as f64, redundancy - k as f64);
+        // The same for every pose of k rows.
+        let threshold = *thresholds
+            .entry(k)
+            .or_insert_with(|| f_quantile(1.0 - ALPHA / n as f64, k as f64, redundancy - k as f64));
         if stat > threshold && worst.is_none_or(|w| stat / threshold > w.f / w.threshold) {
             worst = Some(Suspect {
                 pose: i,
@@ -110,22 +110,29 @@ pub fn most_suspect(fit: &FullFit, lin: &Linearization) -> Option<Suspect> {
     worst
 }
 
-/// The held-out errors (m) of every pose but `skip`, in order (interleaved
-/// folds over them, `k` of them), with `skip`, when given, in every training set.
-pub fn held_out_of_others(lin: &Linearization, k: usize, skip: Option<usize>) -> Option<Vec<f64>> {
+/// The held-out errors (m) of every pose but `suspect`, in order (interleaved
+/// folds over them, `k` of them), with the suspect in every training set
+/// ([`Role::Train`]) or in none ([`Role::Out`]).
+pub fn held_out_of_others(
+    lin: &Linearization,
+    k: usize,
+    suspect: usize,
+    role: Role,
+) -> Option<Vec<f64>> {
     let n = lin.first_rows.len();
-    let others = n - usize::from(skip.is_some());
-    let k = k.clamp(2, others.max(2));
+    let k = k.clamp(2, n.saturating_sub(1).max(2));
     let mut index = 0;
-    let fold = (0..n)
+    let roles = (0..n)
         .map(|i| {
-            (Some(i) != skip).then(|| {
+            if i == suspect {
+                role
+            } else {
                 index += 1;
-                (index - 1) % k
-            })
+                Role::Fold((index - 1) % k)
+            }
         })
         .collect();
-    let folds = Folds::new(lin, fold);
+    let folds = Folds::new(lin, roles);
     let all = Subset {
         columns: (0..lin.j.ncols()).collect(),
         precision_factor: 1.0,
@@ -134,7 +141,7 @@ pub fn held_out_of_others(lin: &Linearization, k: usize, skip: Option<usize>) ->
         e.errors
             .into_iter()
             .enumerate()
-            .filter(|(i, _)| Some(*i) != skip)
+            .filter(|(i, _)| *i != suspect)
             .map(|(_, x)| x)
             .collect()
     })

@@ -24,14 +24,11 @@
 
 use armcal_shared::Robot;
 use armcal_shared::effects::Effect;
-use faer::linalg::solvers::Solve;
-use faer::{Mat, Side};
-use nalgebra::Vector3;
+use faer::Mat;
+use nalgebra::{DMatrix, DVector, Vector3};
 
 use super::{DiagnoseOptions, position_errors};
-use crate::identify::full::{
-    FullError, Linearization, Observation, identify_with_effects, unit_diagonal_scale,
-};
+use crate::identify::full::{FullError, Linearization, Observation, identify_with_effects};
 
 /// Held-out statistics: RMS, mean and max of the position error, m.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -79,6 +76,17 @@ pub fn cross_validate(
     Ok(HeldOut::of(&errors))
 }
 
+/// What a pose is to a cross-validation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Role {
+    /// Held out in fold `k`, trained on in the others.
+    Fold(usize),
+    /// Trained on in every fold, never held out.
+    Train,
+    /// Left out altogether.
+    Out,
+}
+
 /// A candidate model as the linearisation sees it.
 #[derive(Clone, Debug)]
 pub struct Subset {
@@ -105,63 +113,55 @@ pub struct Evaluation {
 /// header): each fold's normal matrix and right-hand side over every column.
 pub struct Folds<'a> {
     lin: &'a Linearization,
-    fold: Vec<Option<usize>>,
-    parts: Vec<(Mat<f64>, Mat<f64>)>,
-    all: (Mat<f64>, Mat<f64>),
+    fold: Vec<Role>,
+    parts: Vec<(DMatrix<f64>, DVector<f64>)>,
+    all: (DMatrix<f64>, DVector<f64>),
     rtr: f64,
 }
 
 impl<'a> Folds<'a> {
-    /// Folds of `lin`'s poses: `fold[i]` is pose `i`'s fold, `None` for a pose
-    /// that is always trained on and never held out.
-    pub fn new(lin: &'a Linearization, fold: Vec<Option<usize>>) -> Self {
+    /// Folds of `lin`'s poses: `fold[i]` is pose `i`'s role.
+    pub fn new(lin: &'a Linearization, fold: Vec<Role>) -> Self {
         let columns = lin.j.ncols();
-        let k = fold.iter().flatten().max().map_or(0, |m| m + 1);
-        let zero = || {
+        let k = fold
+            .iter()
+            .filter_map(|r| match r {
+                Role::Fold(f) => Some(f + 1),
+                _ => None,
+            })
+            .max()
+            .unwrap_or(0);
+        // Each group's rows gathered, its normal matrix by one product (the
+        // small solves below run on nalgebra's dense matrices).
+        let normal = |poses: &[usize]| {
+            let rows: Vec<usize> = poses.iter().flat_map(|&i| lin.rows_of(i)).collect();
+            let j = Mat::from_fn(rows.len(), columns, |r, c| lin.j[(rows[r], c)]);
+            let r = Mat::from_fn(rows.len(), 1, |i, _| lin.r[(rows[i], 0)]);
+            let (a, b) = (j.transpose() * &j, j.transpose() * &r);
             (
-                Mat::<f64>::zeros(columns, columns),
-                Mat::<f64>::zeros(columns, 1),
+                DMatrix::from_fn(columns, columns, |i, k| a[(i, k)]),
+                DVector::from_fn(columns, |i, _| b[(i, 0)]),
             )
         };
-        let mut parts: Vec<(Mat<f64>, Mat<f64>)> = (0..k).map(|_| zero()).collect();
-        let mut always = zero();
-        for (i, f) in fold.iter().enumerate() {
-            let (a, b) = match f {
-                Some(f) => &mut parts[*f],
-                None => &mut always,
-            };
-            for row in lin.rows_of(i) {
-                for c in 0..columns {
-                    let jc = lin.j[(row, c)];
-                    if jc == 0.0 {
-                        continue;
-                    }
-                    b[(c, 0)] += jc * lin.r[(row, 0)];
-                    for d in 0..=c {
-                        a[(c, d)] += jc * lin.j[(row, d)];
-                    }
-                }
-            }
-        }
-        let mut all = always;
+        let group = |g: Role| -> Vec<usize> { (0..fold.len()).filter(|&i| fold[i] == g).collect() };
+        let parts: Vec<(DMatrix<f64>, DVector<f64>)> =
+            (0..k).map(|f| normal(&group(Role::Fold(f)))).collect();
+        let mut all = normal(&group(Role::Train));
         for (a, b) in &parts {
             all.0 += a;
             all.1 += b;
         }
-        for c in 0..columns {
-            for d in 0..c {
-                all.0[(d, c)] = all.0[(c, d)];
-                for (a, _) in &mut parts {
-                    a[(d, c)] = a[(c, d)];
-                }
-            }
-        }
+        let rtr = (0..fold.len())
+            .filter(|&i| fold[i] != Role::Out)
+            .flat_map(|i| lin.rows_of(i))
+            .map(|row| lin.r[(row, 0)].powi(2))
+            .sum();
         Self {
             lin,
             fold,
             parts,
             all,
-            rtr: lin.r.squared_norm_l2(),
+            rtr,
         }
     }
 
@@ -169,7 +169,7 @@ impl<'a> Folds<'a> {
     pub fn interleaved(lin: &'a Linearization, k: usize) -> Self {
         let n = lin.first_rows.len();
         let k = k.clamp(2, n.max(2));
-        Self::new(lin, (0..n).map(|i| Some(i % k)).collect())
+        Self::new(lin, (0..n).map(|i| Role::Fold(i % k)).collect())
     }
 
     /// Whether every column of `columns` from index `lin.fitted` on keeps at
@@ -177,13 +177,21 @@ impl<'a> Folds<'a> {
     /// a candidate the data cannot tell apart from the model is not scored.
     pub fn separable(&self, columns: &[usize], separability: f64) -> bool {
         let m = columns.len();
-        let a = Mat::from_fn(m, m, |i, j| self.all.0[(columns[i], columns[j])]);
-        let scale = unit_diagonal_scale(&a);
-        let scaled = Mat::from_fn(m, m, |i, j| a[(i, j)] * scale[i] * scale[j]);
-        let Ok(llt) = scaled.llt(Side::Lower) else {
+        let a = &self.all.0;
+        let scale: Vec<f64> = columns
+            .iter()
+            .map(|&c| {
+                let d = a[(c, c)];
+                if d > 0.0 { 1.0 / d.sqrt() } else { 0.0 }
+            })
+            .collect();
+        let scaled = DMatrix::from_fn(m, m, |i, j| {
+            a[(columns[i], columns[j])] * scale[i] * scale[j]
+        });
+        let Some(llt) = scaled.cholesky() else {
             return false;
         };
-        let l = llt.L();
+        let l = llt.l();
         (0..m)
             .filter(|&i| columns[i] >= self.lin.fitted)
             .all(|i| scale[i] > 0.0 && l[(i, i)] >= separability)
@@ -192,59 +200,61 @@ impl<'a> Folds<'a> {
     /// The MAP step of `subset` from the normal matrix `a` and right-hand side
     /// `b` of some poses: the step of every column (the free ones solved, the
     /// others moved back to nominal).
-    fn step(&self, subset: &Subset, a: &Mat<f64>, b: &Mat<f64>) -> Option<Vec<f64>> {
+    fn step(&self, subset: &Subset, held: &[usize], fold: Option<usize>) -> Option<Vec<f64>> {
         let lin = self.lin;
         let s = &subset.columns;
         let m = s.len();
-        let mut delta: Vec<f64> = lin.offset.iter().map(|o| -o).collect();
-        let held: Vec<usize> = (0..lin.j.ncols()).filter(|c| !s.contains(c)).collect();
+        let (a, b) = &self.all;
+        let part = fold.map(|f| &self.parts[f]);
+        // The training poses' normal matrix: every pose's less the fold's.
+        let a_at = |i: usize, j: usize| a[(i, j)] - part.map_or(0.0, |(ak, _)| ak[(i, j)]);
+        let b_at = |i: usize| b[i] - part.map_or(0.0, |(_, bk)| bk[i]);
         let precision = |c: usize| lin.precision[c] * subset.precision_factor;
-        let n = Mat::from_fn(m, m, |i, j| {
-            a[(s[i], s[j])] + if i == j { precision(s[i]) } else { 0.0 }
-        });
-        let rhs = Mat::from_fn(m, 1, |i, _| {
+        let mut n = DMatrix::from_fn(m, m, |i, j| a_at(s[i], s[j]));
+        let mut rhs = DVector::from_fn(m, |i, _| {
             let c = s[i];
-            b[(c, 0)] + held.iter().map(|&h| a[(c, h)] * lin.offset[h]).sum::<f64>()
+            b_at(c)
+                + held
+                    .iter()
+                    .map(|&h| a_at(c, h) * lin.offset[h])
+                    .sum::<f64>()
                 - precision(c) * lin.offset[c]
         });
-        let scale = unit_diagonal_scale(&n);
-        let scaled = Mat::from_fn(m, m, |i, j| n[(i, j)] * scale[i] * scale[j]);
-        let llt = scaled.llt(Side::Lower).ok()?;
-        let x = llt.solve(&Mat::from_fn(m, 1, |i, _| rhs[(i, 0)] * scale[i]));
+        // Scaled to a unit diagonal, for the conditioning of the factorisation.
+        let scale: Vec<f64> = (0..m)
+            .map(|i| {
+                let d = n[(i, i)] + precision(s[i]);
+                if d > 0.0 { 1.0 / d.sqrt() } else { 0.0 }
+            })
+            .collect();
         for i in 0..m {
-            delta[s[i]] = x[(i, 0)] * scale[i];
+            n[(i, i)] += precision(s[i]);
+            rhs[i] *= scale[i];
+            for j in 0..m {
+                n[(i, j)] *= scale[i] * scale[j];
+            }
+        }
+        let x = n.cholesky()?.solve(&rhs);
+        let mut delta: Vec<f64> = lin.offset.iter().map(|o| -o).collect();
+        for i in 0..m {
+            delta[s[i]] = x[i] * scale[i];
         }
         delta.iter().all(|d| d.is_finite()).then_some(delta)
     }
 
-    /// The linearised cross-validation of `subset`; `None` when a training
-    /// set cannot determine it.
-    pub fn evaluate(&self, subset: &Subset) -> Option<Evaluation> {
+    /// The objective (weighted sum of squares plus the prior's term) of the
+    /// fit of `subset` to every pose: `rᵀr − 2 δᵀb + δᵀAδ` with the step `δ`
+    /// of every column (`b = Jᵀr`), plus the prior's term at the new values.
+    pub fn objective(&self, subset: &Subset) -> Option<f64> {
         let lin = self.lin;
-        let columns = lin.j.ncols();
-        let n = lin.first_rows.len();
-        let mut errors = vec![0.0; n];
-        for (f, (ak, bk)) in self.parts.iter().enumerate() {
-            let delta = self.step(subset, &(&self.all.0 - ak), &(&self.all.1 - bk))?;
-            for i in (0..n).filter(|&i| self.fold[i] == Some(f)) {
-                let row = lin.first_rows[i];
-                let e = Vector3::from_fn(|axis, _| {
-                    lin.r[(row + axis, 0)]
-                        - (0..columns)
-                            .map(|c| lin.j[(row + axis, c)] * delta[c])
-                            .sum::<f64>()
-                });
-                errors[i] = e.norm() * lin.position_noise;
-            }
-        }
-        // The fit to every pose: r'ᵀr' − 2 δᵀb' + δᵀAδ with the step δ of every
-        // column (b' = Jᵀr), plus the prior's term at the new values.
-        let delta = self.step(subset, &self.all.0, &self.all.1)?;
+        let held = self.held(subset);
+        let delta = self.step(subset, &held, None)?;
+        let moved: Vec<usize> = (0..delta.len()).filter(|&c| delta[c] != 0.0).collect();
         let (a, b) = &self.all;
         let mut objective = self.rtr;
-        for c in 0..columns {
-            objective -= 2.0 * delta[c] * b[(c, 0)];
-            for d in 0..columns {
+        for &c in &moved {
+            objective -= 2.0 * delta[c] * b[c];
+            for &d in &moved {
                 objective += delta[c] * a[(c, d)] * delta[d];
             }
         }
@@ -252,8 +262,49 @@ impl<'a> Folds<'a> {
             let x = lin.offset[c] + delta[c];
             objective += lin.precision[c] * subset.precision_factor * x * x;
         }
+        Some(objective)
+    }
+
+    /// The columns outside `subset` moved back to nominal that move anything.
+    fn held(&self, subset: &Subset) -> Vec<usize> {
+        let mut free = vec![false; self.lin.j.ncols()];
+        for &c in &subset.columns {
+            free[c] = true;
+        }
+        (0..free.len())
+            .filter(|&c| !free[c] && self.lin.offset[c] != 0.0)
+            .collect()
+    }
+
+    /// The linearised cross-validation of `subset`; `None` when a training
+    /// set cannot determine it.
+    pub fn evaluate(&self, subset: &Subset) -> Option<Evaluation> {
+        let lin = self.lin;
+        let n = lin.first_rows.len();
+        let mut errors = vec![0.0; n];
+        let held = self.held(subset);
+        // The columns a step moves: the free ones and those moved back to nominal.
+        let moving = |delta: &[f64]| -> Vec<usize> {
+            (0..delta.len()).filter(|&c| delta[c] != 0.0).collect()
+        };
+        for f in 0..self.parts.len() {
+            let delta = self.step(subset, &held, Some(f))?;
+            let moved = moving(&delta);
+            for i in (0..n).filter(|&i| self.fold[i] == Role::Fold(f)) {
+                let row = lin.first_rows[i];
+                let e = Vector3::from_fn(|axis, _| {
+                    lin.r[(row + axis, 0)]
+                        - moved
+                            .iter()
+                            .map(|&c| lin.j[(row + axis, c)] * delta[c])
+                            .sum::<f64>()
+                });
+                errors[i] = e.norm() * lin.position_noise;
+            }
+        }
+        let objective = self.objective(subset)?;
         let held: Vec<f64> = (0..n)
-            .filter(|&i| self.fold[i].is_some())
+            .filter(|&i| matches!(self.fold[i], Role::Fold(_)))
             .map(|i| errors[i])
             .collect();
         Some(Evaluation {

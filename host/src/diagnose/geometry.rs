@@ -12,7 +12,7 @@
 //! better must not replace the nominal model. Otherwise the nominal model is
 //! chosen, and the calibration changes nothing.
 
-use armcal_shared::Robot;
+use armcal_shared::{Param, Robot};
 
 use super::cross_validation::{Folds, HeldOut, Subset};
 use crate::identify::full::{Linearization, Unknown};
@@ -71,8 +71,9 @@ pub fn score(
     for geometry in Geometry::ALL {
         let columns: Vec<usize> = (0..lin.j.ncols())
             .filter(|&c| match lin.unknowns[c] {
+                // A Hayati tilt is an effect found, free in every model.
+                Unknown::Param(Param::Beta(_)) | Unknown::Effect { .. } => true,
                 Unknown::Param(p) => geometry.frees(robot, p),
-                Unknown::Effect { .. } => true,
             })
             .collect();
         let factors: &[f64] = if geometry == Geometry::Registration {

@@ -14,18 +14,24 @@
 //!    k-fold cross-validated tool-point error ([`cross_validation`]); the least
 //!    held-out RMS is chosen if it beats the nominal model significantly, pose
 //!    by pose, and it is refitted.
-//! 4. **Effects** ([`candidates`]): forward selection. Each round scores every
-//!    remaining candidate by its held-out gain (linearised k-fold
-//!    cross-validation about the current fit) and by an F-test of the drop of
-//!    the weighted sum of squares against the noise the richer model shows,
-//!    at the `1 − α/m` quantile of `F(p, R − p)` for `m` candidates
-//!    (Bonferroni, α = 1 %): on pure geometry the chance of naming any effect
-//!    over the whole search is at most 1 %. The candidate of least held-out RMS
-//!    among those that gain at least 5 % and pass the test is added, the model
-//!    refitted, and kept only if the refit predicts better held-out. When the
-//!    search stops on a candidate that gains but is not significant, the
-//!    summary says how many poses would settle it (the F statistic grows with
-//!    the poses).
+//! 4. **Effects** ([`candidates`]): forward selection. Each round tests every
+//!    remaining candidate by an F-test of the drop of the weighted sum of
+//!    squares (one linearised step from the current fit) against the noise the
+//!    richer model shows, at the `1 − α/m` quantile of `F(p, R − p)` for `m`
+//!    candidates (Bonferroni, α = 1 %): on pure geometry the chance of naming
+//!    any effect over the whole search is at most 1 %. Those that pass, and the
+//!    strongest [`CROSS_VALIDATED`] besides, are scored by their held-out gain
+//!    (linearised k-fold cross-validation about the current fit). The
+//!    candidate of least held-out RMS among those that gain at least 5 % and
+//!    pass the test is added and the model refitted (at the noise the
+//!    geometric model shows, so that the weights stay those the candidates
+//!    were scored with). When the search stops on a candidate that gains but
+//!    is not significant, the summary says how many poses would settle it (the
+//!    F statistic grows with the poses). When effects were found on a
+//!    geometric model simpler than every parameter, the geometric models are
+//!    scored again with the effects in them, and the model refitted if another
+//!    predicts better: an effect's residual can make a simpler geometry look
+//!    better than it is.
 //! 5. **Never worse than nominal**: when the chosen model's held-out error is
 //!    not below the nominal model's, the calibration changes nothing.
 //!
@@ -41,18 +47,23 @@ use armcal_shared::{JointType, Param, Robot};
 use nalgebra::Vector3;
 
 use crate::identify::full::{
-    FullError, FullFit, FullOptions, Observation, Status, identify_with_effects, linearize,
+    FullError, FullFit, FullOptions, Observation, Status, identify_from, identify_with_effects,
+    linearize,
 };
 use crate::identify::prior::{Geometry, Prior};
 use crate::stats::{f_quantile, significantly_smaller};
 pub use blunders::Blunder;
 pub use candidates::{Candidate, candidates};
+use cross_validation::{Folds, Role, Subset};
 pub use cross_validation::{HeldOut, cross_validate};
-use cross_validation::{Folds, Subset};
 pub use geometry::ModelScore;
 
 /// The family-wise error rate of the effect search.
 pub const ALPHA: f64 = 0.01;
+
+/// How many candidates of each round, strongest by the test first, are
+/// cross-validated besides those that pass it.
+pub const CROSS_VALIDATED: usize = 6;
 
 /// Settings of the diagnosis.
 #[derive(Clone, Copy, Debug)]
@@ -213,10 +224,23 @@ pub fn diagnose_with_progress(
     let prior = options.fit.prior;
     // 1–2. The reference fit, and blunders.
     let mut kept: Vec<usize> = (0..data.len()).collect();
-    let subset = |kept: &[usize]| -> Vec<Observation> {
-        kept.iter().map(|&i| data[i].clone()).collect()
-    };
+    let subset =
+        |kept: &[usize]| -> Vec<Observation> { kept.iter().map(|&i| data[i].clone()).collect() };
     let mut reference = identify_with_effects(nominal, &[], &[], data, &reference_options)?;
+    // Every later fit starts from the noise the reference shows (an estimated
+    // noise then settles in a round or two; a stated one stays as stated).
+    let fit_options = FullOptions {
+        position_noise: reference.noise.position.used,
+        orientation_noise: reference
+            .noise
+            .orientation
+            .map_or(options.fit.orientation_noise, |o| o.used),
+        ..options.fit
+    };
+    let reference_options = FullOptions {
+        geometry: Geometry::Full,
+        ..fit_options
+    };
     let mut blunders = Vec::new();
     let mut suspects = Vec::new();
     let most = data.len() / 10;
@@ -226,12 +250,16 @@ pub fn diagnose_with_progress(
         let Some(s) = blunders::most_suspect(&reference, &lin) else {
             break;
         };
-        let without: Vec<usize> = kept.iter().copied().filter(|&i| i != kept[s.pose]).collect();
-        let refit = identify_with_effects(nominal, &[], &[], &subset(&without), &reference_options)?;
-        let lin_without = linearize(&refit, &[], &[], &subset(&without), &prior);
+        let without: Vec<usize> = kept
+            .iter()
+            .copied()
+            .filter(|&i| i != kept[s.pose])
+            .collect();
+        // The other poses held-out, with the suspect in every training set and
+        // without it: one step from this fit each.
         let (Some(held_with), Some(held_without)) = (
-            blunders::held_out_of_others(&lin, options.folds, Some(s.pose)),
-            blunders::held_out_of_others(&lin_without, options.folds, None),
+            blunders::held_out_of_others(&lin, options.folds, s.pose, Role::Train),
+            blunders::held_out_of_others(&lin, options.folds, s.pose, Role::Out),
         ) else {
             break;
         };
@@ -248,8 +276,9 @@ pub fn diagnose_with_progress(
             break;
         }
         blunders.push(b.pose);
+        reference =
+            identify_with_effects(nominal, &[], &[], &subset(&without), &reference_options)?;
         kept = without;
-        reference = refit;
     }
     let clean = subset(&kept);
 
@@ -259,20 +288,28 @@ pub fn diagnose_with_progress(
     let models = geometry::score(nominal, &lin, options.folds, &nominal_holdout);
     let best = geometry::best(&models).clone();
     let nominal_holdout = models[0].held;
-    let geometry = best.geometry.unwrap_or(Geometry::Full);
-    let (prior_factor, geo_prior) = match best.geometry {
+    let mut models = models;
+    let mut geometry = best.geometry.unwrap_or(Geometry::Full);
+    let (mut prior_factor, mut geo_prior) = match best.geometry {
         Some(_) => (best.prior_factor, prior.scaled(best.prior_factor)),
         None => (1.0, prior),
     };
     let geo_options = FullOptions {
         geometry,
         prior: geo_prior,
-        ..options.fit
+        ..fit_options
     };
     let geometric = if geo_options.geometry == Geometry::Full && prior_factor == 1.0 {
         reference.clone()
     } else {
-        identify_with_effects(nominal, &[], &[], &clean, &geo_options)?
+        identify_from(
+            nominal,
+            Some(&reference.calibrated),
+            &[],
+            &[],
+            &clean,
+            &geo_options,
+        )?
     };
     let held_of = |fit: &FullFit| -> Option<HeldOut> {
         let lin = linearize(fit, &[], &[], &clean, &geo_prior);
@@ -285,6 +322,15 @@ pub fn diagnose_with_progress(
             .map(|e| e.held)
     };
     let geometric_holdout = held_of(&geometric).unwrap_or(best.held);
+    let effect_options = FullOptions {
+        position_noise: geometric.noise.position.used,
+        orientation_noise: geometric
+            .noise
+            .orientation
+            .map_or(fit_options.orientation_noise, |o| o.used),
+        ..geo_options
+    }
+    .stated();
 
     // 4. The effects.
     let all = candidates(nominal, &clean);
@@ -292,7 +338,7 @@ pub fn diagnose_with_progress(
     let mut tried = Vec::new();
     let mut tested = Vec::new();
     let mut unsettled = None;
-    let (mut effects, mut extra): (Vec<Effect<f64>>, Vec<Param>) = (Vec::new(), Vec::new());
+    let mut extra: Vec<Param> = Vec::new();
     let mut current = geometric_holdout;
     let mut current_fit = geometric.clone();
     while best.geometry.is_some() {
@@ -318,7 +364,8 @@ pub fn diagnose_with_progress(
         };
         let mut extra_at = lin.fitted;
         let mut effect_at = lin.fitted + new_extra.len();
-        let mut scored = Vec::new();
+        // Every separable candidate's F statistic from its fit to all poses.
+        let mut tests = Vec::new();
         for (n, c) in remaining.iter().enumerate() {
             progress(chosen.len() + 1, n + 1, remaining.len());
             let mut columns = fitted.clone();
@@ -330,62 +377,82 @@ pub fn diagnose_with_progress(
             if !folds.separable(&columns, options.fit.separability) {
                 continue;
             }
-            let Some(e) = folds.evaluate(&Subset {
+            let subset = Subset {
                 columns,
                 precision_factor: 1.0,
-            }) else {
+            };
+            let Some(objective) = folds.objective(&subset) else {
+                continue;
+            };
+            let parameters = c.parameter_count() as f64;
+            let dof = (current_fit.redundancy - parameters).max(1.0);
+            let f = ((base.objective - objective) / parameters)
+                / (objective / dof).max(f64::MIN_POSITIVE);
+            tests.push(((*c).clone(), subset, f, dof));
+        }
+        let m = tests.len().max(1) as f64;
+        tested.push(tests.len());
+        let threshold =
+            |c: &Candidate, dof: f64| f_quantile(1.0 - ALPHA / m, c.parameter_count() as f64, dof);
+        // The held-out gain of the strongest by the test (and of every one that
+        // passes it): no other can be chosen.
+        let mut tests: Vec<_> = tests
+            .into_iter()
+            .map(|(c, subset, f, dof)| {
+                let t = threshold(&c, dof);
+                (c, subset, f, t)
+            })
+            .collect();
+        tests.sort_by(|a, b| (b.2 / b.3).total_cmp(&(a.2 / a.3)));
+        let mut scored = Vec::new();
+        for (i, (c, subset, f, t)) in tests.into_iter().enumerate() {
+            if i >= CROSS_VALIDATED && f <= t {
+                break;
+            }
+            let Some(e) = folds.evaluate(&subset) else {
                 continue;
             };
             let gain = base.held.rms / e.held.rms.max(f64::MIN_POSITIVE);
-            let parameters = c.parameter_count() as f64;
-            let dof = (current_fit.redundancy - parameters).max(1.0);
-            let f = ((base.objective - e.objective) / parameters)
-                / (e.objective / dof).max(f64::MIN_POSITIVE);
-            scored.push(((*c).clone(), gain, f, e.held, dof));
+            scored.push((c, gain, f, e.held, t));
         }
-        let m = scored.len().max(1) as f64;
-        tested.push(scored.len());
         if chosen.is_empty() {
             tried = scored.iter().map(|s| (s.0.clone(), s.1)).collect();
         }
-        let threshold = |c: &Candidate, dof: f64| {
-            f_quantile(1.0 - ALPHA / m, c.parameter_count() as f64, dof)
-        };
         let passing = scored
             .iter()
-            .filter(|(c, gain, f, _, dof)| *gain >= options.min_gain && *f > threshold(c, *dof))
+            .filter(|(_, gain, f, _, t)| *gain >= options.min_gain && f > t)
             .min_by(|a, b| a.3.rms.total_cmp(&b.3.rms));
-        let Some((c, _, f, _, dof)) = passing.cloned() else {
+        let Some((c, _, f, held, t)) = passing.cloned() else {
             // The candidate the data came closest to settling.
             unsettled = scored
                 .iter()
                 .filter(|(_, gain, f, _, _)| *gain > 1.0 && *f > 0.0)
                 .max_by(|a, b| a.1.total_cmp(&b.1))
-                .map(|(c, gain, f, _, dof)| {
-                    let t = threshold(c, *dof);
-                    Unsettled {
-                        candidate: c.clone(),
-                        gain: *gain,
-                        f_test: (*f, t),
-                        poses_needed: (clean.len() as f64 * (t / f).max(options.min_gain))
-                            .ceil() as usize,
-                    }
+                .map(|(c, gain, f, _, t)| Unsettled {
+                    candidate: c.clone(),
+                    gain: *gain,
+                    f_test: (*f, *t),
+                    poses_needed: (clean.len() as f64 * (t / f).max(options.min_gain)).ceil()
+                        as usize,
                 });
             break;
         };
-        let (mut e, mut x) = (effects.clone(), extra.clone());
+        // The effects found so far from their fitted values, the new one from zero.
+        let mut e: Vec<Effect<f64>> = current_fit.effects.iter().map(|f| f.effect).collect();
+        let mut x = extra.clone();
         e.extend(c.effect);
         x.extend(c.extra.iter().copied());
-        let Ok(fit) = identify_with_effects(nominal, &e, &x, &clean, &geo_options) else {
+        // At the noise the geometric model shows: the weights stay those the
+        // candidates were scored with.
+        let start = Some(&current_fit.calibrated);
+        let Ok(fit) = identify_from(nominal, start, &e, &x, &clean, &effect_options) else {
             break;
         };
-        let Some(held) = held_of(&fit) else { break };
+        // Its held-out figures are those of the step from the current fit,
+        // which the refit reaches to second order; the next round scores the
+        // refit itself.
         let gain = current.rms / held.rms.max(f64::MIN_POSITIVE);
-        if gain < options.min_gain {
-            break;
-        }
-        let t = threshold(&c, dof);
-        (effects, extra) = (e, x);
+        extra = x;
         chosen.push(Finding {
             candidate: c,
             gain,
@@ -393,6 +460,65 @@ pub fn diagnose_with_progress(
         });
         current = held;
         current_fit = fit;
+    }
+
+    let folds = options.folds;
+    // The geometry again, with the effects found: an effect's residual may
+    // have made a simpler geometry look better than it is (with every D-H
+    // parameter free already, there is no simpler one to undo).
+    if !chosen.is_empty() && geometry != Geometry::Full {
+        let identified = |fit: &FullFit, p: Param| {
+            fit.params
+                .iter()
+                .any(|r| r.param == p && matches!(r.status, Status::Identified { .. }))
+        };
+        let missing: Vec<Param> = reference
+            .params
+            .iter()
+            .map(|r| r.param)
+            .filter(|&p| identified(&reference, p) && !identified(&current_fit, p))
+            .collect();
+        let lin = linearize(&current_fit, &[], &missing, &clean, &prior);
+        let rescored = geometry::score(
+            nominal,
+            &lin,
+            options.folds,
+            &nominal_errors(nominal, &clean),
+        );
+        let again = geometry::best(&rescored).clone();
+        if let Some(g) = again.geometry
+            && (g, again.prior_factor) != (geometry, prior_factor)
+        {
+            let options = FullOptions {
+                geometry: g,
+                prior: prior.scaled(again.prior_factor),
+                ..effect_options
+            };
+            let effects: Vec<Effect<f64>> = current_fit.effects.iter().map(|f| f.effect).collect();
+            if let Ok(fit) = identify_from(
+                nominal,
+                Some(&current_fit.calibrated),
+                &effects,
+                &extra,
+                &clean,
+                &options,
+            ) {
+                let refit_prior = options.prior;
+                let lin = linearize(&fit, &[], &[], &clean, &refit_prior);
+                let held = Folds::interleaved(&lin, folds)
+                    .evaluate(&Subset {
+                        columns: (0..lin.j.ncols()).collect(),
+                        precision_factor: 1.0,
+                    })
+                    .map(|e| e.held);
+                if let Some(held) = held.filter(|h| h.rms < current.rms) {
+                    (geometry, prior_factor, geo_prior) = (g, again.prior_factor, refit_prior);
+                    current = held;
+                    current_fit = fit;
+                    models = rescored;
+                }
+            }
+        }
     }
 
     // 5. Never worse than nominal.
@@ -409,7 +535,7 @@ pub fn diagnose_with_progress(
         Choice::Nominal => (nominal_holdout, nominal_holdout),
         Choice::Calibrated { .. } => (geometric_holdout, current),
     };
-    let noise = current_fit.noise.position.used;
+    let noise = current_fit.noise.position.shown;
     Ok(Diagnosis {
         choice,
         findings: chosen,
@@ -476,9 +602,12 @@ impl Diagnosis {
 
     /// The noise of each channel, in the model's units, for reports: (what,
     /// used, shown by the residuals, source).
-    fn noise_rows(&self, units: &armcal_shared::units::Units) -> Vec<(&'static str, f64, f64, &'static str, String)> {
+    fn noise_rows(
+        &self,
+        units: &armcal_shared::units::Units,
+    ) -> Vec<(&'static str, f64, f64, &'static str, String)> {
         use crate::identify::noise::NoiseSource;
-        let n = &self.fit.noise;
+        let n = &self.geometric.noise;
         let source = |s: NoiseSource| match s {
             NoiseSource::Stated => "stated",
             NoiseSource::Estimated => "estimated",
@@ -653,7 +782,10 @@ impl Diagnosis {
                     out,
                     "{what} noise {used:.4} {unit} per axis (stated); the residuals show {shown:.4} {unit}"
                 ),
-                _ => writeln!(out, "{what} noise {used:.4} {unit} per axis (estimated from the residuals)"),
+                _ => writeln!(
+                    out,
+                    "{what} noise {used:.4} {unit} per axis (estimated from the residuals)"
+                ),
             };
         }
         for b in &self.suspects {
@@ -668,8 +800,16 @@ impl Diagnosis {
                 if b.set_aside { "set aside" } else { "kept" }
             );
         }
-        let _ = writeln!(out, "\nheld-out position error of each model ({}-fold), mm:", options.folds);
-        let _ = writeln!(out, "  {:<28} {:>6} {:>9} {:>9} {:>9}", "model", "params", "rms", "mean", "max");
+        let _ = writeln!(
+            out,
+            "\nheld-out position error of each model ({}-fold), mm:",
+            options.folds
+        );
+        let _ = writeln!(
+            out,
+            "  {:<28} {:>6} {:>9} {:>9} {:>9}",
+            "model", "params", "rms", "mean", "max"
+        );
         for m in &self.models {
             let _ = writeln!(
                 out,
@@ -693,7 +833,10 @@ impl Diagnosis {
                 if v.is_empty() {
                     "none".to_string()
                 } else {
-                    v.iter().map(|p| p.to_string()).collect::<Vec<_>>().join(", ")
+                    v.iter()
+                        .map(|p| p.to_string())
+                        .collect::<Vec<_>>()
+                        .join(", ")
                 }
             };
             let _ = writeln!(out, "moved by the data: {}", list(&moved));

@@ -182,6 +182,16 @@ pub struct FullOptions {
 }
 
 impl FullOptions {
+    /// Ordinary weighted least squares: no prior, the noise as stated (the
+    /// default 0.1 mm and 0.1 mrad unless set). What the classical
+    /// identification of the papers computes.
+    pub fn least_squares() -> Self {
+        Self {
+            prior: Prior::NONE,
+            ..Self::default().stated()
+        }
+    }
+
     /// These options with both noises stated (as given), not estimated.
     pub fn stated(self) -> Self {
         Self {
@@ -370,6 +380,20 @@ pub fn identify_with_effects(
     data: &[Observation],
     options: &FullOptions,
 ) -> Result<FullFit, FullError> {
+    identify_from(nominal, None, effects, extra, data, options)
+}
+
+/// [`identify_with_effects`] from the geometry of `start` (a fit of the same
+/// data) instead of the nominal model and the closed-form base and tool: the
+/// extended model's refit converges in a few iterations from the fit it extends.
+pub fn identify_from(
+    nominal: &Robot<f64>,
+    start: Option<&Robot<f64>>,
+    effects: &[Effect<f64>],
+    extra: &[Param],
+    data: &[Observation],
+    options: &FullOptions,
+) -> Result<FullFit, FullError> {
     if let Some(joint) = effects
         .iter()
         .filter_map(|e| e.joint())
@@ -430,11 +454,19 @@ pub fn identify_with_effects(
     }
 
     let mut robot = Model {
-        robot: nominal.clone(),
+        robot: start.unwrap_or(nominal).clone(),
         effects: effects.to_vec(),
     };
-    if options.initial_estimate {
+    if options.initial_estimate && start.is_none() {
         initial_base_tool(&mut robot.robot, data);
+    }
+    // What this model does not free is nominal, whatever the start.
+    for (u, _) in &held_by_model {
+        if let (Unknown::Param(p), Some(v)) = (u, robot.get_mut(*u))
+            && let Some(n) = nominal.param(*p)
+        {
+            *v = n;
+        }
     }
 
     // Identifiability at the initial estimate; the fit; then, for an estimated
@@ -574,15 +606,14 @@ pub fn identify_with_effects(
 
     let weights = (1.0 / noise.0, 1.0 / noise.1);
     let (position_rms, orientation_rms) = sys.residual_rms(data, weights);
-    let channel = |source: NoiseSource, used: f64, omega: f64, rows: usize, redundancy: f64| {
-        ChannelNoise {
+    let channel =
+        |source: NoiseSource, used: f64, omega: f64, rows: usize, redundancy: f64| ChannelNoise {
             source,
             used,
             shown: ChannelNoise::update(used, omega, redundancy),
             rows,
             redundancy,
-        }
-    };
+        };
     let noise_estimate = NoiseEstimate {
         position: channel(
             options.position_source,
@@ -869,7 +900,12 @@ pub struct Linearization {
 impl Linearization {
     /// The rows of pose `i`.
     pub fn rows_of(&self, i: usize) -> std::ops::Range<usize> {
-        self.first_rows[i]..self.first_rows.get(i + 1).copied().unwrap_or(self.j.nrows())
+        self.first_rows[i]
+            ..self
+                .first_rows
+                .get(i + 1)
+                .copied()
+                .unwrap_or(self.j.nrows())
     }
 }
 

@@ -1,0 +1,55 @@
+//! The cost of the diagnosis' model selection, against one identification: a
+//! budget of the optimised build, which `.ci/run` checks with
+//! `cargo test --release -p armcal-tests --test selection_cost`.
+
+use armcal::diagnose::{DiagnoseOptions, diagnose};
+use armcal::identify::full::{FullOptions, identify_full};
+use armcal::model_file::load_model;
+use armcal::simulate::{Scenario, simulate};
+
+/// The whole selection (reference fit, blunder test, 17 geometric models, every
+/// effect candidate, the refits) on 120 tracker poses of a PUMA with a hidden
+/// compliance costs at most 10 times one identification of the same poses
+/// (the best of fifteen timings each, interleaved; the only test of its binary,
+/// so that no other test runs beside it).
+#[test]
+#[cfg_attr(
+    debug_assertions,
+    ignore = "a budget of the optimised build: .ci/run runs it with --release"
+)]
+fn the_selection_costs_at_most_ten_fits() {
+    use std::time::Instant;
+    let nominal = load_model("puma560").unwrap().robot;
+    let mut scenario = Scenario::tracker(120, 3);
+    scenario.effects = vec![armcal_shared::effects::Effect::JointCompliance {
+        joint: 1,
+        compliance: 1e-5,
+    }];
+    let data = simulate(&nominal, &scenario).unwrap().observations;
+    let best = |f: &mut dyn FnMut()| {
+        (0..3)
+            .map(|_| {
+                let t = Instant::now();
+                f();
+                t.elapsed().as_secs_f64()
+            })
+            .fold(f64::INFINITY, f64::min)
+    };
+    // Interleaved, so that a machine busy with something else slows both alike.
+    let (mut fit, mut selection) = (f64::INFINITY, f64::INFINITY);
+    for _ in 0..5 {
+        fit = fit.min(best(&mut || {
+            identify_full(&nominal, &data, &FullOptions::default()).unwrap();
+        }));
+        selection = selection.min(best(&mut || {
+            diagnose(&nominal, &data, &DiagnoseOptions::default()).unwrap();
+        }));
+    }
+    eprintln!(
+        "one fit {:.2} ms, the selection {:.2} ms: {:.1}×",
+        fit * 1e3,
+        selection * 1e3,
+        selection / fit
+    );
+    assert!(selection <= 10.0 * fit);
+}
