@@ -1,6 +1,6 @@
 //! The cost of the diagnosis' model selection, against one identification: a
-//! budget of the optimised build, which `.ci/run` checks with
-//! `cargo test --release -p armcal-tests --test selection_cost`.
+//! budget of the optimised build, checked with
+//! `cargo test --release -p armcal-tests --test selection_cost -- --include-ignored`.
 
 use armcal::diagnose::{DiagnoseOptions, diagnose};
 use armcal::identify::full::{FullOptions, identify_full};
@@ -15,7 +15,7 @@ use armcal::simulate::{Scenario, simulate};
 #[test]
 #[cfg_attr(
     debug_assertions,
-    ignore = "a budget of the optimised build: .ci/run runs it with --release"
+    ignore = "a budget of the optimised build: run it with --release --include-ignored"
 )]
 fn the_selection_costs_at_most_ten_fits() {
     use std::time::Instant;

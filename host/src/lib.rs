@@ -18,7 +18,7 @@
 //! | [`reproduce`] | `armcal reproduce`: the seed papers' examples |
 //! | [`link`] | `armcal stream`: the serial link to the controller (TCP or serial port), calibration load and command stream |
 //! | [`compensate`] | `armcal compensate`: corrected joint commands for the calibrated robot |
-//! | [`diagnose`] | `armcal diagnose`: blunders, candidate effects ranked by cross-validation and a χ² test, the extended fit, held-out gain |
+//! | [`diagnose`] | `armcal diagnose`: the model chosen on held-out poses (geometry, prior, effects), never worse than nominal; blunders; held-out gain |
 //! | [`demo`] | `armcal demo`: a simulated PUMA with a hidden effect, diagnosed, compensated, reported |
 //! | [`stats`] | Fisher's F distribution and its quantiles, for the diagnosis' tests |
 //! | [`check`] | `armcal check`: what was read, and the error of the nominal model against the data |

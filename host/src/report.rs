@@ -264,6 +264,13 @@ fn panels(model: &RobotModel, d: &Diagnosis, data: &[Observation]) -> Vec<Plot> 
     out
 }
 
+/// Text made safe for HTML.
+fn html_escape(t: &str) -> String {
+    t.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
 /// The whole page.
 pub fn html(
     model: &RobotModel,
@@ -280,6 +287,47 @@ pub fn html(
         name = model.name,
         n = data.len(),
         noise = mm(d.noise),
+    );
+    // The chosen model, every model's held-out error, the noises, the prior.
+    let _ = write!(
+        s,
+        "<h2>The model chosen on held-out poses</h2><p>Chosen: <b>{}</b>.</p><table><tr><th>model</th><th>parameters</th><th>held-out RMS [mm]</th><th>mean [mm]</th><th>max [mm]</th></tr>",
+        html_escape(&d.chosen_label())
+    );
+    for m in &d.models {
+        let _ = write!(
+            s,
+            "<tr><td>{}</td><td>{}</td><td>{:.4}</td><td>{:.4}</td><td>{:.4}</td></tr>",
+            html_escape(&m.label()),
+            m.parameters,
+            mm(m.held.rms),
+            mm(m.held.mean),
+            mm(m.held.max)
+        );
+    }
+    let _ = write!(s, "</table><p>");
+    for (what, used, shown, source, unit) in d.noise_rows(&model.units) {
+        let _ = write!(
+            s,
+            "Noise of the {what}s: <b>{used:.4} {unit}</b> per axis ({source}; the residuals show {shown:.4} {unit}). "
+        );
+    }
+    let (held, moved) = d.prior_role();
+    let list = |v: &[armcal_shared::Param]| {
+        if v.is_empty() {
+            "none".to_string()
+        } else {
+            v.iter()
+                .map(|p| p.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        }
+    };
+    let _ = write!(
+        s,
+        "</p><p>Moved by the data: {}. Held near nominal by the prior: {}.</p>",
+        list(&moved),
+        list(&held)
     );
     let _ = write!(s, "<h2>What the geometric model gets wrong</h2>");
     if d.findings.is_empty() {

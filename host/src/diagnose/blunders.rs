@@ -22,8 +22,9 @@
 //! the paired test of [`crate::stats::significantly_smaller`] at 5 %) than the
 //! model fitted with it; either way the summary gives both figures.
 
-use faer::linalg::solvers::{DenseSolveCore, Solve};
+use faer::linalg::solvers::DenseSolveCore;
 use faer::{Mat, Side};
+use nalgebra::{DMatrix, DVector};
 
 use super::cross_validation::{Folds, Role, Subset};
 use crate::identify::full::{FullFit, Linearization, unit_diagonal_scale};
@@ -71,8 +72,9 @@ pub fn most_suspect(fit: &FullFit, lin: &Linearization) -> Option<Suspect> {
     let normal = Mat::from_fn(p, p, |i, j| {
         (a[(i, j)] + if i == j { lin.precision[i] } else { 0.0 }) * scale[i] * scale[j]
     });
-    // N⁻¹ in the scaled unknowns, once.
+    // N⁻¹ in the scaled unknowns, once (nalgebra for the many small products).
     let inverse = normal.llt(Side::Lower).ok()?.inverse();
+    let inverse = DMatrix::from_fn(p, p, |i, j| inverse[(i, j)]);
     let omega = lin.r.squared_norm_l2();
     let redundancy = fit.redundancy;
     let mut worst: Option<Suspect> = None;
@@ -84,15 +86,14 @@ pub fn most_suspect(fit: &FullFit, lin: &Linearization) -> Option<Suspect> {
             return None;
         }
         // The pose's scaled rows J_i, then H_ii = J_i N⁻¹ J_iᵀ.
-        let ji = Mat::from_fn(k, p, |r, c| lin.j[(rows.start + r, c)] * scale[c]);
+        let ji = DMatrix::from_fn(k, p, |r, c| lin.j[(rows.start + r, c)] * scale[c]);
         let h = &ji * &inverse * ji.transpose();
-        let i_minus_h = Mat::from_fn(k, k, |r, s| if r == s { 1.0 } else { 0.0 } - h[(r, s)]);
-        let ri = Mat::from_fn(k, 1, |r, _| lin.r[(rows.start + r, 0)]);
-        let Ok(f) = i_minus_h.llt(Side::Lower) else {
+        let i_minus_h = DMatrix::from_fn(k, k, |r, s| if r == s { 1.0 } else { 0.0 } - h[(r, s)]);
+        let ri = DVector::from_fn(k, |r, _| lin.r[(rows.start + r, 0)]);
+        let Some(f) = i_minus_h.cholesky() else {
             continue;
         };
-        let deleted = f.solve(&ri);
-        let t: f64 = (0..k).map(|r| ri[(r, 0)] * deleted[(r, 0)]).sum();
+        let t = ri.dot(&f.solve(&ri));
         let rest = (omega - t).max(f64::MIN_POSITIVE) / (redundancy - k as f64);
         let stat = (t / k as f64) / rest;
         // The same for every pose of k rows.

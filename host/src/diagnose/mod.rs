@@ -50,6 +50,7 @@ use crate::identify::full::{
     FullError, FullFit, FullOptions, Observation, Status, identify_from, identify_with_effects,
     linearize,
 };
+use crate::identify::noise::NoiseEstimate;
 use crate::identify::prior::{Geometry, Prior};
 use crate::stats::{f_quantile, significantly_smaller};
 pub use blunders::Blunder;
@@ -63,7 +64,7 @@ pub const ALPHA: f64 = 0.01;
 
 /// How many candidates of each round, strongest by the test first, are
 /// cross-validated besides those that pass it.
-pub const CROSS_VALIDATED: usize = 6;
+pub const CROSS_VALIDATED: usize = 3;
 
 /// Settings of the diagnosis.
 #[derive(Clone, Copy, Debug)]
@@ -181,8 +182,12 @@ pub struct Diagnosis {
     pub holdout: (HeldOut, HeldOut, HeldOut),
     /// Every geometric model scored, nominal first.
     pub models: Vec<ModelScore>,
-    /// The estimated measurement noise of the positions, m per axis.
+    /// The estimated measurement noise of the positions, m per axis: what the
+    /// final model's residuals show.
     pub noise: f64,
+    /// The noise of each channel the rows were weighed by: estimated on (or
+    /// stated for) the geometric model.
+    pub noise_estimate: NoiseEstimate,
     /// Indices of the observations set aside as blunders.
     pub blunders: Vec<usize>,
     /// Every pose the test flagged, set aside or not, with the held-out figures.
@@ -311,17 +316,9 @@ pub fn diagnose_with_progress(
             &geo_options,
         )?
     };
-    let held_of = |fit: &FullFit| -> Option<HeldOut> {
-        let lin = linearize(fit, &[], &[], &clean, &geo_prior);
-        let columns = (0..lin.j.ncols()).collect();
-        Folds::interleaved(&lin, options.folds)
-            .evaluate(&Subset {
-                columns,
-                precision_factor: 1.0,
-            })
-            .map(|e| e.held)
-    };
-    let geometric_holdout = held_of(&geometric).unwrap_or(best.held);
+    // The held-out figures of the step to it from the reference, which the
+    // refit reaches to second order.
+    let geometric_holdout = best.held;
     let effect_options = FullOptions {
         position_noise: geometric.noise.position.used,
         orientation_noise: geometric
@@ -462,11 +459,9 @@ pub fn diagnose_with_progress(
         current_fit = fit;
     }
 
-    let folds = options.folds;
     // The geometry again, with the effects found: an effect's residual may
-    // have made a simpler geometry look better than it is (with every D-H
-    // parameter free already, there is no simpler one to undo).
-    if !chosen.is_empty() && geometry != Geometry::Full {
+    // have made a simpler geometry, or a stronger prior, look better than it is.
+    if !chosen.is_empty() {
         let identified = |fit: &FullFit, p: Param| {
             fit.params
                 .iter()
@@ -495,28 +490,22 @@ pub fn diagnose_with_progress(
                 ..effect_options
             };
             let effects: Vec<Effect<f64>> = current_fit.effects.iter().map(|f| f.effect).collect();
-            if let Ok(fit) = identify_from(
-                nominal,
-                Some(&current_fit.calibrated),
-                &effects,
-                &extra,
-                &clean,
-                &options,
-            ) {
-                let refit_prior = options.prior;
-                let lin = linearize(&fit, &[], &[], &clean, &refit_prior);
-                let held = Folds::interleaved(&lin, folds)
-                    .evaluate(&Subset {
-                        columns: (0..lin.j.ncols()).collect(),
-                        precision_factor: 1.0,
-                    })
-                    .map(|e| e.held);
-                if let Some(held) = held.filter(|h| h.rms < current.rms) {
-                    (geometry, prior_factor, geo_prior) = (g, again.prior_factor, refit_prior);
-                    current = held;
-                    current_fit = fit;
-                    models = rescored;
-                }
+            // Only if it predicts better held-out (the step to it, which the
+            // refit reaches to second order).
+            if again.held.rms < current.rms
+                && let Ok(fit) = identify_from(
+                    nominal,
+                    Some(&current_fit.calibrated),
+                    &effects,
+                    &extra,
+                    &clean,
+                    &options,
+                )
+            {
+                (geometry, prior_factor, geo_prior) = (g, again.prior_factor, options.prior);
+                current = again.held;
+                current_fit = fit;
+                models = rescored;
             }
         }
     }
@@ -536,6 +525,7 @@ pub fn diagnose_with_progress(
         Choice::Calibrated { .. } => (geometric_holdout, current),
     };
     let noise = current_fit.noise.position.shown;
+    let noise_estimate = geometric.noise;
     Ok(Diagnosis {
         choice,
         findings: chosen,
@@ -545,6 +535,7 @@ pub fn diagnose_with_progress(
         holdout: (nominal_holdout, geometric_holdout, current),
         models,
         noise,
+        noise_estimate,
         blunders,
         suspects,
         tried,
@@ -601,13 +592,13 @@ impl Diagnosis {
     }
 
     /// The noise of each channel, in the model's units, for reports: (what,
-    /// used, shown by the residuals, source).
-    fn noise_rows(
+    /// used, shown by the residuals, source, unit).
+    pub fn noise_rows(
         &self,
         units: &armcal_shared::units::Units,
     ) -> Vec<(&'static str, f64, f64, &'static str, String)> {
         use crate::identify::noise::NoiseSource;
-        let n = &self.geometric.noise;
+        let n = &self.noise_estimate;
         let source = |s: NoiseSource| match s {
             NoiseSource::Stated => "stated",
             NoiseSource::Estimated => "estimated",
