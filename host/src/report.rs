@@ -313,16 +313,7 @@ pub fn html(
         );
     }
     let (held, moved) = d.prior_role();
-    let list = |v: &[armcal_shared::Param]| {
-        if v.is_empty() {
-            "none".to_string()
-        } else {
-            v.iter()
-                .map(|p| p.to_string())
-                .collect::<Vec<_>>()
-                .join(", ")
-        }
-    };
+    let list = crate::diagnose::parameter_list;
     let _ = write!(
         s,
         "</p><p>Moved by the data: {}. Held near nominal by the prior: {}.</p>",
@@ -359,17 +350,12 @@ pub fn html(
     for p in panels(model, d, data) {
         s.push_str(&svg(&p, 380.0, 220.0));
     }
-    let (n, g, e) = d.holdout;
     let _ = write!(
         s,
         "</div><h2>Gain on held-out poses ({}-fold)</h2><table><tr><th>model</th><th>RMS [mm]</th><th>mean [mm]</th><th>max [mm]</th></tr>",
         options.folds
     );
-    for (label, h) in [
-        ("nominal", n),
-        ("geometric calibration", g),
-        ("extended calibration", e),
-    ] {
+    for (label, h) in d.holdout_rows() {
         let _ = write!(
             s,
             "<tr><td>{label}</td><td>{:.4}</td><td>{:.4}</td><td>{:.4}</td></tr>",

@@ -14,7 +14,7 @@
 //!    k-fold cross-validated tool-point error ([`cross_validation`]); the least
 //!    held-out RMS is chosen if it beats the nominal model significantly, pose
 //!    by pose, and it is refitted.
-//! 4. **Effects** ([`candidates`]): forward selection. Each round tests every
+//! 4. **Effects** ([`candidates`](mod@candidates)): forward selection. Each round tests every
 //!    remaining candidate by an F-test of the drop of the weighted sum of
 //!    squares (one linearised step from the current fit) against the noise the
 //!    richer model shows, at the `1 − α/m` quantile of `F(p, R − p)` for `m`
@@ -544,6 +544,19 @@ pub fn diagnose_with_progress(
     })
 }
 
+/// `a2, theta3`, or `none`: parameters as reports list them.
+pub fn parameter_list(params: &[Param]) -> String {
+    if params.is_empty() {
+        "none".to_string()
+    } else {
+        params
+            .iter()
+            .map(|p| p.to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}
+
 /// A parameter of a found effect in the model's units: angles (gear amplitudes,
 /// half the lost motion of a revolute joint, a compliance's rad per N·m) in the
 /// angle unit, lengths in the length unit, ratios as they are.
@@ -620,6 +633,17 @@ impl Diagnosis {
             ));
         }
         rows
+    }
+
+    /// The held-out statistics of the nominal model, the geometric and the
+    /// extended calibration, labelled for reports.
+    pub fn holdout_rows(&self) -> [(&'static str, HeldOut); 3] {
+        let (n, g, e) = self.holdout;
+        [
+            ("nominal model", n),
+            ("geometric calibration", g),
+            ("extended calibration", e),
+        ]
     }
 
     /// The D-H parameters the prior holds (data share below one half) and those
@@ -820,18 +844,12 @@ impl Diagnosis {
             );
         } else {
             let (held, moved) = self.prior_role();
-            let list = |v: &[Param]| {
-                if v.is_empty() {
-                    "none".to_string()
-                } else {
-                    v.iter()
-                        .map(|p| p.to_string())
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                }
-            };
-            let _ = writeln!(out, "moved by the data: {}", list(&moved));
-            let _ = writeln!(out, "held near nominal by the prior: {}", list(&held));
+            let _ = writeln!(out, "moved by the data: {}", parameter_list(&moved));
+            let _ = writeln!(
+                out,
+                "held near nominal by the prior: {}",
+                parameter_list(&held)
+            );
         }
         if self.findings.is_empty() {
             let _ = writeln!(out, "nothing beyond geometry survives the test");
@@ -859,17 +877,12 @@ impl Diagnosis {
                 u.poses_needed
             );
         }
-        let (n, g, e) = self.holdout;
         let _ = writeln!(
             out,
             "\nheld-out position error ({}-fold), mm:   rms      mean     max",
             options.folds
         );
-        for (label, h) in [
-            ("nominal model", n),
-            ("geometric calibration", g),
-            ("extended calibration", e),
-        ] {
+        for (label, h) in self.holdout_rows() {
             let _ = writeln!(
                 out,
                 "  {label:<24} {:>8.4} {:>8.4} {:>8.4}",
