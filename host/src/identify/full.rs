@@ -532,25 +532,45 @@ pub fn identify_from(
         iterations += run;
         post = Posterior::at(&sys, data, &prior);
         if estimate.0 || estimate.1 {
-            let next = (
-                if estimate.0 {
-                    ChannelNoise::update(noise.0, post.omega.0, post.redundancy.0)
-                } else {
-                    noise.0
-                },
-                if estimate.1 {
-                    ChannelNoise::update(noise.1, post.omega.1, post.redundancy.1)
-                } else {
-                    noise.1
-                },
-            );
-            let settled = (next.0 / noise.0 - 1.0).abs() < SETTLED
-                && (next.1 / noise.1 - 1.0).abs() < SETTLED;
-            if settled || round >= MAX_NOISE_ROUNDS {
-                break;
+            // The free parameters stay; each round reweighs the rows of the
+            // solution's linearisation and iterates from there.
+            loop {
+                let next = (
+                    if estimate.0 {
+                        ChannelNoise::update(noise.0, post.omega.0, post.redundancy.0)
+                    } else {
+                        noise.0
+                    },
+                    if estimate.1 {
+                        ChannelNoise::update(noise.1, post.omega.1, post.redundancy.1)
+                    } else {
+                        noise.1
+                    },
+                );
+                let settled = (next.0 / noise.0 - 1.0).abs() < SETTLED
+                    && (next.1 / noise.1 - 1.0).abs() < SETTLED;
+                if settled || round >= MAX_NOISE_ROUNDS {
+                    break;
+                }
+                round += 1;
+                let before = (1.0 / noise.0, 1.0 / noise.1);
+                noise = next;
+                let weights = (1.0 / noise.0, 1.0 / noise.1);
+                let first = sys.reweighted(data, before, weights);
+                let run;
+                (run, converged, sys) = levenberg_marquardt(
+                    &mut robot,
+                    data,
+                    &free_params,
+                    weights,
+                    options,
+                    first,
+                    &prior,
+                )?;
+                iterations += run;
+                post = Posterior::at(&sys, data, &prior);
             }
-            noise = next;
-            continue;
+            break;
         }
         let variance_factor = post.variance_factor();
         // Select again only if the noise is significantly larger than stated: the
@@ -1171,6 +1191,25 @@ impl LinearSystem {
                 }
                 row += 3;
             }
+        }
+    }
+
+    /// This system with its rows weighed by `after` in place of `before`
+    /// (position, orientation weights): the same linearisation at other noises.
+    fn reweighted(&self, data: &[Observation], before: (f64, f64), after: (f64, f64)) -> Self {
+        let (p, o) = (after.0 / before.0, after.1 / before.1);
+        let mut factor = Vec::with_capacity(self.r.nrows());
+        for obs in data {
+            factor.extend([p; 3]);
+            if obs.orientation.is_some() {
+                factor.extend([o; 3]);
+            }
+        }
+        Self {
+            j: Mat::from_fn(self.j.nrows(), self.j.ncols(), |i, k| {
+                self.j[(i, k)] * factor[i]
+            }),
+            r: Mat::from_fn(self.r.nrows(), 1, |i, _| self.r[(i, 0)] * factor[i]),
         }
     }
 
