@@ -519,16 +519,12 @@ pub fn identify_from(
             system.select_columns(&free)
         };
         prior = prior_terms(&free_params, nominal, &options.prior);
+        // The fit of the free parameters at `weights` from the linearisation `first`.
+        let solve = |robot: &mut Model, weights, first| {
+            levenberg_marquardt(robot, data, &free_params, weights, options, first, &prior)
+        };
         let run;
-        (run, converged, sys) = levenberg_marquardt(
-            &mut robot,
-            data,
-            &free_params,
-            weights,
-            options,
-            first,
-            &prior,
-        )?;
+        (run, converged, sys) = solve(&mut robot, weights, first)?;
         iterations += run;
         post = Posterior::at(&sys, data, &prior);
         if estimate.0 || estimate.1 {
@@ -558,15 +554,7 @@ pub fn identify_from(
                 let weights = (1.0 / noise.0, 1.0 / noise.1);
                 let first = sys.reweighted(data, before, weights);
                 let run;
-                (run, converged, sys) = levenberg_marquardt(
-                    &mut robot,
-                    data,
-                    &free_params,
-                    weights,
-                    options,
-                    first,
-                    &prior,
-                )?;
+                (run, converged, sys) = solve(&mut robot, weights, first)?;
                 iterations += run;
                 post = Posterior::at(&sys, data, &prior);
             }
