@@ -28,7 +28,9 @@ use faer::Mat;
 use nalgebra::{DMatrix, DVector, Vector3};
 
 use super::{DiagnoseOptions, position_errors};
-use crate::identify::full::{FullError, Linearization, Observation, identify_with_effects};
+use crate::identify::full::{
+    FullError, Linearization, Observation, identify_with_effects, unit_scale,
+};
 
 /// Held-out statistics: RMS, mean and max of the position error, m.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -85,6 +87,11 @@ pub enum Role {
     Train,
     /// Left out altogether.
     Out,
+}
+
+/// The columns a step moves: the free ones and those moved back to nominal.
+fn moving(delta: &[f64]) -> Vec<usize> {
+    (0..delta.len()).filter(|&c| delta[c] != 0.0).collect()
 }
 
 /// A candidate model as the linearisation sees it.
@@ -178,13 +185,7 @@ impl<'a> Folds<'a> {
     pub fn separable(&self, columns: &[usize], separability: f64) -> bool {
         let m = columns.len();
         let a = &self.all.0;
-        let scale: Vec<f64> = columns
-            .iter()
-            .map(|&c| {
-                let d = a[(c, c)];
-                if d > 0.0 { 1.0 / d.sqrt() } else { 0.0 }
-            })
-            .collect();
+        let scale: Vec<f64> = columns.iter().map(|&c| unit_scale(a[(c, c)])).collect();
         let scaled = DMatrix::from_fn(m, m, |i, j| {
             a[(columns[i], columns[j])] * scale[i] * scale[j]
         });
@@ -222,10 +223,7 @@ impl<'a> Folds<'a> {
         });
         // Scaled to a unit diagonal, for the conditioning of the factorisation.
         let scale: Vec<f64> = (0..m)
-            .map(|i| {
-                let d = n[(i, i)] + precision(s[i]);
-                if d > 0.0 { 1.0 / d.sqrt() } else { 0.0 }
-            })
+            .map(|i| unit_scale(n[(i, i)] + precision(s[i])))
             .collect();
         for i in 0..m {
             n[(i, i)] += precision(s[i]);
@@ -249,7 +247,7 @@ impl<'a> Folds<'a> {
         let lin = self.lin;
         let held = self.held(subset);
         let delta = self.step(subset, &held, None)?;
-        let moved: Vec<usize> = (0..delta.len()).filter(|&c| delta[c] != 0.0).collect();
+        let moved = moving(&delta);
         let (a, b) = &self.all;
         let mut objective = self.rtr;
         for &c in &moved {
@@ -283,10 +281,6 @@ impl<'a> Folds<'a> {
         let n = lin.first_rows.len();
         let mut errors = vec![0.0; n];
         let held = self.held(subset);
-        // The columns a step moves: the free ones and those moved back to nominal.
-        let moving = |delta: &[f64]| -> Vec<usize> {
-            (0..delta.len()).filter(|&c| delta[c] != 0.0).collect()
-        };
         for f in 0..self.parts.len() {
             let delta = self.step(subset, &held, Some(f))?;
             let moved = moving(&delta);

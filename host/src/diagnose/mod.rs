@@ -50,7 +50,6 @@ use crate::identify::full::{
     FullError, FullFit, FullOptions, Observation, Status, identify_from, identify_with_effects,
     linearize,
 };
-use crate::identify::noise::NoiseEstimate;
 use crate::identify::prior::{Geometry, Prior};
 use crate::stats::{f_quantile, significantly_smaller};
 pub use blunders::Blunder;
@@ -91,8 +90,7 @@ impl Default for DiagnoseOptions {
 /// included, at every observation, in order (zero where the model cannot be
 /// evaluated; joint counts are checked before any fit, so that does not happen).
 pub fn residuals(fit: &FullFit, data: &[Observation]) -> Vec<Vector3<f64>> {
-    let effects: Vec<Effect<f64>> = fit.effects.iter().map(|e| e.effect).collect();
-    let Ok(model) = EffectModel::new(fit.calibrated.clone(), &effects) else {
+    let Ok(model) = EffectModel::new(fit.calibrated.clone(), &fit.fitted_effects()) else {
         return Vec::new();
     };
     data.iter()
@@ -185,9 +183,6 @@ pub struct Diagnosis {
     /// The estimated measurement noise of the positions, m per axis: what the
     /// final model's residuals show.
     pub noise: f64,
-    /// The noise of each channel the rows were weighed by: estimated on (or
-    /// stated for) the geometric model.
-    pub noise_estimate: NoiseEstimate,
     /// Indices of the observations set aside as blunders.
     pub blunders: Vec<usize>,
     /// Every pose the test flagged, set aside or not, with the held-out figures.
@@ -196,8 +191,6 @@ pub struct Diagnosis {
     pub tried: Vec<(Candidate, f64)>,
     /// The candidate the search stopped on, if the data did not settle it.
     pub unsettled: Option<Unsettled>,
-    /// Candidates tested in each round (the Bonferroni count).
-    pub tested: Vec<usize>,
 }
 
 /// Runs the diagnosis (see the module header).
@@ -209,14 +202,6 @@ pub fn diagnose(
     diagnose_with_progress(nominal, data, options, &mut |_, _, _| {})
 }
 
-/// The fit options of the reference model: every D-H parameter at the stated prior.
-fn reference_options(options: &DiagnoseOptions) -> FullOptions {
-    FullOptions {
-        geometry: Geometry::Full,
-        ..options.fit
-    }
-}
-
 /// [`diagnose`], calling `progress(round, candidate, candidates)` before each
 /// effect candidate is scored (for a progress bar on a terminal).
 pub fn diagnose_with_progress(
@@ -225,8 +210,11 @@ pub fn diagnose_with_progress(
     options: &DiagnoseOptions,
     progress: &mut dyn FnMut(usize, usize, usize),
 ) -> Result<Diagnosis, FullError> {
-    let reference_options = reference_options(options);
     let prior = options.fit.prior;
+    let reference_options = FullOptions {
+        geometry: Geometry::Full,
+        ..options.fit
+    };
     // 1–2. The reference fit, and blunders.
     let mut kept: Vec<usize> = (0..data.len()).collect();
     let subset =
@@ -234,18 +222,8 @@ pub fn diagnose_with_progress(
     let mut reference = identify_with_effects(nominal, &[], &[], data, &reference_options)?;
     // Every later fit starts from the noise the reference shows (an estimated
     // noise then settles in a round or two; a stated one stays as stated).
-    let fit_options = FullOptions {
-        position_noise: reference.noise.position.used,
-        orientation_noise: reference
-            .noise
-            .orientation
-            .map_or(options.fit.orientation_noise, |o| o.used),
-        ..options.fit
-    };
-    let reference_options = FullOptions {
-        geometry: Geometry::Full,
-        ..fit_options
-    };
+    let fit_options = options.fit.at_noise_of(&reference);
+    let reference_options = reference_options.at_noise_of(&reference);
     let mut blunders = Vec::new();
     let mut suspects = Vec::new();
     let most = data.len() / 10;
@@ -289,16 +267,14 @@ pub fn diagnose_with_progress(
 
     // 3. The geometric model.
     let lin = linearize(&reference, &[], &[], &clean, &prior);
-    let nominal_holdout = nominal_errors(nominal, &clean);
-    let models = geometry::score(nominal, &lin, options.folds, &nominal_holdout);
+    let nominal_errors = nominal_errors(nominal, &clean);
+    let mut models = geometry::score(nominal, &lin, options.folds, &nominal_errors);
     let best = geometry::best(&models).clone();
     let nominal_holdout = models[0].held;
-    let mut models = models;
     let mut geometry = best.geometry.unwrap_or(Geometry::Full);
-    let (mut prior_factor, mut geo_prior) = match best.geometry {
-        Some(_) => (best.prior_factor, prior.scaled(best.prior_factor)),
-        None => (1.0, prior),
-    };
+    // The nominal model's factor is 1: the stated prior.
+    let mut prior_factor = best.prior_factor;
+    let geo_prior = prior.scaled(prior_factor);
     let geo_options = FullOptions {
         geometry,
         prior: geo_prior,
@@ -319,21 +295,12 @@ pub fn diagnose_with_progress(
     // The held-out figures of the step to it from the reference, which the
     // refit reaches to second order.
     let geometric_holdout = best.held;
-    let effect_options = FullOptions {
-        position_noise: geometric.noise.position.used,
-        orientation_noise: geometric
-            .noise
-            .orientation
-            .map_or(fit_options.orientation_noise, |o| o.used),
-        ..geo_options
-    }
-    .stated();
+    let effect_options = geo_options.at_noise_of(&geometric).stated();
 
     // 4. The effects.
     let all = candidates(nominal, &clean);
     let mut chosen: Vec<Finding> = Vec::new();
     let mut tried = Vec::new();
-    let mut tested = Vec::new();
     let mut unsettled = None;
     let mut extra: Vec<Param> = Vec::new();
     let mut current = geometric_holdout;
@@ -388,7 +355,6 @@ pub fn diagnose_with_progress(
             tests.push(((*c).clone(), subset, f, dof));
         }
         let m = tests.len().max(1) as f64;
-        tested.push(tests.len());
         let threshold =
             |c: &Candidate, dof: f64| f_quantile(1.0 - ALPHA / m, c.parameter_count() as f64, dof);
         // The held-out gain of the strongest by the test (and of every one that
@@ -435,7 +401,7 @@ pub fn diagnose_with_progress(
             break;
         };
         // The effects found so far from their fitted values, the new one from zero.
-        let mut e: Vec<Effect<f64>> = current_fit.effects.iter().map(|f| f.effect).collect();
+        let mut e = current_fit.fitted_effects();
         let mut x = extra.clone();
         e.extend(c.effect);
         x.extend(c.extra.iter().copied());
@@ -474,12 +440,7 @@ pub fn diagnose_with_progress(
             .filter(|&p| identified(&reference, p) && !identified(&current_fit, p))
             .collect();
         let lin = linearize(&current_fit, &[], &missing, &clean, &prior);
-        let rescored = geometry::score(
-            nominal,
-            &lin,
-            options.folds,
-            &nominal_errors(nominal, &clean),
-        );
+        let rescored = geometry::score(nominal, &lin, options.folds, &nominal_errors);
         let again = geometry::best(&rescored).clone();
         if let Some(g) = again.geometry
             && (g, again.prior_factor) != (geometry, prior_factor)
@@ -489,7 +450,7 @@ pub fn diagnose_with_progress(
                 prior: prior.scaled(again.prior_factor),
                 ..effect_options
             };
-            let effects: Vec<Effect<f64>> = current_fit.effects.iter().map(|f| f.effect).collect();
+            let effects = current_fit.fitted_effects();
             // Only if it predicts better held-out (the step to it, which the
             // refit reaches to second order).
             if again.held.rms < current.rms
@@ -502,7 +463,7 @@ pub fn diagnose_with_progress(
                     &options,
                 )
             {
-                (geometry, prior_factor, geo_prior) = (g, again.prior_factor, options.prior);
+                (geometry, prior_factor) = (g, again.prior_factor);
                 current = again.held;
                 current_fit = fit;
                 models = rescored;
@@ -514,7 +475,7 @@ pub fn diagnose_with_progress(
     let choice = if best.geometry.is_some() && current.rms < nominal_holdout.rms {
         Choice::Calibrated {
             geometry,
-            prior: geo_prior,
+            prior: prior.scaled(prior_factor),
             prior_factor,
         }
     } else {
@@ -525,7 +486,6 @@ pub fn diagnose_with_progress(
         Choice::Calibrated { .. } => (geometric_holdout, current),
     };
     let noise = current_fit.noise.position.shown;
-    let noise_estimate = geometric.noise;
     Ok(Diagnosis {
         choice,
         findings: chosen,
@@ -535,12 +495,10 @@ pub fn diagnose_with_progress(
         holdout: (nominal_holdout, geometric_holdout, current),
         models,
         noise,
-        noise_estimate,
         blunders,
         suspects,
         tried,
         unsettled,
-        tested,
     })
 }
 
@@ -611,7 +569,7 @@ impl Diagnosis {
         units: &armcal_shared::units::Units,
     ) -> Vec<(&'static str, f64, f64, &'static str, String)> {
         use crate::identify::noise::NoiseSource;
-        let n = &self.noise_estimate;
+        let n = &self.geometric.noise;
         let source = |s: NoiseSource| match s {
             NoiseSource::Stated => "stated",
             NoiseSource::Estimated => "estimated",

@@ -192,6 +192,19 @@ impl FullOptions {
         }
     }
 
+    /// These options starting from the noise `fit` used (for an estimated noise,
+    /// a start that settles in a round or two; a stated one is as stated).
+    pub fn at_noise_of(self, fit: &FullFit) -> Self {
+        Self {
+            position_noise: fit.noise.position.used,
+            orientation_noise: fit
+                .noise
+                .orientation
+                .map_or(self.orientation_noise, |o| o.used),
+            ..self
+        }
+    }
+
     /// These options with both noises stated (as given), not estimated.
     pub fn stated(self) -> Self {
         Self {
@@ -284,6 +297,13 @@ pub struct FullFit {
     pub redundancy: f64,
     /// The noise of each channel: used and shown by the residuals.
     pub noise: NoiseEstimate,
+}
+
+impl FullFit {
+    /// The fitted effects, with their identified parameters.
+    pub fn fitted_effects(&self) -> Vec<Effect<f64>> {
+        self.effects.iter().map(|e| e.effect).collect()
+    }
 }
 
 /// One effect of the result: its identified parameters and their statuses (in
@@ -753,12 +773,10 @@ impl Posterior {
         let (g, _, scale) = sys.scaled_normal_equations();
         let p = g.nrows();
         // The position rows alone.
-        let mut position_rows = Vec::with_capacity(3 * data.len());
-        let mut row = 0;
-        for obs in data {
-            position_rows.extend(row..row + 3);
-            row += if obs.orientation.is_some() { 6 } else { 3 };
-        }
+        let position_rows: Vec<usize> = LinearSystem::position_rows(data)
+            .enumerate()
+            .filter_map(|(i, position)| position.then_some(i))
+            .collect();
         let rows = (position_rows.len(), sys.j.nrows() - position_rows.len());
         let jp = Mat::from_fn(position_rows.len(), p, |i, k| {
             sys.j[(position_rows[i], k)] * scale[k]
@@ -827,7 +845,7 @@ pub fn linearize(
 ) -> Linearization {
     let mut model = Model {
         robot: fit.calibrated.clone(),
-        effects: fit.effects.iter().map(|e| e.effect).collect(),
+        effects: fit.fitted_effects(),
     };
     let identified = |s: &Status| matches!(s, Status::Identified { .. });
     let mut unknowns: Vec<Unknown> = Vec::new();
@@ -1033,6 +1051,15 @@ struct LinearSystem {
 }
 
 impl LinearSystem {
+    /// Whether each row, in order, is a position row (per pose 3 position
+    /// rows, then 3 orientation rows when measured).
+    fn position_rows(data: &[Observation]) -> impl Iterator<Item = bool> + '_ {
+        data.iter().flat_map(|obs| {
+            let orientation = if obs.orientation.is_some() { 3 } else { 0 };
+            std::iter::repeat_n(true, 3).chain(std::iter::repeat_n(false, orientation))
+        })
+    }
+
     fn rows(data: &[Observation]) -> usize {
         data.iter()
             .map(|o| if o.orientation.is_some() { 6 } else { 3 })
@@ -1186,13 +1213,9 @@ impl LinearSystem {
     /// (position, orientation weights): the same linearisation at other noises.
     fn reweighted(&self, data: &[Observation], before: (f64, f64), after: (f64, f64)) -> Self {
         let (p, o) = (after.0 / before.0, after.1 / before.1);
-        let mut factor = Vec::with_capacity(self.r.nrows());
-        for obs in data {
-            factor.extend([p; 3]);
-            if obs.orientation.is_some() {
-                factor.extend([o; 3]);
-            }
-        }
+        let factor: Vec<f64> = Self::position_rows(data)
+            .map(|position| if position { p } else { o })
+            .collect();
         Self {
             j: Mat::from_fn(self.j.nrows(), self.j.ncols(), |i, k| {
                 self.j[(i, k)] * factor[i]
@@ -1249,15 +1272,13 @@ impl LinearSystem {
 /// The factors `1/√G_kk` that scale a normal matrix `G = JᵀJ` to a unit diagonal
 /// (its columns of `J` to unit norm); 0 for a zero column, which cannot move anything.
 pub(crate) fn unit_diagonal_scale(g: &Mat<f64>) -> Vec<f64> {
-    (0..g.nrows())
-        .map(|k| {
-            if g[(k, k)] > 0.0 {
-                1.0 / g[(k, k)].sqrt()
-            } else {
-                0.0
-            }
-        })
-        .collect()
+    (0..g.nrows()).map(|k| unit_scale(g[(k, k)])).collect()
+}
+
+/// The factor `1/√d` that scales a normal matrix's diagonal entry `d` to 1; 0
+/// for a zero column.
+pub(crate) fn unit_scale(d: f64) -> f64 {
+    if d > 0.0 { 1.0 / d.sqrt() } else { 0.0 }
 }
 
 /// The rank-revealing Cholesky of the scaled normal matrix in the order of
