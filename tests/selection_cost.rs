@@ -1,6 +1,6 @@
 //! The cost of the diagnosis' model selection, against one identification: a
 //! budget of the optimised build, checked with
-//! `cargo test --release -p armcal-tests --test selection_cost -- --include-ignored`.
+//! `cargo test --release -p armcal-tests --test selection_cost`.
 
 use armcal::diagnose::{DiagnoseOptions, diagnose};
 use armcal::identify::full::{FullOptions, identify_full};

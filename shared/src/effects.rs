@@ -672,15 +672,23 @@ impl<T: Real> EffectModel<T> {
             let chain = robot.chain(q)?;
             gravity_torques(geometric, &chain, ctx.payload.unwrap_or(T::zero()))
         } else {
-            q.iter().map(|_| T::zero()).collect()
+            Vec::new()
         };
+        Ok(self.joint_values_at(q, &tau, ctx))
+    }
+
+    /// [`Self::joint_values`] with the gravity torques `tau` at `q` already
+    /// known (N·m per joint; an empty slice when no effect needs them).
+    pub fn joint_values_at(&self, q: &[T], tau: &[T], ctx: &Context<T>) -> Vec<T, MAX_JOINTS> {
         let effects = self.joint_effects(q.len());
-        Ok(q.iter()
-            .zip(&tau)
+        q.iter()
             .zip(&effects)
             .enumerate()
-            .map(|(j, ((&qj, &tau), e))| qj + e.correction(qj, tau, context_sign(ctx, j)))
-            .collect())
+            .map(|(j, (&qj, e))| {
+                let tau = tau.get(j).copied().unwrap_or(T::zero());
+                qj + e.correction(qj, tau, context_sign(ctx, j))
+            })
+            .collect()
     }
 
     /// The measured frame at readings `q` in context `ctx`.

@@ -1136,9 +1136,7 @@ impl LinearSystem {
                     if needs_torque && kin.chain_into(&obs.q, &mut chain).is_ok() {
                         tau = gravity_torques(robot, &chain, ctx.payload.unwrap_or(0.0)).to_vec();
                     }
-                    em.joint_values(kin, robot, &obs.q, ctx)
-                        .map(|v| v.to_vec())
-                        .unwrap_or_else(|_| obs.q.clone())
+                    em.joint_values_at(&obs.q, &tau, ctx).to_vec()
                 }
                 None => obs.q.clone(),
             };
