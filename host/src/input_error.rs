@@ -90,19 +90,46 @@ impl InputError {
 
 /// The 1-based (line, character column) of byte `offset` in `text`.
 ///
-/// Lines end at `\n` (a `\r` before it counts as the last character of its line).
-/// An offset past the end is taken as the end of the text, and an offset inside a
-/// multi-byte character as the start of that character.
+/// Lines end at `\n`, `\r\n` or a lone `\r` (old Mac files; a `\r` before a
+/// `\n` counts as the last character of its line). An offset past the end is
+/// taken as the end of the text, and an offset inside a multi-byte character as
+/// the start of that character.
 pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
     let mut offset = offset.min(text.len());
     while offset > 0 && !text.is_char_boundary(offset) {
         offset -= 1;
     }
     let before = text.get(..offset).unwrap_or("");
-    let line = before.bytes().filter(|&b| b == b'\n').count() + 1;
-    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    let bytes = text.as_bytes();
+    // Byte `i` ends a line: a `\n`, or a `\r` not followed by one.
+    let ends_line = |i: usize| match bytes[i] {
+        b'\n' => true,
+        b'\r' => bytes.get(i + 1) != Some(&b'\n'),
+        _ => false,
+    };
+    let line = (0..offset).filter(|&i| ends_line(i)).count() + 1;
+    let line_start = (0..offset)
+        .rev()
+        .find(|&i| ends_line(i))
+        .map_or(0, |i| i + 1);
     let column = before.get(line_start..).unwrap_or("").chars().count() + 1;
     (line, column)
+}
+
+/// `text` with every lone `\r` (a line end of old Mac files) turned into `\n`:
+/// the same length, so byte offsets stay valid, and one kind of line end for the
+/// readers that count lines.
+pub fn unix_line_ends(text: &str) -> std::borrow::Cow<'_, str> {
+    let bytes = text.as_bytes();
+    let lone = |i: usize| bytes[i] == b'\r' && bytes.get(i + 1) != Some(&b'\n');
+    if !(0..bytes.len()).any(lone) {
+        return std::borrow::Cow::Borrowed(text);
+    }
+    let fixed: Vec<u8> = (0..bytes.len())
+        .map(|i| if lone(i) { b'\n' } else { bytes[i] })
+        .collect();
+    // Only ASCII bytes were replaced by ASCII bytes: still UTF-8.
+    std::borrow::Cow::Owned(String::from_utf8(fixed).unwrap_or_else(|_| text.to_owned()))
 }
 
 /// Reads a whole input file as UTF-8 text.

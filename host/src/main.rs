@@ -192,9 +192,10 @@ enum Command {
         html: Option<PathBuf>,
         #[command(flatten)]
         weights: Weights,
-        /// Folds of the cross-validation.
-        #[arg(long, default_value_t = 10)]
-        folds: usize,
+        /// Folds of the cross-validation, from 2 to the number of poses
+        /// (default: 10, or one per pose with fewer poses).
+        #[arg(long)]
+        folds: Option<usize>,
         /// The frame the compensation's targets will be given in: `world` (the
         /// measurement frame of these data: the identified base is compensated)
         /// or `base` (the robot's own base frame: the identified base, the
@@ -241,6 +242,9 @@ enum Command {
         paper: Paper,
     },
 }
+
+/// The folds of the diagnosis' cross-validation unless `--folds` says otherwise.
+const DEFAULT_FOLDS: usize = 10;
 
 /// The noise and the prior: what weighs the rows and the parameters.
 #[derive(clap::Args, Debug)]
@@ -341,7 +345,7 @@ fn main() -> ExitCode {
                 eprintln!("  caused by: {cause}");
                 source = cause.source();
             }
-            if err.downcast_ref::<InputError>().is_some() {
+            if is_bad_input(&err) {
                 ExitCode::from(2)
             } else {
                 ExitCode::FAILURE
@@ -350,8 +354,24 @@ fn main() -> ExitCode {
     }
 }
 
+/// Whether `err` refuses what the user gave (a file, an argument, data that
+/// cannot carry the computation): exit status 2. Anything else is a failure
+/// of the program or the machine: 1.
+fn is_bad_input(err: &anyhow::Error) -> bool {
+    use armcal::identify::{IdentifyError, full::FullError, paper::PaperError};
+    err.downcast_ref::<InputError>().is_some()
+        || err.downcast_ref::<FullError>().is_some()
+        || err.downcast_ref::<PaperError>().is_some()
+        || err
+            .downcast_ref::<IdentifyError>()
+            .is_some_and(|e| !matches!(e, IdentifyError::Calibration(_)))
+}
+
 /// The model and the measurements of a session, refused if the poses give fewer
-/// equations than the model's independent parameters.
+/// equations than the model's independent parameters or if they cannot be
+/// measurements of this robot ([`measurements::Measurements::require_plausible`]);
+/// what the user should know of the data (columns not read, readings outside the
+/// limits) is printed as warnings.
 fn load_session(
     model: &str,
     data: &str,
@@ -362,7 +382,15 @@ fn load_session(
         &model.robot,
         data.has_orientation(),
     ))?;
+    data.require_plausible(&model)?;
     Ok((model, data))
+}
+
+/// Prints the warnings of a data file to standard error.
+fn warn(warnings: &[String]) {
+    for w in warnings {
+        eprintln!("armcal: warning: {w}");
+    }
 }
 
 fn run(cli: Cli) -> anyhow::Result<()> {
@@ -391,12 +419,14 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             targets,
         } => {
             let (model, data) = load_session(&model, &data)?;
+            warn(&data.warnings);
             let options = weights.options(&model)?;
             let set = match params {
                 Params::Full => ParamSet::Full,
                 Params::Paper => ParamSet::Paper,
             };
             let mut result = identify::identify(&model, &data, set, &options)?;
+            data.require_fit_supported(&model, result.position_rms)?;
             result.calibration.targets = targets.into();
             // Everything is computed and encoded before the first byte is written.
             let mut outputs = Vec::new();
@@ -424,24 +454,27 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let u = model.units;
             let dof = model.robot.dof();
             let mut scenario = simulate::Scenario::tracker(poses, seed);
+            let non_negative = |flag: &str, n: f64| {
+                if n.is_finite() && n >= 0.0 {
+                    Ok(n)
+                } else {
+                    Err(InputError::argument(
+                        flag,
+                        format!("{n}: must be a non-negative number"),
+                    ))
+                }
+            };
             if let Some(n) = noise {
-                anyhow::ensure!(
-                    n.is_finite() && n >= 0.0,
-                    "--noise {n}: must be a non-negative number"
-                );
-                scenario.position_noise = u.length_to_si(n);
+                scenario.position_noise = u.length_to_si(non_negative("--noise", n)?);
             }
             if let Some(n) = orientation_noise {
-                anyhow::ensure!(
-                    n.is_finite() && n >= 0.0,
-                    "--orientation-noise {n}: must be a non-negative number"
-                );
+                let n = non_negative("--orientation-noise", n)?;
                 scenario.orientation_noise = Some(u.angle_to_si(n));
             }
             for spec in &effects {
                 scenario.effects.push(
                     simulate::parse_effect(spec, dof)
-                        .map_err(|e| anyhow::anyhow!("--effect {e}"))?,
+                        .map_err(|e| InputError::argument("--effect", e))?,
                 );
             }
             for spec in &tilts {
@@ -452,12 +485,20 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     Some((j, b)) if (1..=dof).contains(&j) && b.is_finite() => {
                         scenario.tilts.push((j - 1, b))
                     }
-                    _ => anyhow::bail!(
-                        "--tilt {spec}: expected JOINT:BETA with a joint from 1 to {dof} and β in rad"
-                    ),
+                    _ => {
+                        return Err(InputError::argument(
+                            "--tilt",
+                            format!(
+                                "{spec}: expected JOINT:BETA with a joint from 1 to {dof} and β in rad"
+                            ),
+                        )
+                        .into());
+                    }
                 }
             }
-            anyhow::ensure!(poses >= 1, "--poses must be at least 1");
+            if poses == 0 {
+                return Err(InputError::argument("--poses", "0: at least 1").into());
+            }
             let session = simulate::simulate(&model.robot, &scenario)?;
             let description = format!(
                 "armcal simulate --model {} --poses {poses} --seed {seed}{}{}",
@@ -489,9 +530,21 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             targets,
         } => {
             let (model, data) = load_session(&model, &data)?;
-            if folds < 2 {
-                return Err(InputError::argument("--folds", format!("{folds}: at least 2")).into());
-            }
+            warn(&data.warnings);
+            let folds = match folds {
+                None => DEFAULT_FOLDS.min(data.len()),
+                Some(k) if (2..=data.len()).contains(&k) => k,
+                Some(k) => {
+                    return Err(InputError::argument(
+                        "--folds",
+                        format!(
+                            "{k}: from 2 to the number of poses ({}: leave-one-out)",
+                            data.len()
+                        ),
+                    )
+                    .into());
+                }
+            };
             let options = armcal::diagnose::DiagnoseOptions {
                 folds,
                 fit: weights.options(&model)?,
@@ -520,6 +573,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             if tty {
                 eprintln!();
             }
+            data.require_fit_supported(&model, diagnosis.reference.position_rms)?;
             let lines: Vec<usize> = data.poses.iter().map(|p| p.line).collect();
             let mut outputs = Vec::new();
             if let Some(path) = &out {
@@ -674,7 +728,17 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 Err(_) => None,
             };
             let (port, name) = match (tcp, serial) {
-                (Some(address), _) => (link::open_tcp(&address)?, address),
+                (Some(address), _) => {
+                    use std::net::ToSocketAddrs as _;
+                    if let Err(e) = address.to_socket_addrs() {
+                        return Err(InputError::argument(
+                            "--tcp",
+                            format!("{address}: not a HOST:PORT address: {e}"),
+                        )
+                        .into());
+                    }
+                    (link::open_tcp(&address)?, address)
+                }
                 (None, Some(path)) => (link::open_serial(&path)?, path),
                 (None, None) => anyhow::bail!("give --tcp HOST:PORT or --serial PATH"),
             };

@@ -5,7 +5,8 @@
 //! the sign of its last change, held through the rows where it holds, so rows are
 //! kept in file order).
 //! Lines that start with `#` are comments; the first other line is the header;
-//! blank lines are skipped; fields are trimmed.
+//! blank lines are skipped; fields are trimmed. Lines end at `\n`, `\r\n` or a
+//! lone `\r`.
 //!
 //! | column | required | unit on file | in [`Pose`] |
 //! | --- | --- | --- | --- |
@@ -26,7 +27,8 @@
 //! `q` column beyond the model's joint count or a missing one (joint-count
 //! mismatch), a duplicate column name, a row with the wrong number of fields, a
 //! value that is not a finite number, a partial quaternion, a quaternion whose norm
-//! differs from 1 by more than [`QUATERNION_NORM_TOLERANCE`], no data rows, and —
+//! differs from 1 by more than [`QUATERNION_NORM_TOLERANCE`], a `temp` outside
+//! [`TEMPERATURE_RANGE`] or a `load` outside [`PAYLOAD_RANGE`], no data rows, and —
 //! once the caller knows how many parameters it identifies — fewer equations
 //! than unknowns ([`Measurements::require_poses`]).
 //!
@@ -47,8 +49,16 @@ use armcal_shared::{JointType, Robot};
 use nalgebra::{Point3, Quaternion, UnitQuaternion};
 
 use crate::builtin;
-use crate::input_error::{InputError, read_text};
+use crate::input_error::{InputError, read_text, unix_line_ends};
 use crate::model_file::RobotModel;
+
+/// The temperatures (°C) a working robot may be measured at: below it a `temp`
+/// is refused as a unit or a typo (−273.15 °C, a value in K or °F).
+pub const TEMPERATURE_RANGE: [f64; 2] = [-50.0, 150.0];
+
+/// The payloads (kg) a robot may carry: none is negative, and the heaviest
+/// industrial arms carry about 2.3 t.
+pub const PAYLOAD_RANGE: [f64; 2] = [0.0, 5000.0];
 
 /// How far from 1 the norm of a measured quaternion may be; within it the
 /// quaternion is normalised, beyond it the file is refused.
@@ -159,6 +169,156 @@ impl Measurements {
                  fewer than the {unknowns} unknowns; at least {needed} poses are needed",
                 plural(self.poses.len(), "pose"),
                 if self.poses.len() == 1 { "s" } else { "" }
+            ),
+        ))
+    }
+}
+
+/// How far (in units of the robot's reach, [`reach`]) a measured point may lie
+/// from the median of the points. Two points the robot reaches are at most two
+/// reaches apart, and the coordinate-wise median lies within their bounding box,
+/// so a point farther than `2√3` reaches from it cannot be; the margin covers
+/// a tool point the model places only roughly.
+pub const SPREAD_LIMIT: f64 = 4.0;
+
+/// The largest RMS position residual (as a share of the robot's [`reach`]) a
+/// geometric calibration may leave and still be written: a working arm's
+/// calibration leaves well under a millimetre per metre of reach, a camera's
+/// a few; 2 % is tens of millimetres, only reached when the model cannot be
+/// the robot that was measured.
+pub const FIT_LIMIT: f64 = 0.02;
+
+/// The farthest the tool point can be from the first joint's frame: the sum of
+/// every link's lengths (`|s|`, `|a|`), each prismatic joint's largest
+/// reading in `readings` and the tool's offset, m.
+pub fn reach<'q>(robot: &Robot<f64>, readings: impl Iterator<Item = &'q [f64]>) -> f64 {
+    let mut stroke = vec![0.0_f64; robot.dof()];
+    for q in readings {
+        for (s, v) in stroke.iter_mut().zip(q) {
+            *s = s.max(v.abs());
+        }
+    }
+    robot
+        .links
+        .iter()
+        .zip(&stroke)
+        .map(|(l, &q)| {
+            l.s.abs()
+                + l.a.abs()
+                + match l.joint {
+                    JointType::Prismatic => q,
+                    JointType::Revolute => 0.0,
+                }
+        })
+        .sum::<f64>()
+        + robot.tool.xyz.norm()
+}
+
+impl Measurements {
+    /// Refuses data that cannot be measurements of `robot`'s tool point: a
+    /// position column with the same value on every row (a degenerate column: no
+    /// instrument sees a moving arm so), or a point farther from the median of the
+    /// points than [`SPREAD_LIMIT`] times the robot's [`reach`] (a typo, or the
+    /// model and the data in different length units). The error names the line.
+    pub fn require_plausible(&self, model: &RobotModel) -> Result<(), InputError> {
+        let (robot, units) = (&model.robot, &model.units);
+        let unit = units.length.name();
+        let length = |x: f64| units.length_from_si(x);
+        let Some(first) = self.poses.first() else {
+            return Ok(());
+        };
+        let moved = self.poses.iter().any(|p| p.q != first.q);
+        for (c, name) in POSITION.iter().enumerate() {
+            if moved
+                && self
+                    .poses
+                    .iter()
+                    .all(|p| p.position[c] == first.position[c])
+            {
+                return Err(InputError::new(
+                    &self.file,
+                    first.line,
+                    1,
+                    format!(
+                        "column '{name}' reads {} {unit} on every row while the joints move: \
+                         no instrument measures a moving tool point so; check the export",
+                        length(first.position[c])
+                    ),
+                ));
+            }
+        }
+        let reach = reach(robot, self.poses.iter().map(|p| p.q.as_slice()));
+        let median = |c: usize| {
+            let mut v: Vec<f64> = self.poses.iter().map(|p| p.position[c]).collect();
+            v.sort_by(f64::total_cmp);
+            v[v.len() / 2]
+        };
+        let centre = Point3::new(median(0), median(1), median(2));
+        // Scaled, so that a coordinate of 1e300 does not overflow its square.
+        let distance = |p: &Pose| {
+            let v = p.position - centre;
+            let m = v.amax();
+            if m > 0.0 { m * (v / m).norm() } else { 0.0 }
+        };
+        // A figure as an engineer writes it: 1e30 as 1e30, not 31 digits.
+        let show = |x: f64| {
+            let x = length(x);
+            if x != 0.0 && !(1e-4..1e6).contains(&x.abs()) {
+                format!("{x:e}")
+            } else {
+                format!("{x}")
+            }
+        };
+        if let Some(far) = self
+            .poses
+            .iter()
+            .find(|p| distance(p) > SPREAD_LIMIT * reach.max(1e-3))
+        {
+            let d = distance(far);
+            return Err(InputError::new(
+                &self.file,
+                far.line,
+                1,
+                format!(
+                    "the point ({}, {}, {}) {unit} lies {} {unit} from the median of the \
+                     points, but the robot reaches at most {:.4} {unit} from its base: a typo, \
+                     or the data and the model in different length units?",
+                    show(far.position.x),
+                    show(far.position.y),
+                    show(far.position.z),
+                    show(d),
+                    length(reach)
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Refuses to let a calibration be written from a fit that still misses the
+    /// points by more than [`FIT_LIMIT`] of the robot's reach (`position_rms`,
+    /// m): such data do not carry a calibration of this model.
+    pub fn require_fit_supported(
+        &self,
+        model: &RobotModel,
+        position_rms: f64,
+    ) -> Result<(), InputError> {
+        let reach = reach(&model.robot, self.poses.iter().map(|p| p.q.as_slice()));
+        if position_rms.is_finite() && position_rms <= FIT_LIMIT * reach {
+            return Ok(());
+        }
+        let u = &model.units;
+        Err(InputError::new(
+            &self.file,
+            0,
+            0,
+            format!(
+                "the fitted model still misses the measured points by {:.4} {unit} RMS, {:.0} % \
+                 of the robot's reach ({:.4} {unit}): these data do not support a calibration of \
+                 this model (joint order, joint units, the tool point?); nothing is written",
+                u.length_from_si(position_rms),
+                100.0 * position_rms / reach,
+                u.length_from_si(reach),
+                unit = u.length.name()
             ),
         ))
     }
@@ -376,7 +536,7 @@ struct Table {
 /// Reads `text` as a file of `schema.kind`; a leading byte-order mark is dropped.
 fn parse_table(text: &str, file: &str, schema: &Schema<'_>) -> Result<Table, InputError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    CsvReader::new(text, file).read(schema)
+    CsvReader::new(&unix_line_ends(text), file).read(schema)
 }
 
 /// What a column of the file feeds.
@@ -868,8 +1028,32 @@ impl<'a> CsvReader<'a> {
                     }
                 }
                 Role::T => t = optional()?,
-                Role::Temp => temp = optional()?,
-                Role::Load => load = optional()?,
+                Role::Temp => {
+                    temp = optional()?;
+                    let [lo, hi] = TEMPERATURE_RANGE;
+                    if let Some(c) = temp.filter(|c| !(lo..=hi).contains(c)) {
+                        return Err(at(
+                            i,
+                            format!(
+                                "column '{name}': {c} °C is not the temperature of a working robot \
+                                 (accepted: {lo} to {hi} °C; a value in K or °F?)"
+                            ),
+                        ));
+                    }
+                }
+                Role::Load => {
+                    load = optional()?;
+                    let [lo, hi] = PAYLOAD_RANGE;
+                    if let Some(m) = load.filter(|m| !(lo..=hi).contains(m)) {
+                        return Err(at(
+                            i,
+                            format!(
+                                "column '{name}': a payload of {m} kg is impossible \
+                                 (accepted: {lo} to {hi} kg; a value in g or lb?)"
+                            ),
+                        ));
+                    }
+                }
                 Role::Ignored => {}
             }
         }
@@ -998,6 +1182,144 @@ mod tests {
         );
         for needle in needles {
             assert!(e.message.contains(needle), "{e:?} does not name {needle:?}");
+        }
+    }
+
+    /// Old Mac line ends (a lone CR) are line ends: a bad value on line 4 is
+    /// refused at line 4, not at line 1 with a long column.
+    #[test]
+    fn lone_carriage_returns_end_lines() {
+        let text = format!("# comment\r{HEADER6}\r{ROW6}\r0.1,0.2,0.3,0.4,0.5,0.6,1.0,abc,3.0\r");
+        refused(&ur5e(), &text, 4, 29, &["column 'y'", "\"abc\""]);
+        let m = parse_measurements(&text.replace("abc", "2.0"), "data.csv", &ur5e()).unwrap();
+        assert_eq!(m.poses.iter().map(|p| p.line).collect::<Vec<_>>(), [3, 4]);
+    }
+
+    /// A temperature no working robot has (absolute zero, a value in K) and a
+    /// negative or absurd payload are refused at their cell.
+    #[test]
+    fn implausible_conditions_are_refused() {
+        let h = format!("{HEADER6},temp,load");
+        for (cells, column, needle) in [
+            ("-273.15,1", 37, "°C is not the temperature"),
+            ("1e300,1", 37, "°C is not the temperature"),
+            ("293.15,1", 37, "in K or °F"),
+            ("20,-0.5", 40, "payload of -0.5 kg is impossible"),
+            ("20,1e9", 40, "kg is impossible"),
+        ] {
+            refused(
+                &ur5e(),
+                &format!("{h}\n{ROW6},{cells}\n"),
+                2,
+                column,
+                &[needle],
+            );
+        }
+        parse_measurements(
+            &format!("{h}\n{ROW6},-20,0\n{ROW6},80,3.5\n"),
+            "data.csv",
+            &ur5e(),
+        )
+        .unwrap();
+    }
+
+    /// Garbage is refused with its line: one coordinate of 1e30 (or 1e300), a
+    /// data file in mm against a model in m, a constant z column. A real set
+    /// passes.
+    #[test]
+    fn implausible_positions_are_refused() {
+        let model = load_model("puma560").unwrap();
+        let robot = &model.robot;
+        // An upper bound of the distance from the base, and not a loose one.
+        let r = reach(robot, std::iter::empty());
+        assert!(r < 2.0, "PUMA reach {r} m");
+        let mut text = String::from("q1,q2,q3,q4,q5,q6,x,y,z\n");
+        for i in 0..20 {
+            let q = 0.1 * i as f64;
+            let p = robot
+                .forward(&[q, -q, q, 0.5, q, 0.0])
+                .unwrap()
+                .translation
+                .vector;
+            assert!(p.norm() <= r);
+            text.push_str(&format!(
+                "{q},{},{q},0.5,{q},0,{},{},{}\n",
+                -q, p.x, p.y, p.z
+            ));
+        }
+        let good = parse_measurements(&text, "data.csv", &model).unwrap();
+        good.require_plausible(&model).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        let with_line = |n: usize, f: &dyn Fn(&str) -> String| {
+            let mut l = lines.clone();
+            let changed = f(l[n - 1]);
+            l[n - 1] = &changed;
+            parse_measurements(&(l.join("\n") + "\n"), "data.csv", &model).unwrap()
+        };
+        for big in ["1e30", "1e300"] {
+            let m = with_line(7, &|l| {
+                let mut f: Vec<&str> = l.split(',').collect();
+                f[6] = big;
+                f.join(",")
+            });
+            let e = m.require_plausible(&model).unwrap_err();
+            assert_eq!((e.line, e.column), (7, 1), "{e}");
+            assert!(e.message.contains("reaches at most"), "{e}");
+        }
+        let mm: String = lines
+            .iter()
+            .enumerate()
+            .map(|(i, l)| {
+                if i == 0 {
+                    return format!("{l}\n");
+                }
+                let f: Vec<String> = l
+                    .split(',')
+                    .enumerate()
+                    .map(|(c, v)| {
+                        if c >= 6 {
+                            format!("{}", v.parse::<f64>().unwrap() * 1000.0)
+                        } else {
+                            v.to_owned()
+                        }
+                    })
+                    .collect();
+                f.join(",") + "\n"
+            })
+            .collect();
+        let m = parse_measurements(&mm, "data.csv", &model).unwrap();
+        assert!(
+            m.require_plausible(&model)
+                .unwrap_err()
+                .message
+                .contains("length units")
+        );
+        let flat: String = lines
+            .iter()
+            .enumerate()
+            .map(|(i, l)| {
+                if i == 0 {
+                    return format!("{l}\n");
+                }
+                let mut f: Vec<&str> = l.split(',').collect();
+                f[8] = "0.25";
+                f.join(",") + "\n"
+            })
+            .collect();
+        let e = parse_measurements(&flat, "data.csv", &model)
+            .unwrap()
+            .require_plausible(&model)
+            .unwrap_err();
+        assert_eq!(e.line, 2);
+        assert!(
+            e.message.contains("column 'z' reads 0.25 in on every row"),
+            "{e}"
+        );
+        for d in DATA {
+            let model = load_model(d.name).unwrap();
+            let m = load_measurements(d.name, &model).unwrap();
+            m.require_plausible(&model)
+                .unwrap_or_else(|e| panic!("{e}"));
         }
     }
 

@@ -21,7 +21,7 @@
 //! syntax errors, unknown keys (with the allowed ones), missing required keys,
 //! values of the wrong type, unknown `convention`/unit/joint `type` (with the
 //! accepted values), non-finite numbers, arrays of the wrong length, inverted
-//! `limits`, a negative `mass`, `com` without `mass`, both `s` and `d`, more than
+//! `limits` or limits that leave no motion, a negative `mass`, `com` without `mass`, both `s` and `d`, more than
 //! [`MAX_JOINTS`] joints. Missing keys of a table are reported at its header
 //! (`[[joint]]`), missing top-level keys at line 1, column 1. The parser walks the
 //! spanned document of `toml::de::DeTable`, so that every value keeps its place.
@@ -501,6 +501,16 @@ impl ModelReader<'_> {
                         v.span(),
                         format!(
                             "{ctx}`limits` = [{lo}, {hi}]: the lower limit is above the upper one"
+                        ),
+                    ));
+                }
+                if lo == hi {
+                    return Err(self.err(
+                        v.span(),
+                        format!(
+                            "{ctx}`limits` = [{lo}, {hi}]: the joint cannot move, so nothing of it \
+                             can be calibrated; give its range, or fold a locked joint into the \
+                             next link's constant parameters"
                         ),
                     ));
                 }
@@ -1192,8 +1202,14 @@ xyz = [1500, 0, 900]
             1,
             &["`com` given without `mass`"],
         );
-        // Equal limits and zero mass are allowed.
-        parse_model(&format!("{GOOD}limits = [0.5, 0.5]\nmass = 0\n"), "ok.toml").unwrap();
+        // A joint that cannot move is refused; zero mass is allowed.
+        refused(
+            &format!("{GOOD}limits = [0.5, 0.5]\n"),
+            12,
+            10,
+            &["`limits` = [0.5, 0.5]", "cannot move"],
+        );
+        parse_model(&format!("{GOOD}mass = 0\n"), "ok.toml").unwrap();
     }
 
     #[test]

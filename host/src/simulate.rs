@@ -39,8 +39,8 @@ pub fn with_random_errors(
     (truth, errors)
 }
 
-/// `n` random configurations within the joint limits (±π, or ±0.5 m for a
-/// prismatic joint without limits).
+/// `n` random configurations within the joint limits (a revolute joint also
+/// within ±π; without limits ±π, or 0 to 0.5 m for a prismatic joint).
 pub fn random_configurations(robot: &Robot<f64>, n: usize, rng: &mut StdRng) -> Vec<Vec<f64>> {
     (0..n)
         .map(|_| {
@@ -52,8 +52,20 @@ pub fn random_configurations(robot: &Robot<f64>, n: usize, rng: &mut StdRng) -> 
                         JointType::Revolute => [-std::f64::consts::PI, std::f64::consts::PI],
                         JointType::Prismatic => [0.0, 0.5],
                     });
-                    let (lo, hi) = (lo.max(-std::f64::consts::PI), hi.min(std::f64::consts::PI));
-                    rng.random_range(lo..hi)
+                    // Within ±π of a revolute joint's zero where the limits allow it.
+                    let pi = std::f64::consts::PI;
+                    let (a, b) = match l.joint {
+                        JointType::Revolute => (lo.max(-pi), hi.min(pi)),
+                        JointType::Prismatic => (lo, hi),
+                    };
+                    let (lo, hi) = if a < b { (a, b) } else { (lo, hi) };
+                    // A model file refuses limits that leave no motion; a built
+                    // robot may still have them.
+                    if lo < hi {
+                        rng.random_range(lo..hi)
+                    } else {
+                        lo
+                    }
                 })
                 .collect()
         })

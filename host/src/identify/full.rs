@@ -241,7 +241,9 @@ pub enum Status {
         /// One standard error, m or rad.
         std: f64,
     },
-    /// Held at nominal because the data cannot separate it.
+    /// Not identified: held at nominal because the data cannot separate it (a
+    /// base or tool parameter at its closed-form estimate from the data, which
+    /// the reason then says).
     Fixed {
         /// Why, for the engineer.
         reason: String,
@@ -666,14 +668,18 @@ pub fn identify_from(
         .collect::<std::collections::HashMap<_, _>>();
     let mut status_of = |u: Unknown| match free_params.iter().position(|p| *p == u) {
         Some(k) => (Status::Identified { std: std_of[k] }, post.share[k]),
-        None => (
-            Status::Fixed {
-                reason: fixed_reason
-                    .remove(&u)
-                    .unwrap_or_else(|| "not separable".into()),
-            },
-            0.0,
-        ),
+        None => {
+            let mut reason = fixed_reason
+                .remove(&u)
+                .unwrap_or_else(|| "not separable".into());
+            // The error shown is then the registration's, not a fitted one.
+            if let Unknown::Param(p @ (Param::Base(_) | Param::Tool(_))) = u
+                && start.get(u) != nominal.param(p)
+            {
+                reason.push_str("; held at its closed-form estimate from the data, not at nominal");
+            }
+            (Status::Fixed { reason }, 0.0)
+        }
     };
     let effect_fits: Vec<EffectFit> = robot
         .effects

@@ -9,6 +9,7 @@ mod check_identify;
 mod demo;
 mod link;
 mod predict;
+mod refusals;
 
 /// Runs `armcal` with `args` in `dir`.
 pub fn armcal(args: &[&str], dir: &Path) -> Output {
