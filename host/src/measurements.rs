@@ -999,6 +999,16 @@ impl<'a> CsvReader<'a> {
                     )),
                 }
             };
+            // A value outside `range` refused with `why(value, range)`.
+            let within = |v: Option<f64>,
+                          [lo, hi]: [f64; 2],
+                          why: &dyn Fn(f64, [f64; 2]) -> String|
+             -> Result<Option<f64>, InputError> {
+                match v {
+                    Some(x) if !(lo..=hi).contains(&x) => Err(at(i, why(x, [lo, hi]))),
+                    _ => Ok(v),
+                }
+            };
             let optional = || -> Result<Option<f64>, InputError> {
                 if value.is_empty() {
                     Ok(None)
@@ -1029,30 +1039,20 @@ impl<'a> CsvReader<'a> {
                 }
                 Role::T => t = optional()?,
                 Role::Temp => {
-                    temp = optional()?;
-                    let [lo, hi] = TEMPERATURE_RANGE;
-                    if let Some(c) = temp.filter(|c| !(lo..=hi).contains(c)) {
-                        return Err(at(
-                            i,
-                            format!(
-                                "column '{name}': {c} °C is not the temperature of a working robot \
-                                 (accepted: {lo} to {hi} °C; a value in K or °F?)"
-                            ),
-                        ));
-                    }
+                    temp = within(optional()?, TEMPERATURE_RANGE, &|c, [lo, hi]| {
+                        format!(
+                            "column '{name}': {c} °C is not the temperature of a working robot \
+                             (accepted: {lo} to {hi} °C; a value in K or °F?)"
+                        )
+                    })?;
                 }
                 Role::Load => {
-                    load = optional()?;
-                    let [lo, hi] = PAYLOAD_RANGE;
-                    if let Some(m) = load.filter(|m| !(lo..=hi).contains(m)) {
-                        return Err(at(
-                            i,
-                            format!(
-                                "column '{name}': a payload of {m} kg is impossible \
-                                 (accepted: {lo} to {hi} kg; a value in g or lb?)"
-                            ),
-                        ));
-                    }
+                    load = within(optional()?, PAYLOAD_RANGE, &|m, [lo, hi]| {
+                        format!(
+                            "column '{name}': a payload of {m} kg is impossible \
+                             (accepted: {lo} to {hi} kg; a value in g or lb?)"
+                        )
+                    })?;
                 }
                 Role::Ignored => {}
             }

@@ -39,21 +39,23 @@ fn refused(dir: &Path, args: &[&str], needles: &[&str]) {
     assert_eq!(snapshot(dir), before, "{args:?} changed the folder");
 }
 
+/// Runs `args` in `dir` and asserts it succeeded, showing its standard error if not.
+#[track_caller]
+fn succeeds(dir: &Path, args: &[&str]) -> std::process::Output {
+    let out = armcal(args, dir);
+    crate::assert_success(&out);
+    out
+}
+
 /// A simulated UR5e session of `poses` positions in `dir/name`; its lines.
 fn session(dir: &Path, name: &str, poses: usize) -> Vec<String> {
-    let out = armcal(
-        &[
-            "simulate",
-            "--model",
-            "ur5e",
-            "--poses",
-            &poses.to_string(),
-            "--out",
-            name,
-        ],
+    let poses = poses.to_string();
+    succeeds(
         dir,
+        &[
+            "simulate", "--model", "ur5e", "--poses", &poses, "--out", name,
+        ],
     );
-    assert!(out.status.success());
     std::fs::read_to_string(dir.join(name))
         .unwrap()
         .lines()
@@ -155,16 +157,11 @@ fn garbage_data_is_refused_not_calibrated() {
         }
     }
     // The good session is calibrated.
-    let out = armcal(
+    succeeds(
+        dir.path(),
         &[
             "identify", "--model", "ur5e", "--data", "good.csv", "--out", "c.cal",
         ],
-        dir.path(),
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
     );
 }
 
@@ -225,13 +222,12 @@ fn bad_arguments_exit_two_naming_the_argument() {
         refused(dir.path(), &args, &[needle]);
     }
     // With a calibration to send, the address itself is refused.
-    let out = armcal(
+    succeeds(
+        dir.path(),
         &[
             "identify", "--model", "ur5e", "--data", "pos.csv", "--out", "c.cal",
         ],
-        dir.path(),
     );
-    assert!(out.status.success());
     refused(
         dir.path(),
         &[
@@ -262,16 +258,11 @@ fn folds_are_bounded_by_the_poses() {
             &["--folds", "number of poses (30"],
         );
     }
-    let out = armcal(
+    succeeds(
+        dir.path(),
         &[
             "diagnose", "--model", "ur5e", "--data", "pos.csv", "--folds", "30",
         ],
-        dir.path(),
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
     );
 }
 
@@ -304,12 +295,11 @@ fn carriage_return_lines_and_unknown_columns() {
         .collect();
     std::fs::write(dir.path().join("extra.csv"), extra.join("\n") + "\n").unwrap();
     for verb in ["identify", "diagnose"] {
-        let out = armcal(
-            &[verb, "--model", "ur5e", "--data", "extra.csv"],
+        let out = succeeds(
             dir.path(),
+            &[verb, "--model", "ur5e", "--data", "extra.csv"],
         );
         let stderr = String::from_utf8_lossy(&out.stderr);
-        assert!(out.status.success(), "{stderr}");
         assert!(
             stderr.contains("warning") && stderr.contains("'operator'"),
             "{verb}: {stderr}"
@@ -323,13 +313,12 @@ fn implausible_temperature_and_payload_are_refused() {
     let dir = tempfile::tempdir().unwrap();
     let lines = session(dir.path(), "pos.csv", 30);
     let header = lines.iter().position(|l| !l.starts_with('#')).unwrap();
-    let out = armcal(
+    succeeds(
+        dir.path(),
         &[
             "identify", "--model", "ur5e", "--data", "pos.csv", "--out", "c.cal",
         ],
-        dir.path(),
     );
-    assert!(out.status.success());
     for (column, value, needle) in [
         ("temp", "1e300", "°C is not the temperature"),
         ("temp", "-273.15", "°C is not the temperature"),
