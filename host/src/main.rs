@@ -659,8 +659,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             out,
             halt,
         } => {
-            let bytes =
-                std::fs::read(&calibration).map_err(|e| InputError::unreadable(&calibration, e))?;
+            let bytes = predict::read_calibration(&calibration)?;
             // Read locally first, so that a bad joints file is refused before the
             // controller is touched; a calibration this armcal refuses is still
             // sent, and the controller says why it refuses it too.
