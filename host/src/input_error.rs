@@ -17,6 +17,11 @@
 //!
 //! [`line_col`] turns a byte offset, as the TOML and CSV parsers report them, into
 //! such a (line, column) pair. It never panics, whatever the offset.
+//!
+//! Every input file is read through [`read_bounded`] with the limit of its kind
+//! ([`MODEL_FILE`]: 1 MiB, [`DATA_FILE`]: 1 GiB; a calibration's 4 KiB in
+//! [`predict`](crate::predict::CALIBRATION_FILE)): at most the limit and one
+//! byte is read, and a larger file is refused naming the limit.
 
 use thiserror::Error;
 
@@ -132,13 +137,92 @@ pub fn unix_line_ends(text: &str) -> std::borrow::Cow<'_, str> {
     std::borrow::Cow::Owned(String::from_utf8(fixed).unwrap_or_else(|_| text.to_owned()))
 }
 
-/// Reads a whole input file as UTF-8 text.
+/// How much of one kind of input file armcal reads: files larger than `bytes`
+/// are refused (status 2) without being read whole.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SizeLimit {
+    /// The largest file accepted, in bytes.
+    pub bytes: u64,
+    /// What the file is, for the message (`"a robot model file"`).
+    pub what: &'static str,
+}
+
+/// A robot model (TOML, `FORMAT.md` §1) has at most 1 MiB; the models of
+/// `models/` have about 2 KiB.
+pub const MODEL_FILE: SizeLimit = SizeLimit {
+    bytes: 1 << 20,
+    what: "a robot model file",
+};
+
+/// A data file (measurements or joint readings, CSV, `FORMAT.md` §2) has at most
+/// 1 GiB: some ten million rows, an hour of 1 kHz servo commands three times
+/// over. The whole file is held in memory while it is parsed.
+pub const DATA_FILE: SizeLimit = SizeLimit {
+    bytes: 1 << 30,
+    what: "a data file",
+};
+
+impl SizeLimit {
+    /// The refusal of `file`, larger than this limit.
+    pub fn refusal(&self, file: &str) -> InputError {
+        InputError::new(
+            file,
+            0,
+            0,
+            format!(
+                "the file is larger than {}, the most {} may have",
+                human_size(self.bytes),
+                self.what
+            ),
+        )
+    }
+}
+
+/// `n` bytes in the largest binary unit that divides it (`4096 bytes`, `1 MiB`).
+pub fn human_size(n: u64) -> String {
+    for (shift, unit) in [(30, "GiB"), (20, "MiB"), (10, "KiB")] {
+        if n >= 1 << shift && n.is_multiple_of(1 << shift) {
+            return format!("{} {unit}", n >> shift);
+        }
+    }
+    format!("{n} bytes")
+}
+
+/// Reads at most `limit.bytes` of the file at `path`, refusing a larger one.
+///
+/// A regular file whose size already says it is too large is refused before a
+/// byte is read; anything else (a device, a FIFO, a file that grows) is read
+/// through [`Read::take`](std::io::Read::take) of one byte more than the limit,
+/// so that `/dev/zero` ends at the limit too.
+pub fn read_bounded(path: &str, limit: SizeLimit) -> Result<Vec<u8>, InputError> {
+    use std::io::Read as _;
+    let file = std::fs::File::open(path).map_err(|e| InputError::unreadable(path, e))?;
+    let mut bytes = Vec::new();
+    if let Ok(meta) = file.metadata()
+        && meta.is_file()
+    {
+        if meta.len() > limit.bytes {
+            return Err(limit.refusal(path));
+        }
+        bytes.reserve(usize::try_from(meta.len()).unwrap_or(0));
+    }
+    file.take(limit.bytes.saturating_add(1))
+        .read_to_end(&mut bytes)
+        .map_err(|e| InputError::unreadable(path, e))?;
+    if bytes.len() as u64 > limit.bytes {
+        return Err(limit.refusal(path));
+    }
+    Ok(bytes)
+}
+
+/// Reads a whole input file as UTF-8 text, at most `limit` of it
+/// ([`MODEL_FILE`], [`DATA_FILE`]; a larger file is refused, see [`read_bounded`]).
 ///
 /// A file that cannot be read is an error at line 0 naming the OS reason; a file
 /// that is not UTF-8 is an error at the first invalid byte. A leading UTF-8
 /// byte-order mark (as spreadsheet programs write) is dropped.
-pub fn read_text(path: &str) -> Result<String, InputError> {
-    let bytes = std::fs::read(path).map_err(|e| InputError::unreadable(path, e))?;
+pub fn read_text(path: &str, limit: SizeLimit) -> Result<String, InputError> {
+    let bytes = read_bounded(path, limit)?;
     match String::from_utf8(bytes) {
         Ok(mut text) => {
             if text.starts_with('\u{feff}') {
@@ -199,7 +283,7 @@ mod tests {
     /// of the first bad byte; a byte-order mark is dropped.
     #[test]
     fn read_text_refuses_unreadable_and_non_utf8() {
-        let e = read_text("/nonexistent/armcal/x.toml").unwrap_err();
+        let e = read_text("/nonexistent/armcal/x.toml", MODEL_FILE).unwrap_err();
         assert_eq!(e.file, "/nonexistent/armcal/x.toml");
         assert_eq!((e.line, e.column), (0, 0));
         assert!(
@@ -211,11 +295,37 @@ mod tests {
         let path = dir.path().join("bad.csv");
         std::fs::write(&path, b"q1,x\n1,\xff\n").unwrap();
         let p = path.to_str().unwrap();
-        let e = read_text(p).unwrap_err();
+        let e = read_text(p, DATA_FILE).unwrap_err();
         assert_eq!((e.line, e.column), (2, 3), "{e}");
         assert!(e.message.contains("UTF-8"));
 
         std::fs::write(&path, "\u{feff}q1,x\n").unwrap();
-        assert_eq!(read_text(p).unwrap(), "q1,x\n");
+        assert_eq!(read_text(p, DATA_FILE).unwrap(), "q1,x\n");
+    }
+
+    /// A file larger than its limit is refused naming the limit, whether its
+    /// size is known (a regular file) or not (`/dev/zero`, read only up to the
+    /// limit and one byte); a file of exactly the limit is read.
+    #[test]
+    fn read_bounded_refuses_past_the_limit() {
+        let limit = SizeLimit {
+            bytes: 4096,
+            what: "a test file",
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("x.csv");
+        let p = path.to_str().unwrap();
+        std::fs::write(&path, vec![b'a'; 4096]).unwrap();
+        assert_eq!(read_bounded(p, limit).unwrap().len(), 4096);
+        std::fs::write(&path, vec![b'a'; 4097]).unwrap();
+        let e = read_bounded(p, limit).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            format!("{p}: the file is larger than 4 KiB, the most a test file may have")
+        );
+        let e = read_text("/dev/zero", MODEL_FILE).unwrap_err();
+        assert!(e.to_string().contains("larger than 1 MiB"), "{e}");
+        assert_eq!(human_size(1 << 30), "1 GiB");
+        assert_eq!(human_size(4097), "4097 bytes");
     }
 }

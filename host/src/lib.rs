@@ -10,7 +10,7 @@
 //! | [`measurements`] | the measurement CSV (§2), read against a model, into SI [`Pose`](measurements::Pose)s; joint readings alone into [`JointRow`](measurements::JointRow)s |
 //! | [`builtin`] | the models of `models/` and the real data sets of `data/`, built into the binary |
 //! | [`identify`] | `armcal identify`: the paper's iterative regression and the full model, report and calibration |
-//! | [`output`] | result files written atomically |
+//! | [`output`] | a run's result files: all or none, never over an input, never replacing a device |
 //! | [`predict`] | `armcal predict`: the calibrated model's tool point (and frame) for each row of joint readings |
 //! | [`sweep`] | `armcal sweep`: detection and false-positive rates of the diagnosis over many simulated sessions |
 //! | [`simulate`] | true robots with built-in errors and their noisy measurements |

@@ -418,6 +418,12 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             weights,
             targets,
         } => {
+            let mut outputs = output::Outputs::new()
+                .model_input(&model)
+                .data_input(&data)
+                .output("--out", out.as_deref())
+                .output("--json", json.as_deref());
+            outputs.check()?;
             let (model, data) = load_session(&model, &data)?;
             warn(&data.warnings);
             let options = weights.options(&model)?;
@@ -429,15 +435,14 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             data.require_fit_supported(&model, result.position_rms)?;
             result.calibration.targets = targets.into();
             // Everything is computed and encoded before the first byte is written.
-            let mut outputs = Vec::new();
-            if let Some(path) = &out {
-                outputs.push((path.as_path(), result.calibration.to_bytes()?));
+            if out.is_some() {
+                outputs.set("--out", result.calibration.to_bytes()?);
             }
-            if let Some(path) = &json {
+            if json.is_some() {
                 let text = serde_json::to_string_pretty(&result.to_json(&model.units))?;
-                outputs.push((path.as_path(), text.into_bytes()));
+                outputs.set("--json", text.into_bytes());
             }
-            finish(&outputs, || result.summary(&model, &data))?;
+            finish(outputs, || result.summary(&model, &data))?;
         }
         Command::Simulate {
             model,
@@ -450,6 +455,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             out,
             truth,
         } => {
+            let mut outputs = output::Outputs::new()
+                .model_input(&model)
+                .output("--out", Some(&out))
+                .output("--truth", truth.as_deref());
+            outputs.check()?;
             let model = model_file::load_model(&model)?;
             let u = model.units;
             let dof = model.robot.dof();
@@ -512,12 +522,12 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     .map(|t| format!(" --tilt {t}"))
                     .collect::<String>()
             );
-            let mut outputs = vec![(out.as_path(), session.to_csv(&u, &description).into_bytes())];
-            if let Some(path) = &truth {
+            outputs.set("--out", session.to_csv(&u, &description).into_bytes());
+            if truth.is_some() {
                 let json = serde_json::to_string_pretty(&session.truth_json(&model.robot, &u))?;
-                outputs.push((path.as_path(), json.into_bytes()));
+                outputs.set("--truth", json.into_bytes());
             }
-            output::write_all(&outputs)?;
+            outputs.commit()?;
         }
         Command::Diagnose {
             model,
@@ -529,6 +539,13 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             folds,
             targets,
         } => {
+            let mut outputs = output::Outputs::new()
+                .model_input(&model)
+                .data_input(&data)
+                .output("--out", out.as_deref())
+                .output("--json", json.as_deref())
+                .output("--html", html.as_deref());
+            outputs.check()?;
             let (model, data) = load_session(&model, &data)?;
             warn(&data.warnings);
             let folds = match folds {
@@ -575,30 +592,32 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             data.require_fit_supported(&model, diagnosis.reference.position_rms)?;
             let lines: Vec<usize> = data.poses.iter().map(|p| p.line).collect();
-            let mut outputs = Vec::new();
-            if let Some(path) = &out {
+            if out.is_some() {
                 let mut cal =
                     diagnosis.calibration(&model.robot, data.has_orientation(), model.units);
                 cal.targets = targets.into();
-                outputs.push((path.as_path(), cal.to_bytes()?));
+                outputs.set("--out", cal.to_bytes()?);
             }
-            if let Some(path) = &json {
+            if json.is_some() {
                 let text =
                     serde_json::to_string_pretty(&diagnosis.to_json(&model, &lines, &options))?;
-                outputs.push((path.as_path(), text.into_bytes()));
+                outputs.set("--json", text.into_bytes());
             }
-            if let Some(path) = &html {
+            if html.is_some() {
                 let page =
                     armcal::report::html(&model, &data.file, &diagnosis, &observations, &options);
-                outputs.push((path.as_path(), page.into_bytes()));
+                outputs.set("--html", page.into_bytes());
             }
-            finish(&outputs, || {
+            finish(outputs, || {
                 diagnosis.summary(&lines, &options, &model.units)
             })?;
         }
         Command::Demo { seed, html } => {
+            let mut outputs = output::Outputs::new().output("--html", Some(&html));
+            outputs.check()?;
             let demo = armcal::demo::demo(seed)?;
-            output::write_atomically(&html, demo.html().as_bytes())?;
+            outputs.set("--html", demo.html().into_bytes());
+            outputs.commit()?;
             print!("{}", demo.summary(&html.display().to_string()));
         }
         Command::Sweep {
@@ -607,6 +626,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             poses,
             json,
         } => {
+            let mut outputs = output::Outputs::new().output("--json", json.as_deref());
+            outputs.check()?;
             if poses < 20 {
                 return Err(InputError::argument(
                     "--poses",
@@ -647,7 +668,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     c.robot, c.hidden, c.joints, c.signal, c.found
                 );
             }
-            if let Some(path) = &json {
+            if json.is_some() {
                 let rows: Vec<serde_json::Value> = results
                     .iter()
                     .map(|c| serde_json::json!({
@@ -656,7 +677,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                         "detected": c.detected(),
                     }))
                     .collect();
-                output::write_atomically(path, serde_json::to_string_pretty(&rows)?.as_bytes())?;
+                outputs.set("--json", serde_json::to_string_pretty(&rows)?.into_bytes());
+                outputs.commit()?;
             }
         }
         Command::Compensate {
@@ -665,6 +687,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             out,
             servo,
         } => {
+            let outputs = joints_outputs(&calibration, &joints, &out)?;
             let cal = predict::load_calibration(&calibration)?;
             let rows = measurements::load_joints(&joints, &cal.nominal, &cal.units)?;
             let pacing = if servo {
@@ -677,16 +700,14 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             for w in rows.warnings.iter().chain(&result.warnings(&joints)) {
                 eprintln!("armcal: warning: {w}");
             }
-            match &out {
-                Some(path) => output::write_atomically(path, csv.as_bytes())?,
-                None => print!("{csv}"),
-            }
+            finish_csv(outputs, csv)?;
         }
         Command::Predict {
             calibration,
             joints,
             out,
         } => {
+            let outputs = joints_outputs(&calibration, &joints, &out)?;
             let cal = predict::load_calibration(&calibration)?;
             let rows = measurements::load_joints(&joints, &cal.nominal, &cal.units)?;
             let mut predictions = predict::predict(&cal, &rows)?;
@@ -695,10 +716,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             for w in &rows.warnings {
                 eprintln!("armcal: warning: {w}");
             }
-            match &out {
-                Some(path) => output::write_atomically(path, csv.as_bytes())?,
-                None => print!("{csv}"),
-            }
+            finish_csv(outputs, csv)?;
         }
         Command::Reproduce {
             paper: Paper::Kirchner,
@@ -713,8 +731,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             out,
             halt,
         } => {
-            let bytes =
-                std::fs::read(&calibration).map_err(|e| InputError::unreadable(&calibration, e))?;
+            let outputs = joints_outputs(&calibration, &joints, &out)?;
+            let bytes = predict::read_calibration(&calibration)?;
             // Read locally first, so that a bad joints file is refused before the
             // controller is touched; a calibration this armcal refuses is still
             // sent, and the controller says why it refuses it too.
@@ -768,10 +786,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 eprintln!("armcal: warning: {w}");
             }
             eprintln!("armcal: {}", streamed.summary());
-            match &out {
-                Some(path) => output::write_atomically(path, csv.as_bytes())?,
-                None => print!("{csv}"),
-            }
+            finish_csv(outputs, csv)?;
         }
         Command::Models => {
             println!("built-in robot models (use as --model NAME):");
@@ -789,12 +804,33 @@ fn run(cli: Cli) -> anyhow::Result<()> {
 
 /// Writes the requested outputs (every one prepared before the first byte is
 /// written), or prints the human summary when none was asked for.
-fn finish(
-    outputs: &[(&std::path::Path, Vec<u8>)],
-    summary: impl FnOnce() -> String,
-) -> anyhow::Result<()> {
+fn finish(outputs: output::Outputs, summary: impl FnOnce() -> String) -> anyhow::Result<()> {
     if outputs.is_empty() {
         print!("{}", summary());
     }
-    output::write_all(outputs)
+    outputs.commit()
+}
+
+/// The checked `--out` of a verb that reads a calibration and a joints file.
+fn joints_outputs(
+    calibration: &str,
+    joints: &str,
+    out: &Option<PathBuf>,
+) -> Result<output::Outputs, InputError> {
+    let outputs = output::Outputs::new()
+        .input("--calibration", calibration)
+        .input("--joints", joints)
+        .output("--out", out.as_deref());
+    outputs.check()?;
+    Ok(outputs)
+}
+
+/// Writes `csv` to the planned `--out`, or prints it when none was asked for.
+fn finish_csv(mut outputs: output::Outputs, csv: String) -> anyhow::Result<()> {
+    if outputs.is_empty() {
+        print!("{csv}");
+        return Ok(());
+    }
+    outputs.set("--out", csv.into_bytes());
+    outputs.commit()
 }

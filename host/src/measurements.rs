@@ -49,7 +49,7 @@ use armcal_shared::{JointType, Robot};
 use nalgebra::{Point3, Quaternion, UnitQuaternion};
 
 use crate::builtin;
-use crate::input_error::{InputError, read_text, unix_line_ends};
+use crate::input_error::{DATA_FILE, InputError, read_text, unix_line_ends};
 use crate::model_file::RobotModel;
 
 /// The temperatures (°C) a working robot may be measured at: below it a `temp`
@@ -333,7 +333,7 @@ pub fn load_measurements(
     if let Some((text, label)) = builtin::builtin_data(name_or_path) {
         return parse_measurements(text, label, model);
     }
-    let text = read_text(name_or_path).map_err(|mut e| {
+    let text = read_text(name_or_path, DATA_FILE).map_err(|mut e| {
         if e.line == 0 {
             e.message = format!(
                 "{} (and it is not a built-in data set: {})",
@@ -420,7 +420,7 @@ impl JointRows {
 /// Loads the joint readings of the file at `path`, read against `robot` (its
 /// joint count, joint types and limits) in `units`.
 pub fn load_joints(path: &str, robot: &Robot<f64>, units: &Units) -> Result<JointRows, InputError> {
-    let text = read_text(path)?;
+    let text = read_text(path, DATA_FILE)?;
     parse_joints(&text, path, robot, units)
 }
 

@@ -36,7 +36,7 @@ use toml::de::{DeString, DeTable, DeValue};
 
 use crate::builtin;
 use crate::identify::prior::Prior;
-use crate::input_error::{InputError, read_text};
+use crate::input_error::{InputError, MODEL_FILE, read_text};
 
 /// A robot model as read from a model file: its identity, its units and the
 /// nominal robot in SI.
@@ -136,7 +136,7 @@ pub fn load_model(name_or_path: &str) -> Result<RobotModel, InputError> {
         model.source = format!("built-in {name_or_path}");
         return Ok(model);
     }
-    let text = read_text(name_or_path).map_err(|mut e| {
+    let text = read_text(name_or_path, MODEL_FILE).map_err(|mut e| {
         if e.line == 0 {
             e.message = format!(
                 "{} (and it is not a built-in model: {})",

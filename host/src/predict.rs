@@ -29,11 +29,11 @@
 use core::fmt::Write as _;
 
 use armcal_shared::Calibration;
-use armcal_shared::calibration::model_hash;
+use armcal_shared::calibration::{MAX_FILE_LEN, model_hash};
 use armcal_shared::units::Units;
 use nalgebra::{Point3, UnitQuaternion};
 
-use crate::input_error::InputError;
+use crate::input_error::{InputError, SizeLimit, read_bounded};
 use armcal_shared::compensation::Conditions;
 use armcal_shared::effects::{Approach, Context};
 
@@ -68,13 +68,29 @@ pub struct Predictions {
     pub rows: Vec<Prediction>,
 }
 
-/// Reads and fully validates the calibration file at `path`.
+/// The bytes of the calibration file at `path`, not decoded.
 ///
-/// A file that cannot be read, or that [`Calibration::decode`] refuses, is an
-/// [`InputError`] at line 0 naming the file and the reason
-/// (`cal.bin: calibration damaged: CRC ...`).
+/// A calibration has at most [`MAX_FILE_LEN`] (4 KiB) bytes: at most that and
+/// one byte more is read, and a larger file is refused naming the limit (so a
+/// large CSV or `/dev/zero` given by mistake is refused at once). A file that
+/// cannot be read is an [`InputError`] at line 0 naming the file.
+pub fn read_calibration(path: &str) -> Result<Vec<u8>, InputError> {
+    read_bounded(path, CALIBRATION_FILE)
+}
+
+/// The size limit of a calibration file: [`MAX_FILE_LEN`] bytes.
+pub const CALIBRATION_FILE: SizeLimit = SizeLimit {
+    bytes: MAX_FILE_LEN as u64,
+    what: "a calibration file",
+};
+
+/// Reads ([`read_calibration`]) and fully validates the calibration file at `path`.
+///
+/// A file that cannot be read, that is larger than a calibration can be, or that
+/// [`Calibration::decode`] refuses, is an [`InputError`] at line 0 naming the
+/// file and the reason (`cal.bin: calibration damaged: CRC ...`).
 pub fn load_calibration(path: &str) -> Result<Calibration, InputError> {
-    let bytes = std::fs::read(path).map_err(|e| InputError::unreadable(path, e))?;
+    let bytes = read_calibration(path)?;
     Calibration::decode(&bytes).map_err(|e| InputError::new(path, 0, 0, e.to_string()))
 }
 

@@ -1,4 +1,4 @@
-//! Helpers shared by the unit tests of the file parsers.
+//! Helpers shared by the unit tests (file parsers, outputs).
 
 /// Applies random edits to `text`: each `(pos, op, pick)` inserts, removes or
 /// replaces the character at `pos` (modulo the length) with `alphabet[pick]`, so
@@ -23,4 +23,30 @@ pub fn mutate(text: &str, edits: &[(usize, u8, usize)], alphabet: &str) -> Strin
         }
     }
     chars.into_iter().collect()
+}
+
+/// A character device `(major, minor)` to write into in a test, without risk
+/// to the machine's own: as root (who could replace `/dev/NAME`), a node made
+/// in `dir` by `mknod` (`None` if that is not allowed); otherwise `/dev/NAME`
+/// itself, which a user cannot replace.
+pub fn device(
+    dir: &std::path::Path,
+    name: &str,
+    (major, minor): (u32, u32),
+) -> Option<std::path::PathBuf> {
+    use std::os::unix::fs::MetadataExt as _;
+    let probe = dir.join(".owner-probe");
+    std::fs::write(&probe, b"").ok()?;
+    let root = std::fs::metadata(&probe).ok()?.uid() == 0;
+    std::fs::remove_file(&probe).ok()?;
+    if !root {
+        return Some(std::path::Path::new("/dev").join(name));
+    }
+    let node = dir.join(name);
+    let made = std::process::Command::new("mknod")
+        .arg(&node)
+        .args(["c", &major.to_string(), &minor.to_string()])
+        .status()
+        .is_ok_and(|s| s.success());
+    made.then_some(node)
 }

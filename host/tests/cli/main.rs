@@ -8,6 +8,7 @@ use std::process::{Command, Output};
 mod check_identify;
 mod demo;
 mod link;
+mod outputs;
 mod predict;
 mod refusals;
 

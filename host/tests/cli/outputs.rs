@@ -1,0 +1,435 @@
+//! What a run writes, and what it must not: never over an input or another
+//! output, all of a run's outputs or none, devices and FIFOs written into and
+//! never replaced, links followed; and inputs read only up to their limit.
+
+use std::os::unix::fs::FileTypeExt as _;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+use crate::{armcal, assert_success};
+
+/// The built-in model and data set the tests use (6 joints, 23 full poses).
+const SET: &str = "figaroh-ur10e-camera";
+
+/// Every entry of `dir` (recursively) with its kind and, for regular files, bytes.
+fn snapshot(dir: &Path) -> Vec<(PathBuf, String, Vec<u8>)> {
+    let mut out = Vec::new();
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let entry = entry.unwrap();
+        let kind = entry.file_type().unwrap();
+        let path = entry.path();
+        let (label, bytes) = if kind.is_symlink() {
+            let target = std::fs::read_link(&path).unwrap();
+            (
+                "link".to_owned(),
+                target.to_string_lossy().into_owned().into_bytes(),
+            )
+        } else if kind.is_dir() {
+            out.extend(snapshot(&path));
+            ("dir".to_owned(), Vec::new())
+        } else if kind.is_file() {
+            ("file".to_owned(), std::fs::read(&path).unwrap())
+        } else {
+            (format!("{kind:?}"), Vec::new())
+        };
+        out.push((path, label, bytes));
+    }
+    out.sort();
+    out
+}
+
+/// A folder with a model `m.toml`, its data `d.csv`, joint readings `j.csv`
+/// and a calibration `cal.bin` identified from them.
+fn session() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    let (model, _) = armcal::builtin::builtin_model(SET).unwrap();
+    let (data, _) = armcal::builtin::builtin_data(SET).unwrap();
+    std::fs::write(dir.path().join("m.toml"), model).unwrap();
+    std::fs::write(dir.path().join("d.csv"), data).unwrap();
+    std::fs::write(
+        dir.path().join("j.csv"),
+        "q1,q2,q3,q4,q5,q6\n0,-1.5,1.5,0,1.5,0\n0.1,-1.4,1.4,0.1,1.4,0.1\n",
+    )
+    .unwrap();
+    let out = armcal(
+        &[
+            "identify", "--model", "m.toml", "--data", "d.csv", "--out", "cal.bin",
+        ],
+        dir.path(),
+    );
+    assert_success(&out);
+    dir
+}
+
+/// Runs `args` in `dir` and asserts the refusal: status 2, `needle` in the
+/// message, and every file in `dir` as it was.
+#[track_caller]
+fn refused(dir: &Path, args: &[&str], needle: &str) -> String {
+    let before = snapshot(dir);
+    let out = armcal(args, dir);
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+    assert!(stderr.contains(needle), "{needle:?} not in {stderr}");
+    assert_eq!(snapshot(dir), before, "{args:?} changed the folder");
+    stderr
+}
+
+/// Item 3 of the reliability issue: an output that names an input (the model,
+/// the data, the joints, the calibration; directly, through a link or by another
+/// spelling) or another output is refused, and nothing is written.
+#[test]
+fn an_output_naming_an_input_or_another_output_is_refused() {
+    let dir = session();
+    let d = dir.path();
+    std::os::unix::fs::symlink("d.csv", d.join("link.csv")).unwrap();
+    std::fs::hard_link(d.join("m.toml"), d.join("hard.toml")).unwrap();
+    std::fs::create_dir(d.join("sub")).unwrap();
+    let identify = ["identify", "--model", "m.toml", "--data", "d.csv"];
+    let with =
+        |extra: &[&'static str]| -> Vec<&str> { identify.iter().chain(extra).copied().collect() };
+
+    let e = refused(
+        d,
+        &with(&["--out", "d.csv"]),
+        "--out d.csv: names the input --data d.csv: refusing to overwrite it",
+    );
+    assert!(e.starts_with("armcal: error: "), "{e}");
+    refused(
+        d,
+        &with(&["--out", "m.toml"]),
+        "names the input --model m.toml",
+    );
+    refused(
+        d,
+        &with(&["--json", "./sub/../d.csv"]),
+        "names the input --data",
+    );
+    refused(
+        d,
+        &with(&["--json", "link.csv"]),
+        "names the input --data d.csv",
+    );
+    refused(
+        d,
+        &with(&["--out", "hard.toml"]),
+        "names the input --model m.toml",
+    );
+    refused(
+        d,
+        &with(&["--out", "o.cal", "--json", "o.cal"]),
+        "--json o.cal: names the same file as --out o.cal",
+    );
+    refused(
+        d,
+        &[
+            "diagnose", "--model", "m.toml", "--data", "d.csv", "--out", "r.cal", "--html", "d.csv",
+        ],
+        "--html d.csv: names the input --data d.csv",
+    );
+    for verb in ["predict", "compensate"] {
+        refused(
+            d,
+            &[
+                verb,
+                "--calibration",
+                "cal.bin",
+                "--joints",
+                "j.csv",
+                "--out",
+                "j.csv",
+            ],
+            "--out j.csv: names the input --joints j.csv",
+        );
+        refused(
+            d,
+            &[
+                verb,
+                "--calibration",
+                "cal.bin",
+                "--joints",
+                "j.csv",
+                "--out",
+                "cal.bin",
+            ],
+            "--out cal.bin: names the input --calibration cal.bin",
+        );
+    }
+    refused(
+        d,
+        &[
+            "simulate", "--model", "m.toml", "--poses", "30", "--out", "m.toml",
+        ],
+        "--out m.toml: names the input --model m.toml",
+    );
+    refused(
+        d,
+        &[
+            "simulate", "--model", SET, "--poses", "30", "--out", "s.csv", "--truth", "s.csv",
+        ],
+        "--truth s.csv: names the same file as --out s.csv",
+    );
+}
+
+/// Item 4: a run that fails writes none of its outputs and leaves no
+/// temporary: an output in a missing directory is refused before anything is
+/// written (status 2), and an output that cannot be written (a full device, as
+/// a full disk) fails the run (status 1) with the files not written.
+#[test]
+fn a_failed_run_writes_none_of_its_outputs() {
+    let dir = session();
+    let d = dir.path();
+    refused(
+        d,
+        &[
+            "identify",
+            "--model",
+            "m.toml",
+            "--data",
+            "d.csv",
+            "--out",
+            "a.cal",
+            "--json",
+            "missing-dir/r.json",
+        ],
+        "--json missing-dir/r.json: the directory missing-dir does not exist",
+    );
+    refused(
+        d,
+        &[
+            "diagnose",
+            "--model",
+            SET,
+            "--data",
+            SET,
+            "--out",
+            "o.cal",
+            "--json",
+            "o.json",
+            "--html",
+            "/nonexistent/r.html",
+        ],
+        "the directory /nonexistent does not exist",
+    );
+    refused(
+        d,
+        &[
+            "identify", "--model", SET, "--data", SET, "--out", "a.cal", "--json", ".",
+        ],
+        "--json .: is a directory",
+    );
+
+    let Some(full) = device(d, "full", (1, 7)) else {
+        eprintln!("skipped: no full device");
+        return;
+    };
+    let before = snapshot(d);
+    let out = armcal(
+        &[
+            "identify",
+            "--model",
+            SET,
+            "--data",
+            SET,
+            "--out",
+            "a.cal",
+            "--json",
+            full.to_str().unwrap(),
+        ],
+        d,
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("the outputs to files were not written"),
+        "{stderr}"
+    );
+    assert_eq!(snapshot(d), before, "a.cal written or a temporary left");
+    assert!(
+        std::fs::metadata(&full)
+            .unwrap()
+            .file_type()
+            .is_char_device()
+    );
+}
+
+/// Item 2: a character device and a FIFO are written into and stay what they
+/// are; a symbolic link is followed and stays a link; the other outputs are
+/// written beside them.
+#[test]
+fn devices_and_fifos_are_written_into_links_followed() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let identify = |json: &str| {
+        armcal(
+            &[
+                "identify", "--model", SET, "--data", SET, "--out", "a.cal", "--json", json,
+            ],
+            d,
+        )
+    };
+
+    if let Some(null) = device(d, "null", (1, 3)) {
+        let out = identify(null.to_str().unwrap());
+        assert_success(&out);
+        assert!(
+            std::fs::metadata(&null)
+                .unwrap()
+                .file_type()
+                .is_char_device()
+        );
+        assert!(std::fs::metadata(d.join("a.cal")).unwrap().len() > 0);
+        std::fs::remove_file(d.join("a.cal")).unwrap();
+    } else {
+        eprintln!("skipped /dev/null: root, and no mknod");
+    }
+
+    let fifo = d.join("r.fifo");
+    let made = Command::new("mkfifo").arg(&fifo).status().unwrap();
+    assert!(made.success());
+    let mut reader = Command::new("cat")
+        .arg(&fifo)
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let out = identify("r.fifo");
+    let start = Instant::now();
+    while reader.try_wait().unwrap().is_none() {
+        if start.elapsed() > Duration::from_secs(20) {
+            reader.kill().unwrap();
+            panic!("the FIFO's reader got no end of file");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let received: Output = reader.wait_with_output().unwrap();
+    assert_success(&out);
+    let json: serde_json::Value = serde_json::from_slice(&received.stdout).unwrap();
+    assert!(
+        json["variance_factor"].is_number(),
+        "the report came through"
+    );
+    assert!(
+        std::fs::symlink_metadata(&fifo)
+            .unwrap()
+            .file_type()
+            .is_fifo()
+    );
+    std::fs::remove_file(d.join("a.cal")).unwrap();
+
+    std::fs::write(d.join("real.json"), "old").unwrap();
+    std::os::unix::fs::symlink("real.json", d.join("r.json")).unwrap();
+    assert_success(&identify("r.json"));
+    assert_eq!(
+        std::fs::read_link(d.join("r.json")).unwrap(),
+        Path::new("real.json"),
+        "still the link"
+    );
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("real.json")).unwrap()).unwrap();
+    assert!(json["variance_factor"].is_number());
+    let mut names = crate::files_in(d);
+    names.retain(|n| n != "null");
+    assert_eq!(names, ["a.cal", "r.fifo", "r.json", "real.json"]);
+}
+
+/// Item 5: a calibration is read up to its 4 KiB limit and one byte, so
+/// `/dev/zero` is refused at once; a larger file, a model larger than 1 MiB,
+/// likewise, naming the limit; nothing is written.
+#[test]
+fn inputs_are_read_only_up_to_their_limit() {
+    let dir = session();
+    let d = dir.path();
+    let start = Instant::now();
+    let e = refused(
+        d,
+        &[
+            "predict",
+            "--calibration",
+            "/dev/zero",
+            "--joints",
+            "j.csv",
+            "--out",
+            "p.csv",
+        ],
+        "/dev/zero: the file is larger than 4 KiB, the most a calibration file may have",
+    );
+    assert!(start.elapsed() < Duration::from_secs(10), "{e}");
+
+    std::fs::write(d.join("zeros.bin"), vec![0u8; 5 * 1024]).unwrap();
+    for verb in ["predict", "compensate"] {
+        refused(
+            d,
+            &[
+                verb,
+                "--calibration",
+                "zeros.bin",
+                "--joints",
+                "j.csv",
+                "--out",
+                "p.csv",
+            ],
+            "zeros.bin: the file is larger than 4 KiB",
+        );
+    }
+    refused(
+        d,
+        &[
+            "stream",
+            "--calibration",
+            "zeros.bin",
+            "--joints",
+            "j.csv",
+            "--tcp",
+            "127.0.0.1:9",
+            "--out",
+            "p.csv",
+        ],
+        "zeros.bin: the file is larger than 4 KiB",
+    );
+
+    let mut model = std::fs::read_to_string(d.join("m.toml")).unwrap();
+    model.push_str(&format!("# {}\n", "x".repeat(1 << 20)));
+    std::fs::write(d.join("big.toml"), model).unwrap();
+    refused(
+        d,
+        &[
+            "identify", "--model", "big.toml", "--data", "d.csv", "--out", "a.cal",
+        ],
+        "big.toml: the file is larger than 1 MiB, the most a robot model file may have",
+    );
+    refused(
+        d,
+        &[
+            "identify",
+            "--model",
+            "/dev/zero",
+            "--data",
+            "d.csv",
+            "--out",
+            "a.cal",
+        ],
+        "/dev/zero: the file is larger than 1 MiB",
+    );
+}
+
+/// A character device `(major, minor)` to write into without risk to the
+/// machine's own: as root (who could replace `/dev/NAME`), a node made in `dir`
+/// by `mknod` (`None` if not allowed); otherwise `/dev/NAME`, which a user
+/// cannot replace.
+fn device(dir: &Path, name: &str, (major, minor): (u32, u32)) -> Option<PathBuf> {
+    use std::os::unix::fs::MetadataExt as _;
+    let probe = dir.join(".owner-probe");
+    std::fs::write(&probe, b"").ok()?;
+    let root = std::fs::metadata(&probe).ok()?.uid() == 0;
+    std::fs::remove_file(&probe).ok()?;
+    if !root {
+        return Some(Path::new("/dev").join(name));
+    }
+    let node = dir.join(name);
+    let made = Command::new("mknod")
+        .arg(&node)
+        .args(["c", &major.to_string(), &minor.to_string()])
+        .status()
+        .is_ok_and(|s| s.success());
+    made.then_some(node)
+}
