@@ -1065,7 +1065,7 @@ impl LinearSystem {
             for i in 0..n {
                 r[(row + i, 0)] = pose.r[i];
                 for k in 0..params.len() {
-                    j[(row + i, k)] = pose.j[(i, k)];
+                    j[(row + i, k)] = pose.row(i)[k];
                 }
             }
             row += n;
@@ -1077,12 +1077,22 @@ impl LinearSystem {
 /// The weighted rows of one pose: 3 position rows, then 3 orientation rows when
 /// its orientation is measured.
 struct PoseRows {
-    /// Jacobian rows, 6 × params (rows 3..6 only meaningful when `orientation`).
-    j: Mat<f64>,
+    /// Jacobian rows, 6 × params, row after row (rows 3..6 only meaningful when
+    /// `orientation`).
+    j: Vec<f64>,
+    /// Params: the length of a row.
+    params: usize,
     /// Residual rows (3..6 only meaningful when `orientation`).
     r: [f64; 6],
     /// Whether the orientation rows are present.
     orientation: bool,
+}
+
+impl PoseRows {
+    /// Row `i` of the Jacobian.
+    fn row(&self, i: usize) -> &[f64] {
+        &self.j[i * self.params..(i + 1) * self.params]
+    }
 }
 
 /// Hands `emit` the weighted rows of each pose in turn, linearised at `model`:
@@ -1109,7 +1119,8 @@ fn for_each_pose_rows(
         return;
     };
     let mut rows = PoseRows {
-        j: Mat::zeros(6, params.len()),
+        j: vec![0.0; 6 * params.len()],
+        params: params.len(),
         r: [0.0; 6],
         orientation: false,
     };
@@ -1198,12 +1209,13 @@ fn for_each_pose_rows(
                 }
             };
             let v = at_point(&col, &p);
+            let n = params.len();
             for i in 0..3 {
-                rows.j[(i, k)] = v[i] * wp;
+                rows.j[i * n + k] = v[i] * wp;
             }
             if orientation.is_some() {
                 for i in 0..3 {
-                    rows.j[(3 + i, k)] = col[i] * wr;
+                    rows.j[(3 + i) * n + k] = col[i] * wr;
                 }
             }
         }
@@ -1271,7 +1283,7 @@ impl NormalEquations {
         };
         let block_rows = 3 * BLOCK_POSES.min(data.len().max(1));
         let mut block = Block {
-            j: [Mat::zeros(block_rows, p), Mat::zeros(block_rows, p)],
+            j: [Mat::zeros(p, block_rows), Mat::zeros(p, block_rows)],
             r: [Mat::zeros(block_rows, 1), Mat::zeros(block_rows, 1)],
             filled: [0; 2],
         };
@@ -1283,8 +1295,10 @@ impl NormalEquations {
                 let row = block.filled[c];
                 for i in 0..3 {
                     block.r[c][(row + i, 0)] = pose.r[offset + i];
-                    for k in 0..p {
-                        block.j[c][(row + i, k)] = pose.j[(offset + i, k)];
+                    if p > 0 {
+                        block
+                            .row_mut(c, row + i)
+                            .copy_from_slice(pose.row(offset + i));
                     }
                 }
                 block.filled[c] += 3;
@@ -1380,6 +1394,7 @@ impl NormalEquations {
 /// The rows of up to [`BLOCK_POSES`] poses, per channel, waiting to be added to
 /// [`NormalEquations`].
 struct Block {
+    /// The Jacobian rows, transposed: params × rows, a row of `J` a column here.
     j: [Mat<f64>; 2],
     r: [Mat<f64>; 2],
     /// Rows filled, per channel.
@@ -1387,6 +1402,15 @@ struct Block {
 }
 
 impl Block {
+    /// Row `row` of channel `c`'s Jacobian, to write.
+    fn row_mut(&mut self, c: usize, row: usize) -> &mut [f64] {
+        self.j[c]
+            .col_mut(row)
+            .try_as_col_major_mut()
+            .expect("a column of an owned matrix is contiguous")
+            .as_slice_mut()
+    }
+
     /// Adds the filled rows' `JᵀJ` (lower half), `Jᵀr` and `rᵀr` to `sums`, and
     /// empties the block.
     fn add_to(&mut self, sums: &mut NormalEquations) {
@@ -1395,27 +1419,20 @@ impl Block {
             if n == 0 {
                 continue;
             }
-            let j = self.j[c].as_ref().subrows(0, n);
+            let jt = self.j[c].as_ref().subcols(0, n);
             let r = self.r[c].as_ref().subrows(0, n);
             triangular::matmul(
                 sums.jtj[c].as_mut(),
                 BlockStructure::TriangularLower,
                 Accum::Add,
-                j.transpose(),
+                jt,
                 BlockStructure::Rectangular,
-                j,
+                jt.transpose(),
                 BlockStructure::Rectangular,
                 1.0,
                 Par::Seq,
             );
-            matmul::matmul(
-                sums.jtr[c].as_mut(),
-                Accum::Add,
-                j.transpose(),
-                r,
-                1.0,
-                Par::Seq,
-            );
+            matmul::matmul(sums.jtr[c].as_mut(), Accum::Add, jt, r, 1.0, Par::Seq);
             sums.rtr[c] += r.squared_norm_l2();
             self.filled[c] = 0;
         }
