@@ -48,6 +48,12 @@
 //! it lowers the weighted sum of squares. Converged when a step changes every
 //! prediction by less than 1e-10 of its noise.
 //!
+//! `J` itself is never stored: the selection, the iterations and the statistics
+//! need only, per channel (position, orientation rows), `JᵀJ`, `Jᵀr`, `rᵀr` and
+//! the row count, summed pose by pose a block of poses at a time
+//! (`NormalEquations`), so the fit's memory does not grow with the poses. Only
+//! the diagnosis's [`linearize`] keeps the whole weighted Jacobian.
+//!
 //! ## Report
 //! Standard errors `sqrt(diag(s² (JᵀJ)⁻¹))` with the a-posteriori variance factor
 //! `s² = Σr²/(n − p)` (so they hold even when the stated noise is off by a
@@ -1366,15 +1372,18 @@ impl NormalEquations {
     /// `before` (position, orientation weights): the same linearisation at other
     /// noises, each channel multiplied by the square of its weight ratio.
     fn reweighted(&self, before: (f64, f64), after: (f64, f64)) -> Self {
-        let ratio = [after.0 / before.0, after.1 / before.1];
         let mut next = self.clone();
-        for c in 0..2 {
-            let f = ratio[c] * ratio[c];
-            next.jtj[c] = Mat::from_fn(self.jtj[c].nrows(), self.jtj[c].ncols(), |a, b| {
-                self.jtj[c][(a, b)] * f
-            });
-            next.jtr[c] = Mat::from_fn(self.jtr[c].nrows(), 1, |a, _| self.jtr[c][(a, 0)] * f);
-            next.rtr[c] = self.rtr[c] * f;
+        let ratios = [after.0 / before.0, after.1 / before.1];
+        for (c, ratio) in ratios.into_iter().enumerate() {
+            let f = ratio * ratio;
+            let (g, v) = (&mut next.jtj[c], &mut next.jtr[c]);
+            for b in 0..g.ncols() {
+                for a in 0..g.nrows() {
+                    g[(a, b)] *= f;
+                }
+                v[(b, 0)] *= f;
+            }
+            next.rtr[c] *= f;
         }
         next
     }
