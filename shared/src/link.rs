@@ -570,6 +570,13 @@ impl Device {
         self.compensator.is_some()
     }
 
+    /// The compensation in force, built from the last accepted calibration;
+    /// `None` before the first. Read-only: for the tests and fuzz targets that
+    /// check that a refused calibration never replaces the one in force.
+    pub fn compensator(&self) -> Option<&Compensator<f32>> {
+        self.compensator.as_ref()
+    }
+
     /// The counters, with the stack measurement of `platform`.
     pub fn status(&self, platform: &impl Platform) -> StatusReport {
         StatusReport {

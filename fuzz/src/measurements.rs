@@ -1,0 +1,98 @@
+//! `measurements_csv`: the measurement CSV reader, `parse_measurements`, and
+//! the joint-readings reader on the same code, `parse_joints`.
+//!
+//! The input's first byte chooses the model the text is read against
+//! ([`crate::models`]: PUMA 560 in inches, 9-joint TALOS, TIAGo with a
+//! prismatic lift, a one-joint prismatic model in mm and degrees); the rest is
+//! the file, as UTF-8 (invalid sequences replaced, as a reader of the bytes
+//! would have refused them).
+//!
+//! Asserts, for every input: no panic (both readers promise "never panics,
+//! whatever the text"); a refusal names a place in the text (a line of the
+//! text, or the line after the last, and a character column at most one past
+//! the end of that line), or line 0 and column 0; an accepted file has at
+//! least one row, rows in increasing line order within the text, exactly one
+//! joint value per model joint, finite values everywhere, and each measured
+//! orientation a unit quaternion.
+
+use armcal::input_error::InputError;
+use armcal::measurements::{parse_joints, parse_measurements};
+
+/// The harness; see [the module](self). Returns whether both readers
+/// accepted the file (for the tests of the seeds).
+pub fn run(data: &[u8]) -> bool {
+    let Some((&selector, text)) = data.split_first() else {
+        return false;
+    };
+    let models = crate::models();
+    let model = &models[usize::from(selector) % models.len()];
+    let text = String::from_utf8_lossy(text);
+    let lines = text.split('\n').count();
+    let dof = model.dof();
+    let mut accepted = true;
+    match parse_measurements(&text, "fuzz.csv", model) {
+        Err(e) => {
+            check_place(&e, &text);
+            accepted = false;
+        }
+        Ok(m) => {
+            assert!(!m.poses.is_empty(), "accepted without a pose");
+            let mut last_line = 0;
+            for p in &m.poses {
+                assert!(p.line > last_line && p.line <= lines, "line {}", p.line);
+                last_line = p.line;
+                assert_eq!(p.q.len(), dof);
+                assert!(p.q.iter().all(|x| x.is_finite()), "{p:?}");
+                assert!(p.position.iter().all(|x| x.is_finite()), "{p:?}");
+                if let Some(o) = &p.orientation {
+                    let n = o.as_ref().norm();
+                    assert!((n - 1.0).abs() < 1e-9, "orientation of norm {n}: {p:?}");
+                }
+                for v in [p.t, p.temp, p.load].into_iter().flatten() {
+                    assert!(v.is_finite(), "{p:?}");
+                }
+            }
+        }
+    }
+    match parse_joints(&text, "fuzz.csv", &model.robot, &model.units) {
+        Err(e) => {
+            check_place(&e, &text);
+            accepted = false;
+        }
+        Ok(rows) => {
+            assert!(!rows.rows.is_empty(), "accepted without a row");
+            let mut last_line = 0;
+            for r in &rows.rows {
+                assert!(r.line > last_line && r.line <= lines, "line {}", r.line);
+                last_line = r.line;
+                assert_eq!(r.q.len(), dof);
+                assert!(r.q.iter().all(|x| x.is_finite()), "{r:?}");
+                for v in [r.t, r.temp, r.load].into_iter().flatten() {
+                    assert!(v.is_finite(), "{r:?}");
+                }
+            }
+        }
+    }
+    accepted
+}
+
+/// A refusal names a place in `text`: see [the module](self).
+pub fn check_place(e: &InputError, text: &str) {
+    if e.line == 0 {
+        assert_eq!(e.column, 0, "{e}");
+        return;
+    }
+    let lines: Vec<&str> = text.split('\n').collect();
+    assert!(
+        e.line <= lines.len() + 1,
+        "{e}: beyond the text's {} lines",
+        lines.len()
+    );
+    assert!(e.column >= 1, "{e}");
+    let width = lines.get(e.line - 1).map_or(0, |l| l.chars().count());
+    assert!(
+        e.column <= width + 1,
+        "{e}: column beyond the {width} characters of line {}",
+        e.line
+    );
+}
