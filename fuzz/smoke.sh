@@ -3,9 +3,9 @@
 # (each installed if missing), then runs each target on its corpus in the
 # repository (the seeds and the reproducers of past findings: libFuzzer runs
 # every file of it first) and fuzzes it for FUZZ_SECONDS (default 30)
-# seconds. Fails on any crash (an assertion of a harness, a panic, a timeout
-# of 10 s, more than 512 MB). New inputs go to a scratch directory: the corpora in the
-# repository are only read. A crash leaves its input in
+# seconds. Fails on any crash (an assertion of a harness, a panic, a
+# timeout of 10 s, more than 512 MB). New inputs go to a scratch directory:
+# the corpora in the repository are only read. A crash leaves its input in
 # fuzz/artifacts/<target>/; see README.md for what to do with it.
 # Run from anywhere: `bash fuzz/smoke.sh`.
 set -euo pipefail
@@ -15,6 +15,12 @@ seconds=${FUZZ_SECONDS:-30}
 
 if ! rustup run nightly rustc --version >/dev/null 2>&1; then
     rustup toolchain install nightly --profile minimal
+fi
+# libFuzzer itself is C++, built by libfuzzer-sys.
+if ! command -v c++ >/dev/null; then
+    if [[ $(id -u) -eq 0 ]]; then sudo=(); else sudo=(sudo); fi
+    "${sudo[@]}" apt-get update -qq
+    "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends g++
 fi
 if ! command -v cargo-fuzz >/dev/null; then
     cargo install cargo-fuzz --locked

@@ -15,7 +15,7 @@
 //! joint value per model joint, finite values everywhere, and each measured
 //! orientation a unit quaternion.
 
-use armcal::input_error::InputError;
+use armcal::input_error::{InputError, ends_line};
 use armcal::measurements::{parse_joints, parse_measurements};
 
 /// The harness; see [the module](self). Returns whether both readers
@@ -27,7 +27,7 @@ pub fn run(data: &[u8]) -> bool {
     let models = crate::models();
     let model = &models[usize::from(selector) % models.len()];
     let text = String::from_utf8_lossy(text);
-    let lines = text.split('\n').count();
+    let lines = lines(&text).len();
     let dof = model.dof();
     let mut accepted = true;
     match parse_measurements(&text, "fuzz.csv", model) {
@@ -82,7 +82,7 @@ pub fn check_place(e: &InputError, text: &str) {
         assert_eq!(e.column, 0, "{e}");
         return;
     }
-    let lines: Vec<&str> = text.split('\n').collect();
+    let lines = lines(text);
     assert!(
         e.line <= lines.len() + 1,
         "{e}: beyond the text's {} lines",
@@ -95,4 +95,22 @@ pub fn check_place(e: &InputError, text: &str) {
         "{e}: column beyond the {width} characters of line {}",
         e.line
     );
+}
+
+/// The lines of `text`, without their ends, as the readers count them
+/// (`armcal::input_error::ends_line`: at `\n`, or at a `\r` that no `\n`
+/// follows).
+pub fn lines(text: &str) -> Vec<&str> {
+    let bytes = text.as_bytes();
+    let mut lines = Vec::new();
+    let mut start = 0;
+    for i in 0..bytes.len() {
+        if ends_line(bytes, i) {
+            // The `\r` of `\r\n` is the last character of its line.
+            lines.push(&text[start..i]);
+            start = i + 1;
+        }
+    }
+    lines.push(&text[start..]);
+    lines
 }

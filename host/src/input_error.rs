@@ -10,6 +10,9 @@
 //!
 //! Conventions:
 //! - lines and columns are 1-based;
+//! - a line ends at `\n`, or at a `\r` that no `\n` follows (an old Mac line
+//!   end: the CSV reader ends a record there too, and editors show a new line);
+//!   the `\r` of `\r\n` is the last character of its line ([`ends_line`]);
 //! - the column counts *characters* (Unicode scalar values), not bytes, from the
 //!   start of the line, so that it matches what an editor shows for non-ASCII text;
 //! - line 0, column 0 means "no place in the text" (the file could not be read at
@@ -93,40 +96,22 @@ impl InputError {
     }
 }
 
-/// The 1-based (line, character column) of byte `offset` in `text`.
-///
-/// Lines end at `\n`, `\r\n` or a lone `\r` (old Mac files; a `\r` before a
-/// `\n` counts as the last character of its line). An offset past the end is
-/// taken as the end of the text, and an offset inside a multi-byte character as
-/// the start of that character.
-pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
-    let mut offset = offset.min(text.len());
-    while offset > 0 && !text.is_char_boundary(offset) {
-        offset -= 1;
-    }
-    let before = text.get(..offset).unwrap_or("");
-    let bytes = text.as_bytes();
-    // Byte `i` ends a line: a `\n`, or a `\r` not followed by one.
-    let ends_line = |i: usize| match bytes[i] {
-        b'\n' => true,
-        b'\r' => bytes.get(i + 1) != Some(&b'\n'),
+/// Whether byte `i` of `bytes` ends a line: a `\n`, or a `\r` that no `\n`
+/// follows (see [the module](self)).
+pub fn ends_line(bytes: &[u8], i: usize) -> bool {
+    match bytes.get(i) {
+        Some(b'\n') => true,
+        Some(b'\r') => bytes.get(i + 1) != Some(&b'\n'),
         _ => false,
-    };
-    let line = (0..offset).filter(|&i| ends_line(i)).count() + 1;
-    let line_start = (0..offset)
-        .rev()
-        .find(|&i| ends_line(i))
-        .map_or(0, |i| i + 1);
-    let column = before.get(line_start..).unwrap_or("").chars().count() + 1;
-    (line, column)
+    }
 }
 
 /// `text` with every lone `\r` (a line end of old Mac files) turned into `\n`:
 /// the same length, so byte offsets stay valid, and one kind of line end for the
-/// readers that count lines.
+/// `csv` crate, whose comment lines end at `\n` only.
 pub fn unix_line_ends(text: &str) -> std::borrow::Cow<'_, str> {
     let bytes = text.as_bytes();
-    let lone = |i: usize| bytes[i] == b'\r' && bytes.get(i + 1) != Some(&b'\n');
+    let lone = |i: usize| bytes[i] == b'\r' && ends_line(bytes, i);
     if !(0..bytes.len()).any(lone) {
         return std::borrow::Cow::Borrowed(text);
     }
@@ -135,6 +120,27 @@ pub fn unix_line_ends(text: &str) -> std::borrow::Cow<'_, str> {
         .collect();
     // Only ASCII bytes were replaced by ASCII bytes: still UTF-8.
     std::borrow::Cow::Owned(String::from_utf8(fixed).unwrap_or_else(|_| text.to_owned()))
+}
+
+/// The 1-based (line, character column) of byte `offset` in `text`.
+///
+/// Lines end as [`ends_line`] says (a `\r` before a `\n` counts as the last
+/// character of its line). An offset past the end is taken as the end of the
+/// text, and an offset inside a multi-byte character as the start of that
+/// character.
+pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let mut offset = offset.min(text.len());
+    while offset > 0 && !text.is_char_boundary(offset) {
+        offset -= 1;
+    }
+    let bytes = text.as_bytes();
+    let line = (0..offset).filter(|&i| ends_line(bytes, i)).count() + 1;
+    let line_start = (0..offset)
+        .rev()
+        .find(|&i| ends_line(bytes, i))
+        .map_or(0, |i| i + 1);
+    let column = text.get(line_start..offset).unwrap_or("").chars().count() + 1;
+    (line, column)
 }
 
 /// How much of one kind of input file armcal reads: files larger than `bytes`
@@ -263,6 +269,21 @@ mod tests {
         assert_eq!(line_col(text, 10), (4, 1));
         assert_eq!(line_col(text, 1000), (4, 2)); // past the end: the end
         assert_eq!(line_col("", 5), (1, 1));
+    }
+
+    /// A `\r` that no `\n` follows ends a line, as the CSV reader ends a record
+    /// there; the `\r` of `\r\n` is the last character of its line.
+    #[test]
+    fn a_lone_carriage_return_ends_a_line() {
+        let text = "ab\rcd\r\nef\r\r\ng\r";
+        assert_eq!(line_col(text, 2), (1, 3)); // the lone '\r'
+        assert_eq!(line_col(text, 3), (2, 1)); // 'c'
+        assert_eq!(line_col(text, 5), (2, 3)); // the '\r' of "\r\n"
+        assert_eq!(line_col(text, 6), (2, 4)); // its '\n'
+        assert_eq!(line_col(text, 7), (3, 1)); // 'e'
+        assert_eq!(line_col(text, 10), (4, 1)); // the '\r' of "\r\r\n"
+        assert_eq!(line_col(text, 12), (5, 1)); // 'g'
+        assert_eq!(line_col(text, 1000), (6, 1)); // after the last lone '\r'
     }
 
     /// The display is `file:line:column: message`, without the place for line 0.

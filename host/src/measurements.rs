@@ -49,7 +49,7 @@ use armcal_shared::{JointType, Robot};
 use nalgebra::{Point3, Quaternion, UnitQuaternion};
 
 use crate::builtin;
-use crate::input_error::{DATA_FILE, InputError, read_text, unix_line_ends};
+use crate::input_error::{DATA_FILE, InputError, ends_line, read_text, unix_line_ends};
 use crate::model_file::RobotModel;
 
 /// The temperatures (°C) a working robot may be measured at: below it a `temp`
@@ -665,8 +665,9 @@ impl<'a> CsvReader<'a> {
         InputError::at_offset(self.file, self.text, offset, message)
     }
 
-    /// The 1-based line of byte `offset`; offsets come in increasing order, so the
-    /// whole file is scanned once.
+    /// The 1-based line of byte `offset` (lines end as [`ends_line`] says, as
+    /// for the places of errors); offsets come in increasing order, so the whole
+    /// file is scanned once.
     fn line_of(&mut self, offset: usize) -> usize {
         let bytes = self.text.as_bytes();
         let offset = offset.min(bytes.len());
@@ -674,12 +675,7 @@ impl<'a> CsvReader<'a> {
             self.byte = 0;
             self.line = 1;
         }
-        self.line += bytes
-            .get(self.byte..offset)
-            .unwrap_or(&[])
-            .iter()
-            .filter(|&&b| b == b'\n')
-            .count();
+        self.line += (self.byte..offset).filter(|&i| ends_line(bytes, i)).count();
         self.byte = offset;
         self.line
     }
@@ -1421,6 +1417,29 @@ mod tests {
         assert_eq!(mm.columns_used, ["q2", "z", "x", "y", "q1"]);
     }
 
+    /// A `\r` that no `\n` follows ends a record (the `csv` crate's rule) and
+    /// a line: old Mac files read with each row on its own line, and a refusal
+    /// names that line. (Found by the `measurements_csv` fuzz target: rows
+    /// split at a lone `\r` shared one line number.)
+    #[test]
+    fn lone_carriage_returns_end_records_and_lines() {
+        let model = ur5e();
+        let text = format!("{HEADER6}\r{ROW6}\r{ROW6}\n{ROW6}\r\n");
+        let m = parse_measurements(&text, "data.csv", &model).unwrap();
+        let lines: Vec<usize> = m.poses.iter().map(|p| p.line).collect();
+        assert_eq!(lines, [2, 3, 4]);
+        let rows = parse_joints(&text, "data.csv", &model.robot, &model.units).unwrap();
+        let lines: Vec<usize> = rows.rows.iter().map(|r| r.line).collect();
+        assert_eq!(lines, [2, 3, 4]);
+        refused(
+            &model,
+            &format!("{HEADER6}\r{ROW6}\r0,0,0,0,0,0,1,abc,3\r"),
+            3,
+            15,
+            &["'y'", "abc"],
+        );
+    }
+
     /// Comments, blank lines, CRLF, quoted fields, optional columns, ignored
     /// columns (named in a warning), and a near-unit quaternion that is normalised.
     #[test]
@@ -1886,7 +1905,7 @@ mod tests {
             let text = crate::test_support::mutate(d.text, &edits, CSV_ALPHABET);
             match parse_measurements(&text, "fuzz.csv", &model) {
                 Err(e) => {
-                    let lines = text.split('\n').count();
+                    let lines = crate::input_error::line_col(&text, text.len()).0;
                     prop_assert!(e.line >= 1 && e.line <= lines, "{e}");
                     prop_assert!(e.column >= 1, "{e}");
                 }

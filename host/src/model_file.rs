@@ -1272,7 +1272,7 @@ xyz = [1500, 0, 900]
         ) {
             let text = crate::test_support::mutate(MODELS[which].text, &edits, TOML_ALPHABET);
             if let Err(e) = parse_model(&text, "fuzz.toml") {
-                let lines = text.split('\n').count();
+                let lines = crate::input_error::line_col(&text, text.len()).0;
                 prop_assert!(e.line >= 1 && e.line <= lines, "{e}");
                 prop_assert!(e.column >= 1, "{e}");
             }

@@ -484,8 +484,11 @@ impl Calibration {
             return Err(CalibrationError::NonFinite);
         }
         for e in &self.effects {
-            let finite =
-                (0..e.parameter_count()).all(|i| e.parameter(i).is_some_and(f64::is_finite));
+            // The thermal reference temperature is not a parameter: checked apart.
+            let finite = (0..e.parameter_count())
+                .all(|i| e.parameter(i).is_some_and(f64::is_finite))
+                && e.thermal_expansion()
+                    .is_none_or(|(_, reference)| reference.is_finite());
             if !finite {
                 return Err(CalibrationError::NonFinite);
             }

@@ -5,6 +5,7 @@ use armcal_shared::calibration::{
     FORMAT_VERSION, HEADER_LEN, MAGIC, MAX_FILE_LEN, MAX_PARAMS, OLDEST_VERSION, TargetFrame,
     model_hash,
 };
+use armcal_shared::effects::Effect;
 use armcal_shared::units::{AngleUnit, LengthUnit, Units};
 use armcal_shared::{
     Calibration, CalibrationError, Convention, Frame, FrameAxis, JointType, Link, LinkMass,
@@ -246,6 +247,36 @@ fn non_finite_and_unknown_parameters_are_not_written() {
     let mut cal = sample();
     cal.nominal.links[2].a = f64::INFINITY;
     assert_eq!(bytes_of(&cal), Err(CalibrationError::NonFinite));
+}
+
+/// The reference temperature of a thermal expansion is a value of the file
+/// too, though not a parameter of the effect: not finite, it is neither
+/// written nor read (found by the `calibration_decode` fuzz target).
+#[test]
+fn a_non_finite_thermal_reference_is_refused() {
+    let mut cal = sample();
+    let thermal = |reference| Effect::ThermalExpansion {
+        coefficient: 2.3e-5,
+        reference,
+    };
+    cal.effects.push(thermal(20.0)).unwrap();
+    let good = bytes_of(&cal).unwrap();
+    for reference in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+        cal.effects[0] = thermal(reference);
+        assert_eq!(bytes_of(&cal), Err(CalibrationError::NonFinite));
+        // The same file with the reference's eight bytes replaced, resealed.
+        let at = good
+            .windows(8)
+            .position(|w| w == 20.0f64.to_le_bytes())
+            .unwrap();
+        let mut bytes = good.clone();
+        bytes[at..at + 8].copy_from_slice(&reference.to_le_bytes());
+        reseal(&mut bytes);
+        assert_eq!(
+            Calibration::decode(&bytes),
+            Err(CalibrationError::NonFinite)
+        );
+    }
 }
 
 #[test]
