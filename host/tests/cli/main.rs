@@ -2,7 +2,7 @@
 //! writes, and that a refused input names file, line and column and leaves the
 //! output folder untouched. One test binary, a module per verb.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 mod check_identify;
@@ -38,4 +38,59 @@ pub fn files_in(dir: &Path) -> Vec<String> {
         .collect();
     names.sort();
     names
+}
+
+/// Every entry of `dir` (recursively) with its kind and, for regular files, bytes.
+pub fn snapshot(dir: &Path) -> Vec<(PathBuf, String, Vec<u8>)> {
+    let mut out = Vec::new();
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let entry = entry.unwrap();
+        let kind = entry.file_type().unwrap();
+        let path = entry.path();
+        let (label, bytes) = if kind.is_symlink() {
+            let target = std::fs::read_link(&path).unwrap();
+            (
+                "link".to_owned(),
+                target.to_string_lossy().into_owned().into_bytes(),
+            )
+        } else if kind.is_dir() {
+            out.extend(snapshot(&path));
+            ("dir".to_owned(), Vec::new())
+        } else if kind.is_file() {
+            ("file".to_owned(), std::fs::read(&path).unwrap())
+        } else {
+            (format!("{kind:?}"), Vec::new())
+        };
+        out.push((path, label, bytes));
+    }
+    out.sort();
+    out
+}
+
+/// Runs `args` in `dir` and asserts the refusal: exit status 2, a standard
+/// error holding every one of `needles` and no panic, and every entry of `dir`
+/// as it was; the standard error.
+#[track_caller]
+pub fn refused(dir: &Path, args: &[&str], needles: &[&str]) -> String {
+    let before = snapshot(dir);
+    let out = armcal(args, dir);
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+    for needle in needles {
+        assert!(
+            stderr.contains(needle),
+            "{args:?}: {needle:?} not in {stderr}"
+        );
+    }
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_eq!(snapshot(dir), before, "{args:?} changed the folder");
+    stderr
+}
+
+/// Runs `args` in `dir` and asserts it succeeded, showing its standard error if not.
+#[track_caller]
+pub fn succeeds(dir: &Path, args: &[&str]) -> Output {
+    let out = armcal(args, dir);
+    assert_success(&out);
+    out
 }

@@ -2,50 +2,9 @@
 //! 2, a message naming the file and line or the argument, and every file on
 //! disk as it was.
 
-use std::collections::BTreeMap;
 use std::path::Path;
 
-use crate::armcal;
-
-/// Every file of `dir` with its bytes.
-fn snapshot(dir: &Path) -> BTreeMap<String, Vec<u8>> {
-    std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| {
-            let e = e.unwrap();
-            (
-                e.file_name().to_string_lossy().into_owned(),
-                std::fs::read(e.path()).unwrap(),
-            )
-        })
-        .collect()
-}
-
-/// Runs `args` in `dir` and asserts exit status 2, a standard error holding
-/// every one of `needles`, and `dir` unchanged.
-#[track_caller]
-fn refused(dir: &Path, args: &[&str], needles: &[&str]) {
-    let before = snapshot(dir);
-    let out = armcal(args, dir);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
-    for needle in needles {
-        assert!(
-            stderr.contains(needle),
-            "{args:?}: {needle:?} not in {stderr}"
-        );
-    }
-    assert!(!stderr.contains("panicked"), "{stderr}");
-    assert_eq!(snapshot(dir), before, "{args:?} changed the folder");
-}
-
-/// Runs `args` in `dir` and asserts it succeeded, showing its standard error if not.
-#[track_caller]
-fn succeeds(dir: &Path, args: &[&str]) -> std::process::Output {
-    let out = armcal(args, dir);
-    crate::assert_success(&out);
-    out
-}
+use crate::{refused, succeeds};
 
 /// A simulated UR5e session of `poses` positions in `dir/name`; its lines.
 fn session(dir: &Path, name: &str, poses: usize) -> Vec<String> {
