@@ -386,8 +386,8 @@ fn load_session(
     Ok((model, data))
 }
 
-/// Prints the warnings of a data file to standard error.
-fn warn(warnings: &[String]) {
+/// Prints warnings (of a data file, of a computation) to standard error.
+fn warn<'a>(warnings: impl IntoIterator<Item = &'a String>) {
     for w in warnings {
         eprintln!("armcal: warning: {w}");
     }
@@ -697,9 +697,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             };
             let result = compensate::compensate(&cal, &rows, pacing);
             let csv = result.to_csv(&cal, &calibration);
-            for w in rows.warnings.iter().chain(&result.warnings(&joints)) {
-                eprintln!("armcal: warning: {w}");
-            }
+            warn(rows.warnings.iter().chain(&result.warnings(&joints)));
             finish_csv(outputs, csv)?;
         }
         Command::Predict {
@@ -713,9 +711,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let mut predictions = predict::predict(&cal, &rows)?;
             predictions.calibration_file = Some(calibration);
             let csv = predictions.to_csv(&cal.units);
-            for w in &rows.warnings {
-                eprintln!("armcal: warning: {w}");
-            }
+            warn(&rows.warnings);
             finish_csv(outputs, csv)?;
         }
         Command::Reproduce {
@@ -782,9 +778,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 session.status(Request::Halt)?;
             }
             let csv = streamed.to_csv(&cal, &calibration, &name);
-            for w in rows.warnings.iter().chain(&streamed.warnings(&joints)) {
-                eprintln!("armcal: warning: {w}");
-            }
+            warn(rows.warnings.iter().chain(&streamed.warnings(&joints)));
             eprintln!("armcal: {}", streamed.summary());
             finish_csv(outputs, csv)?;
         }
