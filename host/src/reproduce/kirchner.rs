@@ -230,16 +230,6 @@ fn forward_errors(
     x
 }
 
-/// The sum of every length of the model: the bound on its coordinates.
-fn reach(robot: &Robot<f64>) -> f64 {
-    robot
-        .links
-        .iter()
-        .map(|l| l.s.abs() + l.a.abs())
-        .sum::<f64>()
-        + robot.tool.xyz.norm()
-}
-
 /// Inverts the series (3.4) for the joint-link errors of `nominal` from the
 /// measured pose errors `data` (one twist per pose, in the order of `poses`).
 pub fn invert_series(
@@ -293,7 +283,13 @@ pub fn invert_series(
         .pseudo_inverse(0.0)
         .expect("the SVD holds U and Vᵀ");
     let ops = 4.0 * 16.0 * (nominal.dof() as f64 + 2.0) * f64::EPSILON;
-    let delta_x = |r: usize| if r % 6 < 3 { ops } else { ops * reach(nominal) };
+    let delta_x = |r: usize| {
+        if r % 6 < 3 {
+            ops
+        } else {
+            ops * crate::measurements::reach(nominal, std::iter::empty())
+        }
+    };
     let mut floor = vec![0.0; params.len()];
     for (c, &j) in kept.iter().enumerate() {
         floor[j] = (0..rows).map(|r| k_pinv[(c, r)].abs() * delta_x(r)).sum();
