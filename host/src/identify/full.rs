@@ -48,6 +48,12 @@
 //! it lowers the weighted sum of squares. Converged when a step changes every
 //! prediction by less than 1e-10 of its noise.
 //!
+//! `J` itself is never stored: the selection, the iterations and the statistics
+//! need only, per channel (position, orientation rows), `JᵀJ`, `Jᵀr`, `rᵀr` and
+//! the row count, summed pose by pose a block of poses at a time
+//! (`NormalEquations`), so the fit's memory does not grow with the poses. Only
+//! the diagnosis's [`linearize`] keeps the whole weighted Jacobian.
+//!
 //! ## Report
 //! Standard errors `sqrt(diag(s² (JᵀJ)⁻¹))` with the a-posteriori variance factor
 //! `s² = Σr²/(n − p)` (so they hold even when the stated noise is off by a
@@ -58,8 +64,9 @@
 use armcal_shared::effects::{Effect, EffectModel, gravity_torques, joint_param};
 use armcal_shared::jacobian::at_point;
 use armcal_shared::{FrameAxis, JointType, Param, Robot, Twist, rotation_error};
+use faer::linalg::matmul::{self, triangular, triangular::BlockStructure};
 use faer::linalg::solvers::{DenseSolveCore, Solve};
-use faer::{Mat, Side};
+use faer::{Accum, Mat, Par, Side};
 use nalgebra::{IsometryMatrix3, Matrix3, Point3, Rotation3, UnitQuaternion, Vector3};
 
 use super::noise::{ChannelNoise, NoiseEstimate, NoiseSource, SETTLED};
@@ -509,7 +516,7 @@ pub fn identify_from(
     loop {
         round += 1;
         let weights = (1.0 / noise.0, 1.0 / noise.1);
-        let system = LinearSystem::build(&robot, data, &params, weights);
+        let system = NormalEquations::accumulate(&robot, data, &params, weights);
         let (free, f) = separable_subset(&system, &params, &robot, data, options, noise_scale);
         fixed = f;
         if equations < free.len() && options.prior == Prior::NONE {
@@ -536,7 +543,7 @@ pub fn identify_from(
         // The linearisation of every parameter serves the first iteration unless a
         // held parameter was just moved back.
         let first = if moved {
-            LinearSystem::build(&robot, data, &free_params, weights)
+            NormalEquations::accumulate(&robot, data, &free_params, weights)
         } else {
             system.select_columns(&free)
         };
@@ -548,7 +555,7 @@ pub fn identify_from(
         let run;
         (run, converged, sys) = solve(&mut robot, weights, first)?;
         iterations += run;
-        post = Posterior::at(&sys, data, &prior);
+        post = Posterior::at(&sys, &prior);
         if estimate.0 || estimate.1 {
             // The free parameters stay; each round reweighs the rows of the
             // solution's linearisation and iterates from there.
@@ -574,11 +581,11 @@ pub fn identify_from(
                 let before = (1.0 / noise.0, 1.0 / noise.1);
                 noise = next;
                 let weights = (1.0 / noise.0, 1.0 / noise.1);
-                let first = sys.reweighted(data, before, weights);
+                let first = sys.reweighted(before, weights);
                 let run;
                 (run, converged, sys) = solve(&mut robot, weights, first)?;
                 iterations += run;
-                post = Posterior::at(&sys, data, &prior);
+                post = Posterior::at(&sys, &prior);
             }
             break;
         }
@@ -591,7 +598,7 @@ pub fn identify_from(
         if variance_factor <= significant * noise_scale * noise_scale {
             break;
         }
-        let system = LinearSystem::build(&robot, data, &params, weights);
+        let system = NormalEquations::accumulate(&robot, data, &params, weights);
         let (free_again, _) = separable_subset(&system, &params, &robot, data, options, new_scale);
         noise_scale = new_scale;
         if free_again.iter().map(|&k| params[k]).collect::<Vec<_>>() == free_params {
@@ -635,7 +642,7 @@ pub fn identify_from(
     correlations.truncate(5);
 
     let weights = (1.0 / noise.0, 1.0 / noise.1);
-    let (position_rms, orientation_rms) = sys.residual_rms(data, weights);
+    let (position_rms, orientation_rms) = sys.residual_rms(weights);
     let channel =
         |source: NoiseSource, used: f64, omega: f64, rows: usize, redundancy: f64| ChannelNoise {
             source,
@@ -775,21 +782,13 @@ struct Posterior {
 }
 
 impl Posterior {
-    fn at(sys: &LinearSystem, data: &[Observation], prior: &[(f64, f64)]) -> Self {
+    fn at(sys: &NormalEquations, prior: &[(f64, f64)]) -> Self {
         let (g, _, scale) = sys.scaled_normal_equations();
         let p = g.nrows();
         // The position rows alone.
-        let position_rows: Vec<usize> = LinearSystem::position_rows(data)
-            .enumerate()
-            .filter_map(|(i, position)| position.then_some(i))
-            .collect();
-        let rows = (position_rows.len(), sys.j.nrows() - position_rows.len());
-        let jp = Mat::from_fn(position_rows.len(), p, |i, k| {
-            sys.j[(position_rows[i], k)] * scale[k]
-        });
-        let gp = jp.transpose() * &jp;
-        let omega_p: f64 = position_rows.iter().map(|&i| sys.r[(i, 0)].powi(2)).sum();
-        let omega = (omega_p, sys.cost() - omega_p);
+        let rows = (sys.rows[0], sys.rows[1]);
+        let gp = Mat::from_fn(p, p, |a, b| sys.jtj[0][(a, b)] * scale[a] * scale[b]);
+        let omega = (sys.rtr[0], sys.rtr[1]);
         let mut n = g.clone();
         for (k, (precision, _)) in prior.iter().enumerate() {
             n[(k, k)] += precision * scale[k] * scale[k];
@@ -951,16 +950,12 @@ fn levenberg_marquardt(
     free_params: &[Unknown],
     weights: (f64, f64),
     options: &FullOptions,
-    mut sys: LinearSystem,
+    mut sys: NormalEquations,
     prior: &[(f64, f64)],
-) -> Result<(usize, bool, LinearSystem), FullError> {
-    // One linearisation per trial: an accepted trial's Jacobian is the next
-    // iteration's, so each iteration costs one pass over the poses. `sys` is the
-    // linearisation at `robot`.
-    let mut trial_sys = LinearSystem {
-        j: sys.j.clone(),
-        r: sys.r.clone(),
-    };
+) -> Result<(usize, bool, NormalEquations), FullError> {
+    // One linearisation per trial: an accepted trial's normal equations are the
+    // next iteration's, so each iteration costs one pass over the poses. `sys` is
+    // the linearisation at `robot`.
     let mut cost = sys.cost() + prior_cost(robot, free_params, prior);
     let mut lambda = 1e-3;
     let mut iterations = 0;
@@ -999,15 +994,14 @@ fn levenberg_marquardt(
                 .fold(0.0, f64::max);
             let mut trial = robot.clone();
             apply(&mut trial, free_params, &step);
-            trial_sys.fill(&trial, data, free_params, weights);
+            let trial_sys = NormalEquations::accumulate(&trial, data, free_params, weights);
             let trial_cost = trial_sys.cost() + prior_cost(&trial, free_params, prior);
             if trial_cost <= cost {
                 // Converged when the step no longer matters: below 1e-10 of the noise,
                 // or lowering the sum of squares by less than 1e-8 of it (the
                 // parameters then move by about 1e-4 of a standard error).
                 converged = size < 1e-10 || cost - trial_cost <= 1e-8 * cost;
-                (*robot, cost) = (trial, trial_cost);
-                std::mem::swap(&mut sys, &mut trial_sys);
+                (*robot, cost, sys) = (trial, trial_cost, trial_sys);
                 lambda = (lambda / 10.0).max(1e-12);
                 accepted = true;
                 break;
@@ -1048,7 +1042,9 @@ fn apply(robot: &mut Model, params: &[Unknown], step: &[f64]) {
     }
 }
 
-/// The weighted Jacobian and residual of one linearisation.
+/// The weighted Jacobian and residual of one linearisation, stored whole (rows ×
+/// unknowns): what [`linearize`] hands the diagnosis, which solves on subsets of
+/// the poses. The fit itself needs only [`NormalEquations`].
 struct LinearSystem {
     /// Weighted Jacobian, rows × params.
     j: Mat<f64>,
@@ -1057,219 +1053,398 @@ struct LinearSystem {
 }
 
 impl LinearSystem {
-    /// Whether each row, in order, is a position row (per pose 3 position
-    /// rows, then 3 orientation rows when measured).
-    fn position_rows(data: &[Observation]) -> impl Iterator<Item = bool> + '_ {
-        data.iter().flat_map(|obs| {
-            let orientation = if obs.orientation.is_some() { 3 } else { 0 };
-            std::iter::repeat_n(true, 3).chain(std::iter::repeat_n(false, orientation))
-        })
-    }
-
     fn rows(data: &[Observation]) -> usize {
         data.iter()
             .map(|o| if o.orientation.is_some() { 6 } else { 3 })
             .sum()
     }
 
-    fn build(robot: &Model, data: &[Observation], params: &[Unknown], weights: (f64, f64)) -> Self {
+    /// The linearisation at `model`: per pose its 3 position rows, then its 3
+    /// orientation rows when measured ([`for_each_pose_rows`]).
+    fn build(model: &Model, data: &[Observation], params: &[Unknown], weights: (f64, f64)) -> Self {
         let rows = Self::rows(data);
-        let mut sys = Self {
-            j: Mat::zeros(rows, params.len()),
-            r: Mat::zeros(rows, 1),
-        };
-        sys.fill(robot, data, params, weights);
-        sys
+        let mut j = Mat::zeros(rows, params.len());
+        let mut r = Mat::zeros(rows, 1);
+        let mut row = 0;
+        for_each_pose_rows(model, data, params, weights, |pose| {
+            let n = if pose.orientation { 6 } else { 3 };
+            for i in 0..n {
+                r[(row + i, 0)] = pose.r[i];
+                for k in 0..params.len() {
+                    j[(row + i, k)] = pose.row(i)[k];
+                }
+            }
+            row += n;
+        });
+        Self { j, r }
     }
+}
 
-    /// Overwrites every entry with the linearisation at `model` (the shape must be
-    /// the one `build` gave for the same data and parameters): a system reused
-    /// across iterations allocates nothing for a geometric model.
-    ///
-    /// With effects, each pose is evaluated at its temperature (thermal expansion
-    /// scales the lengths) and at the joint values `q + Δq(q, context)`; a joint
-    /// effect's column is the joint's column times `∂Δq_j/∂p`, thermal
-    /// expansion's is `ΔT Σ_i (a_i ∂/∂a_i + s_i ∂/∂s_i)`. The dependence of `Δq`
-    /// on the geometry (through the gravity torque) is left out of the Jacobian:
-    /// it only slows convergence, the residuals stay exact.
-    fn fill(
-        &mut self,
+/// The weighted rows of one pose: 3 position rows, then 3 orientation rows when
+/// its orientation is measured.
+struct PoseRows {
+    /// Jacobian rows, 6 × params, row after row (rows 3..6 only meaningful when
+    /// `orientation`).
+    j: Vec<f64>,
+    /// Params: the length of a row.
+    params: usize,
+    /// Residual rows (3..6 only meaningful when `orientation`).
+    r: [f64; 6],
+    /// Whether the orientation rows are present.
+    orientation: bool,
+}
+
+impl PoseRows {
+    /// Row `i` of the Jacobian.
+    fn row(&self, i: usize) -> &[f64] {
+        &self.j[i * self.params..(i + 1) * self.params]
+    }
+}
+
+/// Hands `emit` the weighted rows of each pose in turn, linearised at `model`:
+/// the one per-pose computation behind both the stored [`LinearSystem`] and the
+/// accumulated [`NormalEquations`]. A pose whose kinematics fail is skipped (joint
+/// counts are checked on entry, so none does).
+///
+/// With effects, each pose is evaluated at its temperature (thermal expansion
+/// scales the lengths) and at the joint values `q + Δq(q, context)`; a joint
+/// effect's column is the joint's column times `∂Δq_j/∂p`, thermal
+/// expansion's is `ΔT Σ_i (a_i ∂/∂a_i + s_i ∂/∂s_i)`. The dependence of `Δq`
+/// on the geometry (through the gravity torque) is left out of the Jacobian:
+/// it only slows convergence, the residuals stay exact.
+fn for_each_pose_rows(
+    model: &Model,
+    data: &[Observation],
+    params: &[Unknown],
+    (wp, wr): (f64, f64),
+    mut emit: impl FnMut(&PoseRows),
+) {
+    let robot = &model.robot;
+    let kinematics = robot.prepare();
+    let Some(Ok(mut chain)) = data.first().map(|o| kinematics.chain(&o.q)) else {
+        return;
+    };
+    let mut rows = PoseRows {
+        j: vec![0.0; 6 * params.len()],
+        params: params.len(),
+        r: [0.0; 6],
+        orientation: false,
+    };
+    let base_columns = chain.base_columns();
+    let effects = (!model.effects.is_empty())
+        .then(|| EffectModel::new(robot.clone(), &model.effects).ok())
+        .flatten();
+    let thermal = model.effects.iter().find_map(|e| match e {
+        Effect::ThermalExpansion {
+            coefficient,
+            reference,
+        } => Some((*coefficient, *reference)),
+        _ => None,
+    });
+    let needs_torque = model
+        .effects
+        .iter()
+        .any(|e| matches!(e, Effect::JointCompliance { .. }));
+    let mut q_eff: Vec<f64> = Vec::new();
+    for obs in data {
+        // Joint counts were checked on entry.
+        let ctx = &obs.context;
+        let delta_t = match (thermal, ctx.temperature) {
+            (Some((_, reference)), Some(t)) => t - reference,
+            _ => 0.0,
+        };
+        let scaled;
+        let kin = match (&effects, delta_t != 0.0) {
+            (Some(em), true) => {
+                scaled = em.robot_at(ctx).prepare();
+                &scaled
+            }
+            _ => &kinematics,
+        };
+        let mut tau: Vec<f64> = Vec::new();
+        q_eff.clear();
+        match &effects {
+            Some(em) => {
+                if needs_torque && kin.chain_into(&obs.q, &mut chain).is_ok() {
+                    tau = gravity_torques(robot, &chain, ctx.payload.unwrap_or(0.0)).to_vec();
+                }
+                q_eff.extend_from_slice(&em.joint_values_at(&obs.q, &tau, ctx));
+            }
+            None => q_eff.extend_from_slice(&obs.q),
+        }
+        if kin.chain_into(&q_eff, &mut chain).is_err() {
+            continue;
+        }
+        let tool_columns = chain.tool_columns();
+        let p = chain.point();
+        let dp = obs.position - p;
+        let orientation = obs
+            .orientation
+            .map(|q| rotation_error(&q.to_rotation_matrix(), &chain.end.rotation));
+        let length_scale = thermal.map_or(1.0, |(k, _)| 1.0 + k * delta_t);
+        for (k, &u) in params.iter().enumerate() {
+            let col: Twist<f64> = match u {
+                Unknown::Param(Param::Base(ax)) => base_columns[ax.index()],
+                Unknown::Param(Param::Tool(ax)) => tool_columns[ax.index()],
+                Unknown::Param(pm @ (Param::A(_) | Param::S(_))) => chain.column(pm) * length_scale,
+                Unknown::Param(pm) => chain.column(pm),
+                Unknown::Effect { effect, component } => {
+                    let e = &model.effects[effect];
+                    match e.joint() {
+                        Some(jt) => {
+                            let sens = e.joint_sensitivity(
+                                component,
+                                obs.q[jt],
+                                tau.get(jt).copied().unwrap_or(0.0),
+                                ctx,
+                            );
+                            chain.column(joint_param(robot, jt)) * sens
+                        }
+                        // Thermal expansion: every length, scaled by ΔT.
+                        None => {
+                            (0..robot.dof())
+                                .map(|i| {
+                                    let l = &robot.links[i];
+                                    chain.column(Param::A(i)) * l.a
+                                        + chain.column(Param::S(i)) * l.s
+                                })
+                                .fold(Twist::zeros(), |acc, c| acc + c)
+                                * delta_t
+                        }
+                    }
+                }
+            };
+            let v = at_point(&col, &p);
+            let n = params.len();
+            for i in 0..3 {
+                rows.j[i * n + k] = v[i] * wp;
+            }
+            if orientation.is_some() {
+                for i in 0..3 {
+                    rows.j[(3 + i) * n + k] = col[i] * wr;
+                }
+            }
+        }
+        for i in 0..3 {
+            rows.r[i] = dp[i] * wp;
+        }
+        rows.orientation = orientation.is_some();
+        if let Some(e) = orientation {
+            for i in 0..3 {
+                rows.r[3 + i] = e[i] * wr;
+            }
+        }
+        emit(&rows);
+    }
+}
+
+/// Poses whose rows [`NormalEquations::accumulate`] gathers before adding their
+/// products: large enough for the matrix product to run at full speed, small
+/// enough (a few MB) not to matter.
+const BLOCK_POSES: usize = 2048;
+
+/// The normal equations of one weighted linearisation, summed pose by pose: all
+/// that the fit, the separability test, the posterior and the statistics need of
+/// it, in memory independent of the number of poses (`O(p²)`, plus
+/// `O(BLOCK_POSES · p)` while accumulating).
+///
+/// Per channel (`[0]`: the position rows, `[1]`: the orientation rows) of the
+/// weighted Jacobian `J` and residual `r` of [`for_each_pose_rows`] — each row
+/// divided by its channel's noise (`σ_p` in m, `σ_r` in rad), so the residual is
+/// in units of the noise and a column is the change of the predictions, in units
+/// of the noise, per SI unit of its unknown:
+/// - `jtj`: `JᵀJ`, params × params;
+/// - `jtr`: `Jᵀr`, params × 1;
+/// - `rtr`: `rᵀr`, the channel's weighted sum of squares;
+/// - `rows`: the channel's rows (3 per pose; 3 per pose with an orientation).
+///
+/// The position channel is kept apart for the per-channel redundancy of
+/// [`Posterior`], and so that a change of the noises is a scalar multiply of
+/// each channel ([`NormalEquations::reweighted`]).
+#[derive(Clone)]
+struct NormalEquations {
+    jtj: [Mat<f64>; 2],
+    jtr: [Mat<f64>; 2],
+    rtr: [f64; 2],
+    rows: [usize; 2],
+}
+
+impl NormalEquations {
+    /// The normal equations of the linearisation at `model`, its rows filled a
+    /// block of [`BLOCK_POSES`] poses at a time into a reused block matrix
+    /// whose `JᵀJ` (lower half) and `Jᵀr` are then added by faer's matrix product.
+    fn accumulate(
         model: &Model,
         data: &[Observation],
         params: &[Unknown],
-        (wp, wr): (f64, f64),
-    ) {
-        let Self { j, r } = self;
-        let mut row = 0;
-        let robot = &model.robot;
-        let kinematics = robot.prepare();
-        let Some(Ok(mut chain)) = data.first().map(|o| kinematics.chain(&o.q)) else {
-            return;
+        weights: (f64, f64),
+    ) -> Self {
+        let p = params.len();
+        let orientations = data.iter().filter(|o| o.orientation.is_some()).count();
+        let mut sums = Self {
+            jtj: [Mat::zeros(p, p), Mat::zeros(p, p)],
+            jtr: [Mat::zeros(p, 1), Mat::zeros(p, 1)],
+            rtr: [0.0; 2],
+            rows: [3 * data.len(), 3 * orientations],
         };
-        let base_columns = chain.base_columns();
-        let effects = (!model.effects.is_empty())
-            .then(|| EffectModel::new(robot.clone(), &model.effects).ok())
-            .flatten();
-        let thermal = model.effects.iter().find_map(|e| match e {
-            Effect::ThermalExpansion {
-                coefficient,
-                reference,
-            } => Some((*coefficient, *reference)),
-            _ => None,
+        let block_rows = 3 * BLOCK_POSES.min(data.len().max(1));
+        let mut block = Block {
+            j: [Mat::zeros(p, block_rows), Mat::zeros(p, block_rows)],
+            r: [Mat::zeros(block_rows, 1), Mat::zeros(block_rows, 1)],
+            filled: [0; 2],
+        };
+        for_each_pose_rows(model, data, params, weights, |pose| {
+            for (c, offset) in [(0, 0), (1, 3)] {
+                if c == 1 && !pose.orientation {
+                    continue;
+                }
+                let row = block.filled[c];
+                for i in 0..3 {
+                    block.r[c][(row + i, 0)] = pose.r[offset + i];
+                    if p > 0 {
+                        block
+                            .row_mut(c, row + i)
+                            .copy_from_slice(pose.row(offset + i));
+                    }
+                }
+                block.filled[c] += 3;
+            }
+            // The orientation rows never outnumber the position rows.
+            if block.filled[0] == block_rows {
+                block.add_to(&mut sums);
+            }
         });
-        let needs_torque = model
-            .effects
-            .iter()
-            .any(|e| matches!(e, Effect::JointCompliance { .. }));
-        for obs in data {
-            // Joint counts were checked on entry.
-            let ctx = &obs.context;
-            let delta_t = match (thermal, ctx.temperature) {
-                (Some((_, reference)), Some(t)) => t - reference,
-                _ => 0.0,
-            };
-            let scaled;
-            let kin = match (&effects, delta_t != 0.0) {
-                (Some(em), true) => {
-                    scaled = em.robot_at(ctx).prepare();
-                    &scaled
+        block.add_to(&mut sums);
+        // Mirror the lower halves.
+        for g in &mut sums.jtj {
+            for a in 0..p {
+                for b in a + 1..p {
+                    g[(a, b)] = g[(b, a)];
                 }
-                _ => &kinematics,
-            };
-            let mut tau: Vec<f64> = Vec::new();
-            let q_eff = match &effects {
-                Some(em) => {
-                    if needs_torque && kin.chain_into(&obs.q, &mut chain).is_ok() {
-                        tau = gravity_torques(robot, &chain, ctx.payload.unwrap_or(0.0)).to_vec();
-                    }
-                    em.joint_values_at(&obs.q, &tau, ctx).to_vec()
-                }
-                None => obs.q.clone(),
-            };
-            if kin.chain_into(&q_eff, &mut chain).is_err() {
-                continue;
-            }
-            let tool_columns = chain.tool_columns();
-            let p = chain.point();
-            let dp = obs.position - p;
-            for i in 0..3 {
-                r[(row + i, 0)] = dp[i] * wp;
-            }
-            let orientation = obs
-                .orientation
-                .map(|q| rotation_error(&q.to_rotation_matrix(), &chain.end.rotation));
-            let length_scale = thermal.map_or(1.0, |(k, _)| 1.0 + k * delta_t);
-            for (k, &u) in params.iter().enumerate() {
-                let col: Twist<f64> = match u {
-                    Unknown::Param(Param::Base(ax)) => base_columns[ax.index()],
-                    Unknown::Param(Param::Tool(ax)) => tool_columns[ax.index()],
-                    Unknown::Param(pm @ (Param::A(_) | Param::S(_))) => {
-                        chain.column(pm) * length_scale
-                    }
-                    Unknown::Param(pm) => chain.column(pm),
-                    Unknown::Effect { effect, component } => {
-                        let e = &model.effects[effect];
-                        match e.joint() {
-                            Some(jt) => {
-                                let sens = e.joint_sensitivity(
-                                    component,
-                                    obs.q[jt],
-                                    tau.get(jt).copied().unwrap_or(0.0),
-                                    ctx,
-                                );
-                                chain.column(joint_param(robot, jt)) * sens
-                            }
-                            // Thermal expansion: every length, scaled by ΔT.
-                            None => {
-                                (0..robot.dof())
-                                    .map(|i| {
-                                        let l = &robot.links[i];
-                                        chain.column(Param::A(i)) * l.a
-                                            + chain.column(Param::S(i)) * l.s
-                                    })
-                                    .fold(Twist::zeros(), |acc, c| acc + c)
-                                    * delta_t
-                            }
-                        }
-                    }
-                };
-                let v = at_point(&col, &p);
-                for i in 0..3 {
-                    j[(row + i, k)] = v[i] * wp;
-                }
-                if orientation.is_some() {
-                    for i in 0..3 {
-                        j[(row + 3 + i, k)] = col[i] * wr;
-                    }
-                }
-            }
-            row += 3;
-            if let Some(e) = orientation {
-                for i in 0..3 {
-                    r[(row + i, 0)] = e[i] * wr;
-                }
-                row += 3;
             }
         }
+        sums
     }
 
-    /// This system with its rows weighed by `after` in place of `before`
-    /// (position, orientation weights): the same linearisation at other noises.
-    fn reweighted(&self, data: &[Observation], before: (f64, f64), after: (f64, f64)) -> Self {
-        let (p, o) = (after.0 / before.0, after.1 / before.1);
-        let factor: Vec<f64> = Self::position_rows(data)
-            .map(|position| if position { p } else { o })
-            .collect();
-        Self {
-            j: Mat::from_fn(self.j.nrows(), self.j.ncols(), |i, k| {
-                self.j[(i, k)] * factor[i]
-            }),
-            r: Mat::from_fn(self.r.nrows(), 1, |i, _| self.r[(i, 0)] * factor[i]),
-        }
-    }
-
-    /// The system of the parameters `columns` (indices into this one's).
-    fn select_columns(&self, columns: &[usize]) -> Self {
-        Self {
-            j: Mat::from_fn(self.j.nrows(), columns.len(), |i, c| {
-                self.j[(i, columns[c])]
-            }),
-            r: self.r.clone(),
-        }
-    }
-
-    /// RMS of the unweighted position residual (3-D distance, m) and of the
-    /// orientation residual angle (rad), from the rows of this system.
-    fn residual_rms(&self, data: &[Observation], (wp, wr): (f64, f64)) -> (f64, f64) {
-        let (mut pos, mut rot, mut n_rot, mut row) = (0.0, 0.0, 0usize, 0);
-        for obs in data {
-            pos += (0..3).map(|i| self.r[(row + i, 0)].powi(2)).sum::<f64>() / (wp * wp);
-            row += 3;
-            if obs.orientation.is_some() {
-                rot += (0..3).map(|i| self.r[(row + i, 0)].powi(2)).sum::<f64>() / (wr * wr);
-                n_rot += 1;
-                row += 3;
-            }
-        }
-        rms_pair(pos, data.len(), rot, n_rot)
-    }
-
-    /// The weighted sum of squares of this residual.
+    /// The weighted sum of squares of the residual.
     fn cost(&self) -> f64 {
-        self.r.squared_norm_l2()
+        self.rtr[0] + self.rtr[1]
+    }
+
+    /// `JᵀJ` of both channels.
+    fn normal_matrix(&self) -> Mat<f64> {
+        let [p, o] = &self.jtj;
+        Mat::from_fn(p.nrows(), p.ncols(), |a, b| p[(a, b)] + o[(a, b)])
     }
 
     /// `(Gs, Jsᵀr, scale)`: the normal matrix of the columns scaled to unit norm,
     /// its right-hand side, and the scale factors (`δ = scale · δs`). A zero column
     /// keeps scale 0 (it cannot move anything).
     fn scaled_normal_equations(&self) -> (Mat<f64>, Mat<f64>, Vec<f64>) {
-        let g = self.j.transpose() * &self.j;
+        let g = self.normal_matrix();
         let n = g.nrows();
         let scale = unit_diagonal_scale(&g);
         let gs = Mat::from_fn(n, n, |a, b| g[(a, b)] * scale[a] * scale[b]);
-        let jtr = self.j.transpose() * &self.r;
-        let rhs = Mat::from_fn(n, 1, |a, _| jtr[(a, 0)] * scale[a]);
+        let [p, o] = &self.jtr;
+        let rhs = Mat::from_fn(n, 1, |a, _| (p[(a, 0)] + o[(a, 0)]) * scale[a]);
         (gs, rhs, scale)
+    }
+
+    /// The normal equations of the parameters `columns` (indices into this one's):
+    /// their rows and columns.
+    fn select_columns(&self, columns: &[usize]) -> Self {
+        let n = columns.len();
+        Self {
+            jtj: self
+                .jtj
+                .each_ref()
+                .map(|g| Mat::from_fn(n, n, |a, b| g[(columns[a], columns[b])])),
+            jtr: self
+                .jtr
+                .each_ref()
+                .map(|v| Mat::from_fn(n, 1, |a, _| v[(columns[a], 0)])),
+            rtr: self.rtr,
+            rows: self.rows,
+        }
+    }
+
+    /// These normal equations with their rows weighed by `after` in place of
+    /// `before` (position, orientation weights): the same linearisation at other
+    /// noises, each channel multiplied by the square of its weight ratio.
+    fn reweighted(&self, before: (f64, f64), after: (f64, f64)) -> Self {
+        let mut next = self.clone();
+        let ratios = [after.0 / before.0, after.1 / before.1];
+        for (c, ratio) in ratios.into_iter().enumerate() {
+            let f = ratio * ratio;
+            let (g, v) = (&mut next.jtj[c], &mut next.jtr[c]);
+            for b in 0..g.ncols() {
+                for a in 0..g.nrows() {
+                    g[(a, b)] *= f;
+                }
+                v[(b, 0)] *= f;
+            }
+            next.rtr[c] *= f;
+        }
+        next
+    }
+
+    /// RMS of the unweighted position residual (3-D distance, m) and of the
+    /// orientation residual angle (rad), from the sums of squares.
+    fn residual_rms(&self, (wp, wr): (f64, f64)) -> (f64, f64) {
+        rms_pair(
+            self.rtr[0] / (wp * wp),
+            self.rows[0] / 3,
+            self.rtr[1] / (wr * wr),
+            self.rows[1] / 3,
+        )
+    }
+}
+
+/// The rows of up to [`BLOCK_POSES`] poses, per channel, waiting to be added to
+/// [`NormalEquations`].
+struct Block {
+    /// The Jacobian rows, transposed: params × rows, a row of `J` a column here.
+    j: [Mat<f64>; 2],
+    r: [Mat<f64>; 2],
+    /// Rows filled, per channel.
+    filled: [usize; 2],
+}
+
+impl Block {
+    /// Row `row` of channel `c`'s Jacobian, to write.
+    fn row_mut(&mut self, c: usize, row: usize) -> &mut [f64] {
+        self.j[c]
+            .col_mut(row)
+            .try_as_col_major_mut()
+            .expect("a column of an owned matrix is contiguous")
+            .as_slice_mut()
+    }
+
+    /// Adds the filled rows' `JᵀJ` (lower half), `Jᵀr` and `rᵀr` to `sums`, and
+    /// empties the block.
+    fn add_to(&mut self, sums: &mut NormalEquations) {
+        for c in 0..2 {
+            let n = self.filled[c];
+            if n == 0 {
+                continue;
+            }
+            let jt = self.j[c].as_ref().subcols(0, n);
+            let r = self.r[c].as_ref().subrows(0, n);
+            triangular::matmul(
+                sums.jtj[c].as_mut(),
+                BlockStructure::TriangularLower,
+                Accum::Add,
+                jt,
+                BlockStructure::Rectangular,
+                jt.transpose(),
+                BlockStructure::Rectangular,
+                1.0,
+                Par::Seq,
+            );
+            matmul::matmul(sums.jtr[c].as_mut(), Accum::Add, jt, r, 1.0, Par::Seq);
+            sums.rtr[c] += r.squared_norm_l2();
+            self.filled[c] = 0;
+        }
     }
 }
 
@@ -1289,7 +1464,7 @@ pub(crate) fn unit_scale(d: f64) -> f64 {
 /// preference: the indices of the separable parameters, and the others with the
 /// reason each is not.
 fn separable_subset(
-    sys: &LinearSystem,
+    sys: &NormalEquations,
     params: &[Unknown],
     robot: &Model,
     data: &[Observation],
