@@ -957,7 +957,7 @@ fn levenberg_marquardt(
     // next iteration's, so each iteration costs one pass over the poses. `sys` is
     // the linearisation at `robot`.
     let mut cost = sys.cost() + prior_cost(robot, free_params, prior);
-    let mut lambda = 1e-3;
+    let mut lambda = 1e-6;
     let mut iterations = 0;
     let mut converged = false;
     while iterations < options.max_iterations && !converged {
@@ -1243,6 +1243,11 @@ fn for_each_pose_rows(
 /// enough (a few MB) not to matter.
 const BLOCK_POSES: usize = 2048;
 
+/// Poses whose normal equations [`NormalEquations::accumulate`] sums alone (on
+/// one thread) before adding them to the others': a few blocks, so that 10⁵
+/// poses already give each core several.
+const CHUNK_POSES: usize = 8 * BLOCK_POSES;
+
 /// The normal equations of one weighted linearisation, summed pose by pose: all
 /// that the fit, the separability test, the posterior and the statistics need of
 /// it, in memory independent of the number of poses (`O(p²)`, plus
@@ -1270,10 +1275,67 @@ struct NormalEquations {
 }
 
 impl NormalEquations {
-    /// The normal equations of the linearisation at `model`, its rows filled a
+    /// The normal equations of the linearisation at `model`: the poses in
+    /// chunks of [`CHUNK_POSES`], each chunk's sums accumulated alone
+    /// ([`NormalEquations::accumulate_chunk`]), on as many threads as the machine
+    /// has, then added in pose order — the same sums whatever the number of
+    /// threads.
+    fn accumulate(
+        model: &Model,
+        data: &[Observation],
+        params: &[Unknown],
+        weights: (f64, f64),
+    ) -> Self {
+        let chunk = |c: &[Observation]| Self::accumulate_chunk(model, c, params, weights);
+        let chunks: Vec<&[Observation]> = data.chunks(CHUNK_POSES).collect();
+        let threads = std::thread::available_parallelism()
+            .map_or(1, |n| n.get())
+            .min(chunks.len());
+        let partials: Vec<Self> = if threads <= 1 {
+            chunks.iter().map(|c| chunk(c)).collect()
+        } else {
+            // Each thread takes the next chunk not yet taken.
+            let next = std::sync::atomic::AtomicUsize::new(0);
+            let mut done: Vec<(usize, Self)> = std::thread::scope(|scope| {
+                let workers: Vec<_> = (0..threads)
+                    .map(|_| {
+                        scope.spawn(|| {
+                            let mut mine = Vec::new();
+                            loop {
+                                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                                let Some(c) = chunks.get(i) else { break mine };
+                                mine.push((i, chunk(c)));
+                            }
+                        })
+                    })
+                    .collect();
+                workers
+                    .into_iter()
+                    .flat_map(|w| w.join().expect("a chunk's accumulation does not panic"))
+                    .collect()
+            });
+            done.sort_by_key(|(i, _)| *i);
+            done.into_iter().map(|(_, sums)| sums).collect()
+        };
+        let mut partials = partials.into_iter();
+        let Some(mut sums) = partials.next() else {
+            return Self::accumulate_chunk(model, data, params, weights);
+        };
+        for part in partials {
+            for c in 0..2 {
+                sums.jtj[c] += &part.jtj[c];
+                sums.jtr[c] += &part.jtr[c];
+                sums.rtr[c] += part.rtr[c];
+                sums.rows[c] += part.rows[c];
+            }
+        }
+        sums
+    }
+
+    /// The normal equations of the poses `data` at `model`, their rows filled a
     /// block of [`BLOCK_POSES`] poses at a time into a reused block matrix
     /// whose `JᵀJ` (lower half) and `Jᵀr` are then added by faer's matrix product.
-    fn accumulate(
+    fn accumulate_chunk(
         model: &Model,
         data: &[Observation],
         params: &[Unknown],
