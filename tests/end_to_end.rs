@@ -906,7 +906,7 @@ mod extended_fit {
             "{got:e} vs {half_lost_motion:e} ± {std:e}"
         );
         // The holding joints in the middle of their lost motion instead.
-        let mut middle = observations.clone();
+        let mut middle = observations.to_vec();
         for (i, o) in middle.iter_mut().enumerate().skip(1) {
             for (j, sigma) in o.context.approach.iter_mut().enumerate() {
                 if session.q[i][j] == session.q[i - 1][j] {

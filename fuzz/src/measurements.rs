@@ -37,10 +37,14 @@ pub fn run(data: &[u8]) -> bool {
         }
         Ok(m) => {
             assert!(!m.poses.is_empty(), "accepted without a pose");
+            assert_eq!(
+                (m.lines.len(), m.times.len()),
+                (m.poses.len(), m.poses.len())
+            );
             let mut last_line = 0;
-            for p in &m.poses {
-                assert!(p.line > last_line && p.line <= lines, "line {}", p.line);
-                last_line = p.line;
+            for ((p, &line), t) in m.poses.iter().zip(&m.lines).zip(&m.times) {
+                assert!(line > last_line && line <= lines, "line {line}");
+                last_line = line;
                 assert_eq!(p.q.len(), dof);
                 assert!(p.q.iter().all(|x| x.is_finite()), "{p:?}");
                 assert!(p.position.iter().all(|x| x.is_finite()), "{p:?}");
@@ -48,7 +52,8 @@ pub fn run(data: &[u8]) -> bool {
                     let n = o.as_ref().norm();
                     assert!((n - 1.0).abs() < 1e-9, "orientation of norm {n}: {p:?}");
                 }
-                for v in [p.t, p.temp, p.load].into_iter().flatten() {
+                let c = &p.context;
+                for v in [*t, c.temperature, c.payload].into_iter().flatten() {
                     assert!(v.is_finite(), "{p:?}");
                 }
             }

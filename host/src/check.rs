@@ -44,16 +44,17 @@ pub fn nominal_error(model: &RobotModel, data: &Measurements) -> NominalError {
     let n = data.poses.len().max(1) as f64;
     let (mut sum_sq, mut sum, mut max, mut max_line) = (0.0, 0.0, 0.0f64, 0);
     let mut angles = Vec::new();
-    for pose in &data.poses {
+    let kinematics = model.robot.prepare();
+    for (pose, &line) in data.poses.iter().zip(&data.lines) {
         // The joint count was checked when the data were read against the model.
-        let Ok(frame) = model.robot.forward(&pose.q) else {
+        let Ok(frame) = kinematics.forward(&pose.q) else {
             continue;
         };
         let e = (pose.position.coords - frame.translation.vector).norm();
         sum_sq += e * e;
         sum += e;
         if e > max {
-            (max, max_line) = (e, pose.line);
+            (max, max_line) = (e, line);
         }
         if let Some(measured) = pose.orientation {
             let nominal = UnitQuaternion::from_rotation_matrix(&frame.rotation);

@@ -106,22 +106,6 @@ pub fn ends_line(bytes: &[u8], i: usize) -> bool {
     }
 }
 
-/// `text` with every lone `\r` (a line end of old Mac files) turned into `\n`:
-/// the same length, so byte offsets stay valid, and one kind of line end for the
-/// `csv` crate, whose comment lines end at `\n` only.
-pub fn unix_line_ends(text: &str) -> std::borrow::Cow<'_, str> {
-    let bytes = text.as_bytes();
-    let lone = |i: usize| bytes[i] == b'\r' && ends_line(bytes, i);
-    if !(0..bytes.len()).any(lone) {
-        return std::borrow::Cow::Borrowed(text);
-    }
-    let fixed: Vec<u8> = (0..bytes.len())
-        .map(|i| if lone(i) { b'\n' } else { bytes[i] })
-        .collect();
-    // Only ASCII bytes were replaced by ASCII bytes: still UTF-8.
-    std::borrow::Cow::Owned(String::from_utf8(fixed).unwrap_or_else(|_| text.to_owned()))
-}
-
 /// The 1-based (line, character column) of byte `offset` in `text`.
 ///
 /// Lines end as [`ends_line`] says (a `\r` before a `\n` counts as the last
@@ -202,14 +186,11 @@ pub fn human_size(n: u64) -> String {
 /// so that `/dev/zero` ends at the limit too.
 pub fn read_bounded(path: &str, limit: SizeLimit) -> Result<Vec<u8>, InputError> {
     use std::io::Read as _;
-    let file = std::fs::File::open(path).map_err(|e| InputError::unreadable(path, e))?;
+    let file = open_bounded(path, limit)?;
     let mut bytes = Vec::new();
     if let Ok(meta) = file.metadata()
         && meta.is_file()
     {
-        if meta.len() > limit.bytes {
-            return Err(limit.refusal(path));
-        }
         bytes.reserve(usize::try_from(meta.len()).unwrap_or(0));
     }
     file.take(limit.bytes.saturating_add(1))
@@ -219,6 +200,20 @@ pub fn read_bounded(path: &str, limit: SizeLimit) -> Result<Vec<u8>, InputError>
         return Err(limit.refusal(path));
     }
     Ok(bytes)
+}
+
+/// Opens the file at `path` to be read up to `limit`: a regular file whose
+/// size already says it is larger is refused before a byte is read (a reader
+/// of anything else stops at the limit itself, as [`read_bounded`] does).
+pub fn open_bounded(path: &str, limit: SizeLimit) -> Result<std::fs::File, InputError> {
+    let file = std::fs::File::open(path).map_err(|e| InputError::unreadable(path, e))?;
+    if let Ok(meta) = file.metadata()
+        && meta.is_file()
+        && meta.len() > limit.bytes
+    {
+        return Err(limit.refusal(path));
+    }
+    Ok(file)
 }
 
 /// Reads a whole input file as UTF-8 text, at most `limit` of it

@@ -591,7 +591,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 eprintln!();
             }
             data.require_fit_supported(&model, diagnosis.reference.position_rms)?;
-            let lines: Vec<usize> = data.poses.iter().map(|p| p.line).collect();
+            let lines = &data.lines;
             if out.is_some() {
                 let mut cal =
                     diagnosis.calibration(&model.robot, data.has_orientation(), model.units);

@@ -8,14 +8,14 @@
 //! blank lines are skipped; fields are trimmed. Lines end at `\n`, `\r\n` or a
 //! lone `\r`.
 //!
-//! | column | required | unit on file | in [`Pose`] |
+//! | column | required | unit on file | read into |
 //! | --- | --- | --- | --- |
-//! | `q1` … `qM` | yes | model angle unit (revolute) or length unit (prismatic) | `q`, rad or m |
-//! | `x`, `y`, `z` | yes | model length unit, measurement frame | `position`, m |
-//! | `qw`, `qx`, `qy`, `qz` | no, all four or none | unit quaternion, scalar first | `orientation`, normalised |
-//! | `t` | no | s | `t` |
-//! | `temp` | no | °C | `temp` |
-//! | `load` | no | kg | `load` |
+//! | `q1` … `qM` | yes | model angle unit (revolute) or length unit (prismatic) | [`Observation::q`], rad or m |
+//! | `x`, `y`, `z` | yes | model length unit, measurement frame | [`Observation::position`], m |
+//! | `qw`, `qx`, `qy`, `qz` | no, all four or none | unit quaternion, scalar first | [`Observation::orientation`], normalised |
+//! | `t` | no | s | [`Measurements::times`] |
+//! | `temp` | no | °C | [`Observation::context`] |
+//! | `load` | no | kg | [`Observation::context`] |
 //!
 //! Other columns (an id, a comment) are kept out of the computation, listed in
 //! [`Measurements::columns_ignored`] and named in a warning. An empty cell of an
@@ -42,14 +42,18 @@
 //! Every other refusal is the measurement reader's, from the same code.
 //!
 //! The `csv` crate splits the records; the column of a field is found by scanning
-//! the raw line for commas outside double quotes.
+//! the raw line for commas outside double quotes. A file is read as a stream,
+//! one record at a time, into [`Observation`]s (one copy of each pose, which
+//! the identification then reads in place): memory grows with the poses, not
+//! with the text.
 
+use armcal_shared::effects::{Approach, Context};
 use armcal_shared::units::Units;
 use armcal_shared::{JointType, Robot};
 use nalgebra::{Point3, Quaternion, UnitQuaternion};
 
 use crate::builtin;
-use crate::input_error::{DATA_FILE, InputError, ends_line, read_text, unix_line_ends};
+use crate::input_error::{DATA_FILE, InputError, SizeLimit, open_bounded};
 use crate::model_file::RobotModel;
 
 /// The temperatures (°C) a working robot may be measured at: below it a `temp`
@@ -64,50 +68,28 @@ pub const PAYLOAD_RANGE: [f64; 2] = [0.0, 5000.0];
 /// quaternion is normalised, beyond it the file is refused.
 pub const QUATERNION_NORM_TOLERANCE: f64 = 1e-3;
 
-/// One measured pose: the joint readings and what the tracker saw.
+/// One measured pose, SI: the joint readings, what the instrument saw, and
+/// what non-geometric effects depend on at it.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Pose {
-    /// 1-based line of this row in the file (for messages and `outlier_rows`).
-    pub line: usize,
-    /// Joint readings, SI: rad for a revolute joint, m for a prismatic one.
+pub struct Observation {
+    /// Joint readings: rad for a revolute joint, m for a prismatic one.
     pub q: Vec<f64>,
     /// Measured position of the tool point in the measurement frame, m.
     pub position: Point3<f64>,
     /// Measured orientation of the tool frame, if the row has one (normalised).
     pub orientation: Option<UnitQuaternion<f64>>,
-    /// Time of the measurement, s.
-    pub t: Option<f64>,
-    /// Temperature, °C.
-    pub temp: Option<f64>,
-    /// Payload mass, kg.
-    pub load: Option<f64>,
+    /// The row's temperature (`temp`, °C) and payload (`load`, kg), and the
+    /// direction each joint approached the pose from (the sign of its last
+    /// change in row order, held while the joint holds:
+    /// [`Approach`](armcal_shared::effects::Approach)).
+    pub context: Context<f64>,
 }
 
-impl Pose {
-    /// Whether the orientation was measured for this pose.
-    pub fn has_orientation(&self) -> bool {
-        self.orientation.is_some()
-    }
-
-    /// Whether the time was recorded for this pose.
-    pub fn has_time(&self) -> bool {
-        self.t.is_some()
-    }
-
-    /// Whether the temperature was recorded for this pose.
-    pub fn has_temp(&self) -> bool {
-        self.temp.is_some()
-    }
-
-    /// Whether the payload was recorded for this pose.
-    pub fn has_load(&self) -> bool {
-        self.load.is_some()
-    }
-
+impl Observation {
     /// The scalar equations this pose gives an identification: 3 (position) or 6
     /// (position and orientation).
     pub fn equations(&self) -> usize {
-        if self.has_orientation() { 6 } else { 3 }
+        if self.orientation.is_some() { 6 } else { 3 }
     }
 }
 
@@ -117,7 +99,12 @@ pub struct Measurements {
     /// The file as named by the user (or the label of a built-in set).
     pub file: String,
     /// The poses, in file order.
-    pub poses: Vec<Pose>,
+    pub poses: Vec<Observation>,
+    /// The 1-based line of each pose's row in the file (for messages and
+    /// `outlier_rows`).
+    pub lines: Vec<usize>,
+    /// The time of each measurement (`t`, s), where the row gives it.
+    pub times: Vec<Option<f64>>,
     /// The header names of the columns used, in file order.
     pub columns_used: Vec<String>,
     /// The header names of the columns kept out of the computation, in file order.
@@ -139,13 +126,13 @@ impl Measurements {
 
     /// Whether every pose has a measured orientation.
     pub fn has_orientation(&self) -> bool {
-        !self.poses.is_empty() && self.poses.iter().all(Pose::has_orientation)
+        !self.poses.is_empty() && self.poses.iter().all(|p| p.orientation.is_some())
     }
 
     /// The number of scalar equations the poses give: 3 per pose, 6 per pose with
     /// orientation.
     pub fn equations(&self) -> usize {
-        self.poses.iter().map(Pose::equations).sum()
+        self.poses.iter().map(Observation::equations).sum()
     }
 
     /// Refuses the file if its poses give fewer equations than `unknowns`.
@@ -159,7 +146,7 @@ impl Measurements {
         }
         let per_pose = if self.has_orientation() { 6 } else { 3 };
         let needed = unknowns.div_ceil(per_pose);
-        let line = self.poses.last().map_or(1, |p| p.line);
+        let line = self.lines.last().copied().unwrap_or(1);
         Err(InputError::new(
             &self.file,
             line,
@@ -237,7 +224,7 @@ impl Measurements {
             {
                 return Err(InputError::new(
                     &self.file,
-                    first.line,
+                    self.lines.first().copied().unwrap_or(0),
                     1,
                     format!(
                         "column '{name}' reads {} {unit} on every row while the joints move: \
@@ -250,12 +237,12 @@ impl Measurements {
         let reach = reach(robot, self.poses.iter().map(|p| p.q.as_slice()));
         let median = |c: usize| {
             let mut v: Vec<f64> = self.poses.iter().map(|p| p.position[c]).collect();
-            v.sort_by(f64::total_cmp);
-            v[v.len() / 2]
+            let half = v.len() / 2;
+            *v.select_nth_unstable_by(half, f64::total_cmp).1
         };
         let centre = Point3::new(median(0), median(1), median(2));
         // Scaled, so that a coordinate of 1e300 does not overflow its square.
-        let distance = |p: &Pose| {
+        let distance = |p: &Observation| {
             let v = p.position - centre;
             let m = v.amax();
             if m > 0.0 { m * (v / m).norm() } else { 0.0 }
@@ -269,15 +256,16 @@ impl Measurements {
                 format!("{x}")
             }
         };
-        if let Some(far) = self
+        if let Some((far, line)) = self
             .poses
             .iter()
-            .find(|p| distance(p) > SPREAD_LIMIT * reach.max(1e-3))
+            .zip(&self.lines)
+            .find(|(p, _)| distance(p) > SPREAD_LIMIT * reach.max(1e-3))
         {
             let d = distance(far);
             return Err(InputError::new(
                 &self.file,
-                far.line,
+                *line,
                 1,
                 format!(
                     "the point ({}, {}, {}) {unit} lies {} {unit} from the median of the \
@@ -333,7 +321,7 @@ pub fn load_measurements(
     if let Some((text, label)) = builtin::builtin_data(name_or_path) {
         return parse_measurements(text, label, model);
     }
-    let text = read_text(name_or_path, DATA_FILE).map_err(|mut e| {
+    let source = open_bounded(name_or_path, DATA_FILE).map_err(|mut e| {
         if e.line == 0 {
             e.message = format!(
                 "{} (and it is not a built-in data set: {})",
@@ -343,7 +331,11 @@ pub fn load_measurements(
         }
         e
     })?;
-    parse_measurements(&text, name_or_path, model)
+    read_measurements(
+        Source::new(std::io::BufReader::new(source), DATA_FILE),
+        name_or_path,
+        model,
+    )
 }
 
 /// One row of joint readings, for `armcal predict` and `compensate`.
@@ -420,8 +412,13 @@ impl JointRows {
 /// Loads the joint readings of the file at `path`, read against `robot` (its
 /// joint count, joint types and limits) in `units`.
 pub fn load_joints(path: &str, robot: &Robot<f64>, units: &Units) -> Result<JointRows, InputError> {
-    let text = read_text(path, DATA_FILE)?;
-    parse_joints(&text, path, robot, units)
+    let source = open_bounded(path, DATA_FILE)?;
+    read_joints(
+        Source::new(std::io::BufReader::new(source), DATA_FILE),
+        path,
+        robot,
+        units,
+    )
 }
 
 /// Parses the text of a joint-readings file (see [the module](self)) against
@@ -434,31 +431,37 @@ pub fn parse_joints(
     robot: &Robot<f64>,
     units: &Units,
 ) -> Result<JointRows, InputError> {
-    let table = parse_table(
-        text,
-        file,
-        &Schema {
-            robot,
-            units: *units,
-            kind: Kind::Joints,
-        },
-    )?;
+    read_joints(Source::new(text.as_bytes(), DATA_FILE), file, robot, units)
+}
+
+/// Reads a joint-readings file from `source` against `robot`.
+fn read_joints<R: std::io::Read>(
+    source: Source<R>,
+    file: &str,
+    robot: &Robot<f64>,
+    units: &Units,
+) -> Result<JointRows, InputError> {
+    let schema = Schema {
+        robot,
+        units: *units,
+        kind: Kind::Joints,
+    };
+    let mut rows = Vec::new();
+    let columns = read_table(source, file, &schema, |r| {
+        rows.push(JointRow {
+            line: r.line,
+            q: r.q,
+            t: r.t,
+            temp: r.temp,
+            load: r.load,
+        });
+    })?;
     Ok(JointRows {
         file: file.to_owned(),
-        rows: table
-            .records
-            .into_iter()
-            .map(|r| JointRow {
-                line: r.line,
-                q: r.q,
-                t: r.t,
-                temp: r.temp,
-                load: r.load,
-            })
-            .collect(),
-        columns_used: table.columns_used,
-        columns_ignored: table.columns_ignored,
-        warnings: table.warnings,
+        rows,
+        columns_used: columns.used,
+        columns_ignored: columns.ignored,
+        warnings: columns.warnings,
     })
 }
 
@@ -525,18 +528,25 @@ struct Record {
     load: Option<f64>,
 }
 
-/// A whole file as read.
-struct Table {
-    records: Vec<Record>,
-    columns_used: Vec<String>,
-    columns_ignored: Vec<String>,
+/// The columns of a file as read.
+struct Columns {
+    /// The header names of the columns used, in file order.
+    used: Vec<String>,
+    /// The header names of the columns not read, in file order.
+    ignored: Vec<String>,
+    /// Things the user should know that do not stop the computation.
     warnings: Vec<String>,
 }
 
-/// Reads `text` as a file of `schema.kind`; a leading byte-order mark is dropped.
-fn parse_table(text: &str, file: &str, schema: &Schema<'_>) -> Result<Table, InputError> {
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    CsvReader::new(&unix_line_ends(text), file).read(schema)
+/// Reads the file `source` (`file` in messages) as a file of `schema.kind`,
+/// giving each data row to `sink` as it is read.
+fn read_table<R: std::io::Read>(
+    source: Source<R>,
+    file: &str,
+    schema: &Schema<'_>,
+    sink: impl FnMut(Record),
+) -> Result<Columns, InputError> {
+    CsvReader::new(source, file).read(schema, sink)
 }
 
 /// What a column of the file feeds.
@@ -605,89 +615,323 @@ pub fn parse_measurements(
     file: &str,
     model: &RobotModel,
 ) -> Result<Measurements, InputError> {
-    let table = parse_table(
-        text,
-        file,
-        &Schema {
-            robot: &model.robot,
-            units: model.units,
-            kind: Kind::Measurements,
-        },
-    )?;
+    read_measurements(Source::new(text.as_bytes(), DATA_FILE), file, model)
+}
+
+/// Reads a measurement file from `source` against `model`, one row at a time.
+fn read_measurements<R: std::io::Read>(
+    source: Source<R>,
+    file: &str,
+    model: &RobotModel,
+) -> Result<Measurements, InputError> {
+    let schema = Schema {
+        robot: &model.robot,
+        units: model.units,
+        kind: Kind::Measurements,
+    };
+    let (mut poses, mut lines, mut times) = (Vec::new(), Vec::new(), Vec::new());
+    let mut approach = Approach::new();
+    let columns = read_table(source, file, &schema, |r| {
+        let context = Context {
+            temperature: r.temp,
+            payload: r.load,
+            approach: approach.next(&r.q),
+        };
+        poses.push(Observation {
+            q: r.q,
+            position: Point3::from(r.position),
+            orientation: r.orientation,
+            context,
+        });
+        lines.push(r.line);
+        times.push(r.t);
+    })?;
     Ok(Measurements {
         file: file.to_owned(),
-        poses: table
-            .records
-            .into_iter()
-            .map(|r| Pose {
-                line: r.line,
-                q: r.q,
-                position: Point3::from(r.position),
-                orientation: r.orientation,
-                t: r.t,
-                temp: r.temp,
-                load: r.load,
-            })
-            .collect(),
-        columns_used: table.columns_used,
-        columns_ignored: table.columns_ignored,
-        warnings: table.warnings,
+        poses,
+        lines,
+        times,
+        columns_used: columns.used,
+        columns_ignored: columns.ignored,
+        warnings: columns.warnings,
     })
 }
 
-/// The raw text and where each record of it starts.
-struct CsvReader<'a> {
-    text: &'a str,
-    file: &'a str,
+/// The bytes of a data file as the `csv` crate reads them, prepared as the
+/// module says: a leading byte-order mark dropped, every lone CR made an LF (one
+/// byte for one, so offsets stay those of the file), the size bounded and the
+/// text checked to be UTF-8 before the reader sees it. What the reader consumed
+/// since the record being read began stays in `window`, for the places of
+/// errors; the rest is let go, so a file is read in memory independent of its
+/// length.
+struct Source<R> {
+    inner: R,
+    /// The most bytes read from `inner` ([`SizeLimit::bytes`]).
+    limit: u64,
+    /// Bytes read from `inner` so far.
+    raw: u64,
+    /// The text from offset `start` on.
+    window: Vec<u8>,
+    start: usize,
+    /// The offset of the next byte for the `csv` reader.
+    given: usize,
+    /// The text up to this offset is UTF-8 (and may be given).
+    checked: usize,
+    /// A CR ended the last read: whether it ends a line depends on the next byte.
+    held_cr: bool,
+    /// Whether a read has been made (the mark is looked for in the first).
+    begun: bool,
+    /// Whether `inner` is exhausted (or the text ends early: `stop`).
+    eof: bool,
+    /// Where the text ends early, and why.
+    stop: Option<(usize, Stop)>,
+    /// The buffer `inner` is read into.
+    chunk: Vec<u8>,
+}
+
+/// Why the text of a data file ends before its end.
+#[derive(Clone, Debug)]
+enum Stop {
+    /// The file is larger than the limit.
+    TooLarge,
+    /// A byte that is not UTF-8.
+    NotUtf8,
+    /// The file could not be read on (an I/O error).
+    Unreadable(String),
+}
+
+impl<R: std::io::Read> Source<R> {
+    fn new(inner: R, limit: SizeLimit) -> Self {
+        Self {
+            inner,
+            limit: limit.bytes,
+            raw: 0,
+            window: Vec::new(),
+            start: 0,
+            given: 0,
+            checked: 0,
+            held_cr: false,
+            begun: false,
+            eof: false,
+            stop: None,
+            chunk: vec![0; 1 << 16],
+        }
+    }
+
+    /// The offset one past the last byte in the window.
+    fn end(&self) -> usize {
+        self.start + self.window.len()
+    }
+
+    /// The byte at `offset`, if it is in the window.
+    fn byte(&self, offset: usize) -> Option<u8> {
+        offset
+            .checked_sub(self.start)
+            .and_then(|i| self.window.get(i).copied())
+    }
+
+    /// The text from `from` to `to` (what of it is in the window).
+    fn text(&self, from: usize, to: usize) -> &[u8] {
+        let (a, b) = (
+            from.saturating_sub(self.start),
+            to.saturating_sub(self.start),
+        );
+        self.window.get(a..b.min(self.window.len())).unwrap_or(&[])
+    }
+
+    /// Lets go of the text before `offset` once that is most of the window.
+    fn forget_before(&mut self, offset: usize) {
+        let dead = offset.min(self.given).saturating_sub(self.start);
+        if dead >= 1 << 16 && dead >= self.window.len() / 2 {
+            self.window.drain(..dead);
+            self.start += dead;
+        }
+    }
+
+    /// Reads the next chunk of `inner` into the window.
+    fn fill(&mut self) {
+        let n = loop {
+            match self.inner.read(&mut self.chunk) {
+                Ok(n) => break n,
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => {
+                    self.end_early(self.end(), Stop::Unreadable(e.to_string()));
+                    return;
+                }
+            }
+        };
+        self.raw += n as u64;
+        let mut bytes = self.chunk.get(..n).unwrap_or(&[]);
+        if self.raw > self.limit {
+            let over = usize::try_from(self.raw - self.limit).unwrap_or(n).min(n);
+            bytes = &bytes[..n - over];
+        }
+        if !self.begun {
+            self.begun = true;
+            bytes = bytes.strip_prefix("\u{feff}".as_bytes()).unwrap_or(bytes);
+        }
+        if std::mem::take(&mut self.held_cr) {
+            self.window.push(if bytes.first() == Some(&b'\n') {
+                b'\r'
+            } else {
+                b'\n'
+            });
+        }
+        let mut rest = bytes;
+        while let Some(i) = memchr::memchr(b'\r', rest) {
+            self.window.extend_from_slice(&rest[..i]);
+            match rest.get(i + 1) {
+                Some(b'\n') => self.window.push(b'\r'),
+                Some(_) => self.window.push(b'\n'),
+                None => self.held_cr = true,
+            }
+            rest = &rest[i + 1..];
+        }
+        self.window.extend_from_slice(rest);
+        if n == 0 {
+            self.eof = true;
+        }
+        let checked = self.checked - self.start;
+        if let Err(e) = std::str::from_utf8(&self.window[checked..]) {
+            self.checked += e.valid_up_to();
+            if e.error_len().is_some() || self.eof {
+                self.window.truncate(self.checked - self.start);
+                self.end_early(self.checked, Stop::NotUtf8);
+            }
+        } else {
+            self.checked = self.end();
+        }
+        if self.raw > self.limit {
+            self.end_early(self.end(), Stop::TooLarge);
+        }
+    }
+
+    fn end_early(&mut self, offset: usize, why: Stop) {
+        self.eof = true;
+        self.held_cr = false;
+        if self.stop.is_none() {
+            self.stop = Some((offset, why));
+        }
+    }
+}
+
+impl<R: std::io::Read> std::io::Read for Source<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        while self.given == self.checked && !self.eof {
+            self.fill();
+        }
+        let ready = self
+            .window
+            .get(self.given - self.start..self.checked - self.start)
+            .unwrap_or(&[]);
+        let n = ready.len().min(buf.len());
+        buf[..n].copy_from_slice(&ready[..n]);
+        self.given += n;
+        Ok(n)
+    }
+}
+
+/// Reads the records of a data file one at a time and says where each is.
+struct CsvReader<'f, R> {
+    reader: csv::Reader<Source<R>>,
+    file: &'f str,
     /// Line counting cursor: `line` is the 1-based line of byte `byte`.
     byte: usize,
     line: usize,
 }
 
-/// One record: its fields (trimmed), where it starts and its line.
+/// One record: its fields (untrimmed: [`Row::field`] trims), where it starts
+/// and its line.
+#[derive(Default)]
 struct Row {
     fields: csv::StringRecord,
     start: usize,
     line: usize,
 }
 
-impl<'a> CsvReader<'a> {
-    fn new(text: &'a str, file: &'a str) -> Self {
+impl Row {
+    /// The number of fields.
+    fn len(&self) -> usize {
+        self.fields.len()
+    }
+
+    /// The fields, trimmed.
+    fn fields(&self) -> impl Iterator<Item = &str> {
+        self.fields.iter().map(trim)
+    }
+
+    /// Field `i`, trimmed.
+    fn field(&self, i: usize) -> Option<&str> {
+        self.fields.get(i).map(trim)
+    }
+}
+
+/// `field` without leading and trailing white space ([`str::trim`], which a
+/// field that starts and ends in a printable ASCII character does not need).
+fn trim(field: &str) -> &str {
+    match (field.as_bytes().first(), field.as_bytes().last()) {
+        (Some(a), Some(b)) if a.is_ascii_graphic() && b.is_ascii_graphic() => field,
+        _ => field.trim(),
+    }
+}
+
+impl<'f, R: std::io::Read> CsvReader<'f, R> {
+    fn new(source: Source<R>, file: &'f str) -> Self {
         Self {
-            text,
+            reader: csv::ReaderBuilder::new()
+                .has_headers(false)
+                .comment(Some(b'#'))
+                .flexible(true)
+                .from_reader(source),
             file,
             byte: 0,
             line: 1,
         }
     }
 
-    fn err_at(&self, offset: usize, message: impl Into<String>) -> InputError {
-        InputError::at_offset(self.file, self.text, offset, message)
+    fn source(&self) -> &Source<R> {
+        self.reader.get_ref()
     }
 
-    /// The 1-based line of byte `offset` (lines end as [`ends_line`] says, as
-    /// for the places of errors); offsets come in increasing order, so the whole
-    /// file is scanned once.
-    fn line_of(&mut self, offset: usize) -> usize {
-        let bytes = self.text.as_bytes();
-        let offset = offset.min(bytes.len());
-        if offset < self.byte {
-            self.byte = 0;
-            self.line = 1;
+    /// The refusal `message` at byte `offset`: its line and character column.
+    fn err_at(&self, offset: usize, message: impl Into<String>) -> InputError {
+        let source = self.source();
+        let mut offset = offset.clamp(self.byte, source.end());
+        // Not inside a character.
+        while offset > self.byte && source.byte(offset).is_some_and(|b| b & 0xC0 == 0x80) {
+            offset -= 1;
         }
-        self.line += (self.byte..offset).filter(|&i| ends_line(bytes, i)).count();
-        self.byte = offset;
+        let before = source.text(self.byte, offset);
+        let line_start = memchr::memrchr(b'\n', before).map_or(0, |i| i + 1);
+        let column = before[line_start..]
+            .iter()
+            .filter(|&&b| b & 0xC0 != 0x80)
+            .count()
+            + 1;
+        let line = self.line + memchr::memchr_iter(b'\n', before).count();
+        InputError::new(self.file, line, column, message)
+    }
+
+    /// The 1-based line of byte `offset`; offsets come in increasing order, so
+    /// the file is scanned once. Every line ends in `\n` by now: a lone CR
+    /// became one ([`Source`]), the CR of a CR LF is the line's last character.
+    fn line_of(&mut self, offset: usize) -> usize {
+        let offset = offset.min(self.source().end());
+        if offset > self.byte {
+            self.line += memchr::memchr_iter(b'\n', self.source().text(self.byte, offset)).count();
+            self.byte = offset;
+        }
         self.line
     }
 
     /// Where a record really starts: the `csv` crate reports the place it began
     /// reading, before the comment and blank lines it skipped.
     fn record_start(&self, mut i: usize) -> usize {
-        let bytes = self.text.as_bytes();
+        let source = self.source();
         loop {
-            match bytes.get(i) {
+            match source.byte(i) {
                 Some(b'#') => {
-                    while let Some(&b) = bytes.get(i) {
+                    while let Some(b) = source.byte(i) {
                         i += 1;
                         if b == b'\n' {
                             break;
@@ -703,9 +947,9 @@ impl<'a> CsvReader<'a> {
     /// The byte offsets where the fields of the record at `start` begin (after
     /// leading blanks, as the fields are trimmed), and where the record ends.
     fn field_offsets(&self, start: usize) -> (Vec<usize>, usize) {
-        let bytes = self.text.as_bytes();
+        let source = self.source();
         let skip_blanks = |mut i: usize| {
-            while matches!(bytes.get(i), Some(b' ' | b'\t')) {
+            while matches!(source.byte(i), Some(b' ' | b'\t')) {
                 i += 1;
             }
             i
@@ -715,15 +959,15 @@ impl<'a> CsvReader<'a> {
         loop {
             starts.push(skip_blanks(i));
             // As in csv-core, a quote opens a quoted field only as its first byte.
-            let mut in_quotes = bytes.get(i) == Some(&b'"');
+            let mut in_quotes = source.byte(i) == Some(b'"');
             if in_quotes {
                 i += 1;
             }
             loop {
-                match bytes.get(i) {
+                match source.byte(i) {
                     None => return (starts, i),
                     Some(b'"') if in_quotes => {
-                        if bytes.get(i + 1) == Some(&b'"') {
+                        if source.byte(i + 1) == Some(b'"') {
                             i += 2;
                         } else {
                             in_quotes = false;
@@ -748,24 +992,38 @@ impl<'a> CsvReader<'a> {
         starts.get(index).copied().unwrap_or(end)
     }
 
-    /// The next record that is not a blank-looking line, or `None` at the end.
-    fn next_row(&mut self, reader: &mut csv::Reader<&[u8]>) -> Result<Option<Row>, InputError> {
+    /// Reads the next record that is not a blank-looking line into `row`;
+    /// `false` at the end of the file.
+    fn next_row(&mut self, row: &mut Row) -> Result<bool, InputError> {
         loop {
-            let mut fields = csv::StringRecord::new();
-            match reader.read_record(&mut fields) {
-                Ok(false) => return Ok(None),
+            let read = self.reader.read_record(&mut row.fields);
+            // The text may end early where the reader stopped.
+            if let Some((offset, why)) = self.source().stop.clone()
+                && offset <= self.reader.position().byte() as usize
+            {
+                return Err(match why {
+                    Stop::TooLarge => SizeLimit {
+                        bytes: self.source().limit,
+                        what: DATA_FILE.what,
+                    }
+                    .refusal(self.file),
+                    Stop::NotUtf8 => {
+                        self.err_at(offset, "the file is not UTF-8 text (invalid byte here)")
+                    }
+                    Stop::Unreadable(reason) => InputError::unreadable(self.file, reason),
+                });
+            }
+            match read {
+                Ok(false) => return Ok(false),
                 Ok(true) => {
-                    let begun = fields.position().map_or(0, |p| p.byte() as usize);
-                    let start = self.record_start(begun);
-                    let line = self.line_of(start);
-                    if fields.len() == 1 && fields.get(0).is_some_and(str::is_empty) {
+                    let begun = row.fields.position().map_or(0, |p| p.byte() as usize);
+                    row.start = self.record_start(begun);
+                    row.line = self.line_of(row.start);
+                    self.reader.get_mut().forget_before(row.start);
+                    if row.len() == 1 && row.field(0).is_some_and(str::is_empty) {
                         continue; // a line of blanks only
                     }
-                    return Ok(Some(Row {
-                        fields,
-                        start,
-                        line,
-                    }));
+                    return Ok(true);
                 }
                 Err(e) => {
                     let offset = e.position().map_or(0, |p| p.byte() as usize);
@@ -775,15 +1033,14 @@ impl<'a> CsvReader<'a> {
         }
     }
 
-    fn read(mut self, schema: &Schema<'_>) -> Result<Table, InputError> {
-        let mut reader = csv::ReaderBuilder::new()
-            .has_headers(false)
-            .comment(Some(b'#'))
-            .trim(csv::Trim::All)
-            .flexible(true)
-            .from_reader(self.text.as_bytes());
-
-        let Some(header) = self.next_row(&mut reader)? else {
+    /// Reads the header and every data row, giving each row to `sink`.
+    fn read(
+        mut self,
+        schema: &Schema<'_>,
+        mut sink: impl FnMut(Record),
+    ) -> Result<Columns, InputError> {
+        let mut header = Row::default();
+        if !self.next_row(&mut header)? {
             return Err(InputError::new(
                 self.file,
                 1,
@@ -793,14 +1050,19 @@ impl<'a> CsvReader<'a> {
                     schema.kind.required(schema.dof())
                 ),
             ));
-        };
+        }
         let columns = self.header(&header, schema)?;
 
-        let mut records = Vec::new();
-        while let Some(row) = self.next_row(&mut reader)? {
-            records.push(self.record(&row, &header, &columns, schema)?);
+        let mut tally = LimitTally::new(schema);
+        let mut row = Row::default();
+        let mut rows = 0;
+        while self.next_row(&mut row)? {
+            let record = self.record(&row, &header, &columns, schema)?;
+            tally.add(&record);
+            sink(record);
+            rows += 1;
         }
-        if records.is_empty() {
+        if rows == 0 {
             return Err(InputError::new(
                 self.file,
                 header.line,
@@ -812,18 +1074,18 @@ impl<'a> CsvReader<'a> {
             ));
         }
 
-        let mut columns_used = Vec::new();
-        let mut columns_ignored = Vec::new();
-        for (name, role) in header.fields.iter().zip(&columns) {
+        let mut used = Vec::new();
+        let mut ignored = Vec::new();
+        for (name, role) in header.fields().zip(&columns) {
             if *role == Role::Ignored {
-                columns_ignored.push(name.to_owned());
+                ignored.push(name.to_owned());
             } else {
-                columns_used.push(name.to_owned());
+                used.push(name.to_owned());
             }
         }
         let mut warnings = Vec::new();
-        if !columns_ignored.is_empty() {
-            let names: Vec<String> = columns_ignored
+        if !ignored.is_empty() {
+            let names: Vec<String> = ignored
                 .iter()
                 .map(|n| {
                     if n.is_empty() {
@@ -841,12 +1103,11 @@ impl<'a> CsvReader<'a> {
                 schema.kind.used(schema.dof())
             ));
         }
-        warnings.extend(limit_warnings(self.file, &records, schema));
+        warnings.extend(tally.warnings(self.file, schema));
 
-        Ok(Table {
-            records,
-            columns_used,
-            columns_ignored,
+        Ok(Columns {
+            used,
+            ignored,
             warnings,
         })
     }
@@ -857,7 +1118,7 @@ impl<'a> CsvReader<'a> {
         let at = |index: usize, message: String| {
             self.err_at(self.field_offset(header.start, index), message)
         };
-        let names: Vec<&str> = header.fields.iter().collect();
+        let names: Vec<&str> = header.fields().collect();
 
         for (i, name) in names.iter().enumerate() {
             if name.is_empty() {
@@ -956,17 +1217,17 @@ impl<'a> CsvReader<'a> {
         let at = |index: usize, message: String| {
             self.err_at(self.field_offset(row.start, index), message)
         };
-        if row.fields.len() != roles.len() {
-            let hint = if row.fields.get(0).is_some_and(|f| f.starts_with('#')) {
+        if row.len() != roles.len() {
+            let hint = if row.field(0).is_some_and(|f| f.starts_with('#')) {
                 " (a comment line must start with '#' in its first column)"
             } else {
                 ""
             };
             return Err(at(
-                roles.len().min(row.fields.len()),
+                roles.len().min(row.len()),
                 format!(
                     "row has {}, the header has {}{hint}",
-                    plural(row.fields.len(), "field"),
+                    plural(row.len(), "field"),
                     roles.len()
                 ),
             ));
@@ -977,11 +1238,11 @@ impl<'a> CsvReader<'a> {
         let mut position = [0.0; 3];
         let mut quat: [Option<f64>; 4] = [None; 4];
         let (mut t, mut temp, mut load) = (None, None, None);
-        for (i, (value, role)) in row.fields.iter().zip(roles).enumerate() {
+        for (i, (value, role)) in row.fields().zip(roles).enumerate() {
             if *role == Role::Ignored {
                 continue;
             }
-            let name = header.fields.get(i).unwrap_or("");
+            let name = header.field(i).unwrap_or("");
             let number = || -> Result<f64, InputError> {
                 match value.parse::<f64>() {
                     Ok(x) if x.is_finite() => Ok(x),
@@ -1118,33 +1379,56 @@ fn case_hint(names: &[&str], wanted: &str) -> String {
         .unwrap_or_default()
 }
 
-/// One warning per joint whose readings leave the model's limits.
-fn limit_warnings(file: &str, records: &[Record], schema: &Schema<'_>) -> Vec<String> {
-    let units = schema.units;
-    let mut warnings = Vec::new();
-    for (j, link) in schema.robot.links.iter().enumerate() {
-        let Some([lo, hi]) = link.limits else {
-            continue;
-        };
-        let outside: Vec<&Record> = records
-            .iter()
-            .filter(|p| p.q.get(j).is_some_and(|&q| q < lo || q > hi))
-            .collect();
-        if let Some(first) = outside.first() {
-            let q = first.q.get(j).copied().unwrap_or(0.0);
-            let unit = units.joint_unit(link.joint);
-            warnings.push(format!(
-                "{file}:{}: q{} = {} {unit} is outside the model's limits [{}, {}] {unit} ({} reading(s) outside in all)",
-                first.line,
-                j + 1,
-                units.joint_from_si(link.joint, q),
-                units.joint_from_si(link.joint, lo),
-                units.joint_from_si(link.joint, hi),
-                outside.len()
-            ));
+/// The readings outside each joint's limits, tallied row by row, for one
+/// warning per joint: the first (its line and value) and how many.
+struct LimitTally {
+    /// Per joint: its limits, the first reading outside them and the count.
+    joints: Vec<(Option<[f64; 2]>, Option<(usize, f64)>, usize)>,
+}
+
+impl LimitTally {
+    fn new(schema: &Schema<'_>) -> Self {
+        Self {
+            joints: schema
+                .robot
+                .links
+                .iter()
+                .map(|l| (l.limits, None, 0))
+                .collect(),
         }
     }
-    warnings
+
+    fn add(&mut self, record: &Record) {
+        for ((limits, first, count), &q) in self.joints.iter_mut().zip(&record.q) {
+            if let Some([lo, hi]) = *limits
+                && (q < lo || q > hi)
+            {
+                first.get_or_insert((record.line, q));
+                *count += 1;
+            }
+        }
+    }
+
+    /// One warning per joint with readings outside its limits.
+    fn warnings(&self, file: &str, schema: &Schema<'_>) -> Vec<String> {
+        let units = schema.units;
+        let mut warnings = Vec::new();
+        for (j, (link, (limits, first, count))) in
+            schema.robot.links.iter().zip(&self.joints).enumerate()
+        {
+            if let (Some([lo, hi]), Some((line, q))) = (limits, first) {
+                let unit = units.joint_unit(link.joint);
+                warnings.push(format!(
+                    "{file}:{line}: q{} = {} {unit} is outside the model's limits [{}, {}] {unit} ({count} reading(s) outside in all)",
+                    j + 1,
+                    units.joint_from_si(link.joint, *q),
+                    units.joint_from_si(link.joint, *lo),
+                    units.joint_from_si(link.joint, *hi),
+                ));
+            }
+        }
+        warnings
+    }
 }
 
 #[cfg(test)]
@@ -1188,7 +1472,7 @@ mod tests {
         let text = format!("# comment\r{HEADER6}\r{ROW6}\r0.1,0.2,0.3,0.4,0.5,0.6,1.0,abc,3.0\r");
         refused(&ur5e(), &text, 4, 29, &["column 'y'", "\"abc\""]);
         let m = parse_measurements(&text.replace("abc", "2.0"), "data.csv", &ur5e()).unwrap();
-        assert_eq!(m.poses.iter().map(|p| p.line).collect::<Vec<_>>(), [3, 4]);
+        assert_eq!(m.lines, [3, 4]);
     }
 
     /// A temperature no working robot has (absolute zero, a value in K) and a
@@ -1339,8 +1623,8 @@ mod tests {
             assert_eq!(m.has_orientation(), d.name == "figaroh-ur10e-camera");
             // Lines are those of the file: after the comment lines and the header.
             let first_data_line = d.text.lines().position(|l| !l.starts_with('#')).unwrap() + 2;
-            assert_eq!(m.poses[0].line, first_data_line);
-            assert_eq!(m.poses.last().unwrap().line, first_data_line + expected - 1);
+            assert_eq!(m.lines[0], first_data_line);
+            assert_eq!(*m.lines.last().unwrap(), first_data_line + expected - 1);
         }
     }
 
@@ -1370,8 +1654,8 @@ mod tests {
 
         let talos = load_model("figaroh-talos-left-arm").unwrap();
         let m = load_measurements("figaroh-talos-left-arm", &talos).unwrap();
-        assert!(m.poses.iter().all(Pose::has_time));
-        assert_eq!(m.poses[0].t, Some(42.399117469787598));
+        assert!(m.times.iter().all(Option::is_some));
+        assert_eq!(m.times[0], Some(42.399117469787598));
 
         let tiago = load_model("figaroh-tiago-mocap").unwrap();
         let m = load_measurements("figaroh-tiago-mocap", &tiago).unwrap();
@@ -1426,7 +1710,7 @@ mod tests {
         let model = ur5e();
         let text = format!("{HEADER6}\r{ROW6}\r{ROW6}\n{ROW6}\r\n");
         let m = parse_measurements(&text, "data.csv", &model).unwrap();
-        let lines: Vec<usize> = m.poses.iter().map(|p| p.line).collect();
+        let lines = m.lines.clone();
         assert_eq!(lines, [2, 3, 4]);
         let rows = parse_joints(&text, "data.csv", &model.robot, &model.units).unwrap();
         let lines: Vec<usize> = rows.rows.iter().map(|r| r.line).collect();
@@ -1451,7 +1735,7 @@ mod tests {
                     8,0,0,0,0,0,0,1,2,3,,,,,,,,\r\n";
         let m = parse_measurements(text, "data.csv", &ur5e()).unwrap();
         assert_eq!(m.len(), 2);
-        assert_eq!((m.poses[0].line, m.poses[1].line), (5, 7));
+        assert_eq!(m.lines, [5, 7]);
         assert_eq!(m.columns_ignored, ["id", "comment"]);
         assert!(
             m.warnings[0].contains("'id', 'comment'"),
@@ -1460,10 +1744,13 @@ mod tests {
         );
         let p = &m.poses[0];
         assert!((p.orientation.unwrap().into_inner().norm() - 1.0).abs() < 1e-15);
-        assert_eq!((p.t, p.temp, p.load), (Some(0.5), Some(21.5), Some(2.0)));
-        assert!(p.has_orientation() && p.has_temp() && p.has_load());
-        let p = &m.poses[1];
-        assert!(!p.has_orientation() && !p.has_time() && !p.has_temp() && !p.has_load());
+        let conditions = |i: usize| {
+            let c = &m.poses[i].context;
+            (m.times[i], c.temperature, c.payload)
+        };
+        assert_eq!(conditions(0), (Some(0.5), Some(21.5), Some(2.0)));
+        assert_eq!(conditions(1), (None, None, None));
+        assert!(m.poses[1].orientation.is_none());
         assert_eq!(m.equations(), 9);
         assert!(!m.has_orientation());
     }
@@ -1741,9 +2028,13 @@ mod tests {
                 .unwrap_or_else(|e| panic!("{e}"));
             assert_eq!(j.file, d.file);
             assert_eq!(j.len(), m.len());
-            for (r, p) in j.rows.iter().zip(&m.poses) {
-                assert_eq!((r.line, &r.q), (p.line, &p.q));
-                assert_eq!((r.t, r.temp, r.load), (p.t, p.temp, p.load));
+            for (i, (r, p)) in j.rows.iter().zip(&m.poses).enumerate() {
+                assert_eq!((r.line, &r.q), (m.lines[i], &p.q));
+                let c = &p.context;
+                assert_eq!(
+                    (r.t, r.temp, r.load),
+                    (m.times[i], c.temperature, c.payload)
+                );
             }
             let pose_columns: Vec<&String> = m
                 .columns_used

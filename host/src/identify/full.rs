@@ -67,7 +67,7 @@ use armcal_shared::{FrameAxis, JointType, Param, Robot, Twist, rotation_error};
 use faer::linalg::matmul::{self, triangular, triangular::BlockStructure};
 use faer::linalg::solvers::{DenseSolveCore, Solve};
 use faer::{Accum, Mat, Par, Side};
-use nalgebra::{IsometryMatrix3, Matrix3, Point3, Rotation3, UnitQuaternion, Vector3};
+use nalgebra::{IsometryMatrix3, Matrix3, Point3, Rotation3, Vector3};
 
 use super::noise::{ChannelNoise, NoiseEstimate, NoiseSource, SETTLED};
 use super::prior::{Geometry, Prior};
@@ -147,18 +147,7 @@ pub fn effect_parameter_name(effect: &Effect<f64>, component: usize) -> String {
     }
 }
 
-/// One measured pose in SI units.
-#[derive(Clone, Debug)]
-pub struct Observation {
-    /// Joint readings (rad or m).
-    pub q: Vec<f64>,
-    /// Measured tool point, m, measurement frame.
-    pub position: Point3<f64>,
-    /// Measured tool orientation, if measured.
-    pub orientation: Option<UnitQuaternion<f64>>,
-    /// What non-geometric effects depend on at this pose.
-    pub context: armcal_shared::effects::Context<f64>,
-}
+pub use crate::measurements::Observation;
 
 /// Settings of the full identification.
 #[derive(Clone, Copy, Debug)]
@@ -940,6 +929,21 @@ impl Linearization {
     }
 }
 
+/// The damping Levenberg–Marquardt starts from, on the normal equations
+/// scaled to a unit diagonal: Nielsen's `τ = 1e-6` for a start near the
+/// solution (the nominal model and the closed-form base and tool are), so that
+/// the first steps are Gauss–Newton's.
+const LAMBDA_START: f64 = 1e-6;
+
+/// Whether a step that lowers the weighted sum of squares (in units of the
+/// noise², the prior's terms included) from `cost` by `decrease` is too small
+/// to matter: less than 1e-8 of it, and never more than 1e-4. A Gauss–Newton
+/// step `δ` lowers it by `δᵀGδ`, and no parameter moves by more than
+/// `√(δᵀGδ)` of its standard error: by at most a hundredth, however many poses.
+fn negligible(decrease: f64, cost: f64) -> bool {
+    decrease <= (1e-8 * cost).min(1e-4)
+}
+
 /// Levenberg–Marquardt on `free` from `robot`, minimising the weighted sum of
 /// squares plus the prior's `Σ (x − x_nominal)²/τ²` (`prior`: precision and
 /// nominal value of each free unknown): iterations, convergence and the
@@ -957,7 +961,7 @@ fn levenberg_marquardt(
     // next iteration's, so each iteration costs one pass over the poses. `sys` is
     // the linearisation at `robot`.
     let mut cost = sys.cost() + prior_cost(robot, free_params, prior);
-    let mut lambda = 1e-6;
+    let mut lambda = LAMBDA_START;
     let mut iterations = 0;
     let mut converged = false;
     while iterations < options.max_iterations && !converged {
@@ -992,15 +996,29 @@ fn levenberg_marquardt(
             let size = (0..free_params.len())
                 .map(|k| ds[(k, 0)].abs())
                 .fold(0.0, f64::max);
+            // The decrease of the sum of squares the linearisation predicts for
+            // this step, `2 δᵀg − δᵀGδ`: an undamped step that promises less than
+            // the convergence test asks of a real one is not worth a pass over
+            // the poses — at a minimum.
+            let predicted: f64 = (0..free_params.len())
+                .map(|k| {
+                    let g_ds: f64 = (0..free_params.len()).map(|l| g[(k, l)] * ds[(l, 0)]).sum();
+                    ds[(k, 0)] * (2.0 * rhs[(k, 0)] - g_ds)
+                })
+                .sum();
+            if lambda <= LAMBDA_START && negligible(predicted, cost) {
+                accepted = true;
+                converged = true;
+                break;
+            }
             let mut trial = robot.clone();
             apply(&mut trial, free_params, &step);
             let trial_sys = NormalEquations::accumulate(&trial, data, free_params, weights);
             let trial_cost = trial_sys.cost() + prior_cost(&trial, free_params, prior);
             if trial_cost <= cost {
-                // Converged when the step no longer matters: below 1e-10 of the noise,
-                // or lowering the sum of squares by less than 1e-8 of it (the
-                // parameters then move by about 1e-4 of a standard error).
-                converged = size < 1e-10 || cost - trial_cost <= 1e-8 * cost;
+                // Converged when the step no longer matters: below 1e-10 of the
+                // noise, or lowering the sum of squares negligibly.
+                converged = size < 1e-10 || negligible(cost - trial_cost, cost);
                 (*robot, cost, sys) = (trial, trial_cost, trial_sys);
                 lambda = (lambda / 10.0).max(1e-12);
                 accepted = true;
@@ -1675,8 +1693,21 @@ fn rms_pair(pos: f64, n: usize, rot: f64, n_rot: usize) -> (f64, f64) {
     (rms(pos, n), rms(rot, n_rot))
 }
 
-/// The closed-form estimate of base and tool with the nominal joints (see the module header).
+/// The most poses the closed-form estimate of base and tool reads: evenly
+/// spaced over a longer session. A start for the fit, which then reads every
+/// pose; at this many its own scatter is below a hundredth of the noise.
+const START_POSES: usize = 10_000;
+
+/// The closed-form estimate of base and tool with the nominal joints (see the
+/// module header), from at most [`START_POSES`] of the poses.
 fn initial_base_tool(robot: &mut Robot<f64>, data: &[Observation]) {
+    let step = data.len().div_ceil(START_POSES).max(1);
+    let sample: std::borrow::Cow<'_, [Observation]> = if step > 1 {
+        data.iter().step_by(step).cloned().collect()
+    } else {
+        data.into()
+    };
+    let data = &*sample;
     let mut bare = robot.clone();
     bare.base = armcal_shared::Frame::identity();
     bare.tool = armcal_shared::Frame::identity();

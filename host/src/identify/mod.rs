@@ -108,24 +108,8 @@ pub enum IdentifyError {
 /// payload from the `temp` and `load` columns, and the approach direction of
 /// every joint from row order (the sign of its last change, held while the joint
 /// holds: [`armcal_shared::effects::Approach`]).
-pub fn observations(data: &Measurements) -> Vec<Observation> {
-    let mut approach = armcal_shared::effects::Approach::new();
-    data.poses
-        .iter()
-        .map(|p| {
-            let context = armcal_shared::effects::Context {
-                temperature: p.temp,
-                payload: p.load,
-                approach: approach.next(&p.q),
-            };
-            Observation {
-                q: p.q.clone(),
-                position: p.position,
-                orientation: p.orientation,
-                context,
-            }
-        })
-        .collect()
+pub fn observations(data: &Measurements) -> &[Observation] {
+    &data.poses
 }
 
 /// Runs the identification of `set` on `data`.
