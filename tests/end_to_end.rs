@@ -884,13 +884,13 @@ mod extended_fit {
         let fit = |data: &[Observation]| {
             identify_with_effects(&nominal, &[start], &[], data, &options).unwrap()
         };
-        let geometric = identify_full(&nominal, &observations, &options).unwrap();
+        let geometric = identify_full(&nominal, observations, &options).unwrap();
         assert!(
             geometric.variance_factor > 2.0,
             "geometry alone already fits ({})",
             geometric.variance_factor
         );
-        let extended = fit(&observations);
+        let extended = fit(observations);
         let band = 5.0 * (2.0 / dof(&extended)).sqrt();
         assert!(
             (extended.variance_factor - 1.0).abs() < band,

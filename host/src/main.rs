@@ -583,7 +583,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             };
             let diagnosis = armcal::diagnose::diagnose_with_progress(
                 &model.robot,
-                &observations,
+                observations,
                 &options,
                 &mut bar,
             )?;
@@ -600,17 +600,15 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             if json.is_some() {
                 let text =
-                    serde_json::to_string_pretty(&diagnosis.to_json(&model, &lines, &options))?;
+                    serde_json::to_string_pretty(&diagnosis.to_json(&model, lines, &options))?;
                 outputs.set("--json", text.into_bytes());
             }
             if html.is_some() {
                 let page =
-                    armcal::report::html(&model, &data.file, &diagnosis, &observations, &options);
+                    armcal::report::html(&model, &data.file, &diagnosis, observations, &options);
                 outputs.set("--html", page.into_bytes());
             }
-            finish(outputs, || {
-                diagnosis.summary(&lines, &options, &model.units)
-            })?;
+            finish(outputs, || diagnosis.summary(lines, &options, &model.units))?;
         }
         Command::Demo { seed, html } => {
             let mut outputs = output::Outputs::new().output("--html", Some(&html));

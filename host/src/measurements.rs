@@ -1382,9 +1382,12 @@ fn case_hint(names: &[&str], wanted: &str) -> String {
 /// The readings outside each joint's limits, tallied row by row, for one
 /// warning per joint: the first (its line and value) and how many.
 struct LimitTally {
-    /// Per joint: its limits, the first reading outside them and the count.
-    joints: Vec<(Option<[f64; 2]>, Option<(usize, f64)>, usize)>,
+    joints: Vec<JointTally>,
 }
+
+/// One joint's [`LimitTally`]: its limits, the first reading outside them
+/// (line, value) and the count.
+type JointTally = (Option<[f64; 2]>, Option<(usize, f64)>, usize);
 
 impl LimitTally {
     fn new(schema: &Schema<'_>) -> Self {

@@ -996,21 +996,6 @@ fn levenberg_marquardt(
             let size = (0..free_params.len())
                 .map(|k| ds[(k, 0)].abs())
                 .fold(0.0, f64::max);
-            // The decrease of the sum of squares the linearisation predicts for
-            // this step, `2 δᵀg − δᵀGδ`: an undamped step that promises less than
-            // the convergence test asks of a real one is not worth a pass over
-            // the poses — at a minimum.
-            let predicted: f64 = (0..free_params.len())
-                .map(|k| {
-                    let g_ds: f64 = (0..free_params.len()).map(|l| g[(k, l)] * ds[(l, 0)]).sum();
-                    ds[(k, 0)] * (2.0 * rhs[(k, 0)] - g_ds)
-                })
-                .sum();
-            if lambda <= LAMBDA_START && negligible(predicted, cost) {
-                accepted = true;
-                converged = true;
-                break;
-            }
             let mut trial = robot.clone();
             apply(&mut trial, free_params, &step);
             let trial_sys = NormalEquations::accumulate(&trial, data, free_params, weights);

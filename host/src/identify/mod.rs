@@ -123,7 +123,7 @@ pub fn identify(
     let orientation = data.poses.iter().any(|p| p.orientation.is_some());
     let (iterations, converged, parameters, calibrated, fit) = match set {
         ParamSet::Full => {
-            let fit = full::identify_full(nominal, &observations(data), options)?;
+            let fit = full::identify_full(nominal, observations(data), options)?;
             let rows: Vec<ParamRow> = fit
                 .params
                 .iter()
@@ -196,7 +196,7 @@ pub fn identify(
         }
     };
     let obs = observations(data);
-    let (position_rms, orientation_rms) = full::residual_rms(&calibrated, &obs);
+    let (position_rms, orientation_rms) = full::residual_rms(&calibrated, obs);
     let mut calibration = Calibration::nominal(nominal.clone(), orientation, model.units);
     for row in parameters
         .iter()

@@ -1,0 +1,99 @@
+#!/usr/bin/env python3
+"""The scale benchmark: armcal on a laser tracker's long session.
+
+A tracker streams 1,000 points a second: a 15-minute session is 10⁶
+positions. This simulates one (a PUMA 560, `armcal simulate --poses 1000000`),
+then measures the wall time and the peak memory (the child's maximum resident
+set size) of
+
+- `armcal identify` on all 10⁶ positions: budget 2 s and 300 MB;
+- `armcal diagnose` on the first 10⁵: budget 5 s;
+- `armcal check` on all 10⁶ (reported, no budget);
+
+each the best of three runs. Prints a table and exits 1 when a budget is
+exceeded. Run from the repository root after `cargo build --release -p armcal`:
+
+    python3 scripts/scale-bench.py [--armcal target/release/armcal]
+"""
+
+import argparse
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+
+BUDGETS = {
+    # name: (seconds, MB)
+    "identify 10^6": (2.0, 300.0),
+    "diagnose 10^5": (5.0, None),
+    "check 10^6": (None, None),
+}
+
+
+def run(cmd):
+    """Wall seconds and peak resident MB of one run of `cmd` (in a fresh
+    process, so that RUSAGE_CHILDREN is this run's alone)."""
+    probe = (
+        "import resource, subprocess, sys, time\n"
+        "t = time.perf_counter()\n"
+        "r = subprocess.run(sys.argv[1:], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)\n"
+        "wall = time.perf_counter() - t\n"
+        "if r.returncode != 0:\n"
+        "    sys.stderr.write(r.stderr.decode()); sys.exit(r.returncode)\n"
+        "print(wall, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", probe, *cmd], check=True, capture_output=True, text=True
+    ).stdout.split()
+    return float(out[0]), float(out[1]) / 1024.0
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--armcal", default=os.path.join(
+        os.environ.get("CARGO_TARGET_DIR", "target"), "release", "armcal"))
+    parser.add_argument("--runs", type=int, default=3)
+    args = parser.parse_args()
+    armcal = args.armcal
+    with tempfile.TemporaryDirectory() as tmp:
+        big = os.path.join(tmp, "session-1e6.csv")
+        small = os.path.join(tmp, "session-1e5.csv")
+        t = time.perf_counter()
+        subprocess.run([armcal, "simulate", "--model", "puma560", "--poses", "1000000",
+                        "--seed", "1", "--out", big], check=True, stdout=subprocess.DEVNULL)
+        print(f"simulated 10^6 positions in {time.perf_counter() - t:.1f} s "
+              f"({os.path.getsize(big) / 1e6:.0f} MB of CSV)")
+        # The first 10⁵ data rows with the comment and header lines.
+        with open(big) as src, open(small, "w") as dst:
+            rows = 0
+            for line in src:
+                dst.write(line)
+                if line[0].isdigit() or line[0] == "-":
+                    rows += 1
+                    if rows == 100_000:
+                        break
+        cases = {
+            "identify 10^6": [armcal, "identify", "--model", "puma560", "--data", big],
+            "diagnose 10^5": [armcal, "diagnose", "--model", "puma560", "--data", small],
+            "check 10^6": [armcal, "check", "--model", "puma560", "--data", big],
+        }
+        failed = False
+        print(f"| run (best of {args.runs}) | wall s | budget | peak MB | budget |")
+        print("| --- | --- | --- | --- | --- |")
+        for name, cmd in cases.items():
+            results = [run(cmd) for _ in range(args.runs)]
+            wall = min(r[0] for r in results)
+            peak = min(r[1] for r in results)
+            seconds, mb = BUDGETS[name]
+            over = (seconds is not None and wall > seconds) or (mb is not None and peak > mb)
+            failed |= over
+            show = lambda b, unit: "—" if b is None else f"≤ {b:g} {unit}"
+            print(f"| {name} | {wall:.2f} | {show(seconds, 's')} | {peak:.0f} | "
+                  f"{show(mb, 'MB')} |{' OVER BUDGET' if over else ''}")
+        return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
