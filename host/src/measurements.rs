@@ -2171,6 +2171,45 @@ mod tests {
     /// Characters that matter to CSV and to this format, to mutate files with.
     const CSV_ALPHABET: &str = ",,,\"\"#\n\r .-+e0123456789qwxyzntaif\u{e9}\u{1f600}";
 
+    /// A reader that gives at most `piece` bytes a read.
+    struct Trickle<'a> {
+        bytes: &'a [u8],
+        piece: usize,
+    }
+
+    impl std::io::Read for Trickle<'_> {
+        fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+            let n = self.piece.min(buf.len()).min(self.bytes.len());
+            buf[..n].copy_from_slice(&self.bytes[..n]);
+            self.bytes = &self.bytes[n..];
+            Ok(n)
+        }
+    }
+
+    /// A file far longer than the reader keeps (it lets go of what lies
+    /// before the record being read): a refusal on its last line is placed
+    /// as in the whole text, and every pose keeps its line.
+    #[test]
+    fn a_long_file_keeps_its_places() {
+        let model = ur5e();
+        let rows = 40_000;
+        let mut text = format!("# a long session\r\n{HEADER6}\r\n");
+        for i in 0..rows {
+            text.push_str(&format!("{ROW6}\r\n"));
+            if i % 1000 == 0 {
+                text.push_str("# a comment\r");
+            }
+        }
+        let m = parse_measurements(&text, "data.csv", &model).unwrap();
+        assert_eq!(m.len(), rows);
+        let expected = crate::input_error::line_col(&text, text.len()).0 - 1;
+        assert_eq!(*m.lines.last().unwrap(), expected);
+        text.push_str("0.1,0.2,0.3,0.4,0.5,0.6,1.0,€x,3.0\r\n");
+        let (line, column) = crate::input_error::line_col(&text, text.rfind('€').unwrap());
+        refused(&model, &text, line, column, &["column 'y'"]);
+        assert!(text.len() > 16 << 16, "sixteen times what the reader keeps");
+    }
+
     proptest! {
         /// Random bytes never make the measurement parser panic.
         #[test]
@@ -2185,6 +2224,35 @@ mod tests {
             let text = String::from_utf8_lossy(&bytes);
             let model = ur5e();
             let _ = parse_joints(&text, "fuzz.csv", &model.robot, &model.units);
+        }
+
+        /// Read in pieces of 1 to 7 bytes (as a pipe delivers a file: a CR and
+        /// its LF, the bytes of one character, a line split between reads),
+        /// a file gives what it gives read whole: the same poses, or the same
+        /// refusal at the same place. Edited built-in data sets with CRs,
+        /// multi-byte characters and bytes that are not UTF-8 among the edits.
+        #[test]
+        fn a_file_read_in_pieces_reads_as_a_whole(
+            which in 0..DATA.len(),
+            edits in prop::collection::vec((any::<usize>(), any::<u8>(), any::<usize>()), 0..12),
+            invalid in prop::option::of(any::<prop::sample::Index>()),
+            piece in 1usize..8,
+        ) {
+            let d = &DATA[which];
+            let model = load_model(d.name).unwrap();
+            let text = crate::test_support::mutate(d.text, &edits, CSV_ALPHABET);
+            let mut bytes = text.into_bytes();
+            if let Some(at) = invalid {
+                let at = at.index(bytes.len() + 1);
+                bytes.insert(at, 0xff);
+            }
+            let whole = read_measurements(Source::new(&bytes[..], DATA_FILE), "data.csv", &model);
+            let pieces = read_measurements(
+                Source::new(Trickle { bytes: &bytes, piece }, DATA_FILE),
+                "data.csv",
+                &model,
+            );
+            prop_assert_eq!(whole, pieces);
         }
 
         /// Random edits of the built-in data sets never make the parser panic, and a
