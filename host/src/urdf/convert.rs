@@ -320,3 +320,128 @@ impl Urdf {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::{joint_motion, parse};
+    use super::*;
+
+    /// A URDF of `axes` (joint origin xyz, rpy, axis, type) in a chain.
+    fn chain_urdf(axes: &[([f64; 3], [f64; 3], [f64; 3], &str)]) -> String {
+        let mut s = String::from("<robot name=\"t\">\n<link name=\"l0\"/>\n");
+        for (i, (xyz, rpy, axis, kind)) in axes.iter().enumerate() {
+            let f = |v: &[f64; 3]| format!("{} {} {}", v[0], v[1], v[2]);
+            s += &format!(
+                "<link name=\"l{n}\"/>\n<joint name=\"j{n}\" type=\"{kind}\"><parent link=\"l{i}\"/><child link=\"l{n}\"/><origin xyz=\"{}\" rpy=\"{}\"/><axis xyz=\"{}\"/></joint>\n",
+                f(xyz),
+                f(rpy),
+                f(axis),
+                n = i + 1
+            );
+        }
+        s + "</robot>\n"
+    }
+
+    /// The converted model equals the URDF (its joints composed as the URDF
+    /// defines them) to 1e-12 m at random readings, on both sides of the
+    /// Hayati threshold, at exact and rounded parallelism, anti-parallel axes,
+    /// skewed and negative axes, prismatic joints, and a measured point.
+    #[test]
+    fn exact_on_both_sides_of_the_parallel_threshold() {
+        for gamma in [
+            0.0,
+            1e-10,
+            1e-4,
+            0.05,
+            0.0999,
+            0.1001,
+            0.3,
+            1.2,
+            std::f64::consts::PI - 1e-9,
+        ] {
+            let text = chain_urdf(&[
+                (
+                    [0.1, -0.2, 0.3],
+                    [0.2, -0.1, 0.4],
+                    [0.0, 0.0, 1.0],
+                    "revolute",
+                ),
+                (
+                    [0.4, 0.05, 0.02],
+                    [gamma, 0.0, 0.0],
+                    [0.0, 0.0, 1.0],
+                    "revolute",
+                ),
+                (
+                    [0.35, 0.0, 0.1],
+                    [0.0, gamma, 0.0],
+                    [0.0, 0.0, -1.0],
+                    "continuous",
+                ),
+                (
+                    [0.0, 0.1, 0.2],
+                    [0.3, 0.2, 0.1],
+                    [1.0, 2.0, -0.5],
+                    "prismatic",
+                ),
+                (
+                    [0.0, 0.0, 0.0],
+                    [0.0, 0.0, 0.0],
+                    [1.0, 2.0, -0.5],
+                    "revolute",
+                ),
+                (
+                    [0.05, 0.0, 0.1],
+                    [1.5, 0.0, 0.0],
+                    [0.0, 1.0, 0.0],
+                    "revolute",
+                ),
+            ]);
+            let urdf = parse(&text, "t.urdf").unwrap();
+            let spec = ChainSpec {
+                tip_point: Some(Vector3::new(0.01, 0.02, 0.15)),
+                ..Default::default()
+            };
+            let c = urdf.convert(&spec).unwrap();
+            let mut worst = 0.0f64;
+            for i in 0..100 {
+                let q: Vec<f64> = (0..6)
+                    .map(|k| ((i * 7 + k * 13) as f64 * 0.618).sin() * 2.0)
+                    .collect();
+                let mut want = Pose::identity();
+                for (j, &qk) in urdf.joints.iter().zip(&q) {
+                    want = want * j.origin * joint_motion(j.kind, &j.axis, qk);
+                }
+                let want = want * Translation3::new(0.01, 0.02, 0.15);
+                let got = c.robot.forward(&q).unwrap();
+                worst = worst
+                    .max((got.translation.vector - want.translation.vector).norm())
+                    .max((got.rotation.matrix() - want.rotation.matrix()).norm());
+            }
+            assert!(worst < 1e-12, "γ = {gamma}: {worst}");
+            // Joint 3's axis is at γ to joint 2's.
+            assert_eq!(c.hayati[2], gamma.sin().abs() < SIN_PARALLEL, "γ = {gamma}");
+        }
+    }
+
+    /// Roll, pitch and yaw reproduce the rotation to a few ulp, also at and
+    /// next to the gimbal lock (pitch ±π/2).
+    #[test]
+    fn rpy_reproduces_the_rotation_everywhere() {
+        let mut worst = 0.0f64;
+        for i in 0..2000 {
+            let t = i as f64;
+            let pitch = match i % 4 {
+                0 => std::f64::consts::FRAC_PI_2,
+                1 => -std::f64::consts::FRAC_PI_2 + 1e-9 * (t * 0.3).sin(),
+                _ => (t * 0.77).sin() * 1.6,
+            };
+            let r =
+                Rotation3::from_euler_angles((t * 1.3).sin() * 3.1, pitch, (t * 2.1).cos() * 3.1);
+            let [a, b, c] = rpy(&r);
+            let back = Rotation3::from_euler_angles(a, b, c);
+            worst = worst.max((back.matrix() - r.matrix()).norm());
+        }
+        assert!(worst < 1e-14, "{worst}");
+    }
+}

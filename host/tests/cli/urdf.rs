@@ -10,7 +10,6 @@
 //! the error is rounding again).
 
 use std::collections::HashMap;
-use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
 use armcal::model_file::load_model_with;
@@ -108,31 +107,10 @@ fn reference_fk(joints: &HashMap<String, RefJoint>, base: &str, tip: &str, q: &[
     pose
 }
 
-/// Deterministic pseudo-random readings, uniform within each joint's limits
-/// (without limits: `[-π, π]`, prismatic ±0.3 m).
-fn configurations(robot: &Robot<f64>, n: usize) -> Vec<Vec<f64>> {
-    let mut state = 0x2545_f491_4f6c_dd1d_u64;
-    let mut next = || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    };
-    (0..n)
-        .map(|_| {
-            robot
-                .links
-                .iter()
-                .map(|l| {
-                    let [lo, hi] = l.limits.unwrap_or(match l.joint {
-                        armcal_shared::JointType::Revolute => [-PI, PI],
-                        armcal_shared::JointType::Prismatic => [-0.3, 0.3],
-                    });
-                    lo + (hi - lo) * (next() + 1.0) / 2.0
-                })
-                .collect()
-        })
-        .collect()
+/// 200 reproducible random configurations within the joint limits, as
+/// `armcal simulate` draws them.
+fn configurations(robot: &Robot<f64>) -> Vec<Vec<f64>> {
+    armcal::simulate::random_configurations(robot, 200, &mut armcal::simulate::rng(7))
 }
 
 /// The largest distance between `a` and `b` (positions) and of their
@@ -186,7 +164,7 @@ fn a_urdf_model_has_the_urdfs_forward_kinematics() {
             .unwrap_or_else(|e| panic!("{e}"));
         let joints = reference(&std::fs::read_to_string(&path).unwrap());
         let (mut worst, mut worst_rot) = (0.0f64, 0.0f64);
-        for q in configurations(&model.robot, 200) {
+        for q in configurations(&model.robot) {
             let want =
                 reference_fk(&joints, base, tip, &q) * Translation3::from(Vector3::from(point));
             let got = model.robot.forward(&q).unwrap();
@@ -279,6 +257,75 @@ fn readings(csv: &str, dof: usize) -> Vec<Vec<f64>> {
         .collect()
 }
 
+/// In `d`: simulate `poses` poses of the model `model_args` name, identify,
+/// export (`--model` and the chain flags passed on when `into_urdf`) and
+/// predict the simulated readings.
+fn calibrate_and_export(d: &Path, model_args: &[&str], poses: &str, into_urdf: bool) {
+    let run = |verb: &[&str], extra: &[&str]| {
+        let args: Vec<&str> = verb.iter().chain(extra).copied().collect();
+        succeeds(d, &args)
+    };
+    run(
+        &[
+            "simulate", "--poses", poses, "--out", "d.csv", "--truth", "t.json",
+        ],
+        model_args,
+    );
+    run(
+        &["identify", "--data", "d.csv", "--out", "cal.bin"],
+        model_args,
+    );
+    run(
+        &[
+            "export",
+            "--calibration",
+            "cal.bin",
+            "--format",
+            "urdf",
+            "--out",
+            "cal.urdf",
+        ],
+        if into_urdf { model_args } else { &[] },
+    );
+    run(
+        &[
+            "predict",
+            "--calibration",
+            "cal.bin",
+            "--joints",
+            "d.csv",
+            "--out",
+            "p.csv",
+        ],
+        &[],
+    );
+}
+
+/// The largest distance, over the rows of `d.csv`, between `p.csv`'s predicted
+/// point and `cal.urdf`'s `armcal_measured_point` in its
+/// `armcal_measurement_frame`: evaluated independently, and by re-importing
+/// `cal.urdf` from `base` to `armcal_measured_point`.
+fn export_against_predict(d: &Path, base: &str, dof: usize) -> (f64, f64) {
+    let q = readings(&std::fs::read_to_string(d.join("d.csv")).unwrap(), dof);
+    let predicted = predicted_points(&std::fs::read_to_string(d.join("p.csv")).unwrap());
+    assert_eq!(q.len(), predicted.len());
+    let joints = reference(&std::fs::read_to_string(d.join("cal.urdf")).unwrap());
+    let measurement = reference_fk(&joints, base, "armcal_measurement_frame", &[]).inverse();
+    let reimported = load_model_with(
+        d.join("cal.urdf").to_str().unwrap(),
+        &spec(base, "armcal_measured_point", [0.0; 3]),
+    )
+    .unwrap();
+    let (mut independent, mut imported) = (0.0f64, 0.0f64);
+    for (q, p) in q.iter().zip(&predicted) {
+        let want = measurement * reference_fk(&joints, base, "armcal_measured_point", q);
+        independent = independent.max((Point3::from(want.translation.vector) - p).norm());
+        let got = measurement * reimported.robot.forward(q).unwrap();
+        imported = imported.max((Point3::from(got.translation.vector) - p).norm());
+    }
+    (independent, imported)
+}
+
 /// Simulate, identify, export into the URDF, and compare: the exported URDF's
 /// measured point in its measurement frame equals `armcal predict` to 1e-9 m,
 /// evaluated independently and by re-importing the export; and the identified
@@ -303,62 +350,9 @@ fn round_trip(file: &str, base: &str, tip: &str, point: [f64; 3], poses: &str) {
         "--tip-point",
         &point_arg,
     ];
-    let run = |verb: &[&str], extra: &[&str]| {
-        let args: Vec<&str> = verb.iter().chain(extra).copied().collect();
-        succeeds(d, &args)
-    };
-    run(
-        &[
-            "simulate", "--poses", poses, "--out", "d.csv", "--truth", "t.json",
-        ],
-        &chain,
-    );
-    run(&["identify", "--data", "d.csv", "--out", "cal.bin"], &chain);
-    run(
-        &[
-            "export",
-            "--calibration",
-            "cal.bin",
-            "--format",
-            "urdf",
-            "--out",
-            "cal.urdf",
-        ],
-        &chain,
-    );
-    succeeds(
-        d,
-        &[
-            "predict",
-            "--calibration",
-            "cal.bin",
-            "--joints",
-            "d.csv",
-            "--out",
-            "p.csv",
-        ],
-    );
+    calibrate_and_export(d, &chain, poses, true);
     let nominal = load_model_with(model, &spec(base, tip, point)).unwrap();
-    let q = readings(
-        &std::fs::read_to_string(d.join("d.csv")).unwrap(),
-        nominal.dof(),
-    );
-    let predicted = predicted_points(&std::fs::read_to_string(d.join("p.csv")).unwrap());
-    let exported = std::fs::read_to_string(d.join("cal.urdf")).unwrap();
-    let joints = reference(&exported);
-    let measurement = reference_fk(&joints, base, "armcal_measurement_frame", &[]).inverse();
-    let reimported = load_model_with(
-        d.join("cal.urdf").to_str().unwrap(),
-        &spec(base, "armcal_measured_point", [0.0; 3]),
-    )
-    .unwrap();
-    let (mut independent, mut imported) = (0.0f64, 0.0f64);
-    for (q, p) in q.iter().zip(&predicted) {
-        let want = measurement * reference_fk(&joints, base, "armcal_measured_point", q);
-        independent = independent.max((Point3::from(want.translation.vector) - p).norm());
-        let got = measurement * reimported.robot.forward(q).unwrap();
-        imported = imported.max((Point3::from(got.translation.vector) - p).norm());
-    }
+    let (independent, imported) = export_against_predict(d, base, nominal.dof());
     // The true robot of the simulation against the identified one, at other configurations.
     let truth: serde_json::Value =
         serde_json::from_slice(&std::fs::read(d.join("t.json")).unwrap()).unwrap();
@@ -366,7 +360,7 @@ fn round_trip(file: &str, base: &str, tip: &str, point: [f64; 3], poses: &str) {
     let cal = armcal::predict::load_calibration(d.join("cal.bin").to_str().unwrap()).unwrap();
     let calibrated = cal.calibrated();
     let (mut recovered, mut nominal_error) = (0.0f64, 0.0f64);
-    for q in configurations(&nominal.robot, 200) {
+    for q in configurations(&nominal.robot) {
         let t = true_robot.measured_point(&q).unwrap();
         recovered = recovered.max((calibrated.measured_point(&q).unwrap() - t).norm());
         nominal_error = nominal_error.max((nominal.robot.measured_point(&q).unwrap() - t).norm());
@@ -381,6 +375,7 @@ fn round_trip(file: &str, base: &str, tip: &str, point: [f64; 3], poses: &str) {
     assert!(recovered < 5e-5, "{recovered}");
     // Only the moving joints' origins changed, and two links were added.
     let original = std::fs::read_to_string(model).unwrap();
+    let exported = std::fs::read_to_string(d.join("cal.urdf")).unwrap();
     assert_eq!(
         original.matches("<link").count() + 2,
         exported.matches("<link").count()
@@ -432,58 +427,8 @@ fn talos_round_trip() {
 fn generated_urdf_of_the_builtin_ur10e_round_trips() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    succeeds(
-        d,
-        &[
-            "simulate", "--model", "ur10e", "--poses", "100", "--out", "d.csv",
-        ],
-    );
-    succeeds(
-        d,
-        &[
-            "identify", "--model", "ur10e", "--data", "d.csv", "--out", "cal.bin",
-        ],
-    );
-    succeeds(
-        d,
-        &[
-            "export",
-            "--calibration",
-            "cal.bin",
-            "--format",
-            "urdf",
-            "--out",
-            "cal.urdf",
-        ],
-    );
-    succeeds(
-        d,
-        &[
-            "predict",
-            "--calibration",
-            "cal.bin",
-            "--joints",
-            "d.csv",
-            "--out",
-            "p.csv",
-        ],
-    );
-    let q = readings(&std::fs::read_to_string(d.join("d.csv")).unwrap(), 6);
-    let predicted = predicted_points(&std::fs::read_to_string(d.join("p.csv")).unwrap());
-    let joints = reference(&std::fs::read_to_string(d.join("cal.urdf")).unwrap());
-    let measurement = reference_fk(&joints, "base_link", "armcal_measurement_frame", &[]).inverse();
-    let reimported = load_model_with(
-        d.join("cal.urdf").to_str().unwrap(),
-        &spec("base_link", "armcal_measured_point", [0.0; 3]),
-    )
-    .unwrap();
-    let (mut independent, mut imported) = (0.0f64, 0.0f64);
-    for (q, p) in q.iter().zip(&predicted) {
-        let want = measurement * reference_fk(&joints, "base_link", "armcal_measured_point", q);
-        independent = independent.max((Point3::from(want.translation.vector) - p).norm());
-        let got = measurement * reimported.robot.forward(q).unwrap();
-        imported = imported.max((Point3::from(got.translation.vector) - p).norm());
-    }
+    calibrate_and_export(d, &["--model", "ur10e"], "100", false);
+    let (independent, imported) = export_against_predict(d, "base_link", 6);
     eprintln!(
         "generated ur10e: export vs predict max {independent:.2e} m (independent FK), {imported:.2e} m (re-imported)"
     );
