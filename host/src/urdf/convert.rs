@@ -326,8 +326,11 @@ mod tests {
     use super::super::{joint_motion, parse};
     use super::*;
 
-    /// A URDF of `axes` (joint origin xyz, rpy, axis, type) in a chain.
-    fn chain_urdf(axes: &[([f64; 3], [f64; 3], [f64; 3], &str)]) -> String {
+    /// One joint of a test chain: origin xyz, rpy, axis, type.
+    type TestJoint<'a> = ([f64; 3], [f64; 3], [f64; 3], &'a str);
+
+    /// A URDF of `axes` in a chain.
+    fn chain_urdf(axes: &[TestJoint<'_>]) -> String {
         let mut s = String::from("<robot name=\"t\">\n<link name=\"l0\"/>\n");
         for (i, (xyz, rpy, axis, kind)) in axes.iter().enumerate() {
             let f = |v: &[f64; 3]| format!("{} {} {}", v[0], v[1], v[2]);
