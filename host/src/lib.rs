@@ -21,6 +21,7 @@
 //! | [`diagnose`] | `armcal diagnose`: the model chosen on held-out poses (geometry, prior, effects), never worse than nominal; blunders; held-out gain |
 //! | [`demo`] | `armcal demo`: a simulated PUMA with a hidden effect, diagnosed, compensated, reported |
 //! | [`stats`] | Fisher's F distribution and its quantiles, for the diagnosis' tests |
+//! | [`urdf`] | URDF chains in (modified D-H with Hayati's tilt, exact) and calibrations out (`armcal export`) |
 //! | [`check`] | `armcal check`: what was read, and the error of the nominal model against the data |
 //!
 //! Units: inside the program everything is SI (m, rad, kg), as in `armcal-shared`;
@@ -44,6 +45,7 @@ pub mod reproduce;
 pub mod simulate;
 pub mod stats;
 pub mod sweep;
+pub mod urdf;
 
 #[cfg(test)]
 mod test_support;

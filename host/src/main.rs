@@ -14,7 +14,8 @@ use armcal::identify::full::FullOptions;
 use armcal::identify::noise::NoiseSource;
 use armcal::identify::paper::PaperOptions;
 use armcal::identify::{self, ParamSet};
-use armcal::input_error::InputError;
+use armcal::input_error::{InputError, MODEL_FILE, read_text};
+use armcal::urdf::{self, ChainSpec};
 use armcal::{
     builtin, compensate, link, measurements, model_file, output, predict, reproduce, simulate,
 };
@@ -38,9 +39,8 @@ enum Command {
     /// Print what was read from a robot model and a measurement file, and the
     /// error of the nominal model against the measurements.
     Check {
-        /// Robot model: a TOML file (FORMAT.md §1) or the name of a built-in model.
-        #[arg(long, value_name = "M.toml|NAME")]
-        model: String,
+        #[command(flatten)]
+        model: ModelArgs,
         /// Measurements: a CSV file (FORMAT.md §2) or the name of a built-in data set.
         #[arg(long, value_name = "D.csv|NAME")]
         data: String,
@@ -48,9 +48,8 @@ enum Command {
     /// Identify the geometric parameter errors from measured poses, say which
     /// parameters the data cannot separate, and write the calibration.
     Identify {
-        /// Robot model: a TOML file (FORMAT.md §1) or the name of a built-in model.
-        #[arg(long, value_name = "M.toml|NAME")]
-        model: String,
+        #[command(flatten)]
+        model: ModelArgs,
         /// Measurements: a CSV file (FORMAT.md §2) or the name of a built-in data set.
         #[arg(long, value_name = "D.csv|NAME")]
         data: String,
@@ -112,9 +111,8 @@ enum Command {
     /// base and tool errors + hidden effects) measured with noise; writes the
     /// measurements (FORMAT.md) and, with --truth, what was built in.
     Simulate {
-        /// Robot model: a TOML file or the name of a built-in model.
-        #[arg(long, value_name = "M.toml|NAME")]
-        model: String,
+        #[command(flatten)]
+        model: ModelArgs,
         /// Poses to measure.
         #[arg(long, default_value_t = 200)]
         poses: usize,
@@ -175,9 +173,8 @@ enum Command {
     /// Fit the geometry, show what it gets wrong, name the cause, extend the model
     /// and measure the gain on held-out poses.
     Diagnose {
-        /// Robot model: a TOML file or the name of a built-in model.
-        #[arg(long, value_name = "M.toml|NAME")]
-        model: String,
+        #[command(flatten)]
+        model: ModelArgs,
         /// Measurements: a CSV file or the name of a built-in data set.
         #[arg(long, value_name = "D.csv|NAME")]
         data: String,
@@ -233,6 +230,30 @@ enum Command {
         #[arg(long, value_name = "R.html", default_value = "armcal-demo.html")]
         html: PathBuf,
     },
+    /// Write a calibration as a URDF: into the URDF its model was read from
+    /// (only the origins of the chain's moving joints change), or generated from
+    /// the calibrated model; with two links added, `armcal_measured_point` (the
+    /// calibrated measured point) and `armcal_measurement_frame` (the
+    /// calibration's measurement frame). Effects other than geometry are left
+    /// out, with a warning.
+    Export {
+        /// The calibration file written by `armcal identify --out` or `armcal diagnose --out`.
+        #[arg(long, value_name = "CAL")]
+        calibration: String,
+        /// The URDF the calibration's model was read from (with the same
+        /// --base-link, --tip-link and --tip-point); without it, a URDF is
+        /// generated from the calibrated model.
+        #[arg(long, value_name = "M.urdf")]
+        model: Option<String>,
+        #[command(flatten)]
+        chain: ChainArgs,
+        /// The format to write.
+        #[arg(long, value_enum)]
+        format: ExportFormat,
+        /// Write it here (otherwise it is printed).
+        #[arg(long, value_name = "OUT.urdf")]
+        out: Option<PathBuf>,
+    },
     /// List the built-in robot models and data sets.
     Models,
     /// Rebuild the worked examples of a seed paper and print them as the paper does.
@@ -241,6 +262,77 @@ enum Command {
         #[arg(value_enum)]
         paper: Paper,
     },
+}
+
+/// The robot model and, for a URDF, which chain of it to read.
+#[derive(clap::Args, Debug)]
+struct ModelArgs {
+    /// Robot model: a TOML file (FORMAT.md §1), a URDF (`*.urdf`, or text
+    /// starting with `<`; docs/urdf.md) or the name of a built-in model.
+    #[arg(long, value_name = "M.toml|M.urdf|NAME")]
+    model: String,
+    #[command(flatten)]
+    chain: ChainArgs,
+}
+
+impl ModelArgs {
+    /// The model these flags name.
+    fn load(&self) -> Result<model_file::RobotModel, InputError> {
+        model_file::load_model_with(&self.model, &self.chain.spec()?)
+    }
+}
+
+/// Which chain of a URDF model is the arm, and where on it the measured point is.
+#[derive(clap::Args, Debug)]
+struct ChainArgs {
+    /// URDF model: the link the chain starts from, whose frame is the robot's
+    /// base (default: the root link).
+    #[arg(long, value_name = "LINK")]
+    base_link: Option<String>,
+    /// URDF model: the link the chain ends at, which carries the measured point
+    /// (default: followed down from the base while one branch holds the moving
+    /// joints).
+    #[arg(long, value_name = "LINK")]
+    tip_link: Option<String>,
+    /// URDF model: the measured point in the tip link's frame, `x,y,z` in m
+    /// (default: the tip link's origin).
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    tip_point: Option<String>,
+}
+
+impl ChainArgs {
+    /// The chain these flags name.
+    fn spec(&self) -> Result<ChainSpec, InputError> {
+        let tip_point = match &self.tip_point {
+            None => None,
+            Some(text) => {
+                let parts: Vec<Option<f64>> = text
+                    .split(',')
+                    .map(|p| p.trim().parse::<f64>().ok().filter(|x| x.is_finite()))
+                    .collect();
+                match parts.as_slice() {
+                    [Some(x), Some(y), Some(z)] => Some(nalgebra::Vector3::new(*x, *y, *z)),
+                    _ => {
+                        return Err(InputError::argument(
+                            "--tip-point",
+                            format!("{text:?}: expected x,y,z, three finite numbers in m"),
+                        ));
+                    }
+                }
+            }
+        };
+        Ok(ChainSpec {
+            base_link: self.base_link.clone(),
+            tip_link: self.tip_link.clone(),
+            tip_point,
+        })
+    }
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum ExportFormat {
+    /// URDF (ROS robot description).
+    Urdf,
 }
 
 /// The folds of the diagnosis' cross-validation unless `--folds` says otherwise.
@@ -373,10 +465,10 @@ fn is_bad_input(err: &anyhow::Error) -> bool {
 /// what the user should know of the data (columns not read, readings outside the
 /// limits) is printed as warnings.
 fn load_session(
-    model: &str,
+    model: &ModelArgs,
     data: &str,
 ) -> anyhow::Result<(model_file::RobotModel, measurements::Measurements)> {
-    let model = model_file::load_model(model)?;
+    let model = model.load()?;
     let data = measurements::load_measurements(data, &model)?;
     data.require_poses(check::independent_parameter_count(
         &model.robot,
@@ -419,7 +511,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             targets,
         } => {
             let mut outputs = output::Outputs::new()
-                .model_input(&model)
+                .model_input(&model.model)
                 .data_input(&data)
                 .output("--out", out.as_deref())
                 .output("--json", json.as_deref());
@@ -456,11 +548,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             truth,
         } => {
             let mut outputs = output::Outputs::new()
-                .model_input(&model)
+                .model_input(&model.model)
                 .output("--out", Some(&out))
                 .output("--truth", truth.as_deref());
             outputs.check()?;
-            let model = model_file::load_model(&model)?;
+            let model = model.load()?;
             let u = model.units;
             let dof = model.robot.dof();
             let mut scenario = simulate::Scenario::tracker(poses, seed);
@@ -540,7 +632,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             targets,
         } => {
             let mut outputs = output::Outputs::new()
-                .model_input(&model)
+                .model_input(&model.model)
                 .data_input(&data)
                 .output("--out", out.as_deref())
                 .output("--json", json.as_deref())
@@ -779,6 +871,46 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             warn(rows.warnings.iter().chain(&streamed.warnings(&joints)));
             eprintln!("armcal: {}", streamed.summary());
             finish_csv(outputs, csv)?;
+        }
+        Command::Export {
+            calibration,
+            model,
+            chain,
+            format: ExportFormat::Urdf,
+            out,
+        } => {
+            let mut outputs = output::Outputs::new().input("--calibration", &calibration);
+            if let Some(m) = &model {
+                outputs = outputs.input("--model", m);
+            }
+            let outputs = outputs.output("--out", out.as_deref());
+            outputs.check()?;
+            let spec = chain.spec()?;
+            let cal = predict::load_calibration(&calibration)?;
+            let exported = match &model {
+                Some(m) => {
+                    let text = read_text(m, MODEL_FILE)?;
+                    if !urdf::is_urdf(m, &text) {
+                        return Err(InputError::argument(
+                            "--model",
+                            format!("{m} is not a URDF: export writes into the URDF the model was read from; leave out --model to generate a URDF from the calibration"),
+                        )
+                        .into());
+                    }
+                    let (parsed, converted) = model_file::urdf_chain(&text, m, &spec)?;
+                    urdf::export::into_urdf(&cal, &parsed, &converted)?
+                }
+                None if !spec.is_default() => {
+                    return Err(InputError::argument(
+                        "--model",
+                        "--base-link, --tip-link and --tip-point name a chain of the URDF given with --model: give it",
+                    )
+                    .into());
+                }
+                None => urdf::export::generate(&cal, &calibration),
+            };
+            warn(&exported.warnings);
+            finish_csv(outputs, exported.text)?;
         }
         Command::Models => {
             println!("built-in robot models (use as --model NAME):");

@@ -37,6 +37,7 @@ use toml::de::{DeString, DeTable, DeValue};
 use crate::builtin;
 use crate::identify::prior::Prior;
 use crate::input_error::{InputError, MODEL_FILE, read_text};
+use crate::urdf::{self, ChainSpec};
 
 /// A robot model as read from a model file: its identity, its units and the
 /// nominal robot in SI.
@@ -131,7 +132,31 @@ pub fn parse_model(text: &str, file: &str) -> Result<RobotModel, InputError> {
 /// An unreadable file is an error at line 0 with the OS reason, naming the
 /// file and listing the built-in model names.
 pub fn load_model(name_or_path: &str) -> Result<RobotModel, InputError> {
+    load_model_with(name_or_path, &ChainSpec::default())
+}
+
+/// [`load_model`], also of a URDF ([`crate::urdf`]): a file named `*.urdf`, or
+/// whose text starts with `<`, is read as one, its chain chosen by `spec`.
+/// A `spec` other than the default is refused for a TOML or built-in model
+/// (as an error of `--base-link`, `--tip-link` or `--tip-point`).
+pub fn load_model_with(name_or_path: &str, spec: &ChainSpec) -> Result<RobotModel, InputError> {
+    let not_urdf = |what: &str| {
+        let flag = if spec.base_link.is_some() {
+            "--base-link"
+        } else if spec.tip_link.is_some() {
+            "--tip-link"
+        } else {
+            "--tip-point"
+        };
+        InputError::argument(
+            flag,
+            format!("applies to a URDF model only; {name_or_path} is {what}"),
+        )
+    };
     if let Some((text, label)) = builtin::builtin_model(name_or_path) {
+        if !spec.is_default() {
+            return Err(not_urdf("a built-in model"));
+        }
         let mut model = parse_model(text, label)?;
         model.source = format!("built-in {name_or_path}");
         return Ok(model);
@@ -146,7 +171,74 @@ pub fn load_model(name_or_path: &str) -> Result<RobotModel, InputError> {
         }
         e
     })?;
+    if urdf::is_urdf(name_or_path, &text) {
+        let (urdf, converted) = urdf_chain(&text, name_or_path, spec)?;
+        return Ok(urdf_model(&urdf, converted));
+    }
+    if !spec.is_default() {
+        return Err(not_urdf("a TOML model"));
+    }
     parse_model(&text, name_or_path)
+}
+
+/// The URDF text of file `file` parsed, and the chain `spec` names converted.
+pub fn urdf_chain(
+    text: &str,
+    file: &str,
+    spec: &ChainSpec,
+) -> Result<(urdf::Urdf, urdf::convert::Converted), InputError> {
+    let urdf = urdf::parse(text, file)?;
+    let converted = urdf.convert(spec)?;
+    Ok((urdf, converted))
+}
+
+/// The model of a converted URDF chain: named after `<robot name>` (lower
+/// case, other characters than a-z, 0-9, '_' and '-' as '_'), SI units, the
+/// default prior.
+pub fn urdf_model(urdf: &urdf::Urdf, converted: urdf::convert::Converted) -> RobotModel {
+    let mut name: String = urdf
+        .name
+        .to_ascii_lowercase()
+        .chars()
+        .map(|c| {
+            if c.is_ascii_lowercase() || c.is_ascii_digit() || c == '-' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    if name.is_empty() {
+        name = "urdf".into();
+    }
+    let chain = &converted.chain;
+    let joints: Vec<&str> = chain
+        .moving
+        .iter()
+        .map(|&j| urdf.joints[j].name.as_str())
+        .collect();
+    let hayati: Vec<String> = (0..joints.len())
+        .filter(|&k| converted.hayati[k])
+        .map(|k| (k + 1).to_string())
+        .collect();
+    RobotModel {
+        name,
+        description: format!(
+            "URDF chain {} -> {} ({}), modified D-H{}",
+            urdf.links[chain.base].name,
+            urdf.links[chain.tip].name,
+            joints.join(", "),
+            if hayati.is_empty() {
+                String::new()
+            } else {
+                format!(" with Hayati's tilt on joint(s) {}", hayati.join(", "))
+            }
+        ),
+        source: urdf.file.clone(),
+        units: Units::SI,
+        robot: converted.robot,
+        prior: Prior::default(),
+    }
 }
 
 /// Walks the spanned TOML document; every error is placed by a span of `text`.
