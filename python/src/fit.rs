@@ -17,25 +17,27 @@ use crate::data::Measurements;
 use crate::errors;
 use crate::model::Model;
 
-/// The outcome of `identify`: the report of `armcal identify --json` as a dict
-/// (`report`), its human summary (`summary`) and the calibration.
-#[pyclass(module = "armcal", frozen)]
-pub struct Identification {
+/// What `identify` and `diagnose` give: the report of `--json` as a dict
+/// (`report`), the human summary the command prints (`summary`) and the
+/// calibration (what `--out` writes).
+#[pyclass(module = "armcal", frozen, subclass)]
+pub struct Outcome {
     report: serde_json::Value,
     summary: String,
     calibration: armcal_shared::Calibration,
+}
+
+/// The outcome of `identify` (see `Outcome`), with its residuals.
+#[pyclass(module = "armcal", frozen, extends = Outcome)]
+pub struct Identification {
     position_rms: f64,
     orientation_rms: f64,
 }
 
-/// The outcome of `diagnose`: the report of `armcal diagnose --json` as a dict
-/// (`report`), its human summary, the HTML page and the extended calibration.
-#[pyclass(module = "armcal", frozen)]
+/// The outcome of `diagnose` (see `Outcome`), with the HTML page.
+#[pyclass(module = "armcal", frozen, extends = Outcome)]
 pub struct Diagnosis {
-    report: serde_json::Value,
-    summary: String,
     html: String,
-    calibration: armcal_shared::Calibration,
 }
 
 /// The data of a fit: given, or loaded from a path or built-in name against
@@ -153,7 +155,7 @@ pub fn identify_py(
     prior_length: Option<f64>,
     prior_angle: Option<f64>,
     targets: &str,
-) -> PyResult<Identification> {
+) -> PyResult<Py<Identification>> {
     let set = match params {
         "full" => ParamSet::Full,
         "paper" => ParamSet::Paper,
@@ -180,13 +182,19 @@ pub fn identify_py(
         .require_fit_supported(m, result.position_rms)
         .map_err(|e| errors::input(py, &e, arrays))?;
     result.calibration.targets = frame;
-    Ok(Identification {
+    let outcome = Outcome {
         report: result.to_json(&m.units),
         summary: result.summary(m, &data.data),
         calibration: result.calibration.clone(),
+    };
+    let identification = Identification {
         position_rms: m.units.length_from_si(result.position_rms),
         orientation_rms: m.units.angle_from_si(result.orientation_rms),
-    })
+    };
+    Py::new(
+        py,
+        PyClassInitializer::from(outcome).add_subclass(identification),
+    )
 }
 
 /// An identification's failure: a refusal of the data is an `InputError`, as
@@ -216,7 +224,7 @@ pub fn diagnose(
     prior_length: Option<f64>,
     prior_angle: Option<f64>,
     targets: &str,
-) -> PyResult<Diagnosis> {
+) -> PyResult<Py<Diagnosis>> {
     let frame = self::targets(py, targets)?;
     let m = &model.inner;
     let fit = options(
@@ -258,41 +266,50 @@ pub fn diagnose(
         .collect();
     let mut calibration = diagnosis.calibration(&m.robot, data.data.has_orientation(), m.units);
     calibration.targets = frame;
-    Ok(Diagnosis {
+    let outcome = Outcome {
         report: diagnosis.to_json(m, &lines, &options),
         summary: diagnosis.summary(&lines, &options, &m.units),
-        html: report::html(m, &data.data.file, &diagnosis, &observations, &options),
         calibration,
-    })
+    };
+    let html = report::html(m, &data.data.file, &diagnosis, &observations, &options);
+    Py::new(
+        py,
+        PyClassInitializer::from(outcome).add_subclass(Diagnosis { html }),
+    )
 }
 
 #[pymethods]
-impl Identification {
-    /// The report of `armcal identify --json` (`INTERFACE.md`): `params`,
-    /// `iterations`, `converged`, `parameters` (name, nominal, error, std,
-    /// status, reason), `residual`, `condition_number`; model units.
+impl Outcome {
+    /// The report of `--json` (`INTERFACE.md`), model units: for `identify`
+    /// `params`, `iterations`, `converged`, `parameters` (name, nominal,
+    /// error, std, status, reason), `residual`, `condition_number`; for
+    /// `diagnose` `noise_estimate_mm`, `holdout`, `effects`, `outlier_rows`
+    /// (file lines, or rows from 0 for arrays) and more.
     #[getter]
     fn report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         errors::to_python(py, &self.report)
     }
 
-    /// The human summary `armcal identify` prints.
+    /// The human summary the command prints.
     #[getter]
     fn summary(&self) -> &str {
         &self.summary
     }
 
-    /// The calibration (what `armcal identify --out` writes).
+    /// The calibration: what `--out` writes.
     #[getter]
     fn calibration(&self) -> Calibration {
         Calibration::from(self.calibration.clone())
     }
+}
 
+#[pymethods]
+impl Identification {
     /// Identified minus nominal, by parameter name (`theta1`, `base.x`, …),
     /// model units; parameters held at nominal are left out.
     #[getter]
-    fn errors(&self) -> std::collections::BTreeMap<String, f64> {
-        self.report["parameters"]
+    fn errors(slf: &Bound<'_, Self>) -> std::collections::BTreeMap<String, f64> {
+        slf.as_super().get().report["parameters"]
             .as_array()
             .into_iter()
             .flatten()
@@ -303,8 +320,10 @@ impl Identification {
 
     /// Whether the iterations converged.
     #[getter]
-    fn converged(&self) -> bool {
-        self.report["converged"].as_bool().unwrap_or(false)
+    fn converged(slf: &Bound<'_, Self>) -> bool {
+        slf.as_super().get().report["converged"]
+            .as_bool()
+            .unwrap_or(false)
     }
 
     /// RMS position residual of the calibrated model, model length unit.
@@ -319,42 +338,22 @@ impl Identification {
         self.orientation_rms
     }
 
-    fn __repr__(&self) -> String {
+    fn __repr__(slf: &Bound<'_, Self>) -> String {
         format!(
             "Identification(params={}, converged={}, position_rms={})",
-            self.report["params"],
-            self.converged(),
-            self.position_rms
+            slf.as_super().get().report["params"],
+            Self::converged(slf),
+            slf.get().position_rms
         )
     }
 }
 
 #[pymethods]
 impl Diagnosis {
-    /// The report of `armcal diagnose --json` (`INTERFACE.md`):
-    /// `noise_estimate_mm`, `holdout`, `effects`, `outlier_rows` (file lines,
-    /// or rows from 0 for arrays) and more.
-    #[getter]
-    fn report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        errors::to_python(py, &self.report)
-    }
-
-    /// The human summary `armcal diagnose` prints.
-    #[getter]
-    fn summary(&self) -> &str {
-        &self.summary
-    }
-
     /// The self-contained HTML page of `armcal diagnose --html`.
     #[getter]
     fn html(&self) -> &str {
         &self.html
-    }
-
-    /// The extended calibration (geometry and effects).
-    #[getter]
-    fn calibration(&self) -> Calibration {
-        Calibration::from(self.calibration.clone())
     }
 
     /// Jupyter shows the HTML page.
@@ -362,8 +361,8 @@ impl Diagnosis {
         &self.html
     }
 
-    fn __repr__(&self) -> String {
-        let effects: Vec<&str> = self.report["effects"]
+    fn __repr__(slf: &Bound<'_, Self>) -> String {
+        let effects: Vec<&str> = slf.as_super().get().report["effects"]
             .as_array()
             .into_iter()
             .flatten()

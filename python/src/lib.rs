@@ -29,6 +29,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("InputError", py.get_type::<errors::InputError>())?;
     m.add_class::<model::Model>()?;
     m.add_class::<data::Measurements>()?;
+    m.add_class::<fit::Outcome>()?;
     m.add_class::<fit::Identification>()?;
     m.add_class::<fit::Diagnosis>()?;
     m.add_class::<calibration::Calibration>()?;
