@@ -236,3 +236,13 @@ def test_simulate_repeats_with_its_seed(puma):
     np.testing.assert_array_equal(a.xyz, b.xyz)
     assert truth_a == truth_b
     assert a.temp is not None and a.quat is None
+
+
+def test_the_papers_model_needs_full_poses_and_stated_scales_must_be_positive(puma, puma_session):
+    full_poses, _ = armcal.simulate(puma, poses=60, seed=2, orientation_noise=1e-5)
+    assert full_poses.quat.shape == (60, 4)
+    assert armcal.identify(puma, full_poses, params="paper").report["params"] == "paper"
+    with pytest.raises(armcal.InputError, match="needs full poses"):
+        armcal.identify(puma, puma_session[0], params="paper")
+    with pytest.raises(armcal.InputError, match="position_noise: -1"):
+        armcal.identify(puma, puma_session[0], position_noise=-1.0)
