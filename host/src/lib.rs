@@ -5,6 +5,7 @@
 //!
 //! | module | idea |
 //! | --- | --- |
+//! | [`arrays`] | measurements and joint readings given as arrays (the Python package's numpy input), checked as the CSV reader checks its file |
 //! | [`input_error`] | [`InputError`](input_error::InputError): a refused file, `file:line:column: message` |
 //! | [`model_file`] | the robot model TOML (§1) into an SI [`armcal_shared::Robot`], with the file's [`Units`](model_file::Units) |
 //! | [`measurements`] | the measurement CSV (§2), read against a model, into SI [`Pose`](measurements::Pose)s; joint readings alone into [`JointRow`](measurements::JointRow)s |
@@ -28,6 +29,7 @@
 //! the model file's `length_unit` and `angle_unit` apply to the model and to its
 //! data files, and are converted on reading.
 
+pub mod arrays;
 pub mod builtin;
 pub mod check;
 pub mod compensate;

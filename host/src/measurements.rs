@@ -86,6 +86,30 @@ pub struct Observation {
 }
 
 impl Observation {
+    /// The pose of one row, in the order of the rows: joints `q` (SI), the
+    /// measured point (m) and orientation, the row's temperature (°C) and
+    /// payload (kg); `approach` carries the joints' approach directions from
+    /// row to row.
+    pub fn of_row(
+        q: Vec<f64>,
+        position: Point3<f64>,
+        orientation: Option<UnitQuaternion<f64>>,
+        (temperature, payload): (Option<f64>, Option<f64>),
+        approach: &mut Approach,
+    ) -> Self {
+        let context = Context {
+            temperature,
+            payload,
+            approach: approach.next(&q),
+        };
+        Self {
+            q,
+            position,
+            orientation,
+            context,
+        }
+    }
+
     /// The scalar equations this pose gives an identification: 3 (position) or 6
     /// (position and orientation).
     pub fn equations(&self) -> usize {
@@ -632,17 +656,13 @@ fn read_measurements<R: std::io::Read>(
     let (mut poses, mut lines, mut times) = (Vec::new(), Vec::new(), Vec::new());
     let mut approach = Approach::new();
     let columns = read_table(source, file, &schema, |r| {
-        let context = Context {
-            temperature: r.temp,
-            payload: r.load,
-            approach: approach.next(&r.q),
-        };
-        poses.push(Observation {
-            q: r.q,
-            position: Point3::from(r.position),
-            orientation: r.orientation,
-            context,
-        });
+        poses.push(Observation::of_row(
+            r.q,
+            Point3::from(r.position),
+            r.orientation,
+            (r.temp, r.load),
+            &mut approach,
+        ));
         lines.push(r.line);
         times.push(r.t);
     })?;

@@ -1,0 +1,240 @@
+//! Calibrations: read and written as the postcard bytes the firmware loads;
+//! `predict` and `compensate` with numpy arrays in and out.
+
+use std::ffi::CString;
+
+use armcal::arrays::{self, Conditions};
+use armcal::measurements::JointRows;
+use armcal::{compensate as comp, input_error, predict as pred};
+use armcal_shared::compensation::Pacing;
+use armcal_shared::{Calibration as Cal, TargetFrame};
+use pyo3::exceptions::PyUserWarning;
+use pyo3::prelude::*;
+use pyo3::types::PyBytes;
+
+use crate::errors::{self, ArrayLike, Owned};
+use crate::model::{joints_in_units, pose_values};
+
+/// A calibration: the nominal model, its identified errors and effects, in
+/// the model's units. What `identify`, `diagnose` and the calibration files
+/// give; `predict` and `compensate` take and return numpy arrays.
+#[pyclass(module = "armcal", frozen)]
+pub struct Calibration {
+    cal: Cal,
+}
+
+impl From<Cal> for Calibration {
+    fn from(cal: Cal) -> Self {
+        Self { cal }
+    }
+}
+
+/// Reads and checks the calibration file at `path` (as `armcal predict
+/// --calibration` does).
+#[pyfunction]
+pub fn load_calibration(py: Python<'_>, path: &str) -> PyResult<Calibration> {
+    pred::load_calibration(path)
+        .map(Calibration::from)
+        .map_err(|e| errors::input(py, &e, false))
+}
+
+/// The joint arrays `q` (`(N, M)` or one row `(M,)`) and their conditions,
+/// read against the calibration's nominal model.
+fn joint_rows(
+    py: Python<'_>,
+    cal: &Cal,
+    q: &ArrayLike<'_>,
+    temp: Option<ArrayLike<'_>>,
+    load: Option<ArrayLike<'_>>,
+) -> PyResult<(JointRows, bool)> {
+    let q = Owned::rows(py, "q", q)?;
+    let temp = temp.map(|a| Owned::column(py, "temp", &a)).transpose()?;
+    let load = load.map(|a| Owned::column(py, "load", &a)).transpose()?;
+    let conditions = Conditions {
+        t: None,
+        temp: temp.as_deref(),
+        load: load.as_deref(),
+    };
+    let rows = arrays::joints(&cal.nominal, &cal.units, &q.table(), &conditions)
+        .map_err(|e| errors::input(py, &e, true))?;
+    Ok((rows, q.single))
+}
+
+#[pymethods]
+impl Calibration {
+    /// Reads and checks the calibration file at `path`.
+    #[staticmethod]
+    fn read(py: Python<'_>, path: &str) -> PyResult<Self> {
+        load_calibration(py, path)
+    }
+
+    /// Decodes and checks calibration bytes (postcard, as on file).
+    #[staticmethod]
+    fn from_bytes(py: Python<'_>, data: &[u8]) -> PyResult<Self> {
+        Cal::decode(data).map(Self::from).map_err(|e| {
+            errors::input(
+                py,
+                &input_error::InputError::new("bytes", 0, 0, e.to_string()),
+                false,
+            )
+        })
+    }
+
+    /// The calibration's bytes: what the file holds and the firmware loads.
+    fn to_bytes<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyBytes>> {
+        let bytes = self.cal.to_bytes().map_err(errors::failure)?;
+        Ok(PyBytes::new(py, &bytes))
+    }
+
+    fn __bytes__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyBytes>> {
+        self.to_bytes(py)
+    }
+
+    /// Writes the calibration file `path` (its bytes).
+    fn write(&self, path: &str) -> PyResult<()> {
+        let bytes = self.cal.to_bytes().map_err(errors::failure)?;
+        std::fs::write(path, bytes)
+            .map_err(|e| errors::failure(format!("{path}: cannot write the calibration: {e}")))
+    }
+
+    /// Where the calibrated robot puts its tool point for joint readings `q`
+    /// (`(N, M)`, or one row `(M,)`, model units, rows in motion order), with
+    /// optional `temp` (°C) and `load` (kg) per row: `(N, 3)` `x, y, z`, or
+    /// `(N, 7)` with `qw, qx, qy, qz` when the calibration has orientation.
+    #[pyo3(signature = (q, temp = None, load = None))]
+    fn predict<'py>(
+        &self,
+        py: Python<'py>,
+        q: ArrayLike<'py>,
+        temp: Option<ArrayLike<'py>>,
+        load: Option<ArrayLike<'py>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let (rows, single) = joint_rows(py, &self.cal, &q, temp, load)?;
+        let predictions =
+            pred::predict(&self.cal, &rows).map_err(|e| errors::input(py, &e, true))?;
+        let out: Vec<Vec<f64>> = predictions
+            .rows
+            .iter()
+            .map(|p| pose_values(&p.position, p.orientation.as_ref(), &self.cal.units))
+            .collect();
+        errors::to_numpy(py, out, if self.cal.orientation { 7 } else { 3 }, single)
+    }
+
+    /// For joint commands `q` that the nominal model computed (`(N, M)` or one
+    /// row, model units, rows in the order sent), the commands that make the
+    /// calibrated robot reach the pose the nominal model intended; same
+    /// shape. `servo`: the rows are consecutive servo ticks, as on the
+    /// controller. A row whose correction was bounded or did not converge is
+    /// named in a `UserWarning`.
+    #[pyo3(signature = (q, temp = None, load = None, servo = false))]
+    fn compensate<'py>(
+        &self,
+        py: Python<'py>,
+        q: ArrayLike<'py>,
+        temp: Option<ArrayLike<'py>>,
+        load: Option<ArrayLike<'py>>,
+        servo: bool,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let (rows, single) = joint_rows(py, &self.cal, &q, temp, load)?;
+        let pacing = if servo {
+            Pacing::Servo
+        } else {
+            Pacing::Program
+        };
+        let cal = &self.cal;
+        let result = py.detach(|| comp::compensate(cal, &rows, pacing));
+        for warning in result.warnings(arrays::JOINTS) {
+            // `joints:LINE: what`, the row named as numpy indexes it.
+            let row = warning
+                .strip_prefix(arrays::JOINTS)
+                .and_then(|w| w.strip_prefix(':'))
+                .and_then(|w| w.split_once(": "))
+                .and_then(|(line, what)| Some((line.parse::<usize>().ok()?.checked_sub(1)?, what)));
+            let message = match row {
+                Some((row, what)) => format!("{} row {row}: {what}", arrays::JOINTS),
+                None => warning,
+            };
+            let message = CString::new(message).map_err(errors::failure)?;
+            PyErr::warn(py, &py.get_type::<PyUserWarning>(), &message, 1)?;
+        }
+        let out: Vec<Vec<f64>> = result
+            .rows
+            .iter()
+            .map(|(_, c)| joints_in_units(&c.q, &cal.nominal, &cal.units))
+            .collect();
+        errors::to_numpy(py, out, cal.nominal.dof(), single)
+    }
+
+    /// The number of joints.
+    #[getter]
+    fn dof(&self) -> usize {
+        self.cal.nominal.dof()
+    }
+
+    /// Whether the calibration was identified from full poses (predictions
+    /// then have orientation).
+    #[getter]
+    fn orientation(&self) -> bool {
+        self.cal.orientation
+    }
+
+    /// The model's length unit.
+    #[getter]
+    fn length_unit(&self) -> &'static str {
+        self.cal.units.length.name()
+    }
+
+    /// The model's angle unit.
+    #[getter]
+    fn angle_unit(&self) -> &'static str {
+        self.cal.units.angle.name()
+    }
+
+    /// The frame the compensation's targets are given in: `world` or `base`.
+    #[getter]
+    fn targets(&self) -> &'static str {
+        match self.cal.targets {
+            TargetFrame::World => "world",
+            TargetFrame::Base => "base",
+        }
+    }
+
+    /// The identified errors by parameter name, model units.
+    #[getter]
+    fn errors(&self) -> std::collections::BTreeMap<String, f64> {
+        let u = &self.cal.units;
+        self.cal
+            .errors
+            .iter()
+            .map(|e| {
+                let v = if e.param.is_angle() {
+                    u.angle_from_si(e.error)
+                } else {
+                    u.length_from_si(e.error)
+                };
+                (e.param.to_string(), v)
+            })
+            .collect()
+    }
+
+    /// The names of the calibration's non-geometric effects.
+    #[getter]
+    fn effects(&self) -> Vec<&'static str> {
+        self.cal.effects.iter().map(|e| e.name()).collect()
+    }
+
+    fn __eq__(&self, other: &Self) -> bool {
+        self.cal == other.cal
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Calibration(dof={}, errors={}, effects={:?}, orientation={}, targets={:?})",
+            self.dof(),
+            self.cal.errors.len(),
+            self.effects(),
+            self.cal.orientation,
+            self.targets()
+        )
+    }
+}

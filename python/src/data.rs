@@ -1,0 +1,306 @@
+//! Measurements: a CSV file (`FORMAT.md` §2) or built-in data set, numpy
+//! arrays, or a simulated session.
+
+use armcal::arrays::{self, Conditions, PoseArrays};
+use armcal::{measurements, simulate as sim};
+use pyo3::prelude::*;
+
+use crate::errors::{self, ArrayLike, Owned};
+use crate::model::{Model, joints_in_units, pose_values};
+
+/// Measured poses read against a model. Rows are in measurement order; values
+/// read back are in the model's units.
+#[pyclass(module = "armcal", frozen)]
+pub struct Measurements {
+    pub(crate) data: measurements::Measurements,
+    /// The model the data were read against.
+    pub(crate) model: armcal::model_file::RobotModel,
+    /// Whether the rows came from arrays (rows numbered from 0) rather than a
+    /// file (rows named by their line).
+    pub(crate) arrays: bool,
+}
+
+/// Loads measurements: a built-in data set (`builtin_data()`) or the CSV file
+/// at `name_or_path`, read against `model`, as `armcal --data` does.
+#[pyfunction]
+pub fn load_measurements(
+    py: Python<'_>,
+    name_or_path: &str,
+    model: &Model,
+) -> PyResult<Measurements> {
+    measurements::load_measurements(name_or_path, &model.inner)
+        .map(|data| Measurements::from_file(data, model))
+        .map_err(|e| errors::input(py, &e, false))
+}
+
+/// Parses the text of a measurement CSV read against `model`; `file` names it
+/// in error messages.
+#[pyfunction]
+#[pyo3(signature = (text, model, file = "<string>"))]
+pub fn parse_measurements(
+    py: Python<'_>,
+    text: &str,
+    model: &Model,
+    file: &str,
+) -> PyResult<Measurements> {
+    measurements::parse_measurements(text, file, &model.inner)
+        .map(|data| Measurements::from_file(data, model))
+        .map_err(|e| errors::input(py, &e, false))
+}
+
+/// Measurements from arrays, in the model's units as in a file: `q` `(N, M)`
+/// joint readings, `xyz` `(N, 3)` measured tool points, optionally `quat`
+/// `(N, 4)` orientations (`qw, qx, qy, qz`), `t` (s), `temp` (°C), `load`
+/// (kg) with `N` values each. Refused as a file is, naming the row (from 0).
+#[pyfunction(name = "measurements")]
+#[pyo3(signature = (model, q, xyz, quat = None, t = None, temp = None, load = None))]
+#[allow(clippy::too_many_arguments)]
+pub fn from_arrays<'py>(
+    py: Python<'py>,
+    model: &Model,
+    q: ArrayLike<'py>,
+    xyz: ArrayLike<'py>,
+    quat: Option<ArrayLike<'py>>,
+    t: Option<ArrayLike<'py>>,
+    temp: Option<ArrayLike<'py>>,
+    load: Option<ArrayLike<'py>>,
+) -> PyResult<Measurements> {
+    let q = Owned::rows(py, "q", &q)?;
+    let xyz = Owned::rows(py, "xyz", &xyz)?;
+    let quat = quat.map(|a| Owned::rows(py, "quat", &a)).transpose()?;
+    let column =
+        |name: &str, a: Option<ArrayLike<'py>>| a.map(|a| Owned::column(py, name, &a)).transpose();
+    let (t, temp, load) = (
+        column("t", t)?,
+        column("temp", temp)?,
+        column("load", load)?,
+    );
+    let a = PoseArrays {
+        q: q.table(),
+        xyz: xyz.table(),
+        quat: quat.as_ref().map(Owned::table),
+        conditions: Conditions {
+            t: t.as_deref(),
+            temp: temp.as_deref(),
+            load: load.as_deref(),
+        },
+    };
+    let data = arrays::measurements(&model.inner, &a).map_err(|e| errors::input(py, &e, true))?;
+    Ok(Measurements {
+        data,
+        model: model.inner.clone(),
+        arrays: true,
+    })
+}
+
+/// Simulates a measurement session on `model`, as `armcal simulate` does: a
+/// true robot (nominal plus random geometric errors of ±1 mm and ±1 mrad,
+/// hidden `effects` `"NAME[:JOINT[:VALUE]]"`, Hayati `tilts` `(joint, beta)`)
+/// measured at `poses` random configurations with `noise` (model length unit,
+/// default 20 µm) and, with `orientation_noise` (model angle unit), orientations.
+/// Returns the measurements (rows numbered from 0) and the truth as a dict.
+#[pyfunction]
+#[pyo3(signature = (model, poses = 200, seed = 1, noise = None, orientation_noise = None, effects = Vec::new(), tilts = Vec::new()))]
+#[allow(clippy::too_many_arguments)]
+pub fn simulate<'py>(
+    py: Python<'py>,
+    model: &Model,
+    poses: usize,
+    seed: u64,
+    noise: Option<f64>,
+    orientation_noise: Option<f64>,
+    effects: Vec<String>,
+    tilts: Vec<(usize, f64)>,
+) -> PyResult<(Measurements, Bound<'py, PyAny>)> {
+    let m = &model.inner;
+    let u = m.units;
+    let dof = m.dof();
+    if poses == 0 {
+        return Err(errors::argument(py, "poses", "0: at least 1"));
+    }
+    let non_negative = |name: &str, v: f64| {
+        if v.is_finite() && v >= 0.0 {
+            Ok(v)
+        } else {
+            Err(errors::argument(
+                py,
+                name,
+                format!("{v}: must be a non-negative number"),
+            ))
+        }
+    };
+    let mut scenario = sim::Scenario::tracker(poses, seed);
+    if let Some(n) = noise {
+        scenario.position_noise = u.length_to_si(non_negative("noise", n)?);
+    }
+    if let Some(n) = orientation_noise {
+        scenario.orientation_noise = Some(u.angle_to_si(non_negative("orientation_noise", n)?));
+    }
+    for spec in &effects {
+        let effect =
+            sim::parse_effect(spec, dof).map_err(|e| errors::argument(py, "effects", e))?;
+        scenario.effects.push(effect);
+    }
+    for &(j, beta) in &tilts {
+        if !((1..=dof).contains(&j) && beta.is_finite()) {
+            return Err(errors::argument(
+                py,
+                "tilts",
+                format!(
+                    "({j}, {beta}): expected (joint, beta) with a joint from 1 to {dof} and β in rad"
+                ),
+            ));
+        }
+        scenario.tilts.push((j - 1, beta));
+    }
+    let session = py
+        .detach(|| sim::simulate(&m.robot, &scenario))
+        .map_err(errors::failure)?;
+    let n = session.observations.len();
+    let data = measurements::Measurements {
+        file: arrays::DATA.to_owned(),
+        lines: (1..=n).collect(),
+        times: (0..n).map(|i| session.t.get(i).copied()).collect(),
+        poses: session.observations.clone(),
+        columns_used: Vec::new(),
+        columns_ignored: Vec::new(),
+        warnings: Vec::new(),
+    };
+    let truth = errors::to_python(py, &session.truth_json(&m.robot, &u))?;
+    Ok((
+        Measurements {
+            data,
+            model: m.clone(),
+            arrays: true,
+        },
+        truth,
+    ))
+}
+
+impl Measurements {
+    fn from_file(data: measurements::Measurements, model: &Model) -> Self {
+        Self {
+            data,
+            model: model.inner.clone(),
+            arrays: false,
+        }
+    }
+
+    /// The value of an optional per-pose column, NaN where a pose has none;
+    /// `None` when no pose has one.
+    fn optional<'py>(
+        &self,
+        py: Python<'py>,
+        values: impl Iterator<Item = Option<f64>>,
+    ) -> Option<Bound<'py, PyAny>> {
+        use numpy::IntoPyArray as _;
+        let values: Vec<Option<f64>> = values.collect();
+        values.iter().any(Option::is_some).then(|| {
+            let v: Vec<f64> = values.iter().map(|v| v.unwrap_or(f64::NAN)).collect();
+            v.into_pyarray(py).into_any()
+        })
+    }
+}
+
+#[pymethods]
+impl Measurements {
+    /// The number of poses.
+    fn __len__(&self) -> usize {
+        self.data.len()
+    }
+
+    /// The file as named (or `data` for arrays and simulated sessions).
+    #[getter]
+    fn file(&self) -> &str {
+        &self.data.file
+    }
+
+    /// The line of each pose in its file; for arrays, the row (from 0).
+    #[getter]
+    fn rows(&self) -> Vec<usize> {
+        let from = usize::from(self.arrays);
+        self.data.lines.iter().map(|line| line - from).collect()
+    }
+
+    /// Joint readings, `(N, M)`, model units.
+    #[getter]
+    fn q<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let (robot, units) = (&self.model.robot, &self.model.units);
+        let rows = self
+            .data
+            .poses
+            .iter()
+            .map(|p| joints_in_units(&p.q, robot, units));
+        errors::to_numpy(py, rows.collect(), self.model.dof(), false)
+    }
+
+    /// Measured tool points, `(N, 3)`, model length unit.
+    #[getter]
+    fn xyz<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let rows = self
+            .data
+            .poses
+            .iter()
+            .map(|p| pose_values(&p.position, None, &self.model.units));
+        errors::to_numpy(py, rows.collect(), 3, false)
+    }
+
+    /// Measured orientations, `(N, 4)` `qw, qx, qy, qz` (`qw ≥ 0`), or None
+    /// unless every pose has one.
+    #[getter]
+    fn quat<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        if !self.data.has_orientation() {
+            return Ok(None);
+        }
+        let rows = self.data.poses.iter().map(|p| {
+            pose_values(&p.position, p.orientation.as_ref(), &self.model.units).split_off(3)
+        });
+        errors::to_numpy(py, rows.collect(), 4, false).map(Some)
+    }
+
+    /// Time of each pose (s), NaN where not recorded; None when no pose has one.
+    #[getter]
+    fn t<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyAny>> {
+        self.optional(py, self.data.times.iter().copied())
+    }
+
+    /// Temperature of each pose (°C), as `t`.
+    #[getter]
+    fn temp<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyAny>> {
+        self.optional(py, self.data.poses.iter().map(|p| p.context.temperature))
+    }
+
+    /// Payload of each pose (kg), as `t`.
+    #[getter]
+    fn load<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyAny>> {
+        self.optional(py, self.data.poses.iter().map(|p| p.context.payload))
+    }
+
+    /// Whether every pose has a measured orientation.
+    #[getter]
+    fn has_orientation(&self) -> bool {
+        self.data.has_orientation()
+    }
+
+    /// The columns read.
+    #[getter]
+    fn columns_used(&self) -> Vec<String> {
+        self.data.columns_used.clone()
+    }
+
+    /// What the reader warns of (columns not read, readings outside limits).
+    #[getter]
+    fn warnings(&self) -> Vec<String> {
+        self.data.warnings.clone()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Measurements(file={:?}, poses={}, orientation={}, model={:?})",
+            self.data.file,
+            self.data.len(),
+            self.data.has_orientation(),
+            self.model.name
+        )
+    }
+}

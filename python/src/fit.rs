@@ -1,0 +1,369 @@
+//! `identify` and `diagnose`, composed as `armcal identify` and `armcal
+//! diagnose` compose them: the same checks of the data, the same options, the
+//! same report (the JSON of `INTERFACE.md`, as Python dicts), the same refusals.
+
+use armcal::check::independent_parameter_count;
+use armcal::diagnose::DiagnoseOptions;
+use armcal::identify::full::FullOptions;
+use armcal::identify::noise::NoiseSource;
+use armcal::identify::{self, ParamSet};
+use armcal::model_file::RobotModel;
+use armcal::{diagnose as diag, input_error, report};
+use armcal_shared::TargetFrame;
+use pyo3::prelude::*;
+
+use crate::calibration::Calibration;
+use crate::data::Measurements;
+use crate::errors;
+use crate::model::Model;
+
+/// What `identify` and `diagnose` give: the report of `--json` as a dict
+/// (`report`), the human summary the command prints (`summary`) and the
+/// calibration (what `--out` writes).
+#[pyclass(module = "armcal", frozen, subclass)]
+pub struct Outcome {
+    report: serde_json::Value,
+    summary: String,
+    calibration: armcal_shared::Calibration,
+}
+
+/// The outcome of `identify` (see `Outcome`), with its residuals.
+#[pyclass(module = "armcal", frozen, extends = Outcome)]
+pub struct Identification {
+    position_rms: f64,
+    orientation_rms: f64,
+}
+
+/// The outcome of `diagnose` (see `Outcome`), with the HTML page.
+#[pyclass(module = "armcal", frozen, extends = Outcome)]
+pub struct Diagnosis {
+    html: String,
+}
+
+/// The data of a fit: given, or loaded from a path or built-in name against
+/// `model`; refused, as the command line refuses it, when it gives fewer
+/// equations than the model's independent parameters or cannot be
+/// measurements of this robot.
+fn session(
+    py: Python<'_>,
+    model: &Model,
+    data: &Bound<'_, PyAny>,
+) -> PyResult<(Measurements, bool)> {
+    let m = &model.inner;
+    let data = if let Ok(d) = data.cast::<Measurements>() {
+        let d = d.get();
+        if d.model.robot != m.robot || d.model.units != m.units {
+            return Err(errors::argument(
+                py,
+                "data",
+                format!(
+                    "read against the model {:?} ({}), not {:?} ({}): load it against this model",
+                    d.model.name, d.model.source, m.name, m.source
+                ),
+            ));
+        }
+        Measurements {
+            data: d.data.clone(),
+            model: d.model.clone(),
+            arrays: d.arrays,
+        }
+    } else {
+        let name: String = data.extract().map_err(|_| {
+            errors::argument(
+                py,
+                "data",
+                "expected Measurements, or a path or built-in data set name",
+            )
+        })?;
+        crate::data::load_measurements(py, &name, model)?
+    };
+    let checks = || -> Result<(), input_error::InputError> {
+        let d = &data.data;
+        d.require_poses(independent_parameter_count(&m.robot, d.has_orientation()))?;
+        d.require_plausible(m)
+    };
+    checks().map_err(|e| errors::input(py, &e, data.arrays))?;
+    let arrays = data.arrays;
+    Ok((data, arrays))
+}
+
+/// The fit's options: the model's prior, and the stated noise and prior
+/// scales (model units) when given, as `--position-noise`, `--prior-length`…
+fn options(
+    py: Python<'_>,
+    model: &RobotModel,
+    [position_noise, orientation_noise, prior_length, prior_angle]: [Option<f64>; 4],
+) -> PyResult<FullOptions> {
+    let u = &model.units;
+    let mut options = FullOptions {
+        prior: model.prior,
+        ..FullOptions::default()
+    };
+    let positive = |name: &str, v: Option<f64>| match v {
+        Some(v) if !(v.is_finite() && v > 0.0) => Err(errors::argument(
+            py,
+            name,
+            format!("{v}: must be a positive number"),
+        )),
+        _ => Ok(v),
+    };
+    if let Some(v) = positive("position_noise", position_noise)? {
+        options.position_noise = u.length_to_si(v);
+        options.position_source = NoiseSource::Stated;
+    }
+    if let Some(v) = positive("orientation_noise", orientation_noise)? {
+        options.orientation_noise = u.angle_to_si(v);
+        options.orientation_source = NoiseSource::Stated;
+    }
+    if let Some(v) = positive("prior_length", prior_length)? {
+        options.prior.length = u.length_to_si(v);
+    }
+    if let Some(v) = positive("prior_angle", prior_angle)? {
+        options.prior.angle = u.angle_to_si(v);
+    }
+    Ok(options)
+}
+
+/// `world` or `base`: the frame the compensation's targets are given in.
+fn targets(py: Python<'_>, targets: &str) -> PyResult<TargetFrame> {
+    match targets {
+        "world" => Ok(TargetFrame::World),
+        "base" => Ok(TargetFrame::Base),
+        other => Err(errors::argument(
+            py,
+            "targets",
+            format!("{other:?}: expected \"world\" or \"base\""),
+        )),
+    }
+}
+
+/// Identifies the geometric errors of `model` from `data` (Measurements, or a
+/// CSV path or built-in data set name), as `armcal identify` does. `params`:
+/// `full` (every identifiable parameter, base and tool included) or `paper`
+/// (Mirman & Gupta's 3M model; needs orientations). Noise and prior scales in
+/// the model's units; `targets`: `world` or `base`.
+#[pyfunction(name = "identify")]
+#[pyo3(signature = (model, data, params = "full", *, position_noise = None, orientation_noise = None, prior_length = None, prior_angle = None, targets = "world"))]
+#[allow(clippy::too_many_arguments)]
+pub fn identify_py(
+    py: Python<'_>,
+    model: &Model,
+    data: &Bound<'_, PyAny>,
+    params: &str,
+    position_noise: Option<f64>,
+    orientation_noise: Option<f64>,
+    prior_length: Option<f64>,
+    prior_angle: Option<f64>,
+    targets: &str,
+) -> PyResult<Py<Identification>> {
+    let set = match params {
+        "full" => ParamSet::Full,
+        "paper" => ParamSet::Paper,
+        other => {
+            return Err(errors::argument(
+                py,
+                "params",
+                format!("{other:?}: expected \"full\" or \"paper\""),
+            ));
+        }
+    };
+    let frame = self::targets(py, targets)?;
+    let m = &model.inner;
+    let options = options(
+        py,
+        m,
+        [position_noise, orientation_noise, prior_length, prior_angle],
+    )?;
+    let (data, arrays) = session(py, model, data)?;
+    let mut result = py
+        .detach(|| identify::identify(m, &data.data, set, &options))
+        .map_err(|e| identify_error(py, e))?;
+    data.data
+        .require_fit_supported(m, result.position_rms)
+        .map_err(|e| errors::input(py, &e, arrays))?;
+    result.calibration.targets = frame;
+    let outcome = Outcome {
+        report: result.to_json(&m.units),
+        summary: result.summary(m, &data.data),
+        calibration: result.calibration.clone(),
+    };
+    let identification = Identification {
+        position_rms: m.units.length_from_si(result.position_rms),
+        orientation_rms: m.units.angle_from_si(result.orientation_rms),
+    };
+    Py::new(
+        py,
+        PyClassInitializer::from(outcome).add_subclass(identification),
+    )
+}
+
+/// An identification's failure: a refusal of the data is an `InputError`, as
+/// the command line's exit status 2 says; a calibration that cannot be
+/// encoded is an `ArmcalError`.
+fn identify_error(py: Python<'_>, e: identify::IdentifyError) -> PyErr {
+    match e {
+        identify::IdentifyError::Calibration(_) => errors::failure(e),
+        e => errors::refused(py, e),
+    }
+}
+
+/// Fits the geometry, analyses the residuals, names what geometry misses,
+/// extends the model and measures the gain on held-out poses, as `armcal
+/// diagnose` does. `folds`: of the cross-validation (default 10, or one per
+/// pose with fewer poses). Other options as `identify`.
+#[pyfunction]
+#[pyo3(signature = (model, data, *, folds = None, position_noise = None, orientation_noise = None, prior_length = None, prior_angle = None, targets = "world"))]
+#[allow(clippy::too_many_arguments)]
+pub fn diagnose(
+    py: Python<'_>,
+    model: &Model,
+    data: &Bound<'_, PyAny>,
+    folds: Option<usize>,
+    position_noise: Option<f64>,
+    orientation_noise: Option<f64>,
+    prior_length: Option<f64>,
+    prior_angle: Option<f64>,
+    targets: &str,
+) -> PyResult<Py<Diagnosis>> {
+    let frame = self::targets(py, targets)?;
+    let m = &model.inner;
+    let fit = options(
+        py,
+        m,
+        [position_noise, orientation_noise, prior_length, prior_angle],
+    )?;
+    let (data, arrays) = session(py, model, data)?;
+    let n = data.data.len();
+    let folds = match folds {
+        None => DiagnoseOptions::default().folds.min(n),
+        Some(k) if (2..=n).contains(&k) => k,
+        Some(k) => {
+            return Err(errors::argument(
+                py,
+                "folds",
+                format!("{k}: from 2 to the number of poses ({n}: leave-one-out)"),
+            ));
+        }
+    };
+    let options = DiagnoseOptions {
+        folds,
+        fit,
+        ..Default::default()
+    };
+    let observations = identify::observations(&data.data);
+    let diagnosis = py
+        .detach(|| diag::diagnose(&m.robot, observations, &options))
+        .map_err(|e| errors::refused(py, e))?;
+    data.data
+        .require_fit_supported(m, diagnosis.reference.position_rms)
+        .map_err(|e| errors::input(py, &e, arrays))?;
+    // Arrays name their rows from 0, files by line.
+    let from = usize::from(arrays);
+    let lines: Vec<usize> = data.data.lines.iter().map(|line| line - from).collect();
+    let mut calibration = diagnosis.calibration(&m.robot, data.data.has_orientation(), m.units);
+    calibration.targets = frame;
+    let outcome = Outcome {
+        report: diagnosis.to_json(m, &lines, &options),
+        summary: diagnosis.summary(&lines, &options, &m.units),
+        calibration,
+    };
+    let html = report::html(m, &data.data.file, &diagnosis, observations, &options);
+    Py::new(
+        py,
+        PyClassInitializer::from(outcome).add_subclass(Diagnosis { html }),
+    )
+}
+
+#[pymethods]
+impl Outcome {
+    /// The report of `--json` (`INTERFACE.md`), model units: for `identify`
+    /// `params`, `iterations`, `converged`, `parameters` (name, nominal,
+    /// error, std, status, reason), `residual`, `condition_number`; for
+    /// `diagnose` `noise_estimate_mm`, `holdout`, `effects`, `outlier_rows`
+    /// (file lines, or rows from 0 for arrays) and more.
+    #[getter]
+    fn report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        errors::to_python(py, &self.report)
+    }
+
+    /// The human summary the command prints.
+    #[getter]
+    fn summary(&self) -> &str {
+        &self.summary
+    }
+
+    /// The calibration: what `--out` writes.
+    #[getter]
+    fn calibration(&self) -> Calibration {
+        Calibration::from(self.calibration.clone())
+    }
+}
+
+#[pymethods]
+impl Identification {
+    /// Identified minus nominal, by parameter name (`theta1`, `base.x`, …),
+    /// model units; parameters held at nominal are left out.
+    #[getter]
+    fn errors(slf: &Bound<'_, Self>) -> std::collections::BTreeMap<String, f64> {
+        slf.as_super().get().report["parameters"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .filter(|p| p["status"] == "identified")
+            .filter_map(|p| Some((p["name"].as_str()?.to_owned(), p["error"].as_f64()?)))
+            .collect()
+    }
+
+    /// Whether the iterations converged.
+    #[getter]
+    fn converged(slf: &Bound<'_, Self>) -> bool {
+        slf.as_super().get().report["converged"]
+            .as_bool()
+            .unwrap_or(false)
+    }
+
+    /// RMS position residual of the calibrated model, model length unit.
+    #[getter]
+    fn position_rms(&self) -> f64 {
+        self.position_rms
+    }
+
+    /// RMS orientation residual, model angle unit (0 without orientations).
+    #[getter]
+    fn orientation_rms(&self) -> f64 {
+        self.orientation_rms
+    }
+
+    fn __repr__(slf: &Bound<'_, Self>) -> String {
+        format!(
+            "Identification(params={}, converged={}, position_rms={})",
+            slf.as_super().get().report["params"],
+            Self::converged(slf),
+            slf.get().position_rms
+        )
+    }
+}
+
+#[pymethods]
+impl Diagnosis {
+    /// The self-contained HTML page of `armcal diagnose --html`.
+    #[getter]
+    fn html(&self) -> &str {
+        &self.html
+    }
+
+    /// Jupyter shows the HTML page.
+    fn _repr_html_(&self) -> &str {
+        &self.html
+    }
+
+    fn __repr__(slf: &Bound<'_, Self>) -> String {
+        let effects: Vec<&str> = slf.as_super().get().report["effects"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .filter_map(|e| e["name"].as_str())
+            .collect();
+        format!("Diagnosis(effects={effects:?})")
+    }
+}

@@ -1,0 +1,248 @@
+"""The Python package against the library it binds: models, data from files
+and from numpy arrays, the reports of identify and diagnose, predict and
+compensate with numpy arrays, calibration files, and the errors."""
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import armcal
+
+ROOT = Path(__file__).resolve().parents[2]
+UR10E_CAMERA = "figaroh-ur10e-camera"
+UR10E_MODEL = ROOT / "models" / f"{UR10E_CAMERA}.toml"
+UR10E_DATA = ROOT / "data" / UR10E_CAMERA / "measurements.csv"
+
+# The compensation's convergence tolerance on the position residual, m
+# (armcal_shared::compensation::Limits::tolerance in f64).
+COMPENSATION_TOLERANCE_M = 1e-9
+METRES_PER_UNIT = {"m": 1.0, "mm": 1e-3, "in": 0.0254}
+
+
+def csv_columns(path):
+    """The columns of a measurement CSV, by header name, read by numpy."""
+    lines = [line for line in Path(path).read_text().splitlines() if line and not line.startswith("#")]
+    names = lines[0].split(",")
+    table = np.loadtxt(lines[1:], delimiter=",", ndmin=2)
+    return {name: table[:, i] for i, name in enumerate(names)}
+
+
+@pytest.fixture(scope="module")
+def puma():
+    return armcal.load_model("puma560")
+
+
+@pytest.fixture(scope="module")
+def puma_session(puma):
+    """A simulated PUMA session: 80 positions, ±1 mm / ±1 mrad errors, 20 µm noise."""
+    return armcal.simulate(puma, poses=80, seed=7)
+
+
+@pytest.fixture(scope="module")
+def puma_fit(puma, puma_session):
+    return armcal.identify(puma, puma_session[0])
+
+
+def test_a_builtin_model_loads_by_name_with_its_units(puma):
+    assert puma.name == "puma560"
+    assert puma.dof == 6
+    assert (puma.length_unit, puma.angle_unit) == ("in", "rad")
+    assert puma.joint_types == ["revolute"] * 6
+    assert puma.source == "built-in puma560"
+    assert "puma560" in armcal.builtin_models()
+
+
+def test_a_toml_model_file_loads_from_its_path():
+    model = armcal.load_model(str(UR10E_MODEL))
+    assert model.source == str(UR10E_MODEL)
+    assert model.dof == 6
+    assert model.length_unit == "m"
+    text_model = armcal.parse_model(UR10E_MODEL.read_text(), file="ur10e.toml")
+    assert text_model.source == "ur10e.toml"
+    q = np.zeros(6)
+    np.testing.assert_array_equal(model.forward(q), text_model.forward(q))
+
+
+def test_identify_from_a_file_equals_identify_from_the_builtin_data_set():
+    model = armcal.load_model(str(UR10E_MODEL))
+    from_file = armcal.identify(model, str(UR10E_DATA))
+    from_name = armcal.identify(armcal.load_model(UR10E_CAMERA), UR10E_CAMERA)
+    assert from_file.report["parameters"] == from_name.report["parameters"]
+    assert from_file.calibration.to_bytes() == from_name.calibration.to_bytes()
+
+
+def test_identify_from_numpy_arrays_gives_the_file_routes_result():
+    model = armcal.load_model(str(UR10E_MODEL))
+    c = csv_columns(UR10E_DATA)
+    q = np.column_stack([c[f"q{j}"] for j in range(1, 7)])
+    xyz = np.column_stack([c["x"], c["y"], c["z"]])
+    quat = np.column_stack([c["qw"], c["qx"], c["qy"], c["qz"]])
+    data = armcal.measurements(model, q, xyz, quat=quat)
+    assert len(data) == len(q)
+    assert data.rows == list(range(len(q)))
+    np.testing.assert_array_equal(data.q, q)
+    from_arrays = armcal.identify(model, data)
+    from_file = armcal.identify(model, armcal.load_measurements(str(UR10E_DATA), model))
+    a, f = from_arrays.report, from_file.report
+    assert [p["name"] for p in a["parameters"]] == [p["name"] for p in f["parameters"]]
+    assert [p["status"] for p in a["parameters"]] == [p["status"] for p in f["parameters"]]
+    np.testing.assert_allclose(
+        [p["error"] for p in a["parameters"]],
+        [p["error"] for p in f["parameters"]],
+        rtol=1e-9,
+        atol=1e-12,
+    )
+    assert from_arrays.position_rms == pytest.approx(from_file.position_rms, rel=1e-9)
+
+
+def test_the_identify_report_has_the_fields_of_interface_md(puma_fit):
+    report = puma_fit.report
+    assert report["params"] == "full"
+    assert isinstance(report["iterations"], int)
+    assert report["converged"] is True
+    assert report["condition_number"] > 0
+    assert set(report["residual"]) >= {"position_rms", "orientation_rms"}
+    assert report["residual"]["position_rms"] == pytest.approx(puma_fit.position_rms)
+    names = [p["name"] for p in report["parameters"]]
+    assert {"theta1", "s2", "a2", "alpha3", "base.x", "tool.z"} <= set(names)
+    for p in report["parameters"]:
+        assert set(p) >= {"name", "nominal", "error", "std", "status"}
+        if p["status"] == "identified":
+            assert p["std"] > 0
+        else:
+            assert p["status"] == "fixed"
+            assert p["std"] is None and p["reason"]
+    # The typed accessors agree with the report.
+    assert puma_fit.converged is True
+    identified = {p["name"]: p["error"] for p in report["parameters"] if p["status"] == "identified"}
+    assert puma_fit.errors == identified
+
+
+def test_diagnose_names_a_hidden_joint_compliance_and_reports_interface_fields(puma):
+    data, _ = armcal.simulate(puma, poses=120, seed=3, effects=["joint_compliance:2"])
+    diagnosis = armcal.diagnose(puma, data, folds=5)
+    report = diagnosis.report
+    assert report["noise_estimate_mm"] > 0
+    holdout = report["holdout"]
+    assert holdout["method"] == "5-fold"
+    assert holdout["extended_rms_mm"] <= holdout["geometric_rms_mm"] <= holdout["nominal_rms_mm"]
+    assert [e["name"] for e in report["effects"]] == ["joint_compliance"]
+    assert report["effects"][0]["joints"] == [2]
+    assert report["effects"][0]["gain"] > 1
+    # Rows of arrays are numbered from 0, as numpy indexes them.
+    assert all(0 <= r < len(data) for r in report["outlier_rows"])
+    assert diagnosis.calibration.effects == ["joint_compliance"]
+    assert "joint_compliance" in diagnosis.summary
+    assert diagnosis.html.lstrip().lower().startswith("<!doctype html")
+
+
+def test_predict_and_compensate_take_and_return_numpy_arrays(puma, puma_fit, puma_session):
+    data, _ = puma_session
+    cal = puma_fit.calibration
+    q = data.q[:20]
+    assert cal.predict(q).shape == (20, 3)
+    assert cal.compensate(q).shape == (20, 6)
+    assert cal.predict(q[0]).shape == (3,)
+    assert cal.compensate(q[0]).shape == (6,)
+    assert cal.compensate(q.tolist()).shape == (20, 6)
+    assert puma.forward(q, orientation=True).shape == (20, 7)
+
+
+def test_the_calibrated_model_predicts_the_measurements(puma_fit, puma_session):
+    data, _ = puma_session
+    residual = puma_fit.calibration.predict(data.q) - data.xyz
+    rms = np.sqrt(np.mean(np.sum(residual**2, axis=1)))
+    assert rms == pytest.approx(puma_fit.position_rms, rel=1e-6)
+
+
+def test_compensated_commands_take_the_calibrated_robot_to_the_nominal_pose(puma, puma_fit, puma_session):
+    data, _ = puma_session
+    cal = puma_fit.calibration
+    q = data.q[:30]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no row may be bounded or unconverged
+        corrected = cal.compensate(q)
+    reached = cal.predict(corrected)
+    intended = puma.forward(q)
+    tolerance = 10 * COMPENSATION_TOLERANCE_M / METRES_PER_UNIT[puma.length_unit]
+    assert np.max(np.linalg.norm(reached - intended, axis=1)) < tolerance
+    # The corrections are real: the uncorrected commands miss by the calibration's errors.
+    assert np.max(np.linalg.norm(cal.predict(q) - intended, axis=1)) > 1000 * tolerance
+
+
+def test_a_calibration_written_to_a_file_reads_back_with_equal_bytes(puma_fit, tmp_path):
+    cal = puma_fit.calibration
+    path = tmp_path / "puma.cal"
+    cal.write(str(path))
+    assert path.read_bytes() == cal.to_bytes()
+    back = armcal.load_calibration(str(path))
+    assert back.to_bytes() == cal.to_bytes()
+    assert back == cal
+    assert armcal.Calibration.from_bytes(bytes(cal)) == cal
+    assert back.errors == cal.errors and back.targets == "world"
+
+
+def test_a_bad_model_file_raises_with_file_line_and_column(tmp_path):
+    path = tmp_path / "bad.toml"
+    path.write_text('name = "bad"\nconvention = "dh"\nlength_unit = "furlong"\n')
+    with pytest.raises(armcal.InputError) as caught:
+        armcal.load_model(str(path))
+    e = caught.value
+    assert str(e).startswith(f"{path}:3:")
+    assert "furlong" in str(e)
+    assert (e.file, e.line) == (str(path), 3) and e.column > 0
+    assert isinstance(e, armcal.ArmcalError)
+
+
+def test_a_missing_file_raises_naming_it():
+    with pytest.raises(armcal.InputError, match="no-such-model.toml"):
+        armcal.load_model("no-such-model.toml")
+
+
+def test_a_nan_in_an_array_raises_naming_its_row_and_column(puma, puma_session):
+    data, _ = puma_session
+    q = data.q.copy()
+    q[17, 2] = np.nan
+    with pytest.raises(armcal.InputError) as caught:
+        armcal.measurements(puma, q, data.xyz)
+    assert str(caught.value) == "data row 17: column 'q3': NaN is not a finite number"
+    assert caught.value.row == 17
+    cal = armcal.identify(puma, data).calibration
+    with pytest.raises(armcal.InputError, match=r"^joints row 17: column 'q3': NaN"):
+        cal.predict(q)
+    with pytest.raises(armcal.InputError, match=r"^joints row 17: column 'q3': NaN"):
+        cal.compensate(q)
+
+
+def test_arrays_of_the_wrong_shape_are_refused_naming_the_array(puma, puma_session):
+    data, _ = puma_session
+    with pytest.raises(armcal.InputError, match=r"'q' has shape \(80, 5\), expected \(80, 6\)"):
+        armcal.measurements(puma, data.q[:, :5], data.xyz)
+    with pytest.raises(armcal.InputError, match=r"'xyz' has shape \(79, 3\)"):
+        armcal.measurements(puma, data.q, data.xyz[:79])
+
+
+def test_data_read_against_another_model_is_refused(puma_session):
+    with pytest.raises(armcal.InputError, match="read against the model"):
+        armcal.identify(armcal.load_model("ur5e"), puma_session[0])
+
+
+def test_simulate_repeats_with_its_seed(puma):
+    a, truth_a = armcal.simulate(puma, poses=10, seed=5)
+    b, truth_b = armcal.simulate(puma, poses=10, seed=5)
+    np.testing.assert_array_equal(a.q, b.q)
+    np.testing.assert_array_equal(a.xyz, b.xyz)
+    assert truth_a == truth_b
+    assert a.temp is not None and a.quat is None
+
+
+def test_the_papers_model_needs_full_poses_and_stated_scales_must_be_positive(puma, puma_session):
+    full_poses, _ = armcal.simulate(puma, poses=60, seed=2, orientation_noise=1e-5)
+    assert full_poses.quat.shape == (60, 4)
+    assert armcal.identify(puma, full_poses, params="paper").report["params"] == "paper"
+    with pytest.raises(armcal.InputError, match="needs full poses"):
+        armcal.identify(puma, puma_session[0], params="paper")
+    with pytest.raises(armcal.InputError, match="position_noise: -1"):
+        armcal.identify(puma, puma_session[0], position_noise=-1.0)
