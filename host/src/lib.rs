@@ -8,7 +8,7 @@
 //! | [`arrays`] | measurements and joint readings given as arrays (the Python package's numpy input), checked as the CSV reader checks its file |
 //! | [`input_error`] | [`InputError`](input_error::InputError): a refused file, `file:line:column: message` |
 //! | [`model_file`] | the robot model TOML (§1) into an SI [`armcal_shared::Robot`], with the file's [`Units`](model_file::Units) |
-//! | [`measurements`] | the measurement CSV (§2), read against a model, into SI [`Pose`](measurements::Pose)s; joint readings alone into [`JointRow`](measurements::JointRow)s |
+//! | [`measurements`] | the measurement CSV (§2), read against a model, into SI [`Observation`](measurements::Observation)s; joint readings alone into [`JointRow`](measurements::JointRow)s |
 //! | [`builtin`] | the models of `models/` and the real data sets of `data/`, built into the binary |
 //! | [`identify`] | `armcal identify`: the paper's iterative regression and the full model, report and calibration |
 //! | [`output`] | a run's result files: all or none, never over an input, never replacing a device |

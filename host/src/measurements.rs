@@ -81,7 +81,7 @@ pub struct Observation {
     /// The row's temperature (`temp`, °C) and payload (`load`, kg), and the
     /// direction each joint approached the pose from (the sign of its last
     /// change in row order, held while the joint holds:
-    /// [`Approach`](armcal_shared::effects::Approach)).
+    /// [`Approach`]).
     pub context: Context<f64>,
 }
 
