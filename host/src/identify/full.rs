@@ -937,11 +937,12 @@ const LAMBDA_START: f64 = 1e-6;
 
 /// Whether a step that lowers the weighted sum of squares (in units of the
 /// noise², the prior's terms included) from `cost` by `decrease` is too small
-/// to matter: less than 1e-8 of it, and never more than 1e-4. A Gauss–Newton
+/// to matter: less than 1e-8 of it, and never more than 1e-2. A Gauss–Newton
 /// step `δ` lowers it by `δᵀGδ`, and no parameter moves by more than
-/// `√(δᵀGδ)` of its standard error: by at most a hundredth, however many poses.
+/// `√(δᵀGδ)` of its standard error: by at most a tenth (adding at most 1 % to
+/// its variance), however many poses.
 fn negligible(decrease: f64, cost: f64) -> bool {
-    decrease <= (1e-8 * cost).min(1e-4)
+    decrease <= (1e-8 * cost).min(1e-2)
 }
 
 /// Levenberg–Marquardt on `free` from `robot`, minimising the weighted sum of
