@@ -1010,8 +1010,10 @@ fn levenberg_marquardt(
                 accepted = true;
                 break;
             }
-            if size < 1e-10 {
-                // A step this small changes nothing measurable: at a minimum.
+            if size < 1e-10 || negligible(trial_cost - cost, cost) {
+                // A step this small, or one that raises the sum of squares by
+                // less than matters (at the minimum its change is rounding),
+                // changes nothing measurable: at a minimum.
                 accepted = true;
                 converged = true;
                 break;
