@@ -243,8 +243,7 @@ impl fmt::Display for CalibrationError {
     }
 }
 
-#[cfg(feature = "std")]
-impl std::error::Error for CalibrationError {}
+impl core::error::Error for CalibrationError {}
 
 /// A postcard output that only feeds a CRC-64, to hash a model without a buffer.
 struct HashFlavor(crc::Digest<'static, u64, crc::NoTable>);

@@ -336,7 +336,8 @@ pub fn length_factor<T: Real>(
 /// harmonics of joint 3, a backlash of joint 4 (0.15 mrad half the lost motion),
 /// aluminium's expansion (2.3e-5 /°C from 20 °C) and a 1e-4 encoder-scale error
 /// of joint 1: the controller's benchmark and the tests' calibration with
-/// every effect active.
+/// every effect active. Behind the `test-support` feature.
+#[cfg(any(test, feature = "test-support"))]
 pub fn one_of_each() -> [Effect<f64>; 5] {
     [
         Effect::JointCompliance {
@@ -474,8 +475,7 @@ impl core::fmt::Display for EffectError {
     }
 }
 
-#[cfg(feature = "std")]
-impl std::error::Error for EffectError {}
+impl core::error::Error for EffectError {}
 
 /// The gravity torque (N·m) or force (N) on every joint at `chain` (see the
 /// module header), with `payload` kg at the tool point.

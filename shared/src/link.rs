@@ -290,6 +290,8 @@ impl core::fmt::Display for Rejection {
     }
 }
 
+impl core::error::Error for Rejection {}
+
 /// Why a frame was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum FrameError {

@@ -200,8 +200,7 @@ impl core::fmt::Display for ModelError {
     }
 }
 
-#[cfg(feature = "std")]
-impl std::error::Error for ModelError {}
+impl core::error::Error for ModelError {}
 
 /// `Ok` if `got` joint values fit a model of `expected` joints.
 #[inline]

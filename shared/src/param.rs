@@ -131,6 +131,8 @@ impl fmt::Display for UnknownParam {
     }
 }
 
+impl core::error::Error for UnknownParam {}
+
 impl FromStr for Param {
     type Err = UnknownParam;
 

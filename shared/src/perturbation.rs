@@ -154,8 +154,7 @@ impl fmt::Display for PerturbationError {
     }
 }
 
-#[cfg(feature = "std")]
-impl std::error::Error for PerturbationError {}
+impl core::error::Error for PerturbationError {}
 
 /// The position of `param`'s elementary factor in the chain, base to tool (for
 /// joint indices below [`MAX_JOINTS`]): the order of `L_ij`'s product `ξ̂_i ξ̂_j`.
