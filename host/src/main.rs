@@ -273,12 +273,21 @@ struct ModelArgs {
     model: String,
     #[command(flatten)]
     chain: ChainArgs,
+    /// Universal Robots model: the controller's factory calibration (YAML with
+    /// `delta_theta`, `delta_a`, `delta_d`, `delta_alpha`; docs/ur.md), added to
+    /// the nominal D-H and read as the robot's nominal model.
+    #[arg(long, value_name = "CAL.yaml")]
+    factory_calibration: Option<String>,
 }
 
 impl ModelArgs {
     /// The model these flags name.
     fn load(&self) -> Result<model_file::RobotModel, InputError> {
-        model_file::load_model_with(&self.model, &self.chain.spec()?)
+        let model = model_file::load_model_with(&self.model, &self.chain.spec()?)?;
+        match &self.factory_calibration {
+            None => Ok(model),
+            Some(file) => armcal::ur::load_factory(&model, file),
+        }
     }
 }
 

@@ -1,0 +1,350 @@
+//! Universal Robots factory calibrations: the D-H deltas a UR controller
+//! stores, read as the nominal model of that robot.
+//!
+//! ## Convention and units
+//! UR's kinematics are standard D-H, `A_k = Rot_z(θ_k + q_k) Trans_z(d_k)
+//! Trans_x(a_k) Rot_x(α_k)`, from the robot's base frame (z along axis 1) to
+//! the flange; m and rad. The factory calibration (`calibration.conf` on the
+//! controller, read by the ROS driver's `ur_calibration`) is four lists of six
+//! values, `delta_theta`, `delta_a`, `delta_d`, `delta_alpha`, added to the
+//! nominal D-H of the type (`--model ur10`, `ur10e`, `ur5e`, or a TOML model
+//! named `ur` and a digit with `convention = "dh"` and six revolute joints).
+//!
+//! ## File
+//! YAML: the four keys at the top level, or in a `kinematics:` mapping (as
+//! the ROS driver's `calibration_correction` test writes them). Other keys are
+//! ignored. Refused, with the file, line and column: YAML syntax, a missing
+//! key, a value that is not a list of six, an element that is not a finite
+//! number.
+//!
+//! ## Method: joint frames, then the URDF converter
+//! Nearly parallel axes (2, 3, 4 of every UR) put the D-H common normals far
+//! away: real calibrations hold `delta_d` of ±446 m and `delta_theta` of 7 rad
+//! that cancel between consecutive joints, leaving millimetres at the flange.
+//! The model armcal identifies must not carry them. So the nominal + delta
+//! D-H is composed once, at zero readings, into the joint frames of a chain
+//! (joint `k` at `A_{k−1}(0)` in the previous link, axis z; the flange a fixed
+//! link at `A_6(0)`), exactly the form of a URDF chain, and
+//! [`Urdf::convert`](crate::urdf::Urdf::convert) turns it into the
+//! well-conditioned modified D-H with Hayati's tilt between the parallel axes
+//! (`docs/urdf.md`). The conversion works from the axis lines, which the huge
+//! `d` place to rounding (1e-16 of 446 m ≈ 1e-13 m), so the model's forward
+//! kinematics equals the UR D-H's to 1e-12 m while its lengths are those of
+//! the arm.
+//!
+//! Frames: the model's `base` is the nominal model's base composed with the
+//! UR base frame (identity for the built-in models); its `tool` is the flange
+//! composed with the nominal model's tool. Masses (centre of mass in D-H frame
+//! `k`) are carried into the new link frames; limits and gravity are kept.
+
+use armcal_shared::{Convention, Robot};
+use armcal_shared::{Frame, JointType, Link, dh::link_transform};
+use nalgebra::{Point3, Vector3};
+use saphyr::{LoadableYamlNode, MarkedYaml, Scalar, YamlData};
+
+use crate::input_error::{InputError, MODEL_FILE, read_text};
+use crate::model_file::RobotModel;
+use crate::urdf::{
+    ChainSpec, Inertial, JointKind, Pose, Urdf, UrdfJoint, UrdfLink, convert::Converted, rpy,
+};
+
+/// The number of joints of a UR arm.
+pub const JOINTS: usize = 6;
+
+/// The keys of a factory calibration, in the order of [`DhDeltas`]'s fields.
+pub const KEYS: [&str; 4] = ["delta_theta", "delta_a", "delta_d", "delta_alpha"];
+
+/// A UR factory calibration: what the controller adds to the nominal D-H, m and rad.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DhDeltas {
+    /// `delta_theta`, rad.
+    pub theta: [f64; JOINTS],
+    /// `delta_a`, m.
+    pub a: [f64; JOINTS],
+    /// `delta_d`, m.
+    pub d: [f64; JOINTS],
+    /// `delta_alpha`, rad.
+    pub alpha: [f64; JOINTS],
+}
+
+/// The 1-based line and column where `node` starts.
+fn place(node: &MarkedYaml<'_>) -> (usize, usize) {
+    (node.span.start.line().max(1), node.span.start.col() + 1)
+}
+
+/// The string of a scalar node, if it is one.
+fn as_str<'a>(node: &'a MarkedYaml<'_>) -> Option<&'a str> {
+    match &node.data {
+        YamlData::Value(Scalar::String(s)) => Some(s),
+        YamlData::Representation(s, _, _) => Some(s),
+        _ => None,
+    }
+}
+
+/// The value of `key` in mapping `node`, if `node` is a mapping holding it.
+fn get<'a, 'i>(node: &'a MarkedYaml<'i>, key: &str) -> Option<&'a MarkedYaml<'i>> {
+    match &node.data {
+        YamlData::Mapping(m) => m
+            .iter()
+            .find(|(k, _)| as_str(k) == Some(key))
+            .map(|(_, v)| v),
+        _ => None,
+    }
+}
+
+/// Parses a factory calibration (see the module header); `file` names it in errors.
+pub fn parse_deltas(text: &str, file: &str) -> Result<DhDeltas, InputError> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let docs = MarkedYaml::load_from_str(text).map_err(|e| {
+        let m = e.marker();
+        InputError::new(
+            file,
+            m.line().max(1),
+            m.col() + 1,
+            format!("YAML syntax: {}", e.info()),
+        )
+    })?;
+    let Some(doc) = docs.first() else {
+        return Err(InputError::new(
+            file,
+            1,
+            1,
+            format!("empty file: expected {}", KEYS.join(", ")),
+        ));
+    };
+    let table = get(doc, "kinematics")
+        .filter(|k| matches!(k.data, YamlData::Mapping(_)))
+        .unwrap_or(doc);
+    if !matches!(table.data, YamlData::Mapping(_)) {
+        let (l, c) = place(table);
+        return Err(InputError::new(
+            file,
+            l,
+            c,
+            format!("expected a mapping with keys {}", KEYS.join(", ")),
+        ));
+    }
+    let mut out = [[0.0; JOINTS]; 4];
+    for (key, values) in KEYS.iter().zip(out.iter_mut()) {
+        let Some(node) = get(table, key) else {
+            let (l, c) = place(table);
+            return Err(InputError::new(
+                file,
+                l,
+                c,
+                format!(
+                    "missing key '{key}' (a factory calibration has {})",
+                    KEYS.join(", ")
+                ),
+            ));
+        };
+        let (l, c) = place(node);
+        let YamlData::Sequence(items) = &node.data else {
+            return Err(InputError::new(
+                file,
+                l,
+                c,
+                format!("'{key}': expected a list of {JOINTS} numbers"),
+            ));
+        };
+        if items.len() != JOINTS {
+            return Err(InputError::new(
+                file,
+                l,
+                c,
+                format!(
+                    "'{key}': {} values, expected {JOINTS} (joints 1 to {JOINTS})",
+                    items.len()
+                ),
+            ));
+        }
+        for (i, (item, v)) in items.iter().zip(values.iter_mut()).enumerate() {
+            let x = match &item.data {
+                YamlData::Value(Scalar::FloatingPoint(f)) => Some(f.into_inner()),
+                YamlData::Value(Scalar::Integer(n)) => Some(*n as f64),
+                _ => None,
+            };
+            match x.filter(|x| x.is_finite()) {
+                Some(x) => *v = x,
+                None => {
+                    let (l, c) = place(item);
+                    return Err(InputError::new(
+                        file,
+                        l,
+                        c,
+                        format!("'{key}' joint {}: not a finite number", i + 1),
+                    ));
+                }
+            }
+        }
+    }
+    let [theta, a, d, alpha] = out;
+    Ok(DhDeltas { theta, a, d, alpha })
+}
+
+/// Whether `model` is a Universal Robots arm: named for one (`ur` and a digit
+/// in its name: `ur10`, `ur5e`, `my-ur10e`) and of UR's form (standard D-H,
+/// six revolute joints, no tilt).
+pub fn is_ur_model(model: &RobotModel) -> bool {
+    let name = model.name.to_ascii_lowercase();
+    let named = name
+        .match_indices("ur")
+        .any(|(i, _)| name[i + 2..].starts_with(|c: char| c.is_ascii_digit()));
+    let robot = &model.robot;
+    named
+        && robot.convention == Convention::Dh
+        && robot.dof() == JOINTS
+        && robot
+            .links
+            .iter()
+            .all(|l| l.joint == JointType::Revolute && l.beta == 0.0)
+}
+
+/// The nominal links of `robot` (of UR's form) with `deltas` added.
+pub fn calibrated_dh(robot: &Robot<f64>, deltas: &DhDeltas) -> Vec<Link<f64>> {
+    robot
+        .links
+        .iter()
+        .enumerate()
+        .map(|(k, l)| {
+            let mut l = *l;
+            l.theta += deltas.theta[k];
+            l.a += deltas.a[k];
+            l.s += deltas.d[k];
+            l.alpha += deltas.alpha[k];
+            l
+        })
+        .collect()
+}
+
+/// A standard D-H chain (base frame to flange) as the joint frames of a URDF
+/// chain at zero readings, converted by the URDF converter. `file` names the
+/// chain in its errors.
+pub fn convert_dh(links: &[Link<f64>], file: &str) -> Result<Converted, InputError> {
+    let n = links.len();
+    let at_zero: Vec<Pose> = links
+        .iter()
+        .map(|l| link_transform(Convention::Dh, l, 0.0))
+        .collect();
+    let mut urdf_links = vec![UrdfLink {
+        name: "base".into(),
+        offset: 0,
+        inertial: None,
+    }];
+    let mut joints = Vec::with_capacity(n + 1);
+    for (k, l) in links.iter().enumerate() {
+        urdf_links.push(UrdfLink {
+            name: format!("link{}", k + 1),
+            offset: 0,
+            // D-H frame k is A_k(0) in the child link of joint k.
+            inertial: l.mass.map(|m| Inertial {
+                mass: m.mass,
+                com: (at_zero[k] * Point3::from(m.com)).coords,
+            }),
+        });
+        joints.push(UrdfJoint {
+            name: format!("joint{}", k + 1),
+            kind: if l.limits.is_some() {
+                JointKind::Revolute
+            } else {
+                JointKind::Continuous
+            },
+            offset: 0,
+            parent: k,
+            child: k + 1,
+            origin: if k == 0 {
+                Pose::identity()
+            } else {
+                at_zero[k - 1]
+            },
+            origin_range: None,
+            body_start: 0,
+            axis: Vector3::z(),
+            limits: l.limits,
+        });
+    }
+    urdf_links.push(UrdfLink {
+        name: "flange".into(),
+        offset: 0,
+        inertial: None,
+    });
+    joints.push(UrdfJoint {
+        name: "flange".into(),
+        kind: JointKind::Fixed,
+        offset: 0,
+        parent: n,
+        child: n + 1,
+        origin: at_zero[n - 1],
+        origin_range: None,
+        body_start: 0,
+        axis: Vector3::z(),
+        limits: None,
+    });
+    let urdf = Urdf {
+        file: file.into(),
+        text: String::new(),
+        name: "ur".into(),
+        links: urdf_links,
+        parent_joint: (0..n + 2)
+            .map(|l| l.checked_sub(1))
+            .collect::<Vec<Option<usize>>>(),
+        joints,
+        root: 0,
+        robot_end: 0,
+    };
+    urdf.convert(&ChainSpec::default())
+}
+
+/// `pose` as armcal's `xyz`/`rpy`.
+fn frame(pose: &Pose) -> Frame<f64> {
+    Frame {
+        xyz: pose.translation.vector,
+        rpy: Vector3::from(rpy(&pose.rotation)),
+    }
+}
+
+/// The model of the robot whose nominal model is `model` (of UR's form) and
+/// whose factory calibration is `deltas` (see the module header). `file`
+/// names the calibration.
+pub fn import(model: &RobotModel, deltas: &DhDeltas, file: &str) -> Result<RobotModel, InputError> {
+    let nominal = &model.robot;
+    let converted = convert_dh(&calibrated_dh(nominal, deltas), file)?;
+    let mut robot = converted.robot;
+    robot.base = frame(&(nominal.base.isometry() * robot.base.isometry()));
+    robot.tool = frame(&(robot.tool.isometry() * nominal.tool.isometry()));
+    robot.gravity = nominal.gravity;
+    let tilted: Vec<String> = (0..JOINTS)
+        .filter(|&k| converted.hayati[k])
+        .map(|k| (k + 1).to_string())
+        .collect();
+    Ok(RobotModel {
+        name: model.name.clone(),
+        description: format!(
+            "{} with the factory calibration {file}, modified D-H with Hayati's tilt on joint(s) {}",
+            model.name,
+            tilted.join(", ")
+        ),
+        source: format!("{} + {file}", model.source),
+        units: model.units,
+        robot,
+        prior: model.prior,
+    })
+}
+
+/// `model` (of UR's form, else refused as an error of `--factory-calibration`)
+/// with the factory calibration in file `path`.
+pub fn load_factory(model: &RobotModel, path: &str) -> Result<RobotModel, InputError> {
+    if !is_ur_model(model) {
+        return Err(InputError::argument(
+            "--factory-calibration",
+            format!(
+                "applies to a Universal Robots model only (named `ur` and a digit, standard D-H, \
+                 six revolute joints: ur5e, ur10, ur10e); {} ({}) is not one",
+                model.name, model.source
+            ),
+        ));
+    }
+    let text = read_text(path, MODEL_FILE)?;
+    let deltas = parse_deltas(&text, path)?;
+    import(model, &deltas, path)
+}
