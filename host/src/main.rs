@@ -342,6 +342,9 @@ impl ChainArgs {
 enum ExportFormat {
     /// URDF (ROS robot description).
     Urdf,
+    /// Universal Robots factory calibration: D-H deltas against the UR model
+    /// given with --model (docs/ur.md).
+    UrDeltas,
 }
 
 /// The folds of the diagnosis' cross-validation unless `--folds` says otherwise.
@@ -920,6 +923,50 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             };
             warn(&exported.warnings);
             finish_csv(outputs, exported.text)?;
+        }
+        Command::Export {
+            calibration,
+            model,
+            chain,
+            format: ExportFormat::UrDeltas,
+            out,
+        } => {
+            let Some(m) = model else {
+                return Err(InputError::argument(
+                    "--model",
+                    "--format ur-deltas: give the UR model the deltas are against (ur5e, ur10, ur10e)",
+                )
+                .into());
+            };
+            let outputs = output::Outputs::new()
+                .input("--calibration", &calibration)
+                .input("--model", &m)
+                .output("--out", out.as_deref());
+            outputs.check()?;
+            let nominal = model_file::load_model_with(&m, &chain.spec()?)?;
+            if !armcal::ur::is_ur_model(&nominal) {
+                return Err(InputError::argument(
+                    "--model",
+                    format!("--format ur-deltas: {m} is not a Universal Robots model (named `ur` and a digit, standard D-H, six revolute joints)"),
+                )
+                .into());
+            }
+            let cal = predict::load_calibration(&calibration)?;
+            let robot = cal.calibrated();
+            if robot.dof() != armcal::ur::JOINTS
+                || robot
+                    .links
+                    .iter()
+                    .any(|l| l.joint != armcal_shared::JointType::Revolute)
+            {
+                return Err(InputError::argument(
+                    "--calibration",
+                    format!("--format ur-deltas: {calibration} is not of a six-joint revolute arm"),
+                )
+                .into());
+            }
+            let exported = armcal::ur::export_deltas(&robot, &nominal.robot);
+            finish_csv(outputs, armcal::ur::deltas_yaml(&exported, &calibration))?;
         }
         Command::Models => {
             println!("built-in robot models (use as --model NAME):");

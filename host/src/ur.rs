@@ -348,3 +348,177 @@ pub fn load_factory(model: &RobotModel, path: &str) -> Result<RobotModel, InputE
     let deltas = parse_deltas(&text, path)?;
     import(model, &deltas, path)
 }
+
+/// A calibrated model in UR's form: the factory calibration against a
+/// nominal, and what the D-H chain does not hold.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UrExport {
+    /// The D-H of the calibrated chain minus the nominal's, m and rad.
+    pub deltas: DhDeltas,
+    /// The UR base frame (z along axis 1) in the calibration's measurement
+    /// frame: where the robot stands, for the user, not the controller.
+    pub base: Pose,
+    /// The measured frame (the calibrated tool) in the UR flange frame: the
+    /// TCP on a UR, set apart from the kinematics.
+    pub tcp: Pose,
+}
+
+/// `x − nominal` wrapped into `(−π, π]`.
+fn angle_delta(x: f64, nominal: f64) -> f64 {
+    let d = (x - nominal).rem_euclid(std::f64::consts::TAU);
+    if d > std::f64::consts::PI {
+        d - std::f64::consts::TAU
+    } else {
+        d
+    }
+}
+
+/// The standard D-H of `robot` (any convention, six revolute joints), as
+/// deltas against the UR nominal `nominal` (see [`UrExport`]).
+///
+/// From the joint-axis lines at zero readings, in the frame of the model's
+/// base: the UR base frame is on axis 1 (origin at the foot of the
+/// perpendicular from the model's frame 0, x its x made perpendicular); frame
+/// `k` (1 ≤ k < 6) is on the common normal of axes `k` and `k+1`, with x
+/// along it in the sense that keeps `θ_k` nearest the nominal's (so `a_k`
+/// keeps the nominal's sign), and `α_k` turns z onto axis `k+1`. Where two
+/// axes are parallel to rounding (`sin γ < 1e-15`) the foot is undefined and
+/// `d_k` is 0; otherwise it is the exact foot, however far (hundreds of m for
+/// nearly parallel axes, as on the controller). Each frame is composed from
+/// the parameters just found before the next axis is expressed in it, so the
+/// chain of the written numbers ends on the calibrated axis 6 to rounding.
+/// Frame 6 (the flange) is on axis 6 (`a_6 = α_6 = 0` as on every UR): origin
+/// at the foot of the perpendicular from the model's measured point, x the
+/// measured frame's x made perpendicular. The rest of the measured frame is
+/// [`UrExport::tcp`].
+pub fn export_deltas(robot: &Robot<f64>, nominal: &Robot<f64>) -> UrExport {
+    let base = robot.base.isometry();
+    // Axis lines in the model's frame 0 (after its base), at zero readings:
+    // z of the frame before the joint (standard D-H) or after it (modified).
+    let mut lines: Vec<(Point3<f64>, Vector3<f64>)> = Vec::with_capacity(JOINTS);
+    let mut f = Pose::identity();
+    let line = |f: &Pose| {
+        (
+            Point3::from(f.translation.vector),
+            f.rotation * Vector3::z(),
+        )
+    };
+    for l in &robot.links {
+        if robot.convention == Convention::Dh {
+            lines.push(line(&f));
+        }
+        f *= match robot.convention {
+            // Rot_z(θ) Trans_z(s) Trans_x(a) Rot_x(α) Rot_y(β)
+            Convention::Dh => {
+                link_transform(Convention::Dh, l, 0.0)
+                    * nalgebra::Rotation3::from_axis_angle(&Vector3::y_axis(), l.beta)
+            }
+            Convention::Mdh => crate::urdf::convert::link_at_zero(l),
+        };
+        if robot.convention != Convention::Dh {
+            lines.push(line(&f));
+        }
+    }
+    let tip = f * robot.tool.isometry();
+    // UR base frame.
+    let (p0, z0) = lines[0];
+    let foot = p0 - z0 * p0.coords.dot(&z0);
+    let mut x0 = Vector3::x() - z0 * z0.x;
+    if x0.norm() < 1e-6 {
+        x0 = Vector3::y() - z0 * z0.y;
+    }
+    let x0 = x0.normalize();
+    let ur_base = Pose::from_parts(
+        nalgebra::Translation3::from(foot.coords),
+        nalgebra::Rotation3::from_basis_unchecked(&[x0, z0.cross(&x0), z0]),
+    );
+    let mut at = ur_base;
+    let mut out = [[0.0; JOINTS]; 4];
+    for k in 0..JOINTS {
+        let nom = &nominal.links[k];
+        let inv = at.inverse();
+        let (theta, d, a, alpha) = if k + 1 < JOINTS {
+            let p = inv * lines[k + 1].0;
+            let u = inv.rotation * lines[k + 1].1;
+            let sin_gamma = u.x.hypot(u.y);
+            let (t, normal) = if sin_gamma >= 1e-15 {
+                let b = u.z;
+                let t = (p.z - b * u.dot(&p.coords)) / (1.0 - b * b);
+                (t, Vector3::new(-u.y, u.x, 0.0) / sin_gamma)
+            } else {
+                let r = Vector3::new(p.x, p.y, 0.0);
+                let n = if r.norm() > 1e-14 {
+                    r.normalize()
+                } else {
+                    Vector3::x()
+                };
+                (0.0, n)
+            };
+            // Choose the sense of x that keeps θ nearest the nominal.
+            let th = normal.y.atan2(normal.x);
+            let (theta, x) = if angle_delta(th, nom.theta).abs() <= std::f64::consts::FRAC_PI_2 {
+                (th, normal)
+            } else {
+                (angle_delta(th + std::f64::consts::PI, 0.0), -normal)
+            };
+            // The axis crosses the common normal at x = a.
+            let rel = p.coords - Vector3::new(0.0, 0.0, t);
+            let a = rel.dot(&x);
+            let y = Vector3::z().cross(&x);
+            let alpha = (-u.dot(&y)).atan2(u.z);
+            (theta, t, a, alpha)
+        } else {
+            let m = inv * tip;
+            let x = m.rotation * Vector3::x();
+            let x = if x.x.hypot(x.y) > 1e-6 {
+                x
+            } else {
+                m.rotation * Vector3::y()
+            };
+            (x.y.atan2(x.x), m.translation.vector.z, 0.0, 0.0)
+        };
+        let mut link = Link::new(JointType::Revolute, theta, d, a, alpha);
+        link.limits = None;
+        at *= link_transform(Convention::Dh, &link, 0.0);
+        out[0][k] = angle_delta(theta, nom.theta);
+        out[1][k] = a - nom.a;
+        out[2][k] = d - nom.s;
+        out[3][k] = angle_delta(alpha, nom.alpha);
+    }
+    let [theta, a, d, alpha] = out;
+    UrExport {
+        deltas: DhDeltas { theta, a, d, alpha },
+        base: base * ur_base,
+        tcp: at.inverse() * tip,
+    }
+}
+
+/// `export` as the factory-calibration YAML (`kinematics:` with the four
+/// lists, numbers in Rust's shortest round-trip form), the base and TCP as
+/// comments.
+pub fn deltas_yaml(export: &UrExport, label: &str) -> String {
+    let list = |v: &[f64; JOINTS]| {
+        let items: Vec<String> = v.iter().map(|x| format!("{x:?}")).collect();
+        format!("[{}]", items.join(", "))
+    };
+    let f = |p: &Pose| {
+        let fr = frame(p);
+        format!(
+            "xyz [{:?}, {:?}, {:?}] m, rpy [{:?}, {:?}, {:?}] rad",
+            fr.xyz.x, fr.xyz.y, fr.xyz.z, fr.rpy.x, fr.rpy.y, fr.rpy.z
+        )
+    };
+    let d = &export.deltas;
+    format!(
+        "# UR factory calibration (D-H deltas, m and rad) written by armcal from {label}\n\
+         # UR base frame in the measurement frame: {}\n\
+         # measured frame (TCP) in the flange: {}\n\
+         kinematics:\n  delta_theta: {}\n  delta_a: {}\n  delta_d: {}\n  delta_alpha: {}\n",
+        f(&export.base),
+        f(&export.tcp),
+        list(&d.theta),
+        list(&d.a),
+        list(&d.d),
+        list(&d.alpha)
+    )
+}
