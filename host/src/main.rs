@@ -345,6 +345,9 @@ enum ExportFormat {
     /// Universal Robots factory calibration: D-H deltas against the UR model
     /// given with --model (docs/ur.md).
     UrDeltas,
+    /// Universal Robots: ur_calibration's URDF-correction YAML (joint origins
+    /// for ur_description; docs/ur.md).
+    UrCalibration,
 }
 
 /// The folds of the diagnosis' cross-validation unless `--folds` says otherwise.
@@ -928,13 +931,13 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             calibration,
             model,
             chain,
-            format: ExportFormat::UrDeltas,
+            format: format @ (ExportFormat::UrDeltas | ExportFormat::UrCalibration),
             out,
         } => {
             let Some(m) = model else {
                 return Err(InputError::argument(
                     "--model",
-                    "--format ur-deltas: give the UR model the deltas are against (ur5e, ur10, ur10e)",
+                    "--format ur-deltas and ur-calibration: give the UR model (ur5e, ur10, ur10e; the deltas are against its nominal)",
                 )
                 .into());
             };
@@ -947,7 +950,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             if !armcal::ur::is_ur_model(&nominal) {
                 return Err(InputError::argument(
                     "--model",
-                    format!("--format ur-deltas: {m} is not a Universal Robots model (named `ur` and a digit, standard D-H, six revolute joints)"),
+                    format!("--format ur-deltas and ur-calibration: {m} is not a Universal Robots model (named `ur` and a digit, standard D-H, six revolute joints)"),
                 )
                 .into());
             }
@@ -961,12 +964,17 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             {
                 return Err(InputError::argument(
                     "--calibration",
-                    format!("--format ur-deltas: {calibration} is not of a six-joint revolute arm"),
+                    format!("--format ur-deltas and ur-calibration: {calibration} is not of a six-joint revolute arm"),
                 )
                 .into());
             }
             let exported = armcal::ur::export_deltas(&robot, &nominal.robot);
-            finish_csv(outputs, armcal::ur::deltas_yaml(&exported, &calibration))?;
+            let text = if matches!(format, ExportFormat::UrDeltas) {
+                armcal::ur::deltas_yaml(&exported, &calibration)
+            } else {
+                armcal::ur::ur_calibration_yaml(&exported, &calibration)
+            };
+            finish_csv(outputs, text)?;
         }
         Command::Models => {
             println!("built-in robot models (use as --model NAME):");

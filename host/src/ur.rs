@@ -351,7 +351,7 @@ pub fn load_factory(model: &RobotModel, path: &str) -> Result<RobotModel, InputE
 
 /// A calibrated model in UR's form: the factory calibration against a
 /// nominal, and what the D-H chain does not hold.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct UrExport {
     /// The D-H of the calibrated chain minus the nominal's, m and rad.
     pub deltas: DhDeltas,
@@ -361,6 +361,15 @@ pub struct UrExport {
     /// The measured frame (the calibrated tool) in the UR flange frame: the
     /// TCP on a UR, set apart from the kinematics.
     pub tcp: Pose,
+    /// The UR base frame in the model's frame 0.
+    pub ur_base: Pose,
+    /// The UR flange (D-H frame 6 at zero readings) in the model's frame 0.
+    pub flange: Pose,
+    /// ur_description's link frames at zero readings, in the model's frame 0:
+    /// link `k` on the model's axis `k` where [`joint_frames`] puts it (near
+    /// the arm, not at the far D-H foot), x along D-H's common normal `x_k`
+    /// as ur_description's nominal frames have it.
+    pub links: Vec<Pose>,
 }
 
 /// `x − nominal` wrapped into `(−π, π]`.
@@ -393,33 +402,16 @@ fn angle_delta(x: f64, nominal: f64) -> f64 {
 /// [`UrExport::tcp`].
 pub fn export_deltas(robot: &Robot<f64>, nominal: &Robot<f64>) -> UrExport {
     let base = robot.base.isometry();
-    // Axis lines in the model's frame 0 (after its base), at zero readings:
-    // z of the frame before the joint (standard D-H) or after it (modified).
-    let mut lines: Vec<(Point3<f64>, Vector3<f64>)> = Vec::with_capacity(JOINTS);
-    let mut f = Pose::identity();
-    let line = |f: &Pose| {
-        (
-            Point3::from(f.translation.vector),
-            f.rotation * Vector3::z(),
-        )
-    };
-    for l in &robot.links {
-        if robot.convention == Convention::Dh {
-            lines.push(line(&f));
-        }
-        f *= match robot.convention {
-            // Rot_z(θ) Trans_z(s) Trans_x(a) Rot_x(α) Rot_y(β)
-            Convention::Dh => {
-                link_transform(Convention::Dh, l, 0.0)
-                    * nalgebra::Rotation3::from_axis_angle(&Vector3::y_axis(), l.beta)
-            }
-            Convention::Mdh => crate::urdf::convert::link_at_zero(l),
-        };
-        if robot.convention != Convention::Dh {
-            lines.push(line(&f));
-        }
-    }
-    let tip = f * robot.tool.isometry();
+    let (joints, tip) = joint_frames(robot);
+    let lines: Vec<(Point3<f64>, Vector3<f64>)> = joints
+        .iter()
+        .map(|f| {
+            (
+                Point3::from(f.translation.vector),
+                f.rotation * Vector3::z(),
+            )
+        })
+        .collect();
     // UR base frame.
     let (p0, z0) = lines[0];
     let foot = p0 - z0 * p0.coords.dot(&z0);
@@ -434,6 +426,7 @@ pub fn export_deltas(robot: &Robot<f64>, nominal: &Robot<f64>) -> UrExport {
     );
     let mut at = ur_base;
     let mut out = [[0.0; JOINTS]; 4];
+    let mut links = Vec::with_capacity(JOINTS);
     for k in 0..JOINTS {
         let nom = &nominal.links[k];
         let inv = at.inverse();
@@ -477,8 +470,11 @@ pub fn export_deltas(robot: &Robot<f64>, nominal: &Robot<f64>) -> UrExport {
             };
             (x.y.atan2(x.x), m.translation.vector.z, 0.0, 0.0)
         };
-        let mut link = Link::new(JointType::Revolute, theta, d, a, alpha);
-        link.limits = None;
+        // ur_description's link frame k: on the model's axis k, turned about
+        // it as D-H's `frame_{k−1} Rot_z(θ_k)` (x along the common normal).
+        let turned = at.rotation * nalgebra::Rotation3::from_axis_angle(&Vector3::z_axis(), theta);
+        links.push(Pose::from_parts(joints[k].translation, turned));
+        let link = Link::new(JointType::Revolute, theta, d, a, alpha);
         at *= link_transform(Convention::Dh, &link, 0.0);
         out[0][k] = angle_delta(theta, nom.theta);
         out[1][k] = a - nom.a;
@@ -490,7 +486,100 @@ pub fn export_deltas(robot: &Robot<f64>, nominal: &Robot<f64>) -> UrExport {
         deltas: DhDeltas { theta, a, d, alpha },
         base: base * ur_base,
         tcp: at.inverse() * tip,
+        ur_base,
+        flange: at,
+        links,
     }
+}
+
+/// For each joint of `robot` (of six), a frame on its axis with z along it
+/// that moves as `J_k · Rot_z(q_k)`, at zero readings, in the model's frame 0
+/// (after its base); and the measured frame there.
+pub fn joint_frames(robot: &Robot<f64>) -> (Vec<Pose>, Pose) {
+    let mut joints = Vec::with_capacity(JOINTS);
+    let mut f = Pose::identity();
+    for l in &robot.links {
+        if robot.convention == Convention::Dh {
+            // A_k(q) = Rot_z(q) A_k(0): frame k−1 turns about its z.
+            joints.push(f);
+        }
+        f *= match robot.convention {
+            // Rot_z(θ) Trans_z(s) Trans_x(a) Rot_x(α) Rot_y(β)
+            Convention::Dh => {
+                link_transform(Convention::Dh, l, 0.0)
+                    * nalgebra::Rotation3::from_axis_angle(&Vector3::y_axis(), l.beta)
+            }
+            // … Rot_z(θ + q) Trans_z(s) = (… Rot_z(θ) Trans_z(s)) Rot_z(q).
+            Convention::Mdh => crate::urdf::convert::link_at_zero(l),
+        };
+        if robot.convention != Convention::Dh {
+            joints.push(f);
+        }
+    }
+    (joints, f * robot.tool.isometry())
+}
+
+/// The joints of ur_description, in order, as `ur_calibration` names them.
+pub const UR_DESCRIPTION_JOINTS: [&str; JOINTS] = [
+    "shoulder",
+    "upper_arm",
+    "forearm",
+    "wrist_1",
+    "wrist_2",
+    "wrist_3",
+];
+
+/// The joint origins of ur_description for the calibrated chain of `export`:
+/// joint `k`'s frame in joint `k−1`'s (the first in the UR base frame, which
+/// is ur_description's `base_link_inertia`), so that `origin_1 Rot_z(q_1) ⋯
+/// origin_6 Rot_z(q_6)` is the flange (`wrist_3_link`). Links 1 to 5 are
+/// [`UrExport::links`] (no far common normals; the nominal gives
+/// ur_description's default kinematics); link 6 is the UR flange.
+pub fn ur_description_origins(export: &UrExport) -> [Pose; JOINTS] {
+    let mut prev = export.ur_base;
+    std::array::from_fn(|k| {
+        let j = if k + 1 < JOINTS {
+            export.links[k]
+        } else {
+            export.flange
+        };
+        let origin = prev.inverse() * j;
+        prev = j;
+        origin
+    })
+}
+
+/// The `ur_calibration` URDF-correction YAML (`kinematics:` with x, y, z,
+/// roll, pitch, yaw per joint, m and rad) of `export`.
+pub fn ur_calibration_yaml(export: &UrExport, label: &str) -> String {
+    let mut s = format!(
+        "# ur_description kinematics (joint origins, m and rad) written by armcal from {label}\n\
+         # UR base frame (base_link_inertia) in the measurement frame: {}\n\
+         # measured frame (TCP) in the flange (wrist_3_link): {}\n\
+         kinematics:\n",
+        pose_text(&export.base),
+        pose_text(&export.tcp)
+    );
+    for (name, origin) in UR_DESCRIPTION_JOINTS
+        .iter()
+        .zip(ur_description_origins(export))
+    {
+        let f = frame(&origin);
+        s += &format!(
+            "  {name}:\n    x: {:?}\n    y: {:?}\n    z: {:?}\n    roll: {:?}\n    pitch: {:?}\n    yaw: {:?}\n",
+            f.xyz.x, f.xyz.y, f.xyz.z, f.rpy.x, f.rpy.y, f.rpy.z
+        );
+    }
+    s + "  hash: calib_armcal\n"
+}
+
+/// `p` as `xyz [..] m, rpy [..] rad`.
+fn pose_text(p: &Pose) -> String {
+    let f = frame(p);
+    format!(
+        "xyz [{:?}, {:?}, {:?}] m, rpy [{:?}, {:?}, {:?}] rad",
+        f.xyz.x, f.xyz.y, f.xyz.z, f.rpy.x, f.rpy.y, f.rpy.z
+    )
 }
 
 /// `export` as the factory-calibration YAML (`kinematics:` with the four
@@ -501,21 +590,14 @@ pub fn deltas_yaml(export: &UrExport, label: &str) -> String {
         let items: Vec<String> = v.iter().map(|x| format!("{x:?}")).collect();
         format!("[{}]", items.join(", "))
     };
-    let f = |p: &Pose| {
-        let fr = frame(p);
-        format!(
-            "xyz [{:?}, {:?}, {:?}] m, rpy [{:?}, {:?}, {:?}] rad",
-            fr.xyz.x, fr.xyz.y, fr.xyz.z, fr.rpy.x, fr.rpy.y, fr.rpy.z
-        )
-    };
     let d = &export.deltas;
     format!(
         "# UR factory calibration (D-H deltas, m and rad) written by armcal from {label}\n\
          # UR base frame in the measurement frame: {}\n\
          # measured frame (TCP) in the flange: {}\n\
          kinematics:\n  delta_theta: {}\n  delta_a: {}\n  delta_d: {}\n  delta_alpha: {}\n",
-        f(&export.base),
-        f(&export.tcp),
+        pose_text(&export.base),
+        pose_text(&export.tcp),
         list(&d.theta),
         list(&d.a),
         list(&d.d),

@@ -259,3 +259,155 @@ fn ur_factory_export_round_trips() {
         assert!(w2 < 1e-9, "set {}: {w2}", i + 1);
     }
 }
+
+/// End to end: identify with the imported model on the UR10e camera data,
+/// export the calibration as deltas against the UR10e, read them back: the
+/// chain plus the written TCP is the calibrated model to 1e-9 m.
+#[test]
+fn ur_factory_identify_then_export_deltas() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("cal.yaml"), yaml(&real_sets()[2], true)).unwrap();
+    let model = [
+        "--model",
+        "ur10e",
+        "--factory-calibration",
+        "cal.yaml",
+        "--data",
+        "figaroh-ur10e-camera",
+    ];
+    let mut args = vec!["identify"];
+    args.extend(model);
+    args.extend(["--out", "fit.cal"]);
+    succeeds(dir.path(), &args);
+    succeeds(
+        dir.path(),
+        &[
+            "export",
+            "--calibration",
+            "fit.cal",
+            "--format",
+            "ur-deltas",
+            "--model",
+            "ur10e",
+            "--out",
+            "deltas.yaml",
+        ],
+    );
+    succeeds(
+        dir.path(),
+        &[
+            "export",
+            "--calibration",
+            "fit.cal",
+            "--format",
+            "ur-calibration",
+            "--model",
+            "ur10e",
+            "--out",
+            "ur_calibration.yaml",
+        ],
+    );
+    let written = std::fs::read_to_string(dir.path().join("ur_calibration.yaml")).unwrap();
+    let doc = &Yaml::load_from_str(&written).unwrap()[0]["kinematics"];
+    for j in ur::UR_DESCRIPTION_JOINTS {
+        assert!(doc[j]["yaw"].as_floating_point().is_some(), "{written}");
+    }
+    let cal = armcal::predict::load_calibration(dir.path().join("fit.cal").to_str().unwrap())
+        .unwrap()
+        .calibrated();
+    let nominal = load_model("ur10e").unwrap();
+    let back =
+        ur::load_factory(&nominal, dir.path().join("deltas.yaml").to_str().unwrap()).unwrap();
+    let exported = ur::export_deltas(&cal, &nominal.robot);
+    let mut w = 0.0f64;
+    for q in configurations(500) {
+        let want = cal.forward(&q).unwrap();
+        let got = exported.base * back.robot.forward(&q).unwrap() * exported.tcp;
+        w = w.max((want.to_homogeneous() - got.to_homogeneous()).abs().max());
+    }
+    assert!(w < 1e-9, "{w}");
+    refused(
+        dir.path(),
+        &[
+            "export",
+            "--calibration",
+            "fit.cal",
+            "--format",
+            "ur-deltas",
+            "--model",
+            "puma560",
+        ],
+        &["--model", "not a Universal Robots model"],
+    );
+}
+
+/// The ur_calibration YAML of each imported set: its joint origins composed
+/// as ur_description does (`origin_k · Rot_z(q_k)`, read back from the
+/// written numbers) give UR's flange to 1e-9 m, and no origin is far (< 2 m).
+#[test]
+fn ur_factory_ur_calibration_yaml_is_the_chain() {
+    let nominal = load_model("ur10").unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    for (i, set) in real_sets().iter().enumerate() {
+        let path = dir.path().join(format!("set{i}.yaml"));
+        std::fs::write(&path, yaml(set, false)).unwrap();
+        let model = ur::load_factory(&nominal, path.to_str().unwrap()).unwrap();
+        let text = ur::ur_calibration_yaml(&ur::export_deltas(&model.robot, &nominal.robot), "t");
+        let doc = &Yaml::load_from_str(&text).unwrap()[0]["kinematics"];
+        let origins: Vec<Matrix4<f64>> = ur::UR_DESCRIPTION_JOINTS
+            .iter()
+            .map(|j| {
+                let v = |k: &str| doc[*j][k].as_floating_point().unwrap();
+                let r = nalgebra::Rotation3::from_euler_angles(v("roll"), v("pitch"), v("yaw"));
+                let t = nalgebra::Vector3::new(v("x"), v("y"), v("z"));
+                assert!(t.norm() < 2.0, "set {} {j}: {t}", i + 1);
+                nalgebra::Isometry3::from_parts(t.into(), r.into()).to_homogeneous()
+            })
+            .collect();
+        let mut w = 0.0f64;
+        for q in configurations(500) {
+            let mut t = Matrix4::identity();
+            for (o, qk) in origins.iter().zip(q) {
+                t = t
+                    * o
+                    * nalgebra::Rotation3::from_axis_angle(&nalgebra::Vector3::z_axis(), qk)
+                        .to_homogeneous();
+            }
+            w = w.max((t - ur_fk(&nominal.robot, set, &q)).abs().max());
+        }
+        assert!(w < 1e-9, "set {}: {w}", i + 1);
+    }
+}
+
+/// Zero deltas give ur_description's default kinematics of the UR10 (the
+/// frames the meshes hang on): shoulder z = d1, upper_arm roll π/2, forearm
+/// x = a2, wrist_1 x = a3 and z = d4, wrist_2 y = −d5 and roll π/2, wrist_3
+/// y = d6 and rpy (π/2, π, π), to 1e-12.
+#[test]
+fn ur_factory_nominal_gives_ur_description_defaults() {
+    let nominal = load_model("ur10").unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("zero.yaml");
+    std::fs::write(&path, yaml(&[[0.0; 6]; 4], false)).unwrap();
+    let model = ur::load_factory(&nominal, path.to_str().unwrap()).unwrap();
+    let origins = ur::ur_description_origins(&ur::export_deltas(&model.robot, &nominal.robot));
+    let h = std::f64::consts::FRAC_PI_2;
+    let pi = std::f64::consts::PI;
+    let want: [([f64; 3], [f64; 3]); 6] = [
+        ([0.0, 0.0, 0.1273], [0.0, 0.0, 0.0]),
+        ([0.0, 0.0, 0.0], [h, 0.0, 0.0]),
+        ([-0.612, 0.0, 0.0], [0.0, 0.0, 0.0]),
+        ([-0.5723, 0.0, 0.163941], [0.0, 0.0, 0.0]),
+        ([0.0, -0.1157, 0.0], [h, 0.0, 0.0]),
+        ([0.0, 0.0922, 0.0], [h, pi, pi]),
+    ];
+    for (k, (o, (xyz, rpy))) in origins.iter().zip(want).enumerate() {
+        let w = nalgebra::Isometry3::from_parts(
+            nalgebra::Vector3::from(xyz).into(),
+            nalgebra::UnitQuaternion::from_euler_angles(rpy[0], rpy[1], rpy[2]),
+        )
+        .to_homogeneous();
+        let e = (o.to_homogeneous() - w).abs().max();
+        assert!(e < 1e-12, "joint {}: {e}", k + 1);
+    }
+}
