@@ -36,6 +36,16 @@
 //! UR base frame (identity for the built-in models); its `tool` is the flange
 //! composed with the nominal model's tool. Masses (centre of mass in D-H frame
 //! `k`) are carried into the new link frames; limits and gravity are kept.
+//!
+//! ## Export (`armcal export --format ur-deltas | ur-calibration`)
+//! [`export_deltas`]: the standard D-H of a calibrated model from its exact
+//! joint-axis lines at zero readings (common normals; `d` as far as the
+//! axes put it, as the controller holds it), minus the nominal of the UR
+//! model given. UR's chain runs from its base frame (on axis 1) to its
+//! flange (on axis 6); armcal's base (the robot in the measurement frame) and
+//! tool (the measured frame, a TCP on a UR) are not in it, and are written
+//! as comments. [`ur_calibration_yaml`]: the same chain as ur_description's
+//! joint origins, link frames kept near the arm.
 
 use armcal_shared::{Convention, Robot};
 use armcal_shared::{Frame, JointType, Link, dh::link_transform};
@@ -55,6 +65,8 @@ pub const JOINTS: usize = 6;
 pub const KEYS: [&str; 4] = ["delta_theta", "delta_a", "delta_d", "delta_alpha"];
 
 /// A UR factory calibration: what the controller adds to the nominal D-H, m and rad.
+/// Where axes are nearly parallel `d` and `θ` are ill-conditioned: two sets far
+/// apart can give the same chain.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DhDeltas {
     /// `delta_theta`, rad.
