@@ -12,7 +12,7 @@
 
 use std::path::{Path, PathBuf};
 
-use armcal::model_file::load_model;
+use armcal::model_file::{RobotModel, load_model};
 use armcal::ur;
 use armcal_shared::Robot;
 use nalgebra::Matrix4;
@@ -58,6 +58,27 @@ fn yaml(set: &[[f64; 6]; 4], nested: bool) -> String {
         );
     }
     s
+}
+
+/// `armcal check` with `model` and the factory calibration `cal`, on the
+/// built-in UR10e data.
+fn check<'a>(model: &'a str, cal: &'a str) -> [&'a str; 7] {
+    [
+        "check",
+        "--model",
+        model,
+        "--factory-calibration",
+        cal,
+        "--data",
+        "figaroh-ur10e-camera",
+    ]
+}
+
+/// `text` written to `name` in `dir` and imported on `nominal`.
+fn import(dir: &Path, nominal: &RobotModel, name: &str, text: &str) -> RobotModel {
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    ur::load_factory(nominal, path.to_str().unwrap()).unwrap()
 }
 
 /// UR's forward kinematics: nominal D-H of `nominal` plus `set`, at `q`.
@@ -127,9 +148,7 @@ fn ur_factory_import_is_exact_and_well_conditioned() {
     let dir = tempfile::tempdir().unwrap();
     for (i, set) in real_sets().iter().enumerate() {
         for nested in [false, true] {
-            let path = dir.path().join(format!("set{i}-{nested}.yaml"));
-            std::fs::write(&path, yaml(set, nested)).unwrap();
-            let model = ur::load_factory(&nominal, path.to_str().unwrap()).unwrap();
+            let model = import(dir.path(), &nominal, "set.yaml", &yaml(set, nested));
             let w = worst(&model.robot, &nominal.robot, set);
             assert!(w < 1e-12, "set {}: {w}", i + 1);
             for (k, l) in model.robot.links.iter().enumerate() {
@@ -160,29 +179,10 @@ fn ur_factory_flag_and_refusals() {
     let dir = tempfile::tempdir().unwrap();
     let set = &real_sets()[2];
     std::fs::write(dir.path().join("cal.yaml"), yaml(set, true)).unwrap();
-    succeeds(
-        dir.path(),
-        &[
-            "check",
-            "--model",
-            "ur10e",
-            "--factory-calibration",
-            "cal.yaml",
-            "--data",
-            "figaroh-ur10e-camera",
-        ],
-    );
+    succeeds(dir.path(), &check("ur10e", "cal.yaml"));
     refused(
         dir.path(),
-        &[
-            "check",
-            "--model",
-            "puma560",
-            "--factory-calibration",
-            "cal.yaml",
-            "--data",
-            "figaroh-ur10e-camera",
-        ],
+        &check("puma560", "cal.yaml"),
         &[
             "--factory-calibration",
             "Universal Robots model only",
@@ -211,19 +211,7 @@ fn ur_factory_flag_and_refusals() {
     ];
     for (text, needle) in cases {
         std::fs::write(dir.path().join("bad.yaml"), text).unwrap();
-        refused(
-            dir.path(),
-            &[
-                "check",
-                "--model",
-                "ur10",
-                "--factory-calibration",
-                "bad.yaml",
-                "--data",
-                "figaroh-ur10e-camera",
-            ],
-            &[needle],
-        );
+        refused(dir.path(), &check("ur10", "bad.yaml"), &[needle]);
     }
 }
 
@@ -238,9 +226,7 @@ fn ur_factory_export_round_trips() {
     let nominal = load_model("ur10").unwrap();
     let dir = tempfile::tempdir().unwrap();
     for (i, set) in real_sets().iter().enumerate() {
-        let path = dir.path().join(format!("set{i}.yaml"));
-        std::fs::write(&path, yaml(set, false)).unwrap();
-        let model = ur::load_factory(&nominal, path.to_str().unwrap()).unwrap();
+        let model = import(dir.path(), &nominal, "set.yaml", &yaml(set, false));
         let exported = ur::export_deltas(&model.robot, &nominal.robot);
         assert!(
             exported.tcp.translation.vector.norm() < 1e-12
@@ -249,9 +235,12 @@ fn ur_factory_export_round_trips() {
             i + 1,
             exported.tcp
         );
-        let back = dir.path().join(format!("back{i}.yaml"));
-        std::fs::write(&back, ur::deltas_yaml(&exported, "test")).unwrap();
-        let again = ur::load_factory(&nominal, back.to_str().unwrap()).unwrap();
+        let again = import(
+            dir.path(),
+            &nominal,
+            "back.yaml",
+            &ur::deltas_yaml(&exported, "test"),
+        );
         let w = worst(&again.robot, &nominal.robot, set);
         assert!(w < 1e-9, "set {}: {w}", i + 1);
         let d = exported.deltas;
@@ -267,45 +256,31 @@ fn ur_factory_export_round_trips() {
 fn ur_factory_identify_then_export_deltas() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("cal.yaml"), yaml(&real_sets()[2], true)).unwrap();
-    let model = [
-        "--model",
-        "ur10e",
-        "--factory-calibration",
-        "cal.yaml",
-        "--data",
-        "figaroh-ur10e-camera",
-    ];
+    let model = &check("ur10e", "cal.yaml")[1..];
+    let export = |format: &'static str, model: &'static str, out: Option<&'static str>| {
+        let mut args = vec![
+            "export",
+            "--calibration",
+            "fit.cal",
+            "--format",
+            format,
+            "--model",
+            model,
+        ];
+        args.extend(out.map(|o| ["--out", o]).into_iter().flatten());
+        args
+    };
     let mut args = vec!["identify"];
     args.extend(model);
     args.extend(["--out", "fit.cal"]);
     succeeds(dir.path(), &args);
     succeeds(
         dir.path(),
-        &[
-            "export",
-            "--calibration",
-            "fit.cal",
-            "--format",
-            "ur-deltas",
-            "--model",
-            "ur10e",
-            "--out",
-            "deltas.yaml",
-        ],
+        &export("ur-deltas", "ur10e", Some("deltas.yaml")),
     );
     succeeds(
         dir.path(),
-        &[
-            "export",
-            "--calibration",
-            "fit.cal",
-            "--format",
-            "ur-calibration",
-            "--model",
-            "ur10e",
-            "--out",
-            "ur_calibration.yaml",
-        ],
+        &export("ur-calibration", "ur10e", Some("ur_calibration.yaml")),
     );
     let written = std::fs::read_to_string(dir.path().join("ur_calibration.yaml")).unwrap();
     let doc = &Yaml::load_from_str(&written).unwrap()[0]["kinematics"];
@@ -328,15 +303,7 @@ fn ur_factory_identify_then_export_deltas() {
     assert!(w < 1e-9, "{w}");
     refused(
         dir.path(),
-        &[
-            "export",
-            "--calibration",
-            "fit.cal",
-            "--format",
-            "ur-deltas",
-            "--model",
-            "puma560",
-        ],
+        &export("ur-deltas", "puma560", None),
         &["--model", "not a Universal Robots model"],
     );
 }
@@ -349,9 +316,7 @@ fn ur_factory_ur_calibration_yaml_is_the_chain() {
     let nominal = load_model("ur10").unwrap();
     let dir = tempfile::tempdir().unwrap();
     for (i, set) in real_sets().iter().enumerate() {
-        let path = dir.path().join(format!("set{i}.yaml"));
-        std::fs::write(&path, yaml(set, false)).unwrap();
-        let model = ur::load_factory(&nominal, path.to_str().unwrap()).unwrap();
+        let model = import(dir.path(), &nominal, "set.yaml", &yaml(set, false));
         let text = ur::ur_calibration_yaml(&ur::export_deltas(&model.robot, &nominal.robot), "t");
         let doc = &Yaml::load_from_str(&text).unwrap()[0]["kinematics"];
         let origins: Vec<Matrix4<f64>> = ur::UR_DESCRIPTION_JOINTS
@@ -387,9 +352,12 @@ fn ur_factory_ur_calibration_yaml_is_the_chain() {
 fn ur_factory_nominal_gives_ur_description_defaults() {
     let nominal = load_model("ur10").unwrap();
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("zero.yaml");
-    std::fs::write(&path, yaml(&[[0.0; 6]; 4], false)).unwrap();
-    let model = ur::load_factory(&nominal, path.to_str().unwrap()).unwrap();
+    let model = import(
+        dir.path(),
+        &nominal,
+        "zero.yaml",
+        &yaml(&[[0.0; 6]; 4], false),
+    );
     let origins = ur::ur_description_origins(&ur::export_deltas(&model.robot, &nominal.robot));
     let h = std::f64::consts::FRAC_PI_2;
     let pi = std::f64::consts::PI;
