@@ -144,10 +144,19 @@ pub fn parse_deltas(text: &str, file: &str) -> Result<DhDeltas, InputError> {
                 file,
                 l,
                 c,
-                format!(
-                    "missing key '{key}' (a factory calibration has {})",
-                    KEYS.join(", ")
-                ),
+                if get(table, UR_DESCRIPTION_JOINTS[0]).is_some() {
+                    format!(
+                        "missing key '{key}': this looks like ur_calibration's URDF correction \
+                         (joint origins for ur_description), not the controller's D-H deltas \
+                         ({})",
+                        KEYS.join(", ")
+                    )
+                } else {
+                    format!(
+                        "missing key '{key}' (a factory calibration has {})",
+                        KEYS.join(", ")
+                    )
+                },
             ));
         };
         let (l, c) = place(node);

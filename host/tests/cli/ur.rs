@@ -208,6 +208,10 @@ fn ur_factory_flag_and_refusals() {
         ),
         ("delta_theta: [1, 2\n".into(), "bad.yaml:2:1: YAML syntax"),
         ("- 1\n- 2\n".into(), "bad.yaml:1:1: expected a mapping"),
+        (
+            "kinematics:\n  shoulder:\n    x: 0\n".into(),
+            "bad.yaml:2:3: missing key 'delta_theta': this looks like ur_calibration's URDF correction",
+        ),
     ];
     for (text, needle) in cases {
         std::fs::write(dir.path().join("bad.yaml"), text).unwrap();
@@ -377,5 +381,40 @@ fn ur_factory_nominal_gives_ur_description_defaults() {
         .to_homogeneous();
         let e = (o.to_homogeneous() - w).abs().max();
         assert!(e < 1e-12, "joint {}: {e}", k + 1);
+    }
+}
+
+/// The written ur_calibration YAML has the shape of real ones (the shared
+/// examples, read where they are if present, never copied): under
+/// `kinematics`, the six joints with x, y, z, roll, pitch, yaw, and `hash`.
+#[test]
+fn ur_factory_ur_calibration_yaml_has_the_shape_of_real_ones() {
+    let nominal = load_model("ur10").unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let model = import(dir.path(), &nominal, "z.yaml", &yaml(&[[0.0; 6]; 4], false));
+    let ours = ur::ur_calibration_yaml(&ur::export_deltas(&model.robot, &nominal.robot), "t");
+    let shape = |text: &str| -> Vec<(String, Vec<String>)> {
+        let doc = &Yaml::load_from_str(text).unwrap()[0]["kinematics"];
+        doc.as_mapping()
+            .unwrap()
+            .iter()
+            .map(|(k, v)| {
+                let keys = v.as_mapping().map_or_else(Vec::new, |m| {
+                    m.keys().map(|k| k.as_str().unwrap().to_owned()).collect()
+                });
+                (k.as_str().unwrap().to_owned(), keys)
+            })
+            .collect()
+    };
+    let root = Path::new("/work/shared/data/real/ur-factory-calibration/original");
+    for example in [
+        "cambel+ur3-tools/my_robot_calibration.yaml",
+        "YongyuLiu03+ur10e_controller/my_robot_calibration.yaml",
+        "jinxiao123580-hub+UR10/config/ur10_factory_calibration.yaml",
+    ] {
+        let Ok(text) = std::fs::read_to_string(root.join(example)) else {
+            continue;
+        };
+        assert_eq!(shape(&ours), shape(&text), "{example}");
     }
 }
