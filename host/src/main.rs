@@ -240,10 +240,12 @@ enum Command {
         /// The calibration file written by `armcal identify --out` or `armcal diagnose --out`.
         #[arg(long, value_name = "CAL")]
         calibration: String,
-        /// The URDF the calibration's model was read from (with the same
-        /// --base-link, --tip-link and --tip-point); without it, a URDF is
-        /// generated from the calibrated model.
-        #[arg(long, value_name = "M.urdf")]
+        /// `--format urdf`: the URDF the calibration's model was read from (with
+        /// the same --base-link, --tip-link and --tip-point); without it, a URDF
+        /// is generated from the calibrated model. `--format ur-deltas` and
+        /// `ur-calibration`: the Universal Robots model (ur5e, ur10, ur10e) whose
+        /// nominal the deltas are against (required).
+        #[arg(long, value_name = "M.urdf|NAME")]
         model: Option<String>,
         #[command(flatten)]
         chain: ChainArgs,
