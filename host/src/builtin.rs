@@ -38,6 +38,7 @@ macro_rules! builtin_file {
 pub const MODELS: &[BuiltinFile] = &[
     builtin_file!("puma560", "models/puma560.toml"),
     builtin_file!("ur5e", "models/ur5e.toml"),
+    builtin_file!("ur10", "models/ur10.toml"),
     builtin_file!("ur10e", "models/ur10e.toml"),
     builtin_file!("figaroh-ur10e-camera", "models/figaroh-ur10e-camera.toml"),
     builtin_file!("figaroh-tiago-mocap", "models/figaroh-tiago-mocap.toml"),

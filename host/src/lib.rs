@@ -47,6 +47,7 @@ pub mod reproduce;
 pub mod simulate;
 pub mod stats;
 pub mod sweep;
+pub mod ur;
 pub mod urdf;
 
 #[cfg(test)]

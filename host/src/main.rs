@@ -240,10 +240,12 @@ enum Command {
         /// The calibration file written by `armcal identify --out` or `armcal diagnose --out`.
         #[arg(long, value_name = "CAL")]
         calibration: String,
-        /// The URDF the calibration's model was read from (with the same
-        /// --base-link, --tip-link and --tip-point); without it, a URDF is
-        /// generated from the calibrated model.
-        #[arg(long, value_name = "M.urdf")]
+        /// `--format urdf`: the URDF the calibration's model was read from (with
+        /// the same --base-link, --tip-link and --tip-point); without it, a URDF
+        /// is generated from the calibrated model. `--format ur-deltas` and
+        /// `ur-calibration`: the Universal Robots model (ur5e, ur10, ur10e) whose
+        /// nominal the deltas are against (required).
+        #[arg(long, value_name = "M.urdf|NAME")]
         model: Option<String>,
         #[command(flatten)]
         chain: ChainArgs,
@@ -273,12 +275,21 @@ struct ModelArgs {
     model: String,
     #[command(flatten)]
     chain: ChainArgs,
+    /// Universal Robots model: the controller's factory calibration (YAML with
+    /// `delta_theta`, `delta_a`, `delta_d`, `delta_alpha`; docs/ur.md), added to
+    /// the nominal D-H and read as the robot's nominal model.
+    #[arg(long, value_name = "CAL.yaml")]
+    factory_calibration: Option<String>,
 }
 
 impl ModelArgs {
     /// The model these flags name.
     fn load(&self) -> Result<model_file::RobotModel, InputError> {
-        model_file::load_model_with(&self.model, &self.chain.spec()?)
+        let model = model_file::load_model_with(&self.model, &self.chain.spec()?)?;
+        match &self.factory_calibration {
+            None => Ok(model),
+            Some(file) => armcal::ur::load_factory(&model, file),
+        }
     }
 }
 
@@ -333,6 +344,12 @@ impl ChainArgs {
 enum ExportFormat {
     /// URDF (ROS robot description).
     Urdf,
+    /// Universal Robots factory calibration: D-H deltas against the UR model
+    /// given with --model (docs/ur.md).
+    UrDeltas,
+    /// Universal Robots: ur_calibration's URDF-correction YAML (joint origins
+    /// for ur_description; docs/ur.md).
+    UrCalibration,
 }
 
 /// The folds of the diagnosis' cross-validation unless `--folds` says otherwise.
@@ -911,6 +928,55 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             };
             warn(&exported.warnings);
             finish_csv(outputs, exported.text)?;
+        }
+        Command::Export {
+            calibration,
+            model,
+            chain,
+            format: format @ (ExportFormat::UrDeltas | ExportFormat::UrCalibration),
+            out,
+        } => {
+            let Some(m) = model else {
+                return Err(InputError::argument(
+                    "--model",
+                    "--format ur-deltas and ur-calibration: give the UR model (ur5e, ur10, ur10e; the deltas are against its nominal)",
+                )
+                .into());
+            };
+            let outputs = output::Outputs::new()
+                .input("--calibration", &calibration)
+                .input("--model", &m)
+                .output("--out", out.as_deref());
+            outputs.check()?;
+            let nominal = model_file::load_model_with(&m, &chain.spec()?)?;
+            if !armcal::ur::is_ur_model(&nominal) {
+                return Err(InputError::argument(
+                    "--model",
+                    format!("--format ur-deltas and ur-calibration: {m} is not a Universal Robots model (named `ur` and a digit, standard D-H, six revolute joints)"),
+                )
+                .into());
+            }
+            let cal = predict::load_calibration(&calibration)?;
+            let robot = cal.calibrated();
+            if robot.dof() != armcal::ur::JOINTS
+                || robot
+                    .links
+                    .iter()
+                    .any(|l| l.joint != armcal_shared::JointType::Revolute)
+            {
+                return Err(InputError::argument(
+                    "--calibration",
+                    format!("--format ur-deltas and ur-calibration: {calibration} is not of a six-joint revolute arm"),
+                )
+                .into());
+            }
+            let exported = armcal::ur::export_deltas(&robot, &nominal.robot);
+            let text = if matches!(format, ExportFormat::UrDeltas) {
+                armcal::ur::deltas_yaml(&exported, &calibration)
+            } else {
+                armcal::ur::ur_calibration_yaml(&exported, &calibration)
+            };
+            finish_csv(outputs, text)?;
         }
         Command::Models => {
             println!("built-in robot models (use as --model NAME):");

@@ -11,6 +11,7 @@ mod link;
 mod outputs;
 mod predict;
 mod refusals;
+mod ur;
 mod urdf;
 
 /// Runs `armcal` with `args` in `dir`.
