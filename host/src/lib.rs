@@ -1,54 +1,62 @@
 //! # armcal: the robot calibrator (library part of the `armcal` binary)
 //!
-//! The input layer reads the two interchange formats of `FORMAT.md` and refuses,
-//! with file, line and column, anything it cannot use:
+//! The library is in three layers, in the order data flows through a session;
+//! a newcomer looking for a verb's science starts in [`calibration`], for a file
+//! format in [`io`]. The command-line code is in the binary, `host/src/main.rs`.
+//!
+//! ## [`io`]: files in and out
+//!
+//! Reads the two interchange formats of `FORMAT.md` and the vendors' formats, and
+//! refuses, with file, line and column, anything it cannot use:
 //!
 //! | module | idea |
 //! | --- | --- |
-//! | [`arrays`] | measurements and joint readings given as arrays (the Python package's numpy input), checked as the CSV reader checks its file |
-//! | [`input_error`] | [`InputError`](input_error::InputError): a refused file, `file:line:column: message` |
-//! | [`model_file`] | the robot model TOML (§1) into an SI [`armcal_shared::Robot`], with the file's [`Units`](model_file::Units) |
-//! | [`measurements`] | the measurement CSV (§2), read against a model, into SI [`Observation`](measurements::Observation)s; joint readings alone into [`JointRow`](measurements::JointRow)s |
-//! | [`builtin`] | the models of `models/` and the real data sets of `data/`, built into the binary |
-//! | [`identify`] | `armcal identify`: the paper's iterative regression and the full model, report and calibration |
-//! | [`output`] | a run's result files: all or none, never over an input, never replacing a device |
-//! | [`predict`] | `armcal predict`: the calibrated model's tool point (and frame) for each row of joint readings |
-//! | [`sweep`] | `armcal sweep`: detection and false-positive rates of the diagnosis over many simulated sessions |
-//! | [`simulate`] | true robots with built-in errors and their noisy measurements |
-//! | [`report`] | the self-contained HTML page of `armcal diagnose --html` (inline SVG) |
-//! | [`reproduce`] | `armcal reproduce`: the seed papers' examples |
-//! | [`link`] | `armcal stream`: the serial link to the controller (TCP or serial port), calibration load and command stream |
-//! | [`compensate`] | `armcal compensate`: corrected joint commands for the calibrated robot |
-//! | [`diagnose`] | `armcal diagnose`: the model chosen on held-out poses (geometry, prior, effects), never worse than nominal; blunders; held-out gain |
-//! | [`demo`] | `armcal demo`: a simulated PUMA with a hidden effect, diagnosed, compensated, reported |
-//! | [`stats`] | Fisher's F distribution and its quantiles, for the diagnosis' tests |
-//! | [`urdf`] | URDF chains in (modified D-H with Hayati's tilt, exact) and calibrations out (`armcal export`) |
-//! | [`check`] | `armcal check`: what was read, and the error of the nominal model against the data |
+//! | [`io::input_error`] | [`InputError`](io::input_error::InputError): a refused file, `file:line:column: message` |
+//! | [`io::model_file`] | the robot model TOML (§1) into an SI [`armcal_shared::Robot`], with the file's [`Units`](io::model_file::Units) |
+//! | [`io::measurements`] | the measurement CSV (§2), read against a model, into SI [`Observation`](io::measurements::Observation)s; joint readings alone into [`JointRow`](io::measurements::JointRow)s |
+//! | [`io::arrays`] | measurements and joint readings given as arrays (the Python package's numpy input), checked as the CSV reader checks its file |
+//! | [`io::builtin`] | the models of `models/` and the real data sets of `data/`, built into the binary |
+//! | [`io::urdf`] | URDF chains in (modified D-H with Hayati's tilt, exact) and calibrations out (`armcal export`) |
+//! | [`io::ur`] | Universal Robots' controller calibration (D-H deltas, `ur_calibration` YAML), in and out |
+//! | [`io::output`] | a run's result files: all or none, never over an input, never replacing a device |
+//!
+//! ## [`calibration`]: the science
+//!
+//! | module | idea |
+//! | --- | --- |
+//! | [`calibration::check`] | `armcal check`: what was read, and the error of the nominal model against the data |
+//! | [`calibration::identify`] | `armcal identify`: the paper's iterative regression and the full model, report and calibration |
+//! | [`calibration::diagnose`] | `armcal diagnose`: the model chosen on held-out poses (geometry, prior, effects), never worse than nominal; blunders; held-out gain |
+//! | [`calibration::report`] | the self-contained HTML page of `armcal diagnose --html` (inline SVG) |
+//! | [`calibration::sweep`] | `armcal sweep`: detection and false-positive rates of the diagnosis over many simulated sessions |
+//! | [`calibration::stats`] | Fisher's F distribution and its quantiles, for the diagnosis' tests |
+//! | [`calibration::simulate`] | true robots with built-in errors and their noisy measurements |
+//! | [`calibration::reproduce`] | `armcal reproduce`: the seed papers' examples |
+//! | [`calibration::demo`] | `armcal demo`: a simulated PUMA with a hidden effect, diagnosed, compensated, reported |
+//!
+//! ## [`apply`]: using a calibration
+//!
+//! | module | idea |
+//! | --- | --- |
+//! | [`apply::predict`] | `armcal predict`: the calibrated model's tool point (and frame) for each row of joint readings |
+//! | [`apply::compensate`] | `armcal compensate`: corrected joint commands for the calibrated robot |
+//! | [`apply::link`] | `armcal stream`: the serial link to the controller (TCP or serial port), calibration load and command stream |
+//!
+//! Every module is also re-exported at the crate root under its old name
+//! (`armcal::measurements`, `armcal::identify`, …), the paths the Python package,
+//! the fuzz targets and the tests use.
 //!
 //! Units: inside the program everything is SI (m, rad, kg), as in `armcal-shared`;
 //! the model file's `length_unit` and `angle_unit` apply to the model and to its
 //! data files, and are converted on reading.
 
-pub mod arrays;
-pub mod builtin;
-pub mod check;
-pub mod compensate;
-pub mod demo;
-pub mod diagnose;
-pub mod identify;
-pub mod input_error;
-pub mod link;
-pub mod measurements;
-pub mod model_file;
-pub mod output;
-pub mod predict;
-pub mod report;
-pub mod reproduce;
-pub mod simulate;
-pub mod stats;
-pub mod sweep;
-pub mod ur;
-pub mod urdf;
+pub mod apply;
+pub mod calibration;
+pub mod io;
+
+pub use apply::{compensate, link, predict};
+pub use calibration::{check, demo, diagnose, identify, report, reproduce, simulate, stats, sweep};
+pub use io::{arrays, builtin, input_error, measurements, model_file, output, ur, urdf};
 
 #[cfg(test)]
 mod test_support;

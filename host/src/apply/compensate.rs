@@ -1,0 +1,125 @@
+//! `armcal compensate`: for each row of joint commands that the controller's
+//! nominal model computed, the commands that make the calibrated robot reach the
+//! pose the nominal model intended.
+//!
+//! The computation is [`armcal_shared::compensation::Compensator`] in `f64`, the
+//! same code the firmware runs in `f32`: the perturbation approach of Kirchner,
+//! Gurumoorthy & Prinz (1985), section 4 (eq. 4.9), refined until the residual is
+//! below its tolerance (the task, the frame of the targets and the uniqueness of
+//! the answer are that module's). Rows are taken in the order they are sent,
+//! with a [`Pacing`]: by default each row is a robot program's target point,
+//! solved alone to convergence; with `--servo` ([`Pacing::Servo`]) they are
+//! consecutive servo ticks, warm-started, each correction changing from the
+//! previous row's by at most the per-tick bound, as on the controller.
+//!
+//! Non-geometric effects (a calibration from `armcal diagnose`) are compensated
+//! in each row's conditions, its `temp` and `load` columns
+//! ([`crate::apply::predict::row_conditions`], as `armcal predict` reads them), and
+//! with the approach direction of each joint from the previous row's corrected
+//! commands (the commands sent; see [`armcal_shared::compensation`]): `armcal
+//! predict` on the output rows, with the same columns, gives the nominal poses.
+//!
+//! Units: commands are read in the calibration's model units (the angle unit for
+//! revolute joints, the length unit for prismatic ones) and written back in them,
+//! `q1..qM` with Rust's shortest round-trip formatting. A row whose correction was
+//! bounded, did not converge or could not be computed is named on standard error
+//! with its line; a row that could not be computed keeps its nominal command.
+
+use core::fmt::Write as _;
+
+use armcal_shared::compensation::{Compensator, Correction, Fault, Limits, Pacing, Stream};
+use armcal_shared::{Calibration, JointType};
+
+use crate::apply::predict::row_conditions;
+use crate::io::measurements::JointRows;
+
+/// A CSV of joint commands `q1..qM` (SI in, the calibration's model units out,
+/// shortest round-trip formatting) after a `#` comment line.
+pub fn joints_csv(
+    comment: &str,
+    cal: &Calibration,
+    rows: impl Iterator<Item = Vec<f64>>,
+) -> String {
+    let units = &cal.units;
+    let joints: Vec<JointType> = cal.nominal.links.iter().map(|l| l.joint).collect();
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "# {comment}; joints in {} (revolute) and {} (prismatic)",
+        units.angle, units.length
+    );
+    let header: Vec<String> = (1..=joints.len()).map(|m| format!("q{m}")).collect();
+    let _ = writeln!(out, "{}", header.join(","));
+    for q in rows {
+        let values: Vec<String> = q
+            .iter()
+            .zip(&joints)
+            .map(|(q, j)| {
+                let v = units.joint_from_si(*j, *q);
+                if v == 0.0 {
+                    "0".to_string()
+                } else {
+                    format!("{v}")
+                }
+            })
+            .collect();
+        let _ = writeln!(out, "{}", values.join(","));
+    }
+    out
+}
+
+/// The corrected commands of every row, in order, with what each row reported.
+#[derive(Clone, Debug)]
+pub struct Compensated {
+    /// `(line, correction)` per input row.
+    pub rows: Vec<(usize, Correction<f64>)>,
+}
+
+/// Compensates every row of `commands` in order, with `pacing`.
+pub fn compensate(cal: &Calibration, commands: &JointRows, pacing: Pacing) -> Compensated {
+    let compensator = Compensator::<f64>::from_calibration(cal, Limits::of(pacing));
+    let mut stream = Stream::new(pacing);
+    let rows = commands
+        .rows
+        .iter()
+        .map(|row| {
+            let c = stream.tick(&compensator, &row.q, &row_conditions(row));
+            (row.line, c)
+        })
+        .collect();
+    Compensated { rows }
+}
+
+impl Compensated {
+    /// The CSV `q1..qM` in the model's units, with a comment line naming its origin.
+    pub fn to_csv(&self, cal: &Calibration, calibration_file: &str) -> String {
+        joints_csv(
+            &format!(
+                "armcal compensate: commands for the calibrated robot from {calibration_file}"
+            ),
+            cal,
+            self.rows.iter().map(|(_, c)| c.q.to_vec()),
+        )
+    }
+
+    /// One line per row that reported something, for standard error.
+    pub fn warnings(&self, commands_file: &str) -> Vec<String> {
+        self.rows
+            .iter()
+            .filter_map(|(line, c)| {
+                c.fault.map(|f| {
+                    let what = match f {
+                        Fault::NonFinite => "not computable (a value was not finite): nominal command kept".to_string(),
+                        Fault::JointCount => "wrong joint count: nominal command kept".to_string(),
+                        Fault::NotConverged => {
+                            format!("did not converge (residual {:.3e} m): near a singularity or out of reach", c.residual)
+                        }
+                        Fault::Limited => "correction bounded (its size, or its change per servo tick)".to_string(),
+                        _ => format!("{f:?}"),
+                    };
+                    format!("{commands_file}:{line}: {what}")
+                })
+            })
+            .collect()
+    }
+}

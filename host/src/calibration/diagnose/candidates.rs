@@ -1,0 +1,148 @@
+//! The candidate extensions of the geometric model: every effect the data can
+//! show. Per joint a joint compliance (when the joint carries a gravity torque),
+//! gear-transmission harmonics (revolute joints), backlash (when the joint
+//! approaches from both sides) and an encoder-scale error; thermal expansion
+//! when the temperature varies by more than 1 °C; a Hayati tilt for each pair of
+//! nominally parallel consecutive axes. Effect parameters start at zero.
+
+use armcal_shared::effects::{Effect, gravity_torques};
+use armcal_shared::{JointType, Param, Robot};
+
+use crate::calibration::identify::full::Observation;
+
+/// A candidate extension of the geometric model.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Candidate {
+    /// The effect name of `INTERFACE.md`.
+    pub name: &'static str,
+    /// Its joints, 0-based.
+    pub joints: Vec<usize>,
+    /// The effect to fit (parameters start at zero), if any.
+    pub effect: Option<Effect<f64>>,
+    /// Extra geometric parameters (Hayati tilts), if any.
+    pub extra: Vec<Param>,
+}
+
+impl Candidate {
+    /// Its joints as a reader counts them, `"2, 3"`, or `"all"` for thermal expansion.
+    pub fn joints_label(&self) -> String {
+        let joints: Vec<String> = self.joints.iter().map(|j| (j + 1).to_string()).collect();
+        if joints.is_empty() {
+            "all".into()
+        } else {
+            joints.join(", ")
+        }
+    }
+
+    /// Parameters the candidate adds.
+    pub fn parameter_count(&self) -> usize {
+        self.effect.map_or(0, |e| e.parameter_count()) + self.extra.len()
+    }
+}
+
+/// Every candidate the data can show (see the module header).
+pub fn candidates(robot: &Robot<f64>, data: &[Observation]) -> Vec<Candidate> {
+    let mut out = Vec::new();
+    let both_ways = |j: usize| {
+        let signs: Vec<i8> = data
+            .iter()
+            .filter_map(|o| o.context.approach.get(j).copied())
+            .collect();
+        signs.contains(&1) && signs.contains(&-1)
+    };
+    // The largest gravity torque each joint carries in these poses: a joint that
+    // carries none (a vertical axis) cannot show a compliance.
+    let mut torque = vec![0.0f64; robot.dof()];
+    for o in data {
+        if let Ok(chain) = robot.chain(&o.q) {
+            let tau = gravity_torques(robot, &chain, o.context.payload.unwrap_or(0.0));
+            for (m, t) in torque.iter_mut().zip(&tau) {
+                *m = m.max(t.abs());
+            }
+        }
+    }
+    let largest = torque.iter().copied().fold(0.0, f64::max);
+    for (j, link) in robot.links.iter().enumerate() {
+        let joint = |effect| Candidate {
+            name: "",
+            joints: vec![j],
+            effect: Some(effect),
+            extra: Vec::new(),
+        };
+        let mut push = |name, effect| {
+            out.push(Candidate {
+                name,
+                ..joint(effect)
+            })
+        };
+        if torque[j] > 1e-9 * largest {
+            push(
+                "joint_compliance",
+                Effect::JointCompliance {
+                    joint: j,
+                    compliance: 0.0,
+                },
+            );
+        }
+        if link.joint == JointType::Revolute {
+            push(
+                "gear_transmission",
+                Effect::GearTransmission {
+                    joint: j,
+                    first: [0.0; 2],
+                    second: [0.0; 2],
+                },
+            );
+        }
+        if both_ways(j) {
+            push(
+                "backlash",
+                Effect::Backlash {
+                    joint: j,
+                    half_lost_motion: 0.0,
+                },
+            );
+        }
+        push(
+            "encoder_scale",
+            Effect::EncoderScale {
+                joint: j,
+                scale: 0.0,
+            },
+        );
+    }
+    let temps: Vec<f64> = data.iter().filter_map(|o| o.context.temperature).collect();
+    if temps.len() == data.len() && !temps.is_empty() {
+        let (lo, hi) = temps
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), t| {
+                (a.min(*t), b.max(*t))
+            });
+        if hi - lo > 1.0 {
+            let reference = temps.iter().sum::<f64>() / temps.len() as f64;
+            out.push(Candidate {
+                name: "thermal_expansion",
+                joints: Vec::new(),
+                effect: Some(Effect::ThermalExpansion {
+                    coefficient: 0.0,
+                    reference,
+                }),
+                extra: Vec::new(),
+            });
+        }
+    }
+    // Nominally parallel consecutive axes: the joint axes at any configuration.
+    if let Some(chain) = data.first().and_then(|o| robot.chain(&o.q).ok()) {
+        for j in 0..robot.dof().saturating_sub(1) {
+            if chain.axes[j].w.cross(&chain.axes[j + 1].w).norm() < 1e-6 {
+                out.push(Candidate {
+                    name: "parallel_axis_tilt",
+                    joints: vec![j, j + 1],
+                    effect: None,
+                    extra: vec![Param::Beta(j)],
+                });
+            }
+        }
+    }
+    out
+}

@@ -1,0 +1,114 @@
+//! The geometric model, chosen on held-out poses: the nested models of
+//! [`Geometry`] (registration, offsets, lengths, every D-H parameter), each
+//! with the prior's scale a factor of [`PRIOR_FACTORS`] times the stated one,
+//! scored by the linearised k-fold cross-validation of the tool point
+//! ([`super::cross_validation`]) about the fit of every parameter.
+//!
+//! The nominal model competes too, scored on the poses themselves (it fits
+//! nothing, so every pose is held out). The calibrated model of least held-out
+//! RMS is chosen when its held-out errors are significantly smaller than the
+//! nominal model's, pose by pose (a one-sided paired t-test at 5 %): on 20
+//! poses a lower mean can be luck, and a calibration that is not shown to be
+//! better must not replace the nominal model. Otherwise the nominal model is
+//! chosen, and the calibration changes nothing.
+
+use armcal_shared::{Param, Robot};
+
+use super::cross_validation::{Folds, HeldOut, Subset};
+use crate::calibration::identify::full::{Linearization, Unknown};
+use crate::calibration::identify::prior::Geometry;
+use crate::calibration::stats::significantly_smaller;
+
+/// The level of the paired test a calibrated model must pass against nominal.
+pub const LEVEL: f64 = 0.05;
+
+/// The prior scales tried, as factors on the stated one (1 mm, 1 mrad by default).
+pub const PRIOR_FACTORS: [f64; 5] = [0.1, 0.3, 1.0, 3.0, 10.0];
+
+/// One candidate geometric model and its held-out error.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModelScore {
+    /// The model; `None` is the nominal model, nothing fitted.
+    pub geometry: Option<Geometry>,
+    /// The factor on the stated prior scale (1 where no D-H parameter is free).
+    pub prior_factor: f64,
+    /// The free parameters.
+    pub parameters: usize,
+    /// Held-out statistics of the tool point.
+    pub held: HeldOut,
+    /// The held-out position error of each pose, m.
+    pub errors: Vec<f64>,
+}
+
+impl ModelScore {
+    /// The name in reports: `nominal`, `registration`, `offsets, prior ×0.3` …
+    pub fn label(&self) -> String {
+        match self.geometry {
+            None => "nominal".into(),
+            Some(Geometry::Registration) => "registration".into(),
+            Some(g) => format!("{}, prior ×{}", g.name(), self.prior_factor),
+        }
+    }
+}
+
+/// Scores every candidate model on `lin` (the linearisation of the fit of every
+/// parameter at the stated prior), with `folds` folds, beside the nominal
+/// model's errors `nominal` on the same poses.
+pub fn score(
+    robot: &Robot<f64>,
+    lin: &Linearization,
+    folds: usize,
+    nominal: &[f64],
+) -> Vec<ModelScore> {
+    let folds = Folds::interleaved(lin, folds);
+    let mut out = vec![ModelScore {
+        geometry: None,
+        prior_factor: 1.0,
+        parameters: 0,
+        held: HeldOut::of(nominal),
+        errors: nominal.to_vec(),
+    }];
+    for geometry in Geometry::ALL {
+        let columns: Vec<usize> = (0..lin.j.ncols())
+            .filter(|&c| match lin.unknowns[c] {
+                // A Hayati tilt is an effect found, free in every model.
+                Unknown::Param(Param::Beta(_)) | Unknown::Effect { .. } => true,
+                Unknown::Param(p) => geometry.frees(robot, p),
+            })
+            .collect();
+        let factors: &[f64] = if geometry == Geometry::Registration {
+            &[1.0]
+        } else {
+            &PRIOR_FACTORS
+        };
+        for &factor in factors {
+            let subset = Subset {
+                columns: columns.clone(),
+                precision_factor: 1.0 / (factor * factor),
+            };
+            if let Some(e) = folds.evaluate(&subset) {
+                out.push(ModelScore {
+                    geometry: Some(geometry),
+                    prior_factor: factor,
+                    parameters: columns.len(),
+                    held: e.held,
+                    errors: e.errors,
+                });
+            }
+        }
+    }
+    out
+}
+
+/// The chosen model: of the calibrated models the one of least held-out RMS
+/// (the first, so the simplest, of equals), when its held-out errors are
+/// significantly smaller than the nominal model's (the paired test of
+/// [`significantly_smaller`] at [`LEVEL`]); the nominal model otherwise.
+pub fn best(scores: &[ModelScore]) -> &ModelScore {
+    let nominal = &scores[0];
+    scores[1..]
+        .iter()
+        .reduce(|a, b| if b.held.rms < a.held.rms { b } else { a })
+        .filter(|b| significantly_smaller(&nominal.errors, &b.errors, LEVEL))
+        .unwrap_or(nominal)
+}

@@ -1,0 +1,1830 @@
+//! `--params full`: every identifiable geometric parameter, base and tool included.
+//!
+//! ## Model
+//! The unknowns are, for every joint, the joint offset and the three link
+//! parameters (`θ_m, s_m, a_m, α_m`: the offset is `θ` of a revolute joint and `s`
+//! of a prismatic one), the six parameters of the base frame, and the tool: its
+//! position (3) when only positions are measured, its full frame (6) when
+//! orientations are measured too. Their columns are the analytic special
+//! Jacobians of Mirman & Gupta (eqs. 51–54) and the base and tool columns of
+//! [`armcal_shared::jacobian`].
+//!
+//! ## Residuals and weights
+//! For each pose, the position residual `P_meas − P_model` (3 rows, with Jacobian
+//! rows `dP = dη + νdφ × P`, eq. 8) and, when measured, the orientation residual:
+//! the rotation vector of `R_meas R_modelᵀ` (3 rows, with the rotation part
+//! `νdφ` of the columns). Rows are divided by the stated noise, `σ_p` for
+//! positions and `σ_r` for orientations, so that both are in units of their noise
+//! and the fit is a weighted least-squares one.
+//!
+//! ## Initial estimate
+//! The base and tool may be far from nominal (metres, tens of degrees). Before
+//! the iterations they are estimated in closed form with the nominal joints:
+//! positions only, by alternating the rigid registration of the nominal points
+//! onto the measured ones (Kabsch/Horn, SVD) with the linear least-squares tool
+//! position; full poses, by the chordal mean of the base and tool rotations and
+//! the joint linear least squares of the base and tool positions.
+//!
+//! ## Identifiability
+//! At the initial estimate the weighted Jacobian `J` of all unknowns is formed,
+//! each column scaled to unit norm. The normal matrix `G = JᵀJ` (faer) is
+//! factored by a rank-revealing Cholesky in the order of preference: base, tool,
+//! then the joints base to tip (`θ, s, a, α` each). A parameter whose scaled
+//! column keeps less than `1e-6` of its norm once the columns kept before it are
+//! projected out cannot be separated from them by these data: it is held at its
+//! nominal value (base and tool: at the closed-form estimate) and reported with the parameters it depends on and, where one
+//! applies, the geometric reason (parallel axes). So the PUMA's `s3` beside `s2`
+//! at `α2 = 0`, `θ1` beside `base.rz`, `s1` beside `base.z`. A parameter that is
+//! separable in principle but whose standard error, given the columns kept
+//! before it and the noise, would exceed [`FullOptions::max_std_length`] or
+//! [`FullOptions::max_std_angle`] (10 mm, 10 mrad) is held at nominal too: the data
+//! do not determine it. The noise is first the stated one; when the fit shows it
+//! larger (variance factor above 1), the selection is made again with the noise
+//! the residuals show, and the fit repeated.
+//!
+//! ## Solution
+//! Levenberg–Marquardt on the identifiable parameters: the scaled normal
+//! equations `(Gs + λI) δs = Jsᵀ r` solved by faer's Cholesky, a step accepted when
+//! it lowers the weighted sum of squares. Converged when a step changes every
+//! prediction by less than 1e-10 of its noise.
+//!
+//! `J` itself is never stored: the selection, the iterations and the statistics
+//! need only, per channel (position, orientation rows), `JᵀJ`, `Jᵀr`, `rᵀr` and
+//! the row count, summed pose by pose a block of poses at a time
+//! (`NormalEquations`), so the fit's memory does not grow with the poses. Only
+//! the diagnosis's [`linearize`] keeps the whole weighted Jacobian.
+//!
+//! ## Report
+//! Standard errors `sqrt(diag(s² (JᵀJ)⁻¹))` with the a-posteriori variance factor
+//! `s² = Σr²/(n − p)` (so they hold even when the stated noise is off by a
+//! factor), the condition number of the scaled Jacobian, the observability index
+//! O1 of Borm & Menq (1991), `(σ_1 ⋯ σ_p)^{1/p} / √n`, and the strongest
+//! correlations of the estimates.
+
+use armcal_shared::effects::{Effect, EffectModel, gravity_torques, joint_param};
+use armcal_shared::jacobian::at_point;
+use armcal_shared::{FrameAxis, JointType, Param, Robot, Twist, rotation_error};
+use faer::linalg::matmul::{self, triangular, triangular::BlockStructure};
+use faer::linalg::solvers::{DenseSolveCore, Solve};
+use faer::{Accum, Mat, Par, Side};
+use nalgebra::{IsometryMatrix3, Matrix3, Point3, Rotation3, Vector3};
+
+use super::noise::{ChannelNoise, NoiseEstimate, NoiseSource, SETTLED};
+use super::prior::{Geometry, Prior};
+
+/// One unknown of the fit: a geometric parameter, or parameter `component` of
+/// effect `effect` of the model's effect list.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Unknown {
+    /// A D-H, base or tool parameter.
+    Param(Param),
+    /// A parameter of a non-geometric effect.
+    Effect {
+        /// Index into the effect list.
+        effect: usize,
+        /// Which of its parameters ([`Effect::parameter_mut`]).
+        component: usize,
+    },
+}
+
+/// The model being fitted: the geometric robot and its effects.
+#[derive(Clone, Debug)]
+pub struct Model {
+    /// The geometric model (Hayati tilts included).
+    pub robot: Robot<f64>,
+    /// The non-geometric effects.
+    pub effects: Vec<Effect<f64>>,
+}
+
+impl Model {
+    fn get(&self, u: Unknown) -> Option<f64> {
+        match u {
+            Unknown::Param(p) => self.robot.param(p),
+            Unknown::Effect { effect, component } => self.effects.get(effect)?.parameter(component),
+        }
+    }
+
+    fn get_mut(&mut self, u: Unknown) -> Option<&mut f64> {
+        match u {
+            Unknown::Param(p) => self.robot.param_mut(p),
+            Unknown::Effect { effect, component } => {
+                self.effects.get_mut(effect)?.parameter_mut(component)
+            }
+        }
+    }
+
+    /// The name of an unknown in reports: the parameter name, or the effect
+    /// parameter's (`c2` compliance of joint 2, `g2.sin1` … `g2.cos2` its gear
+    /// harmonics, `b2` half its lost motion, `e2` its scale error, `kappa`).
+    pub fn name(&self, u: Unknown) -> String {
+        match u {
+            Unknown::Param(p) => p.to_string(),
+            Unknown::Effect { effect, component } => match self.effects.get(effect) {
+                Some(e) => effect_parameter_name(e, component),
+                None => format!("effect{effect}.{component}"),
+            },
+        }
+    }
+}
+
+/// The report name of parameter `component` of `effect`.
+pub fn effect_parameter_name(effect: &Effect<f64>, component: usize) -> String {
+    let j = effect.joint().map_or(0, |j| j + 1);
+    match effect {
+        Effect::JointCompliance { .. } => format!("c{j}"),
+        Effect::GearTransmission { .. } => {
+            format!(
+                "g{j}.{}",
+                ["sin1", "cos1", "sin2", "cos2"]
+                    .get(component)
+                    .copied()
+                    .unwrap_or("?")
+            )
+        }
+        Effect::Backlash { .. } => format!("b{j}"),
+        Effect::ThermalExpansion { .. } => "kappa".into(),
+        Effect::EncoderScale { .. } => format!("e{j}"),
+    }
+}
+
+pub use crate::io::measurements::Observation;
+
+/// Settings of the full identification.
+#[derive(Clone, Copy, Debug)]
+pub struct FullOptions {
+    /// Position noise (one standard deviation per axis), m.
+    pub position_noise: f64,
+    /// Orientation noise (one standard deviation per axis), rad.
+    pub orientation_noise: f64,
+    /// Most Levenberg–Marquardt iterations.
+    pub max_iterations: usize,
+    /// Relative residual norm below which a scaled column is not separable.
+    pub separability: f64,
+    /// A length parameter whose standard error would exceed this (m) is held at
+    /// nominal: the data do not determine it.
+    pub max_std_length: f64,
+    /// Likewise for an angle parameter (rad).
+    pub max_std_angle: f64,
+    /// Estimate base and tool in closed form before iterating.
+    pub initial_estimate: bool,
+    /// Whether `position_noise` is the user's or a starting value to estimate from.
+    pub position_source: NoiseSource,
+    /// Whether `orientation_noise` is the user's or a starting value to estimate from.
+    pub orientation_source: NoiseSource,
+    /// The prior on the D-H parameter errors ([`Prior::NONE`]: least squares).
+    pub prior: Prior,
+    /// Which parameters are free; the others are held at nominal.
+    pub geometry: Geometry,
+}
+
+impl FullOptions {
+    /// Ordinary weighted least squares: no prior, the noise as stated (the
+    /// default 0.1 mm and 0.1 mrad unless set). What the classical
+    /// identification of the papers computes.
+    pub fn least_squares() -> Self {
+        Self {
+            prior: Prior::NONE,
+            ..Self::default().stated()
+        }
+    }
+
+    /// These options starting from the noise `fit` used (for an estimated noise,
+    /// a start that settles in a round or two; a stated one is as stated).
+    pub fn at_noise_of(self, fit: &FullFit) -> Self {
+        Self {
+            position_noise: fit.noise.position.used,
+            orientation_noise: fit
+                .noise
+                .orientation
+                .map_or(self.orientation_noise, |o| o.used),
+            ..self
+        }
+    }
+
+    /// These options with both noises stated (as given), not estimated.
+    pub fn stated(self) -> Self {
+        Self {
+            position_source: NoiseSource::Stated,
+            orientation_source: NoiseSource::Stated,
+            ..self
+        }
+    }
+}
+
+impl Default for FullOptions {
+    fn default() -> Self {
+        Self {
+            position_noise: 1e-4,
+            orientation_noise: 1e-4,
+            max_iterations: 100,
+            separability: 1e-6,
+            max_std_length: 0.01,
+            max_std_angle: 0.01,
+            initial_estimate: true,
+            position_source: NoiseSource::Estimated,
+            orientation_source: NoiseSource::Estimated,
+            prior: Prior::default(),
+            geometry: Geometry::Full,
+        }
+    }
+}
+
+/// What became of one parameter.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Status {
+    /// Identified, with its standard error (SI units).
+    Identified {
+        /// One standard error, m or rad.
+        std: f64,
+    },
+    /// Not identified: held at nominal because the data cannot separate it (a
+    /// base or tool parameter at its closed-form estimate from the data, which
+    /// the reason then says).
+    Fixed {
+        /// Why, for the engineer.
+        reason: String,
+    },
+}
+
+/// One parameter of the result.
+#[derive(Clone, Debug)]
+pub struct ParamResult {
+    /// Which parameter.
+    pub param: Param,
+    /// Nominal value, SI.
+    pub nominal: f64,
+    /// Identified minus nominal, SI (angles wrapped to (−π, π]).
+    pub error: f64,
+    /// Identified or fixed.
+    pub status: Status,
+    /// The data's share in the estimate, 0 to 1 (the resolution matrix's
+    /// diagonal): 1 when the data alone determine it, near 0 when the prior
+    /// holds it, 0 when fixed.
+    pub data_share: f64,
+}
+
+/// The result of the full identification.
+#[derive(Clone, Debug)]
+pub struct FullFit {
+    /// Every parameter: base, tool, then the joints.
+    pub params: Vec<ParamResult>,
+    /// The calibrated model.
+    pub calibrated: Robot<f64>,
+    /// Levenberg–Marquardt iterations.
+    pub iterations: usize,
+    /// True if the last step was below the convergence threshold.
+    pub converged: bool,
+    /// RMS of the position residual (3-D distance), m.
+    pub position_rms: f64,
+    /// RMS of the orientation residual angle, rad (0 without orientation data).
+    pub orientation_rms: f64,
+    /// Condition number of the scaled, weighted Jacobian of the identified parameters.
+    pub condition_number: f64,
+    /// Observability index O1 (Borm & Menq) of the same matrix.
+    pub observability: f64,
+    /// The a-posteriori variance factor `s² = Σr²/(n − p)`, in units of the stated noise².
+    pub variance_factor: f64,
+    /// The strongest correlations between identified parameters, strongest first.
+    pub correlations: Vec<(String, String, f64)>,
+    /// The effects fitted with the geometry, with their parameters' statuses.
+    pub effects: Vec<EffectFit>,
+    /// Equations (rows).
+    pub equations: usize,
+    /// The redundancy: equations less the parameters' share they determine
+    /// (`n − tr(H)`; `n − p` without a prior).
+    pub redundancy: f64,
+    /// The noise of each channel: used and shown by the residuals.
+    pub noise: NoiseEstimate,
+}
+
+impl FullFit {
+    /// The fitted effects, with their identified parameters.
+    pub fn fitted_effects(&self) -> Vec<Effect<f64>> {
+        self.effects.iter().map(|e| e.effect).collect()
+    }
+}
+
+/// One effect of the result: its identified parameters and their statuses (in
+/// the order of [`Effect::parameter_mut`]).
+#[derive(Clone, Debug)]
+pub struct EffectFit {
+    /// The effect with its identified parameters (SI).
+    pub effect: Effect<f64>,
+    /// Each parameter's status (standard error, or why it is held at zero).
+    pub status: Vec<Status>,
+}
+
+/// Why the identification could not run.
+#[derive(Debug, thiserror::Error, PartialEq)]
+#[non_exhaustive]
+pub enum FullError {
+    /// Fewer equations than identifiable parameters.
+    #[error("{equations} equations for {unknowns} independent parameters: measure more poses")]
+    TooFewEquations {
+        /// Rows.
+        equations: usize,
+        /// Identifiable parameters.
+        unknowns: usize,
+    },
+    /// A pose whose joint count is not the model's.
+    #[error("pose {pose}: {got} joint values, the model has {expected} joints")]
+    JointCount {
+        /// 1-based pose index.
+        pose: usize,
+        /// Model joints.
+        expected: usize,
+        /// Values given.
+        got: usize,
+    },
+    /// An effect acts on a joint the model does not have.
+    #[error("an effect acts on joint {joint}, which the model does not have")]
+    EffectJoint {
+        /// 1-based joint.
+        joint: usize,
+    },
+    /// A non-finite value appeared (the data or the model are unusable).
+    #[error("the fit produced a value that is not finite: check units and joint order")]
+    NonFinite,
+}
+
+/// The count of independent geometric parameters of a full calibration of
+/// `robot`: `4R + 2P + 6` with orientation data, `4R + 2P + 3` with positions only.
+pub fn independent_parameter_count(robot: &Robot<f64>, full_pose: bool) -> usize {
+    let revolute = robot
+        .links
+        .iter()
+        .filter(|l| l.joint == JointType::Revolute)
+        .count();
+    let prismatic = robot.dof() - revolute;
+    4 * revolute + 2 * prismatic + if full_pose { 6 } else { 3 }
+}
+
+/// The unknowns of the full model, in the order of preference: base, tool, joints.
+pub fn full_params(robot: &Robot<f64>, orientation: bool) -> Vec<Param> {
+    let tool_axes: &[FrameAxis] = if orientation {
+        &FrameAxis::ALL
+    } else {
+        &[FrameAxis::X, FrameAxis::Y, FrameAxis::Z]
+    };
+    FrameAxis::ALL
+        .into_iter()
+        .map(Param::Base)
+        .chain(tool_axes.iter().copied().map(Param::Tool))
+        .chain(
+            (0..robot.dof())
+                .flat_map(|m| [Param::Theta(m), Param::S(m), Param::A(m), Param::Alpha(m)]),
+        )
+        .collect()
+}
+
+/// Identifies every identifiable geometric parameter of `nominal` from `data`.
+pub fn identify_full(
+    nominal: &Robot<f64>,
+    data: &[Observation],
+    options: &FullOptions,
+) -> Result<FullFit, FullError> {
+    identify_with_effects(nominal, &[], &[], data, options)
+}
+
+/// Identifies the geometry of `nominal` together with the parameters of
+/// `effects` (their starting values are the initial guesses, usually zero) and
+/// the `extra` geometric parameters (Hayati tilts `Param::Beta` between nominally
+/// parallel axes): the extended model of `armcal diagnose`. They come after the
+/// model's own parameters in the order of preference.
+pub fn identify_with_effects(
+    nominal: &Robot<f64>,
+    effects: &[Effect<f64>],
+    extra: &[Param],
+    data: &[Observation],
+    options: &FullOptions,
+) -> Result<FullFit, FullError> {
+    identify_from(nominal, None, effects, extra, data, options)
+}
+
+/// [`identify_with_effects`] from the geometry of `start` (a fit of the same
+/// data) instead of the nominal model and the closed-form base and tool: the
+/// extended model's refit converges in a few iterations from the fit it extends.
+pub fn identify_from(
+    nominal: &Robot<f64>,
+    start: Option<&Robot<f64>>,
+    effects: &[Effect<f64>],
+    extra: &[Param],
+    data: &[Observation],
+    options: &FullOptions,
+) -> Result<FullFit, FullError> {
+    if let Some(joint) = effects
+        .iter()
+        .filter_map(|e| e.joint())
+        .find(|j| *j >= nominal.dof())
+    {
+        return Err(FullError::EffectJoint { joint: joint + 1 });
+    }
+    for (i, obs) in data.iter().enumerate() {
+        if obs.q.len() != nominal.dof() {
+            return Err(FullError::JointCount {
+                pose: i + 1,
+                expected: nominal.dof(),
+                got: obs.q.len(),
+            });
+        }
+    }
+    let orientation = data.iter().any(|o| o.orientation.is_some());
+    // Every parameter of the full model and the extra tilts; the chosen geometry
+    // frees some of the model's, the others are held at nominal.
+    let all: Vec<Param> = full_params(nominal, orientation)
+        .into_iter()
+        .chain(extra.iter().copied())
+        .collect();
+    let frees = |p: &Param| options.geometry.frees(nominal, *p) || extra.contains(p);
+    let held_by_model: Vec<(Unknown, String)> = all
+        .iter()
+        .filter(|p| !frees(p))
+        .map(|p| {
+            (
+                Unknown::Param(*p),
+                format!(
+                    "held at nominal: the {} model does not free it",
+                    options.geometry.name()
+                ),
+            )
+        })
+        .collect();
+    let mut params: Vec<Unknown> = all
+        .iter()
+        .filter(|p| frees(p))
+        .map(|p| Unknown::Param(*p))
+        .collect();
+    for (effect, e) in effects.iter().enumerate() {
+        params.extend(
+            (0..e.parameter_count()).map(|component| Unknown::Effect { effect, component }),
+        );
+    }
+    // However the columns happen to fall, fewer equations than the model's
+    // independent parameters (Everett, Driels & Mooring) cannot determine it.
+    let equations = LinearSystem::rows(data);
+    let unknowns =
+        independent_parameter_count(nominal, data.iter().all(|o| o.orientation.is_some()));
+    if equations < unknowns {
+        return Err(FullError::TooFewEquations {
+            equations,
+            unknowns,
+        });
+    }
+
+    let mut robot = Model {
+        robot: start.unwrap_or(nominal).clone(),
+        effects: effects.to_vec(),
+    };
+    if options.initial_estimate && start.is_none() {
+        initial_base_tool(&mut robot.robot, data);
+    }
+    // What this model does not free is nominal, whatever the start.
+    for (u, _) in &held_by_model {
+        if let (Unknown::Param(p), Some(v)) = (u, robot.get_mut(*u))
+            && let Some(n) = nominal.param(*p)
+        {
+            *v = n;
+        }
+    }
+
+    // Identifiability at the initial estimate; the fit; then, for an estimated
+    // noise, the variance components and the fit again with their weights until
+    // they settle. A stated noise is kept, but when the fit shows it
+    // significantly larger the selection is made again with the noise the
+    // residuals show.
+    let estimate = (
+        options.position_source == NoiseSource::Estimated,
+        orientation && options.orientation_source == NoiseSource::Estimated,
+    );
+    let start = robot.clone();
+    let mut noise = (options.position_noise, options.orientation_noise);
+    let mut noise_scale = 1.0;
+    let mut iterations = 0;
+    let (mut free_params, mut fixed, mut converged, mut sys, mut prior, mut post);
+    let mut round = 0;
+    loop {
+        round += 1;
+        let weights = (1.0 / noise.0, 1.0 / noise.1);
+        let system = NormalEquations::accumulate(&robot, data, &params, weights);
+        let (free, f) = separable_subset(&system, &params, &robot, data, options, noise_scale);
+        fixed = f;
+        if equations < free.len() && options.prior == Prior::NONE {
+            return Err(FullError::TooFewEquations {
+                equations,
+                unknowns: free.len(),
+            });
+        }
+        free_params = free.iter().map(|&k| params[k]).collect::<Vec<Unknown>>();
+        // Parameters held fixed keep their nominal value (base and tool: their
+        // closed-form estimate).
+        let mut moved = false;
+        for (p, _) in &fixed {
+            let keep = match *p {
+                Unknown::Param(Param::Base(_) | Param::Tool(_)) => start.get(*p),
+                Unknown::Param(q) => nominal.param(q),
+                Unknown::Effect { .. } => start.get(*p),
+            };
+            if let (Some(v), Some(slot)) = (keep, robot.get_mut(*p)) {
+                moved |= *slot != v;
+                *slot = v;
+            }
+        }
+        // The linearisation of every parameter serves the first iteration unless a
+        // held parameter was just moved back.
+        let first = if moved {
+            NormalEquations::accumulate(&robot, data, &free_params, weights)
+        } else {
+            system.select_columns(&free)
+        };
+        prior = prior_terms(&free_params, nominal, &options.prior);
+        // The fit of the free parameters at `weights` from the linearisation `first`.
+        let solve = |robot: &mut Model, weights, first| {
+            levenberg_marquardt(robot, data, &free_params, weights, options, first, &prior)
+        };
+        let run;
+        (run, converged, sys) = solve(&mut robot, weights, first)?;
+        iterations += run;
+        post = Posterior::at(&sys, &prior);
+        if estimate.0 || estimate.1 {
+            // The free parameters stay; each round reweighs the rows of the
+            // solution's linearisation and iterates from there.
+            loop {
+                let next = (
+                    if estimate.0 {
+                        ChannelNoise::update(noise.0, post.omega.0, post.redundancy.0)
+                    } else {
+                        noise.0
+                    },
+                    if estimate.1 {
+                        ChannelNoise::update(noise.1, post.omega.1, post.redundancy.1)
+                    } else {
+                        noise.1
+                    },
+                );
+                let settled = (next.0 / noise.0 - 1.0).abs() < SETTLED
+                    && (next.1 / noise.1 - 1.0).abs() < SETTLED;
+                if settled || round >= MAX_NOISE_ROUNDS {
+                    break;
+                }
+                round += 1;
+                let before = (1.0 / noise.0, 1.0 / noise.1);
+                noise = next;
+                let weights = (1.0 / noise.0, 1.0 / noise.1);
+                let first = sys.reweighted(before, weights);
+                let run;
+                (run, converged, sys) = solve(&mut robot, weights, first)?;
+                iterations += run;
+                post = Posterior::at(&sys, &prior);
+            }
+            break;
+        }
+        let variance_factor = post.variance_factor();
+        // Select again only if the noise is significantly larger than stated: the
+        // variance factor of correctly stated noise scatters about 1 with a
+        // standard deviation of √(2/dof).
+        let significant = 1.0 + 3.0 * (2.0 / post.redundancy().max(1.0)).sqrt();
+        let new_scale = variance_factor.sqrt();
+        if variance_factor <= significant * noise_scale * noise_scale {
+            break;
+        }
+        let system = NormalEquations::accumulate(&robot, data, &params, weights);
+        let (free_again, _) = separable_subset(&system, &params, &robot, data, options, new_scale);
+        noise_scale = new_scale;
+        if free_again.iter().map(|&k| params[k]).collect::<Vec<_>>() == free_params {
+            break;
+        }
+    }
+
+    // Statistics at the solution (the last linearisation is at the solution).
+    let (g, _, scale) = sys.scaled_normal_equations();
+    let variance_factor = post.variance_factor();
+    let eig = g.self_adjoint_eigenvalues(Side::Lower).unwrap_or_default();
+    let (smin, smax) = (
+        eig.first().copied().unwrap_or(0.0).max(0.0).sqrt(),
+        eig.last().copied().unwrap_or(0.0).max(0.0).sqrt(),
+    );
+    let condition_number = if smin > 0.0 {
+        smax / smin
+    } else {
+        f64::INFINITY
+    };
+    let observability = {
+        let p = eig.len().max(1) as f64;
+        let log_sum: f64 = eig
+            .iter()
+            .map(|l| 0.5 * l.max(f64::MIN_POSITIVE).ln())
+            .sum();
+        (log_sum / p).exp() / (equations.max(1) as f64).sqrt()
+    };
+    let mut correlations = Vec::new();
+    let mut std_of = vec![f64::NAN; free_params.len()];
+    if let Some(c) = &post.cov {
+        for k in 0..free_params.len() {
+            std_of[k] = (variance_factor * c[(k, k)]).sqrt() * scale[k];
+            for l in 0..k {
+                let rho = c[(k, l)] / (c[(k, k)] * c[(l, l)]).sqrt();
+                correlations.push((robot.name(free_params[l]), robot.name(free_params[k]), rho));
+            }
+        }
+    }
+    correlations.sort_by(|a, b| b.2.abs().total_cmp(&a.2.abs()));
+    correlations.truncate(5);
+
+    let weights = (1.0 / noise.0, 1.0 / noise.1);
+    let (position_rms, orientation_rms) = sys.residual_rms(weights);
+    let channel =
+        |source: NoiseSource, used: f64, omega: f64, rows: usize, redundancy: f64| ChannelNoise {
+            source,
+            used,
+            shown: ChannelNoise::update(used, omega, redundancy),
+            rows,
+            redundancy,
+        };
+    let noise_estimate = NoiseEstimate {
+        position: channel(
+            options.position_source,
+            noise.0,
+            post.omega.0,
+            post.rows.0,
+            post.redundancy.0,
+        ),
+        orientation: orientation.then(|| {
+            channel(
+                options.orientation_source,
+                noise.1,
+                post.omega.1,
+                post.rows.1,
+                post.redundancy.1,
+            )
+        }),
+    };
+    let mut fixed_reason = fixed
+        .into_iter()
+        .chain(held_by_model)
+        .collect::<std::collections::HashMap<_, _>>();
+    let mut status_of = |u: Unknown| match free_params.iter().position(|p| *p == u) {
+        Some(k) => (Status::Identified { std: std_of[k] }, post.share[k]),
+        None => {
+            let mut reason = fixed_reason
+                .remove(&u)
+                .unwrap_or_else(|| "not separable".into());
+            // The error shown is then the registration's, not a fitted one.
+            if let Unknown::Param(p @ (Param::Base(_) | Param::Tool(_))) = u
+                && start.get(u) != nominal.param(p)
+            {
+                reason.push_str("; held at its closed-form estimate from the data, not at nominal");
+            }
+            (Status::Fixed { reason }, 0.0)
+        }
+    };
+    let effect_fits: Vec<EffectFit> = robot
+        .effects
+        .iter()
+        .enumerate()
+        .map(|(effect, e)| EffectFit {
+            effect: *e,
+            status: (0..e.parameter_count())
+                .map(|component| status_of(Unknown::Effect { effect, component }).0)
+                .collect(),
+        })
+        .collect();
+    let results = all
+        .iter()
+        .map(|&param| {
+            let nominal_value = nominal.param(param).unwrap_or(0.0);
+            let mut error = robot.robot.param(param).unwrap_or(0.0) - nominal_value;
+            if param.is_angle() {
+                error = wrap_angle(error);
+            }
+            let (status, data_share) = status_of(Unknown::Param(param));
+            ParamResult {
+                param,
+                nominal: nominal_value,
+                error,
+                status,
+                data_share,
+            }
+        })
+        .collect();
+    if !sys.cost().is_finite() {
+        return Err(FullError::NonFinite);
+    }
+    Ok(FullFit {
+        params: results,
+        calibrated: robot.robot,
+        effects: effect_fits,
+        iterations,
+        converged,
+        position_rms,
+        orientation_rms,
+        condition_number,
+        observability,
+        variance_factor,
+        correlations,
+        equations,
+        redundancy: post.redundancy(),
+        noise: noise_estimate,
+    })
+}
+
+/// Most rounds of the variance-component iteration (each a fit from the last);
+/// they settle in a handful.
+const MAX_NOISE_ROUNDS: usize = 30;
+
+/// The prior of each free unknown: its precision `1/τ²` (0 for none) and its
+/// nominal value.
+fn prior_terms(free: &[Unknown], nominal: &Robot<f64>, prior: &Prior) -> Vec<(f64, f64)> {
+    free.iter()
+        .map(|u| match u {
+            Unknown::Param(p) => (prior.precision(*p), nominal.param(*p).unwrap_or(0.0)),
+            Unknown::Effect { .. } => (0.0, 0.0),
+        })
+        .collect()
+}
+
+/// `Σ (x − x_nominal)² / τ²` over the free unknowns of `robot`.
+fn prior_cost(robot: &Model, free: &[Unknown], prior: &[(f64, f64)]) -> f64 {
+    free.iter()
+        .zip(prior)
+        .filter(|(_, (precision, _))| *precision > 0.0)
+        .map(|(u, (precision, centre))| {
+            let d = robot.get(*u).unwrap_or(*centre) - centre;
+            precision * d * d
+        })
+        .sum()
+}
+
+/// The posterior at a solution: the covariance of the scaled unknowns, each
+/// channel's weighted sum of squares, rows and redundancy, and each unknown's
+/// data share (see [`super::noise`] and [`super::prior`]).
+struct Posterior {
+    /// `(G + P)⁻¹` in the unit-diagonal scaling of the data's normal matrix `G`.
+    cov: Option<Mat<f64>>,
+    /// Weighted sums of squares: positions, orientations.
+    omega: (f64, f64),
+    /// Rows: positions, orientations.
+    rows: (usize, usize),
+    /// Redundancies: positions, orientations.
+    redundancy: (f64, f64),
+    /// The diagonal of the resolution matrix `(G + P)⁻¹ G`.
+    share: Vec<f64>,
+}
+
+impl Posterior {
+    fn at(sys: &NormalEquations, prior: &[(f64, f64)]) -> Self {
+        let (g, _, scale) = sys.scaled_normal_equations();
+        let p = g.nrows();
+        // The position rows alone.
+        let rows = (sys.rows[0], sys.rows[1]);
+        let gp = Mat::from_fn(p, p, |a, b| sys.jtj[0][(a, b)] * scale[a] * scale[b]);
+        let omega = (sys.rtr[0], sys.rtr[1]);
+        let mut n = g.clone();
+        for (k, (precision, _)) in prior.iter().enumerate() {
+            n[(k, k)] += precision * scale[k] * scale[k];
+        }
+        let cov = n.llt(Side::Lower).map(|l| l.inverse()).ok();
+        let trace = |a: &Mat<f64>| match &cov {
+            Some(c) => (0..p)
+                .map(|i| (0..p).map(|j| c[(i, j)] * a[(j, i)]).sum::<f64>())
+                .sum(),
+            None => p as f64,
+        };
+        let (tp, t) = (trace(&gp), trace(&g));
+        let share = (0..p)
+            .map(|k| match &cov {
+                Some(c) => (0..p).map(|j| c[(k, j)] * g[(j, k)]).sum::<f64>(),
+                None => 1.0,
+            })
+            .collect();
+        Self {
+            cov,
+            omega,
+            rows,
+            redundancy: (rows.0 as f64 - tp, rows.1 as f64 - (t - tp)),
+            share,
+        }
+    }
+
+    /// The total redundancy.
+    fn redundancy(&self) -> f64 {
+        self.redundancy.0 + self.redundancy.1
+    }
+
+    /// The a-posteriori variance factor: the weighted sum of squares over the redundancy.
+    fn variance_factor(&self) -> f64 {
+        let r = self.redundancy();
+        if r > 0.0 {
+            (self.omega.0 + self.omega.1) / r
+        } else {
+            1.0
+        }
+    }
+}
+
+/// The weighted linearisation of a fitted model, extended: the Jacobian columns
+/// of `fit`'s identified unknowns (geometry, then its effects' parameters), then of
+/// the `extra` geometric parameters, then of the parameters of `effects` (at their
+/// values, usually zero), all at `fit`'s solution; and the weighted residual.
+/// Rows as in the fit: per pose 3 position rows (divided by the fit's position
+/// noise), then 3 orientation rows when measured. Each column carries its
+/// `prior` precision and its current offset from nominal, so that a solve
+/// on any subset of the poses is the MAP step of the fit. What
+/// [`crate::calibration::diagnose`] cross-validates models with, by one Gauss–Newton step per fold.
+pub fn linearize(
+    fit: &FullFit,
+    effects: &[Effect<f64>],
+    extra: &[Param],
+    data: &[Observation],
+    prior: &Prior,
+) -> Linearization {
+    let mut model = Model {
+        robot: fit.calibrated.clone(),
+        effects: fit.fitted_effects(),
+    };
+    let identified = |s: &Status| matches!(s, Status::Identified { .. });
+    let mut unknowns: Vec<Unknown> = Vec::new();
+    let mut offset: Vec<f64> = Vec::new();
+    for p in fit.params.iter().filter(|p| identified(&p.status)) {
+        unknowns.push(Unknown::Param(p.param));
+        offset.push(p.error);
+    }
+    for (effect, e) in fit.effects.iter().enumerate() {
+        for (component, _) in e.status.iter().enumerate().filter(|(_, s)| identified(s)) {
+            unknowns.push(Unknown::Effect { effect, component });
+            offset.push(0.0);
+        }
+    }
+    let base = unknowns.len();
+    unknowns.extend(extra.iter().map(|p| Unknown::Param(*p)));
+    for e in effects {
+        let effect = model.effects.len();
+        model.effects.push(*e);
+        unknowns.extend(
+            (0..e.parameter_count()).map(|component| Unknown::Effect { effect, component }),
+        );
+    }
+    offset.resize(unknowns.len(), 0.0);
+    let precision = unknowns
+        .iter()
+        .map(|u| match u {
+            Unknown::Param(p) => prior.precision(*p),
+            Unknown::Effect { .. } => 0.0,
+        })
+        .collect();
+    let position_noise = fit.noise.position.used;
+    let orientation_noise = fit.noise.orientation.map_or(1.0, |o| o.used);
+    let sys = LinearSystem::build(
+        &model,
+        data,
+        &unknowns,
+        (1.0 / position_noise, 1.0 / orientation_noise),
+    );
+    let mut first_rows = Vec::with_capacity(data.len());
+    let mut row = 0;
+    for obs in data {
+        first_rows.push(row);
+        row += if obs.orientation.is_some() { 6 } else { 3 };
+    }
+    Linearization {
+        j: sys.j,
+        r: sys.r,
+        first_rows,
+        fitted: base,
+        position_noise,
+        unknowns,
+        precision,
+        offset,
+    }
+}
+
+/// A weighted linearisation ([`linearize`]).
+pub struct Linearization {
+    /// Weighted Jacobian, rows × unknowns.
+    pub j: Mat<f64>,
+    /// Weighted residual, rows × 1.
+    pub r: Mat<f64>,
+    /// The first row of each pose (its 3 position rows; then 3 orientation rows if measured).
+    pub first_rows: Vec<usize>,
+    /// How many leading columns are the fit's own unknowns.
+    pub fitted: usize,
+    /// The position noise the rows are divided by, m.
+    pub position_noise: f64,
+    /// The unknown of each column.
+    pub unknowns: Vec<Unknown>,
+    /// The prior precision `1/τ²` of each column (0: none).
+    pub precision: Vec<f64>,
+    /// Each column's value less its nominal value (its prior's centre), SI.
+    pub offset: Vec<f64>,
+}
+
+impl Linearization {
+    /// The rows of pose `i`.
+    pub fn rows_of(&self, i: usize) -> std::ops::Range<usize> {
+        self.first_rows[i]
+            ..self
+                .first_rows
+                .get(i + 1)
+                .copied()
+                .unwrap_or(self.j.nrows())
+    }
+}
+
+/// The damping Levenberg–Marquardt starts from, on the normal equations
+/// scaled to a unit diagonal: Nielsen's `τ = 1e-6` for a start near the
+/// solution (the nominal model and the closed-form base and tool are), so that
+/// the first steps are Gauss–Newton's.
+const LAMBDA_START: f64 = 1e-6;
+
+/// Whether a step that lowers the weighted sum of squares (in units of the
+/// noise², the prior's terms included) from `cost` by `decrease` is too small
+/// to matter: less than 1e-8 of it, and never more than 1e-2. A Gauss–Newton
+/// step `δ` lowers it by `δᵀGδ`, and no parameter moves by more than
+/// `√(δᵀGδ)` of its standard error: by at most a tenth (adding at most 1 % to
+/// its variance), however many poses.
+fn negligible(decrease: f64, cost: f64) -> bool {
+    decrease <= (1e-8 * cost).min(1e-2)
+}
+
+/// Levenberg–Marquardt on `free` from `robot`, minimising the weighted sum of
+/// squares plus the prior's `Σ (x − x_nominal)²/τ²` (`prior`: precision and
+/// nominal value of each free unknown): iterations, convergence and the
+/// linearisation at the solution.
+fn levenberg_marquardt(
+    robot: &mut Model,
+    data: &[Observation],
+    free_params: &[Unknown],
+    weights: (f64, f64),
+    options: &FullOptions,
+    mut sys: NormalEquations,
+    prior: &[(f64, f64)],
+) -> Result<(usize, bool, NormalEquations), FullError> {
+    // One linearisation per trial: an accepted trial's normal equations are the
+    // next iteration's, so each iteration costs one pass over the poses. `sys` is
+    // the linearisation at `robot`.
+    let mut cost = sys.cost() + prior_cost(robot, free_params, prior);
+    let mut lambda = LAMBDA_START;
+    let mut iterations = 0;
+    let mut converged = false;
+    while iterations < options.max_iterations && !converged {
+        iterations += 1;
+        let (mut g, mut rhs, scale) = sys.scaled_normal_equations();
+        for (k, (precision, centre)) in prior.iter().enumerate() {
+            if *precision > 0.0 {
+                let x = robot.get(free_params[k]).unwrap_or(*centre);
+                g[(k, k)] += precision * scale[k] * scale[k];
+                rhs[(k, 0)] += precision * scale[k] * (centre - x);
+            }
+        }
+        let mut accepted = false;
+        for _ in 0..30 {
+            let mut a = g.clone();
+            for k in 0..a.nrows() {
+                a[(k, k)] += lambda;
+            }
+            let Ok(llt) = a.llt(Side::Lower) else {
+                lambda *= 10.0;
+                continue;
+            };
+            let ds = llt.solve(&rhs);
+            let step: Vec<f64> = (0..free_params.len())
+                .map(|k| ds[(k, 0)] * scale[k])
+                .collect();
+            if step.iter().any(|s| !s.is_finite()) {
+                return Err(FullError::NonFinite);
+            }
+            // The step in scaled parameters: its effect on the predictions in units
+            // of their noise is at most |ds_k| per column (unit-norm columns).
+            let size = (0..free_params.len())
+                .map(|k| ds[(k, 0)].abs())
+                .fold(0.0, f64::max);
+            let mut trial = robot.clone();
+            apply(&mut trial, free_params, &step);
+            let trial_sys = NormalEquations::accumulate(&trial, data, free_params, weights);
+            let trial_cost = trial_sys.cost() + prior_cost(&trial, free_params, prior);
+            if trial_cost <= cost {
+                // Converged when the step no longer matters: below 1e-10 of the
+                // noise, or lowering the sum of squares negligibly.
+                converged = size < 1e-10 || negligible(cost - trial_cost, cost);
+                (*robot, cost, sys) = (trial, trial_cost, trial_sys);
+                lambda = (lambda / 10.0).max(1e-12);
+                accepted = true;
+                break;
+            }
+            if size < 1e-10 || negligible(trial_cost - cost, cost) {
+                // A step this small, or one that raises the sum of squares by
+                // less than matters (at the minimum its change is rounding),
+                // changes nothing measurable: at a minimum.
+                accepted = true;
+                converged = true;
+                break;
+            }
+            lambda *= 10.0;
+        }
+        if !accepted {
+            converged = cost == 0.0;
+            break;
+        }
+    }
+    Ok((iterations, converged, sys))
+}
+
+/// Wraps an angle to (−π, π].
+fn wrap_angle(x: f64) -> f64 {
+    let two_pi = 2.0 * std::f64::consts::PI;
+    let y = x.rem_euclid(two_pi);
+    if y > std::f64::consts::PI {
+        y - two_pi
+    } else {
+        y
+    }
+}
+
+/// Adds `step` to `params` of `robot`.
+fn apply(robot: &mut Model, params: &[Unknown], step: &[f64]) {
+    for (p, d) in params.iter().zip(step) {
+        if let Some(v) = robot.get_mut(*p) {
+            *v += d;
+        }
+    }
+}
+
+/// The weighted Jacobian and residual of one linearisation, stored whole (rows ×
+/// unknowns): what [`linearize`] hands the diagnosis, which solves on subsets of
+/// the poses. The fit itself needs only [`NormalEquations`].
+struct LinearSystem {
+    /// Weighted Jacobian, rows × params.
+    j: Mat<f64>,
+    /// Weighted residual, rows × 1.
+    r: Mat<f64>,
+}
+
+impl LinearSystem {
+    fn rows(data: &[Observation]) -> usize {
+        data.iter()
+            .map(|o| if o.orientation.is_some() { 6 } else { 3 })
+            .sum()
+    }
+
+    /// The linearisation at `model`: per pose its 3 position rows, then its 3
+    /// orientation rows when measured ([`for_each_pose_rows`]).
+    fn build(model: &Model, data: &[Observation], params: &[Unknown], weights: (f64, f64)) -> Self {
+        let rows = Self::rows(data);
+        let mut j = Mat::zeros(rows, params.len());
+        let mut r = Mat::zeros(rows, 1);
+        let mut row = 0;
+        for_each_pose_rows(model, data, params, weights, |pose| {
+            let n = if pose.orientation { 6 } else { 3 };
+            for i in 0..n {
+                r[(row + i, 0)] = pose.r[i];
+                for k in 0..params.len() {
+                    j[(row + i, k)] = pose.row(i)[k];
+                }
+            }
+            row += n;
+        });
+        Self { j, r }
+    }
+}
+
+/// The weighted rows of one pose: 3 position rows, then 3 orientation rows when
+/// its orientation is measured.
+struct PoseRows {
+    /// Jacobian rows, 6 × params, row after row (rows 3..6 only meaningful when
+    /// `orientation`).
+    j: Vec<f64>,
+    /// Params: the length of a row.
+    params: usize,
+    /// Residual rows (3..6 only meaningful when `orientation`).
+    r: [f64; 6],
+    /// Whether the orientation rows are present.
+    orientation: bool,
+}
+
+impl PoseRows {
+    /// Row `i` of the Jacobian.
+    fn row(&self, i: usize) -> &[f64] {
+        &self.j[i * self.params..(i + 1) * self.params]
+    }
+}
+
+/// Hands `emit` the weighted rows of each pose in turn, linearised at `model`:
+/// the one per-pose computation behind both the stored [`LinearSystem`] and the
+/// accumulated [`NormalEquations`]. A pose whose kinematics fail is skipped (joint
+/// counts are checked on entry, so none does).
+///
+/// With effects, each pose is evaluated at its temperature (thermal expansion
+/// scales the lengths) and at the joint values `q + Δq(q, context)`; a joint
+/// effect's column is the joint's column times `∂Δq_j/∂p`, thermal
+/// expansion's is `ΔT Σ_i (a_i ∂/∂a_i + s_i ∂/∂s_i)`. The dependence of `Δq`
+/// on the geometry (through the gravity torque) is left out of the Jacobian:
+/// it only slows convergence, the residuals stay exact.
+fn for_each_pose_rows(
+    model: &Model,
+    data: &[Observation],
+    params: &[Unknown],
+    (wp, wr): (f64, f64),
+    mut emit: impl FnMut(&PoseRows),
+) {
+    let robot = &model.robot;
+    let kinematics = robot.prepare();
+    let Some(Ok(mut chain)) = data.first().map(|o| kinematics.chain(&o.q)) else {
+        return;
+    };
+    let mut rows = PoseRows {
+        j: vec![0.0; 6 * params.len()],
+        params: params.len(),
+        r: [0.0; 6],
+        orientation: false,
+    };
+    let base_columns = chain.base_columns();
+    let effects = (!model.effects.is_empty())
+        .then(|| EffectModel::new(robot.clone(), &model.effects).ok())
+        .flatten();
+    let thermal = model.effects.iter().find_map(|e| match e {
+        Effect::ThermalExpansion {
+            coefficient,
+            reference,
+        } => Some((*coefficient, *reference)),
+        _ => None,
+    });
+    let needs_torque = model
+        .effects
+        .iter()
+        .any(|e| matches!(e, Effect::JointCompliance { .. }));
+    let mut q_eff: Vec<f64> = Vec::new();
+    for obs in data {
+        // Joint counts were checked on entry.
+        let ctx = &obs.context;
+        let delta_t = match (thermal, ctx.temperature) {
+            (Some((_, reference)), Some(t)) => t - reference,
+            _ => 0.0,
+        };
+        let scaled;
+        let kin = match (&effects, delta_t != 0.0) {
+            (Some(em), true) => {
+                scaled = em.robot_at(ctx).prepare();
+                &scaled
+            }
+            _ => &kinematics,
+        };
+        let mut tau: Vec<f64> = Vec::new();
+        q_eff.clear();
+        match &effects {
+            Some(em) => {
+                if needs_torque && kin.chain_into(&obs.q, &mut chain).is_ok() {
+                    tau = gravity_torques(robot, &chain, ctx.payload.unwrap_or(0.0)).to_vec();
+                }
+                q_eff.extend_from_slice(&em.joint_values_at(&obs.q, &tau, ctx));
+            }
+            None => q_eff.extend_from_slice(&obs.q),
+        }
+        if kin.chain_into(&q_eff, &mut chain).is_err() {
+            continue;
+        }
+        let tool_columns = chain.tool_columns();
+        let p = chain.point();
+        let dp = obs.position - p;
+        let orientation = obs
+            .orientation
+            .map(|q| rotation_error(&q.to_rotation_matrix(), &chain.end.rotation));
+        let length_scale = thermal.map_or(1.0, |(k, _)| 1.0 + k * delta_t);
+        for (k, &u) in params.iter().enumerate() {
+            let col: Twist<f64> = match u {
+                Unknown::Param(Param::Base(ax)) => base_columns[ax.index()],
+                Unknown::Param(Param::Tool(ax)) => tool_columns[ax.index()],
+                Unknown::Param(pm @ (Param::A(_) | Param::S(_))) => chain.column(pm) * length_scale,
+                Unknown::Param(pm) => chain.column(pm),
+                Unknown::Effect { effect, component } => {
+                    let e = &model.effects[effect];
+                    match e.joint() {
+                        Some(jt) => {
+                            let sens = e.joint_sensitivity(
+                                component,
+                                obs.q[jt],
+                                tau.get(jt).copied().unwrap_or(0.0),
+                                ctx,
+                            );
+                            chain.column(joint_param(robot, jt)) * sens
+                        }
+                        // Thermal expansion: every length, scaled by ΔT.
+                        None => {
+                            (0..robot.dof())
+                                .map(|i| {
+                                    let l = &robot.links[i];
+                                    chain.column(Param::A(i)) * l.a
+                                        + chain.column(Param::S(i)) * l.s
+                                })
+                                .fold(Twist::zeros(), |acc, c| acc + c)
+                                * delta_t
+                        }
+                    }
+                }
+            };
+            let v = at_point(&col, &p);
+            let n = params.len();
+            for i in 0..3 {
+                rows.j[i * n + k] = v[i] * wp;
+            }
+            if orientation.is_some() {
+                for i in 0..3 {
+                    rows.j[(3 + i) * n + k] = col[i] * wr;
+                }
+            }
+        }
+        for i in 0..3 {
+            rows.r[i] = dp[i] * wp;
+        }
+        rows.orientation = orientation.is_some();
+        if let Some(e) = orientation {
+            for i in 0..3 {
+                rows.r[3 + i] = e[i] * wr;
+            }
+        }
+        emit(&rows);
+    }
+}
+
+/// Poses whose rows [`NormalEquations::accumulate`] gathers before adding their
+/// products: large enough for the matrix product to run at full speed, small
+/// enough (a few MB) not to matter.
+const BLOCK_POSES: usize = 2048;
+
+/// Poses whose normal equations [`NormalEquations::accumulate`] sums alone (on
+/// one thread) before adding them to the others': a few blocks, so that 10⁵
+/// poses already give each core several.
+const CHUNK_POSES: usize = 8 * BLOCK_POSES;
+
+/// The normal equations of one weighted linearisation, summed pose by pose: all
+/// that the fit, the separability test, the posterior and the statistics need of
+/// it, in memory independent of the number of poses (`O(p²)`, plus
+/// `O(BLOCK_POSES · p)` while accumulating).
+///
+/// Per channel (`[0]`: the position rows, `[1]`: the orientation rows) of the
+/// weighted Jacobian `J` and residual `r` of [`for_each_pose_rows`] — each row
+/// divided by its channel's noise (`σ_p` in m, `σ_r` in rad), so the residual is
+/// in units of the noise and a column is the change of the predictions, in units
+/// of the noise, per SI unit of its unknown:
+/// - `jtj`: `JᵀJ`, params × params;
+/// - `jtr`: `Jᵀr`, params × 1;
+/// - `rtr`: `rᵀr`, the channel's weighted sum of squares;
+/// - `rows`: the channel's rows (3 per pose; 3 per pose with an orientation).
+///
+/// The position channel is kept apart for the per-channel redundancy of
+/// [`Posterior`], and so that a change of the noises is a scalar multiply of
+/// each channel ([`NormalEquations::reweighted`]).
+#[derive(Clone)]
+struct NormalEquations {
+    jtj: [Mat<f64>; 2],
+    jtr: [Mat<f64>; 2],
+    rtr: [f64; 2],
+    rows: [usize; 2],
+}
+
+impl NormalEquations {
+    /// The normal equations of the linearisation at `model`: the poses in
+    /// chunks of [`CHUNK_POSES`], each chunk's sums accumulated alone
+    /// ([`NormalEquations::accumulate_chunk`]), on as many threads as the machine
+    /// has, then added in pose order — the same sums whatever the number of
+    /// threads.
+    fn accumulate(
+        model: &Model,
+        data: &[Observation],
+        params: &[Unknown],
+        weights: (f64, f64),
+    ) -> Self {
+        let chunk = |c: &[Observation]| Self::accumulate_chunk(model, c, params, weights);
+        let chunks: Vec<&[Observation]> = data.chunks(CHUNK_POSES).collect();
+        let threads = std::thread::available_parallelism()
+            .map_or(1, |n| n.get())
+            .min(chunks.len());
+        let partials: Vec<Self> = if threads <= 1 {
+            chunks.iter().map(|c| chunk(c)).collect()
+        } else {
+            // Each thread takes the next chunk not yet taken.
+            let next = std::sync::atomic::AtomicUsize::new(0);
+            let mut done: Vec<(usize, Self)> = std::thread::scope(|scope| {
+                let workers: Vec<_> = (0..threads)
+                    .map(|_| {
+                        scope.spawn(|| {
+                            let mut mine = Vec::new();
+                            loop {
+                                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                                let Some(c) = chunks.get(i) else { break mine };
+                                mine.push((i, chunk(c)));
+                            }
+                        })
+                    })
+                    .collect();
+                workers
+                    .into_iter()
+                    .flat_map(|w| w.join().expect("a chunk's accumulation does not panic"))
+                    .collect()
+            });
+            done.sort_by_key(|(i, _)| *i);
+            done.into_iter().map(|(_, sums)| sums).collect()
+        };
+        let mut partials = partials.into_iter();
+        let Some(mut sums) = partials.next() else {
+            return Self::accumulate_chunk(model, data, params, weights);
+        };
+        for part in partials {
+            for c in 0..2 {
+                sums.jtj[c] += &part.jtj[c];
+                sums.jtr[c] += &part.jtr[c];
+                sums.rtr[c] += part.rtr[c];
+                sums.rows[c] += part.rows[c];
+            }
+        }
+        sums
+    }
+
+    /// The normal equations of the poses `data` at `model`, their rows filled a
+    /// block of [`BLOCK_POSES`] poses at a time into a reused block matrix
+    /// whose `JᵀJ` (lower half) and `Jᵀr` are then added by faer's matrix product.
+    fn accumulate_chunk(
+        model: &Model,
+        data: &[Observation],
+        params: &[Unknown],
+        weights: (f64, f64),
+    ) -> Self {
+        let p = params.len();
+        let orientations = data.iter().filter(|o| o.orientation.is_some()).count();
+        let mut sums = Self {
+            jtj: [Mat::zeros(p, p), Mat::zeros(p, p)],
+            jtr: [Mat::zeros(p, 1), Mat::zeros(p, 1)],
+            rtr: [0.0; 2],
+            rows: [3 * data.len(), 3 * orientations],
+        };
+        let block_rows = 3 * BLOCK_POSES.min(data.len().max(1));
+        let mut block = Block {
+            j: [Mat::zeros(p, block_rows), Mat::zeros(p, block_rows)],
+            r: [Mat::zeros(block_rows, 1), Mat::zeros(block_rows, 1)],
+            filled: [0; 2],
+        };
+        for_each_pose_rows(model, data, params, weights, |pose| {
+            for (c, offset) in [(0, 0), (1, 3)] {
+                if c == 1 && !pose.orientation {
+                    continue;
+                }
+                let row = block.filled[c];
+                for i in 0..3 {
+                    block.r[c][(row + i, 0)] = pose.r[offset + i];
+                    if p > 0 {
+                        block
+                            .row_mut(c, row + i)
+                            .copy_from_slice(pose.row(offset + i));
+                    }
+                }
+                block.filled[c] += 3;
+            }
+            // The orientation rows never outnumber the position rows.
+            if block.filled[0] == block_rows {
+                block.add_to(&mut sums);
+            }
+        });
+        block.add_to(&mut sums);
+        // Mirror the lower halves.
+        for g in &mut sums.jtj {
+            for a in 0..p {
+                for b in a + 1..p {
+                    g[(a, b)] = g[(b, a)];
+                }
+            }
+        }
+        sums
+    }
+
+    /// The weighted sum of squares of the residual.
+    fn cost(&self) -> f64 {
+        self.rtr[0] + self.rtr[1]
+    }
+
+    /// `JᵀJ` of both channels.
+    fn normal_matrix(&self) -> Mat<f64> {
+        let [p, o] = &self.jtj;
+        Mat::from_fn(p.nrows(), p.ncols(), |a, b| p[(a, b)] + o[(a, b)])
+    }
+
+    /// `(Gs, Jsᵀr, scale)`: the normal matrix of the columns scaled to unit norm,
+    /// its right-hand side, and the scale factors (`δ = scale · δs`). A zero column
+    /// keeps scale 0 (it cannot move anything).
+    fn scaled_normal_equations(&self) -> (Mat<f64>, Mat<f64>, Vec<f64>) {
+        let g = self.normal_matrix();
+        let n = g.nrows();
+        let scale = unit_diagonal_scale(&g);
+        let gs = Mat::from_fn(n, n, |a, b| g[(a, b)] * scale[a] * scale[b]);
+        let [p, o] = &self.jtr;
+        let rhs = Mat::from_fn(n, 1, |a, _| (p[(a, 0)] + o[(a, 0)]) * scale[a]);
+        (gs, rhs, scale)
+    }
+
+    /// The normal equations of the parameters `columns` (indices into this one's):
+    /// their rows and columns.
+    fn select_columns(&self, columns: &[usize]) -> Self {
+        let n = columns.len();
+        Self {
+            jtj: self
+                .jtj
+                .each_ref()
+                .map(|g| Mat::from_fn(n, n, |a, b| g[(columns[a], columns[b])])),
+            jtr: self
+                .jtr
+                .each_ref()
+                .map(|v| Mat::from_fn(n, 1, |a, _| v[(columns[a], 0)])),
+            rtr: self.rtr,
+            rows: self.rows,
+        }
+    }
+
+    /// These normal equations with their rows weighed by `after` in place of
+    /// `before` (position, orientation weights): the same linearisation at other
+    /// noises, each channel multiplied by the square of its weight ratio.
+    fn reweighted(&self, before: (f64, f64), after: (f64, f64)) -> Self {
+        let mut next = self.clone();
+        let ratios = [after.0 / before.0, after.1 / before.1];
+        for (c, ratio) in ratios.into_iter().enumerate() {
+            let f = ratio * ratio;
+            let (g, v) = (&mut next.jtj[c], &mut next.jtr[c]);
+            for b in 0..g.ncols() {
+                for a in 0..g.nrows() {
+                    g[(a, b)] *= f;
+                }
+                v[(b, 0)] *= f;
+            }
+            next.rtr[c] *= f;
+        }
+        next
+    }
+
+    /// RMS of the unweighted position residual (3-D distance, m) and of the
+    /// orientation residual angle (rad), from the sums of squares.
+    fn residual_rms(&self, (wp, wr): (f64, f64)) -> (f64, f64) {
+        rms_pair(
+            self.rtr[0] / (wp * wp),
+            self.rows[0] / 3,
+            self.rtr[1] / (wr * wr),
+            self.rows[1] / 3,
+        )
+    }
+}
+
+/// The rows of up to [`BLOCK_POSES`] poses, per channel, waiting to be added to
+/// [`NormalEquations`].
+struct Block {
+    /// The Jacobian rows, transposed: params × rows, a row of `J` a column here.
+    j: [Mat<f64>; 2],
+    r: [Mat<f64>; 2],
+    /// Rows filled, per channel.
+    filled: [usize; 2],
+}
+
+impl Block {
+    /// Row `row` of channel `c`'s Jacobian, to write.
+    fn row_mut(&mut self, c: usize, row: usize) -> &mut [f64] {
+        self.j[c]
+            .col_mut(row)
+            .try_as_col_major_mut()
+            .expect("a column of an owned matrix is contiguous")
+            .as_slice_mut()
+    }
+
+    /// Adds the filled rows' `JᵀJ` (lower half), `Jᵀr` and `rᵀr` to `sums`, and
+    /// empties the block.
+    fn add_to(&mut self, sums: &mut NormalEquations) {
+        for c in 0..2 {
+            let n = self.filled[c];
+            if n == 0 {
+                continue;
+            }
+            let jt = self.j[c].as_ref().subcols(0, n);
+            let r = self.r[c].as_ref().subrows(0, n);
+            triangular::matmul(
+                sums.jtj[c].as_mut(),
+                BlockStructure::TriangularLower,
+                Accum::Add,
+                jt,
+                BlockStructure::Rectangular,
+                jt.transpose(),
+                BlockStructure::Rectangular,
+                1.0,
+                Par::Seq,
+            );
+            matmul::matmul(sums.jtr[c].as_mut(), Accum::Add, jt, r, 1.0, Par::Seq);
+            sums.rtr[c] += r.squared_norm_l2();
+            self.filled[c] = 0;
+        }
+    }
+}
+
+/// The factors `1/√G_kk` that scale a normal matrix `G = JᵀJ` to a unit diagonal
+/// (its columns of `J` to unit norm); 0 for a zero column, which cannot move anything.
+pub(crate) fn unit_diagonal_scale(g: &Mat<f64>) -> Vec<f64> {
+    (0..g.nrows()).map(|k| unit_scale(g[(k, k)])).collect()
+}
+
+/// The factor `1/√d` that scales a normal matrix's diagonal entry `d` to 1; 0
+/// for a zero column.
+pub(crate) fn unit_scale(d: f64) -> f64 {
+    if d > 0.0 { 1.0 / d.sqrt() } else { 0.0 }
+}
+
+/// The rank-revealing Cholesky of the scaled normal matrix in the order of
+/// preference: the indices of the separable parameters, and the others with the
+/// reason each is not.
+fn separable_subset(
+    sys: &NormalEquations,
+    params: &[Unknown],
+    robot: &Model,
+    data: &[Observation],
+    options: &FullOptions,
+    noise_scale: f64,
+) -> (Vec<usize>, Vec<(Unknown, String)>) {
+    let tolerance = options.separability;
+    let (g, _, scale) = sys.scaled_normal_equations();
+    let n = g.nrows();
+    // Cholesky factor columns of the kept parameters: L[k] holds row k of L.
+    let mut l = Mat::<f64>::zeros(n, n);
+    let mut kept: Vec<usize> = Vec::new();
+    let mut fixed = Vec::new();
+    let tol2 = tolerance * tolerance;
+    for k in 0..n {
+        if scale[k] == 0.0 {
+            fixed.push((
+                params[k],
+                "does not move the measured point or frame".to_string(),
+            ));
+            continue;
+        }
+        // Residual of column k after projecting out the kept columns: d = G_kk − Σ L_kj².
+        let mut lk = vec![0.0; kept.len()];
+        for (a, &i) in kept.iter().enumerate() {
+            let mut s = g[(k, i)];
+            for b in 0..a {
+                s -= lk[b] * l[(i, b)];
+            }
+            lk[a] = s / l[(i, a)];
+        }
+        let d = g[(k, k)] - lk.iter().map(|x| x * x).sum::<f64>();
+        // The standard error this parameter would have beside the ones kept so far.
+        let std = noise_scale * scale[k] / d.max(0.0).sqrt();
+        // Effect parameters have units of their own: only exact dependence holds them.
+        // A parameter with a prior is held near nominal by the prior, not here.
+        let (limit, unit) = match params[k] {
+            Unknown::Param(p) if options.prior.precision(p) > 0.0 => (f64::INFINITY, ""),
+            Unknown::Param(p) if p.is_angle() => (options.max_std_angle, "rad"),
+            Unknown::Param(_) => (options.max_std_length, "m"),
+            Unknown::Effect { .. } => (f64::INFINITY, ""),
+        };
+        if d > tol2 && std > limit {
+            fixed.push((
+                params[k],
+                format!("not determined by these data: its standard error would be {std:.2e} {unit}, above {limit:.0e} {unit}"),
+            ));
+        } else if d > tol2 {
+            let a = kept.len();
+            for (b, v) in lk.iter().enumerate() {
+                l[(k, b)] = *v;
+            }
+            l[(k, a)] = d.sqrt();
+            kept.push(k);
+        } else {
+            fixed.push((
+                params[k],
+                dependence_reason(k, &kept, &g, params, robot, data),
+            ));
+        }
+    }
+    (kept, fixed)
+}
+
+/// Names the kept parameters that column `k` depends on, and the geometry behind it.
+fn dependence_reason(
+    k: usize,
+    kept: &[usize],
+    g: &Mat<f64>,
+    params: &[Unknown],
+    robot: &Model,
+    data: &[Observation],
+) -> String {
+    // Least-squares coefficients of column k on the kept columns: G_SS c = G_Sk.
+    let n = kept.len();
+    let gss = Mat::from_fn(n, n, |a, b| g[(kept[a], kept[b])]);
+    let gsk = Mat::from_fn(n, 1, |a, _| g[(kept[a], k)]);
+    let mut names: Vec<(f64, Unknown)> = match gss.llt(Side::Lower) {
+        Ok(llt) => {
+            let c = llt.solve(&gsk);
+            (0..n).map(|a| (c[(a, 0)].abs(), params[kept[a]])).collect()
+        }
+        Err(_) => Vec::new(),
+    };
+    names.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let top = names.first().map_or(0.0, |x| x.0);
+    let list: Vec<String> = names
+        .iter()
+        .take_while(|x| x.0 >= 0.1 * top && x.0 > 0.0)
+        .take(3)
+        .map(|x| robot.name(x.1))
+        .collect();
+    let mut reason = if list.is_empty() {
+        "not separable by these data".to_string()
+    } else {
+        format!("not separable from {}", list.join(", "))
+    };
+    let geometry = match params[k] {
+        Unknown::Param(p) => geometry_reason(p, &robot.robot, data),
+        Unknown::Effect { .. } => None,
+    };
+    if let Some(geometry) = geometry {
+        reason.push_str(": ");
+        reason.push_str(&geometry);
+    }
+    reason
+}
+
+/// The geometric reason for a dependence, where one is recognised: consecutive
+/// parallel joint axes, or the first joint axis parallel to the measurement frame's z.
+fn geometry_reason(param: Param, robot: &Robot<f64>, data: &[Observation]) -> Option<String> {
+    let chain = robot.chain(&data.first()?.q).ok()?;
+    let parallel = |a: &Vector3<f64>, b: &Vector3<f64>| a.cross(b).norm() < 1e-9;
+    let m = match param {
+        Param::Theta(m) | Param::S(m) => m,
+        _ => return None,
+    };
+    if m > 0 && parallel(&chain.axes[m].w, &chain.axes[m - 1].w) {
+        return Some(format!("axes {} and {} parallel", m, m + 1));
+    }
+    if m == 0 && parallel(&chain.axes[0].w, &Vector3::z()) {
+        return Some("axis 1 parallel to the measurement frame's z".into());
+    }
+    None
+}
+
+/// RMS of the position residual (m) and of the orientation angle (rad).
+pub fn residual_rms(robot: &Robot<f64>, data: &[Observation]) -> (f64, f64) {
+    let (mut pos, mut rot, mut n_rot) = (0.0, 0.0, 0usize);
+    let kinematics = robot.prepare();
+    for obs in data {
+        if let Ok(t) = kinematics.forward(&obs.q) {
+            pos += (obs.position.coords - t.translation.vector).norm_squared();
+            if let Some(q) = obs.orientation {
+                rot += rotation_error(&q.to_rotation_matrix(), &t.rotation).norm_squared();
+                n_rot += 1;
+            }
+        }
+    }
+    rms_pair(pos, data.len(), rot, n_rot)
+}
+
+/// `(√(pos / n), √(rot / n_rot))` from sums of squares, 0 for an empty sum.
+fn rms_pair(pos: f64, n: usize, rot: f64, n_rot: usize) -> (f64, f64) {
+    let rms = |sum: f64, k: usize| if k > 0 { (sum / k as f64).sqrt() } else { 0.0 };
+    (rms(pos, n), rms(rot, n_rot))
+}
+
+/// The most poses the closed-form estimate of base and tool reads: evenly
+/// spaced over a longer session. A start for the fit, which then reads every
+/// pose; at this many its own scatter is below a hundredth of the noise.
+const START_POSES: usize = 10_000;
+
+/// The closed-form estimate of base and tool with the nominal joints (see the
+/// module header), from at most [`START_POSES`] of the poses.
+fn initial_base_tool(robot: &mut Robot<f64>, data: &[Observation]) {
+    let step = data.len().div_ceil(START_POSES).max(1);
+    let sample: std::borrow::Cow<'_, [Observation]> = if step > 1 {
+        data.iter().step_by(step).cloned().collect()
+    } else {
+        data.into()
+    };
+    let data = &*sample;
+    let mut bare = robot.clone();
+    bare.base = armcal_shared::Frame::identity();
+    bare.tool = armcal_shared::Frame::identity();
+    let bare = bare.prepare();
+    let flange: Vec<IsometryMatrix3<f64>> = data
+        .iter()
+        .filter_map(|o| bare.forward(&o.q).ok())
+        .collect();
+    if flange.len() != data.len() || data.len() < 3 {
+        return;
+    }
+    let with_orientation: Vec<usize> = (0..data.len())
+        .filter(|&i| data[i].orientation.is_some())
+        .collect();
+    let mut base = robot.base.isometry();
+    let mut tool = robot.tool.isometry();
+    // Sums of squares from the flange frames already computed: base · flange · tool.
+    let frames_cost = |b: &IsometryMatrix3<f64>, t: &IsometryMatrix3<f64>| -> f64 {
+        data.iter()
+            .zip(&flange)
+            .map(|(obs, f)| {
+                let m = b * f * t;
+                let dp = (obs.position.coords - m.translation.vector).norm_squared();
+                dp + obs.orientation.map_or(0.0, |q| {
+                    rotation_error(&q.to_rotation_matrix(), &m.rotation).norm_squared()
+                })
+            })
+            .sum()
+    };
+    let before = frames_cost(&base, &tool);
+    for _ in 0..20 {
+        if with_orientation.len() >= 2 {
+            // Rotations: R_meas = R_b R_f R_t, alternating chordal means.
+            let rb: Matrix3<f64> = with_orientation
+                .iter()
+                .map(|&i| {
+                    let rm = data[i].orientation.unwrap_or_default().to_rotation_matrix();
+                    (rm * (flange[i].rotation * tool.rotation).inverse()).into_inner()
+                })
+                .sum();
+            base.rotation = project_to_rotation(&rb);
+            let rt: Matrix3<f64> = with_orientation
+                .iter()
+                .map(|&i| {
+                    let rm = data[i].orientation.unwrap_or_default().to_rotation_matrix();
+                    ((base.rotation * flange[i].rotation).inverse() * rm).into_inner()
+                })
+                .sum();
+            tool.rotation = project_to_rotation(&rt);
+        } else {
+            // Positions only: register the current model's points onto the measured ones.
+            let model: Vec<Point3<f64>> = flange
+                .iter()
+                .map(|f| base * (f * Point3::from(tool.translation.vector)))
+                .collect();
+            let measured: Vec<Point3<f64>> = data.iter().map(|o| o.position).collect();
+            let correction = kabsch(&model, &measured);
+            base = correction * base;
+        }
+        // Positions: P = t_b + R_b (p_f + R_f t_t), linear in (t_b, t_t): the 6 × 6
+        // normal equations, accumulated pose by pose.
+        let mut ata = nalgebra::Matrix6::<f64>::zeros();
+        let mut atb = nalgebra::Vector6::<f64>::zeros();
+        for (obs, f) in data.iter().zip(&flange) {
+            let rbrf = base.rotation.matrix() * f.rotation.matrix();
+            let mut a = nalgebra::Matrix3x6::<f64>::zeros();
+            a.fixed_view_mut::<3, 3>(0, 0)
+                .copy_from(&Matrix3::identity());
+            a.fixed_view_mut::<3, 3>(0, 3).copy_from(&rbrf);
+            let rhs = obs.position.coords - base.rotation * f.translation.vector;
+            ata += a.transpose() * a;
+            atb += a.transpose() * rhs;
+        }
+        // Singular when the tool point cannot be told from the base (all poses alike).
+        let Some(x) = ata.cholesky().map(|c| c.solve(&atb)) else {
+            return;
+        };
+        let (tb, tt) = (
+            Vector3::new(x[0], x[1], x[2]),
+            Vector3::new(x[3], x[4], x[5]),
+        );
+        let change = (tb - base.translation.vector).norm() + (tt - tool.translation.vector).norm();
+        base.translation.vector = tb;
+        tool.translation.vector = tt;
+        if change < 1e-12 {
+            break;
+        }
+    }
+    let mut trial = robot.clone();
+    trial.base = frame_of(&base);
+    trial.tool = frame_of(&tool);
+    if with_orientation.len() < 2 {
+        trial.tool.rpy = robot.tool.rpy; // not observable from positions: keep nominal
+    }
+    if frames_cost(&trial.base.isometry(), &trial.tool.isometry()) < before {
+        *robot = trial;
+    }
+}
+
+/// xyz and roll-pitch-yaw of an isometry.
+fn frame_of(iso: &IsometryMatrix3<f64>) -> armcal_shared::Frame<f64> {
+    let (roll, pitch, yaw) = iso.rotation.euler_angles();
+    armcal_shared::Frame {
+        xyz: iso.translation.vector,
+        rpy: Vector3::new(roll, pitch, yaw),
+    }
+}
+
+/// The rotation nearest to `m` (Frobenius norm): `U diag(1, 1, det(UVᵀ)) Vᵀ`.
+fn project_to_rotation(m: &Matrix3<f64>) -> Rotation3<f64> {
+    let svd = m.svd(true, true);
+    let (Some(u), Some(vt)) = (svd.u, svd.v_t) else {
+        return Rotation3::identity();
+    };
+    let mut d = Matrix3::identity();
+    d[(2, 2)] = (u * vt).determinant().signum();
+    Rotation3::from_matrix_unchecked(u * d * vt)
+}
+
+/// The rigid motion `T` minimising `Σ |T a_i − b_i|²` (Kabsch/Horn).
+fn kabsch(a: &[Point3<f64>], b: &[Point3<f64>]) -> IsometryMatrix3<f64> {
+    let n = a.len() as f64;
+    let ca = a.iter().map(|p| p.coords).sum::<Vector3<f64>>() / n;
+    let cb = b.iter().map(|p| p.coords).sum::<Vector3<f64>>() / n;
+    let h: Matrix3<f64> = a
+        .iter()
+        .zip(b)
+        .map(|(p, q)| (q.coords - cb) * (p.coords - ca).transpose())
+        .sum();
+    let r = project_to_rotation(&h);
+    IsometryMatrix3::from_parts((cb - r * ca).into(), r)
+}

@@ -1,0 +1,367 @@
+//! Geometric identification: the D-H parameter errors from measured poses.
+//!
+//! | module | model |
+//! | --- | --- |
+//! | [`full`] | `--params full` (the default): joint offsets, every `s, a, α`, base and tool, weighted Levenberg–Marquardt with a rank-revealing Cholesky, standard errors and observability |
+//! | [`paper`] | `--params paper`: the 3M position-independent model and the Iterative Regression Algorithm of Mirman & Gupta (1992), as the paper gives them |
+//!
+//! This module turns either result into the report of `armcal identify`: the
+//! JSON of `INTERFACE.md`, a human summary, and the [`Calibration`] the
+//! controller loads. Values are SI inside; the report converts every length and
+//! angle to the model file's units (`mm`-suffixed fields excepted).
+
+pub mod full;
+pub mod noise;
+pub mod paper;
+pub mod prior;
+
+use std::fmt::Write as _;
+
+use armcal_shared::calibration::ParamError;
+use armcal_shared::{Calibration, Param, Robot};
+use serde_json::json;
+
+use crate::io::measurements::Measurements;
+use crate::io::model_file::{RobotModel, Units};
+use full::{FullFit, FullOptions, Observation, Status};
+use paper::{PaperOptions, PaperPose};
+
+/// Which model to identify.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ParamSet {
+    /// The 3M position-independent model of Mirman & Gupta.
+    Paper,
+    /// Every identifiable geometric parameter, base and tool included.
+    Full,
+}
+
+impl ParamSet {
+    /// The name used on the command line and in the JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Paper => "paper",
+            Self::Full => "full",
+        }
+    }
+}
+
+/// One parameter of the report, SI units.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParamRow {
+    /// Which parameter.
+    pub param: Param,
+    /// Nominal value.
+    pub nominal: f64,
+    /// Identified minus nominal.
+    pub error: f64,
+    /// Standard error, when the method gives one.
+    pub std: Option<f64>,
+    /// `None` when identified, the reason when held at nominal.
+    pub fixed: Option<String>,
+}
+
+/// The outcome of `armcal identify`.
+#[derive(Clone, Debug)]
+pub struct Identification {
+    /// The model identified.
+    pub params: ParamSet,
+    /// Iterations run.
+    pub iterations: usize,
+    /// Whether the iterations converged.
+    pub converged: bool,
+    /// Every parameter.
+    pub parameters: Vec<ParamRow>,
+    /// RMS position residual, m.
+    pub position_rms: f64,
+    /// RMS orientation residual, rad (0 without orientation data).
+    pub orientation_rms: f64,
+    /// Full model only: its statistics.
+    pub full: Option<FullFit>,
+    /// The calibration to write.
+    pub calibration: Calibration,
+}
+
+/// Why an identification could not be made.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum IdentifyError {
+    /// The full model failed.
+    #[error(transparent)]
+    Full(#[from] full::FullError),
+    /// The paper's model failed.
+    #[error(transparent)]
+    Paper(#[from] paper::PaperError),
+    /// The paper's model needs orientations.
+    #[error(
+        "{file}: --params paper needs full poses (columns qw, qx, qy, qz): Mirman & Gupta's regression uses the rotational and translational errors of eq. (15); use --params full for positions"
+    )]
+    PaperNeedsPoses {
+        /// The data file.
+        file: String,
+    },
+    /// The calibration could not be encoded.
+    #[error("the calibration cannot be written: {0}")]
+    Calibration(#[from] armcal_shared::CalibrationError),
+}
+
+/// The observations of `data`, SI, with each pose's context: temperature and
+/// payload from the `temp` and `load` columns, and the approach direction of
+/// every joint from row order (the sign of its last change, held while the joint
+/// holds: [`armcal_shared::effects::Approach`]).
+pub fn observations(data: &Measurements) -> &[Observation] {
+    &data.poses
+}
+
+/// Runs the identification of `set` on `data`.
+pub fn identify(
+    model: &RobotModel,
+    data: &Measurements,
+    set: ParamSet,
+    options: &FullOptions,
+) -> Result<Identification, IdentifyError> {
+    let nominal = &model.robot;
+    let orientation = data.poses.iter().any(|p| p.orientation.is_some());
+    let (iterations, converged, parameters, calibrated, fit) = match set {
+        ParamSet::Full => {
+            let fit = full::identify_full(nominal, observations(data), options)?;
+            let rows: Vec<ParamRow> = fit
+                .params
+                .iter()
+                .map(|p| ParamRow {
+                    param: p.param,
+                    nominal: p.nominal,
+                    error: p.error,
+                    std: match &p.status {
+                        Status::Identified { std } => Some(*std),
+                        Status::Fixed { .. } => None,
+                    },
+                    fixed: match &p.status {
+                        Status::Identified { .. } => None,
+                        Status::Fixed { reason } => Some(reason.clone()),
+                    },
+                })
+                .collect();
+            (
+                fit.iterations,
+                fit.converged,
+                rows,
+                fit.calibrated.clone(),
+                Some(fit),
+            )
+        }
+        ParamSet::Paper => {
+            let mut poses = Vec::with_capacity(data.poses.len());
+            for p in &data.poses {
+                let Some(q) = p.orientation else {
+                    return Err(IdentifyError::PaperNeedsPoses {
+                        file: data.file.clone(),
+                    });
+                };
+                poses.push(PaperPose {
+                    q: p.q.clone(),
+                    actual: nalgebra::IsometryMatrix3::from_parts(
+                        p.position.coords.into(),
+                        q.to_rotation_matrix(),
+                    ),
+                    joint_errors: None,
+                });
+            }
+            let fit = paper::identify_paper(nominal, &poses, &PaperOptions::default())?;
+            let last = fit.iterations.last();
+            let rows = fit
+                .params
+                .iter()
+                .zip(&fit.errors)
+                .map(|(&param, &error)| {
+                    let dependent =
+                        last.and_then(|it| it.dependent.iter().find(|(held, _, _)| *held == param));
+                    ParamRow {
+                        param,
+                        nominal: nominal.param(param).unwrap_or(0.0),
+                        error,
+                        std: None,
+                        fixed: dependent.map(|(_, beside, r)| {
+                            format!("not separable from {beside} (r = {r:.9})")
+                        }),
+                    }
+                })
+                .collect();
+            let mut calibrated = nominal.clone();
+            for (p, e) in fit.params.iter().zip(&fit.errors) {
+                if let Some(v) = calibrated.param_mut(*p) {
+                    *v += e;
+                }
+            }
+            (fit.iterations.len(), fit.converged, rows, calibrated, None)
+        }
+    };
+    let obs = observations(data);
+    let (position_rms, orientation_rms) = full::residual_rms(&calibrated, obs);
+    let mut calibration = Calibration::nominal(nominal.clone(), orientation, model.units);
+    for row in parameters
+        .iter()
+        .filter(|r| r.fixed.is_none() && r.error != 0.0)
+    {
+        // At most 4M + 12 parameters: the capacity of the calibration.
+        let _ = calibration.errors.push(ParamError {
+            param: row.param,
+            error: row.error,
+        });
+    }
+    // Refuse now, before anything is written, if the calibration cannot be encoded.
+    calibration.to_bytes()?;
+    Ok(Identification {
+        params: set,
+        iterations,
+        converged,
+        parameters,
+        position_rms,
+        orientation_rms,
+        full: fit,
+        calibration,
+    })
+}
+
+/// A parameter value in the model file's units.
+fn in_units(units: &Units, param: Param, si: f64) -> f64 {
+    if param.is_angle() {
+        units.angle_from_si(si)
+    } else {
+        units.length_from_si(si)
+    }
+}
+
+impl Identification {
+    /// The JSON of `INTERFACE.md`, values in the model's units.
+    pub fn to_json(&self, units: &Units) -> serde_json::Value {
+        let parameters: Vec<serde_json::Value> = self
+            .parameters
+            .iter()
+            .map(|r| {
+                let mut v = json!({
+                    "name": r.param.to_string(),
+                    "nominal": in_units(units, r.param, r.nominal),
+                    "error": in_units(units, r.param, r.error),
+                    "std": r.std.map(|s| in_units(units, r.param, s)),
+                    "status": if r.fixed.is_some() { "fixed" } else { "identified" },
+                });
+                if let Some(reason) = &r.fixed {
+                    v["reason"] = json!(reason);
+                }
+                v
+            })
+            .collect();
+        let mut out = json!({
+            "params": self.params.name(),
+            "iterations": self.iterations,
+            "converged": self.converged,
+            "parameters": parameters,
+            "residual": {
+                "position_rms": units.length_from_si(self.position_rms),
+                "orientation_rms": units.angle_from_si(self.orientation_rms),
+                "position_rms_mm": self.position_rms * 1e3,
+            },
+            "units": {"length": units.length.to_string(), "angle": units.angle.to_string()},
+        });
+        if let Some(fit) = &self.full {
+            out["condition_number"] = json!(fit.condition_number);
+            out["observability_index"] = json!(fit.observability);
+            out["variance_factor"] = json!(fit.variance_factor);
+            out["equations"] = json!(fit.equations);
+            out["correlations"] = json!(
+                fit.correlations
+                    .iter()
+                    .map(|(a, b, r)| json!({"a": a.to_string(), "b": b.to_string(), "r": r}))
+                    .collect::<Vec<_>>()
+            );
+        }
+        out
+    }
+
+    /// The human summary.
+    pub fn summary(&self, model: &RobotModel, data: &Measurements) -> String {
+        let u = &model.units;
+        let mut out = String::new();
+        let _ = writeln!(
+            out,
+            "identify --params {}: {} ({} joints) from {} ({} poses{})",
+            self.params.name(),
+            model.name,
+            model.robot.dof(),
+            data.file,
+            data.poses.len(),
+            if self.calibration.orientation {
+                ", full poses"
+            } else {
+                ", positions"
+            }
+        );
+        let _ = writeln!(
+            out,
+            "{} after {} iterations; residual rms {:.6} {} ({:.4} mm){}",
+            if self.converged {
+                "converged"
+            } else {
+                "NOT converged"
+            },
+            self.iterations,
+            u.length_from_si(self.position_rms),
+            u.length,
+            self.position_rms * 1e3,
+            if self.calibration.orientation {
+                format!(
+                    ", orientation rms {:.6} {}",
+                    u.angle_from_si(self.orientation_rms),
+                    u.angle
+                )
+            } else {
+                String::new()
+            }
+        );
+        if let Some(fit) = &self.full {
+            let _ = writeln!(
+                out,
+                "condition number {:.3e}, observability index O1 {:.3e}, variance factor {:.3} (residual/stated noise)²",
+                fit.condition_number, fit.observability, fit.variance_factor
+            );
+        }
+        let _ = writeln!(
+            out,
+            "\n  {:<9} {:>14} {:>14} {:>12}   status",
+            "parameter", "nominal", "error", "std"
+        );
+        for r in &self.parameters {
+            let unit = if r.param.is_angle() {
+                u.angle.to_string()
+            } else {
+                u.length.to_string()
+            };
+            let std = r.std.map_or("-".to_string(), |s| {
+                format!("{:.3e}", in_units(u, r.param, s))
+            });
+            let _ = writeln!(
+                out,
+                "  {:<9} {:>14.6} {:>14.6e} {:>12}   {} [{unit}]",
+                r.param.to_string(),
+                in_units(u, r.param, r.nominal),
+                in_units(u, r.param, r.error),
+                std,
+                r.fixed
+                    .as_deref()
+                    .map_or("identified".to_string(), |why| format!("fixed: {why}")),
+            );
+        }
+        if let Some(fit) = self.full.as_ref().filter(|f| !f.correlations.is_empty()) {
+            let _ = writeln!(out, "\nstrongest correlations:");
+            for (a, b, r) in &fit.correlations {
+                let _ = writeln!(out, "  {a:<9} {b:<9} {r:+.4}");
+            }
+        }
+        out
+    }
+
+    /// The calibrated model.
+    pub fn calibrated(&self) -> Robot<f64> {
+        self.calibration.calibrated()
+    }
+}

@@ -1,0 +1,14 @@
+//! The calibration itself: identification, diagnosis, simulation and the papers.
+//!
+//! These modules work on SI values read by [`crate::io`]; none of them opens a
+//! file of its own (the HTML page of [`report`] is returned as text).
+
+pub mod check;
+pub mod demo;
+pub mod diagnose;
+pub mod identify;
+pub mod report;
+pub mod reproduce;
+pub mod simulate;
+pub mod stats;
+pub mod sweep;

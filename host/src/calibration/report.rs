@@ -1,0 +1,408 @@
+//! The page `armcal diagnose --html` writes: one self-contained HTML file with
+//! inline SVG (it opens offline), showing what the geometric model gets wrong and
+//! what the extension fixes.
+//!
+//! For each effect found, the residual of the geometric calibration and of the
+//! extended one, each projected on the direction in which the effect moves the
+//! tool point at that pose (m → mm), is plotted against the variable that explains
+//! it: the gravity torque on the joint (compliance), the joint reading (gear
+//! transmission, encoder scale), the approach direction (backlash), the
+//! temperature (thermal expansion), the row (a tilt). With nothing found, the
+//! residual is plotted against the row order. Then the held-out gain table, the
+//! findings with their evidence, and the parameter table with standard errors.
+
+use std::fmt::Write as _;
+
+use armcal_shared::effects::{Effect, gravity_torques, joint_param};
+use armcal_shared::jacobian::at_point;
+use armcal_shared::{Param, Twist};
+use nalgebra::Vector3;
+
+use crate::calibration::diagnose::{DiagnoseOptions, Diagnosis, residuals};
+use crate::calibration::identify::full::{Observation, Status};
+use crate::io::model_file::RobotModel;
+
+/// One scatter plot: points `(x, y)` in two series (before, after).
+struct Plot {
+    title: String,
+    x_label: String,
+    before: Vec<(f64, f64)>,
+    after: Vec<(f64, f64)>,
+}
+
+/// An SVG scatter plot, `w × h` pixels, with its axes' ranges labelled.
+fn svg(plot: &Plot, w: f64, h: f64) -> String {
+    let m = 50.0;
+    let all = plot.before.iter().chain(&plot.after);
+    let (mut x0, mut x1, mut y0, mut y1) = (
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    );
+    for (x, y) in all {
+        (x0, x1, y0, y1) = (x0.min(*x), x1.max(*x), y0.min(*y), y1.max(*y));
+    }
+    // No spread (or no points): a unit range around the value.
+    if x1.partial_cmp(&x0) != Some(std::cmp::Ordering::Greater) {
+        let c = if x0.is_finite() { x0 } else { 0.0 };
+        (x0, x1) = (c - 1.0, c + 1.0);
+    }
+    let ymax = y0.abs().max(y1.abs()).max(1e-9);
+    let ymax = if ymax.is_finite() { ymax } else { 1.0 };
+    let (y0, y1) = (-ymax, ymax);
+    let sx = |x: f64| m + (x - x0) / (x1 - x0) * (w - 2.0 * m);
+    let sy = |y: f64| h - m - (y - y0) / (y1 - y0) * (h - 2.0 * m);
+    let mut s = String::new();
+    let _ = write!(
+        s,
+        r##"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" role="img"><title>{t}</title><rect x="0" y="0" width="{w}" height="{h}" fill="#fff"/><text x="{cx}" y="18" text-anchor="middle" font-size="14">{t}</text><line x1="{m}" y1="{zy}" x2="{xe}" y2="{zy}" stroke="#999"/><line x1="{m}" y1="{m}" x2="{m}" y2="{ye}" stroke="#333"/><line x1="{m}" y1="{ye}" x2="{xe}" y2="{ye}" stroke="#333"/>"##,
+        t = plot.title,
+        cx = w / 2.0,
+        zy = sy(0.0),
+        xe = w - m,
+        ye = h - m,
+    );
+    for (series, colour) in [(&plot.before, "#d62728"), (&plot.after, "#1f77b4")] {
+        for (x, y) in series {
+            let _ = write!(
+                s,
+                r#"<circle cx="{:.1}" cy="{:.1}" r="2.2" fill="{colour}" fill-opacity="0.7"/>"#,
+                sx(*x),
+                sy(*y)
+            );
+        }
+    }
+    let _ = write!(
+        s,
+        r##"<text x="{m}" y="{yl}" font-size="11">{x0:.3}</text><text x="{xe}" y="{yl}" font-size="11" text-anchor="end">{x1:.3}</text><text x="{cx}" y="{xl}" font-size="12" text-anchor="middle">{xlab}</text><text x="4" y="{yt}" font-size="11">{ymax:+.3} mm</text><text x="4" y="{yb}" font-size="11">{ymin:+.3} mm</text><text x="{lx}" y="36" font-size="11" fill="#d62728">● geometric calibration</text><text x="{lx}" y="50" font-size="11" fill="#1f77b4">● extended calibration</text></svg>"##,
+        yl = h - m + 14.0,
+        xe = w - m,
+        cx = w / 2.0,
+        xl = h - 8.0,
+        xlab = plot.x_label,
+        yt = m + 4.0,
+        yb = h - m,
+        ymax = y1,
+        ymin = y0,
+        lx = (w - m - 150.0).max(m),
+    );
+    s
+}
+
+/// The plots of the findings (see the module header).
+fn plots(model: &RobotModel, d: &Diagnosis, data: &[Observation]) -> Vec<Plot> {
+    let (before, after) = (residuals(&d.geometric, data), residuals(&d.fit, data));
+    let robot = &d.geometric.calibrated;
+    let mut out = Vec::new();
+    for f in &d.findings {
+        // The direction the effect moves the tool point at each pose, and its variable.
+        let mut dirs = Vec::new();
+        let mut xs = Vec::new();
+        for (i, o) in data.iter().enumerate() {
+            let Ok(chain) = robot.chain(&o.q) else {
+                continue;
+            };
+            let p = chain.point();
+            let (col, x): (Twist<f64>, f64) = match (f.candidate.effect, f.candidate.extra.first())
+            {
+                (Some(Effect::ThermalExpansion { .. }), _) => {
+                    let col = (0..robot.dof())
+                        .map(|k| {
+                            chain.column(Param::A(k)) * robot.links[k].a
+                                + chain.column(Param::S(k)) * robot.links[k].s
+                        })
+                        .fold(Twist::zeros(), |a, c| a + c);
+                    (col, o.context.temperature.unwrap_or(0.0))
+                }
+                (Some(e), _) => {
+                    let j = e.joint().unwrap_or(0);
+                    let col = chain.column(joint_param(robot, j));
+                    let x = match e {
+                        Effect::JointCompliance { .. } => {
+                            gravity_torques(robot, &chain, o.context.payload.unwrap_or(0.0))[j]
+                        }
+                        Effect::Backlash { .. } => {
+                            f64::from(o.context.approach.get(j).copied().unwrap_or(0))
+                        }
+                        _ => model.units.joint_from_si(robot.links[j].joint, o.q[j]),
+                    };
+                    (col, x)
+                }
+                (None, Some(p)) => (chain.column(*p), i as f64),
+                (None, None) => continue,
+            };
+            let v = at_point(&col, &p);
+            dirs.push((i, v / v.norm().max(f64::MIN_POSITIVE)));
+            xs.push(x);
+        }
+        let series = |r: &[Vector3<f64>]| -> Vec<(f64, f64)> {
+            dirs.iter()
+                .zip(&xs)
+                .filter_map(|((i, d), x)| r.get(*i).map(|r| (*x, r.dot(d) * 1e3)))
+                .collect()
+        };
+        let x_label = match f.candidate.effect {
+            Some(Effect::JointCompliance { joint, .. }) => {
+                format!("gravity torque on joint {} [N·m]", joint + 1)
+            }
+            Some(Effect::Backlash { joint, .. }) => {
+                format!("approach direction of joint {} (−1, +1)", joint + 1)
+            }
+            Some(Effect::ThermalExpansion { .. }) => "temperature [°C]".into(),
+            Some(e) => format!(
+                "joint {} reading [{}]",
+                e.joint().unwrap_or(0) + 1,
+                model.units.angle
+            ),
+            None => "row (measurement order)".into(),
+        };
+        out.push(Plot {
+            title: format!(
+                "{} (joints {}): residual along the effect's direction",
+                f.candidate.name,
+                f.candidate.joints_label()
+            ),
+            x_label,
+            before: series(&before),
+            after: series(&after),
+        });
+    }
+    let norms = |r: &[Vector3<f64>]| {
+        r.iter()
+            .enumerate()
+            .map(|(i, v)| (i as f64, v.norm() * 1e3))
+            .collect()
+    };
+    out.push(Plot {
+        title: "residual length in measurement order".into(),
+        x_label: "row (measurement order)".into(),
+        before: norms(&before),
+        after: norms(&after),
+    });
+    out
+}
+
+/// One pose of a joint's panels: its index, the joint's direction of motion at
+/// the tool point, and the joint reading, gravity torque and approach sign.
+type PanelRow = (usize, Vector3<f64>, f64, f64, f64);
+
+/// Which variable of a [`PanelRow`] a panel plots against.
+type Pick = dyn Fn(&PanelRow) -> f64;
+
+/// The panels of every variable a calibration engineer would look at (see the
+/// section's text in [`html`]).
+fn panels(model: &RobotModel, d: &Diagnosis, data: &[Observation]) -> Vec<Plot> {
+    let (before, after) = (residuals(&d.geometric, data), residuals(&d.fit, data));
+    let robot = &d.geometric.calibrated;
+    let mut out = Vec::new();
+    for j in 0..robot.dof() {
+        // Direction of joint j's motion at the tool point, and the three variables.
+        let mut rows = Vec::new();
+        for (i, o) in data.iter().enumerate() {
+            let Ok(chain) = robot.chain(&o.q) else {
+                continue;
+            };
+            let v = at_point(&chain.column(joint_param(robot, j)), &chain.point());
+            let dir = v / v.norm().max(f64::MIN_POSITIVE);
+            let tau = gravity_torques(robot, &chain, o.context.payload.unwrap_or(0.0))[j];
+            let sigma = f64::from(o.context.approach.get(j).copied().unwrap_or(0));
+            rows.push((
+                i,
+                dir,
+                model.units.joint_from_si(robot.links[j].joint, o.q[j]),
+                tau,
+                sigma,
+            ));
+        }
+        let series = |r: &[Vector3<f64>], pick: &dyn Fn(&PanelRow) -> f64| -> Vec<(f64, f64)> {
+            rows.iter()
+                .filter_map(|row| r.get(row.0).map(|res| (pick(row), res.dot(&row.1) * 1e3)))
+                .collect()
+        };
+        let unit = model.units.joint_unit(robot.links[j].joint);
+        let variables: [(String, &Pick); 3] = [
+            (format!("joint {} reading [{unit}]", j + 1), &|r| r.2),
+            (format!("gravity torque on joint {} [N·m]", j + 1), &|r| {
+                r.3
+            }),
+            (format!("approach direction of joint {}", j + 1), &|r| r.4),
+        ];
+        for (label, pick) in variables {
+            out.push(Plot {
+                title: format!("along joint {}'s motion", j + 1),
+                x_label: label,
+                before: series(&before, pick),
+                after: series(&after, pick),
+            });
+        }
+    }
+    let norm_against =
+        |label: &str, x: &dyn Fn(usize, &Observation) -> Option<f64>| -> Option<Plot> {
+            let pts = |r: &[Vector3<f64>]| -> Vec<(f64, f64)> {
+                data.iter()
+                    .enumerate()
+                    .filter_map(|(i, o)| Some((x(i, o)?, r.get(i)?.norm() * 1e3)))
+                    .collect()
+            };
+            let (b, a) = (pts(&before), pts(&after));
+            (!b.is_empty()).then(|| Plot {
+                title: "residual length".into(),
+                x_label: label.into(),
+                before: b,
+                after: a,
+            })
+        };
+    // Time: the rows are in measurement order (FORMAT.md), so the row stands for it.
+    out.extend(norm_against("row (measurement order: time)", &|i, _| {
+        Some(i as f64)
+    }));
+    out.extend(norm_against("temperature [°C]", &|_, o| {
+        o.context.temperature
+    }));
+    out.extend(norm_against("payload [kg]", &|_, o| o.context.payload));
+    out
+}
+
+/// Text made safe for HTML.
+fn html_escape(t: &str) -> String {
+    t.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
+/// The whole page.
+pub fn html(
+    model: &RobotModel,
+    data_file: &str,
+    d: &Diagnosis,
+    data: &[Observation],
+    options: &DiagnoseOptions,
+) -> String {
+    let mut s = String::new();
+    let mm = |x: f64| x * 1e3;
+    let _ = write!(
+        s,
+        "<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>armcal diagnose: {name}</title><style>body{{font-family:sans-serif;max-width:1200px;margin:2em auto;color:#222}}table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}}th{{background:#f4f4f4}}td:first-child,th:first-child{{text-align:left}}.plots{{display:flex;flex-wrap:wrap;gap:12px}}</style></head><body><h1>armcal diagnose</h1><p>Model <b>{name}</b>, data <b>{data_file}</b>: {n} poses. Noise estimated from the data: <b>{noise:.4} mm</b> per axis.</p>",
+        name = model.name,
+        n = data.len(),
+        noise = mm(d.noise),
+    );
+    // The chosen model, every model's held-out error, the noises, the prior.
+    let _ = write!(
+        s,
+        "<h2>The model chosen on held-out poses</h2><p>Chosen: <b>{}</b>.</p><table><tr><th>model</th><th>parameters</th><th>held-out RMS [mm]</th><th>mean [mm]</th><th>max [mm]</th></tr>",
+        html_escape(&d.chosen_label())
+    );
+    for m in &d.models {
+        let _ = write!(
+            s,
+            "<tr><td>{}</td><td>{}</td><td>{:.4}</td><td>{:.4}</td><td>{:.4}</td></tr>",
+            html_escape(&m.label()),
+            m.parameters,
+            mm(m.held.rms),
+            mm(m.held.mean),
+            mm(m.held.max)
+        );
+    }
+    let _ = write!(s, "</table><p>");
+    for (what, used, shown, source, unit) in d.noise_rows(&model.units) {
+        let _ = write!(
+            s,
+            "Noise of the {what}s: <b>{used:.4} {unit}</b> per axis ({source}; the residuals show {shown:.4} {unit}). "
+        );
+    }
+    let (held, moved) = d.prior_role();
+    let list = crate::calibration::diagnose::parameter_list;
+    let _ = write!(
+        s,
+        "</p><p>Moved by the data: {}. Held near nominal by the prior: {}.</p>",
+        list(&moved),
+        list(&held)
+    );
+    let _ = write!(s, "<h2>What the geometric model gets wrong</h2>");
+    if d.findings.is_empty() {
+        let _ = write!(
+            s,
+            "<p><b>Nothing beyond geometry</b>: the geometric calibration explains the data to the noise.</p>"
+        );
+    }
+    let _ = write!(s, "<ul>");
+    for f in &d.findings {
+        let _ = write!(
+            s,
+            "<li><b>{}</b> (joints {}): held-out RMS ×{:.2} better; F = {:.1} above the {:.1} of a 1 % family-wise test</li>",
+            f.candidate.name,
+            f.candidate.joints_label(),
+            f.gain,
+            f.f_test.0,
+            f.f_test.1
+        );
+    }
+    let _ = write!(s, "</ul><div class=\"plots\">");
+    for p in plots(model, d, data) {
+        s.push_str(&svg(&p, 560.0, 300.0));
+    }
+    let _ = write!(
+        s,
+        "</div><h2>Residuals against what could explain them</h2><p>The residual of the geometric calibration (red) and of the extended one (blue) along each joint's direction of motion at the tool point, against that joint's reading, the gravity torque on it and its approach direction; the residual length against time (row order), temperature and payload.</p><div class=\"plots\">"
+    );
+    for p in panels(model, d, data) {
+        s.push_str(&svg(&p, 380.0, 220.0));
+    }
+    let _ = write!(
+        s,
+        "</div><h2>Gain on held-out poses ({}-fold)</h2><table><tr><th>model</th><th>RMS [mm]</th><th>mean [mm]</th><th>max [mm]</th></tr>",
+        options.folds
+    );
+    for (label, h) in d.holdout_rows() {
+        let _ = write!(
+            s,
+            "<tr><td>{label}</td><td>{:.4}</td><td>{:.4}</td><td>{:.4}</td></tr>",
+            mm(h.rms),
+            mm(h.mean),
+            mm(h.max)
+        );
+    }
+    let _ = write!(
+        s,
+        "</table><h2>Parameters of the extended calibration</h2><table><tr><th>parameter</th><th>nominal</th><th>error</th><th>std</th><th>status</th></tr>"
+    );
+    for p in &d.fit.params {
+        let conv = |v: f64| {
+            if p.param.is_angle() {
+                model.units.angle_from_si(v)
+            } else {
+                model.units.length_from_si(v)
+            }
+        };
+        let (std, status) = match &p.status {
+            Status::Identified { std } => (format!("{:.3e}", conv(*std)), "identified".to_string()),
+            Status::Fixed { reason } => ("–".into(), format!("fixed: {reason}")),
+        };
+        let _ = write!(
+            s,
+            "<tr><td>{}</td><td>{:.6}</td><td>{:.4e}</td><td>{std}</td><td style=\"text-align:left\">{status}</td></tr>",
+            p.param,
+            conv(p.nominal),
+            conv(p.error)
+        );
+    }
+    for e in &d.fit.effects {
+        for (i, st) in e.status.iter().enumerate() {
+            let v = e.effect.parameter(i).unwrap_or(0.0);
+            let std = match st {
+                Status::Identified { std } => format!("{std:.3e}"),
+                Status::Fixed { .. } => "–".into(),
+            };
+            let _ = write!(
+                s,
+                "<tr><td>{}</td><td>0</td><td>{v:.4e}</td><td>{std}</td><td style=\"text-align:left\">{} (SI)</td></tr>",
+                crate::calibration::identify::full::effect_parameter_name(&e.effect, i),
+                e.effect.name()
+            );
+        }
+    }
+    let _ = writeln!(s, "</table><p>Written by armcal.</p></body></html>");
+    s
+}

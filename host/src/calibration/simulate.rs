@@ -1,0 +1,406 @@
+//! The project's simulator: true robots with built-in errors and the
+//! measurements a laser tracker or a pose sensor would take of them. The tests,
+//! the benchmarks and (later) `armcal simulate` draw their data from it.
+//!
+//! Units are SI (m, rad). Random draws come from a seeded `StdRng`, so every run
+//! is repeatable.
+
+use crate::calibration::identify::full::Observation;
+use armcal_shared::{JointType, Param, Robot};
+use nalgebra::{Point3, UnitQuaternion, Vector3};
+use rand::rngs::StdRng;
+use rand::{RngExt, SeedableRng};
+use rand_distr::{Distribution, Normal};
+
+/// A seeded generator.
+pub fn rng(seed: u64) -> StdRng {
+    StdRng::seed_from_u64(seed)
+}
+
+/// `nominal` with every parameter in `params` moved by a uniform draw within
+/// `±length` (m) or `±angle` (rad); returns the true robot and the errors.
+pub fn with_random_errors(
+    nominal: &Robot<f64>,
+    params: &[Param],
+    length: f64,
+    angle: f64,
+    rng: &mut StdRng,
+) -> (Robot<f64>, Vec<f64>) {
+    let mut truth = nominal.clone();
+    let errors: Vec<f64> = params
+        .iter()
+        .map(|p| {
+            let scale = if p.is_angle() { angle } else { length };
+            let e = rng.random_range(-scale..scale);
+            *truth.param_mut(*p).expect("param of the model") += e;
+            e
+        })
+        .collect();
+    (truth, errors)
+}
+
+/// `n` random configurations within the joint limits (a revolute joint also
+/// within ±π; without limits ±π, or 0 to 0.5 m for a prismatic joint).
+pub fn random_configurations(robot: &Robot<f64>, n: usize, rng: &mut StdRng) -> Vec<Vec<f64>> {
+    (0..n)
+        .map(|_| {
+            robot
+                .links
+                .iter()
+                .map(|l| {
+                    let [lo, hi] = l.limits.unwrap_or(match l.joint {
+                        JointType::Revolute => [-std::f64::consts::PI, std::f64::consts::PI],
+                        JointType::Prismatic => [0.0, 0.5],
+                    });
+                    // Within ±π of a revolute joint's zero where the limits allow it.
+                    let pi = std::f64::consts::PI;
+                    let (a, b) = match l.joint {
+                        JointType::Revolute => (lo.max(-pi), hi.min(pi)),
+                        JointType::Prismatic => (lo, hi),
+                    };
+                    let (lo, hi) = if a < b { (a, b) } else { (lo, hi) };
+                    // A model file refuses limits that leave no motion; a built
+                    // robot may still have them.
+                    if lo < hi {
+                        rng.random_range(lo..hi)
+                    } else {
+                        lo
+                    }
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Rows that visit `configurations` in order one joint at a time (single-joint
+/// sweeps): the first configuration is the first row; from each configuration
+/// to the next, joints 1, 2, … in turn move to their new value, one row per
+/// joint, while the others hold. `(K − 1) · M + 1` rows for `K` configurations
+/// of `M` joints; a row repeats the one before where a joint's value is the same
+/// in both configurations.
+pub fn one_joint_at_a_time(configurations: &[Vec<f64>]) -> Vec<Vec<f64>> {
+    let mut rows: Vec<Vec<f64>> = configurations.iter().take(1).cloned().collect();
+    for next in configurations.iter().skip(1) {
+        for (j, value) in next.iter().enumerate() {
+            let mut row = rows.last().cloned().unwrap_or_default();
+            if let Some(x) = row.get_mut(j) {
+                *x = *value;
+            }
+            rows.push(row);
+        }
+    }
+    rows
+}
+
+/// What the instrument measures of `truth` at `configs`: the tool point with
+/// Gaussian noise `position_noise` (m, per axis) and, when `orientation_noise` is
+/// given, the tool orientation with a Gaussian rotation-vector noise (rad, per axis).
+pub fn measure(
+    truth: &Robot<f64>,
+    configs: &[Vec<f64>],
+    position_noise: f64,
+    orientation_noise: Option<f64>,
+    rng: &mut StdRng,
+) -> Vec<Observation> {
+    let normal = Normal::new(0.0, 1.0).expect("unit normal");
+    let mut draw3 = |s: f64| Vector3::from_fn(|_, _| s * normal.sample(rng));
+    configs
+        .iter()
+        .map(|q| {
+            let t = truth.forward(q).expect("joint count");
+            let position = Point3::from(t.translation.vector + draw3(position_noise));
+            let orientation = orientation_noise.map(|s| {
+                UnitQuaternion::from_scaled_axis(draw3(s))
+                    * UnitQuaternion::from_rotation_matrix(&t.rotation)
+            });
+            Observation {
+                q: q.clone(),
+                position,
+                orientation,
+                context: Default::default(),
+            }
+        })
+        .collect()
+}
+
+/// One simulated measurement session: a true robot (nominal + geometric errors +
+/// hidden effects), the contexts of its poses, and what the instrument saw.
+#[derive(Clone, Debug)]
+pub struct Session {
+    /// The true geometric robot (Hayati tilts included).
+    pub truth: Robot<f64>,
+    /// The hidden effects.
+    pub effects: Vec<armcal_shared::effects::Effect<f64>>,
+    /// Joint readings, in measurement order.
+    pub q: Vec<Vec<f64>>,
+    /// Time of each pose, s.
+    pub t: Vec<f64>,
+    /// Temperature of each pose, °C.
+    pub temp: Vec<f64>,
+    /// Payload of each pose, kg.
+    pub load: Vec<f64>,
+    /// The measurements.
+    pub observations: Vec<Observation>,
+}
+
+/// What a simulated session is made of.
+#[derive(Clone, Debug)]
+pub struct Scenario {
+    /// Poses measured.
+    pub poses: usize,
+    /// Geometric errors: ±length (m) and ±angle (rad), uniform, on every D-H,
+    /// base and tool parameter.
+    pub errors: (f64, f64),
+    /// Position noise, m per axis.
+    pub position_noise: f64,
+    /// Orientation noise, rad per axis, when orientations are measured.
+    pub orientation_noise: Option<f64>,
+    /// The hidden effects.
+    pub effects: Vec<armcal_shared::effects::Effect<f64>>,
+    /// Hidden Hayati tilts `(joint, β)`.
+    pub tilts: Vec<(usize, f64)>,
+    /// Temperature drifts linearly from the first to the second value, °C.
+    pub temperature: (f64, f64),
+    /// Payloads the poses are measured with, kg (cycled in blocks).
+    pub payloads: Vec<f64>,
+    /// Seed of every draw.
+    pub seed: u64,
+}
+
+impl Scenario {
+    /// A laser-tracker session: `poses` positions, σ = 20 µm, ±1 mm / ±1 mrad
+    /// geometric errors, 20 °C to 30 °C, payloads 0 and 5 kg.
+    pub fn tracker(poses: usize, seed: u64) -> Self {
+        Self {
+            poses,
+            errors: (1e-3, 1e-3),
+            position_noise: 20e-6,
+            orientation_noise: None,
+            effects: Vec::new(),
+            tilts: Vec::new(),
+            temperature: (20.0, 30.0),
+            payloads: vec![0.0, 5.0],
+            seed,
+        }
+    }
+}
+
+/// Simulates `scenario` on `nominal`. Poses are visited in random order, so that
+/// every joint approaches them from both sides; the approach direction of each
+/// joint is the sign of its last change, held while it holds, as `FORMAT.md`
+/// reads row order ([`armcal_shared::effects::Approach`]).
+pub fn simulate(
+    nominal: &Robot<f64>,
+    scenario: &Scenario,
+) -> Result<Session, armcal_shared::effects::EffectError> {
+    simulate_visiting(nominal, scenario, |r| {
+        random_configurations(nominal, scenario.poses, r)
+    })
+}
+
+/// [`simulate`], with the joint readings of the poses, in measurement order,
+/// from `visit` (given the session's generator after the geometric errors are
+/// drawn), instead of `scenario.poses` random configurations: for example
+/// [`one_joint_at_a_time`] over random configurations. The temperature drift
+/// and the payload blocks spread over the rows `visit` gives.
+pub fn simulate_visiting(
+    nominal: &Robot<f64>,
+    scenario: &Scenario,
+    visit: impl FnOnce(&mut StdRng) -> Vec<Vec<f64>>,
+) -> Result<Session, armcal_shared::effects::EffectError> {
+    use armcal_shared::effects::{Approach, Context, EffectModel};
+    let mut r = rng(scenario.seed);
+    let params: Vec<Param> = nominal.params().collect();
+    let (mut truth, _) = with_random_errors(
+        nominal,
+        &params,
+        scenario.errors.0,
+        scenario.errors.1,
+        &mut r,
+    );
+    for &(joint, beta) in &scenario.tilts {
+        if let Some(l) = truth.links.get_mut(joint) {
+            l.beta = beta;
+        }
+    }
+    let model = EffectModel::new(truth.clone(), &scenario.effects)?;
+    let q = visit(&mut r);
+    let n = q.len().max(1);
+    let block = n.div_ceil(scenario.payloads.len().max(1));
+    let normal = Normal::new(0.0, 1.0).expect("unit normal");
+    let mut session = Session {
+        truth,
+        effects: scenario.effects.clone(),
+        q: q.clone(),
+        t: Vec::new(),
+        temp: Vec::new(),
+        load: Vec::new(),
+        observations: Vec::new(),
+    };
+    let mut approach = Approach::new();
+    for (i, qi) in q.iter().enumerate() {
+        let frac = i as f64 / (n.max(2) - 1) as f64;
+        let temp =
+            scenario.temperature.0 + frac * (scenario.temperature.1 - scenario.temperature.0);
+        let load = scenario.payloads.get(i / block).copied().unwrap_or(0.0);
+        let ctx = Context {
+            temperature: Some(temp),
+            payload: Some(load),
+            approach: approach.next(qi),
+        };
+        let frame = model.forward(qi, &ctx)?;
+        let mut draw3 = |s: f64| Vector3::from_fn(|_, _| s * normal.sample(&mut r));
+        let position = Point3::from(frame.translation.vector + draw3(scenario.position_noise));
+        let orientation = scenario.orientation_noise.map(|s| {
+            UnitQuaternion::from_scaled_axis(draw3(s))
+                * UnitQuaternion::from_rotation_matrix(&frame.rotation)
+        });
+        session.observations.push(Observation {
+            q: qi.clone(),
+            position,
+            orientation,
+            context: ctx,
+        });
+        session.t.push(10.0 * i as f64);
+        session.temp.push(temp);
+        session.load.push(load);
+    }
+    Ok(session)
+}
+
+impl Session {
+    /// The measurements as a `FORMAT.md` CSV in `units`, with `t`, `temp`, `load`.
+    pub fn to_csv(&self, units: &armcal_shared::units::Units, description: &str) -> String {
+        use std::fmt::Write as _;
+        let joints: Vec<JointType> = self.truth.links.iter().map(|l| l.joint).collect();
+        let orientation = self.observations.iter().any(|o| o.orientation.is_some());
+        let mut out = String::new();
+        let _ = writeln!(out, "# {description}");
+        let _ = writeln!(
+            out,
+            "# lengths in {}, angles in {}; t in s, temp in °C, load in kg",
+            units.length, units.angle
+        );
+        let mut header: Vec<String> = (1..=joints.len()).map(|m| format!("q{m}")).collect();
+        header.extend(["x", "y", "z"].map(String::from));
+        if orientation {
+            header.extend(["qw", "qx", "qy", "qz"].map(String::from));
+        }
+        header.extend(["t", "temp", "load"].map(String::from));
+        let _ = writeln!(out, "{}", header.join(","));
+        for (i, obs) in self.observations.iter().enumerate() {
+            let mut row: Vec<String> = obs
+                .q
+                .iter()
+                .zip(&joints)
+                .map(|(q, j)| format!("{}", units.joint_from_si(*j, *q)))
+                .collect();
+            row.extend(
+                obs.position
+                    .coords
+                    .iter()
+                    .map(|x| format!("{}", units.length_from_si(*x))),
+            );
+            if let Some(q) = obs.orientation {
+                let q = if q.w < 0.0 {
+                    -q.into_inner()
+                } else {
+                    q.into_inner()
+                };
+                row.extend([q.w, q.i, q.j, q.k].map(|v| format!("{v}")));
+            }
+            row.extend([self.t[i], self.temp[i], self.load[i]].map(|v| format!("{v}")));
+            let _ = writeln!(out, "{}", row.join(","));
+        }
+        out
+    }
+
+    /// The truth: every geometric error (true minus nominal, in `units`) and the
+    /// hidden effects, as JSON.
+    pub fn truth_json(
+        &self,
+        nominal: &Robot<f64>,
+        units: &armcal_shared::units::Units,
+    ) -> serde_json::Value {
+        let mut params: Vec<Param> = nominal.params().collect();
+        params.extend((0..nominal.dof()).map(Param::Beta));
+        let errors: serde_json::Map<String, serde_json::Value> = params
+            .iter()
+            .filter_map(|p| {
+                let e = self.truth.param(*p)? - nominal.param(*p)?;
+                let v = if p.is_angle() {
+                    units.angle_from_si(e)
+                } else {
+                    units.length_from_si(e)
+                };
+                (e != 0.0).then(|| (p.to_string(), serde_json::json!(v)))
+            })
+            .collect();
+        let effects: Vec<serde_json::Value> = self
+            .effects
+            .iter()
+            .map(|e| serde_json::json!({"name": e.name(), "joint": e.joint().map(|j| j + 1), "si": serde_json::to_value(e).unwrap_or_default()}))
+            .collect();
+        serde_json::json!({"errors": errors, "effects": effects, "units": {"length": units.length.to_string(), "angle": units.angle.to_string()}})
+    }
+}
+
+/// An effect from its name on the command line, `NAME[:JOINT[:VALUE]]` (joint from
+/// 1, value in SI), with a realistic default size for a 1 m class arm: a few
+/// tenths of a millimetre at the tool.
+pub fn parse_effect(spec: &str, dof: usize) -> Result<armcal_shared::effects::Effect<f64>, String> {
+    use armcal_shared::effects::Effect;
+    let mut parts = spec.split(':');
+    let name = parts.next().unwrap_or_default();
+    let joint = match parts.next() {
+        Some(j) => match j.parse::<usize>() {
+            Ok(j) if (1..=dof).contains(&j) => j - 1,
+            _ => {
+                return Err(format!(
+                    "{spec}: the joint must be a number from 1 to {dof}"
+                ));
+            }
+        },
+        None => 1.min(dof.saturating_sub(1)),
+    };
+    let value = match parts.next() {
+        Some(v) => match v.parse::<f64>() {
+            Ok(v) if v.is_finite() => Some(v),
+            _ => {
+                return Err(format!(
+                    "{spec}: the value must be a finite number (SI units)"
+                ));
+            }
+        },
+        None => None,
+    };
+    let v = |default: f64| value.unwrap_or(default);
+    Ok(match name {
+        "joint_compliance" => Effect::JointCompliance {
+            joint,
+            compliance: v(2e-6),
+        },
+        "gear_transmission" => Effect::GearTransmission {
+            joint,
+            first: [v(2e-4), 0.0],
+            second: [0.0, v(2e-4) / 2.0],
+        },
+        "backlash" => Effect::Backlash {
+            joint,
+            half_lost_motion: v(1.5e-4),
+        },
+        "thermal_expansion" => Effect::ThermalExpansion {
+            coefficient: v(2.3e-5),
+            reference: 20.0,
+        },
+        "encoder_scale" => Effect::EncoderScale {
+            joint,
+            scale: v(1e-4),
+        },
+        other => {
+            return Err(format!(
+                "{other}: not an effect; one of joint_compliance, gear_transmission, backlash, thermal_expansion, encoder_scale (parallel_axis_tilt: use --tilt)"
+            ));
+        }
+    })
+}

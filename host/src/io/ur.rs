@@ -1,0 +1,627 @@
+//! Universal Robots factory calibrations: the D-H deltas a UR controller
+//! stores, read as the nominal model of that robot.
+//!
+//! ## Convention and units
+//! UR's kinematics are standard D-H, `A_k = Rot_z(θ_k + q_k) Trans_z(d_k)
+//! Trans_x(a_k) Rot_x(α_k)`, from the robot's base frame (z along axis 1) to
+//! the flange; m and rad. The factory calibration (`calibration.conf` on the
+//! controller, read by the ROS driver's `ur_calibration`) is four lists of six
+//! values, `delta_theta`, `delta_a`, `delta_d`, `delta_alpha`, added to the
+//! nominal D-H of the type (`--model ur10`, `ur10e`, `ur5e`, or a TOML model
+//! named `ur` and a digit with `convention = "dh"` and six revolute joints).
+//!
+//! ## File
+//! YAML: the four keys at the top level, or in a `kinematics:` mapping (as
+//! the ROS driver's `calibration_correction` test writes them). Other keys are
+//! ignored. Refused, with the file, line and column: YAML syntax, a missing
+//! key, a value that is not a list of six, an element that is not a finite
+//! number.
+//!
+//! ## Method: joint frames, then the URDF converter
+//! Nearly parallel axes (2, 3, 4 of every UR) put the D-H common normals far
+//! away: real calibrations hold `delta_d` of ±446 m and `delta_theta` of 7 rad
+//! that cancel between consecutive joints, leaving millimetres at the flange.
+//! The model armcal identifies must not carry them. So the nominal + delta
+//! D-H is composed once, at zero readings, into the joint frames of a chain
+//! (joint `k` at `A_{k−1}(0)` in the previous link, axis z; the flange a fixed
+//! link at `A_6(0)`), exactly the form of a URDF chain, and
+//! [`Urdf::convert`](crate::io::urdf::Urdf::convert) turns it into the
+//! well-conditioned modified D-H with Hayati's tilt between the parallel axes
+//! (`docs/urdf.md`). The conversion works from the axis lines, which the huge
+//! `d` place to rounding (1e-16 of 446 m ≈ 1e-13 m), so the model's forward
+//! kinematics equals the UR D-H's to 1e-12 m while its lengths are those of
+//! the arm.
+//!
+//! Frames: the model's `base` is the nominal model's base composed with the
+//! UR base frame (identity for the built-in models); its `tool` is the flange
+//! composed with the nominal model's tool. Masses (centre of mass in D-H frame
+//! `k`) are carried into the new link frames; limits and gravity are kept.
+//!
+//! ## Export (`armcal export --format ur-deltas | ur-calibration`)
+//! [`export_deltas`]: the standard D-H of a calibrated model from its exact
+//! joint-axis lines at zero readings (common normals; `d` as far as the
+//! axes put it, as the controller holds it), minus the nominal of the UR
+//! model given. UR's chain runs from its base frame (on axis 1) to its
+//! flange (on axis 6); armcal's base (the robot in the measurement frame) and
+//! tool (the measured frame, a TCP on a UR) are not in it, and are written
+//! as comments. [`ur_calibration_yaml`]: the same chain as ur_description's
+//! joint origins, link frames kept near the arm.
+
+use armcal_shared::{Convention, Robot};
+use armcal_shared::{Frame, JointType, Link, dh::link_transform};
+use nalgebra::{Point3, Vector3};
+use saphyr::{LoadableYamlNode, MarkedYaml, Scalar, YamlData};
+
+use crate::io::input_error::{InputError, MODEL_FILE, read_text};
+use crate::io::model_file::RobotModel;
+use crate::io::urdf::{
+    ChainSpec, Inertial, JointKind, Pose, Urdf, UrdfJoint, UrdfLink, convert::Converted, rpy,
+};
+
+/// The number of joints of a UR arm.
+pub const JOINTS: usize = 6;
+
+/// The keys of a factory calibration, in the order of [`DhDeltas`]'s fields.
+pub const KEYS: [&str; 4] = ["delta_theta", "delta_a", "delta_d", "delta_alpha"];
+
+/// A UR factory calibration: what the controller adds to the nominal D-H, m and rad.
+/// Where axes are nearly parallel `d` and `θ` are ill-conditioned: two sets far
+/// apart can give the same chain.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DhDeltas {
+    /// `delta_theta`, rad.
+    pub theta: [f64; JOINTS],
+    /// `delta_a`, m.
+    pub a: [f64; JOINTS],
+    /// `delta_d`, m.
+    pub d: [f64; JOINTS],
+    /// `delta_alpha`, rad.
+    pub alpha: [f64; JOINTS],
+}
+
+/// The 1-based line and column where `node` starts.
+fn place(node: &MarkedYaml<'_>) -> (usize, usize) {
+    (node.span.start.line().max(1), node.span.start.col() + 1)
+}
+
+/// The string of a scalar node, if it is one.
+fn as_str<'a>(node: &'a MarkedYaml<'_>) -> Option<&'a str> {
+    match &node.data {
+        YamlData::Value(Scalar::String(s)) => Some(s),
+        YamlData::Representation(s, _, _) => Some(s),
+        _ => None,
+    }
+}
+
+/// The value of `key` in mapping `node`, if `node` is a mapping holding it.
+fn get<'a, 'i>(node: &'a MarkedYaml<'i>, key: &str) -> Option<&'a MarkedYaml<'i>> {
+    match &node.data {
+        YamlData::Mapping(m) => m
+            .iter()
+            .find(|(k, _)| as_str(k) == Some(key))
+            .map(|(_, v)| v),
+        _ => None,
+    }
+}
+
+/// Parses a factory calibration (see the module header); `file` names it in errors.
+pub fn parse_deltas(text: &str, file: &str) -> Result<DhDeltas, InputError> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let docs = MarkedYaml::load_from_str(text).map_err(|e| {
+        let m = e.marker();
+        InputError::new(
+            file,
+            m.line().max(1),
+            m.col() + 1,
+            format!("YAML syntax: {}", e.info()),
+        )
+    })?;
+    let Some(doc) = docs.first() else {
+        return Err(InputError::new(
+            file,
+            1,
+            1,
+            format!("empty file: expected {}", KEYS.join(", ")),
+        ));
+    };
+    let table = get(doc, "kinematics")
+        .filter(|k| matches!(k.data, YamlData::Mapping(_)))
+        .unwrap_or(doc);
+    if !matches!(table.data, YamlData::Mapping(_)) {
+        let (l, c) = place(table);
+        return Err(InputError::new(
+            file,
+            l,
+            c,
+            format!("expected a mapping with keys {}", KEYS.join(", ")),
+        ));
+    }
+    let mut out = [[0.0; JOINTS]; 4];
+    for (key, values) in KEYS.iter().zip(out.iter_mut()) {
+        let Some(node) = get(table, key) else {
+            let (l, c) = place(table);
+            return Err(InputError::new(
+                file,
+                l,
+                c,
+                if get(table, UR_DESCRIPTION_JOINTS[0]).is_some() {
+                    format!(
+                        "missing key '{key}': this looks like ur_calibration's URDF correction \
+                         (joint origins for ur_description), not the controller's D-H deltas \
+                         ({})",
+                        KEYS.join(", ")
+                    )
+                } else {
+                    format!(
+                        "missing key '{key}' (a factory calibration has {})",
+                        KEYS.join(", ")
+                    )
+                },
+            ));
+        };
+        let (l, c) = place(node);
+        let YamlData::Sequence(items) = &node.data else {
+            return Err(InputError::new(
+                file,
+                l,
+                c,
+                format!("'{key}': expected a list of {JOINTS} numbers"),
+            ));
+        };
+        if items.len() != JOINTS {
+            return Err(InputError::new(
+                file,
+                l,
+                c,
+                format!(
+                    "'{key}': {} values, expected {JOINTS} (joints 1 to {JOINTS})",
+                    items.len()
+                ),
+            ));
+        }
+        for (i, (item, v)) in items.iter().zip(values.iter_mut()).enumerate() {
+            let x = match &item.data {
+                YamlData::Value(Scalar::FloatingPoint(f)) => Some(f.into_inner()),
+                YamlData::Value(Scalar::Integer(n)) => Some(*n as f64),
+                _ => None,
+            };
+            match x.filter(|x| x.is_finite()) {
+                Some(x) => *v = x,
+                None => {
+                    let (l, c) = place(item);
+                    return Err(InputError::new(
+                        file,
+                        l,
+                        c,
+                        format!("'{key}' joint {}: not a finite number", i + 1),
+                    ));
+                }
+            }
+        }
+    }
+    let [theta, a, d, alpha] = out;
+    Ok(DhDeltas { theta, a, d, alpha })
+}
+
+/// Whether `model` is a Universal Robots arm: named for one (`ur` and a digit
+/// in its name: `ur10`, `ur5e`, `my-ur10e`) and of UR's form (standard D-H,
+/// six revolute joints, no tilt).
+pub fn is_ur_model(model: &RobotModel) -> bool {
+    let name = model.name.to_ascii_lowercase();
+    let named = name
+        .match_indices("ur")
+        .any(|(i, _)| name[i + 2..].starts_with(|c: char| c.is_ascii_digit()));
+    let robot = &model.robot;
+    named
+        && robot.convention == Convention::Dh
+        && robot.dof() == JOINTS
+        && robot
+            .links
+            .iter()
+            .all(|l| l.joint == JointType::Revolute && l.beta == 0.0)
+}
+
+/// The nominal links of `robot` (of UR's form) with `deltas` added.
+pub fn calibrated_dh(robot: &Robot<f64>, deltas: &DhDeltas) -> Vec<Link<f64>> {
+    robot
+        .links
+        .iter()
+        .enumerate()
+        .map(|(k, l)| {
+            let mut l = *l;
+            l.theta += deltas.theta[k];
+            l.a += deltas.a[k];
+            l.s += deltas.d[k];
+            l.alpha += deltas.alpha[k];
+            l
+        })
+        .collect()
+}
+
+/// A standard D-H chain (base frame to flange) as the joint frames of a URDF
+/// chain at zero readings, converted by the URDF converter. `file` names the
+/// chain in its errors.
+pub fn convert_dh(links: &[Link<f64>], file: &str) -> Result<Converted, InputError> {
+    let n = links.len();
+    let at_zero: Vec<Pose> = links
+        .iter()
+        .map(|l| link_transform(Convention::Dh, l, 0.0))
+        .collect();
+    let mut urdf_links = vec![UrdfLink {
+        name: "base".into(),
+        offset: 0,
+        inertial: None,
+    }];
+    let mut joints = Vec::with_capacity(n + 1);
+    for (k, l) in links.iter().enumerate() {
+        urdf_links.push(UrdfLink {
+            name: format!("link{}", k + 1),
+            offset: 0,
+            // D-H frame k is A_k(0) in the child link of joint k.
+            inertial: l.mass.map(|m| Inertial {
+                mass: m.mass,
+                com: (at_zero[k] * Point3::from(m.com)).coords,
+            }),
+        });
+        joints.push(UrdfJoint {
+            name: format!("joint{}", k + 1),
+            kind: if l.limits.is_some() {
+                JointKind::Revolute
+            } else {
+                JointKind::Continuous
+            },
+            offset: 0,
+            parent: k,
+            child: k + 1,
+            origin: if k == 0 {
+                Pose::identity()
+            } else {
+                at_zero[k - 1]
+            },
+            origin_range: None,
+            body_start: 0,
+            axis: Vector3::z(),
+            limits: l.limits,
+        });
+    }
+    urdf_links.push(UrdfLink {
+        name: "flange".into(),
+        offset: 0,
+        inertial: None,
+    });
+    joints.push(UrdfJoint {
+        name: "flange".into(),
+        kind: JointKind::Fixed,
+        offset: 0,
+        parent: n,
+        child: n + 1,
+        origin: at_zero[n - 1],
+        origin_range: None,
+        body_start: 0,
+        axis: Vector3::z(),
+        limits: None,
+    });
+    let urdf = Urdf {
+        file: file.into(),
+        text: String::new(),
+        name: "ur".into(),
+        links: urdf_links,
+        parent_joint: (0..n + 2)
+            .map(|l| l.checked_sub(1))
+            .collect::<Vec<Option<usize>>>(),
+        joints,
+        root: 0,
+        robot_end: 0,
+    };
+    urdf.convert(&ChainSpec::default())
+}
+
+/// `pose` as armcal's `xyz`/`rpy`.
+fn frame(pose: &Pose) -> Frame<f64> {
+    Frame {
+        xyz: pose.translation.vector,
+        rpy: Vector3::from(rpy(&pose.rotation)),
+    }
+}
+
+/// The model of the robot whose nominal model is `model` (of UR's form) and
+/// whose factory calibration is `deltas` (see the module header). `file`
+/// names the calibration.
+pub fn import(model: &RobotModel, deltas: &DhDeltas, file: &str) -> Result<RobotModel, InputError> {
+    let nominal = &model.robot;
+    let converted = convert_dh(&calibrated_dh(nominal, deltas), file)?;
+    let mut robot = converted.robot;
+    robot.base = frame(&(nominal.base.isometry() * robot.base.isometry()));
+    robot.tool = frame(&(robot.tool.isometry() * nominal.tool.isometry()));
+    robot.gravity = nominal.gravity;
+    let tilted: Vec<String> = (0..JOINTS)
+        .filter(|&k| converted.hayati[k])
+        .map(|k| (k + 1).to_string())
+        .collect();
+    Ok(RobotModel {
+        name: model.name.clone(),
+        description: format!(
+            "{} with the factory calibration {file}, modified D-H with Hayati's tilt on joint(s) {}",
+            model.name,
+            tilted.join(", ")
+        ),
+        source: format!("{} + {file}", model.source),
+        units: model.units,
+        robot,
+        prior: model.prior,
+    })
+}
+
+/// `model` (of UR's form, else refused as an error of `--factory-calibration`)
+/// with the factory calibration in file `path`.
+pub fn load_factory(model: &RobotModel, path: &str) -> Result<RobotModel, InputError> {
+    if !is_ur_model(model) {
+        return Err(InputError::argument(
+            "--factory-calibration",
+            format!(
+                "applies to a Universal Robots model only (named `ur` and a digit, standard D-H, \
+                 six revolute joints: ur5e, ur10, ur10e); {} ({}) is not one",
+                model.name, model.source
+            ),
+        ));
+    }
+    let text = read_text(path, MODEL_FILE)?;
+    let deltas = parse_deltas(&text, path)?;
+    import(model, &deltas, path)
+}
+
+/// A calibrated model in UR's form: the factory calibration against a
+/// nominal, and what the D-H chain does not hold.
+#[derive(Clone, Debug, PartialEq)]
+pub struct UrExport {
+    /// The D-H of the calibrated chain minus the nominal's, m and rad.
+    pub deltas: DhDeltas,
+    /// The UR base frame (z along axis 1) in the calibration's measurement
+    /// frame: where the robot stands, for the user, not the controller.
+    pub base: Pose,
+    /// The measured frame (the calibrated tool) in the UR flange frame: the
+    /// TCP on a UR, set apart from the kinematics.
+    pub tcp: Pose,
+    /// The UR base frame in the model's frame 0.
+    pub ur_base: Pose,
+    /// The UR flange (D-H frame 6 at zero readings) in the model's frame 0.
+    pub flange: Pose,
+    /// ur_description's link frames at zero readings, in the model's frame 0:
+    /// link `k` on the model's axis `k` where [`joint_frames`] puts it (near
+    /// the arm, not at the far D-H foot), x along D-H's common normal `x_k`
+    /// as ur_description's nominal frames have it.
+    pub links: Vec<Pose>,
+}
+
+/// `x − nominal` wrapped into `(−π, π]`.
+fn angle_delta(x: f64, nominal: f64) -> f64 {
+    let d = (x - nominal).rem_euclid(std::f64::consts::TAU);
+    if d > std::f64::consts::PI {
+        d - std::f64::consts::TAU
+    } else {
+        d
+    }
+}
+
+/// The standard D-H of `robot` (any convention, six revolute joints), as
+/// deltas against the UR nominal `nominal` (see [`UrExport`]).
+///
+/// From the joint-axis lines at zero readings, in the frame of the model's
+/// base: the UR base frame is on axis 1 (origin at the foot of the
+/// perpendicular from the model's frame 0, x its x made perpendicular); frame
+/// `k` (1 ≤ k < 6) is on the common normal of axes `k` and `k+1`, with x
+/// along it in the sense that keeps `θ_k` nearest the nominal's (so `a_k`
+/// keeps the nominal's sign), and `α_k` turns z onto axis `k+1`. Where two
+/// axes are parallel to rounding (`sin γ < 1e-15`) the foot is undefined and
+/// `d_k` is 0; otherwise it is the exact foot, however far (hundreds of m for
+/// nearly parallel axes, as on the controller). Each frame is composed from
+/// the parameters just found before the next axis is expressed in it, so the
+/// chain of the written numbers ends on the calibrated axis 6 to rounding.
+/// Frame 6 (the flange) is on axis 6 (`a_6 = α_6 = 0` as on every UR): origin
+/// at the foot of the perpendicular from the model's measured point, x the
+/// measured frame's x made perpendicular. The rest of the measured frame is
+/// [`UrExport::tcp`].
+pub fn export_deltas(robot: &Robot<f64>, nominal: &Robot<f64>) -> UrExport {
+    let base = robot.base.isometry();
+    let (joints, tip) = joint_frames(robot);
+    let lines: Vec<(Point3<f64>, Vector3<f64>)> = joints
+        .iter()
+        .map(|f| {
+            (
+                Point3::from(f.translation.vector),
+                f.rotation * Vector3::z(),
+            )
+        })
+        .collect();
+    // UR base frame.
+    let (p0, z0) = lines[0];
+    let foot = p0 - z0 * p0.coords.dot(&z0);
+    let mut x0 = Vector3::x() - z0 * z0.x;
+    if x0.norm() < 1e-6 {
+        x0 = Vector3::y() - z0 * z0.y;
+    }
+    let x0 = x0.normalize();
+    let ur_base = Pose::from_parts(
+        nalgebra::Translation3::from(foot.coords),
+        nalgebra::Rotation3::from_basis_unchecked(&[x0, z0.cross(&x0), z0]),
+    );
+    let mut at = ur_base;
+    let mut out = [[0.0; JOINTS]; 4];
+    let mut links = Vec::with_capacity(JOINTS);
+    for k in 0..JOINTS {
+        let nom = &nominal.links[k];
+        let inv = at.inverse();
+        let (theta, d, a, alpha) = if k + 1 < JOINTS {
+            let p = inv * lines[k + 1].0;
+            let u = inv.rotation * lines[k + 1].1;
+            let sin_gamma = u.x.hypot(u.y);
+            let (t, normal) = if sin_gamma >= 1e-15 {
+                let b = u.z;
+                let t = (p.z - b * u.dot(&p.coords)) / (1.0 - b * b);
+                (t, Vector3::new(-u.y, u.x, 0.0) / sin_gamma)
+            } else {
+                let r = Vector3::new(p.x, p.y, 0.0);
+                let n = if r.norm() > 1e-14 {
+                    r.normalize()
+                } else {
+                    Vector3::x()
+                };
+                (0.0, n)
+            };
+            // Choose the sense of x that keeps θ nearest the nominal.
+            let th = normal.y.atan2(normal.x);
+            let (theta, x) = if angle_delta(th, nom.theta).abs() <= std::f64::consts::FRAC_PI_2 {
+                (th, normal)
+            } else {
+                (angle_delta(th + std::f64::consts::PI, 0.0), -normal)
+            };
+            // The axis crosses the common normal at x = a.
+            let rel = p.coords - Vector3::new(0.0, 0.0, t);
+            let a = rel.dot(&x);
+            let y = Vector3::z().cross(&x);
+            let alpha = (-u.dot(&y)).atan2(u.z);
+            (theta, t, a, alpha)
+        } else {
+            let m = inv * tip;
+            let x = m.rotation * Vector3::x();
+            let x = if x.x.hypot(x.y) > 1e-6 {
+                x
+            } else {
+                m.rotation * Vector3::y()
+            };
+            (x.y.atan2(x.x), m.translation.vector.z, 0.0, 0.0)
+        };
+        // ur_description's link frame k: on the model's axis k, turned about
+        // it as D-H's `frame_{k−1} Rot_z(θ_k)` (x along the common normal).
+        let turned = at.rotation * nalgebra::Rotation3::from_axis_angle(&Vector3::z_axis(), theta);
+        links.push(Pose::from_parts(joints[k].translation, turned));
+        let link = Link::new(JointType::Revolute, theta, d, a, alpha);
+        at *= link_transform(Convention::Dh, &link, 0.0);
+        out[0][k] = angle_delta(theta, nom.theta);
+        out[1][k] = a - nom.a;
+        out[2][k] = d - nom.s;
+        out[3][k] = angle_delta(alpha, nom.alpha);
+    }
+    let [theta, a, d, alpha] = out;
+    UrExport {
+        deltas: DhDeltas { theta, a, d, alpha },
+        base: base * ur_base,
+        tcp: at.inverse() * tip,
+        ur_base,
+        flange: at,
+        links,
+    }
+}
+
+/// For each joint of `robot` (of six), a frame on its axis with z along it
+/// that moves as `J_k · Rot_z(q_k)`, at zero readings, in the model's frame 0
+/// (after its base); and the measured frame there.
+pub fn joint_frames(robot: &Robot<f64>) -> (Vec<Pose>, Pose) {
+    let mut joints = Vec::with_capacity(JOINTS);
+    let mut f = Pose::identity();
+    for l in &robot.links {
+        if robot.convention == Convention::Dh {
+            // A_k(q) = Rot_z(q) A_k(0): frame k−1 turns about its z.
+            joints.push(f);
+        }
+        f *= match robot.convention {
+            // Rot_z(θ) Trans_z(s) Trans_x(a) Rot_x(α) Rot_y(β)
+            Convention::Dh => {
+                link_transform(Convention::Dh, l, 0.0)
+                    * nalgebra::Rotation3::from_axis_angle(&Vector3::y_axis(), l.beta)
+            }
+            // … Rot_z(θ + q) Trans_z(s) = (… Rot_z(θ) Trans_z(s)) Rot_z(q).
+            Convention::Mdh => crate::io::urdf::convert::link_at_zero(l),
+        };
+        if robot.convention != Convention::Dh {
+            joints.push(f);
+        }
+    }
+    (joints, f * robot.tool.isometry())
+}
+
+/// The joints of ur_description, in order, as `ur_calibration` names them.
+pub const UR_DESCRIPTION_JOINTS: [&str; JOINTS] = [
+    "shoulder",
+    "upper_arm",
+    "forearm",
+    "wrist_1",
+    "wrist_2",
+    "wrist_3",
+];
+
+/// The joint origins of ur_description for the calibrated chain of `export`:
+/// joint `k`'s frame in joint `k−1`'s (the first in the UR base frame, which
+/// is ur_description's `base_link_inertia`), so that `origin_1 Rot_z(q_1) ⋯
+/// origin_6 Rot_z(q_6)` is the flange (`wrist_3_link`). Links 1 to 5 are
+/// [`UrExport::links`] (no far common normals; the nominal gives
+/// ur_description's default kinematics); link 6 is the UR flange.
+pub fn ur_description_origins(export: &UrExport) -> [Pose; JOINTS] {
+    let mut prev = export.ur_base;
+    std::array::from_fn(|k| {
+        let j = if k + 1 < JOINTS {
+            export.links[k]
+        } else {
+            export.flange
+        };
+        let origin = prev.inverse() * j;
+        prev = j;
+        origin
+    })
+}
+
+/// The `ur_calibration` URDF-correction YAML (`kinematics:` with x, y, z,
+/// roll, pitch, yaw per joint, m and rad) of `export`.
+pub fn ur_calibration_yaml(export: &UrExport, label: &str) -> String {
+    let mut s = format!(
+        "# ur_description kinematics (joint origins, m and rad) written by armcal from {label}\n\
+         # UR base frame (base_link_inertia) in the measurement frame: {}\n\
+         # measured frame (TCP) in the flange (wrist_3_link): {}\n\
+         kinematics:\n",
+        pose_text(&export.base),
+        pose_text(&export.tcp)
+    );
+    for (name, origin) in UR_DESCRIPTION_JOINTS
+        .iter()
+        .zip(ur_description_origins(export))
+    {
+        let f = frame(&origin);
+        s += &format!(
+            "  {name}:\n    x: {:?}\n    y: {:?}\n    z: {:?}\n    roll: {:?}\n    pitch: {:?}\n    yaw: {:?}\n",
+            f.xyz.x, f.xyz.y, f.xyz.z, f.rpy.x, f.rpy.y, f.rpy.z
+        );
+    }
+    s + "  hash: calib_armcal\n"
+}
+
+/// `p` as `xyz [..] m, rpy [..] rad`.
+fn pose_text(p: &Pose) -> String {
+    let f = frame(p);
+    format!(
+        "xyz [{:?}, {:?}, {:?}] m, rpy [{:?}, {:?}, {:?}] rad",
+        f.xyz.x, f.xyz.y, f.xyz.z, f.rpy.x, f.rpy.y, f.rpy.z
+    )
+}
+
+/// `export` as the factory-calibration YAML (`kinematics:` with the four
+/// lists, numbers in Rust's shortest round-trip form), the base and TCP as
+/// comments.
+pub fn deltas_yaml(export: &UrExport, label: &str) -> String {
+    let list = |v: &[f64; JOINTS]| {
+        let items: Vec<String> = v.iter().map(|x| format!("{x:?}")).collect();
+        format!("[{}]", items.join(", "))
+    };
+    let d = &export.deltas;
+    format!(
+        "# UR factory calibration (D-H deltas, m and rad) written by armcal from {label}\n\
+         # UR base frame in the measurement frame: {}\n\
+         # measured frame (TCP) in the flange: {}\n\
+         kinematics:\n  delta_theta: {}\n  delta_a: {}\n  delta_d: {}\n  delta_alpha: {}\n",
+        pose_text(&export.base),
+        pose_text(&export.tcp),
+        list(&d.theta),
+        list(&d.a),
+        list(&d.d),
+        list(&d.alpha)
+    )
+}
