@@ -495,6 +495,37 @@ fn load_session(
     Ok((model, data))
 }
 
+/// A one-line progress display on standard error, redrawn in place (`\r`), shown
+/// only when standard error is a terminal: the one progress bar of `diagnose`
+/// and `sweep`.
+struct Progress {
+    tty: bool,
+}
+
+impl Progress {
+    /// A progress line on standard error, silent unless it is a terminal.
+    fn on_stderr() -> Self {
+        use std::io::IsTerminal as _;
+        Self {
+            tty: std::io::stderr().is_terminal(),
+        }
+    }
+
+    /// Redraws the line with `line()` (not called when nothing is shown).
+    fn show(&self, line: impl FnOnce() -> String) {
+        if self.tty {
+            eprint!("\r{}", line());
+        }
+    }
+
+    /// Ends the line, so what follows starts on a new one.
+    fn finish(&self) {
+        if self.tty {
+            eprintln!();
+        }
+    }
+}
+
 /// Prints warnings (of a data file, of a computation) to standard error.
 fn warn<'a>(warnings: impl IntoIterator<Item = &'a String>) {
     for w in warnings {
@@ -678,17 +709,16 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             };
             let observations = identify::observations(&data);
             // A progress bar on a terminal: every candidate is cross-validated.
-            use std::io::IsTerminal as _;
-            let tty = std::io::stderr().is_terminal();
+            let progress = Progress::on_stderr();
             let mut bar = |round: usize, i: usize, n: usize| {
-                if tty {
+                progress.show(|| {
                     let filled = 30 * i / n.max(1);
-                    eprint!(
-                        "\rselection round {round}: [{}{}] candidate {i}/{n}",
+                    format!(
+                        "selection round {round}: [{}{}] candidate {i}/{n}",
                         "#".repeat(filled),
                         ".".repeat(30 - filled)
-                    );
-                }
+                    )
+                });
             };
             let diagnosis = armcal::diagnose::diagnose_with_progress(
                 &model.robot,
@@ -696,9 +726,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 &options,
                 &mut bar,
             )?;
-            if tty {
-                eprintln!();
-            }
+            progress.finish();
             data.require_fit_supported(&model, diagnosis.reference.position_rms)?;
             let lines = &data.lines;
             if out.is_some() {
@@ -742,22 +770,19 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 )
                 .into());
             }
-            use std::io::IsTerminal as _;
-            let tty = std::io::stderr().is_terminal();
+            let progress = Progress::on_stderr();
             let results = armcal::sweep::sweep(cases, seed, poses, |i, c| {
-                if tty {
-                    eprint!(
-                        "\rcase {}/{cases}: {} {:?} → {:?}      ",
+                progress.show(|| {
+                    format!(
+                        "case {}/{cases}: {} {:?} → {:?}      ",
                         i + 1,
                         c.robot,
                         c.hidden,
                         c.found.as_ref().map(|f| f.0)
-                    );
-                }
+                    )
+                });
             });
-            if tty {
-                eprintln!();
-            }
+            progress.finish();
             let ((det, strong), (fp, pure), secs) = armcal::sweep::rates(&results);
             println!(
                 "{} cases: detected {det} of {strong} hidden effects with signal ≥ 5× ({:.0}%); false positives {fp} of {pure} pure-geometry cases ({:.0}%); {:.2} s per diagnosis",
