@@ -2,7 +2,8 @@
 //!
 //! The library is in three layers, in the order data flows through a session;
 //! a newcomer looking for a verb's science starts in [`calibration`], for a file
-//! format in [`io`]. The command-line code is in the binary, `host/src/main.rs`.
+//! format in [`io`]. The command line is in the binary: `host/src/main.rs` (the flags)
+//! and `host/src/verbs.rs` (one function per verb).
 //!
 //! ## [`io`]: files in and out
 //!

@@ -24,6 +24,8 @@ use armcal_shared::link::Request;
 use armcal_shared::{Calibration, TargetFrame};
 use clap::{Parser, Subcommand};
 
+mod verbs;
+
 /// armcal makes serial robot arms accurate: it identifies the errors of their
 /// Denavit-Hartenberg model from measured poses and writes the calibration the
 /// motion controller applies.
@@ -535,20 +537,10 @@ fn warn<'a>(warnings: impl IntoIterator<Item = &'a String>) {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        Command::Check { model, data } => {
-            let (model, data) = load_session(&model, &data)?;
-            print!("{}", check::report(&model, &data));
-        }
+        Command::Check { model, data } => verbs::check(model, data),
         Command::Reproduce {
             paper: Paper::MirmanGupta,
-        } => {
-            let (induced, fit) = reproduce::mirman_gupta::table2(&PaperOptions::default());
-            print!("{}", reproduce::mirman_gupta::table2_report(&induced, &fit));
-            println!();
-            print!("{}", reproduce::mirman_gupta::table3_report());
-            println!();
-            print!("{}", reproduce::mirman_gupta::table6_7_report());
-        }
+        } => verbs::reproduce_mirman_gupta(),
         Command::Identify {
             model,
             data,
@@ -557,33 +549,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             json,
             weights,
             targets,
-        } => {
-            let mut outputs = output::Outputs::new()
-                .model_input(&model.model)
-                .data_input(&data)
-                .output("--out", out.as_deref())
-                .output("--json", json.as_deref());
-            outputs.check()?;
-            let (model, data) = load_session(&model, &data)?;
-            warn(&data.warnings);
-            let options = weights.options(&model)?;
-            let set = match params {
-                Params::Full => ParamSet::Full,
-                Params::Paper => ParamSet::Paper,
-            };
-            let mut result = identify::identify(&model, &data, set, &options)?;
-            data.require_fit_supported(&model, result.position_rms)?;
-            result.calibration.targets = targets.into();
-            // Everything is computed and encoded before the first byte is written.
-            if out.is_some() {
-                outputs.set("--out", result.calibration.to_bytes()?);
-            }
-            if json.is_some() {
-                let text = serde_json::to_string_pretty(&result.to_json(&model.units))?;
-                outputs.set("--json", text.into_bytes());
-            }
-            finish(outputs, || result.summary(&model, &data))?;
-        }
+        } => verbs::identify(model, data, params, out, json, weights, targets),
         Command::Simulate {
             model,
             poses,
@@ -594,81 +560,17 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             seed,
             out,
             truth,
-        } => {
-            let mut outputs = output::Outputs::new()
-                .model_input(&model.model)
-                .output("--out", Some(&out))
-                .output("--truth", truth.as_deref());
-            outputs.check()?;
-            let model = model.load()?;
-            let u = model.units;
-            let dof = model.robot.dof();
-            let mut scenario = simulate::Scenario::tracker(poses, seed);
-            let non_negative = |flag: &str, n: f64| {
-                if n.is_finite() && n >= 0.0 {
-                    Ok(n)
-                } else {
-                    Err(InputError::argument(
-                        flag,
-                        format!("{n}: must be a non-negative number"),
-                    ))
-                }
-            };
-            if let Some(n) = noise {
-                scenario.position_noise = u.length_to_si(non_negative("--noise", n)?);
-            }
-            if let Some(n) = orientation_noise {
-                let n = non_negative("--orientation-noise", n)?;
-                scenario.orientation_noise = Some(u.angle_to_si(n));
-            }
-            for spec in &effects {
-                scenario.effects.push(
-                    simulate::parse_effect(spec, dof)
-                        .map_err(|e| InputError::argument("--effect", e))?,
-                );
-            }
-            for spec in &tilts {
-                let parsed = spec
-                    .split_once(':')
-                    .and_then(|(j, b)| Some((j.parse::<usize>().ok()?, b.parse::<f64>().ok()?)));
-                match parsed {
-                    Some((j, b)) if (1..=dof).contains(&j) && b.is_finite() => {
-                        scenario.tilts.push((j - 1, b))
-                    }
-                    _ => {
-                        return Err(InputError::argument(
-                            "--tilt",
-                            format!(
-                                "{spec}: expected JOINT:BETA with a joint from 1 to {dof} and β in rad"
-                            ),
-                        )
-                        .into());
-                    }
-                }
-            }
-            if poses == 0 {
-                return Err(InputError::argument("--poses", "0: at least 1").into());
-            }
-            let session = simulate::simulate(&model.robot, &scenario)?;
-            let description = format!(
-                "armcal simulate --model {} --poses {poses} --seed {seed}{}{}",
-                model.name,
-                effects
-                    .iter()
-                    .map(|e| format!(" --effect {e}"))
-                    .collect::<String>(),
-                tilts
-                    .iter()
-                    .map(|t| format!(" --tilt {t}"))
-                    .collect::<String>()
-            );
-            outputs.set("--out", session.to_csv(&u, &description).into_bytes());
-            if truth.is_some() {
-                let json = serde_json::to_string_pretty(&session.truth_json(&model.robot, &u))?;
-                outputs.set("--truth", json.into_bytes());
-            }
-            outputs.commit()?;
-        }
+        } => verbs::simulate(
+            model,
+            poses,
+            effects,
+            tilts,
+            noise,
+            orientation_noise,
+            seed,
+            out,
+            truth,
+        ),
         Command::Diagnose {
             model,
             data,
@@ -678,179 +580,28 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             weights,
             folds,
             targets,
-        } => {
-            let mut outputs = output::Outputs::new()
-                .model_input(&model.model)
-                .data_input(&data)
-                .output("--out", out.as_deref())
-                .output("--json", json.as_deref())
-                .output("--html", html.as_deref());
-            outputs.check()?;
-            let (model, data) = load_session(&model, &data)?;
-            warn(&data.warnings);
-            let folds = match folds {
-                None => DEFAULT_FOLDS.min(data.len()),
-                Some(k) if (2..=data.len()).contains(&k) => k,
-                Some(k) => {
-                    return Err(InputError::argument(
-                        "--folds",
-                        format!(
-                            "{k}: from 2 to the number of poses ({}: leave-one-out)",
-                            data.len()
-                        ),
-                    )
-                    .into());
-                }
-            };
-            let options = armcal::diagnose::DiagnoseOptions {
-                folds,
-                fit: weights.options(&model)?,
-                ..Default::default()
-            };
-            let observations = identify::observations(&data);
-            // A progress bar on a terminal: every candidate is cross-validated.
-            let progress = Progress::on_stderr();
-            let mut bar = |round: usize, i: usize, n: usize| {
-                progress.show(|| {
-                    let filled = 30 * i / n.max(1);
-                    format!(
-                        "selection round {round}: [{}{}] candidate {i}/{n}",
-                        "#".repeat(filled),
-                        ".".repeat(30 - filled)
-                    )
-                });
-            };
-            let diagnosis = armcal::diagnose::diagnose_with_progress(
-                &model.robot,
-                observations,
-                &options,
-                &mut bar,
-            )?;
-            progress.finish();
-            data.require_fit_supported(&model, diagnosis.reference.position_rms)?;
-            let lines = &data.lines;
-            if out.is_some() {
-                let mut cal =
-                    diagnosis.calibration(&model.robot, data.has_orientation(), model.units);
-                cal.targets = targets.into();
-                outputs.set("--out", cal.to_bytes()?);
-            }
-            if json.is_some() {
-                let text =
-                    serde_json::to_string_pretty(&diagnosis.to_json(&model, lines, &options))?;
-                outputs.set("--json", text.into_bytes());
-            }
-            if html.is_some() {
-                let page =
-                    armcal::report::html(&model, &data.file, &diagnosis, observations, &options);
-                outputs.set("--html", page.into_bytes());
-            }
-            finish(outputs, || diagnosis.summary(lines, &options, &model.units))?;
-        }
-        Command::Demo { seed, html } => {
-            let mut outputs = output::Outputs::new().output("--html", Some(&html));
-            outputs.check()?;
-            let demo = armcal::demo::demo(seed)?;
-            outputs.set("--html", demo.html().into_bytes());
-            outputs.commit()?;
-            print!("{}", demo.summary(&html.display().to_string()));
-        }
+        } => verbs::diagnose(model, data, out, json, html, weights, folds, targets),
+        Command::Demo { seed, html } => verbs::demo(seed, html),
         Command::Sweep {
             cases,
             seed,
             poses,
             json,
-        } => {
-            let mut outputs = output::Outputs::new().output("--json", json.as_deref());
-            outputs.check()?;
-            if poses < 20 {
-                return Err(InputError::argument(
-                    "--poses",
-                    format!("{poses}: at least 20 positions per session"),
-                )
-                .into());
-            }
-            let progress = Progress::on_stderr();
-            let results = armcal::sweep::sweep(cases, seed, poses, |i, c| {
-                progress.show(|| {
-                    format!(
-                        "case {}/{cases}: {} {:?} → {:?}      ",
-                        i + 1,
-                        c.robot,
-                        c.hidden,
-                        c.found.as_ref().map(|f| f.0)
-                    )
-                });
-            });
-            progress.finish();
-            let ((det, strong), (fp, pure), secs) = armcal::sweep::rates(&results);
-            println!(
-                "{} cases: detected {det} of {strong} hidden effects with signal ≥ 5× ({:.0}%); false positives {fp} of {pure} pure-geometry cases ({:.0}%); {:.2} s per diagnosis",
-                results.len(),
-                100.0 * det as f64 / strong.max(1) as f64,
-                100.0 * fp as f64 / pure.max(1) as f64,
-                secs
-            );
-            for c in results
-                .iter()
-                .filter(|c| c.hidden.is_some() && c.signal >= 5.0 && !c.detected())
-            {
-                println!(
-                    "  missed: {} {:?} joints {:?} (signal {:.1}×) → {:?}",
-                    c.robot, c.hidden, c.joints, c.signal, c.found
-                );
-            }
-            if json.is_some() {
-                let rows: Vec<serde_json::Value> = results
-                    .iter()
-                    .map(|c| serde_json::json!({
-                        "robot": c.robot, "hidden": c.hidden, "joints": c.joints.iter().map(|j| j + 1).collect::<Vec<_>>(),
-                        "signal": c.signal, "found": c.found.as_ref().map(|f| f.0), "named": c.named, "seconds": c.seconds,
-                        "detected": c.detected(),
-                    }))
-                    .collect();
-                outputs.set("--json", serde_json::to_string_pretty(&rows)?.into_bytes());
-                outputs.commit()?;
-            }
-        }
+        } => verbs::sweep(cases, seed, poses, json),
         Command::Compensate {
             calibration,
             joints,
             out,
             servo,
-        } => {
-            let outputs = joints_outputs(&calibration, &joints, &out)?;
-            let cal = predict::load_calibration(&calibration)?;
-            let rows = measurements::load_joints(&joints, &cal.nominal, &cal.units)?;
-            let pacing = if servo {
-                Pacing::Servo
-            } else {
-                Pacing::Program
-            };
-            let result = compensate::compensate(&cal, &rows, pacing);
-            let csv = result.to_csv(&cal, &calibration);
-            warn(rows.warnings.iter().chain(&result.warnings(&joints)));
-            finish_csv(outputs, csv)?;
-        }
+        } => verbs::compensate(calibration, joints, out, servo),
         Command::Predict {
             calibration,
             joints,
             out,
-        } => {
-            let outputs = joints_outputs(&calibration, &joints, &out)?;
-            let cal = predict::load_calibration(&calibration)?;
-            let rows = measurements::load_joints(&joints, &cal.nominal, &cal.units)?;
-            let mut predictions = predict::predict(&cal, &rows)?;
-            predictions.calibration_file = Some(calibration);
-            let csv = predictions.to_csv(&cal.units);
-            warn(&rows.warnings);
-            finish_csv(outputs, csv)?;
-        }
+        } => verbs::predict(calibration, joints, out),
         Command::Reproduce {
             paper: Paper::Kirchner,
-        } => {
-            print!("{}", reproduce::kirchner::report());
-        }
+        } => verbs::reproduce_kirchner(),
         Command::Stream {
             calibration,
             joints,
@@ -858,163 +609,23 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             serial,
             out,
             halt,
-        } => {
-            let outputs = joints_outputs(&calibration, &joints, &out)?;
-            let bytes = predict::read_calibration(&calibration)?;
-            // Read locally first, so that a bad joints file is refused before the
-            // controller is touched; a calibration this armcal refuses is still
-            // sent, and the controller says why it refuses it too.
-            let local = Calibration::decode(&bytes);
-            let rows = match &local {
-                Ok(cal) => Some(measurements::load_joints(
-                    &joints,
-                    &cal.nominal,
-                    &cal.units,
-                )?),
-                Err(_) => None,
-            };
-            let (port, name) = match (tcp, serial) {
-                (Some(address), _) => {
-                    use std::net::ToSocketAddrs as _;
-                    if let Err(e) = address.to_socket_addrs() {
-                        return Err(InputError::argument(
-                            "--tcp",
-                            format!("{address}: not a HOST:PORT address: {e}"),
-                        )
-                        .into());
-                    }
-                    (link::open_tcp(&address)?, address)
-                }
-                (None, Some(path)) => (link::open_serial(&path)?, path),
-                (None, None) => anyhow::bail!("give --tcp HOST:PORT or --serial PATH"),
-            };
-            let (mut session, _) = link::Session::open(port)?;
-            match session.load_calibration(&bytes) {
-                Ok(_) => {}
-                Err(link::StreamError::Refused(reason)) => {
-                    let mut message = format!("the controller refused the calibration: {reason}");
-                    if let Err(e) = &local {
-                        message.push_str(&format!(" (this armcal reads it as: {e})"));
-                    }
-                    return Err(InputError::new(&calibration, 0, 0, message).into());
-                }
-                Err(e) => return Err(e.into()),
-            }
-            let (Ok(cal), Some(rows)) = (local, rows) else {
-                anyhow::bail!(
-                    "{calibration}: the controller accepted a calibration this armcal refuses: update armcal"
-                );
-            };
-            let streamed = link::stream_rows(&mut session, &rows)?;
-            if halt {
-                session.status(Request::Halt)?;
-            }
-            let csv = streamed.to_csv(&cal, &calibration, &name);
-            warn(rows.warnings.iter().chain(&streamed.warnings(&joints)));
-            eprintln!("armcal: {}", streamed.summary());
-            finish_csv(outputs, csv)?;
-        }
+        } => verbs::stream(calibration, joints, tcp, serial, out, halt),
         Command::Export {
             calibration,
             model,
             chain,
             format: ExportFormat::Urdf,
             out,
-        } => {
-            let mut outputs = output::Outputs::new().input("--calibration", &calibration);
-            if let Some(m) = &model {
-                outputs = outputs.input("--model", m);
-            }
-            let outputs = outputs.output("--out", out.as_deref());
-            outputs.check()?;
-            let spec = chain.spec()?;
-            let cal = predict::load_calibration(&calibration)?;
-            let exported = match &model {
-                Some(m) => {
-                    let text = read_text(m, MODEL_FILE)?;
-                    if !urdf::is_urdf(m, &text) {
-                        return Err(InputError::argument(
-                            "--model",
-                            format!("{m} is not a URDF: export writes into the URDF the model was read from; leave out --model to generate a URDF from the calibration"),
-                        )
-                        .into());
-                    }
-                    let (parsed, converted) = model_file::urdf_chain(&text, m, &spec)?;
-                    urdf::export::into_urdf(&cal, &parsed, &converted)?
-                }
-                None if !spec.is_default() => {
-                    return Err(InputError::argument(
-                        "--model",
-                        "--base-link, --tip-link and --tip-point name a chain of the URDF given with --model: give it",
-                    )
-                    .into());
-                }
-                None => urdf::export::generate(&cal, &calibration),
-            };
-            warn(&exported.warnings);
-            finish_csv(outputs, exported.text)?;
-        }
+        } => verbs::export_urdf(calibration, model, chain, out),
         Command::Export {
             calibration,
             model,
             chain,
             format: format @ (ExportFormat::UrDeltas | ExportFormat::UrCalibration),
             out,
-        } => {
-            let Some(m) = model else {
-                return Err(InputError::argument(
-                    "--model",
-                    "--format ur-deltas and ur-calibration: give the UR model (ur5e, ur10, ur10e; the deltas are against its nominal)",
-                )
-                .into());
-            };
-            let outputs = output::Outputs::new()
-                .input("--calibration", &calibration)
-                .input("--model", &m)
-                .output("--out", out.as_deref());
-            outputs.check()?;
-            let nominal = model_file::load_model_with(&m, &chain.spec()?)?;
-            if !armcal::ur::is_ur_model(&nominal) {
-                return Err(InputError::argument(
-                    "--model",
-                    format!("--format ur-deltas and ur-calibration: {m} is not a Universal Robots model (named `ur` and a digit, standard D-H, six revolute joints)"),
-                )
-                .into());
-            }
-            let cal = predict::load_calibration(&calibration)?;
-            let robot = cal.calibrated();
-            if robot.dof() != armcal::ur::JOINTS
-                || robot
-                    .links
-                    .iter()
-                    .any(|l| l.joint != armcal_shared::JointType::Revolute)
-            {
-                return Err(InputError::argument(
-                    "--calibration",
-                    format!("--format ur-deltas and ur-calibration: {calibration} is not of a six-joint revolute arm"),
-                )
-                .into());
-            }
-            let exported = armcal::ur::export_deltas(&robot, &nominal.robot);
-            let text = if matches!(format, ExportFormat::UrDeltas) {
-                armcal::ur::deltas_yaml(&exported, &calibration)
-            } else {
-                armcal::ur::ur_calibration_yaml(&exported, &calibration)
-            };
-            finish_csv(outputs, text)?;
-        }
-        Command::Models => {
-            println!("built-in robot models (use as --model NAME):");
-            for name in builtin::MODEL_NAMES {
-                println!("  {name}");
-            }
-            println!("built-in data sets (use as --data NAME):");
-            for name in builtin::DATA_NAMES {
-                println!("  {name}");
-            }
-        }
+        } => verbs::export_ur(calibration, model, chain, format, out),
+        Command::Models => verbs::models(),
     }
-    Ok(())
 }
 
 /// Writes the requested outputs (every one prepared before the first byte is
