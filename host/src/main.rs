@@ -11,7 +11,6 @@ use armcal::check;
 use std::path::PathBuf;
 
 use armcal::identify::full::FullOptions;
-use armcal::identify::noise::NoiseSource;
 use armcal::identify::paper::PaperOptions;
 use armcal::identify::{self, ParamSet};
 use armcal::input_error::{InputError, MODEL_FILE, read_text};
@@ -24,6 +23,7 @@ use armcal_shared::link::Request;
 use armcal_shared::{Calibration, TargetFrame};
 use clap::{Parser, Subcommand};
 
+mod args;
 mod verbs;
 
 /// armcal makes serial robot arms accurate: it identifies the errors of their
@@ -116,7 +116,7 @@ enum Command {
         #[command(flatten)]
         model: ModelArgs,
         /// Poses to measure.
-        #[arg(long, default_value_t = 200)]
+        #[arg(long, default_value_t = 200, value_parser = args::at_least(1, "pose"))]
         poses: usize,
         /// A hidden effect, `NAME[:JOINT[:VALUE]]` (joint from 1, value in SI units);
         /// repeat for several. Names: joint_compliance, gear_transmission, backlash,
@@ -124,14 +124,14 @@ enum Command {
         #[arg(long = "effect", value_name = "NAME[:JOINT[:VALUE]]")]
         effects: Vec<String>,
         /// A hidden Hayati tilt `JOINT:BETA` (rad) between nominally parallel axes.
-        #[arg(long = "tilt", value_name = "JOINT:BETA")]
-        tilts: Vec<String>,
+        #[arg(long = "tilt", value_name = "JOINT:BETA", value_parser = args::tilt)]
+        tilts: Vec<args::Tilt>,
         /// Position noise, one standard deviation per axis, model length unit
         /// (default 20 µm).
-        #[arg(long, value_name = "LENGTH")]
+        #[arg(long, value_name = "LENGTH", value_parser = args::non_negative)]
         noise: Option<f64>,
         /// Also measure orientations, with this noise (model angle unit).
-        #[arg(long, value_name = "ANGLE")]
+        #[arg(long, value_name = "ANGLE", value_parser = args::non_negative)]
         orientation_noise: Option<f64>,
         /// Seed of every random draw.
         #[arg(long, default_value_t = 1)]
@@ -193,7 +193,7 @@ enum Command {
         weights: Weights,
         /// Folds of the cross-validation, from 2 to the number of poses
         /// (default: 10, or one per pose with fewer poses).
-        #[arg(long)]
+        #[arg(long, value_parser = args::at_least(2, "folds"))]
         folds: Option<usize>,
         /// The frame the compensation's targets will be given in: `world` (the
         /// measurement frame of these data: the identified base is compensated)
@@ -211,8 +211,8 @@ enum Command {
         /// Seed of every draw.
         #[arg(long, default_value_t = 1)]
         seed: u64,
-        /// Tracker positions per simulated session.
-        #[arg(long, default_value_t = 300)]
+        /// Tracker positions per simulated session (at least 20).
+        #[arg(long, default_value_t = 300, value_parser = args::at_least(20, "positions per session"))]
         poses: usize,
         /// Write every case as JSON here.
         #[arg(long, value_name = "R.json")]
@@ -287,7 +287,7 @@ struct ModelArgs {
 impl ModelArgs {
     /// The model these flags name.
     fn load(&self) -> Result<model_file::RobotModel, InputError> {
-        let model = model_file::load_model_with(&self.model, &self.chain.spec()?)?;
+        let model = model_file::load_model_with(&self.model, &self.chain.spec())?;
         match &self.factory_calibration {
             None => Ok(model),
             Some(file) => armcal::ur::load_factory(&model, file),
@@ -309,36 +309,18 @@ struct ChainArgs {
     tip_link: Option<String>,
     /// URDF model: the measured point in the tip link's frame, `x,y,z` in m
     /// (default: the tip link's origin).
-    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
-    tip_point: Option<String>,
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = args::tip_point)]
+    tip_point: Option<nalgebra::Vector3<f64>>,
 }
 
 impl ChainArgs {
     /// The chain these flags name.
-    fn spec(&self) -> Result<ChainSpec, InputError> {
-        let tip_point = match &self.tip_point {
-            None => None,
-            Some(text) => {
-                let parts: Vec<Option<f64>> = text
-                    .split(',')
-                    .map(|p| p.trim().parse::<f64>().ok().filter(|x| x.is_finite()))
-                    .collect();
-                match parts.as_slice() {
-                    [Some(x), Some(y), Some(z)] => Some(nalgebra::Vector3::new(*x, *y, *z)),
-                    _ => {
-                        return Err(InputError::argument(
-                            "--tip-point",
-                            format!("{text:?}: expected x,y,z, three finite numbers in m"),
-                        ));
-                    }
-                }
-            }
-        };
-        Ok(ChainSpec {
+    fn spec(&self) -> ChainSpec {
+        ChainSpec {
             base_link: self.base_link.clone(),
             tip_link: self.tip_link.clone(),
-            tip_point,
-        })
+            tip_point: self.tip_point,
+        }
     }
 }
 
@@ -362,52 +344,34 @@ const DEFAULT_FOLDS: usize = 10;
 struct Weights {
     /// Position noise of the measurements, one standard deviation per axis, in
     /// the model's length unit (default: estimated from the residuals).
-    #[arg(long, value_name = "LENGTH")]
+    #[arg(long, value_name = "LENGTH", value_parser = args::positive)]
     position_noise: Option<f64>,
     /// Orientation noise, one standard deviation per axis, in the model's angle
     /// unit (default: estimated from the residuals).
-    #[arg(long, value_name = "ANGLE")]
+    #[arg(long, value_name = "ANGLE", value_parser = args::positive)]
     orientation_noise: Option<f64>,
     /// Prior scale of a D-H length error (s, a), one standard deviation, model
     /// length unit (default: the model file's `[prior]`, else 1 mm).
-    #[arg(long, value_name = "LENGTH")]
+    #[arg(long, value_name = "LENGTH", value_parser = args::positive)]
     prior_length: Option<f64>,
     /// Prior scale of a D-H angle error (θ, α), model angle unit (default: the
     /// model file's `[prior]`, else 1 mrad).
-    #[arg(long, value_name = "ANGLE")]
+    #[arg(long, value_name = "ANGLE", value_parser = args::positive)]
     prior_angle: Option<f64>,
 }
 
 impl Weights {
     /// The fit options these flags and the model file's prior give.
     fn options(&self, model: &model_file::RobotModel) -> Result<FullOptions, InputError> {
-        let u = &model.units;
-        let mut options = FullOptions {
-            prior: model.prior,
-            ..FullOptions::default()
+        let scales = identify::StatedScales {
+            position_noise: self.position_noise,
+            orientation_noise: self.orientation_noise,
+            prior_length: self.prior_length,
+            prior_angle: self.prior_angle,
         };
-        let positive = |flag: &str, v: Option<f64>| match v {
-            Some(v) if !(v.is_finite() && v > 0.0) => Err(InputError::argument(
-                flag,
-                format!("{v}: must be a positive number"),
-            )),
-            _ => Ok(v),
-        };
-        if let Some(v) = positive("--position-noise", self.position_noise)? {
-            options.position_noise = u.length_to_si(v);
-            options.position_source = NoiseSource::Stated;
-        }
-        if let Some(v) = positive("--orientation-noise", self.orientation_noise)? {
-            options.orientation_noise = u.angle_to_si(v);
-            options.orientation_source = NoiseSource::Stated;
-        }
-        if let Some(v) = positive("--prior-length", self.prior_length)? {
-            options.prior.length = u.length_to_si(v);
-        }
-        if let Some(v) = positive("--prior-angle", self.prior_angle)? {
-            options.prior.angle = u.angle_to_si(v);
-        }
-        Ok(options)
+        scales.options(model).map_err(|e| {
+            InputError::argument(e.flag, format!("{}: must be a positive number", e.value))
+        })
     }
 }
 

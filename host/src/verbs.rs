@@ -66,7 +66,7 @@ pub(crate) fn simulate(
     model: ModelArgs,
     poses: usize,
     effects: Vec<String>,
-    tilts: Vec<String>,
+    tilts: Vec<args::Tilt>,
     noise: Option<f64>,
     orientation_noise: Option<f64>,
     seed: u64,
@@ -82,21 +82,10 @@ pub(crate) fn simulate(
     let u = model.units;
     let dof = model.robot.dof();
     let mut scenario = simulate::Scenario::tracker(poses, seed);
-    let non_negative = |flag: &str, n: f64| {
-        if n.is_finite() && n >= 0.0 {
-            Ok(n)
-        } else {
-            Err(InputError::argument(
-                flag,
-                format!("{n}: must be a non-negative number"),
-            ))
-        }
-    };
     if let Some(n) = noise {
-        scenario.position_noise = u.length_to_si(non_negative("--noise", n)?);
+        scenario.position_noise = u.length_to_si(n);
     }
     if let Some(n) = orientation_noise {
-        let n = non_negative("--orientation-noise", n)?;
         scenario.orientation_noise = Some(u.angle_to_si(n));
     }
     for spec in &effects {
@@ -104,27 +93,18 @@ pub(crate) fn simulate(
             simulate::parse_effect(spec, dof).map_err(|e| InputError::argument("--effect", e))?,
         );
     }
-    for spec in &tilts {
-        let parsed = spec
-            .split_once(':')
-            .and_then(|(j, b)| Some((j.parse::<usize>().ok()?, b.parse::<f64>().ok()?)));
-        match parsed {
-            Some((j, b)) if (1..=dof).contains(&j) && b.is_finite() => {
-                scenario.tilts.push((j - 1, b))
-            }
-            _ => {
-                return Err(InputError::argument(
-                    "--tilt",
-                    format!(
-                        "{spec}: expected JOINT:BETA with a joint from 1 to {dof} and β in rad"
-                    ),
-                )
-                .into());
-            }
+    for tilt in &tilts {
+        if tilt.joint > dof {
+            return Err(InputError::argument(
+                "--tilt",
+                format!(
+                    "{}:{}: the joint must be from 1 to {dof}",
+                    tilt.joint, tilt.beta
+                ),
+            )
+            .into());
         }
-    }
-    if poses == 0 {
-        return Err(InputError::argument("--poses", "0: at least 1").into());
+        scenario.tilts.push((tilt.joint - 1, tilt.beta));
     }
     let session = simulate::simulate(&model.robot, &scenario)?;
     let description = format!(
@@ -136,7 +116,7 @@ pub(crate) fn simulate(
             .collect::<String>(),
         tilts
             .iter()
-            .map(|t| format!(" --tilt {t}"))
+            .map(|t| format!(" --tilt {}:{}", t.joint, t.beta))
             .collect::<String>()
     );
     outputs.set("--out", session.to_csv(&u, &description).into_bytes());
@@ -171,7 +151,7 @@ pub(crate) fn diagnose(
     warn(&data.warnings);
     let folds = match folds {
         None => DEFAULT_FOLDS.min(data.len()),
-        Some(k) if (2..=data.len()).contains(&k) => k,
+        Some(k) if k <= data.len() => k,
         Some(k) => {
             return Err(InputError::argument(
                 "--folds",
@@ -243,13 +223,6 @@ pub(crate) fn sweep(
 ) -> anyhow::Result<()> {
     let mut outputs = output::Outputs::new().output("--json", json.as_deref());
     outputs.check()?;
-    if poses < 20 {
-        return Err(InputError::argument(
-            "--poses",
-            format!("{poses}: at least 20 positions per session"),
-        )
-        .into());
-    }
     let progress = Progress::on_stderr();
     let results = armcal::sweep::sweep(cases, seed, poses, |i, c| {
         progress.show(|| {
@@ -419,7 +392,7 @@ pub(crate) fn export_urdf(
     }
     let outputs = outputs.output("--out", out.as_deref());
     outputs.check()?;
-    let spec = chain.spec()?;
+    let spec = chain.spec();
     let cal = predict::load_calibration(&calibration)?;
     let exported = match &model {
         Some(m) => {
@@ -468,7 +441,7 @@ pub(crate) fn export_ur(
         .input("--model", &m)
         .output("--out", out.as_deref());
     outputs.check()?;
-    let nominal = model_file::load_model_with(&m, &chain.spec()?)?;
+    let nominal = model_file::load_model_with(&m, &chain.spec())?;
     if !armcal::ur::is_ur_model(&nominal) {
         return Err(InputError::argument(
             "--model",

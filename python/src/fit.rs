@@ -4,8 +4,8 @@
 
 use armcal::check::independent_parameter_count;
 use armcal::diagnose::DiagnoseOptions;
+use armcal::identify::StatedScales;
 use armcal::identify::full::FullOptions;
-use armcal::identify::noise::NoiseSource;
 use armcal::identify::{self, ParamSet};
 use armcal::model_file::RobotModel;
 use armcal::{diagnose as diag, input_error, report};
@@ -94,34 +94,16 @@ fn options(
     model: &RobotModel,
     [position_noise, orientation_noise, prior_length, prior_angle]: [Option<f64>; 4],
 ) -> PyResult<FullOptions> {
-    let u = &model.units;
-    let mut options = FullOptions {
-        prior: model.prior,
-        ..FullOptions::default()
+    let scales = StatedScales {
+        position_noise,
+        orientation_noise,
+        prior_length,
+        prior_angle,
     };
-    let positive = |name: &str, v: Option<f64>| match v {
-        Some(v) if !(v.is_finite() && v > 0.0) => Err(errors::argument(
-            py,
-            name,
-            format!("{v}: must be a positive number"),
-        )),
-        _ => Ok(v),
-    };
-    if let Some(v) = positive("position_noise", position_noise)? {
-        options.position_noise = u.length_to_si(v);
-        options.position_source = NoiseSource::Stated;
-    }
-    if let Some(v) = positive("orientation_noise", orientation_noise)? {
-        options.orientation_noise = u.angle_to_si(v);
-        options.orientation_source = NoiseSource::Stated;
-    }
-    if let Some(v) = positive("prior_length", prior_length)? {
-        options.prior.length = u.length_to_si(v);
-    }
-    if let Some(v) = positive("prior_angle", prior_angle)? {
-        options.prior.angle = u.angle_to_si(v);
-    }
-    Ok(options)
+    scales.options(model).map_err(|e| {
+        let name = e.flag.trim_start_matches("--").replace('-', "_");
+        errors::argument(py, &name, format!("{}: must be a positive number", e.value))
+    })
 }
 
 /// `world` or `base`: the frame the compensation's targets are given in.

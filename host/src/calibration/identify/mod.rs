@@ -45,6 +45,62 @@ impl ParamSet {
     }
 }
 
+/// The noise and prior scales a user states (`--position-noise`,
+/// `--orientation-noise`, `--prior-length`, `--prior-angle`), in the model's
+/// length and angle units; `None` leaves the default (the noise estimated from
+/// the residuals, the prior of the model file or 1 mm and 1 mrad).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct StatedScales {
+    /// Position noise, one standard deviation per axis.
+    pub position_noise: Option<f64>,
+    /// Orientation noise, one standard deviation per axis.
+    pub orientation_noise: Option<f64>,
+    /// Prior scale of a D-H length error.
+    pub prior_length: Option<f64>,
+    /// Prior scale of a D-H angle error.
+    pub prior_angle: Option<f64>,
+}
+
+/// A stated scale that is not a positive number: which one, and its value.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NotPositive {
+    /// The scale's name as a flag, `--position-noise` …
+    pub flag: &'static str,
+    /// The value given.
+    pub value: f64,
+}
+
+impl StatedScales {
+    /// The options of a full identification of `model` with these scales,
+    /// converted to SI; refused if one is not a positive finite number.
+    pub fn options(&self, model: &RobotModel) -> Result<FullOptions, NotPositive> {
+        let positive = |flag: &'static str, v: Option<f64>| match v {
+            Some(value) if !(value.is_finite() && value > 0.0) => Err(NotPositive { flag, value }),
+            _ => Ok(v),
+        };
+        let u = &model.units;
+        let mut options = FullOptions {
+            prior: model.prior,
+            ..FullOptions::default()
+        };
+        if let Some(v) = positive("--position-noise", self.position_noise)? {
+            options.position_noise = u.length_to_si(v);
+            options.position_source = noise::NoiseSource::Stated;
+        }
+        if let Some(v) = positive("--orientation-noise", self.orientation_noise)? {
+            options.orientation_noise = u.angle_to_si(v);
+            options.orientation_source = noise::NoiseSource::Stated;
+        }
+        if let Some(v) = positive("--prior-length", self.prior_length)? {
+            options.prior.length = u.length_to_si(v);
+        }
+        if let Some(v) = positive("--prior-angle", self.prior_angle)? {
+            options.prior.angle = u.angle_to_si(v);
+        }
+        Ok(options)
+    }
+}
+
 /// One parameter of the report, SI units.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ParamRow {
