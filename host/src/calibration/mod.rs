@@ -7,6 +7,7 @@ pub mod check;
 pub mod demo;
 pub mod diagnose;
 pub mod identify;
+pub mod parallel;
 pub mod report;
 pub mod reproduce;
 pub mod simulate;

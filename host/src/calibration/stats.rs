@@ -9,7 +9,8 @@
 //!
 //! The incomplete beta function is evaluated by its continued fraction (modified
 //! Lentz; Press et al., *Numerical Recipes*, 3rd ed., §6.4), the quantile by
-//! bisection on the distribution function, which is monotone.
+//! Newton's iteration on the distribution function, which is monotone,
+//! safeguarded by bisection.
 //!
 //! [`significantly_smaller`] is the paired test by which a held-out
 //! improvement counts: the diagnosis leaves the nominal model, or sets a pose
@@ -108,8 +109,23 @@ pub fn f_cdf(f: f64, d1: f64, d2: f64) -> f64 {
     incomplete_beta(d1 / 2.0, d2 / 2.0, d1 * f / (d1 * f + d2))
 }
 
+/// The density of `F(d1, d2)` at `f > 0`.
+fn f_density(f: f64, d1: f64, d2: f64) -> f64 {
+    let (a, b) = (d1 / 2.0, d2 / 2.0);
+    let x = d1 * f / (d1 * f + d2);
+    // dI_x/dx = x^(a−1) (1−x)^(b−1) / B(a, b), and dx/df = d1 d2 / (d1 f + d2)².
+    let ln_dx = (a - 1.0) * x.ln() + (b - 1.0) * (1.0 - x).ln() + ln_gamma(a + b)
+        - ln_gamma(a)
+        - ln_gamma(b);
+    ln_dx.exp() * d1 * d2 / (d1 * f + d2).powi(2)
+}
+
 /// The quantile of `F(d1, d2)` at probability `p` (0 < p < 1): the `f` with
 /// `P(F ≤ f) = p`, to a relative 1e-10. Degrees of freedom below 1 are taken as 1.
+///
+/// Newton's iteration on the distribution function, kept inside a bracket that
+/// every evaluation narrows (a step leaving it bisects instead): a handful of
+/// evaluations where bisection alone takes some forty.
 pub fn f_quantile(p: f64, d1: f64, d2: f64) -> f64 {
     let (d1, d2) = (d1.max(1.0), d2.max(1.0));
     let p = p.clamp(1e-300, 1.0 - 1e-16);
@@ -121,18 +137,26 @@ pub fn f_quantile(p: f64, d1: f64, d2: f64) -> f64 {
             return hi;
         }
     }
+    let mut f = 0.5 * (lo + hi);
     for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
-        if f_cdf(mid, d1, d2) < p {
-            lo = mid;
+        let below = f_cdf(f, d1, d2) - p;
+        if below < 0.0 {
+            lo = f;
         } else {
-            hi = mid;
+            hi = f;
         }
-        if hi - lo <= 1e-10 * hi {
-            break;
+        let newton = f - below / f_density(f, d1, d2);
+        let next = if newton > lo && newton < hi {
+            newton
+        } else {
+            0.5 * (lo + hi)
+        };
+        if (next - f).abs() <= 1e-12 * next || hi - lo <= 1e-10 * hi {
+            return next;
         }
+        f = next;
     }
-    0.5 * (lo + hi)
+    f
 }
 
 /// Whether `new` errors are significantly smaller than `base` errors of the
@@ -180,6 +204,29 @@ mod tests {
                 (q - table).abs() < 5e-4 * table,
                 "F({d1}, {d2}) at {p}: {q} against {table}"
             );
+        }
+    }
+
+    /// The quantile inverts the distribution function to its stated 1e-10:
+    /// `P(F ≤ f(1 − 1e-10)) ≤ p ≤ P(F ≤ f(1 + 1e-10))`, over the degrees of
+    /// freedom and probabilities the diagnosis asks for (1 to 60 parameters,
+    /// 1 to 10⁶ degrees of freedom of the noise, p from 0.5 to 1 − 1e-6).
+    #[test]
+    fn f_quantiles_invert_the_distribution_function() {
+        for d1 in [1.0, 2.0, 7.0, 60.0] {
+            for d2 in [1.0, 3.0, 40.0, 1e3, 1e6] {
+                for p in [0.5, 0.9, 0.95, 0.999, 1.0 - 1e-6] {
+                    let f = f_quantile(p, d1, d2);
+                    let (below, above) = (
+                        f_cdf(f * (1.0 - 1e-10), d1, d2),
+                        f_cdf(f * (1.0 + 1e-10), d1, d2),
+                    );
+                    assert!(
+                        below <= p + 1e-15 && p <= above + 1e-15,
+                        "F({d1}, {d2}) at {p}: {f} gives {below}..{above}"
+                    );
+                }
+            }
         }
     }
 

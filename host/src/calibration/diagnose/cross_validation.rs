@@ -121,7 +121,8 @@ pub struct Evaluation {
 pub struct Folds<'a> {
     lin: &'a Linearization,
     fold: Vec<Role>,
-    parts: Vec<(DMatrix<f64>, DVector<f64>)>,
+    /// Each fold's training normal equations: every pose's less the fold's.
+    training: Vec<(DMatrix<f64>, DVector<f64>)>,
     all: (DMatrix<f64>, DVector<f64>),
     rtr: f64,
 }
@@ -158,6 +159,10 @@ impl<'a> Folds<'a> {
             all.0 += a;
             all.1 += b;
         }
+        let training = parts
+            .into_iter()
+            .map(|(a, b)| (&all.0 - a, &all.1 - b))
+            .collect();
         let rtr = (0..fold.len())
             .filter(|&i| fold[i] != Role::Out)
             .flat_map(|i| lin.rows_of(i))
@@ -166,7 +171,7 @@ impl<'a> Folds<'a> {
         Self {
             lin,
             fold,
-            parts,
+            training,
             all,
             rtr,
         }
@@ -205,33 +210,24 @@ impl<'a> Folds<'a> {
         let lin = self.lin;
         let s = &subset.columns;
         let m = s.len();
-        let (a, b) = &self.all;
-        let part = fold.map(|f| &self.parts[f]);
         // The training poses' normal matrix: every pose's less the fold's.
-        let a_at = |i: usize, j: usize| a[(i, j)] - part.map_or(0.0, |(ak, _)| ak[(i, j)]);
-        let b_at = |i: usize| b[i] - part.map_or(0.0, |(_, bk)| bk[i]);
+        let (a, b) = fold.map_or(&self.all, |f| &self.training[f]);
         let precision = |c: usize| lin.precision[c] * subset.precision_factor;
-        let mut n = DMatrix::from_fn(m, m, |i, j| a_at(s[i], s[j]));
-        let mut rhs = DVector::from_fn(m, |i, _| {
-            let c = s[i];
-            b_at(c)
-                + held
-                    .iter()
-                    .map(|&h| a_at(c, h) * lin.offset[h])
-                    .sum::<f64>()
-                - precision(c) * lin.offset[c]
-        });
         // Scaled to a unit diagonal, for the conditioning of the factorisation.
-        let scale: Vec<f64> = (0..m)
-            .map(|i| unit_scale(n[(i, i)] + precision(s[i])))
+        let scale: Vec<f64> = s
+            .iter()
+            .map(|&c| unit_scale(a[(c, c)] + precision(c)))
             .collect();
-        for i in 0..m {
-            n[(i, i)] += precision(s[i]);
-            rhs[i] *= scale[i];
-            for j in 0..m {
-                n[(i, j)] *= scale[i] * scale[j];
-            }
-        }
+        let n = DMatrix::from_fn(m, m, |i, j| {
+            let prior = if i == j { precision(s[i]) } else { 0.0 };
+            (a[(s[i], s[j])] + prior) * scale[i] * scale[j]
+        });
+        let rhs = DVector::from_fn(m, |i, _| {
+            let c = s[i];
+            (b[c] + held.iter().map(|&h| a[(c, h)] * lin.offset[h]).sum::<f64>()
+                - precision(c) * lin.offset[c])
+                * scale[i]
+        });
         let x = n.cholesky()?.solve(&rhs);
         let mut delta: Vec<f64> = lin.offset.iter().map(|o| -o).collect();
         for i in 0..m {
@@ -281,7 +277,7 @@ impl<'a> Folds<'a> {
         let n = lin.first_rows.len();
         let mut errors = vec![0.0; n];
         let held = self.held(subset);
-        for f in 0..self.parts.len() {
+        for f in 0..self.training.len() {
             let delta = self.step(subset, &held, Some(f))?;
             let moved = moving(&delta);
             for i in (0..n).filter(|&i| self.fold[i] == Role::Fold(f)) {

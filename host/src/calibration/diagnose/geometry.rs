@@ -17,6 +17,7 @@ use armcal_shared::{Param, Robot};
 use super::cross_validation::{Folds, HeldOut, Subset};
 use crate::calibration::identify::full::{Linearization, Unknown};
 use crate::calibration::identify::prior::Geometry;
+use crate::calibration::parallel;
 use crate::calibration::stats::significantly_smaller;
 
 /// The level of the paired test a calibrated model must pass against nominal.
@@ -68,6 +69,8 @@ pub fn score(
         held: HeldOut::of(nominal),
         errors: nominal.to_vec(),
     }];
+    // Every (model, prior factor) scored alone, on every core.
+    let mut candidates = Vec::new();
     for geometry in Geometry::ALL {
         let columns: Vec<usize> = (0..lin.j.ncols())
             .filter(|&c| match lin.unknowns[c] {
@@ -82,19 +85,24 @@ pub fn score(
             &PRIOR_FACTORS
         };
         for &factor in factors {
-            let subset = Subset {
-                columns: columns.clone(),
-                precision_factor: 1.0 / (factor * factor),
-            };
-            if let Some(e) = folds.evaluate(&subset) {
-                out.push(ModelScore {
-                    geometry: Some(geometry),
-                    prior_factor: factor,
-                    parameters: columns.len(),
-                    held: e.held,
-                    errors: e.errors,
-                });
-            }
+            candidates.push((geometry, factor, columns.clone()));
+        }
+    }
+    let scored = parallel::map(&candidates, |(_, factor, columns)| {
+        folds.evaluate(&Subset {
+            columns: columns.clone(),
+            precision_factor: 1.0 / (factor * factor),
+        })
+    });
+    for ((geometry, prior_factor, columns), e) in candidates.into_iter().zip(scored) {
+        if let Some(e) = e {
+            out.push(ModelScore {
+                geometry: Some(geometry),
+                prior_factor,
+                parameters: columns.len(),
+                held: e.held,
+                errors: e.errors,
+            });
         }
     }
     out

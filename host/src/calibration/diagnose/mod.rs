@@ -227,9 +227,10 @@ pub fn diagnose_with_progress(
     let mut blunders = Vec::new();
     let mut suspects = Vec::new();
     let most = data.len() / 10;
+    // The reference's linearisation on the poses kept, once per reference.
+    let mut clean = subset(&kept);
+    let mut lin = linearize(&reference, &[], &[], &clean, &prior);
     while blunders.len() < most {
-        let clean = subset(&kept);
-        let lin = linearize(&reference, &[], &[], &clean, &prior);
         let Some(s) = blunders::most_suspect(&reference, &lin) else {
             break;
         };
@@ -259,14 +260,13 @@ pub fn diagnose_with_progress(
             break;
         }
         blunders.push(b.pose);
-        reference =
-            identify_with_effects(nominal, &[], &[], &subset(&without), &reference_options)?;
         kept = without;
+        clean = subset(&kept);
+        reference = identify_with_effects(nominal, &[], &[], &clean, &reference_options)?;
+        lin = linearize(&reference, &[], &[], &clean, &prior);
     }
-    let clean = subset(&kept);
 
     // 3. The geometric model.
-    let lin = linearize(&reference, &[], &[], &clean, &prior);
     let nominal_errors = nominal_errors(nominal, &clean);
     let mut models = geometry::score(nominal, &lin, options.folds, &nominal_errors);
     let best = geometry::best(&models).clone();

@@ -69,6 +69,8 @@ use faer::linalg::solvers::{DenseSolveCore, Solve};
 use faer::{Accum, Mat, Par, Side};
 use nalgebra::{IsometryMatrix3, Matrix3, Point3, Rotation3, Vector3};
 
+use crate::calibration::parallel;
+
 use super::noise::{ChannelNoise, NoiseEstimate, NoiseSource, SETTLED};
 use super::prior::{Geometry, Prior};
 
@@ -1159,26 +1161,31 @@ fn for_each_pose_rows(
             (Some((_, reference)), Some(t)) => t - reference,
             _ => 0.0,
         };
-        let scaled;
-        let kin = match (&effects, delta_t != 0.0) {
-            (Some(em), true) => {
-                scaled = em.robot_at(ctx).prepare();
-                &scaled
-            }
-            _ => &kinematics,
+        // The lengths at the pose's temperature: the chain of
+        // `EffectModel::robot_at`, without preparing a model per pose.
+        let length_scale = match (&effects, delta_t != 0.0) {
+            (Some(em), true) => em.length_factor(ctx.temperature),
+            _ => 1.0,
         };
         let mut tau: Vec<f64> = Vec::new();
         q_eff.clear();
         match &effects {
             Some(em) => {
-                if needs_torque && kin.chain_into(&obs.q, &mut chain).is_ok() {
+                if needs_torque
+                    && kinematics
+                        .chain_scaled_into(&obs.q, length_scale, &mut chain)
+                        .is_ok()
+                {
                     tau = gravity_torques(robot, &chain, ctx.payload.unwrap_or(0.0)).to_vec();
                 }
                 q_eff.extend_from_slice(&em.joint_values_at(&obs.q, &tau, ctx));
             }
             None => q_eff.extend_from_slice(&obs.q),
         }
-        if kin.chain_into(&q_eff, &mut chain).is_err() {
+        if kinematics
+            .chain_scaled_into(&q_eff, length_scale, &mut chain)
+            .is_err()
+        {
             continue;
         }
         let tool_columns = chain.tool_columns();
@@ -1187,7 +1194,6 @@ fn for_each_pose_rows(
         let orientation = obs
             .orientation
             .map(|q| rotation_error(&q.to_rotation_matrix(), &chain.end.rotation));
-        let length_scale = thermal.map_or(1.0, |(k, _)| 1.0 + k * delta_t);
         for (k, &u) in params.iter().enumerate() {
             let col: Twist<f64> = match u {
                 Unknown::Param(Param::Base(ax)) => base_columns[ax.index()],
@@ -1292,37 +1298,10 @@ impl NormalEquations {
         params: &[Unknown],
         weights: (f64, f64),
     ) -> Self {
-        let chunk = |c: &[Observation]| Self::accumulate_chunk(model, c, params, weights);
         let chunks: Vec<&[Observation]> = data.chunks(CHUNK_POSES).collect();
-        let threads = std::thread::available_parallelism()
-            .map_or(1, |n| n.get())
-            .min(chunks.len());
-        let partials: Vec<Self> = if threads <= 1 {
-            chunks.iter().map(|c| chunk(c)).collect()
-        } else {
-            // Each thread takes the next chunk not yet taken.
-            let next = std::sync::atomic::AtomicUsize::new(0);
-            let mut done: Vec<(usize, Self)> = std::thread::scope(|scope| {
-                let workers: Vec<_> = (0..threads)
-                    .map(|_| {
-                        scope.spawn(|| {
-                            let mut mine = Vec::new();
-                            loop {
-                                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                                let Some(c) = chunks.get(i) else { break mine };
-                                mine.push((i, chunk(c)));
-                            }
-                        })
-                    })
-                    .collect();
-                workers
-                    .into_iter()
-                    .flat_map(|w| w.join().expect("a chunk's accumulation does not panic"))
-                    .collect()
-            });
-            done.sort_by_key(|(i, _)| *i);
-            done.into_iter().map(|(_, sums)| sums).collect()
-        };
+        let partials = parallel::map(&chunks, |c| {
+            Self::accumulate_chunk(model, c, params, weights)
+        });
         let mut partials = partials.into_iter();
         let Some(mut sums) = partials.next() else {
             return Self::accumulate_chunk(model, data, params, weights);
