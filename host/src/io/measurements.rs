@@ -53,6 +53,7 @@ use armcal_shared::{JointType, Robot};
 use nalgebra::{Point3, Quaternion, UnitQuaternion};
 
 use crate::io::builtin;
+use crate::io::constraints::{Constraints, DEFAULT_DISTANCE_STD, Distance, FixedPoint, RESERVED};
 use crate::io::input_error::{DATA_FILE, InputError, SizeLimit, open_bounded};
 use crate::io::model_file::RobotModel;
 
@@ -83,6 +84,10 @@ pub struct Observation {
     /// change in row order, held while the joint holds:
     /// [`Approach`]).
     pub context: Context<f64>,
+    /// The unknown fixed point the tool point sits at, an index into
+    /// [`Measurements::constraints`]' points (a row of a constraint file:
+    /// `position` is then not measured and holds 0).
+    pub fixed_point: Option<usize>,
 }
 
 impl Observation {
@@ -107,6 +112,7 @@ impl Observation {
             position,
             orientation,
             context,
+            fixed_point: None,
         }
     }
 
@@ -135,9 +141,17 @@ pub struct Measurements {
     pub columns_ignored: Vec<String>,
     /// Things the user should know that do not stop the computation.
     pub warnings: Vec<String>,
+    /// The unknown fixed points and known distances of a constraint file
+    /// (empty for measured coordinates; see [`crate::io::constraints`]).
+    pub constraints: Constraints,
 }
 
 impl Measurements {
+    /// Whether the rows carry constraints (unknown fixed points) instead of coordinates.
+    pub fn is_constrained(&self) -> bool {
+        !self.constraints.is_empty()
+    }
+
     /// The number of poses.
     pub fn len(&self) -> usize {
         self.poses.len()
@@ -156,7 +170,7 @@ impl Measurements {
     /// The number of scalar equations the poses give: 3 per pose, 6 per pose with
     /// orientation.
     pub fn equations(&self) -> usize {
-        self.poses.iter().map(Observation::equations).sum()
+        self.poses.iter().map(Observation::equations).sum::<usize>() + self.constraints.equations()
     }
 
     /// Refuses the file if its poses give fewer equations than `unknowns`.
@@ -164,6 +178,12 @@ impl Measurements {
     /// The error is placed at the last data line, column 1, and says how many poses
     /// and equations there are, how many unknowns, and how many poses are needed.
     pub fn require_poses(&self, unknowns: usize) -> Result<(), InputError> {
+        // Constraint rows: no base (6 fewer), three coordinates per fixed point.
+        let unknowns = if self.is_constrained() {
+            (unknowns + 3 * self.constraints.points.len()).saturating_sub(6)
+        } else {
+            unknowns
+        };
         let equations = self.equations();
         if equations >= unknowns {
             return Ok(());
@@ -238,6 +258,10 @@ impl Measurements {
         let Some(first) = self.poses.first() else {
             return Ok(());
         };
+        if self.is_constrained() {
+            // No coordinate is measured.
+            return Ok(());
+        }
         let moved = self.poses.iter().any(|p| p.q != first.q);
         for (c, name) in POSITION.iter().enumerate() {
             if moved
@@ -471,7 +495,9 @@ fn read_joints<R: std::io::Read>(
         kind: Kind::Joints,
     };
     let mut rows = Vec::new();
-    let columns = read_table(source, file, &schema, |r| {
+    let columns = read_table(source, file, &schema, |item| {
+        // A joints file fed a constraint file reads its joints only.
+        let Item::Row(r) = item else { return };
         rows.push(JointRow {
             line: r.line,
             q: r.q,
@@ -550,6 +576,27 @@ struct Record {
     t: Option<f64>,
     temp: Option<f64>,
     load: Option<f64>,
+    /// The unknown fixed point the row names (`point` column): its name and the
+    /// character column of its cell.
+    point: Option<(String, usize)>,
+}
+
+/// A distance line of a constraint file, as read (see [`crate::io::constraints`]).
+struct DistanceLine {
+    line: usize,
+    /// The two point names and the character column of each.
+    points: [(String, usize); 2],
+    /// Length and standard uncertainty, m.
+    length: f64,
+    std: f64,
+}
+
+/// What a data line of a file is.
+enum Item {
+    /// A row: one pose.
+    Row(Record),
+    /// A known distance between two named points.
+    Distance(DistanceLine),
 }
 
 /// The columns of a file as read.
@@ -568,7 +615,7 @@ fn read_table<R: std::io::Read>(
     source: Source<R>,
     file: &str,
     schema: &Schema<'_>,
-    sink: impl FnMut(Record),
+    sink: impl FnMut(Item),
 ) -> Result<Columns, InputError> {
     CsvReader::new(source, file).read(schema, sink)
 }
@@ -585,6 +632,8 @@ enum Role {
     T,
     Temp,
     Load,
+    /// The name of the unknown fixed point the tool point sits at.
+    Point,
     Ignored,
 }
 
@@ -607,6 +656,7 @@ fn role_of(name: &str, kind: Kind) -> Role {
         };
     }
     match name {
+        "point" if kind == Kind::Measurements => return Role::Point,
         "t" => return Role::T,
         "temp" => return Role::Temp,
         "load" => return Role::Load,
@@ -655,17 +705,110 @@ fn read_measurements<R: std::io::Read>(
     };
     let (mut poses, mut lines, mut times) = (Vec::new(), Vec::new(), Vec::new());
     let mut approach = Approach::new();
-    let columns = read_table(source, file, &schema, |r| {
-        poses.push(Observation::of_row(
+    let mut constraints = Constraints::default();
+    let mut distance_lines = Vec::new();
+    // The first row measuring coordinates and the first naming a point (line, column).
+    let (mut first_measured, mut first_named) = (None, None);
+    let columns = read_table(source, file, &schema, |item| {
+        let r = match item {
+            Item::Row(r) => r,
+            Item::Distance(d) => return distance_lines.push(d),
+        };
+        let mut pose = Observation::of_row(
             r.q,
             Point3::from(r.position),
             r.orientation,
             (r.temp, r.load),
             &mut approach,
-        ));
+        );
+        match r.point {
+            Some((name, column)) => {
+                first_named.get_or_insert((r.line, column));
+                let k = constraints.index(&name).unwrap_or_else(|| {
+                    constraints.points.push(FixedPoint {
+                        name,
+                        first: (r.line, column),
+                        rows: 0,
+                    });
+                    constraints.points.len() - 1
+                });
+                constraints.points[k].rows += 1;
+                pose.fixed_point = Some(k);
+            }
+            None => {
+                first_measured.get_or_insert(r.line);
+            }
+        }
+        poses.push(pose);
         lines.push(r.line);
         times.push(r.t);
     })?;
+    if let (Some(measured), Some((named, column))) = (first_measured, first_named) {
+        let (line, column, other, this, that) = if named > measured {
+            (
+                named,
+                column,
+                measured,
+                "names an unknown point",
+                "measures x, y, z",
+            )
+        } else {
+            let row = lines
+                .iter()
+                .zip(&poses)
+                .find(|(_, p)| p.fixed_point.is_none())
+                .map_or(measured, |(l, _)| *l);
+            (row, 1, named, "measures x, y, z", "names an unknown point")
+        };
+        return Err(InputError::new(
+            file,
+            line,
+            column,
+            format!(
+                "this row {this} while line {other} {that}: a file holds either measured \
+                 coordinates or constraints (unknown points, distances), not both"
+            ),
+        ));
+    }
+    if let Some(once) = constraints.points.iter().find(|p| p.rows < 2) {
+        return Err(InputError::new(
+            file,
+            once.first.0,
+            once.first.1,
+            format!(
+                "column 'point': the point '{}' is named by this row only: an unknown fixed point \
+                 needs at least two rows to say anything (a typo in its name?)",
+                once.name
+            ),
+        ));
+    }
+    for d in distance_lines {
+        let mut ends = [0; 2];
+        for (end, (name, column)) in ends.iter_mut().zip(&d.points) {
+            *end = constraints.index(name).ok_or_else(|| {
+                let named: Vec<&str> = constraints.points.iter().map(|p| p.name.as_str()).collect();
+                InputError::new(
+                    file,
+                    d.line,
+                    *column,
+                    format!(
+                        "distance: no row names the point '{name}' (points named: {})",
+                        if named.is_empty() {
+                            "none".to_owned()
+                        } else {
+                            named.join(", ")
+                        }
+                    ),
+                )
+            })?;
+        }
+        constraints.distances.push(Distance {
+            points: ends,
+            length: d.length,
+            std: d.std,
+            line: d.line,
+        });
+    }
     Ok(Measurements {
         file: file.to_owned(),
         poses,
@@ -674,6 +817,7 @@ fn read_measurements<R: std::io::Read>(
         columns_used: columns.used,
         columns_ignored: columns.ignored,
         warnings: columns.warnings,
+        constraints,
     })
 }
 
@@ -1057,7 +1201,7 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
     fn read(
         mut self,
         schema: &Schema<'_>,
-        mut sink: impl FnMut(Record),
+        mut sink: impl FnMut(Item),
     ) -> Result<Columns, InputError> {
         let mut header = Row::default();
         if !self.next_row(&mut header)? {
@@ -1076,10 +1220,17 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
         let mut tally = LimitTally::new(schema);
         let mut row = Row::default();
         let mut rows = 0;
+        // Only a file with a `point` column has distance lines (an old file's
+        // rows read as before).
+        let constraint_file = header.fields().any(|n| n == "point");
         while self.next_row(&mut row)? {
+            if constraint_file && row.field(0) == Some("distance") {
+                sink(Item::Distance(self.distance_line(&row, schema)?));
+                continue;
+            }
             let record = self.record(&row, &header, &columns, schema)?;
             tally.add(&record);
-            sink(record);
+            sink(Item::Row(record));
             rows += 1;
         }
         if rows == 0 {
@@ -1190,8 +1341,14 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
                 )));
             }
         }
+        // A constraint file (a `point` column) may leave out x, y, z altogether.
+        let constraint_file = roles.contains(&Role::Point);
+        let any_position = (0..3).any(|c| roles.contains(&Role::Position(c)));
         for (c, name) in POSITION.iter().enumerate() {
-            if schema.kind == Kind::Measurements && !roles.contains(&Role::Position(c)) {
+            if schema.kind == Kind::Measurements
+                && (!constraint_file || any_position)
+                && !roles.contains(&Role::Position(c))
+            {
                 return Err(header_err(format!(
                     "missing required column '{name}' (required: {}){}",
                     schema.kind.required(m),
@@ -1256,6 +1413,11 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
         let units = schema.units;
         let mut q = vec![0.0; schema.dof()];
         let mut position = [0.0; 3];
+        // Position cells as read (a constraint row leaves them empty).
+        let mut given: [Option<usize>; 3] = [None; 3];
+        let mut point: Option<(String, usize)> = None;
+        let point_index = roles.iter().position(|r| *r == Role::Point);
+        let point_named = point_index.is_some_and(|i| row.field(i).is_some_and(|f| !f.is_empty()));
         let mut quat: [Option<f64>; 4] = [None; 4];
         let (mut t, mut temp, mut load) = (None, None, None);
         for (i, (value, role)) in row.fields().zip(roles).enumerate() {
@@ -1305,8 +1467,41 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
                     }
                 }
                 Role::Position(c) => {
+                    if point_named && !value.is_empty() {
+                        return Err(at(
+                            i,
+                            format!(
+                                "column '{name}': a coordinate on a row that names the unknown point '{}': \
+                                 a row either measures x, y, z or names the point its tool point sits at; \
+                                 leave x, y, z empty here",
+                                point_index.and_then(|p| row.field(p)).unwrap_or("")
+                            ),
+                        ));
+                    }
+                    if point_index.is_some() && value.is_empty() {
+                        continue;
+                    }
                     if let Some(slot) = position.get_mut(c) {
                         *slot = units.length_to_si(number()?);
+                    }
+                    if let Some(slot) = given.get_mut(c) {
+                        *slot = Some(i);
+                    }
+                }
+                Role::Point => {
+                    if !value.is_empty() {
+                        if RESERVED.contains(&value) || value.parse::<f64>().is_ok() {
+                            return Err(at(
+                                i,
+                                format!(
+                                    "column 'point': {value:?} cannot name a point (a number, or a word \
+                                     that starts a line of its own: {})",
+                                    RESERVED.join(", ")
+                                ),
+                            ));
+                        }
+                        let column = self.err_at(self.field_offset(row.start, i), "").column;
+                        point = Some((value.to_owned(), column));
                     }
                 }
                 Role::Quat(c) => {
@@ -1368,6 +1563,27 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
             }
         };
 
+        if let Some(p) = point_index {
+            let measured = given.iter().filter(|g| g.is_some()).count();
+            if point.is_none() && measured < 3 {
+                return Err(at(
+                    p,
+                    "column 'point': empty, and the row does not measure x, y, z either: name the \
+                     unknown point its tool point sits at, or give all three coordinates"
+                        .to_owned(),
+                ));
+            }
+            if point.is_some() && orientation.is_some() {
+                let first = roles.iter().position(|r| *r == Role::Quat(0)).unwrap_or(0);
+                return Err(at(
+                    first,
+                    "column 'qw': an orientation on a row that names an unknown point: only \
+                     positions sit at a point; leave qw, qx, qy, qz empty"
+                        .to_owned(),
+                ));
+            }
+        }
+
         Ok(Record {
             line: row.line,
             q,
@@ -1376,6 +1592,72 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
             t,
             temp,
             load,
+            point,
+        })
+    }
+
+    /// A distance line of a constraint file: `distance,<point>,<point>,<length>[,<std>]`.
+    fn distance_line(&self, row: &Row, schema: &Schema<'_>) -> Result<DistanceLine, InputError> {
+        let at = |index: usize, message: String| {
+            self.err_at(self.field_offset(row.start, index), message)
+        };
+        const FORM: &str = "distance,<point>,<point>,<length>[,<std>]";
+        if !(4..=5).contains(&row.len()) {
+            return Err(at(
+                row.len().min(5),
+                format!(
+                    "a distance line has 4 or 5 fields ({FORM}), this one has {}",
+                    row.len()
+                ),
+            ));
+        }
+        let name = |i: usize| -> Result<(String, usize), InputError> {
+            let value = row.field(i).unwrap_or("");
+            if value.is_empty() {
+                return Err(at(
+                    i,
+                    format!(
+                        "distance: field {} is empty, expected a point name ({FORM})",
+                        i + 1
+                    ),
+                ));
+            }
+            Ok((
+                value.to_owned(),
+                self.err_at(self.field_offset(row.start, i), "").column,
+            ))
+        };
+        let points = [name(1)?, name(2)?];
+        if points[0].0 == points[1].0 {
+            return Err(at(
+                2,
+                format!("distance: from the point '{}' to itself", points[0].0),
+            ));
+        }
+        let unit = schema.units.length.name();
+        let positive = |i: usize, what: &str| -> Result<f64, InputError> {
+            let value = row.field(i).unwrap_or("");
+            match value.parse::<f64>() {
+                Ok(x) if x.is_finite() && x > 0.0 => Ok(schema.units.length_to_si(x)),
+                _ => Err(at(
+                    i,
+                    format!(
+                        "distance: {what} {value:?} is not a positive number of {unit} ({FORM})"
+                    ),
+                )),
+            }
+        };
+        let length = positive(3, "the length")?;
+        let std = if row.len() == 5 {
+            positive(4, "the standard uncertainty")?
+        } else {
+            DEFAULT_DISTANCE_STD
+        };
+        Ok(DistanceLine {
+            line: row.line,
+            points,
+            length,
+            std,
         })
     }
 }
