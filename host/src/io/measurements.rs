@@ -157,6 +157,61 @@ impl Measurements {
         self.poses.len()
     }
 
+    /// The sessions `parts` as one, in order: their poses, their lines (each
+    /// its own file's), and their constraints, a point named in two parts
+    /// being one point. The file is named by the parts' files joined with `+`.
+    pub fn merged(parts: &[&Measurements]) -> Measurements {
+        let mut out = Measurements {
+            file: parts
+                .iter()
+                .map(|p| p.file.as_str())
+                .collect::<Vec<_>>()
+                .join("+"),
+            poses: Vec::new(),
+            lines: Vec::new(),
+            times: Vec::new(),
+            columns_used: parts
+                .first()
+                .map(|p| p.columns_used.clone())
+                .unwrap_or_default(),
+            columns_ignored: Vec::new(),
+            warnings: Vec::new(),
+            constraints: Constraints::default(),
+        };
+        for part in parts {
+            // Each point of this part: its index in the merged constraints.
+            let index: Vec<usize> = part
+                .constraints
+                .points
+                .iter()
+                .map(|p| match out.constraints.index(&p.name) {
+                    Some(k) => {
+                        out.constraints.points[k].rows += p.rows;
+                        k
+                    }
+                    None => {
+                        out.constraints.points.push(p.clone());
+                        out.constraints.points.len() - 1
+                    }
+                })
+                .collect();
+            for pose in &part.poses {
+                let mut pose = pose.clone();
+                pose.fixed_point = pose.fixed_point.map(|k| index[k]);
+                out.poses.push(pose);
+            }
+            out.lines.extend_from_slice(&part.lines);
+            out.times.extend_from_slice(&part.times);
+            out.warnings.extend(part.warnings.iter().cloned());
+            for d in &part.constraints.distances {
+                let mut d = d.clone();
+                d.points = d.points.map(|k| index[k]);
+                out.constraints.distances.push(d);
+            }
+        }
+        out
+    }
+
     /// Whether there are no poses (never the case for a parsed file).
     pub fn is_empty(&self) -> bool {
         self.poses.is_empty()

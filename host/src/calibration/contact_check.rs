@@ -1,0 +1,201 @@
+//! How well a robot model puts its tool point at the fixed points of a session
+//! without a tracker: the figures a user can trust with no coordinate measured.
+//!
+//! For each unknown fixed point of a constraint session (see
+//! [`crate::io::constraints`]) the model's tool points of the rows naming it
+//! should coincide: their *spread* is the RMS distance of those predicted
+//! points to their mean (m). For each known distance, the distance between the
+//! two means less the stated one is the model's *distance error* (m). All in
+//! the model's base frame, which the figures do not depend on.
+//!
+//! [`leave_one_out`] is the held-out evaluation: calibrate on every session
+//! but one (merged, their points kept apart by name), predict the one left out,
+//! for each in turn; beside the nominal model and, optionally, a reference
+//! model (another calibration of the same chain) on the same held-out rows.
+
+use armcal_shared::Robot;
+use nalgebra::{Point3, Vector3};
+
+use crate::calibration::identify::full::FullOptions;
+use crate::calibration::identify::{self, IdentifyError, ParamSet};
+use crate::io::measurements::Measurements;
+use crate::io::model_file::RobotModel;
+
+/// One point's figures.
+#[derive(Clone, Debug)]
+pub struct PointSpread {
+    /// Its name.
+    pub name: String,
+    /// The rows naming it.
+    pub rows: usize,
+    /// The mean of the predicted tool points, base frame, m.
+    pub centre: Point3<f64>,
+    /// RMS distance of the predicted tool points to their mean, m.
+    pub spread: f64,
+}
+
+/// One known distance's figures.
+#[derive(Clone, Debug)]
+pub struct DistanceError {
+    /// The two points' names.
+    pub points: [String; 2],
+    /// The stated distance, m.
+    pub stated: f64,
+    /// The distance between the predicted centres less the stated one, m.
+    pub error: f64,
+}
+
+/// What a model predicts of a constraint session.
+#[derive(Clone, Debug)]
+pub struct ContactCheck {
+    /// Per point, in the order of the file.
+    pub points: Vec<PointSpread>,
+    /// Per distance line, in the order of the file.
+    pub distances: Vec<DistanceError>,
+}
+
+impl ContactCheck {
+    /// The spreads' RMS over the points (each point's spread squared, averaged), m.
+    pub fn spread_rms(&self) -> f64 {
+        let n = self.points.len().max(1) as f64;
+        (self.points.iter().map(|p| p.spread * p.spread).sum::<f64>() / n).sqrt()
+    }
+
+    /// The largest distance error in magnitude, signed, m (0 without distances).
+    pub fn worst_distance_error(&self) -> f64 {
+        self.distances
+            .iter()
+            .map(|d| d.error)
+            .fold(0.0, |a, e| if e.abs() > a.abs() { e } else { a })
+    }
+}
+
+/// The spread of `robot`'s tool points at each fixed point of `data` and its
+/// error of each known distance. Rows whose kinematics fail are left out.
+pub fn contact_check(robot: &Robot<f64>, data: &Measurements) -> ContactCheck {
+    let kin = robot.prepare();
+    let c = &data.constraints;
+    let mut predicted: Vec<Vec<Vector3<f64>>> = vec![Vec::new(); c.points.len()];
+    for obs in &data.poses {
+        if let (Some(k), Ok(t)) = (obs.fixed_point, kin.forward(&obs.q))
+            && let Some(v) = predicted.get_mut(k)
+        {
+            v.push(t.translation.vector);
+        }
+    }
+    let points: Vec<PointSpread> = c
+        .points
+        .iter()
+        .zip(&predicted)
+        .map(|(p, v)| {
+            let n = v.len().max(1) as f64;
+            let centre = v.iter().sum::<Vector3<f64>>() / n;
+            let spread = (v.iter().map(|x| (x - centre).norm_squared()).sum::<f64>() / n).sqrt();
+            PointSpread {
+                name: p.name.clone(),
+                rows: v.len(),
+                centre: Point3::from(centre),
+                spread,
+            }
+        })
+        .collect();
+    let distances = c
+        .distances
+        .iter()
+        .map(|d| {
+            let [a, b] = d.points.map(|k| &points[k]);
+            DistanceError {
+                points: [a.name.clone(), b.name.clone()],
+                stated: d.length,
+                error: (a.centre - b.centre).norm() - d.length,
+            }
+        })
+        .collect();
+    ContactCheck { points, distances }
+}
+
+/// One held-out session of [`leave_one_out`].
+#[derive(Clone, Debug)]
+pub struct HeldOut {
+    /// The session left out (its file).
+    pub file: String,
+    /// The nominal model's figures on it.
+    pub nominal: ContactCheck,
+    /// The reference model's, when one is given.
+    pub reference: Option<ContactCheck>,
+    /// The calibration's from the other sessions.
+    pub calibrated: ContactCheck,
+    /// The RMS distance of the training rows' tool points to their fitted points, m.
+    pub training_rms: f64,
+}
+
+/// Leaves each of `sessions` out in turn, identifies `model` on the others
+/// (`armcal identify --params full` with `options`) and checks the nominal
+/// model, `reference` and the calibration on the one left out.
+pub fn leave_one_out(
+    model: &RobotModel,
+    sessions: &[Measurements],
+    reference: Option<&Robot<f64>>,
+    options: &FullOptions,
+) -> Result<Vec<HeldOut>, IdentifyError> {
+    let mut out = Vec::new();
+    for (i, held) in sessions.iter().enumerate() {
+        let training: Vec<&Measurements> = sessions
+            .iter()
+            .enumerate()
+            .filter(|(j, _)| *j != i)
+            .map(|(_, s)| s)
+            .collect();
+        let merged = Measurements::merged(&training);
+        let fit = identify::identify(model, &merged, ParamSet::Full, options)?;
+        out.push(HeldOut {
+            file: held.file.clone(),
+            nominal: contact_check(&model.robot, held),
+            reference: reference.map(|r| contact_check(r, held)),
+            calibrated: contact_check(&fit.calibrated(), held),
+            training_rms: fit.position_rms,
+        });
+    }
+    Ok(out)
+}
+
+/// The table of [`leave_one_out`], in mm: per held-out session, the spread
+/// (RMS over its points) and the worst distance error of each model.
+pub fn holdout_table(rows: &[HeldOut], reference: Option<&str>) -> String {
+    use std::fmt::Write as _;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "held-out session: spread of the predicted points (RMS distance to their mean, RMS over the points) \
+         and distance error (predicted minus stated), mm"
+    );
+    let mut header = format!("  {:<40} {:>16} {:>16}", "held out", "nominal", "");
+    if let Some(name) = reference {
+        let _ = write!(header, " {:>16} {:>16}", name, "");
+    }
+    let _ = write!(header, " {:>16} {:>16}", "armcal", "");
+    let _ = writeln!(out, "{header}");
+    let mut sub = format!("  {:<40} {:>16} {:>16}", "", "spread", "distance");
+    if reference.is_some() {
+        let _ = write!(sub, " {:>16} {:>16}", "spread", "distance");
+    }
+    let _ = write!(sub, " {:>16} {:>16}", "spread", "distance");
+    let _ = writeln!(out, "{sub}");
+    let figures = |c: &ContactCheck| {
+        format!(
+            " {:>16.3} {:>+16.3}",
+            c.spread_rms() * 1e3,
+            c.worst_distance_error() * 1e3
+        )
+    };
+    for r in rows {
+        let mut line = format!("  {:<40}", r.file);
+        line.push_str(&figures(&r.nominal));
+        if let Some(c) = &r.reference {
+            line.push_str(&figures(c));
+        }
+        line.push_str(&figures(&r.calibrated));
+        let _ = writeln!(out, "{line}");
+    }
+    out
+}
