@@ -1,0 +1,206 @@
+//! Sessions without a tracker (a `point` column and distance lines): the
+//! refusals, line by line with the column, and the held-out figures of the
+//! real MUKCA ball-socket sessions (data/mukca-ball-socket).
+
+use std::path::{Path, PathBuf};
+
+use crate::{refused, succeeds};
+
+/// Six joint values and a point name per row; then `tail` lines.
+fn constraint_file(dir: &Path, rows: &[&str], tail: &[&str]) {
+    let mut text = String::from("# a ball in two sockets\nq1,q2,q3,q4,q5,q6,point\n");
+    for (i, point) in rows.iter().enumerate() {
+        let q = 0.1 * (i + 1) as f64;
+        text.push_str(&format!("{q},0.2,{q},0.4,0.5,{q},{point}\n"));
+    }
+    for line in tail {
+        text.push_str(line);
+        text.push('\n');
+    }
+    std::fs::write(dir.join("d.csv"), text).unwrap();
+}
+
+fn identify_refuses(dir: &Path, needles: &[&str]) {
+    refused(
+        dir,
+        &["identify", "--model", "ur5e", "--data", "d.csv"],
+        needles,
+    );
+}
+
+#[test]
+fn a_point_named_by_one_row_only_is_refused_at_its_cell() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut rows = vec!["front.0"; 10];
+    rows.extend(["front.1"; 9]);
+    rows.push("front.2");
+    constraint_file(dir.path(), &rows, &["distance,front.0,front.1,0.05"]);
+    // Line 22 (two lines before the rows), its point cell after "0.1..,0.2,..,0.4,0.5,..,".
+    let line = "2,0.2,2,0.4,0.5,2,";
+    identify_refuses(
+        dir.path(),
+        &[
+            &format!("d.csv:22:{}:", line.chars().count() + 1),
+            "'front.2' is named by this row only",
+        ],
+    );
+}
+
+#[test]
+fn a_distance_to_a_point_no_row_names_is_refused_at_the_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut rows = vec!["front.0"; 10];
+    rows.extend(["front.1"; 10]);
+    constraint_file(dir.path(), &rows, &["distance,front.0,fornt.1,0.05"]);
+    identify_refuses(
+        dir.path(),
+        &[
+            "d.csv:23:18:",
+            "no row names the point 'fornt.1'",
+            "front.0, front.1",
+        ],
+    );
+}
+
+#[test]
+fn a_bad_distance_line_is_refused_at_its_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut rows = vec!["a"; 10];
+    rows.extend(["b"; 10]);
+    for (line, needles) in [
+        (
+            "distance,a,b,-0.05",
+            vec!["d.csv:23:14:", "not a positive number of m"],
+        ),
+        (
+            "distance,a,b,0.05,0",
+            vec!["d.csv:23:19:", "standard uncertainty"],
+        ),
+        ("distance,a,a,0.05", vec!["d.csv:23:12:", "to itself"]),
+        ("distance,a,b", vec!["d.csv:23:13:", "4 or 5 fields"]),
+    ] {
+        constraint_file(dir.path(), &rows, &[line]);
+        identify_refuses(dir.path(), &needles);
+    }
+}
+
+#[test]
+fn coordinates_and_points_mixed_wrongly_are_refused_with_line_and_column() {
+    let dir = tempfile::tempdir().unwrap();
+    // A row with both a point and coordinates: at its x cell.
+    std::fs::write(
+        dir.path().join("d.csv"),
+        "q1,q2,q3,q4,q5,q6,x,y,z,point\n\
+         0.1,0.2,0.3,0.4,0.5,0.6,,,,a\n\
+         0.1,0.2,0.3,0.4,0.5,0.7,0.4,0.1,0.2,a\n",
+    )
+    .unwrap();
+    identify_refuses(
+        dir.path(),
+        &[
+            "d.csv:3:25:",
+            "column 'x': a coordinate on a row that names the unknown point 'a'",
+        ],
+    );
+    // A row with neither: at its point cell.
+    std::fs::write(
+        dir.path().join("d.csv"),
+        "q1,q2,q3,q4,q5,q6,x,y,z,point\n0.1,0.2,0.3,0.4,0.5,0.6,0.4,,,\n",
+    )
+    .unwrap();
+    identify_refuses(dir.path(), &["d.csv:2:31:", "column 'point': empty"]);
+    // Measured rows and point rows in one file: at the first row of the other kind.
+    let mut text = String::from("q1,q2,q3,q4,q5,q6,x,y,z,point\n");
+    for i in 0..12 {
+        text.push_str(&format!("0.{i},0.2,0.3,0.4,0.5,0.6,0.4,0.1,0.{i},\n"));
+    }
+    text.push_str("0.1,0.2,0.3,0.4,0.5,0.6,,,,a\n0.2,0.2,0.3,0.4,0.5,0.6,,,,a\n");
+    std::fs::write(dir.path().join("d.csv"), text).unwrap();
+    identify_refuses(
+        dir.path(),
+        &[
+            "d.csv:14:28:",
+            "names an unknown point while line 2 measures x, y, z",
+            "not both",
+        ],
+    );
+}
+
+/// The MUKCA data and models.
+fn mukca() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/mukca-ball-socket")
+}
+
+/// The figures of `armcal holdout` per held-out file: the last path component
+/// and the six (or four) numbers of its row.
+fn holdout(args: &[&str]) -> Vec<(String, Vec<f64>)> {
+    let dir = tempfile::tempdir().unwrap();
+    let out = succeeds(dir.path(), args);
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter(|l| l.contains(".csv"))
+        .map(|l| {
+            let mut f = l.split_whitespace();
+            let file = f.next().unwrap().rsplit('/').next().unwrap().to_owned();
+            (file, f.map(|x| x.parse().unwrap()).collect())
+        })
+        .collect()
+}
+
+fn panda(robot: &str, placements: &[&str]) -> Vec<String> {
+    let m = mukca();
+    let mut args: Vec<String> = vec![
+        "holdout".into(),
+        "--model".into(),
+        m.join("original/urdf/panda.urdf").display().to_string(),
+        "--tip-link".into(),
+        "ball_link".into(),
+        "--reference".into(),
+        m.join(format!(
+            "original/calibrated_urdf/{robot}/panda_calibrated.urdf"
+        ))
+        .display()
+        .to_string(),
+        "--data".into(),
+    ];
+    args.extend(
+        placements
+            .iter()
+            .map(|p| m.join(format!("{robot}/{p}.csv")).display().to_string()),
+    );
+    args
+}
+
+/// Leave one plate placement out, calibrate on the others: columns are the
+/// nominal URDF's spread and distance error, MUKCA's calibrated URDF's, and
+/// armcal's (mm). MUKCA's URDF was fitted to the `front` placement (its
+/// config.yaml), so `front` is not held out for it; on `left` and `right`
+/// (held out for both) armcal's spread and distance error are smaller for
+/// panda_6. For panda_7 (two placements, each calibration from one) they are
+/// not: MUKCA's are smaller there, as measured here.
+#[test]
+fn mukca_panda_sessions_held_out() {
+    let args = panda("panda_6", &["front", "left", "right"]);
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let rows = holdout(&args);
+    assert_eq!(rows.len(), 3);
+    for (file, f) in &rows {
+        let (nominal, mukca, armcal) = ((f[0], f[1]), (f[2], f[3]), (f[4], f[5]));
+        // Far better than nominal.
+        assert!(armcal.0 < nominal.0 / 20.0, "{file}: {f:?}");
+        assert!(armcal.1.abs() < nominal.1.abs() / 20.0, "{file}: {f:?}");
+        if file != "front.csv" {
+            assert!(armcal.0 < mukca.0, "{file}: {f:?}");
+            assert!(armcal.1.abs() < mukca.1.abs(), "{file}: {f:?}");
+        }
+    }
+    let args = panda("panda_7", &["front", "right"]);
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    for (file, f) in holdout(&args) {
+        assert!(f[4] < f[0] / 5.0, "{file}: {f:?}");
+        assert!(
+            f[4] > f[2],
+            "{file}: armcal now beats MUKCA on panda_7: {f:?}"
+        );
+    }
+}
