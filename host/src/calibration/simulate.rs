@@ -119,6 +119,7 @@ pub fn measure(
                 orientation,
                 context: Default::default(),
                 fixed_point: None,
+                on_plane: None,
             }
         })
         .collect()
@@ -262,6 +263,7 @@ pub fn simulate_visiting(
             orientation,
             context: ctx,
             fixed_point: None,
+            on_plane: None,
         });
         session.t.push(10.0 * i as f64);
         session.temp.push(temp);
@@ -415,6 +417,8 @@ pub struct SocketSession {
     pub observations: Vec<Observation>,
     /// The true socket centres, base frame, m.
     pub sockets: Vec<Point3<f64>>,
+    /// The true plane touched, if any: a point of it and its unit normal.
+    pub plane: Option<(Point3<f64>, Vector3<f64>)>,
 }
 
 /// Contacts of `truth`'s tool point with `sockets` (true centres, base frame,
@@ -446,6 +450,7 @@ pub fn socket_session(
                     orientation: None,
                     context: Default::default(),
                     fixed_point: Some(k),
+                    on_plane: None,
                 });
                 found += 1;
             }
@@ -457,7 +462,55 @@ pub fn socket_session(
     Some(SocketSession {
         observations,
         sockets: sockets.to_vec(),
+        plane: None,
     })
+}
+
+/// Touches of `truth`'s tool point on the plane through `centre` with unit
+/// normal `normal` (base frame, m): `count` configurations found by inverse
+/// kinematics from random starts, each at a random point of the plane within
+/// `radius` of `centre`, displaced along the normal by a Gaussian contact error
+/// of `contact_noise` (m). Each row names plane `plane`. `None` if fewer are
+/// reached from `20 · count` starts.
+pub fn plane_touches(
+    truth: &Robot<f64>,
+    (centre, normal, radius): (Point3<f64>, Vector3<f64>, f64),
+    plane: usize,
+    count: usize,
+    contact_noise: f64,
+    rng: &mut StdRng,
+) -> Option<Vec<Observation>> {
+    let normal_draw = Normal::new(0.0, 1.0).expect("unit normal");
+    let helper = if normal.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    let u = helper.cross(&normal).normalize();
+    let v = normal.cross(&u);
+    let mut out = Vec::new();
+    for _ in 0..20 * count {
+        if out.len() == count {
+            break;
+        }
+        let (x, y) = (
+            rng.random_range(-radius..radius),
+            rng.random_range(-radius..radius),
+        );
+        let target = centre + u * x + v * y + normal * (contact_noise * normal_draw.sample(rng));
+        let start = random_configurations(truth, 1, rng).remove(0);
+        if let Some(q) = reach_point(truth, start, &target) {
+            out.push(Observation {
+                q,
+                position: Point3::origin(),
+                orientation: None,
+                context: Default::default(),
+                fixed_point: None,
+                on_plane: Some(plane),
+            });
+        }
+    }
+    (out.len() == count).then_some(out)
 }
 
 /// Joint values from `q` on that put `robot`'s tool point at `target` to 1e-13 m

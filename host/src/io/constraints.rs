@@ -10,6 +10,9 @@
 //! - a `point` column: a row whose `point` cell names a point (`front.0`) has its
 //!   `x`, `y`, `z` cells empty (or no such columns): its tool point sits at that
 //!   named, unknown fixed point. Every point must be named by at least two rows.
+//! - a `plane` column: a row whose `plane` cell names a plane (`table`) has its
+//!   `x`, `y`, `z` cells empty: its tool point touches that named, unknown plane.
+//!   Every plane must be touched by at least three rows.
 //! - a distance line, anywhere after the header: `distance,<point>,<point>,<length>[,<std>]`,
 //!   the known distance between two named points in the model's length unit and,
 //!   optionally, its standard uncertainty (default [`DEFAULT_DISTANCE_STD`]).
@@ -51,12 +54,29 @@ pub struct Distance {
     pub line: usize,
 }
 
-/// The constraints of a file: its named points and the distances between them
-/// (both empty for a file of measured coordinates).
+/// An unknown plane named in the file: the tool point of every row naming it
+/// touches it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct TouchedPlane {
+    /// Its name as written (`table`).
+    pub name: String,
+    /// The line and character column of the first row naming it.
+    pub first: (usize, usize),
+    /// How many rows name it.
+    pub rows: usize,
+}
+
+/// The least touches that say anything of a plane beyond its own three unknowns.
+pub const MIN_PLANE_TOUCHES: usize = 3;
+
+/// The constraints of a file: its named points, the distances between them and
+/// its named planes (all empty for a file of measured coordinates).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Constraints {
     /// The points, in the order they are first named.
     pub points: Vec<FixedPoint>,
+    /// The planes, in the order they are first named.
+    pub planes: Vec<TouchedPlane>,
     /// The known distances, in file order.
     pub distances: Vec<Distance>,
 }
@@ -64,7 +84,12 @@ pub struct Constraints {
 impl Constraints {
     /// Whether the file has no constraints (it measures coordinates).
     pub fn is_empty(&self) -> bool {
-        self.points.is_empty()
+        self.points.is_empty() && self.planes.is_empty()
+    }
+
+    /// The index of the plane named `name`.
+    pub fn plane_index(&self, name: &str) -> Option<usize> {
+        self.planes.iter().position(|p| p.name == name)
     }
 
     /// The index of the point named `name`.

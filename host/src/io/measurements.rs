@@ -53,7 +53,10 @@ use armcal_shared::{JointType, Robot};
 use nalgebra::{Point3, Quaternion, UnitQuaternion};
 
 use crate::io::builtin;
-use crate::io::constraints::{Constraints, DEFAULT_DISTANCE_STD, Distance, FixedPoint, RESERVED};
+use crate::io::constraints::{
+    Constraints, DEFAULT_DISTANCE_STD, Distance, FixedPoint, MIN_PLANE_TOUCHES, RESERVED,
+    TouchedPlane,
+};
 use crate::io::input_error::{DATA_FILE, InputError, SizeLimit, open_bounded};
 use crate::io::model_file::RobotModel;
 
@@ -88,6 +91,9 @@ pub struct Observation {
     /// [`Measurements::constraints`]' points (a row of a constraint file:
     /// `position` is then not measured and holds 0).
     pub fixed_point: Option<usize>,
+    /// The unknown plane the tool point touches, an index into
+    /// [`Measurements::constraints`]' planes (`position` then holds 0).
+    pub on_plane: Option<usize>,
 }
 
 impl Observation {
@@ -113,13 +119,18 @@ impl Observation {
             orientation,
             context,
             fixed_point: None,
+            on_plane: None,
         }
     }
 
     /// The scalar equations this pose gives an identification: 3 (position) or 6
     /// (position and orientation).
     pub fn equations(&self) -> usize {
-        if self.orientation.is_some() { 6 } else { 3 }
+        match (self.on_plane, self.orientation) {
+            (Some(_), _) => 1,
+            (None, Some(_)) => 6,
+            (None, None) => 3,
+        }
     }
 }
 
@@ -195,9 +206,25 @@ impl Measurements {
                     }
                 })
                 .collect();
+            let planes: Vec<usize> = part
+                .constraints
+                .planes
+                .iter()
+                .map(|p| match out.constraints.plane_index(&p.name) {
+                    Some(k) => {
+                        out.constraints.planes[k].rows += p.rows;
+                        k
+                    }
+                    None => {
+                        out.constraints.planes.push(p.clone());
+                        out.constraints.planes.len() - 1
+                    }
+                })
+                .collect();
             for pose in &part.poses {
                 let mut pose = pose.clone();
                 pose.fixed_point = pose.fixed_point.map(|k| index[k]);
+                pose.on_plane = pose.on_plane.map(|k| planes[k]);
                 out.poses.push(pose);
             }
             out.lines.extend_from_slice(&part.lines);
@@ -235,7 +262,8 @@ impl Measurements {
     pub fn require_poses(&self, unknowns: usize) -> Result<(), InputError> {
         // Constraint rows: no base (6 fewer), three coordinates per fixed point.
         let unknowns = if self.is_constrained() {
-            (unknowns + 3 * self.constraints.points.len()).saturating_sub(6)
+            (unknowns + 3 * (self.constraints.points.len() + self.constraints.planes.len()))
+                .saturating_sub(6)
         } else {
             unknowns
         };
@@ -634,6 +662,8 @@ struct Record {
     /// The unknown fixed point the row names (`point` column): its name and the
     /// character column of its cell.
     point: Option<(String, usize)>,
+    /// The unknown plane the row names (`plane` column), likewise.
+    plane: Option<(String, usize)>,
 }
 
 /// A distance line of a constraint file, as read (see [`crate::io::constraints`]).
@@ -689,6 +719,8 @@ enum Role {
     Load,
     /// The name of the unknown fixed point the tool point sits at.
     Point,
+    /// The name of the unknown plane the tool point touches.
+    Plane,
     Ignored,
 }
 
@@ -712,6 +744,7 @@ fn role_of(name: &str, kind: Kind) -> Role {
     }
     match name {
         "point" if kind == Kind::Measurements => return Role::Point,
+        "plane" if kind == Kind::Measurements => return Role::Plane,
         "t" => return Role::T,
         "temp" => return Role::Temp,
         "load" => return Role::Load,
@@ -776,6 +809,23 @@ fn read_measurements<R: std::io::Read>(
             (r.temp, r.load),
             &mut approach,
         );
+        if let Some((name, column)) = r.plane {
+            first_named.get_or_insert((r.line, column));
+            let k = constraints.plane_index(&name).unwrap_or_else(|| {
+                constraints.planes.push(TouchedPlane {
+                    name,
+                    first: (r.line, column),
+                    rows: 0,
+                });
+                constraints.planes.len() - 1
+            });
+            constraints.planes[k].rows += 1;
+            pose.on_plane = Some(k);
+            poses.push(pose);
+            lines.push(r.line);
+            times.push(r.t);
+            return;
+        }
         match r.point {
             Some((name, column)) => {
                 first_named.get_or_insert((r.line, column));
@@ -811,7 +861,7 @@ fn read_measurements<R: std::io::Read>(
             let row = lines
                 .iter()
                 .zip(&poses)
-                .find(|(_, p)| p.fixed_point.is_none())
+                .find(|(_, p)| p.fixed_point.is_none() && p.on_plane.is_none())
                 .map_or(measured, |(l, _)| *l);
             (row, 1, named, "measures x, y, z", "names an unknown point")
         };
@@ -834,6 +884,23 @@ fn read_measurements<R: std::io::Read>(
                 "column 'point': the point '{}' is named by this row only: an unknown fixed point \
                  needs at least two rows to say anything (a typo in its name?)",
                 once.name
+            ),
+        ));
+    }
+    if let Some(few) = constraints
+        .planes
+        .iter()
+        .find(|p| p.rows < MIN_PLANE_TOUCHES)
+    {
+        return Err(InputError::new(
+            file,
+            few.first.0,
+            few.first.1,
+            format!(
+                "column 'plane': the plane '{}' is touched by {} only: an unknown plane needs at \
+                 least {MIN_PLANE_TOUCHES} touches to say anything (its own three unknowns)",
+                few.name,
+                plural(few.rows, "row")
             ),
         ));
     }
@@ -1277,7 +1344,7 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
         let mut rows = 0;
         // Only a file with a `point` column has distance lines (an old file's
         // rows read as before).
-        let constraint_file = header.fields().any(|n| n == "point");
+        let constraint_file = header.fields().any(|n| n == "point" || n == "plane");
         while self.next_row(&mut row)? {
             if constraint_file && row.field(0) == Some("distance") {
                 sink(Item::Distance(self.distance_line(&row, schema)?));
@@ -1397,7 +1464,7 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
             }
         }
         // A constraint file (a `point` column) may leave out x, y, z altogether.
-        let constraint_file = roles.contains(&Role::Point);
+        let constraint_file = roles.contains(&Role::Point) || roles.contains(&Role::Plane);
         let any_position = (0..3).any(|c| roles.contains(&Role::Position(c)));
         for (c, name) in POSITION.iter().enumerate() {
             if schema.kind == Kind::Measurements
@@ -1471,8 +1538,16 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
         // Position cells as read (a constraint row leaves them empty).
         let mut given: [Option<usize>; 3] = [None; 3];
         let mut point: Option<(String, usize)> = None;
+        let mut plane: Option<(String, usize)> = None;
         let point_index = roles.iter().position(|r| *r == Role::Point);
-        let point_named = point_index.is_some_and(|i| row.field(i).is_some_and(|f| !f.is_empty()));
+        let plane_index = roles.iter().position(|r| *r == Role::Plane);
+        let constraint_file = point_index.is_some() || plane_index.is_some();
+        let named_cell =
+            |ix: Option<usize>| ix.and_then(|i| row.field(i)).filter(|f| !f.is_empty());
+        // What the row names, if anything: ("point" or "plane", the name).
+        let named: Option<(&str, &str)> = named_cell(point_index)
+            .map(|n| ("point", n))
+            .or_else(|| named_cell(plane_index).map(|n| ("plane", n)));
         let mut quat: [Option<f64>; 4] = [None; 4];
         let (mut t, mut temp, mut load) = (None, None, None);
         for (i, (value, role)) in row.fields().zip(roles).enumerate() {
@@ -1522,18 +1597,19 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
                     }
                 }
                 Role::Position(c) => {
-                    if point_named && !value.is_empty() {
+                    if let Some((kind, n)) = named
+                        && !value.is_empty()
+                    {
                         return Err(at(
                             i,
                             format!(
-                                "column '{name}': a coordinate on a row that names the unknown point '{}': \
-                                 a row either measures x, y, z or names the point its tool point sits at; \
-                                 leave x, y, z empty here",
-                                point_index.and_then(|p| row.field(p)).unwrap_or("")
+                                "column '{name}': a coordinate on a row that names the unknown {kind} '{n}': \
+                                 a row either measures x, y, z or names the point its tool point sits at \
+                                 or the plane it touches; leave x, y, z empty here"
                             ),
                         ));
                     }
-                    if point_index.is_some() && value.is_empty() {
+                    if constraint_file && value.is_empty() {
                         continue;
                     }
                     if let Some(slot) = position.get_mut(c) {
@@ -1543,20 +1619,30 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
                         *slot = Some(i);
                     }
                 }
-                Role::Point => {
+                Role::Point | Role::Plane => {
                     if !value.is_empty() {
+                        let kind = if *role == Role::Point {
+                            "point"
+                        } else {
+                            "plane"
+                        };
                         if RESERVED.contains(&value) || value.parse::<f64>().is_ok() {
                             return Err(at(
                                 i,
                                 format!(
-                                    "column 'point': {value:?} cannot name a point (a number, or a word \
+                                    "column '{kind}': {value:?} cannot name a {kind} (a number, or a word \
                                      that starts a line of its own: {})",
                                     RESERVED.join(", ")
                                 ),
                             ));
                         }
                         let column = self.err_at(self.field_offset(row.start, i), "").column;
-                        point = Some((value.to_owned(), column));
+                        let slot = if *role == Role::Point {
+                            &mut point
+                        } else {
+                            &mut plane
+                        };
+                        *slot = Some((value.to_owned(), column));
                     }
                 }
                 Role::Quat(c) => {
@@ -1618,23 +1704,43 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
             }
         };
 
-        if let Some(p) = point_index {
+        if let (Some(p), Some((plane_name, _))) = (&point, &plane) {
+            return Err(at(
+                plane_index.unwrap_or(0),
+                format!(
+                    "column 'plane': the row names the point '{}' and the plane '{plane_name}': its \
+                     tool point sits at a point or touches a plane; name one",
+                    p.0
+                ),
+            ));
+        }
+        if let Some(first) = point_index.into_iter().chain(plane_index).min() {
             let measured = given.iter().filter(|g| g.is_some()).count();
-            if point.is_none() && measured < 3 {
+            let column = if Some(first) == point_index {
+                "point"
+            } else {
+                "plane"
+            };
+            if named.is_none() && measured < 3 {
                 return Err(at(
-                    p,
-                    "column 'point': empty, and the row does not measure x, y, z either: name the \
-                     unknown point its tool point sits at, or give all three coordinates"
-                        .to_owned(),
+                    first,
+                    format!(
+                        "column '{column}': empty, and the row does not measure x, y, z either: name \
+                         the unknown point its tool point sits at or the plane it touches, or give \
+                         all three coordinates"
+                    ),
                 ));
             }
-            if point.is_some() && orientation.is_some() {
+            if let Some((kind, _)) = named
+                && orientation.is_some()
+            {
                 let first = roles.iter().position(|r| *r == Role::Quat(0)).unwrap_or(0);
                 return Err(at(
                     first,
-                    "column 'qw': an orientation on a row that names an unknown point: only \
-                     positions sit at a point; leave qw, qx, qy, qz empty"
-                        .to_owned(),
+                    format!(
+                        "column 'qw': an orientation on a row that names an unknown {kind}: only \
+                         positions are constrained; leave qw, qx, qy, qz empty"
+                    ),
                 ));
             }
         }
@@ -1648,6 +1754,7 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
             temp,
             load,
             point,
+            plane,
         })
     }
 

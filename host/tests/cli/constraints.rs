@@ -204,3 +204,34 @@ fn mukca_panda_sessions_held_out() {
         );
     }
 }
+
+#[test]
+fn a_plane_touched_fewer_than_three_times_is_refused_at_its_first_cell() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut text = String::from("q1,q2,q3,q4,q5,q6,point,plane\n");
+    for i in 0..10 {
+        text.push_str(&format!("0.{i},0.2,0.3,0.4,0.5,0.6,a,\n"));
+        text.push_str(&format!("0.{i},0.3,0.3,0.4,0.5,0.6,b,\n"));
+    }
+    text.push_str("0.1,0.4,0.3,0.4,0.5,0.6,,table\n0.2,0.4,0.3,0.4,0.5,0.6,,table\n");
+    text.push_str("distance,a,b,0.05\n");
+    std::fs::write(dir.path().join("d.csv"), text).unwrap();
+    identify_refuses(
+        dir.path(),
+        &[
+            "d.csv:22:26:",
+            "the plane 'table' is touched by 2 rows only",
+            "at least 3",
+        ],
+    );
+    // A row naming a point and a plane: at its plane cell.
+    std::fs::write(
+        dir.path().join("d.csv"),
+        "q1,q2,q3,q4,q5,q6,point,plane\n0.1,0.2,0.3,0.4,0.5,0.6,a,table\n",
+    )
+    .unwrap();
+    identify_refuses(
+        dir.path(),
+        &["d.csv:2:27:", "names the point 'a' and the plane 'table'"],
+    );
+}

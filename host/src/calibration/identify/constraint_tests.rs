@@ -1,14 +1,17 @@
 //! The identification from constraints alone (unknown fixed points and known
 //! distances, no coordinate measured) on simulated ball-socket sessions: a
 //! PUMA and a UR5e with random ±1 mm / ±1 mrad errors in every joint and tool
-//! parameter, three sockets tied by their three distances.
+//! parameter, three sockets tied by their three distances, and one plane
+//! touched by the ball.
 
 use armcal_shared::{Param, Robot};
-use nalgebra::Point3;
+use nalgebra::{Point3, Vector3};
 
 use super::full::{FullFit, FullOptions, Status, full_params, identify_constrained};
 use crate::calibration::simulate::{self, SocketSession};
-use crate::io::constraints::{Constraints, DEFAULT_DISTANCE_STD, Distance, FixedPoint};
+use crate::io::constraints::{
+    Constraints, DEFAULT_DISTANCE_STD, Distance, FixedPoint, TouchedPlane,
+};
 use crate::io::model_file::load_model;
 
 /// The true robot (nominal with random ±1 mm / ±1 mrad errors in every
@@ -42,7 +45,17 @@ fn session(
     (nominal, truth, session, constraints)
 }
 
-/// A session of `truth` with three sockets at random reachable points.
+/// The plane of the sessions: through a reachable point, a random normal.
+fn plane_of(truth: &Robot<f64>, rng: &mut rand::rngs::StdRng) -> (Point3<f64>, Vector3<f64>) {
+    let kin = truth.prepare();
+    let q = simulate::random_configurations(truth, 1, rng).remove(0);
+    let centre = Point3::from(kin.forward(&q).expect("joint count").translation.vector);
+    let n = Vector3::new(0.3, -0.5, 0.8).normalize();
+    (centre, n)
+}
+
+/// A session of `truth` with three sockets at random reachable points and
+/// `per_socket` touches of one plane.
 fn draw(
     truth: &Robot<f64>,
     seed: u64,
@@ -55,8 +68,22 @@ fn draw(
         .iter()
         .map(|q| Point3::from(kin.forward(q).expect("joint count").translation.vector))
         .collect();
-    let session = simulate::socket_session(truth, &sockets, per_socket, contact_noise, &mut rng)
-        .expect("every socket is reached");
+    let mut session =
+        simulate::socket_session(truth, &sockets, per_socket, contact_noise, &mut rng)
+            .expect("every socket is reached");
+    let (centre, normal) = plane_of(truth, &mut rng);
+    session.observations.extend(
+        simulate::plane_touches(
+            truth,
+            (centre, normal, 0.1),
+            0,
+            per_socket,
+            contact_noise,
+            &mut rng,
+        )
+        .expect("the plane is reached"),
+    );
+    session.plane = Some((centre, normal));
     let points = (0..3)
         .map(|k| FixedPoint {
             name: format!("socket.{k}"),
@@ -73,7 +100,19 @@ fn draw(
             line: 0,
         })
         .collect();
-    (session, Constraints { points, distances })
+    let planes = vec![TouchedPlane {
+        name: "plate".into(),
+        first: (0, 0),
+        rows: per_socket,
+    }];
+    (
+        session,
+        Constraints {
+            points,
+            planes,
+            distances,
+        },
+    )
 }
 
 fn fit(nominal: &Robot<f64>, s: &SocketSession, c: &Constraints, options: &FullOptions) -> FullFit {
@@ -122,6 +161,14 @@ fn exact_socket_sessions_recover_the_true_robot() {
         for d in &fit.distance_residuals {
             assert!(d.abs() < 1e-9, "{model}: {d:e}");
         }
+        let (centre, normal) = s.plane.unwrap();
+        let plane = &fit.planes[0];
+        let sign = plane.normal.dot(&normal).signum();
+        assert!((plane.normal * sign - normal).norm() < 1e-9, "{model}");
+        assert!(
+            (plane.offset * sign - normal.dot(&centre.coords)).abs() < 1e-9,
+            "{model}"
+        );
         // The base is named unobservable, with the reason.
         for p in fit
             .params

@@ -93,6 +93,60 @@ pub enum Unknown {
         /// 0, 1, 2: x, y, z.
         axis: usize,
     },
+    /// A parameter of an unknown plane of a constraint session
+    /// ([`PlaneEstimate`]): a nuisance unknown estimated with the robot.
+    Plane {
+        /// Index into [`Model::planes`].
+        plane: usize,
+        /// 0, 1: the tilts of its normal; 2: its offset from the base origin (m).
+        component: usize,
+    },
+}
+
+/// An unknown plane `n · x = offset` (base frame, m), its unit normal `n =
+/// frame · (a, b, 1)/|(a, b, 1)|`: `frame` is the start's (its z the start's
+/// normal), `a`, `b` the tilts estimated from there, free of singularity near it.
+#[derive(Clone, Debug)]
+pub struct PlaneEstimate {
+    /// The start's frame, its z the start's normal.
+    pub frame: Rotation3<f64>,
+    /// The tilts of the normal in that frame.
+    pub tilt: [f64; 2],
+    /// The plane's signed distance from the base origin along the normal, m.
+    pub offset: f64,
+}
+
+impl PlaneEstimate {
+    /// The plane through `centre` with unit normal `normal`.
+    fn through(centre: &Point3<f64>, normal: &Vector3<f64>) -> Self {
+        let z = normal.normalize();
+        let helper = if z.x.abs() < 0.9 {
+            Vector3::x()
+        } else {
+            Vector3::y()
+        };
+        let x = helper.cross(&z).normalize();
+        let y = z.cross(&x);
+        Self {
+            frame: Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[x, y, z])),
+            tilt: [0.0, 0.0],
+            offset: z.dot(&centre.coords),
+        }
+    }
+
+    /// The unit normal.
+    pub fn normal(&self) -> Vector3<f64> {
+        self.frame * Vector3::new(self.tilt[0], self.tilt[1], 1.0).normalize()
+    }
+
+    /// The derivative of the unit normal with respect to tilt `c` (0 or 1).
+    fn normal_derivative(&self, c: usize) -> Vector3<f64> {
+        let m = Vector3::new(self.tilt[0], self.tilt[1], 1.0);
+        let (norm, u) = (m.norm(), m.normalize());
+        let mut e = Vector3::zeros();
+        e[c] = 1.0;
+        self.frame * ((e - u * u[c]) / norm)
+    }
 }
 
 /// The model being fitted: the geometric robot and its effects.
@@ -105,6 +159,8 @@ pub struct Model {
     /// The unknown fixed points of a constraint session, base frame, m (empty
     /// for measured coordinates).
     pub points: Vec<Point3<f64>>,
+    /// The unknown planes of a constraint session (empty for measured coordinates).
+    pub planes: Vec<PlaneEstimate>,
     /// The constraints the points come from: their names and the known distances.
     pub constraints: Constraints,
 }
@@ -116,6 +172,7 @@ impl Model {
             robot,
             effects,
             points: Vec::new(),
+            planes: Vec::new(),
             constraints: Constraints::default(),
         }
     }
@@ -125,6 +182,13 @@ impl Model {
             Unknown::Param(p) => self.robot.param(p),
             Unknown::Effect { effect, component } => self.effects.get(effect)?.parameter(component),
             Unknown::Point { point, axis } => self.points.get(point).map(|p| p[axis]),
+            Unknown::Plane { plane, component } => {
+                self.planes.get(plane).and_then(|p| match component {
+                    0 | 1 => Some(p.tilt[component]),
+                    2 => Some(p.offset),
+                    _ => None,
+                })
+            }
         }
     }
 
@@ -135,6 +199,13 @@ impl Model {
                 self.effects.get_mut(effect)?.parameter_mut(component)
             }
             Unknown::Point { point, axis } => self.points.get_mut(point).map(|p| &mut p[axis]),
+            Unknown::Plane { plane, component } => {
+                self.planes.get_mut(plane).and_then(|p| match component {
+                    0 | 1 => Some(&mut p.tilt[component]),
+                    2 => Some(&mut p.offset),
+                    _ => None,
+                })
+            }
         }
     }
 
@@ -164,6 +235,17 @@ impl Model {
                     .get(point)
                     .map_or("?", |p| p.name.as_str()),
                 ["x", "y", "z"].get(axis).copied().unwrap_or("?")
+            ),
+            Unknown::Plane { plane, component } => format!(
+                "plane {}.{}",
+                self.constraints
+                    .planes
+                    .get(plane)
+                    .map_or("?", |p| p.name.as_str()),
+                ["tilt1", "tilt2", "offset"]
+                    .get(component)
+                    .copied()
+                    .unwrap_or("?")
             ),
         }
     }
@@ -341,9 +423,22 @@ pub struct FullFit {
     /// The unknown fixed points of a constraint session, estimated with the
     /// robot (empty for measured coordinates).
     pub points: Vec<PointFit>,
+    /// The unknown planes of a constraint session, estimated with the robot.
+    pub planes: Vec<PlaneFit>,
     /// The known distances of a constraint session as the fit leaves them:
     /// the distance between the estimated points less the stated one, m.
     pub distance_residuals: Vec<f64>,
+}
+
+/// One estimated unknown plane `normal · x = offset` (base frame).
+#[derive(Clone, Debug)]
+pub struct PlaneFit {
+    /// Its name in the file.
+    pub name: String,
+    /// Its unit normal.
+    pub normal: Vector3<f64>,
+    /// Its signed distance from the base origin along the normal, m.
+    pub offset: f64,
 }
 
 /// One estimated unknown fixed point.
@@ -547,7 +642,11 @@ pub fn identify_constrained(
         })
         .collect();
     let point_unknowns = (0..constraints.points.len())
-        .flat_map(|point| (0..3).map(move |axis| Unknown::Point { point, axis }));
+        .flat_map(|point| (0..3).map(move |axis| Unknown::Point { point, axis }))
+        .chain(
+            (0..constraints.planes.len())
+                .flat_map(|plane| (0..3).map(move |component| Unknown::Plane { plane, component })),
+        );
     let mut params: Vec<Unknown> = point_unknowns
         .chain(all.iter().filter(|p| frees(p)).map(|p| Unknown::Param(*p)))
         .collect();
@@ -563,7 +662,8 @@ pub fn identify_constrained(
         independent_parameter_count(nominal, data.iter().all(|o| o.orientation.is_some()));
     if constrained {
         // No base (6), three coordinates per point.
-        unknowns = unknowns + 3 * constraints.points.len() - 6;
+        unknowns = (unknowns + 3 * constraints.points.len() + 3 * constraints.planes.len())
+            .saturating_sub(6);
     }
     if equations < unknowns {
         return Err(FullError::TooFewEquations {
@@ -576,6 +676,10 @@ pub fn identify_constrained(
     if constrained {
         robot.constraints = constraints.clone();
         robot.points = vec![Point3::origin(); constraints.points.len()];
+        robot.planes = vec![
+            PlaneEstimate::through(&Point3::origin(), &Vector3::z());
+            constraints.planes.len()
+        ];
         initial_points_tool(
             &mut robot,
             data,
@@ -632,7 +736,9 @@ pub fn identify_constrained(
             let keep = match *p {
                 Unknown::Param(Param::Base(_) | Param::Tool(_)) => start.get(*p),
                 Unknown::Param(q) => nominal.param(q),
-                Unknown::Effect { .. } | Unknown::Point { .. } => start.get(*p),
+                Unknown::Effect { .. } | Unknown::Point { .. } | Unknown::Plane { .. } => {
+                    start.get(*p)
+                }
             };
             if let (Some(v), Some(slot)) = (keep, robot.get_mut(*p)) {
                 moved |= *slot != v;
@@ -851,8 +957,20 @@ pub fn identify_constrained(
             (a - b).norm() - d.length
         })
         .collect();
+    let planes = robot
+        .constraints
+        .planes
+        .iter()
+        .zip(&robot.planes)
+        .map(|(named, p)| PlaneFit {
+            name: named.name.clone(),
+            normal: p.normal(),
+            offset: p.offset,
+        })
+        .collect();
     Ok(FullFit {
         points,
+        planes,
         distance_residuals,
         params: results,
         calibrated: robot.robot,
@@ -881,7 +999,7 @@ fn prior_terms(free: &[Unknown], nominal: &Robot<f64>, prior: &Prior) -> Vec<(f6
     free.iter()
         .map(|u| match u {
             Unknown::Param(p) => (prior.precision(*p), nominal.param(*p).unwrap_or(0.0)),
-            Unknown::Effect { .. } | Unknown::Point { .. } => (0.0, 0.0),
+            Unknown::Effect { .. } | Unknown::Point { .. } | Unknown::Plane { .. } => (0.0, 0.0),
         })
         .collect()
 }
@@ -1014,7 +1132,7 @@ pub fn linearize(
         .iter()
         .map(|u| match u {
             Unknown::Param(p) => prior.precision(*p),
-            Unknown::Effect { .. } | Unknown::Point { .. } => 0.0,
+            Unknown::Effect { .. } | Unknown::Point { .. } | Unknown::Plane { .. } => 0.0,
         })
         .collect();
     let position_noise = fit.noise.position.used;
@@ -1029,7 +1147,7 @@ pub fn linearize(
     let mut row = 0;
     for obs in data {
         first_rows.push(row);
-        row += if obs.orientation.is_some() { 6 } else { 3 };
+        row += obs.equations();
     }
     Linearization {
         j: sys.j,
@@ -1206,9 +1324,7 @@ struct LinearSystem {
 
 impl LinearSystem {
     fn rows(data: &[Observation]) -> usize {
-        data.iter()
-            .map(|o| if o.orientation.is_some() { 6 } else { 3 })
-            .sum()
+        data.iter().map(Observation::equations).sum()
     }
 
     /// The linearisation at `model`: per pose its 3 position rows, then its 3
@@ -1219,14 +1335,14 @@ impl LinearSystem {
         let mut r = Mat::zeros(rows, 1);
         let mut row = 0;
         for_each_pose_rows(model, data, params, weights, |pose| {
-            let n = if pose.orientation { 6 } else { 3 };
-            for i in 0..n {
-                r[(row + i, 0)] = pose.r[i];
+            let orientation = if pose.orientation { 3..6 } else { 0..0 };
+            for i in (0..pose.position_rows).chain(orientation) {
+                r[(row, 0)] = pose.r[i];
                 for k in 0..params.len() {
-                    j[(row + i, k)] = pose.row(i)[k];
+                    j[(row, k)] = pose.row(i)[k];
                 }
+                row += 1;
             }
-            row += n;
         });
         Self { j, r }
     }
@@ -1244,6 +1360,9 @@ struct PoseRows {
     r: [f64; 6],
     /// Whether the orientation rows are present.
     orientation: bool,
+    /// The position rows: 3, or 1 for a touch of a plane (its distance along
+    /// the normal; rows 1..3 then hold zeros).
+    position_rows: usize,
 }
 
 impl PoseRows {
@@ -1281,6 +1400,7 @@ fn for_each_pose_rows(
         params: params.len(),
         r: [0.0; 6],
         orientation: false,
+        position_rows: 3,
     };
     let base_columns = chain.base_columns();
     let effects = (!model.effects.is_empty())
@@ -1334,7 +1454,28 @@ fn for_each_pose_rows(
             .orientation
             .map(|q| rotation_error(&q.to_rotation_matrix(), &chain.end.rotation));
         let length_scale = thermal.map_or(1.0, |(k, _)| 1.0 + k * delta_t);
+        // A touch of a plane: one row, the distance along the normal.
+        let touched = obs
+            .on_plane
+            .and_then(|k| model.planes.get(k).map(|pl| (k, pl, pl.normal())));
         for (k, &u) in params.iter().enumerate() {
+            if let Unknown::Plane { plane, component } = u {
+                let n = params.len();
+                for i in 0..6 {
+                    rows.j[i * n + k] = 0.0;
+                }
+                if let Some((own, pl, _)) = touched
+                    && own == plane
+                {
+                    // The plane's side of the row: `offset`, against the model's `n · p`.
+                    rows.j[k] = wp
+                        * match component {
+                            0 | 1 => pl.normal_derivative(component).dot(&p.coords),
+                            _ => -1.0,
+                        };
+                }
+                continue;
+            }
             if let Unknown::Point { point, axis } = u {
                 // The row's target moves with its own point: −1 on the axis.
                 let n = params.len();
@@ -1374,10 +1515,17 @@ fn for_each_pose_rows(
                         }
                     }
                 }
-                Unknown::Point { .. } => Twist::zeros(),
+                Unknown::Point { .. } | Unknown::Plane { .. } => Twist::zeros(),
             };
             let v = at_point(&col, &p);
             let n = params.len();
+            if let Some((_, _, normal)) = touched {
+                rows.j[k] = normal.dot(&Vector3::new(v[0], v[1], v[2])) * wp;
+                for i in 1..6 {
+                    rows.j[i * n + k] = 0.0;
+                }
+                continue;
+            }
             for i in 0..3 {
                 rows.j[i * n + k] = v[i] * wp;
             }
@@ -1390,7 +1538,13 @@ fn for_each_pose_rows(
         for i in 0..3 {
             rows.r[i] = dp[i] * wp;
         }
-        rows.orientation = orientation.is_some();
+        rows.position_rows = 3;
+        if let Some((_, pl, normal)) = touched {
+            rows.r = [0.0; 6];
+            rows.r[0] = (pl.offset - normal.dot(&p.coords)) * wp;
+            rows.position_rows = 1;
+        }
+        rows.orientation = orientation.is_some() && touched.is_none();
         if let Some(e) = orientation {
             for i in 0..3 {
                 rows.r[3 + i] = e[i] * wr;
@@ -1569,7 +1723,12 @@ impl NormalEquations {
             jtj: [Mat::zeros(p, p), Mat::zeros(p, p)],
             jtr: [Mat::zeros(p, 1), Mat::zeros(p, 1)],
             rtr: [0.0; 2],
-            rows: [3 * data.len(), 3 * orientations],
+            rows: [
+                data.iter()
+                    .map(|o| if o.on_plane.is_some() { 1 } else { 3 })
+                    .sum(),
+                3 * orientations,
+            ],
             distances: DistanceRows {
                 jtj: Mat::zeros(p, p),
                 jtr: Mat::zeros(p, 1),
@@ -1589,7 +1748,8 @@ impl NormalEquations {
                     continue;
                 }
                 let row = block.filled[c];
-                for i in 0..3 {
+                let count = if c == 0 { pose.position_rows } else { 3 };
+                for i in 0..count {
                     block.r[c][(row + i, 0)] = pose.r[offset + i];
                     if p > 0 {
                         block
@@ -1597,10 +1757,10 @@ impl NormalEquations {
                             .copy_from_slice(pose.row(offset + i));
                     }
                 }
-                block.filled[c] += 3;
+                block.filled[c] += count;
             }
-            // The orientation rows never outnumber the position rows.
-            if block.filled[0] == block_rows {
+            // Room for the next pose's rows in both channels.
+            if block.filled[0] + 3 > block_rows || block.filled[1] + 3 > block_rows {
                 block.add_to(&mut sums);
             }
         });
@@ -1807,7 +1967,12 @@ fn separable_subset(
             Unknown::Param(Param::Base(_)) if !robot.points.is_empty() => (f64::INFINITY, ""),
             Unknown::Param(p) if options.prior.precision(p) > 0.0 => (f64::INFINITY, ""),
             Unknown::Param(p) if p.is_angle() => (options.max_std_angle, "rad"),
-            Unknown::Param(_) | Unknown::Point { .. } => (options.max_std_length, "m"),
+            Unknown::Plane {
+                component: 0 | 1, ..
+            } => (options.max_std_angle, "rad"),
+            Unknown::Param(_) | Unknown::Point { .. } | Unknown::Plane { .. } => {
+                (options.max_std_length, "m")
+            }
             Unknown::Effect { .. } => (f64::INFINITY, ""),
         };
         if d > tol2 && std > limit {
@@ -1850,7 +2015,7 @@ fn constrained_subset(
 ) -> (Vec<usize>, Vec<(Unknown, String)>) {
     let points = params
         .iter()
-        .take_while(|u| matches!(u, Unknown::Point { .. }))
+        .take_while(|u| matches!(u, Unknown::Point { .. } | Unknown::Plane { .. }))
         .count();
     let selection: Vec<Unknown> = params[..points]
         .iter()
@@ -1921,14 +2086,14 @@ fn dependence_reason(
     };
     let geometry = match params[k] {
         Unknown::Param(p) => geometry_reason(p, &robot.robot, data),
-        Unknown::Effect { .. } | Unknown::Point { .. } => None,
+        Unknown::Effect { .. } | Unknown::Point { .. } | Unknown::Plane { .. } => None,
     }
     .or_else(|| {
         names
             .iter()
             .take_while(|x| x.0 >= 0.1 * top && x.0 > 0.0)
             .take(3)
-            .any(|(_, u)| matches!(u, Unknown::Point { .. }))
+            .any(|(_, u)| matches!(u, Unknown::Point { .. } | Unknown::Plane { .. }))
             .then(|| {
                 "it moves every tool point alike, and the unknown fixed points move with it \
                  (a motion of the frame they are found in)"
@@ -2151,6 +2316,27 @@ fn initial_points_tool(model: &mut Model, data: &[Observation], tool: bool) {
     }
     model.robot.tool.xyz = t;
     model.points = means.iter().map(|(p, r)| Point3::from(p + r * t)).collect();
+    // Each plane through its touches' centroid, normal to their least spread.
+    for (k, plane) in model.planes.iter_mut().enumerate() {
+        let touches: Vec<Vector3<f64>> = data
+            .iter()
+            .zip(&flange)
+            .filter(|(o, _)| o.on_plane == Some(k))
+            .filter_map(|(_, f)| f.as_ref().map(|f| f.translation.vector + f.rotation * t))
+            .collect();
+        if touches.len() < 3 {
+            continue;
+        }
+        let centre = touches.iter().sum::<Vector3<f64>>() / touches.len() as f64;
+        let scatter: Matrix3<f64> = touches
+            .iter()
+            .map(|x| (x - centre) * (x - centre).transpose())
+            .sum();
+        let eigen = scatter.symmetric_eigen();
+        let smallest = eigen.eigenvalues.imin();
+        let normal: Vector3<f64> = eigen.eigenvectors.column(smallest).into();
+        *plane = PlaneEstimate::through(&Point3::from(centre), &normal);
+    }
 }
 
 /// xyz and roll-pitch-yaw of an isometry.

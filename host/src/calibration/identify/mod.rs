@@ -385,7 +385,11 @@ impl Identification {
                     .map_or("identified".to_string(), |why| format!("fixed: {why}")),
             );
         }
-        if let Some(fit) = self.full.as_ref().filter(|f| !f.points.is_empty()) {
+        if let Some(fit) = self
+            .full
+            .as_ref()
+            .filter(|f| !f.points.is_empty() || !f.planes.is_empty())
+        {
             let _ = writeln!(
                 out,
                 "\nunknown fixed points (base frame, estimated with the robot) [{}]:",
@@ -403,6 +407,18 @@ impl Identification {
                     l(p.std.x),
                     l(p.std.y),
                     l(p.std.z)
+                );
+            }
+            for p in &fit.planes {
+                let _ = writeln!(
+                    out,
+                    "  plane {:<12} normal ({:+.6}, {:+.6}, {:+.6}), offset {:.6} {}",
+                    p.name,
+                    p.normal.x,
+                    p.normal.y,
+                    p.normal.z,
+                    u.length_from_si(p.offset),
+                    u.length
                 );
             }
             for (d, r) in data
