@@ -235,3 +235,47 @@ fn a_plane_touched_fewer_than_three_times_is_refused_at_its_first_cell() {
         &["d.csv:2:27:", "names the point 'a' and the plane 'table'"],
     );
 }
+
+/// `check` shows the nominal model against the constraints; `diagnose`, which
+/// reads measured coordinates, refuses a constraint session naming the file.
+#[test]
+fn check_shows_the_spread_and_diagnose_refuses_a_constraint_session() {
+    let m = mukca();
+    let model = m.join("original/urdf/iiwa14.urdf").display().to_string();
+    let data = m.join("kuka_14/front.csv").display().to_string();
+    let dir = tempfile::tempdir().unwrap();
+    let out = succeeds(
+        dir.path(),
+        &[
+            "check",
+            "--model",
+            &model,
+            "--tip-link",
+            "ball_link",
+            "--data",
+            &data,
+        ],
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("point front.0      31 rows, spread"),
+        "{text}"
+    );
+    assert!(text.contains("predicted minus stated -0.103 mm"), "{text}");
+    refused(
+        dir.path(),
+        &[
+            "diagnose",
+            "--model",
+            &model,
+            "--tip-link",
+            "ball_link",
+            "--data",
+            &data,
+        ],
+        &[
+            "kuka_14/front.csv:4:1:",
+            "diagnose reads measured coordinates",
+        ],
+    );
+}

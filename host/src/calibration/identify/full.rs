@@ -500,6 +500,16 @@ pub enum FullError {
     /// A non-finite value appeared (the data or the model are unusable).
     #[error("the fit produced a value that is not finite: check units and joint order")]
     NonFinite,
+    /// Rows at unknown points or planes given without their constraints (a
+    /// computation that reads measured coordinates only).
+    #[error(
+        "pose {pose} names an unknown point or plane, but no constraints were given: \
+         this computation reads measured coordinates only"
+    )]
+    ConstraintsMissing {
+        /// 1-based pose index.
+        pose: usize,
+    },
 }
 
 /// The count of independent geometric parameters of a full calibration of
@@ -595,6 +605,12 @@ pub fn identify_constrained(
     options: &FullOptions,
 ) -> Result<FullFit, FullError> {
     let constrained = !constraints.is_empty();
+    if let Some(i) = data.iter().position(|o| {
+        o.fixed_point.is_some_and(|k| k >= constraints.points.len())
+            || o.on_plane.is_some_and(|k| k >= constraints.planes.len())
+    }) {
+        return Err(FullError::ConstraintsMissing { pose: i + 1 });
+    }
     if let Some(joint) = effects
         .iter()
         .filter_map(|e| e.joint())
