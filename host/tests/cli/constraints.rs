@@ -279,3 +279,66 @@ fn check_shows_the_spread_and_diagnose_refuses_a_constraint_session() {
         ],
     );
 }
+
+/// The calibration of a session without a tracker, exported as a URDF (the
+/// Panda's own, its joint origins calibrated, the ball's calibrated centre
+/// the link `armcal_measured_point`), predicts a held-out session as the
+/// calibration itself does: `check` on the exported URDF gives `holdout`'s
+/// spread and distance error.
+#[test]
+fn the_exported_urdf_predicts_as_the_calibration() {
+    let m = mukca();
+    let panda = m.join("original/urdf/panda.urdf").display().to_string();
+    let train = m.join("panda_6/front.csv").display().to_string();
+    let held = m.join("panda_6/left.csv").display().to_string();
+    let dir = tempfile::tempdir().unwrap();
+    let chain = ["--tip-link", "ball_link"];
+    let mut args = vec![
+        "identify", "--model", &panda, "--data", &train, "--out", "p6.cal",
+    ];
+    args.extend(chain);
+    succeeds(dir.path(), &args);
+    let mut args = vec![
+        "export",
+        "--calibration",
+        "p6.cal",
+        "--model",
+        &panda,
+        "--format",
+        "urdf",
+        "--out",
+        "p6.urdf",
+    ];
+    args.extend(chain);
+    succeeds(dir.path(), &args);
+    let out = succeeds(
+        dir.path(),
+        &[
+            "check",
+            "--model",
+            "p6.urdf",
+            "--tip-link",
+            "armcal_measured_point",
+            "--data",
+            &held,
+        ],
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    let spreads: Vec<f64> = text
+        .lines()
+        .filter(|l| l.contains("spread (RMS"))
+        .map(|l| l.split_whitespace().rev().nth(1).unwrap().parse().unwrap())
+        .collect();
+    let spread = (spreads.iter().map(|s| s * s).sum::<f64>() / spreads.len() as f64).sqrt();
+    let mut args = vec![
+        "holdout", "--model", &panda, "--train", &train, "--data", &held,
+    ];
+    args.extend(chain);
+    let rows = holdout(&args);
+    let armcal = (rows[0].1[2], rows[0].1[3]);
+    assert!((spread - armcal.0).abs() < 2e-3, "{spread} {armcal:?}");
+    assert!(
+        text.contains(&format!("predicted minus stated {:+.3} mm", armcal.1)),
+        "{text}"
+    );
+}

@@ -2101,6 +2101,17 @@ fn dependence_reason(
         format!("not separable from {}", list.join(", "))
     };
     let geometry = match params[k] {
+        // Without a measured coordinate the first axis is a line of the arbitrary frame.
+        Unknown::Param(Param::Theta(0)) if !robot.constraints.is_empty() => Some(
+            "a turn about axis 1 moves every tool point as a turn of the base would, and no \
+             coordinate is measured"
+                .into(),
+        ),
+        Unknown::Param(Param::S(0)) if !robot.constraints.is_empty() => Some(
+            "a shift along axis 1 moves every tool point as a shift of the base would, and no \
+             coordinate is measured"
+                .into(),
+        ),
         Unknown::Param(p) => geometry_reason(p, &robot.robot, data),
         Unknown::Effect { .. } | Unknown::Point { .. } | Unknown::Plane { .. } => None,
     }

@@ -289,7 +289,7 @@ impl Identification {
                     .map(|(a, b, r)| json!({"a": a.to_string(), "b": b.to_string(), "r": r}))
                     .collect::<Vec<_>>()
             );
-            if !fit.points.is_empty() {
+            if !fit.points.is_empty() || !fit.planes.is_empty() {
                 let length = |x: f64| units.length_from_si(x);
                 out["points"] = json!(
                     fit.points
@@ -298,6 +298,16 @@ impl Identification {
                             "name": p.name,
                             "xyz": [length(p.position.x), length(p.position.y), length(p.position.z)],
                             "std": p.std.iter().map(|s| s.is_finite().then(|| length(*s))).collect::<Vec<_>>(),
+                        }))
+                        .collect::<Vec<_>>()
+                );
+                out["planes"] = json!(
+                    fit.planes
+                        .iter()
+                        .map(|p| json!({
+                            "name": p.name,
+                            "normal": [p.normal.x, p.normal.y, p.normal.z],
+                            "offset": length(p.offset),
                         }))
                         .collect::<Vec<_>>()
                 );
