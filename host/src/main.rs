@@ -281,6 +281,11 @@ enum Command {
         reference: Option<String>,
         #[command(flatten)]
         weights: Weights,
+        /// Choose the prior's scale on the training sessions by 10-fold
+        /// cross-validation of their rows, as `diagnose` does (shown beside the
+        /// figures); otherwise the stated prior.
+        #[arg(long)]
+        select_prior: bool,
     },
     /// List the built-in robot models and data sets.
     Models,
@@ -568,7 +573,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             train,
             reference,
             weights,
-        } => verbs::holdout(model, data, train, reference, weights),
+            select_prior,
+        } => verbs::holdout(model, data, train, reference, weights, select_prior),
         Command::Reproduce {
             paper: Paper::MirmanGupta,
         } => verbs::reproduce_mirman_gupta(),

@@ -18,6 +18,7 @@ pub(crate) fn holdout(
     train: Vec<String>,
     reference: Option<String>,
     weights: Weights,
+    select_prior: bool,
 ) -> anyhow::Result<()> {
     let chain = model.chain.spec()?;
     let model = model.load()?;
@@ -64,12 +65,13 @@ pub(crate) fn holdout(
     }
     let options = weights.options(&model)?;
     let reference_robot = reference_model.as_ref().map(|r| &r.robot);
+    let select = select_prior.then_some(DEFAULT_FOLDS);
     let rows = if training.is_empty() {
-        contact_check::leave_one_out(&model, &sessions, reference_robot, &options)?
+        contact_check::leave_one_out(&model, &sessions, reference_robot, &options, select)?
     } else {
         let parts: Vec<&measurements::Measurements> = training.iter().collect();
         let merged = measurements::Measurements::merged(&parts);
-        let fit = identify::identify(&model, &merged, ParamSet::Full, &options)?;
+        let (fit, prior_factor) = contact_check::calibrate(&model, &merged, &options, select)?;
         let calibrated = fit.calibrated();
         sessions
             .iter()
@@ -79,6 +81,7 @@ pub(crate) fn holdout(
                 reference: reference_robot.map(|r| contact_check::contact_check(r, s)),
                 calibrated: contact_check::contact_check(&calibrated, s),
                 training_rms: fit.position_rms,
+                prior_factor,
             })
             .collect()
     };

@@ -8,6 +8,13 @@
 //! two means less the stated one is the model's *distance error* (m). All in
 //! the model's base frame, which the figures do not depend on.
 //!
+//! [`choose_prior`] picks the scale of the prior on the D-H errors as
+//! `armcal diagnose` does for measured coordinates: the linearised k-fold
+//! cross-validation of the rows ([`crate::calibration::diagnose::cross_validation`],
+//! the known distances trained on in every fold) about the fit at the stated
+//! prior, each factor of [`PRIOR_FACTORS`] scored by the held-out RMS distance
+//! of the tool points to their fixed points (or planes).
+//!
 //! [`leave_one_out`] is the held-out evaluation: calibrate on every session
 //! but one (merged, their points kept apart by name), predict the one left out,
 //! for each in turn; beside the nominal model and, optionally, a reference
@@ -16,7 +23,11 @@
 use armcal_shared::Robot;
 use nalgebra::{Point3, Vector3};
 
-use crate::calibration::identify::full::FullOptions;
+use crate::calibration::diagnose::cross_validation::{Folds, Role, Subset};
+use crate::calibration::diagnose::geometry::PRIOR_FACTORS;
+use crate::calibration::identify::full::{
+    FullOptions, identify_constrained, linearize_constrained,
+};
 use crate::calibration::identify::{self, IdentifyError, ParamSet};
 use crate::io::measurements::Measurements;
 use crate::io::model_file::RobotModel;
@@ -114,6 +125,55 @@ pub fn contact_check(robot: &Robot<f64>, data: &Measurements) -> ContactCheck {
     ContactCheck { points, distances }
 }
 
+/// The factor of [`PRIOR_FACTORS`] on `options.prior` of least held-out RMS
+/// over `folds` interleaved folds of `data`'s rows, and each factor's held-out
+/// RMS (m). The stated prior (factor 1) when no factor can be scored.
+pub fn choose_prior(
+    model: &RobotModel,
+    data: &Measurements,
+    options: &FullOptions,
+    folds: usize,
+) -> Result<(f64, Vec<(f64, f64)>), IdentifyError> {
+    let fit = identify_constrained(
+        &model.robot,
+        None,
+        &[],
+        &[],
+        &data.poses,
+        &data.constraints,
+        options,
+    )?;
+    let lin = linearize_constrained(&fit, &data.poses, &data.constraints, &options.prior);
+    let poses = data.poses.len();
+    let k = folds.clamp(2, poses.max(2));
+    let roles = (0..lin.first_rows.len())
+        .map(|i| {
+            if i < poses {
+                Role::Fold(i % k)
+            } else {
+                Role::Train
+            }
+        })
+        .collect();
+    let cv = Folds::new(&lin, roles);
+    let columns: Vec<usize> = (0..lin.j.ncols()).collect();
+    let scores: Vec<(f64, f64)> = PRIOR_FACTORS
+        .iter()
+        .filter_map(|&f| {
+            let subset = Subset {
+                columns: columns.clone(),
+                precision_factor: 1.0 / (f * f),
+            };
+            cv.evaluate(&subset).map(|e| (f, e.held.rms))
+        })
+        .collect();
+    let best = scores
+        .iter()
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map_or(1.0, |s| s.0);
+    Ok((best, scores))
+}
+
 /// One held-out session of [`leave_one_out`].
 #[derive(Clone, Debug)]
 pub struct HeldOut {
@@ -127,16 +187,20 @@ pub struct HeldOut {
     pub calibrated: ContactCheck,
     /// The RMS distance of the training rows' tool points to their fitted points, m.
     pub training_rms: f64,
+    /// The factor on the stated prior the calibration used.
+    pub prior_factor: f64,
 }
 
 /// Leaves each of `sessions` out in turn, identifies `model` on the others
-/// (`armcal identify --params full` with `options`) and checks the nominal
-/// model, `reference` and the calibration on the one left out.
+/// (`armcal identify --params full` with `options`; with `select` folds, the
+/// prior's scale first chosen on them by [`choose_prior`]) and checks the
+/// nominal model, `reference` and the calibration on the one left out.
 pub fn leave_one_out(
     model: &RobotModel,
     sessions: &[Measurements],
     reference: Option<&Robot<f64>>,
     options: &FullOptions,
+    select: Option<usize>,
 ) -> Result<Vec<HeldOut>, IdentifyError> {
     let mut out = Vec::new();
     for (i, held) in sessions.iter().enumerate() {
@@ -147,16 +211,39 @@ pub fn leave_one_out(
             .map(|(_, s)| s)
             .collect();
         let merged = Measurements::merged(&training);
-        let fit = identify::identify(model, &merged, ParamSet::Full, options)?;
+        let (fit, prior_factor) = calibrate(model, &merged, options, select)?;
         out.push(HeldOut {
             file: held.file.clone(),
             nominal: contact_check(&model.robot, held),
             reference: reference.map(|r| contact_check(r, held)),
             calibrated: contact_check(&fit.calibrated(), held),
             training_rms: fit.position_rms,
+            prior_factor,
         });
     }
     Ok(out)
+}
+
+/// `armcal identify --params full` of `data`, with `select` folds at the
+/// prior's scale [`choose_prior`] picks: the identification and the factor.
+pub fn calibrate(
+    model: &RobotModel,
+    data: &Measurements,
+    options: &FullOptions,
+    select: Option<usize>,
+) -> Result<(identify::Identification, f64), IdentifyError> {
+    let factor = match select {
+        Some(folds) => choose_prior(model, data, options, folds)?.0,
+        None => 1.0,
+    };
+    let options = FullOptions {
+        prior: options.prior.scaled(factor),
+        ..*options
+    };
+    Ok((
+        identify::identify(model, data, ParamSet::Full, &options)?,
+        factor,
+    ))
 }
 
 /// The table of [`leave_one_out`], in mm: per held-out session, the spread
@@ -195,6 +282,9 @@ pub fn holdout_table(rows: &[HeldOut], reference: Option<&str>) -> String {
             line.push_str(&figures(c));
         }
         line.push_str(&figures(&r.calibrated));
+        if r.prior_factor != 1.0 {
+            let _ = write!(line, "   (prior ×{})", r.prior_factor);
+        }
         let _ = writeln!(out, "{line}");
     }
     out

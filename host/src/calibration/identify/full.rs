@@ -1177,6 +1177,92 @@ pub fn linearize(
     }
 }
 
+/// [`linearize`] of a constraint session's fit (`constraints` the session's):
+/// the columns of the identified geometry, then of the identified points and
+/// every plane parameter, at the solution; the rows of the poses (a touch of a
+/// plane one row), then one row per known distance, after the poses in
+/// [`Linearization::first_rows`] (a cross-validation trains on them always).
+pub fn linearize_constrained(
+    fit: &FullFit,
+    data: &[Observation],
+    constraints: &Constraints,
+    prior: &Prior,
+) -> Linearization {
+    let mut model = Model::of(fit.calibrated.clone(), Vec::new());
+    model.constraints = constraints.clone();
+    model.points = fit.points.iter().map(|p| p.position).collect();
+    model.planes = fit
+        .planes
+        .iter()
+        .map(|p| PlaneEstimate::through(&Point3::from(p.normal * p.offset), &p.normal))
+        .collect();
+    let mut unknowns: Vec<Unknown> = Vec::new();
+    let mut offset: Vec<f64> = Vec::new();
+    for p in fit
+        .params
+        .iter()
+        .filter(|p| matches!(p.status, Status::Identified { .. }))
+    {
+        unknowns.push(Unknown::Param(p.param));
+        offset.push(p.error);
+    }
+    for (point, p) in fit.points.iter().enumerate() {
+        for axis in (0..3).filter(|&a| p.std[a].is_finite()) {
+            unknowns.push(Unknown::Point { point, axis });
+            offset.push(0.0);
+        }
+    }
+    for plane in 0..fit.planes.len() {
+        for component in 0..3 {
+            unknowns.push(Unknown::Plane { plane, component });
+            offset.push(0.0);
+        }
+    }
+    let precision = unknowns
+        .iter()
+        .map(|u| match u {
+            Unknown::Param(p) => prior.precision(*p),
+            _ => 0.0,
+        })
+        .collect();
+    let position_noise = fit.noise.position.used;
+    let sys = LinearSystem::build(&model, data, &unknowns, (1.0 / position_noise, 1.0));
+    let distances = DistanceRows::rows(&model, &unknowns);
+    let poses_rows = sys.j.nrows();
+    let rows = poses_rows + distances.len();
+    let j = Mat::from_fn(rows, unknowns.len(), |i, c| {
+        if i < poses_rows {
+            sys.j[(i, c)]
+        } else {
+            distances[i - poses_rows].0[c]
+        }
+    });
+    let r = Mat::from_fn(rows, 1, |i, _| {
+        if i < poses_rows {
+            sys.r[(i, 0)]
+        } else {
+            distances[i - poses_rows].1
+        }
+    });
+    let mut first_rows = Vec::with_capacity(data.len() + distances.len());
+    let mut row = 0;
+    for obs in data {
+        first_rows.push(row);
+        row += obs.equations();
+    }
+    first_rows.extend(poses_rows..rows);
+    Linearization {
+        j,
+        r,
+        first_rows,
+        fitted: unknowns.len(),
+        position_noise,
+        unknowns,
+        precision,
+        offset,
+    }
+}
+
 /// A weighted linearisation ([`linearize`]).
 pub struct Linearization {
     /// Weighted Jacobian, rows × unknowns.
@@ -1631,6 +1717,21 @@ impl DistanceRows {
             rtr: 0.0,
             rows: model.constraints.distances.len(),
         };
+        for (row, r) in Self::rows(model, params) {
+            for i in 0..p {
+                sums.jtr[(i, 0)] += row[i] * r;
+                for j in 0..p {
+                    sums.jtj[(i, j)] += row[i] * row[j];
+                }
+            }
+            sums.rtr += r * r;
+        }
+        sums
+    }
+
+    /// Each distance's weighted Jacobian row over `params` and weighted residual.
+    fn rows(model: &Model, params: &[Unknown]) -> Vec<(Vec<f64>, f64)> {
+        let mut out = Vec::new();
         for d in &model.constraints.distances {
             let [a, b] = d
                 .points
@@ -1651,15 +1752,9 @@ impl DistanceRows {
                     _ => 0.0,
                 })
                 .collect();
-            for i in 0..p {
-                sums.jtr[(i, 0)] += row[i] * r;
-                for j in 0..p {
-                    sums.jtj[(i, j)] += row[i] * row[j];
-                }
-            }
-            sums.rtr += r * r;
+            out.push((row, r));
         }
-        sums
+        out
     }
 }
 
