@@ -664,6 +664,9 @@ struct Record {
     point: Option<(String, usize)>,
     /// The unknown plane the row names (`plane` column), likewise.
     plane: Option<(String, usize)>,
+    /// The character column and the name of the row's first coordinate when it
+    /// measures all of x, y, z (in a file with a `point` or `plane` column).
+    measured: Option<(usize, &'static str)>,
 }
 
 /// A distance line of a constraint file, as read (see [`crate::io::constraints`]).
@@ -686,6 +689,8 @@ enum Item {
 
 /// The columns of a file as read.
 struct Columns {
+    /// The header's line and names, in file order.
+    header: (usize, Vec<String>),
     /// The header names of the columns used, in file order.
     used: Vec<String>,
     /// The header names of the columns not read, in file order.
@@ -795,85 +800,116 @@ fn read_measurements<R: std::io::Read>(
     let mut approach = Approach::new();
     let mut constraints = Constraints::default();
     let mut distance_lines = Vec::new();
-    // The first row measuring coordinates and the first naming a point (line, column).
-    let (mut first_measured, mut first_named) = (None, None);
-    let columns = read_table(source, file, &schema, |item| {
+    // What each row says beside its joints: where it measures x, y, z (the
+    // column of its first coordinate), and the point and plane it names.
+    type Named = Option<(String, usize)>;
+    let mut tags: Vec<(usize, Option<(usize, &'static str)>, Named, Named)> = Vec::new();
+    let mut columns = read_table(source, file, &schema, |item| {
         let r = match item {
             Item::Row(r) => r,
             Item::Distance(d) => return distance_lines.push(d),
         };
-        let mut pose = Observation::of_row(
+        poses.push(Observation::of_row(
             r.q,
             Point3::from(r.position),
             r.orientation,
             (r.temp, r.load),
             &mut approach,
-        );
-        if let Some((name, column)) = r.plane {
-            first_named.get_or_insert((r.line, column));
+        ));
+        lines.push(r.line);
+        times.push(r.t);
+        tags.push((r.line, r.measured, r.point, r.plane));
+    })?;
+    // A file whose every row measures x, y, z is a file of coordinates, read
+    // as without the extension: a `point` or `plane` column is then an id,
+    // kept out of the computation.
+    let constraint_row =
+        |(_, measured, point, plane): &(usize, Option<(usize, &'static str)>, Named, Named)| {
+            measured.is_none() && (point.is_some() || plane.is_some())
+        };
+    let Some(first_constraint) = tags.iter().find(|t| constraint_row(t)) else {
+        if let Some(d) = distance_lines.first() {
+            return Err(InputError::new(
+                file,
+                d.line,
+                1,
+                "a distance line in a file whose every row measures x, y, z: distances tie \
+                 unknown points (rows naming a point, x, y, z empty)",
+            ));
+        }
+        let (line, header) = &columns.header;
+        if header.iter().any(|n| n == "point" || n == "plane") {
+            let old = ignored_warning(file, *line, &columns.ignored, &schema);
+            columns.used.retain(|n| n != "point" && n != "plane");
+            columns.ignored = header
+                .iter()
+                .filter(|n| !columns.used.contains(n))
+                .cloned()
+                .collect();
+            let new = ignored_warning(file, *line, &columns.ignored, &schema);
+            match (old, new) {
+                (Some(_), Some(w)) => columns.warnings[0] = w,
+                (None, Some(w)) => columns.warnings.insert(0, w),
+                _ => {}
+            }
+        }
+        return Ok(Measurements {
+            file: file.to_owned(),
+            poses,
+            lines,
+            times,
+            columns_used: columns.used,
+            columns_ignored: columns.ignored,
+            warnings: columns.warnings,
+            constraints,
+        });
+    };
+    if let Some((line, Some((column, coordinate)), point, plane)) =
+        tags.iter().find(|t| t.1.is_some())
+    {
+        let message = match point
+            .as_ref()
+            .map(|p| ("point", p))
+            .or(plane.as_ref().map(|p| ("plane", p)))
+        {
+            Some((kind, (name, _))) => format!(
+                "column '{coordinate}': a coordinate on a row that names the unknown {kind} '{name}': a row either \
+                 measures x, y, z or names the point its tool point sits at or the plane it \
+                 touches; leave x, y, z empty here"
+            ),
+            None => format!(
+                "column '{coordinate}': this row measures x, y, z while line {} names an unknown point or plane: a \
+                 file holds either measured coordinates or constraints (unknown points, planes, \
+                 distances), not both",
+                first_constraint.0
+            ),
+        };
+        return Err(InputError::new(file, *line, *column, message));
+    }
+    for (pose, (line, _, point, plane)) in poses.iter_mut().zip(tags) {
+        if let Some((name, column)) = plane {
             let k = constraints.plane_index(&name).unwrap_or_else(|| {
                 constraints.planes.push(TouchedPlane {
                     name,
-                    first: (r.line, column),
+                    first: (line, column),
                     rows: 0,
                 });
                 constraints.planes.len() - 1
             });
             constraints.planes[k].rows += 1;
             pose.on_plane = Some(k);
-            poses.push(pose);
-            lines.push(r.line);
-            times.push(r.t);
-            return;
-        }
-        match r.point {
-            Some((name, column)) => {
-                first_named.get_or_insert((r.line, column));
-                let k = constraints.index(&name).unwrap_or_else(|| {
-                    constraints.points.push(FixedPoint {
-                        name,
-                        first: (r.line, column),
-                        rows: 0,
-                    });
-                    constraints.points.len() - 1
+        } else if let Some((name, column)) = point {
+            let k = constraints.index(&name).unwrap_or_else(|| {
+                constraints.points.push(FixedPoint {
+                    name,
+                    first: (line, column),
+                    rows: 0,
                 });
-                constraints.points[k].rows += 1;
-                pose.fixed_point = Some(k);
-            }
-            None => {
-                first_measured.get_or_insert(r.line);
-            }
+                constraints.points.len() - 1
+            });
+            constraints.points[k].rows += 1;
+            pose.fixed_point = Some(k);
         }
-        poses.push(pose);
-        lines.push(r.line);
-        times.push(r.t);
-    })?;
-    if let (Some(measured), Some((named, column))) = (first_measured, first_named) {
-        let (line, column, other, this, that) = if named > measured {
-            (
-                named,
-                column,
-                measured,
-                "names an unknown point",
-                "measures x, y, z",
-            )
-        } else {
-            let row = lines
-                .iter()
-                .zip(&poses)
-                .find(|(_, p)| p.fixed_point.is_none() && p.on_plane.is_none())
-                .map_or(measured, |(l, _)| *l);
-            (row, 1, named, "measures x, y, z", "names an unknown point")
-        };
-        return Err(InputError::new(
-            file,
-            line,
-            column,
-            format!(
-                "this row {this} while line {other} {that}: a file holds either measured \
-                 coordinates or constraints (unknown points, distances), not both"
-            ),
-        ));
     }
     if let Some(once) = constraints.points.iter().find(|p| p.rows < 2) {
         return Err(InputError::new(
@@ -1377,28 +1413,11 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
             }
         }
         let mut warnings = Vec::new();
-        if !ignored.is_empty() {
-            let names: Vec<String> = ignored
-                .iter()
-                .map(|n| {
-                    if n.is_empty() {
-                        "(unnamed)".to_owned()
-                    } else {
-                        format!("'{n}'")
-                    }
-                })
-                .collect();
-            warnings.push(format!(
-                "{}:{}: columns kept out of the computation: {} (used: {})",
-                self.file,
-                header.line,
-                names.join(", "),
-                schema.kind.used(schema.dof())
-            ));
-        }
+        warnings.extend(ignored_warning(self.file, header.line, &ignored, schema));
         warnings.extend(tally.warnings(self.file, schema));
 
         Ok(Columns {
+            header: (header.line, header.fields().map(str::to_owned).collect()),
             used,
             ignored,
             warnings,
@@ -1597,18 +1616,6 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
                     }
                 }
                 Role::Position(c) => {
-                    if let Some((kind, n)) = named
-                        && !value.is_empty()
-                    {
-                        return Err(at(
-                            i,
-                            format!(
-                                "column '{name}': a coordinate on a row that names the unknown {kind} '{n}': \
-                                 a row either measures x, y, z or names the point its tool point sits at \
-                                 or the plane it touches; leave x, y, z empty here"
-                            ),
-                        ));
-                    }
                     if constraint_file && value.is_empty() {
                         continue;
                     }
@@ -1714,22 +1721,51 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
                 ),
             ));
         }
+        let measured = given.iter().filter(|g| g.is_some()).count();
         if let Some(first) = point_index.into_iter().chain(plane_index).min() {
-            let measured = given.iter().filter(|g| g.is_some()).count();
             let column = if Some(first) == point_index {
                 "point"
             } else {
                 "plane"
             };
-            if named.is_none() && measured < 3 {
+            if let (Some((kind, n)), 1..=2) = (named, measured) {
+                let (i, _) = given
+                    .iter()
+                    .enumerate()
+                    .find_map(|(c, g)| g.map(|i| (i, c)))
+                    .unwrap_or((first, 0));
                 return Err(at(
-                    first,
+                    i,
                     format!(
-                        "column '{column}': empty, and the row does not measure x, y, z either: name \
-                         the unknown point its tool point sits at or the plane it touches, or give \
-                         all three coordinates"
+                        "column '{}': a coordinate on a row that names the unknown {kind} '{n}': a row \
+                         either measures x, y, z or names the point its tool point sits at or the \
+                         plane it touches; leave x, y, z empty here",
+                        header.field(i).unwrap_or("")
                     ),
                 ));
+            }
+            if named.is_none() && measured < 3 {
+                // At the first empty coordinate, as a file without the column is refused.
+                let empty = (0..3).find_map(|c| {
+                    let i = roles.iter().position(|r| *r == Role::Position(c))?;
+                    given[c].is_none().then_some((i, POSITION[c]))
+                });
+                return Err(match empty {
+                    Some((i, name)) => at(
+                        i,
+                        format!(
+                            "column '{name}': empty, expected a finite number (or, for a session \
+                             without a tracker, name the unknown point in '{column}')"
+                        ),
+                    ),
+                    None => at(
+                        first,
+                        format!(
+                            "column '{column}': empty, and the row does not measure x, y, z either: \
+                             name the unknown point its tool point sits at or the plane it touches"
+                        ),
+                    ),
+                });
             }
             if let Some((kind, _)) = named
                 && orientation.is_some()
@@ -1755,6 +1791,17 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
             load,
             point,
             plane,
+            measured: (measured == 3)
+                .then(|| {
+                    let (i, c) = given
+                        .iter()
+                        .enumerate()
+                        .filter_map(|(c, g)| g.map(|i| (i, c)))
+                        .min()?;
+                    let column = self.err_at(self.field_offset(row.start, i), "").column;
+                    Some((column, POSITION[c]))
+                })
+                .flatten(),
         })
     }
 
@@ -1822,6 +1869,33 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
             std,
         })
     }
+}
+
+/// The warning naming the columns `ignored` kept out of the computation, if any.
+fn ignored_warning(
+    file: &str,
+    line: usize,
+    ignored: &[String],
+    schema: &Schema<'_>,
+) -> Option<String> {
+    if ignored.is_empty() {
+        return None;
+    }
+    let names: Vec<String> = ignored
+        .iter()
+        .map(|n| {
+            if n.is_empty() {
+                "(unnamed)".to_owned()
+            } else {
+                format!("'{n}'")
+            }
+        })
+        .collect();
+    Some(format!(
+        "{file}:{line}: columns kept out of the computation: {} (used: {})",
+        names.join(", "),
+        schema.kind.used(schema.dof())
+    ))
 }
 
 /// `1 pose`, `2 poses`.

@@ -108,7 +108,10 @@ fn coordinates_and_points_mixed_wrongly_are_refused_with_line_and_column() {
         "q1,q2,q3,q4,q5,q6,x,y,z,point\n0.1,0.2,0.3,0.4,0.5,0.6,0.4,,,\n",
     )
     .unwrap();
-    identify_refuses(dir.path(), &["d.csv:2:31:", "column 'point': empty"]);
+    identify_refuses(
+        dir.path(),
+        &["d.csv:2:29:", "column 'y': empty", "name the unknown point"],
+    );
     // Measured rows and point rows in one file: at the first row of the other kind.
     let mut text = String::from("q1,q2,q3,q4,q5,q6,x,y,z,point\n");
     for i in 0..12 {
@@ -119,10 +122,57 @@ fn coordinates_and_points_mixed_wrongly_are_refused_with_line_and_column() {
     identify_refuses(
         dir.path(),
         &[
-            "d.csv:14:28:",
-            "names an unknown point while line 2 measures x, y, z",
+            "d.csv:2:25:",
+            "column 'x': this row measures x, y, z while line 14 names an unknown point",
             "not both",
         ],
+    );
+}
+
+/// A file of measured coordinates with a `point` column (an id, as a
+/// tracker's export may have) reads exactly as before the extension: every
+/// row measures x, y, z, so the column is kept out of the computation.
+#[test]
+fn a_coordinate_file_with_a_point_id_column_reads_as_before() {
+    let dir = tempfile::tempdir().unwrap();
+    succeeds(
+        dir.path(),
+        &[
+            "simulate", "--model", "ur5e", "--poses", "30", "--out", "s.csv",
+        ],
+    );
+    let text = std::fs::read_to_string(dir.path().join("s.csv")).unwrap();
+    let mut with_id = String::new();
+    let mut header_seen = false;
+    for (i, line) in text.lines().enumerate() {
+        if line.starts_with('#') {
+            with_id.push_str(line);
+        } else if !header_seen {
+            header_seen = true;
+            with_id.push_str(&format!("{line},point"));
+        } else {
+            with_id.push_str(&format!("{line},P{i}"));
+        }
+        with_id.push('\n');
+    }
+    std::fs::write(dir.path().join("p.csv"), with_id).unwrap();
+    let run = |data: &str| {
+        let json = format!("{data}.json");
+        let out = succeeds(
+            dir.path(),
+            &[
+                "identify", "--model", "ur5e", "--data", data, "--json", &json,
+            ],
+        );
+        let report = std::fs::read_to_string(dir.path().join(&json)).unwrap();
+        (report, String::from_utf8_lossy(&out.stderr).into_owned())
+    };
+    let (plain, _) = run("s.csv");
+    let (with_point, warnings) = run("p.csv");
+    assert_eq!(plain, with_point);
+    assert!(
+        warnings.contains("columns kept out of the computation: 'point'"),
+        "{warnings}"
     );
 }
 
