@@ -803,7 +803,8 @@ fn read_measurements<R: std::io::Read>(
     // What each row says beside its joints: where it measures x, y, z (the
     // column of its first coordinate), and the point and plane it names.
     type Named = Option<(String, usize)>;
-    let mut tags: Vec<(usize, Option<(usize, &'static str)>, Named, Named)> = Vec::new();
+    type Tag = (usize, Option<(usize, &'static str)>, Named, Named);
+    let mut tags: Vec<Tag> = Vec::new();
     let mut columns = read_table(source, file, &schema, |item| {
         let r = match item {
             Item::Row(r) => r,
@@ -823,10 +824,9 @@ fn read_measurements<R: std::io::Read>(
     // A file whose every row measures x, y, z is a file of coordinates, read
     // as without the extension: a `point` or `plane` column is then an id,
     // kept out of the computation.
-    let constraint_row =
-        |(_, measured, point, plane): &(usize, Option<(usize, &'static str)>, Named, Named)| {
-            measured.is_none() && (point.is_some() || plane.is_some())
-        };
+    let constraint_row = |(_, measured, point, plane): &Tag| {
+        measured.is_none() && (point.is_some() || plane.is_some())
+    };
     let Some(first_constraint) = tags.iter().find(|t| constraint_row(t)) else {
         if let Some(d) = distance_lines.first() {
             return Err(InputError::new(
