@@ -56,7 +56,9 @@ pub mod calibration;
 pub mod io;
 
 pub use apply::{compensate, link, predict};
-pub use calibration::{check, demo, diagnose, identify, report, reproduce, simulate, stats, sweep};
+pub use calibration::{
+    check, contact_check, demo, diagnose, identify, report, reproduce, simulate, stats, sweep,
+};
 pub use io::{arrays, builtin, input_error, measurements, model_file, output, ur, urdf};
 
 #[cfg(test)]

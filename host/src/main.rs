@@ -16,7 +16,8 @@ use armcal::identify::{self, ParamSet};
 use armcal::input_error::{InputError, MODEL_FILE, read_text};
 use armcal::urdf::{self, ChainSpec};
 use armcal::{
-    builtin, compensate, link, measurements, model_file, output, predict, reproduce, simulate,
+    builtin, compensate, contact_check, link, measurements, model_file, output, predict, reproduce,
+    simulate,
 };
 use armcal_shared::compensation::Pacing;
 use armcal_shared::link::Request;
@@ -257,6 +258,34 @@ enum Command {
         /// Write it here (otherwise it is printed).
         #[arg(long, value_name = "OUT.urdf")]
         out: Option<PathBuf>,
+    },
+    /// Sessions without a tracker (a `point` column: unknown fixed points and
+    /// known distances; docs/file-formats.md): leave each --data session out
+    /// in turn, identify on the others (or on --train), and print for the one
+    /// left out the spread of the predicted points at each fixed point and the
+    /// error of each known distance, for the nominal model, --reference and
+    /// the calibration.
+    Holdout {
+        #[command(flatten)]
+        model: ModelArgs,
+        /// Constraint sessions to hold out, each in turn (CSV with a `point` column).
+        #[arg(long, value_name = "D.csv", required = true, num_args = 1..)]
+        data: Vec<String>,
+        /// Identify once on these sessions instead, and check every --data session.
+        #[arg(long, value_name = "T.csv", num_args = 1..)]
+        train: Vec<String>,
+        /// Another model of the same chain to check on the same rows (read with
+        /// the same --base-link, --tip-link and --tip-point): another tool's
+        /// calibration, for instance.
+        #[arg(long, value_name = "R.urdf|R.toml")]
+        reference: Option<String>,
+        #[command(flatten)]
+        weights: Weights,
+        /// Choose the prior's scale on the training sessions by 10-fold
+        /// cross-validation of their rows, as `diagnose` does (shown beside the
+        /// figures); otherwise the stated prior.
+        #[arg(long)]
+        select_prior: bool,
     },
     /// List the built-in robot models and data sets.
     Models,
@@ -502,6 +531,14 @@ fn warn<'a>(warnings: impl IntoIterator<Item = &'a String>) {
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Check { model, data } => verbs::check(model, data),
+        Command::Holdout {
+            model,
+            data,
+            train,
+            reference,
+            weights,
+            select_prior,
+        } => verbs::holdout(model, data, train, reference, weights, select_prior),
         Command::Reproduce {
             paper: Paper::MirmanGupta,
         } => verbs::reproduce_mirman_gupta(),

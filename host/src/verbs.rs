@@ -11,6 +11,87 @@ pub(crate) fn check(model: ModelArgs, data: String) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// `armcal holdout`.
+pub(crate) fn holdout(
+    model: ModelArgs,
+    data: Vec<String>,
+    train: Vec<String>,
+    reference: Option<String>,
+    weights: Weights,
+    select_prior: bool,
+) -> anyhow::Result<()> {
+    let chain = model.chain.spec();
+    let model = model.load()?;
+    let load = |file: &String| -> anyhow::Result<measurements::Measurements> {
+        let d = measurements::load_measurements(file, &model)?;
+        if !d.is_constrained() {
+            return Err(InputError::new(
+                file,
+                d.lines.first().copied().unwrap_or(1),
+                1,
+                "holdout checks sessions without a tracker: the rows must name the unknown \
+                 fixed point their tool point sits at (a `point` column; docs/file-formats.md)",
+            )
+            .into());
+        }
+        warn(&d.warnings);
+        Ok(d)
+    };
+    let sessions = data.iter().map(load).collect::<anyhow::Result<Vec<_>>>()?;
+    let training = train.iter().map(load).collect::<anyhow::Result<Vec<_>>>()?;
+    if training.is_empty() && sessions.len() < 2 {
+        return Err(InputError::argument(
+            "--data",
+            "give two or more sessions to leave out in turn, or the training sessions with --train",
+        )
+        .into());
+    }
+    let reference_model = match &reference {
+        Some(path) => Some(model_file::load_model_with(path, &chain)?),
+        None => None,
+    };
+    if let Some(r) = &reference_model
+        && r.robot.dof() != model.robot.dof()
+    {
+        return Err(InputError::argument(
+            "--reference",
+            format!(
+                "{} joints, the model has {}",
+                r.robot.dof(),
+                model.robot.dof()
+            ),
+        )
+        .into());
+    }
+    let options = weights.options(&model)?;
+    let reference_robot = reference_model.as_ref().map(|r| &r.robot);
+    let select = select_prior.then_some(DEFAULT_FOLDS);
+    let rows = if training.is_empty() {
+        contact_check::leave_one_out(&model, &sessions, reference_robot, &options, select)?
+    } else {
+        let parts: Vec<&measurements::Measurements> = training.iter().collect();
+        let merged = measurements::Measurements::merged(&parts);
+        let (fit, prior_factor) = contact_check::calibrate(&model, &merged, &options, select)?;
+        let calibrated = fit.calibrated();
+        sessions
+            .iter()
+            .map(|s| contact_check::HeldOut {
+                file: s.file.clone(),
+                nominal: contact_check::contact_check(&model.robot, s),
+                reference: reference_robot.map(|r| contact_check::contact_check(r, s)),
+                calibrated: contact_check::contact_check(&calibrated, s),
+                training_rms: fit.position_rms,
+                prior_factor,
+            })
+            .collect()
+    };
+    print!(
+        "{}",
+        contact_check::holdout_table(&rows, reference.as_deref().map(|_| "reference"))
+    );
+    Ok(())
+}
+
 /// `armcal reproduce mirman-gupta`.
 pub(crate) fn reproduce_mirman_gupta() -> anyhow::Result<()> {
     let (induced, fit) = reproduce::mirman_gupta::table2(&PaperOptions::default());
@@ -148,6 +229,17 @@ pub(crate) fn diagnose(
         .output("--html", html.as_deref());
     outputs.check()?;
     let (model, data) = load_session(&model, &data)?;
+    if data.is_constrained() {
+        return Err(InputError::new(
+            &data.file,
+            data.lines.first().copied().unwrap_or(1),
+            1,
+            "diagnose reads measured coordinates; this session has none (unknown points, \
+             planes, distances): identify it with `armcal identify` and check it on another \
+             session with `armcal holdout`",
+        )
+        .into());
+    }
     warn(&data.warnings);
     let folds = match folds {
         None => DEFAULT_FOLDS.min(data.len()),

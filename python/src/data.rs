@@ -165,6 +165,7 @@ pub fn simulate<'py>(
         columns_used: Vec::new(),
         columns_ignored: Vec::new(),
         warnings: Vec::new(),
+        constraints: Default::default(),
     };
     let truth = errors::to_python(py, &session.truth_json(&m.robot, &u))?;
     Ok((

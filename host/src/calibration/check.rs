@@ -149,12 +149,14 @@ pub fn report(model: &RobotModel, data: &Measurements) -> String {
         out,
         "        {} poses, {} ({} equations)",
         data.poses.len(),
-        if full_pose {
+        if data.is_constrained() {
+            "constraints: rows at unknown points or on unknown planes, known distances"
+        } else if full_pose {
             "full poses: position and orientation"
         } else {
             "positions only"
         },
-        data.poses.len() * if full_pose { 6 } else { 3 }
+        data.equations()
     );
     let _ = writeln!(
         out,
@@ -183,6 +185,38 @@ pub fn report(model: &RobotModel, data: &Measurements) -> String {
         let _ = writeln!(out, "        warning: {w}");
     }
 
+    if data.is_constrained() {
+        // No coordinate to compare with: how well the nominal model keeps the
+        // rows of each point together and the known distances.
+        let c = crate::calibration::contact_check::contact_check(robot, data);
+        let _ = writeln!(
+            out,
+            "\nnominal model against the constraints ({} points, {} planes, {} distances)",
+            data.constraints.points.len(),
+            data.constraints.planes.len(),
+            data.constraints.distances.len()
+        );
+        for p in &c.points {
+            let _ = writeln!(
+                out,
+                "        point {:<12} {} rows, spread (RMS distance to their mean) {:.3} mm",
+                p.name,
+                p.rows,
+                p.spread * 1e3
+            );
+        }
+        for d in &c.distances {
+            let _ = writeln!(
+                out,
+                "        distance {} – {}: stated {:.3} mm, predicted minus stated {:+.3} mm",
+                d.points[0],
+                d.points[1],
+                d.stated * 1e3,
+                d.error * 1e3
+            );
+        }
+        return out;
+    }
     let e = nominal_error(model, data);
     let mm = |x: f64| x * 1e3;
     let _ = writeln!(out, "\nnominal model against the data");

@@ -4,6 +4,7 @@
 //! file of its own (the HTML page of [`report`] is returned as text).
 
 pub mod check;
+pub mod contact_check;
 pub mod demo;
 pub mod diagnose;
 pub mod identify;

@@ -6,6 +6,7 @@
 //! is repeatable.
 
 use crate::calibration::identify::full::Observation;
+use crate::io::measurements::Contact;
 use armcal_shared::{JointType, Param, Robot};
 use nalgebra::{Point3, UnitQuaternion, Vector3};
 use rand::rngs::StdRng;
@@ -118,6 +119,7 @@ pub fn measure(
                 position,
                 orientation,
                 context: Default::default(),
+                contact: Contact::Measured,
             }
         })
         .collect()
@@ -260,6 +262,7 @@ pub fn simulate_visiting(
             position,
             orientation,
             context: ctx,
+            contact: Contact::Measured,
         });
         session.t.push(10.0 * i as f64);
         session.temp.push(temp);
@@ -403,4 +406,146 @@ pub fn parse_effect(spec: &str, dof: usize) -> Result<armcal_shared::effects::Ef
             ));
         }
     })
+}
+
+/// A simulated session without a tracker: a ball on the flange put into
+/// sockets at unknown fixed points (see [`crate::io::constraints`]).
+#[derive(Clone, Debug)]
+pub struct SocketSession {
+    /// One row per contact, `contact` naming its socket; `position` is 0.
+    pub observations: Vec<Observation>,
+    /// The true socket centres, base frame, m.
+    pub sockets: Vec<Point3<f64>>,
+    /// The true plane touched, if any: a point of it and its unit normal.
+    pub plane: Option<(Point3<f64>, Vector3<f64>)>,
+}
+
+/// Contacts of `truth`'s tool point with `sockets` (true centres, base frame,
+/// m): `per_socket` configurations each, found by inverse kinematics from random
+/// starts, each reaching its socket's centre displaced by a Gaussian contact
+/// error of `contact_noise` (m, per axis). `None` if some socket is not reached
+/// from 200 starts.
+pub fn socket_session(
+    truth: &Robot<f64>,
+    sockets: &[Point3<f64>],
+    per_socket: usize,
+    contact_noise: f64,
+    rng: &mut StdRng,
+) -> Option<SocketSession> {
+    let normal = Normal::new(0.0, 1.0).expect("unit normal");
+    let mut observations = Vec::new();
+    for (k, socket) in sockets.iter().enumerate() {
+        let mut found = 0;
+        for _ in 0..200 {
+            if found == per_socket {
+                break;
+            }
+            let noise = Vector3::from_fn(|_, _| contact_noise * normal.sample(rng));
+            let start = random_configurations(truth, 1, rng).remove(0);
+            if let Some(q) = reach_point(truth, start, &(socket + noise)) {
+                observations.push(Observation {
+                    q,
+                    position: Point3::origin(),
+                    orientation: None,
+                    context: Default::default(),
+                    contact: Contact::Point(k),
+                });
+                found += 1;
+            }
+        }
+        if found < per_socket {
+            return None;
+        }
+    }
+    Some(SocketSession {
+        observations,
+        sockets: sockets.to_vec(),
+        plane: None,
+    })
+}
+
+/// Touches of `truth`'s tool point on the plane through `centre` with unit
+/// normal `normal` (base frame, m): `count` configurations found by inverse
+/// kinematics from random starts, each at a random point of the plane within
+/// `radius` of `centre`, displaced along the normal by a Gaussian contact error
+/// of `contact_noise` (m). Each row names plane `plane`. `None` if fewer are
+/// reached from `20 · count` starts.
+pub fn plane_touches(
+    truth: &Robot<f64>,
+    (centre, normal, radius): (Point3<f64>, Vector3<f64>, f64),
+    plane: usize,
+    count: usize,
+    contact_noise: f64,
+    rng: &mut StdRng,
+) -> Option<Vec<Observation>> {
+    let normal_draw = Normal::new(0.0, 1.0).expect("unit normal");
+    let helper = if normal.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    let u = helper.cross(&normal).normalize();
+    let v = normal.cross(&u);
+    let mut out = Vec::new();
+    for _ in 0..20 * count {
+        if out.len() == count {
+            break;
+        }
+        let (x, y) = (
+            rng.random_range(-radius..radius),
+            rng.random_range(-radius..radius),
+        );
+        let target = centre + u * x + v * y + normal * (contact_noise * normal_draw.sample(rng));
+        let start = random_configurations(truth, 1, rng).remove(0);
+        if let Some(q) = reach_point(truth, start, &target) {
+            out.push(Observation {
+                q,
+                position: Point3::origin(),
+                orientation: None,
+                context: Default::default(),
+                contact: Contact::Plane(plane),
+            });
+        }
+    }
+    (out.len() == count).then_some(out)
+}
+
+/// Joint values from `q` on that put `robot`'s tool point at `target` to 1e-13 m
+/// (damped least squares on the finite-difference position Jacobian), within
+/// the joint limits; `None` when they do not converge there.
+pub fn reach_point(robot: &Robot<f64>, mut q: Vec<f64>, target: &Point3<f64>) -> Option<Vec<f64>> {
+    let kin = robot.prepare();
+    let point = |q: &[f64]| kin.forward(q).ok().map(|t| t.translation.vector);
+    for _ in 0..100 {
+        let p = point(&q)?;
+        let e = target.coords - p;
+        if e.norm() < 1e-13 {
+            let within = robot
+                .links
+                .iter()
+                .zip(&q)
+                .all(|(l, v)| l.limits.is_none_or(|[lo, hi]| (lo..=hi).contains(v)));
+            return within.then_some(q);
+        }
+        let h = 1e-7;
+        let mut j = nalgebra::DMatrix::<f64>::zeros(3, q.len());
+        for c in 0..q.len() {
+            let mut qh = q.clone();
+            qh[c] += h;
+            let d = (point(&qh)? - p) / h;
+            j.set_column(c, &d);
+        }
+        let jjt = &j * j.transpose() + nalgebra::Matrix3::identity() * 1e-9;
+        let step = j.transpose() * jjt.try_inverse()? * e;
+        let norm = step.norm();
+        let step = if norm > 0.5 {
+            step * (0.5 / norm)
+        } else {
+            step
+        };
+        for (v, d) in q.iter_mut().zip(step.iter()) {
+            *v += d;
+        }
+    }
+    None
 }

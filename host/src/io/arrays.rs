@@ -111,6 +111,7 @@ pub fn measurements(model: &RobotModel, a: &PoseArrays<'_>) -> Result<Measuremen
         columns_used: a.columns(model.dof()),
         columns_ignored: Vec::new(),
         warnings: Vec::new(),
+        constraints: Default::default(),
     })
 }
 

@@ -53,6 +53,10 @@ use armcal_shared::{JointType, Robot};
 use nalgebra::{Point3, Quaternion, UnitQuaternion};
 
 use crate::io::builtin;
+use crate::io::constraints::{
+    Constraints, DEFAULT_DISTANCE_STD, Distance, FixedPoint, MIN_PLANE_TOUCHES, RESERVED,
+    TouchedPlane,
+};
 use crate::io::input_error::{DATA_FILE, InputError, SizeLimit, open_bounded};
 use crate::io::model_file::RobotModel;
 
@@ -83,6 +87,24 @@ pub struct Observation {
     /// change in row order, held while the joint holds:
     /// [`Approach`]).
     pub context: Context<f64>,
+    /// What the row's tool point is held to: its measured `position`, or
+    /// (a row of a constraint file, `position` not measured and 0) an unknown
+    /// fixed point or plane.
+    pub contact: Contact,
+}
+
+/// What a pose's tool point is held to.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Contact {
+    /// The position measured on the row.
+    #[default]
+    Measured,
+    /// The unknown fixed point it sits at: an index into
+    /// [`Measurements::constraints`]' points.
+    Point(usize),
+    /// The unknown plane it touches: an index into
+    /// [`Measurements::constraints`]' planes.
+    Plane(usize),
 }
 
 impl Observation {
@@ -107,13 +129,34 @@ impl Observation {
             position,
             orientation,
             context,
+            contact: Contact::Measured,
+        }
+    }
+
+    /// The unknown fixed point the tool point sits at, if it does.
+    pub fn fixed_point(&self) -> Option<usize> {
+        match self.contact {
+            Contact::Point(k) => Some(k),
+            _ => None,
+        }
+    }
+
+    /// The unknown plane the tool point touches, if it does.
+    pub fn on_plane(&self) -> Option<usize> {
+        match self.contact {
+            Contact::Plane(k) => Some(k),
+            _ => None,
         }
     }
 
     /// The scalar equations this pose gives an identification: 3 (position) or 6
     /// (position and orientation).
     pub fn equations(&self) -> usize {
-        if self.orientation.is_some() { 6 } else { 3 }
+        match (self.on_plane(), self.orientation) {
+            (Some(_), _) => 1,
+            (None, Some(_)) => 6,
+            (None, None) => 3,
+        }
     }
 }
 
@@ -135,12 +178,94 @@ pub struct Measurements {
     pub columns_ignored: Vec<String>,
     /// Things the user should know that do not stop the computation.
     pub warnings: Vec<String>,
+    /// The unknown fixed points and known distances of a constraint file
+    /// (empty for measured coordinates; see [`crate::io::constraints`]).
+    pub constraints: Constraints,
 }
 
 impl Measurements {
+    /// Whether the rows carry constraints (unknown fixed points) instead of coordinates.
+    pub fn is_constrained(&self) -> bool {
+        !self.constraints.is_empty()
+    }
+
     /// The number of poses.
     pub fn len(&self) -> usize {
         self.poses.len()
+    }
+
+    /// The sessions `parts` as one, in order: their poses, their lines (each
+    /// its own file's), and their constraints, a point named in two parts
+    /// being one point. The file is named by the parts' files joined with `+`.
+    pub fn merged(parts: &[&Measurements]) -> Measurements {
+        let mut out = Measurements {
+            file: parts
+                .iter()
+                .map(|p| p.file.as_str())
+                .collect::<Vec<_>>()
+                .join("+"),
+            poses: Vec::new(),
+            lines: Vec::new(),
+            times: Vec::new(),
+            columns_used: parts
+                .first()
+                .map(|p| p.columns_used.clone())
+                .unwrap_or_default(),
+            columns_ignored: Vec::new(),
+            warnings: Vec::new(),
+            constraints: Constraints::default(),
+        };
+        for part in parts {
+            // Each point of this part: its index in the merged constraints.
+            let index: Vec<usize> = part
+                .constraints
+                .points
+                .iter()
+                .map(|p| match out.constraints.index(&p.name) {
+                    Some(k) => {
+                        out.constraints.points[k].rows += p.rows;
+                        k
+                    }
+                    None => {
+                        out.constraints.points.push(p.clone());
+                        out.constraints.points.len() - 1
+                    }
+                })
+                .collect();
+            let planes: Vec<usize> = part
+                .constraints
+                .planes
+                .iter()
+                .map(|p| match out.constraints.plane_index(&p.name) {
+                    Some(k) => {
+                        out.constraints.planes[k].rows += p.rows;
+                        k
+                    }
+                    None => {
+                        out.constraints.planes.push(p.clone());
+                        out.constraints.planes.len() - 1
+                    }
+                })
+                .collect();
+            for pose in &part.poses {
+                let mut pose = pose.clone();
+                pose.contact = match pose.contact {
+                    Contact::Point(k) => Contact::Point(index[k]),
+                    Contact::Plane(k) => Contact::Plane(planes[k]),
+                    Contact::Measured => Contact::Measured,
+                };
+                out.poses.push(pose);
+            }
+            out.lines.extend_from_slice(&part.lines);
+            out.times.extend_from_slice(&part.times);
+            out.warnings.extend(part.warnings.iter().cloned());
+            for d in &part.constraints.distances {
+                let mut d = d.clone();
+                d.points = d.points.map(|k| index[k]);
+                out.constraints.distances.push(d);
+            }
+        }
+        out
     }
 
     /// Whether there are no poses (never the case for a parsed file).
@@ -156,7 +281,7 @@ impl Measurements {
     /// The number of scalar equations the poses give: 3 per pose, 6 per pose with
     /// orientation.
     pub fn equations(&self) -> usize {
-        self.poses.iter().map(Observation::equations).sum()
+        self.poses.iter().map(Observation::equations).sum::<usize>() + self.constraints.equations()
     }
 
     /// Refuses the file if its poses give fewer equations than `unknowns`.
@@ -164,6 +289,13 @@ impl Measurements {
     /// The error is placed at the last data line, column 1, and says how many poses
     /// and equations there are, how many unknowns, and how many poses are needed.
     pub fn require_poses(&self, unknowns: usize) -> Result<(), InputError> {
+        // Constraint rows: no base (6 fewer), three coordinates per fixed point.
+        let unknowns = if self.is_constrained() {
+            (unknowns + 3 * (self.constraints.points.len() + self.constraints.planes.len()))
+                .saturating_sub(6)
+        } else {
+            unknowns
+        };
         let equations = self.equations();
         if equations >= unknowns {
             return Ok(());
@@ -238,6 +370,10 @@ impl Measurements {
         let Some(first) = self.poses.first() else {
             return Ok(());
         };
+        if self.is_constrained() {
+            // No coordinate is measured.
+            return Ok(());
+        }
         let moved = self.poses.iter().any(|p| p.q != first.q);
         for (c, name) in POSITION.iter().enumerate() {
             if moved
@@ -471,7 +607,9 @@ fn read_joints<R: std::io::Read>(
         kind: Kind::Joints,
     };
     let mut rows = Vec::new();
-    let columns = read_table(source, file, &schema, |r| {
+    let columns = read_table(source, file, &schema, |item| {
+        // A joints file fed a constraint file reads its joints only.
+        let Item::Row(r) = item else { return };
         rows.push(JointRow {
             line: r.line,
             q: r.q,
@@ -550,10 +688,38 @@ struct Record {
     t: Option<f64>,
     temp: Option<f64>,
     load: Option<f64>,
+    /// The unknown fixed point the row names (`point` column): its name and the
+    /// character column of its cell.
+    point: Option<(String, usize)>,
+    /// The unknown plane the row names (`plane` column), likewise.
+    plane: Option<(String, usize)>,
+    /// The character column and the name of the row's first coordinate when it
+    /// measures all of x, y, z (in a file with a `point` or `plane` column).
+    measured: Option<(usize, &'static str)>,
+}
+
+/// A distance line of a constraint file, as read (see [`crate::io::constraints`]).
+struct DistanceLine {
+    line: usize,
+    /// The two point names and the character column of each.
+    points: [(String, usize); 2],
+    /// Length and standard uncertainty, m.
+    length: f64,
+    std: f64,
+}
+
+/// What a data line of a file is.
+enum Item {
+    /// A row: one pose.
+    Row(Record),
+    /// A known distance between two named points.
+    Distance(DistanceLine),
 }
 
 /// The columns of a file as read.
 struct Columns {
+    /// The header's line and names, in file order.
+    header: (usize, Vec<String>),
     /// The header names of the columns used, in file order.
     used: Vec<String>,
     /// The header names of the columns not read, in file order.
@@ -568,7 +734,7 @@ fn read_table<R: std::io::Read>(
     source: Source<R>,
     file: &str,
     schema: &Schema<'_>,
-    sink: impl FnMut(Record),
+    sink: impl FnMut(Item),
 ) -> Result<Columns, InputError> {
     CsvReader::new(source, file).read(schema, sink)
 }
@@ -585,6 +751,10 @@ enum Role {
     T,
     Temp,
     Load,
+    /// The name of the unknown fixed point the tool point sits at.
+    Point,
+    /// The name of the unknown plane the tool point touches.
+    Plane,
     Ignored,
 }
 
@@ -607,6 +777,8 @@ fn role_of(name: &str, kind: Kind) -> Role {
         };
     }
     match name {
+        "point" if kind == Kind::Measurements => return Role::Point,
+        "plane" if kind == Kind::Measurements => return Role::Plane,
         "t" => return Role::T,
         "temp" => return Role::Temp,
         "load" => return Role::Load,
@@ -655,7 +827,28 @@ fn read_measurements<R: std::io::Read>(
     };
     let (mut poses, mut lines, mut times) = (Vec::new(), Vec::new(), Vec::new());
     let mut approach = Approach::new();
-    let columns = read_table(source, file, &schema, |r| {
+    let mut constraints = Constraints::default();
+    let mut distance_lines = Vec::new();
+    // What a row says beside its joints: its line, where it measures x, y, z
+    // (the column of its first coordinate), and the point and plane it names.
+    // Kept for the constraint rows (x, y, z not measured, a point or plane
+    // named), with their pose's index, and for the first row measuring x, y,
+    // z: a file of coordinates keeps nothing per row.
+    type Named = Option<(String, usize)>;
+    type Tag = (usize, Option<(usize, &'static str)>, Named, Named);
+    let mut constraint_rows: Vec<(usize, Tag)> = Vec::new();
+    let mut first_measured: Option<Tag> = None;
+    let mut columns = read_table(source, file, &schema, |item| {
+        let r = match item {
+            Item::Row(r) => r,
+            Item::Distance(d) => return distance_lines.push(d),
+        };
+        let tag = (r.line, r.measured, r.point, r.plane);
+        if tag.1.is_some() {
+            first_measured.get_or_insert(tag);
+        } else if tag.2.is_some() || tag.3.is_some() {
+            constraint_rows.push((poses.len(), tag));
+        }
         poses.push(Observation::of_row(
             r.q,
             Point3::from(r.position),
@@ -666,6 +859,148 @@ fn read_measurements<R: std::io::Read>(
         lines.push(r.line);
         times.push(r.t);
     })?;
+    // A file whose every row measures x, y, z is a file of coordinates, read
+    // as without the extension: a `point` or `plane` column is then an id,
+    // kept out of the computation.
+    let Some((_, first_constraint)) = constraint_rows.first() else {
+        if let Some(d) = distance_lines.first() {
+            return Err(InputError::new(
+                file,
+                d.line,
+                1,
+                "a distance line in a file whose every row measures x, y, z: distances tie \
+                 unknown points (rows naming a point, x, y, z empty)",
+            ));
+        }
+        let (line, header) = &columns.header;
+        if header.iter().any(|n| n == "point" || n == "plane") {
+            let old = ignored_warning(file, *line, &columns.ignored, &schema);
+            columns.used.retain(|n| n != "point" && n != "plane");
+            columns.ignored = header
+                .iter()
+                .filter(|n| !columns.used.contains(n))
+                .cloned()
+                .collect();
+            let new = ignored_warning(file, *line, &columns.ignored, &schema);
+            match (old, new) {
+                (Some(_), Some(w)) => columns.warnings[0] = w,
+                (None, Some(w)) => columns.warnings.insert(0, w),
+                _ => {}
+            }
+        }
+        return Ok(Measurements {
+            file: file.to_owned(),
+            poses,
+            lines,
+            times,
+            columns_used: columns.used,
+            columns_ignored: columns.ignored,
+            warnings: columns.warnings,
+            constraints,
+        });
+    };
+    if let Some((line, Some((column, coordinate)), point, plane)) = &first_measured {
+        let message = match point
+            .as_ref()
+            .map(|p| ("point", p))
+            .or(plane.as_ref().map(|p| ("plane", p)))
+        {
+            Some((kind, (name, _))) => format!(
+                "column '{coordinate}': a coordinate on a row that names the unknown {kind} '{name}': a row either \
+                 measures x, y, z or names the point its tool point sits at or the plane it \
+                 touches; leave x, y, z empty here"
+            ),
+            None => format!(
+                "column '{coordinate}': this row measures x, y, z while line {} names an unknown point or plane: a \
+                 file holds either measured coordinates or constraints (unknown points, planes, \
+                 distances), not both",
+                first_constraint.0
+            ),
+        };
+        return Err(InputError::new(file, *line, *column, message));
+    }
+    for (index, (line, _, point, plane)) in constraint_rows {
+        let pose = &mut poses[index];
+        if let Some((name, column)) = plane {
+            let k = constraints.plane_index(&name).unwrap_or_else(|| {
+                constraints.planes.push(TouchedPlane {
+                    name,
+                    first: (line, column),
+                    rows: 0,
+                });
+                constraints.planes.len() - 1
+            });
+            constraints.planes[k].rows += 1;
+            pose.contact = Contact::Plane(k);
+        } else if let Some((name, column)) = point {
+            let k = constraints.index(&name).unwrap_or_else(|| {
+                constraints.points.push(FixedPoint {
+                    name,
+                    first: (line, column),
+                    rows: 0,
+                });
+                constraints.points.len() - 1
+            });
+            constraints.points[k].rows += 1;
+            pose.contact = Contact::Point(k);
+        }
+    }
+    if let Some(once) = constraints.points.iter().find(|p| p.rows < 2) {
+        return Err(InputError::new(
+            file,
+            once.first.0,
+            once.first.1,
+            format!(
+                "column 'point': the point '{}' is named by this row only: an unknown fixed point \
+                 needs at least two rows to say anything (a typo in its name?)",
+                once.name
+            ),
+        ));
+    }
+    if let Some(few) = constraints
+        .planes
+        .iter()
+        .find(|p| p.rows < MIN_PLANE_TOUCHES)
+    {
+        return Err(InputError::new(
+            file,
+            few.first.0,
+            few.first.1,
+            format!(
+                "column 'plane': the plane '{}' is touched by {} only: an unknown plane needs at \
+                 least {MIN_PLANE_TOUCHES} touches to say anything (its own three unknowns)",
+                few.name,
+                plural(few.rows, "row")
+            ),
+        ));
+    }
+    for d in distance_lines {
+        let mut ends = [0; 2];
+        for (end, (name, column)) in ends.iter_mut().zip(&d.points) {
+            *end = constraints.index(name).ok_or_else(|| {
+                let named: Vec<&str> = constraints.points.iter().map(|p| p.name.as_str()).collect();
+                InputError::new(
+                    file,
+                    d.line,
+                    *column,
+                    format!(
+                        "distance: no row names the point '{name}' (points named: {})",
+                        if named.is_empty() {
+                            "none".to_owned()
+                        } else {
+                            named.join(", ")
+                        }
+                    ),
+                )
+            })?;
+        }
+        constraints.distances.push(Distance {
+            points: ends,
+            length: d.length,
+            std: d.std,
+            line: d.line,
+        });
+    }
     Ok(Measurements {
         file: file.to_owned(),
         poses,
@@ -674,6 +1009,7 @@ fn read_measurements<R: std::io::Read>(
         columns_used: columns.used,
         columns_ignored: columns.ignored,
         warnings: columns.warnings,
+        constraints,
     })
 }
 
@@ -1057,7 +1393,7 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
     fn read(
         mut self,
         schema: &Schema<'_>,
-        mut sink: impl FnMut(Record),
+        mut sink: impl FnMut(Item),
     ) -> Result<Columns, InputError> {
         let mut header = Row::default();
         if !self.next_row(&mut header)? {
@@ -1076,10 +1412,17 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
         let mut tally = LimitTally::new(schema);
         let mut row = Row::default();
         let mut rows = 0;
+        // Only a file with a `point` column has distance lines (an old file's
+        // rows read as before).
+        let constraint_file = header.fields().any(|n| n == "point" || n == "plane");
         while self.next_row(&mut row)? {
+            if constraint_file && row.field(0) == Some("distance") {
+                sink(Item::Distance(self.distance_line(&row, schema)?));
+                continue;
+            }
             let record = self.record(&row, &header, &columns, schema)?;
             tally.add(&record);
-            sink(record);
+            sink(Item::Row(record));
             rows += 1;
         }
         if rows == 0 {
@@ -1104,28 +1447,11 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
             }
         }
         let mut warnings = Vec::new();
-        if !ignored.is_empty() {
-            let names: Vec<String> = ignored
-                .iter()
-                .map(|n| {
-                    if n.is_empty() {
-                        "(unnamed)".to_owned()
-                    } else {
-                        format!("'{n}'")
-                    }
-                })
-                .collect();
-            warnings.push(format!(
-                "{}:{}: columns kept out of the computation: {} (used: {})",
-                self.file,
-                header.line,
-                names.join(", "),
-                schema.kind.used(schema.dof())
-            ));
-        }
+        warnings.extend(ignored_warning(self.file, header.line, &ignored, schema));
         warnings.extend(tally.warnings(self.file, schema));
 
         Ok(Columns {
+            header: (header.line, header.fields().map(str::to_owned).collect()),
             used,
             ignored,
             warnings,
@@ -1190,8 +1516,14 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
                 )));
             }
         }
+        // A constraint file (a `point` column) may leave out x, y, z altogether.
+        let constraint_file = roles.contains(&Role::Point) || roles.contains(&Role::Plane);
+        let any_position = (0..3).any(|c| roles.contains(&Role::Position(c)));
         for (c, name) in POSITION.iter().enumerate() {
-            if schema.kind == Kind::Measurements && !roles.contains(&Role::Position(c)) {
+            if schema.kind == Kind::Measurements
+                && (!constraint_file || any_position)
+                && !roles.contains(&Role::Position(c))
+            {
                 return Err(header_err(format!(
                     "missing required column '{name}' (required: {}){}",
                     schema.kind.required(m),
@@ -1256,6 +1588,19 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
         let units = schema.units;
         let mut q = vec![0.0; schema.dof()];
         let mut position = [0.0; 3];
+        // Position cells as read (a constraint row leaves them empty).
+        let mut given: [Option<usize>; 3] = [None; 3];
+        let mut point: Option<(String, usize)> = None;
+        let mut plane: Option<(String, usize)> = None;
+        let point_index = roles.iter().position(|r| *r == Role::Point);
+        let plane_index = roles.iter().position(|r| *r == Role::Plane);
+        let constraint_file = point_index.is_some() || plane_index.is_some();
+        let named_cell =
+            |ix: Option<usize>| ix.and_then(|i| row.field(i)).filter(|f| !f.is_empty());
+        // What the row names, if anything: ("point" or "plane", the name).
+        let named: Option<(&str, &str)> = named_cell(point_index)
+            .map(|n| ("point", n))
+            .or_else(|| named_cell(plane_index).map(|n| ("plane", n)));
         let mut quat: [Option<f64>; 4] = [None; 4];
         let (mut t, mut temp, mut load) = (None, None, None);
         for (i, (value, role)) in row.fields().zip(roles).enumerate() {
@@ -1305,8 +1650,40 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
                     }
                 }
                 Role::Position(c) => {
+                    if constraint_file && value.is_empty() {
+                        continue;
+                    }
                     if let Some(slot) = position.get_mut(c) {
                         *slot = units.length_to_si(number()?);
+                    }
+                    if let Some(slot) = given.get_mut(c) {
+                        *slot = Some(i);
+                    }
+                }
+                Role::Point | Role::Plane => {
+                    if !value.is_empty() {
+                        let kind = if *role == Role::Point {
+                            "point"
+                        } else {
+                            "plane"
+                        };
+                        if RESERVED.contains(&value) || value.parse::<f64>().is_ok() {
+                            return Err(at(
+                                i,
+                                format!(
+                                    "column '{kind}': {value:?} cannot name a {kind} (a number, or a word \
+                                     that starts a line of its own: {})",
+                                    RESERVED.join(", ")
+                                ),
+                            ));
+                        }
+                        let column = self.err_at(self.field_offset(row.start, i), "").column;
+                        let slot = if *role == Role::Point {
+                            &mut point
+                        } else {
+                            &mut plane
+                        };
+                        *slot = Some((value.to_owned(), column));
                     }
                 }
                 Role::Quat(c) => {
@@ -1368,6 +1745,76 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
             }
         };
 
+        if let (Some(p), Some((plane_name, _))) = (&point, &plane) {
+            return Err(at(
+                plane_index.unwrap_or(0),
+                format!(
+                    "column 'plane': the row names the point '{}' and the plane '{plane_name}': its \
+                     tool point sits at a point or touches a plane; name one",
+                    p.0
+                ),
+            ));
+        }
+        let measured = given.iter().filter(|g| g.is_some()).count();
+        if let Some(first) = point_index.into_iter().chain(plane_index).min() {
+            let column = if Some(first) == point_index {
+                "point"
+            } else {
+                "plane"
+            };
+            if let (Some((kind, n)), 1..=2) = (named, measured) {
+                let (i, _) = given
+                    .iter()
+                    .enumerate()
+                    .find_map(|(c, g)| g.map(|i| (i, c)))
+                    .unwrap_or((first, 0));
+                return Err(at(
+                    i,
+                    format!(
+                        "column '{}': a coordinate on a row that names the unknown {kind} '{n}': a row \
+                         either measures x, y, z or names the point its tool point sits at or the \
+                         plane it touches; leave x, y, z empty here",
+                        header.field(i).unwrap_or("")
+                    ),
+                ));
+            }
+            if named.is_none() && measured < 3 {
+                // At the first empty coordinate, as a file without the column is refused.
+                let empty = (0..3).find_map(|c| {
+                    let i = roles.iter().position(|r| *r == Role::Position(c))?;
+                    given[c].is_none().then_some((i, POSITION[c]))
+                });
+                return Err(match empty {
+                    Some((i, name)) => at(
+                        i,
+                        format!(
+                            "column '{name}': empty, expected a finite number (or, for a session \
+                             without a tracker, name the unknown point in '{column}')"
+                        ),
+                    ),
+                    None => at(
+                        first,
+                        format!(
+                            "column '{column}': empty, and the row does not measure x, y, z either: \
+                             name the unknown point its tool point sits at or the plane it touches"
+                        ),
+                    ),
+                });
+            }
+            if let Some((kind, _)) = named
+                && orientation.is_some()
+            {
+                let first = roles.iter().position(|r| *r == Role::Quat(0)).unwrap_or(0);
+                return Err(at(
+                    first,
+                    format!(
+                        "column 'qw': an orientation on a row that names an unknown {kind}: only \
+                         positions are constrained; leave qw, qx, qy, qz empty"
+                    ),
+                ));
+            }
+        }
+
         Ok(Record {
             line: row.line,
             q,
@@ -1376,8 +1823,116 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
             t,
             temp,
             load,
+            point,
+            plane,
+            // Asked for only in a file that can name points or planes: in
+            // another, no row is a constraint row that a coordinate could clash with.
+            measured: (measured == 3
+                && roles.iter().any(|r| matches!(r, Role::Point | Role::Plane)))
+            .then(|| {
+                let (i, c) = given
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(c, g)| g.map(|i| (i, c)))
+                    .min()?;
+                let column = self.err_at(self.field_offset(row.start, i), "").column;
+                Some((column, POSITION[c]))
+            })
+            .flatten(),
         })
     }
+
+    /// A distance line of a constraint file: `distance,<point>,<point>,<length>[,<std>]`.
+    fn distance_line(&self, row: &Row, schema: &Schema<'_>) -> Result<DistanceLine, InputError> {
+        let at = |index: usize, message: String| {
+            self.err_at(self.field_offset(row.start, index), message)
+        };
+        const FORM: &str = "distance,<point>,<point>,<length>[,<std>]";
+        if !(4..=5).contains(&row.len()) {
+            return Err(at(
+                row.len().min(5),
+                format!(
+                    "a distance line has 4 or 5 fields ({FORM}), this one has {}",
+                    row.len()
+                ),
+            ));
+        }
+        let name = |i: usize| -> Result<(String, usize), InputError> {
+            let value = row.field(i).unwrap_or("");
+            if value.is_empty() {
+                return Err(at(
+                    i,
+                    format!(
+                        "distance: field {} is empty, expected a point name ({FORM})",
+                        i + 1
+                    ),
+                ));
+            }
+            Ok((
+                value.to_owned(),
+                self.err_at(self.field_offset(row.start, i), "").column,
+            ))
+        };
+        let points = [name(1)?, name(2)?];
+        if points[0].0 == points[1].0 {
+            return Err(at(
+                2,
+                format!("distance: from the point '{}' to itself", points[0].0),
+            ));
+        }
+        let unit = schema.units.length.name();
+        let positive = |i: usize, what: &str| -> Result<f64, InputError> {
+            let value = row.field(i).unwrap_or("");
+            match value.parse::<f64>() {
+                Ok(x) if x.is_finite() && x > 0.0 => Ok(schema.units.length_to_si(x)),
+                _ => Err(at(
+                    i,
+                    format!(
+                        "distance: {what} {value:?} is not a positive number of {unit} ({FORM})"
+                    ),
+                )),
+            }
+        };
+        let length = positive(3, "the length")?;
+        let std = if row.len() == 5 {
+            positive(4, "the standard uncertainty")?
+        } else {
+            DEFAULT_DISTANCE_STD
+        };
+        Ok(DistanceLine {
+            line: row.line,
+            points,
+            length,
+            std,
+        })
+    }
+}
+
+/// The warning naming the columns `ignored` kept out of the computation, if any.
+fn ignored_warning(
+    file: &str,
+    line: usize,
+    ignored: &[String],
+    schema: &Schema<'_>,
+) -> Option<String> {
+    if ignored.is_empty() {
+        return None;
+    }
+    let names: Vec<String> = ignored
+        .iter()
+        .map(|n| {
+            if n.is_empty() {
+                "(unnamed)".to_owned()
+            } else {
+                format!("'{n}'")
+            }
+        })
+        .collect();
+    Some(format!(
+        "{file}:{line}: columns kept out of the computation: {} (used: {})",
+        names.join(", "),
+        schema.kind.used(schema.dof())
+    ))
 }
 
 /// `1 pose`, `2 poses`.

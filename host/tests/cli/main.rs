@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 mod check_identify;
+mod constraints;
 mod demo;
 mod link;
 mod outputs;

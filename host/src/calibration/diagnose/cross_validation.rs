@@ -281,12 +281,17 @@ impl<'a> Folds<'a> {
             let delta = self.step(subset, &held, Some(f))?;
             let moved = moving(&delta);
             for i in (0..n).filter(|&i| self.fold[i] == Role::Fold(f)) {
-                let row = lin.first_rows[i];
+                // The position rows: 3, or 1 for a touch of a plane.
+                let rows = lin.rows_of(i);
                 let e = Vector3::from_fn(|axis, _| {
-                    lin.r[(row + axis, 0)]
+                    let row = rows.start + axis;
+                    if row >= rows.end {
+                        return 0.0;
+                    }
+                    lin.r[(row, 0)]
                         - moved
                             .iter()
-                            .map(|&c| lin.j[(row + axis, c)] * delta[c])
+                            .map(|&c| lin.j[(row, c)] * delta[c])
                             .sum::<f64>()
                 });
                 errors[i] = e.norm() * lin.position_noise;

@@ -75,7 +75,10 @@ pub fn score(
         let columns: Vec<usize> = (0..lin.j.ncols())
             .filter(|&c| match lin.unknowns[c] {
                 // A Hayati tilt is an effect found, free in every model.
-                Unknown::Param(Param::Beta(_)) | Unknown::Effect { .. } => true,
+                Unknown::Param(Param::Beta(_))
+                | Unknown::Effect { .. }
+                | Unknown::Point { .. }
+                | Unknown::Plane { .. } => true,
                 Unknown::Param(p) => geometry.frees(robot, p),
             })
             .collect();

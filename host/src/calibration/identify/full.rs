@@ -87,6 +87,68 @@ pub enum Unknown {
         /// Which of its parameters ([`Effect::parameter_mut`]).
         component: usize,
     },
+    /// A coordinate of an unknown fixed point of a constraint session (base
+    /// frame, m): a nuisance unknown estimated with the robot.
+    Point {
+        /// Index into [`Model::points`].
+        point: usize,
+        /// 0, 1, 2: x, y, z.
+        axis: usize,
+    },
+    /// A parameter of an unknown plane of a constraint session
+    /// ([`PlaneEstimate`]): a nuisance unknown estimated with the robot.
+    Plane {
+        /// Index into [`Model::planes`].
+        plane: usize,
+        /// 0, 1: the tilts of its normal; 2: its offset from the base origin (m).
+        component: usize,
+    },
+}
+
+/// An unknown plane `n · x = offset` (base frame, m), its unit normal `n =
+/// frame · (a, b, 1)/|(a, b, 1)|`: `frame` is the start's (its z the start's
+/// normal), `a`, `b` the tilts estimated from there, free of singularity near it.
+#[derive(Clone, Debug)]
+pub struct PlaneEstimate {
+    /// The start's frame, its z the start's normal.
+    pub frame: Rotation3<f64>,
+    /// The tilts of the normal in that frame.
+    pub tilt: [f64; 2],
+    /// The plane's signed distance from the base origin along the normal, m.
+    pub offset: f64,
+}
+
+impl PlaneEstimate {
+    /// The plane through `centre` with unit normal `normal`.
+    fn through(centre: &Point3<f64>, normal: &Vector3<f64>) -> Self {
+        let z = normal.normalize();
+        let helper = if z.x.abs() < 0.9 {
+            Vector3::x()
+        } else {
+            Vector3::y()
+        };
+        let x = helper.cross(&z).normalize();
+        let y = z.cross(&x);
+        Self {
+            frame: Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[x, y, z])),
+            tilt: [0.0, 0.0],
+            offset: z.dot(&centre.coords),
+        }
+    }
+
+    /// The unit normal.
+    pub fn normal(&self) -> Vector3<f64> {
+        self.frame * Vector3::new(self.tilt[0], self.tilt[1], 1.0).normalize()
+    }
+
+    /// The derivative of the unit normal with respect to tilt `c` (0 or 1).
+    fn normal_derivative(&self, c: usize) -> Vector3<f64> {
+        let m = Vector3::new(self.tilt[0], self.tilt[1], 1.0);
+        let (norm, u) = (m.norm(), m.normalize());
+        let mut e = Vector3::zeros();
+        e[c] = 1.0;
+        self.frame * ((e - u * u[c]) / norm)
+    }
 }
 
 /// The model being fitted: the geometric robot and its effects.
@@ -96,13 +158,39 @@ pub struct Model {
     pub robot: Robot<f64>,
     /// The non-geometric effects.
     pub effects: Vec<Effect<f64>>,
+    /// The unknown fixed points of a constraint session, base frame, m (empty
+    /// for measured coordinates).
+    pub points: Vec<Point3<f64>>,
+    /// The unknown planes of a constraint session (empty for measured coordinates).
+    pub planes: Vec<PlaneEstimate>,
+    /// The constraints the points come from: their names and the known distances.
+    pub constraints: Constraints,
 }
 
 impl Model {
+    /// The geometric model `robot` with `effects`, without fixed points.
+    fn of(robot: Robot<f64>, effects: Vec<Effect<f64>>) -> Self {
+        Self {
+            robot,
+            effects,
+            points: Vec::new(),
+            planes: Vec::new(),
+            constraints: Constraints::default(),
+        }
+    }
+
     fn get(&self, u: Unknown) -> Option<f64> {
         match u {
             Unknown::Param(p) => self.robot.param(p),
             Unknown::Effect { effect, component } => self.effects.get(effect)?.parameter(component),
+            Unknown::Point { point, axis } => self.points.get(point).map(|p| p[axis]),
+            Unknown::Plane { plane, component } => {
+                self.planes.get(plane).and_then(|p| match component {
+                    0 | 1 => Some(p.tilt[component]),
+                    2 => Some(p.offset),
+                    _ => None,
+                })
+            }
         }
     }
 
@@ -112,6 +200,23 @@ impl Model {
             Unknown::Effect { effect, component } => {
                 self.effects.get_mut(effect)?.parameter_mut(component)
             }
+            Unknown::Point { point, axis } => self.points.get_mut(point).map(|p| &mut p[axis]),
+            Unknown::Plane { plane, component } => {
+                self.planes.get_mut(plane).and_then(|p| match component {
+                    0 | 1 => Some(&mut p.tilt[component]),
+                    2 => Some(&mut p.offset),
+                    _ => None,
+                })
+            }
+        }
+    }
+
+    /// Where row `obs` says the tool point is: its measured position, or the
+    /// current estimate of the fixed point it sits at.
+    fn target(&self, obs: &Observation) -> Point3<f64> {
+        match obs.fixed_point().and_then(|k| self.points.get(k)) {
+            Some(p) => *p,
+            None => obs.position,
         }
     }
 
@@ -125,6 +230,25 @@ impl Model {
                 Some(e) => effect_parameter_name(e, component),
                 None => format!("effect{effect}.{component}"),
             },
+            Unknown::Point { point, axis } => format!(
+                "point {}.{}",
+                self.constraints
+                    .points
+                    .get(point)
+                    .map_or("?", |p| p.name.as_str()),
+                ["x", "y", "z"].get(axis).copied().unwrap_or("?")
+            ),
+            Unknown::Plane { plane, component } => format!(
+                "plane {}.{}",
+                self.constraints
+                    .planes
+                    .get(plane)
+                    .map_or("?", |p| p.name.as_str()),
+                ["tilt1", "tilt2", "offset"]
+                    .get(component)
+                    .copied()
+                    .unwrap_or("?")
+            ),
         }
     }
 }
@@ -149,6 +273,7 @@ pub fn effect_parameter_name(effect: &Effect<f64>, component: usize) -> String {
     }
 }
 
+pub use crate::io::constraints::Constraints;
 pub use crate::io::measurements::Observation;
 
 /// Settings of the full identification.
@@ -297,6 +422,36 @@ pub struct FullFit {
     pub redundancy: f64,
     /// The noise of each channel: used and shown by the residuals.
     pub noise: NoiseEstimate,
+    /// The unknown fixed points of a constraint session, estimated with the
+    /// robot (empty for measured coordinates).
+    pub points: Vec<PointFit>,
+    /// The unknown planes of a constraint session, estimated with the robot.
+    pub planes: Vec<PlaneFit>,
+    /// The known distances of a constraint session as the fit leaves them:
+    /// the distance between the estimated points less the stated one, m.
+    pub distance_residuals: Vec<f64>,
+}
+
+/// One estimated unknown plane `normal · x = offset` (base frame).
+#[derive(Clone, Debug)]
+pub struct PlaneFit {
+    /// Its name in the file.
+    pub name: String,
+    /// Its unit normal.
+    pub normal: Vector3<f64>,
+    /// Its signed distance from the base origin along the normal, m.
+    pub offset: f64,
+}
+
+/// One estimated unknown fixed point.
+#[derive(Clone, Debug)]
+pub struct PointFit {
+    /// Its name in the file.
+    pub name: String,
+    /// Its estimate, base frame, m.
+    pub position: Point3<f64>,
+    /// The standard error of each coordinate, m (NaN where held).
+    pub std: Vector3<f64>,
 }
 
 impl FullFit {
@@ -347,6 +502,16 @@ pub enum FullError {
     /// A non-finite value appeared (the data or the model are unusable).
     #[error("the fit produced a value that is not finite: check units and joint order")]
     NonFinite,
+    /// Rows at unknown points or planes given without their constraints (a
+    /// computation that reads measured coordinates only).
+    #[error(
+        "pose {pose} names an unknown point or plane, but no constraints were given: \
+         this computation reads measured coordinates only"
+    )]
+    ConstraintsMissing {
+        /// 1-based pose index.
+        pose: usize,
+    },
 }
 
 /// The count of independent geometric parameters of a full calibration of
@@ -414,6 +579,41 @@ pub fn identify_from(
     data: &[Observation],
     options: &FullOptions,
 ) -> Result<FullFit, FullError> {
+    identify_constrained(
+        nominal,
+        start,
+        effects,
+        extra,
+        data,
+        &Constraints::default(),
+        options,
+    )
+}
+
+/// [`identify_from`] for a session whose rows may sit at unknown fixed points
+/// tied by known distances (`constraints`, see [`crate::io::constraints`])
+/// instead of measuring coordinates: each point's three coordinates are
+/// unknowns of the same fit (first in the order of preference), each distance
+/// one more row weighted by its stated uncertainty. The base is then not
+/// observable and is held at nominal with that reason. With no points this is
+/// [`identify_from`].
+pub fn identify_constrained(
+    nominal: &Robot<f64>,
+    start: Option<&Robot<f64>>,
+    effects: &[Effect<f64>],
+    extra: &[Param],
+    data: &[Observation],
+    constraints: &Constraints,
+    options: &FullOptions,
+) -> Result<FullFit, FullError> {
+    let constrained = !constraints.is_empty();
+    if let Some(i) = data.iter().position(|o| {
+        o.fixed_point()
+            .is_some_and(|k| k >= constraints.points.len())
+            || o.on_plane().is_some_and(|k| k >= constraints.planes.len())
+    }) {
+        return Err(FullError::ConstraintsMissing { pose: i + 1 });
+    }
     if let Some(joint) = effects
         .iter()
         .filter_map(|e| e.joint())
@@ -437,24 +637,37 @@ pub fn identify_from(
         .into_iter()
         .chain(extra.iter().copied())
         .collect();
-    let frees = |p: &Param| options.geometry.frees(nominal, *p) || extra.contains(p);
+    // Without a measured coordinate the base frame is arbitrary: the fixed
+    // points are found in whatever frame the base sets.
+    let base_unobservable = |p: &Param| constrained && matches!(p, Param::Base(_));
+    let frees = |p: &Param| {
+        (options.geometry.frees(nominal, *p) || extra.contains(p)) && !base_unobservable(p)
+    };
     let held_by_model: Vec<(Unknown, String)> = all
         .iter()
         .filter(|p| !frees(p))
         .map(|p| {
-            (
-                Unknown::Param(*p),
+            let reason = if base_unobservable(p) {
+                "not observable: the data measure no coordinate (only unknown fixed points \
+                 and distances between them), so the base frame is arbitrary; held at nominal"
+                    .to_owned()
+            } else {
                 format!(
                     "held at nominal: the {} model does not free it",
                     options.geometry.name()
-                ),
-            )
+                )
+            };
+            (Unknown::Param(*p), reason)
         })
         .collect();
-    let mut params: Vec<Unknown> = all
-        .iter()
-        .filter(|p| frees(p))
-        .map(|p| Unknown::Param(*p))
+    let point_unknowns = (0..constraints.points.len())
+        .flat_map(|point| (0..3).map(move |axis| Unknown::Point { point, axis }))
+        .chain(
+            (0..constraints.planes.len())
+                .flat_map(|plane| (0..3).map(move |component| Unknown::Plane { plane, component })),
+        );
+    let mut params: Vec<Unknown> = point_unknowns
+        .chain(all.iter().filter(|p| frees(p)).map(|p| Unknown::Param(*p)))
         .collect();
     for (effect, e) in effects.iter().enumerate() {
         params.extend(
@@ -463,9 +676,14 @@ pub fn identify_from(
     }
     // However the columns happen to fall, fewer equations than the model's
     // independent parameters (Everett, Driels & Mooring) cannot determine it.
-    let equations = LinearSystem::rows(data);
-    let unknowns =
+    let equations = LinearSystem::rows(data) + constraints.equations();
+    let mut unknowns =
         independent_parameter_count(nominal, data.iter().all(|o| o.orientation.is_some()));
+    if constrained {
+        // No base (6), three coordinates per point.
+        unknowns = (unknowns + 3 * constraints.points.len() + 3 * constraints.planes.len())
+            .saturating_sub(6);
+    }
     if equations < unknowns {
         return Err(FullError::TooFewEquations {
             equations,
@@ -473,11 +691,20 @@ pub fn identify_from(
         });
     }
 
-    let mut robot = Model {
-        robot: start.unwrap_or(nominal).clone(),
-        effects: effects.to_vec(),
-    };
-    if options.initial_estimate && start.is_none() {
+    let mut robot = Model::of(start.unwrap_or(nominal).clone(), effects.to_vec());
+    if constrained {
+        robot.constraints = constraints.clone();
+        robot.points = vec![Point3::origin(); constraints.points.len()];
+        robot.planes = vec![
+            PlaneEstimate::through(&Point3::origin(), &Vector3::z());
+            constraints.planes.len()
+        ];
+        initial_points_tool(
+            &mut robot,
+            data,
+            options.initial_estimate && start.is_none(),
+        );
+    } else if options.initial_estimate && start.is_none() {
         initial_base_tool(&mut robot.robot, data);
     }
     // What this model does not free is nominal, whatever the start.
@@ -508,7 +735,11 @@ pub fn identify_from(
         round += 1;
         let weights = (1.0 / noise.0, 1.0 / noise.1);
         let system = NormalEquations::accumulate(&robot, data, &params, weights);
-        let (free, f) = separable_subset(&system, &params, &robot, data, options, noise_scale);
+        let (free, f) = if constrained {
+            constrained_subset(&params, &robot, data, options, noise_scale, weights)
+        } else {
+            separable_subset(&system, &params, &robot, data, options, noise_scale)
+        };
         fixed = f;
         if equations < free.len() && options.prior == Prior::NONE {
             return Err(FullError::TooFewEquations {
@@ -524,7 +755,9 @@ pub fn identify_from(
             let keep = match *p {
                 Unknown::Param(Param::Base(_) | Param::Tool(_)) => start.get(*p),
                 Unknown::Param(q) => nominal.param(q),
-                Unknown::Effect { .. } => start.get(*p),
+                Unknown::Effect { .. } | Unknown::Point { .. } | Unknown::Plane { .. } => {
+                    start.get(*p)
+                }
             };
             if let (Some(v), Some(slot)) = (keep, robot.get_mut(*p)) {
                 moved |= *slot != v;
@@ -589,8 +822,12 @@ pub fn identify_from(
         if variance_factor <= significant * noise_scale * noise_scale {
             break;
         }
-        let system = NormalEquations::accumulate(&robot, data, &params, weights);
-        let (free_again, _) = separable_subset(&system, &params, &robot, data, options, new_scale);
+        let (free_again, _) = if constrained {
+            constrained_subset(&params, &robot, data, options, new_scale, weights)
+        } else {
+            let system = NormalEquations::accumulate(&robot, data, &params, weights);
+            separable_subset(&system, &params, &robot, data, options, new_scale)
+        };
         noise_scale = new_scale;
         if free_again.iter().map(|&k| params[k]).collect::<Vec<_>>() == free_params {
             break;
@@ -711,7 +948,49 @@ pub fn identify_from(
     if !sys.cost().is_finite() {
         return Err(FullError::NonFinite);
     }
+    let points = robot
+        .constraints
+        .points
+        .iter()
+        .zip(&robot.points)
+        .enumerate()
+        .map(|(point, (named, position))| PointFit {
+            name: named.name.clone(),
+            position: *position,
+            std: Vector3::from_fn(|axis, _| {
+                free_params
+                    .iter()
+                    .position(|u| *u == Unknown::Point { point, axis })
+                    .map_or(f64::NAN, |k| std_of[k])
+            }),
+        })
+        .collect();
+    let distance_residuals = robot
+        .constraints
+        .distances
+        .iter()
+        .map(|d| {
+            let [a, b] = d
+                .points
+                .map(|k| robot.points.get(k).copied().unwrap_or_else(Point3::origin));
+            (a - b).norm() - d.length
+        })
+        .collect();
+    let planes = robot
+        .constraints
+        .planes
+        .iter()
+        .zip(&robot.planes)
+        .map(|(named, p)| PlaneFit {
+            name: named.name.clone(),
+            normal: p.normal(),
+            offset: p.offset,
+        })
+        .collect();
     Ok(FullFit {
+        points,
+        planes,
+        distance_residuals,
         params: results,
         calibrated: robot.robot,
         effects: effect_fits,
@@ -739,7 +1018,7 @@ fn prior_terms(free: &[Unknown], nominal: &Robot<f64>, prior: &Prior) -> Vec<(f6
     free.iter()
         .map(|u| match u {
             Unknown::Param(p) => (prior.precision(*p), nominal.param(*p).unwrap_or(0.0)),
-            Unknown::Effect { .. } => (0.0, 0.0),
+            Unknown::Effect { .. } | Unknown::Point { .. } | Unknown::Plane { .. } => (0.0, 0.0),
         })
         .collect()
 }
@@ -768,6 +1047,8 @@ struct Posterior {
     rows: (usize, usize),
     /// Redundancies: positions, orientations.
     redundancy: (f64, f64),
+    /// The known-distance rows: weighted sum of squares and redundancy.
+    distances: (f64, f64),
     /// The diagonal of the resolution matrix `(G + P)⁻¹ G`.
     share: Vec<f64>,
 }
@@ -791,7 +1072,9 @@ impl Posterior {
                 .sum(),
             None => p as f64,
         };
-        let (tp, t) = (trace(&gp), trace(&g));
+        let go = Mat::from_fn(p, p, |a, b| sys.jtj[1][(a, b)] * scale[a] * scale[b]);
+        let gd = Mat::from_fn(p, p, |a, b| sys.distances.jtj[(a, b)] * scale[a] * scale[b]);
+        let (tp, to, td) = (trace(&gp), trace(&go), trace(&gd));
         let share = (0..p)
             .map(|k| match &cov {
                 Some(c) => (0..p).map(|j| c[(k, j)] * g[(j, k)]).sum::<f64>(),
@@ -802,21 +1085,22 @@ impl Posterior {
             cov,
             omega,
             rows,
-            redundancy: (rows.0 as f64 - tp, rows.1 as f64 - (t - tp)),
+            redundancy: (rows.0 as f64 - tp, rows.1 as f64 - to),
+            distances: (sys.distances.rtr, sys.distances.rows as f64 - td),
             share,
         }
     }
 
     /// The total redundancy.
     fn redundancy(&self) -> f64 {
-        self.redundancy.0 + self.redundancy.1
+        self.redundancy.0 + self.redundancy.1 + self.distances.1
     }
 
     /// The a-posteriori variance factor: the weighted sum of squares over the redundancy.
     fn variance_factor(&self) -> f64 {
         let r = self.redundancy();
         if r > 0.0 {
-            (self.omega.0 + self.omega.1) / r
+            (self.omega.0 + self.omega.1 + self.distances.0) / r
         } else {
             1.0
         }
@@ -839,10 +1123,7 @@ pub fn linearize(
     data: &[Observation],
     prior: &Prior,
 ) -> Linearization {
-    let mut model = Model {
-        robot: fit.calibrated.clone(),
-        effects: fit.fitted_effects(),
-    };
+    let mut model = Model::of(fit.calibrated.clone(), fit.fitted_effects());
     let identified = |s: &Status| matches!(s, Status::Identified { .. });
     let mut unknowns: Vec<Unknown> = Vec::new();
     let mut offset: Vec<f64> = Vec::new();
@@ -870,7 +1151,7 @@ pub fn linearize(
         .iter()
         .map(|u| match u {
             Unknown::Param(p) => prior.precision(*p),
-            Unknown::Effect { .. } => 0.0,
+            Unknown::Effect { .. } | Unknown::Point { .. } | Unknown::Plane { .. } => 0.0,
         })
         .collect();
     let position_noise = fit.noise.position.used;
@@ -885,13 +1166,99 @@ pub fn linearize(
     let mut row = 0;
     for obs in data {
         first_rows.push(row);
-        row += if obs.orientation.is_some() { 6 } else { 3 };
+        row += obs.equations();
     }
     Linearization {
         j: sys.j,
         r: sys.r,
         first_rows,
         fitted: base,
+        position_noise,
+        unknowns,
+        precision,
+        offset,
+    }
+}
+
+/// [`linearize`] of a constraint session's fit (`constraints` the session's):
+/// the columns of the identified geometry, then of the identified points and
+/// every plane parameter, at the solution; the rows of the poses (a touch of a
+/// plane one row), then one row per known distance, after the poses in
+/// [`Linearization::first_rows`] (a cross-validation trains on them always).
+pub fn linearize_constrained(
+    fit: &FullFit,
+    data: &[Observation],
+    constraints: &Constraints,
+    prior: &Prior,
+) -> Linearization {
+    let mut model = Model::of(fit.calibrated.clone(), Vec::new());
+    model.constraints = constraints.clone();
+    model.points = fit.points.iter().map(|p| p.position).collect();
+    model.planes = fit
+        .planes
+        .iter()
+        .map(|p| PlaneEstimate::through(&Point3::from(p.normal * p.offset), &p.normal))
+        .collect();
+    let mut unknowns: Vec<Unknown> = Vec::new();
+    let mut offset: Vec<f64> = Vec::new();
+    for p in fit
+        .params
+        .iter()
+        .filter(|p| matches!(p.status, Status::Identified { .. }))
+    {
+        unknowns.push(Unknown::Param(p.param));
+        offset.push(p.error);
+    }
+    for (point, p) in fit.points.iter().enumerate() {
+        for axis in (0..3).filter(|&a| p.std[a].is_finite()) {
+            unknowns.push(Unknown::Point { point, axis });
+            offset.push(0.0);
+        }
+    }
+    for plane in 0..fit.planes.len() {
+        for component in 0..3 {
+            unknowns.push(Unknown::Plane { plane, component });
+            offset.push(0.0);
+        }
+    }
+    let precision = unknowns
+        .iter()
+        .map(|u| match u {
+            Unknown::Param(p) => prior.precision(*p),
+            _ => 0.0,
+        })
+        .collect();
+    let position_noise = fit.noise.position.used;
+    let sys = LinearSystem::build(&model, data, &unknowns, (1.0 / position_noise, 1.0));
+    let distances = DistanceRows::rows(&model, &unknowns);
+    let poses_rows = sys.j.nrows();
+    let rows = poses_rows + distances.len();
+    let j = Mat::from_fn(rows, unknowns.len(), |i, c| {
+        if i < poses_rows {
+            sys.j[(i, c)]
+        } else {
+            distances[i - poses_rows].0[c]
+        }
+    });
+    let r = Mat::from_fn(rows, 1, |i, _| {
+        if i < poses_rows {
+            sys.r[(i, 0)]
+        } else {
+            distances[i - poses_rows].1
+        }
+    });
+    let mut first_rows = Vec::with_capacity(data.len() + distances.len());
+    let mut row = 0;
+    for obs in data {
+        first_rows.push(row);
+        row += obs.equations();
+    }
+    first_rows.extend(poses_rows..rows);
+    Linearization {
+        j,
+        r,
+        first_rows,
+        fitted: unknowns.len(),
         position_noise,
         unknowns,
         precision,
@@ -1062,9 +1429,7 @@ struct LinearSystem {
 
 impl LinearSystem {
     fn rows(data: &[Observation]) -> usize {
-        data.iter()
-            .map(|o| if o.orientation.is_some() { 6 } else { 3 })
-            .sum()
+        data.iter().map(Observation::equations).sum()
     }
 
     /// The linearisation at `model`: per pose its 3 position rows, then its 3
@@ -1075,14 +1440,14 @@ impl LinearSystem {
         let mut r = Mat::zeros(rows, 1);
         let mut row = 0;
         for_each_pose_rows(model, data, params, weights, |pose| {
-            let n = if pose.orientation { 6 } else { 3 };
-            for i in 0..n {
-                r[(row + i, 0)] = pose.r[i];
+            let orientation = if pose.orientation { 3..6 } else { 0..0 };
+            for i in (0..pose.position_rows).chain(orientation) {
+                r[(row, 0)] = pose.r[i];
                 for k in 0..params.len() {
-                    j[(row + i, k)] = pose.row(i)[k];
+                    j[(row, k)] = pose.row(i)[k];
                 }
+                row += 1;
             }
-            row += n;
         });
         Self { j, r }
     }
@@ -1100,6 +1465,9 @@ struct PoseRows {
     r: [f64; 6],
     /// Whether the orientation rows are present.
     orientation: bool,
+    /// The position rows: 3, or 1 for a touch of a plane (its distance along
+    /// the normal; rows 1..3 then hold zeros).
+    position_rows: usize,
 }
 
 impl PoseRows {
@@ -1137,6 +1505,7 @@ fn for_each_pose_rows(
         params: params.len(),
         r: [0.0; 6],
         orientation: false,
+        position_rows: 3,
     };
     let base_columns = chain.base_columns();
     let effects = (!model.effects.is_empty())
@@ -1190,10 +1559,14 @@ fn for_each_pose_rows(
         }
         let tool_columns = chain.tool_columns();
         let p = chain.point();
-        let dp = obs.position - p;
+        let dp = model.target(obs) - p;
         let orientation = obs
             .orientation
             .map(|q| rotation_error(&q.to_rotation_matrix(), &chain.end.rotation));
+        // A touch of a plane: one row, the distance along the normal.
+        let touched = obs
+            .on_plane()
+            .and_then(|k| model.planes.get(k).map(|pl| (k, pl, pl.normal())));
         for (k, &u) in params.iter().enumerate() {
             let col: Twist<f64> = match u {
                 Unknown::Param(Param::Base(ax)) => base_columns[ax.index()],
@@ -1225,9 +1598,42 @@ fn for_each_pose_rows(
                         }
                     }
                 }
+                Unknown::Plane { plane, component } => {
+                    let n = params.len();
+                    for i in 0..6 {
+                        rows.j[i * n + k] = 0.0;
+                    }
+                    if let Some((own, pl, _)) = touched
+                        && own == plane
+                    {
+                        // The plane's side of the row: `offset`, against the model's `n · p`.
+                        rows.j[k] = wp
+                            * match component {
+                                0 | 1 => pl.normal_derivative(component).dot(&p.coords),
+                                _ => -1.0,
+                            };
+                    }
+                    continue;
+                }
+                Unknown::Point { point, axis } => {
+                    // The row's target moves with its own point: −1 on the axis.
+                    let n = params.len();
+                    let own = obs.fixed_point() == Some(point);
+                    for i in 0..6 {
+                        rows.j[i * n + k] = if own && i == axis { -wp } else { 0.0 };
+                    }
+                    continue;
+                }
             };
             let v = at_point(&col, &p);
             let n = params.len();
+            if let Some((_, _, normal)) = touched {
+                rows.j[k] = normal.dot(&Vector3::new(v[0], v[1], v[2])) * wp;
+                for i in 1..6 {
+                    rows.j[i * n + k] = 0.0;
+                }
+                continue;
+            }
             for i in 0..3 {
                 rows.j[i * n + k] = v[i] * wp;
             }
@@ -1240,7 +1646,13 @@ fn for_each_pose_rows(
         for i in 0..3 {
             rows.r[i] = dp[i] * wp;
         }
-        rows.orientation = orientation.is_some();
+        rows.position_rows = 3;
+        if let Some((_, pl, normal)) = touched {
+            rows.r = [0.0; 6];
+            rows.r[0] = (pl.offset - normal.dot(&p.coords)) * wp;
+            rows.position_rows = 1;
+        }
+        rows.orientation = orientation.is_some() && touched.is_none();
         if let Some(e) = orientation {
             for i in 0..3 {
                 rows.r[3 + i] = e[i] * wr;
@@ -1278,12 +1690,78 @@ const CHUNK_POSES: usize = 8 * BLOCK_POSES;
 /// The position channel is kept apart for the per-channel redundancy of
 /// [`Posterior`], and so that a change of the noises is a scalar multiply of
 /// each channel ([`NormalEquations::reweighted`]).
+///
+/// The known distances of a constraint session are rows of their own
+/// (`distances`), each divided by its stated uncertainty and never reweighed.
 #[derive(Clone)]
 struct NormalEquations {
     jtj: [Mat<f64>; 2],
     jtr: [Mat<f64>; 2],
     rtr: [f64; 2],
     rows: [usize; 2],
+    distances: DistanceRows,
+}
+
+/// The normal equations of the known-distance rows: `(L − |P_a − P_b|)/σ`,
+/// whose Jacobian row is `u/σ` on the columns of `P_a` and `−u/σ` on those of
+/// `P_b` (`u` the unit vector from `P_b` to `P_a`).
+#[derive(Clone)]
+struct DistanceRows {
+    jtj: Mat<f64>,
+    jtr: Mat<f64>,
+    rtr: f64,
+    rows: usize,
+}
+
+impl DistanceRows {
+    /// The rows of `model`'s distances over the unknowns `params`.
+    fn of(model: &Model, params: &[Unknown]) -> Self {
+        let p = params.len();
+        let mut sums = Self {
+            jtj: Mat::zeros(p, p),
+            jtr: Mat::zeros(p, 1),
+            rtr: 0.0,
+            rows: model.constraints.distances.len(),
+        };
+        for (row, r) in Self::rows(model, params) {
+            for i in 0..p {
+                sums.jtr[(i, 0)] += row[i] * r;
+                for j in 0..p {
+                    sums.jtj[(i, j)] += row[i] * row[j];
+                }
+            }
+            sums.rtr += r * r;
+        }
+        sums
+    }
+
+    /// Each distance's weighted Jacobian row over `params` and weighted residual.
+    fn rows(model: &Model, params: &[Unknown]) -> Vec<(Vec<f64>, f64)> {
+        let mut out = Vec::new();
+        for d in &model.constraints.distances {
+            let [a, b] = d
+                .points
+                .map(|k| model.points.get(k).copied().unwrap_or_else(Point3::origin));
+            let v = a - b;
+            let length = v.norm();
+            let u = if length > 0.0 {
+                v / length
+            } else {
+                Vector3::zeros()
+            };
+            let r = (d.length - length) / d.std;
+            let row: Vec<f64> = params
+                .iter()
+                .map(|x| match *x {
+                    Unknown::Point { point, axis } if point == d.points[0] => u[axis] / d.std,
+                    Unknown::Point { point, axis } if point == d.points[1] => -u[axis] / d.std,
+                    _ => 0.0,
+                })
+                .collect();
+            out.push((row, r));
+        }
+        out
+    }
 }
 
 impl NormalEquations {
@@ -1304,8 +1782,11 @@ impl NormalEquations {
         });
         let mut partials = partials.into_iter();
         let Some(mut sums) = partials.next() else {
-            return Self::accumulate_chunk(model, data, params, weights);
+            let mut sums = Self::accumulate_chunk(model, data, params, weights);
+            sums.distances = DistanceRows::of(model, params);
+            return sums;
         };
+        sums.distances = DistanceRows::of(model, params);
         for part in partials {
             for c in 0..2 {
                 sums.jtj[c] += &part.jtj[c];
@@ -1332,7 +1813,18 @@ impl NormalEquations {
             jtj: [Mat::zeros(p, p), Mat::zeros(p, p)],
             jtr: [Mat::zeros(p, 1), Mat::zeros(p, 1)],
             rtr: [0.0; 2],
-            rows: [3 * data.len(), 3 * orientations],
+            rows: [
+                data.iter()
+                    .map(|o| if o.on_plane().is_some() { 1 } else { 3 })
+                    .sum(),
+                3 * orientations,
+            ],
+            distances: DistanceRows {
+                jtj: Mat::zeros(p, p),
+                jtr: Mat::zeros(p, 1),
+                rtr: 0.0,
+                rows: 0,
+            },
         };
         let block_rows = 3 * BLOCK_POSES.min(data.len().max(1));
         let mut block = Block {
@@ -1346,7 +1838,8 @@ impl NormalEquations {
                     continue;
                 }
                 let row = block.filled[c];
-                for i in 0..3 {
+                let count = if c == 0 { pose.position_rows } else { 3 };
+                for i in 0..count {
                     block.r[c][(row + i, 0)] = pose.r[offset + i];
                     if p > 0 {
                         block
@@ -1354,10 +1847,10 @@ impl NormalEquations {
                             .copy_from_slice(pose.row(offset + i));
                     }
                 }
-                block.filled[c] += 3;
+                block.filled[c] += count;
             }
-            // The orientation rows never outnumber the position rows.
-            if block.filled[0] == block_rows {
+            // Room for the next pose's rows in both channels.
+            if block.filled[0] + 3 > block_rows || block.filled[1] + 3 > block_rows {
                 block.add_to(&mut sums);
             }
         });
@@ -1375,13 +1868,16 @@ impl NormalEquations {
 
     /// The weighted sum of squares of the residual.
     fn cost(&self) -> f64 {
-        self.rtr[0] + self.rtr[1]
+        self.rtr[0] + self.rtr[1] + self.distances.rtr
     }
 
-    /// `JᵀJ` of both channels.
+    /// `JᵀJ` of both channels and of the distance rows.
     fn normal_matrix(&self) -> Mat<f64> {
         let [p, o] = &self.jtj;
-        Mat::from_fn(p.nrows(), p.ncols(), |a, b| p[(a, b)] + o[(a, b)])
+        let d = &self.distances.jtj;
+        Mat::from_fn(p.nrows(), p.ncols(), |a, b| {
+            p[(a, b)] + o[(a, b)] + d[(a, b)]
+        })
     }
 
     /// `(Gs, Jsᵀr, scale)`: the normal matrix of the columns scaled to unit norm,
@@ -1393,7 +1889,8 @@ impl NormalEquations {
         let scale = unit_diagonal_scale(&g);
         let gs = Mat::from_fn(n, n, |a, b| g[(a, b)] * scale[a] * scale[b]);
         let [p, o] = &self.jtr;
-        let rhs = Mat::from_fn(n, 1, |a, _| (p[(a, 0)] + o[(a, 0)]) * scale[a]);
+        let d = &self.distances.jtr;
+        let rhs = Mat::from_fn(n, 1, |a, _| (p[(a, 0)] + o[(a, 0)] + d[(a, 0)]) * scale[a]);
         (gs, rhs, scale)
     }
 
@@ -1412,6 +1909,12 @@ impl NormalEquations {
                 .map(|v| Mat::from_fn(n, 1, |a, _| v[(columns[a], 0)])),
             rtr: self.rtr,
             rows: self.rows,
+            distances: DistanceRows {
+                jtj: Mat::from_fn(n, n, |a, b| self.distances.jtj[(columns[a], columns[b])]),
+                jtr: Mat::from_fn(n, 1, |a, _| self.distances.jtr[(columns[a], 0)]),
+                rtr: self.distances.rtr,
+                rows: self.distances.rows,
+            },
         }
     }
 
@@ -1549,9 +2052,17 @@ fn separable_subset(
         // Effect parameters have units of their own: only exact dependence holds them.
         // A parameter with a prior is held near nominal by the prior, not here.
         let (limit, unit) = match params[k] {
+            // A constraint session's base, in its selection only: kept to
+            // absorb the joint parameters that move the arm as it would.
+            Unknown::Param(Param::Base(_)) if !robot.points.is_empty() => (f64::INFINITY, ""),
             Unknown::Param(p) if options.prior.precision(p) > 0.0 => (f64::INFINITY, ""),
             Unknown::Param(p) if p.is_angle() => (options.max_std_angle, "rad"),
-            Unknown::Param(_) => (options.max_std_length, "m"),
+            Unknown::Plane {
+                component: 0 | 1, ..
+            } => (options.max_std_angle, "rad"),
+            Unknown::Param(_) | Unknown::Point { .. } | Unknown::Plane { .. } => {
+                (options.max_std_length, "m")
+            }
             Unknown::Effect { .. } => (f64::INFINITY, ""),
         };
         if d > tol2 && std > limit {
@@ -1574,6 +2085,60 @@ fn separable_subset(
         }
     }
     (kept, fixed)
+}
+
+/// [`separable_subset`] of a constraint session's unknowns `params` (the
+/// points first; no base): the selection is made with the six base columns
+/// after the points, as though the base were free, and the base then left out.
+/// A joint parameter that moves the whole arm as the base would (`θ1`, `s1`
+/// about a first axis along the base z) is so held as not separable from the
+/// base, exactly at any linearisation, where beside the points alone it would
+/// be only at the solution (the start's tool points of one point's rows are
+/// apart by the model's errors).
+fn constrained_subset(
+    params: &[Unknown],
+    robot: &Model,
+    data: &[Observation],
+    options: &FullOptions,
+    noise_scale: f64,
+    weights: (f64, f64),
+) -> (Vec<usize>, Vec<(Unknown, String)>) {
+    let points = params
+        .iter()
+        .take_while(|u| matches!(u, Unknown::Point { .. } | Unknown::Plane { .. }))
+        .count();
+    let selection: Vec<Unknown> = params[..points]
+        .iter()
+        .copied()
+        .chain(
+            FrameAxis::ALL
+                .into_iter()
+                .map(|a| Unknown::Param(Param::Base(a))),
+        )
+        .chain(params[points..].iter().copied())
+        .collect();
+    let system = NormalEquations::accumulate(robot, data, &selection, weights);
+    let (kept, fixed) = separable_subset(&system, &selection, robot, data, options, noise_scale);
+    let is_base = |u: &Unknown| matches!(u, Unknown::Param(Param::Base(_)));
+    let free = kept
+        .into_iter()
+        .filter_map(|k| params.iter().position(|u| *u == selection[k]))
+        .collect();
+    let fixed = fixed
+        .into_iter()
+        .filter(|(u, _)| !is_base(u))
+        .map(|(u, reason)| {
+            if reason.contains("base.") {
+                (
+                    u,
+                    format!("{reason} (a motion of the base frame, which these data cannot see)"),
+                )
+            } else {
+                (u, reason)
+            }
+        })
+        .collect();
+    (free, fixed)
 }
 
 /// Names the kept parameters that column `k` depends on, and the geometry behind it.
@@ -1610,9 +2175,32 @@ fn dependence_reason(
         format!("not separable from {}", list.join(", "))
     };
     let geometry = match params[k] {
+        // Without a measured coordinate the first axis is a line of the arbitrary frame.
+        Unknown::Param(Param::Theta(0)) if !robot.constraints.is_empty() => Some(
+            "a turn about axis 1 moves every tool point as a turn of the base would, and no \
+             coordinate is measured"
+                .into(),
+        ),
+        Unknown::Param(Param::S(0)) if !robot.constraints.is_empty() => Some(
+            "a shift along axis 1 moves every tool point as a shift of the base would, and no \
+             coordinate is measured"
+                .into(),
+        ),
         Unknown::Param(p) => geometry_reason(p, &robot.robot, data),
-        Unknown::Effect { .. } => None,
-    };
+        Unknown::Effect { .. } | Unknown::Point { .. } | Unknown::Plane { .. } => None,
+    }
+    .or_else(|| {
+        names
+            .iter()
+            .take_while(|x| x.0 >= 0.1 * top && x.0 > 0.0)
+            .take(3)
+            .any(|(_, u)| matches!(u, Unknown::Point { .. } | Unknown::Plane { .. }))
+            .then(|| {
+                "it moves every tool point alike, and the unknown fixed points move with it \
+                 (a motion of the frame they are found in)"
+                    .to_owned()
+            })
+    });
     if let Some(geometry) = geometry {
         reason.push_str(": ");
         reason.push_str(&geometry);
@@ -1771,6 +2359,84 @@ fn initial_base_tool(robot: &mut Robot<f64>, data: &[Observation]) {
     }
     if frames_cost(&trial.base.isometry(), &trial.tool.isometry()) < before {
         *robot = trial;
+    }
+}
+
+/// The start of a constraint session's fit: each unknown fixed point at the
+/// mean of the tool points its rows put there and, when `tool` is set, the
+/// tool point that brings them closest together (a linear least-squares
+/// problem once the points are eliminated: `Σ_k Σ_i |(R_i − R̄_k) t + p_i − p̄_k|²`
+/// over the flange frames `(R_i, p_i)` of point `k`'s rows, with a faint pull
+/// to the nominal tool point where the rows leave it undetermined). The base
+/// is nominal; the distances do not enter the start.
+fn initial_points_tool(model: &mut Model, data: &[Observation], tool: bool) {
+    let mut bare = model.robot.clone();
+    bare.tool = armcal_shared::Frame::identity();
+    let bare = bare.prepare();
+    let flange: Vec<Option<IsometryMatrix3<f64>>> =
+        data.iter().map(|o| bare.forward(&o.q).ok()).collect();
+    let points = model.points.len();
+    // Mean flange position and rotation of each point's rows.
+    let mut sums = vec![(Vector3::zeros(), Matrix3::zeros(), 0usize); points];
+    for (obs, f) in data.iter().zip(&flange) {
+        if let (Some(k), Some(f)) = (obs.fixed_point(), f)
+            && let Some(s) = sums.get_mut(k)
+        {
+            s.0 += f.translation.vector;
+            s.1 += f.rotation.matrix();
+            s.2 += 1;
+        }
+    }
+    let means: Vec<(Vector3<f64>, Matrix3<f64>)> = sums
+        .iter()
+        .map(|(p, r, n)| {
+            let n = (*n).max(1) as f64;
+            (p / n, r / n)
+        })
+        .collect();
+    let mut t = model.robot.tool.xyz;
+    if tool {
+        let mut a = Matrix3::<f64>::zeros();
+        let mut b = Vector3::<f64>::zeros();
+        for (obs, f) in data.iter().zip(&flange) {
+            if let (Some(k), Some(f)) = (obs.fixed_point(), f) {
+                let (p_mean, r_mean) = means[k];
+                let dr = f.rotation.matrix() - r_mean;
+                a += dr.transpose() * dr;
+                b -= dr.transpose() * (f.translation.vector - p_mean);
+            }
+        }
+        let ridge = 1e-6 * a.trace() / 3.0;
+        let a = a + Matrix3::identity() * ridge;
+        let b = b + t * ridge;
+        if let Some(x) = a.cholesky().map(|c| c.solve(&b))
+            && x.iter().all(|v| v.is_finite())
+        {
+            t = x;
+        }
+    }
+    model.robot.tool.xyz = t;
+    model.points = means.iter().map(|(p, r)| Point3::from(p + r * t)).collect();
+    // Each plane through its touches' centroid, normal to their least spread.
+    for (k, plane) in model.planes.iter_mut().enumerate() {
+        let touches: Vec<Vector3<f64>> = data
+            .iter()
+            .zip(&flange)
+            .filter(|(o, _)| o.on_plane() == Some(k))
+            .filter_map(|(_, f)| f.as_ref().map(|f| f.translation.vector + f.rotation * t))
+            .collect();
+        if touches.len() < 3 {
+            continue;
+        }
+        let centre = touches.iter().sum::<Vector3<f64>>() / touches.len() as f64;
+        let scatter: Matrix3<f64> = touches
+            .iter()
+            .map(|x| (x - centre) * (x - centre).transpose())
+            .sum();
+        let eigen = scatter.symmetric_eigen();
+        let smallest = eigen.eigenvalues.imin();
+        let normal: Vector3<f64> = eigen.eigenvectors.column(smallest).into();
+        *plane = PlaneEstimate::through(&Point3::from(centre), &normal);
     }
 }
 

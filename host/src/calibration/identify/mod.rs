@@ -15,6 +15,9 @@ pub mod noise;
 pub mod paper;
 pub mod prior;
 
+#[cfg(test)]
+mod constraint_tests;
+
 use std::fmt::Write as _;
 
 use armcal_shared::calibration::ParamError;
@@ -179,7 +182,15 @@ pub fn identify(
     let orientation = data.poses.iter().any(|p| p.orientation.is_some());
     let (iterations, converged, parameters, calibrated, fit) = match set {
         ParamSet::Full => {
-            let fit = full::identify_full(nominal, observations(data), options)?;
+            let fit = full::identify_constrained(
+                nominal,
+                None,
+                &[],
+                &[],
+                observations(data),
+                &data.constraints,
+                options,
+            )?;
             let rows: Vec<ParamRow> = fit
                 .params
                 .iter()
@@ -252,7 +263,11 @@ pub fn identify(
         }
     };
     let obs = observations(data);
-    let (position_rms, orientation_rms) = full::residual_rms(&calibrated, obs);
+    let (position_rms, orientation_rms) = match &fit {
+        // The distance of each tool point to its estimated fixed point.
+        Some(f) if data.is_constrained() => (f.position_rms, 0.0),
+        _ => full::residual_rms(&calibrated, obs),
+    };
     let mut calibration = Calibration::nominal(nominal.clone(), orientation, model.units);
     for row in parameters
         .iter()
@@ -330,6 +345,35 @@ impl Identification {
                     .map(|(a, b, r)| json!({"a": a.to_string(), "b": b.to_string(), "r": r}))
                     .collect::<Vec<_>>()
             );
+            if !fit.points.is_empty() || !fit.planes.is_empty() {
+                let length = |x: f64| units.length_from_si(x);
+                out["points"] = json!(
+                    fit.points
+                        .iter()
+                        .map(|p| json!({
+                            "name": p.name,
+                            "xyz": [length(p.position.x), length(p.position.y), length(p.position.z)],
+                            "std": p.std.iter().map(|s| s.is_finite().then(|| length(*s))).collect::<Vec<_>>(),
+                        }))
+                        .collect::<Vec<_>>()
+                );
+                out["planes"] = json!(
+                    fit.planes
+                        .iter()
+                        .map(|p| json!({
+                            "name": p.name,
+                            "normal": [p.normal.x, p.normal.y, p.normal.z],
+                            "offset": length(p.offset),
+                        }))
+                        .collect::<Vec<_>>()
+                );
+                out["distance_residuals"] = json!(
+                    fit.distance_residuals
+                        .iter()
+                        .map(|d| length(*d))
+                        .collect::<Vec<_>>()
+                );
+            }
         }
         out
     }
@@ -406,6 +450,67 @@ impl Identification {
                     .as_deref()
                     .map_or("identified".to_string(), |why| format!("fixed: {why}")),
             );
+        }
+        if let Some(fit) = self
+            .full
+            .as_ref()
+            .filter(|f| !f.points.is_empty() || !f.planes.is_empty())
+        {
+            let _ = writeln!(
+                out,
+                "\nunknown fixed points (base frame, estimated with the robot) [{}]:",
+                u.length
+            );
+            for p in &fit.points {
+                let l = |x: f64| u.length_from_si(x);
+                let _ = writeln!(
+                    out,
+                    "  {:<12} {:>12.6} {:>12.6} {:>12.6}   std {:.2e} {:.2e} {:.2e}",
+                    p.name,
+                    l(p.position.x),
+                    l(p.position.y),
+                    l(p.position.z),
+                    l(p.std.x),
+                    l(p.std.y),
+                    l(p.std.z)
+                );
+            }
+            for p in &fit.planes {
+                let _ = writeln!(
+                    out,
+                    "  plane {:<12} normal ({:+.6}, {:+.6}, {:+.6}), offset {:.6} {}",
+                    p.name,
+                    p.normal.x,
+                    p.normal.y,
+                    p.normal.z,
+                    u.length_from_si(p.offset),
+                    u.length
+                );
+            }
+            for (d, r) in data
+                .constraints
+                .distances
+                .iter()
+                .zip(&fit.distance_residuals)
+            {
+                let names = d.points.map(|k| {
+                    data.constraints
+                        .points
+                        .get(k)
+                        .map_or("?", |p| p.name.as_str())
+                });
+                let _ = writeln!(
+                    out,
+                    "  distance {} – {}: {:.6} {} stated, fitted minus stated {:+.2e} {} (line {})",
+                    names[0],
+                    names[1],
+                    u.length_from_si(d.length),
+                    u.length,
+                    u.length_from_si(*r),
+                    u.length,
+                    d.line
+                );
+            }
         }
         if let Some(fit) = self.full.as_ref().filter(|f| !f.correlations.is_empty()) {
             let _ = writeln!(out, "\nstrongest correlations:");

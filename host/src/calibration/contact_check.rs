@@ -1,0 +1,291 @@
+//! How well a robot model puts its tool point at the fixed points of a session
+//! without a tracker: the figures a user can trust with no coordinate measured.
+//!
+//! For each unknown fixed point of a constraint session (see
+//! [`crate::io::constraints`]) the model's tool points of the rows naming it
+//! should coincide: their *spread* is the RMS distance of those predicted
+//! points to their mean (m). For each known distance, the distance between the
+//! two means less the stated one is the model's *distance error* (m). All in
+//! the model's base frame, which the figures do not depend on.
+//!
+//! [`choose_prior`] picks the scale of the prior on the D-H errors as
+//! `armcal diagnose` does for measured coordinates: the linearised k-fold
+//! cross-validation of the rows ([`crate::calibration::diagnose::cross_validation`],
+//! the known distances trained on in every fold) about the fit at the stated
+//! prior, each factor of [`PRIOR_FACTORS`] scored by the held-out RMS distance
+//! of the tool points to their fixed points (or planes).
+//!
+//! [`leave_one_out`] is the held-out evaluation: calibrate on every session
+//! but one (merged, their points kept apart by name), predict the one left out,
+//! for each in turn; beside the nominal model and, optionally, a reference
+//! model (another calibration of the same chain) on the same held-out rows.
+
+use armcal_shared::Robot;
+use nalgebra::{Point3, Vector3};
+
+use crate::calibration::diagnose::cross_validation::{Folds, Role, Subset};
+use crate::calibration::diagnose::geometry::PRIOR_FACTORS;
+use crate::calibration::identify::full::{
+    FullOptions, identify_constrained, linearize_constrained,
+};
+use crate::calibration::identify::{self, IdentifyError, ParamSet};
+use crate::io::measurements::Measurements;
+use crate::io::model_file::RobotModel;
+
+/// One point's figures.
+#[derive(Clone, Debug)]
+pub struct PointSpread {
+    /// Its name.
+    pub name: String,
+    /// The rows naming it.
+    pub rows: usize,
+    /// The mean of the predicted tool points, base frame, m.
+    pub centre: Point3<f64>,
+    /// RMS distance of the predicted tool points to their mean, m.
+    pub spread: f64,
+}
+
+/// One known distance's figures.
+#[derive(Clone, Debug)]
+pub struct DistanceError {
+    /// The two points' names.
+    pub points: [String; 2],
+    /// The stated distance, m.
+    pub stated: f64,
+    /// The distance between the predicted centres less the stated one, m.
+    pub error: f64,
+}
+
+/// What a model predicts of a constraint session.
+#[derive(Clone, Debug)]
+pub struct ContactCheck {
+    /// Per point, in the order of the file.
+    pub points: Vec<PointSpread>,
+    /// Per distance line, in the order of the file.
+    pub distances: Vec<DistanceError>,
+}
+
+impl ContactCheck {
+    /// The spreads' RMS over the points (each point's spread squared, averaged), m.
+    pub fn spread_rms(&self) -> f64 {
+        let n = self.points.len().max(1) as f64;
+        (self.points.iter().map(|p| p.spread * p.spread).sum::<f64>() / n).sqrt()
+    }
+
+    /// The largest distance error in magnitude, signed, m (0 without distances).
+    pub fn worst_distance_error(&self) -> f64 {
+        self.distances
+            .iter()
+            .map(|d| d.error)
+            .fold(0.0, |a, e| if e.abs() > a.abs() { e } else { a })
+    }
+}
+
+/// The spread of `robot`'s tool points at each fixed point of `data` and its
+/// error of each known distance. Rows whose kinematics fail are left out.
+pub fn contact_check(robot: &Robot<f64>, data: &Measurements) -> ContactCheck {
+    let kin = robot.prepare();
+    let c = &data.constraints;
+    let mut predicted: Vec<Vec<Vector3<f64>>> = vec![Vec::new(); c.points.len()];
+    for obs in &data.poses {
+        if let (Some(k), Ok(t)) = (obs.fixed_point(), kin.forward(&obs.q))
+            && let Some(v) = predicted.get_mut(k)
+        {
+            v.push(t.translation.vector);
+        }
+    }
+    let points: Vec<PointSpread> = c
+        .points
+        .iter()
+        .zip(&predicted)
+        .map(|(p, v)| {
+            let n = v.len().max(1) as f64;
+            let centre = v.iter().sum::<Vector3<f64>>() / n;
+            let spread = (v.iter().map(|x| (x - centre).norm_squared()).sum::<f64>() / n).sqrt();
+            PointSpread {
+                name: p.name.clone(),
+                rows: v.len(),
+                centre: Point3::from(centre),
+                spread,
+            }
+        })
+        .collect();
+    let distances = c
+        .distances
+        .iter()
+        .map(|d| {
+            let [a, b] = d.points.map(|k| &points[k]);
+            DistanceError {
+                points: [a.name.clone(), b.name.clone()],
+                stated: d.length,
+                error: (a.centre - b.centre).norm() - d.length,
+            }
+        })
+        .collect();
+    ContactCheck { points, distances }
+}
+
+/// The factor of [`PRIOR_FACTORS`] on `options.prior` of least held-out RMS
+/// over `folds` interleaved folds of `data`'s rows, and each factor's held-out
+/// RMS (m). The stated prior (factor 1) when no factor can be scored.
+pub fn choose_prior(
+    model: &RobotModel,
+    data: &Measurements,
+    options: &FullOptions,
+    folds: usize,
+) -> Result<(f64, Vec<(f64, f64)>), IdentifyError> {
+    let fit = identify_constrained(
+        &model.robot,
+        None,
+        &[],
+        &[],
+        &data.poses,
+        &data.constraints,
+        options,
+    )?;
+    let lin = linearize_constrained(&fit, &data.poses, &data.constraints, &options.prior);
+    let poses = data.poses.len();
+    let k = folds.clamp(2, poses.max(2));
+    let roles = (0..lin.first_rows.len())
+        .map(|i| {
+            if i < poses {
+                Role::Fold(i % k)
+            } else {
+                Role::Train
+            }
+        })
+        .collect();
+    let cv = Folds::new(&lin, roles);
+    let columns: Vec<usize> = (0..lin.j.ncols()).collect();
+    let scores: Vec<(f64, f64)> = PRIOR_FACTORS
+        .iter()
+        .filter_map(|&f| {
+            let subset = Subset {
+                columns: columns.clone(),
+                precision_factor: 1.0 / (f * f),
+            };
+            cv.evaluate(&subset).map(|e| (f, e.held.rms))
+        })
+        .collect();
+    let best = scores
+        .iter()
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map_or(1.0, |s| s.0);
+    Ok((best, scores))
+}
+
+/// One held-out session of [`leave_one_out`].
+#[derive(Clone, Debug)]
+pub struct HeldOut {
+    /// The session left out (its file).
+    pub file: String,
+    /// The nominal model's figures on it.
+    pub nominal: ContactCheck,
+    /// The reference model's, when one is given.
+    pub reference: Option<ContactCheck>,
+    /// The calibration's from the other sessions.
+    pub calibrated: ContactCheck,
+    /// The RMS distance of the training rows' tool points to their fitted points, m.
+    pub training_rms: f64,
+    /// The factor on the stated prior the calibration used.
+    pub prior_factor: f64,
+}
+
+/// Leaves each of `sessions` out in turn, identifies `model` on the others
+/// (`armcal identify --params full` with `options`; with `select` folds, the
+/// prior's scale first chosen on them by [`choose_prior`]) and checks the
+/// nominal model, `reference` and the calibration on the one left out.
+pub fn leave_one_out(
+    model: &RobotModel,
+    sessions: &[Measurements],
+    reference: Option<&Robot<f64>>,
+    options: &FullOptions,
+    select: Option<usize>,
+) -> Result<Vec<HeldOut>, IdentifyError> {
+    let mut out = Vec::new();
+    for (i, held) in sessions.iter().enumerate() {
+        let training: Vec<&Measurements> = sessions
+            .iter()
+            .enumerate()
+            .filter(|(j, _)| *j != i)
+            .map(|(_, s)| s)
+            .collect();
+        let merged = Measurements::merged(&training);
+        let (fit, prior_factor) = calibrate(model, &merged, options, select)?;
+        out.push(HeldOut {
+            file: held.file.clone(),
+            nominal: contact_check(&model.robot, held),
+            reference: reference.map(|r| contact_check(r, held)),
+            calibrated: contact_check(&fit.calibrated(), held),
+            training_rms: fit.position_rms,
+            prior_factor,
+        });
+    }
+    Ok(out)
+}
+
+/// `armcal identify --params full` of `data`, with `select` folds at the
+/// prior's scale [`choose_prior`] picks: the identification and the factor.
+pub fn calibrate(
+    model: &RobotModel,
+    data: &Measurements,
+    options: &FullOptions,
+    select: Option<usize>,
+) -> Result<(identify::Identification, f64), IdentifyError> {
+    let factor = match select {
+        Some(folds) => choose_prior(model, data, options, folds)?.0,
+        None => 1.0,
+    };
+    let options = FullOptions {
+        prior: options.prior.scaled(factor),
+        ..*options
+    };
+    Ok((
+        identify::identify(model, data, ParamSet::Full, &options)?,
+        factor,
+    ))
+}
+
+/// The table of [`leave_one_out`], in mm: per held-out session, the spread
+/// (RMS over its points) and the worst distance error of each model.
+pub fn holdout_table(rows: &[HeldOut], reference: Option<&str>) -> String {
+    use std::fmt::Write as _;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "held-out session: spread of the predicted points (RMS distance to their mean, RMS over the points) \
+         and distance error (predicted minus stated), mm"
+    );
+    let mut header = format!("  {:<40} {:>16} {:>16}", "held out", "nominal", "");
+    if let Some(name) = reference {
+        let _ = write!(header, " {:>16} {:>16}", name, "");
+    }
+    let _ = write!(header, " {:>16} {:>16}", "armcal", "");
+    let _ = writeln!(out, "{header}");
+    let mut sub = format!("  {:<40} {:>16} {:>16}", "", "spread", "distance");
+    if reference.is_some() {
+        let _ = write!(sub, " {:>16} {:>16}", "spread", "distance");
+    }
+    let _ = write!(sub, " {:>16} {:>16}", "spread", "distance");
+    let _ = writeln!(out, "{sub}");
+    let figures = |c: &ContactCheck| {
+        format!(
+            " {:>16.3} {:>+16.3}",
+            c.spread_rms() * 1e3,
+            c.worst_distance_error() * 1e3
+        )
+    };
+    for r in rows {
+        let mut line = format!("  {:<40}", r.file);
+        line.push_str(&figures(&r.nominal));
+        if let Some(c) = &r.reference {
+            line.push_str(&figures(c));
+        }
+        line.push_str(&figures(&r.calibrated));
+        if r.prior_factor != 1.0 {
+            let _ = write!(line, "   (prior ×{})", r.prior_factor);
+        }
+        let _ = writeln!(out, "{line}");
+    }
+    out
+}

@@ -1,0 +1,205 @@
+//! The identification from constraints alone (unknown fixed points and known
+//! distances, no coordinate measured) on simulated ball-socket sessions: a
+//! PUMA and a UR5e with random ±1 mm / ±1 mrad errors in every joint and tool
+//! parameter, three sockets tied by their three distances, and one plane
+//! touched by the ball.
+
+use armcal_shared::{Param, Robot};
+use nalgebra::{Point3, Vector3};
+
+use super::full::{FullFit, FullOptions, Status, full_params, identify_constrained};
+use crate::calibration::simulate::{self, SocketSession};
+use crate::io::constraints::{
+    Constraints, DEFAULT_DISTANCE_STD, Distance, FixedPoint, TouchedPlane,
+};
+use crate::io::model_file::load_model;
+
+/// The true robot (nominal with random ±1 mm / ±1 mrad errors in every
+/// parameter these data can separate: the base, which they cannot see, and the
+/// joint parameters a rigid motion of the base frame or parallel axes absorb
+/// are left nominal), a session of `per_socket` contacts with each of three
+/// sockets, and the constraints a user would write for it: the three points
+/// and their distances.
+fn session(
+    model: &str,
+    seed: u64,
+    per_socket: usize,
+    contact_noise: f64,
+) -> (Robot<f64>, Robot<f64>, SocketSession, Constraints) {
+    let nominal = load_model(model).expect("built-in model").robot;
+    // Which parameters exact data of such a session separate.
+    let (probe, c) = draw(&nominal, seed, per_socket, 0.0);
+    let held: Vec<Param> = fit(&nominal, &probe, &c, &FullOptions::least_squares())
+        .params
+        .iter()
+        .filter(|p| matches!(p.status, Status::Fixed { .. }))
+        .map(|p| p.param)
+        .collect();
+    let params: Vec<Param> = full_params(&nominal, false)
+        .into_iter()
+        .filter(|p| !held.contains(p))
+        .collect();
+    let mut rng = simulate::rng(seed + 1000);
+    let (truth, _) = simulate::with_random_errors(&nominal, &params, 1e-3, 1e-3, &mut rng);
+    let (session, constraints) = draw(&truth, seed, per_socket, contact_noise);
+    (nominal, truth, session, constraints)
+}
+
+/// The plane of the sessions: through a reachable point, a random normal.
+fn plane_of(truth: &Robot<f64>, rng: &mut rand::rngs::StdRng) -> (Point3<f64>, Vector3<f64>) {
+    let kin = truth.prepare();
+    let q = simulate::random_configurations(truth, 1, rng).remove(0);
+    let centre = Point3::from(kin.forward(&q).expect("joint count").translation.vector);
+    let n = Vector3::new(0.3, -0.5, 0.8).normalize();
+    (centre, n)
+}
+
+/// A session of `truth` with three sockets at random reachable points and
+/// `per_socket` touches of one plane.
+fn draw(
+    truth: &Robot<f64>,
+    seed: u64,
+    per_socket: usize,
+    contact_noise: f64,
+) -> (SocketSession, Constraints) {
+    let mut rng = simulate::rng(seed);
+    let kin = truth.prepare();
+    let sockets: Vec<Point3<f64>> = simulate::random_configurations(truth, 3, &mut rng)
+        .iter()
+        .map(|q| Point3::from(kin.forward(q).expect("joint count").translation.vector))
+        .collect();
+    let mut session =
+        simulate::socket_session(truth, &sockets, per_socket, contact_noise, &mut rng)
+            .expect("every socket is reached");
+    let (centre, normal) = plane_of(truth, &mut rng);
+    session.observations.extend(
+        simulate::plane_touches(
+            truth,
+            (centre, normal, 0.1),
+            0,
+            per_socket,
+            contact_noise,
+            &mut rng,
+        )
+        .expect("the plane is reached"),
+    );
+    session.plane = Some((centre, normal));
+    let points = (0..3)
+        .map(|k| FixedPoint {
+            name: format!("socket.{k}"),
+            first: (0, 0),
+            rows: per_socket,
+        })
+        .collect();
+    let distances = [[0, 1], [1, 2], [0, 2]]
+        .into_iter()
+        .map(|[a, b]| Distance {
+            points: [a, b],
+            length: (sockets[a] - sockets[b]).norm(),
+            std: DEFAULT_DISTANCE_STD,
+            line: 0,
+        })
+        .collect();
+    let planes = vec![TouchedPlane {
+        name: "plate".into(),
+        first: (0, 0),
+        rows: per_socket,
+    }];
+    (
+        session,
+        Constraints {
+            points,
+            planes,
+            distances,
+        },
+    )
+}
+
+fn fit(nominal: &Robot<f64>, s: &SocketSession, c: &Constraints, options: &FullOptions) -> FullFit {
+    identify_constrained(nominal, None, &[], &[], &s.observations, c, options).expect("fits")
+}
+
+/// Every identified parameter's error against the truth, in its standard errors.
+fn worst_error_in_std(fit: &FullFit, truth: &Robot<f64>) -> f64 {
+    fit.params
+        .iter()
+        .filter_map(|p| match p.status {
+            Status::Identified { std } => {
+                let e = fit.calibrated.param(p.param).unwrap() - truth.param(p.param).unwrap();
+                Some(e.abs() / std)
+            }
+            Status::Fixed { .. } => None,
+        })
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn exact_socket_sessions_recover_the_true_robot() {
+    for model in ["puma560", "ur5e"] {
+        let (nominal, truth, s, c) = session(model, 7, 25, 0.0);
+        let options = FullOptions {
+            position_noise: 5e-5,
+            ..FullOptions::least_squares()
+        };
+        let fit = fit(&nominal, &s, &c, &options);
+        assert!(fit.converged, "{model}");
+        let mut identified = 0;
+        for p in &fit.params {
+            if let Status::Identified { .. } = p.status {
+                let e = fit.calibrated.param(p.param).unwrap() - truth.param(p.param).unwrap();
+                assert!(e.abs() < 1e-9, "{model} {}: {e:e}", p.param);
+                identified += 1;
+            }
+        }
+        // Every joint and tool parameter but those a motion of the base frame
+        // (θ1, s1), parallel axes or the tool point make inseparable, as with a
+        // tracker measuring positions (4M + 3), less the six of the base.
+        assert!(identified >= 4 * nominal.dof() - 6, "{model}: {identified}");
+        for (p, truth) in fit.points.iter().zip(&s.sockets) {
+            assert!((p.position - truth).norm() < 1e-9, "{model} {}", p.name);
+        }
+        for d in &fit.distance_residuals {
+            assert!(d.abs() < 1e-9, "{model}: {d:e}");
+        }
+        let (centre, normal) = s.plane.unwrap();
+        let plane = &fit.planes[0];
+        let sign = plane.normal.dot(&normal).signum();
+        assert!((plane.normal * sign - normal).norm() < 1e-9, "{model}");
+        assert!(
+            (plane.offset * sign - normal.dot(&centre.coords)).abs() < 1e-9,
+            "{model}"
+        );
+        // The base is named unobservable, with the reason.
+        for p in fit
+            .params
+            .iter()
+            .filter(|p| matches!(p.param, Param::Base(_)))
+        {
+            match &p.status {
+                Status::Fixed { reason } => assert!(reason.contains("not observable"), "{reason}"),
+                s => panic!("{model} {}: {s:?}", p.param),
+            }
+        }
+    }
+}
+
+#[test]
+fn noisy_socket_sessions_recover_the_truth_within_four_standard_errors() {
+    for (model, seed) in [("puma560", 11), ("ur5e", 12)] {
+        let (nominal, truth, s, c) = session(model, seed, 30, 5e-5);
+        let options = FullOptions {
+            position_noise: 5e-5,
+            ..FullOptions::least_squares()
+        };
+        let fit = fit(&nominal, &s, &c, &options);
+        assert!(fit.converged, "{model}");
+        let worst = worst_error_in_std(&fit, &truth);
+        assert!(
+            worst < 4.0,
+            "{model}: worst error {worst:.2} standard errors"
+        );
+        // The contact noise is what the residuals show.
+        let shown = fit.position_rms / 3f64.sqrt();
+        assert!((shown / 5e-5 - 1.0).abs() < 0.3, "{model}: {shown:e}");
+    }
+}

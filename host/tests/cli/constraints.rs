@@ -1,0 +1,416 @@
+//! Sessions without a tracker (a `point` column and distance lines): the
+//! refusals, line by line with the column, and the held-out figures of the
+//! real MUKCA ball-socket sessions (data/mukca-ball-socket).
+
+use std::path::{Path, PathBuf};
+
+use crate::{refused, succeeds};
+
+/// Six joint values and a point name per row; then `tail` lines.
+fn constraint_file(dir: &Path, rows: &[&str], tail: &[&str]) {
+    let mut text = String::from("# a ball in two sockets\nq1,q2,q3,q4,q5,q6,point\n");
+    for (i, point) in rows.iter().enumerate() {
+        let q = 0.1 * (i + 1) as f64;
+        text.push_str(&format!("{q},0.2,{q},0.4,0.5,{q},{point}\n"));
+    }
+    for line in tail {
+        text.push_str(line);
+        text.push('\n');
+    }
+    std::fs::write(dir.join("d.csv"), text).unwrap();
+}
+
+fn identify_refuses(dir: &Path, needles: &[&str]) {
+    refused(
+        dir,
+        &["identify", "--model", "ur5e", "--data", "d.csv"],
+        needles,
+    );
+}
+
+#[test]
+fn a_point_named_by_one_row_only_is_refused_at_its_cell() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut rows = vec!["front.0"; 10];
+    rows.extend(["front.1"; 9]);
+    rows.push("front.2");
+    constraint_file(dir.path(), &rows, &["distance,front.0,front.1,0.05"]);
+    // Line 22 (two lines before the rows), its point cell after "0.1..,0.2,..,0.4,0.5,..,".
+    let line = "2,0.2,2,0.4,0.5,2,";
+    identify_refuses(
+        dir.path(),
+        &[
+            &format!("d.csv:22:{}:", line.chars().count() + 1),
+            "'front.2' is named by this row only",
+        ],
+    );
+}
+
+#[test]
+fn a_distance_to_a_point_no_row_names_is_refused_at_the_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut rows = vec!["front.0"; 10];
+    rows.extend(["front.1"; 10]);
+    constraint_file(dir.path(), &rows, &["distance,front.0,fornt.1,0.05"]);
+    identify_refuses(
+        dir.path(),
+        &[
+            "d.csv:23:18:",
+            "no row names the point 'fornt.1'",
+            "front.0, front.1",
+        ],
+    );
+}
+
+#[test]
+fn a_bad_distance_line_is_refused_at_its_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut rows = vec!["a"; 10];
+    rows.extend(["b"; 10]);
+    for (line, needles) in [
+        (
+            "distance,a,b,-0.05",
+            vec!["d.csv:23:14:", "not a positive number of m"],
+        ),
+        (
+            "distance,a,b,0.05,0",
+            vec!["d.csv:23:19:", "standard uncertainty"],
+        ),
+        ("distance,a,a,0.05", vec!["d.csv:23:12:", "to itself"]),
+        ("distance,a,b", vec!["d.csv:23:13:", "4 or 5 fields"]),
+    ] {
+        constraint_file(dir.path(), &rows, &[line]);
+        identify_refuses(dir.path(), &needles);
+    }
+}
+
+#[test]
+fn coordinates_and_points_mixed_wrongly_are_refused_with_line_and_column() {
+    let dir = tempfile::tempdir().unwrap();
+    // A row with both a point and coordinates: at its x cell.
+    std::fs::write(
+        dir.path().join("d.csv"),
+        "q1,q2,q3,q4,q5,q6,x,y,z,point\n\
+         0.1,0.2,0.3,0.4,0.5,0.6,,,,a\n\
+         0.1,0.2,0.3,0.4,0.5,0.7,0.4,0.1,0.2,a\n",
+    )
+    .unwrap();
+    identify_refuses(
+        dir.path(),
+        &[
+            "d.csv:3:25:",
+            "column 'x': a coordinate on a row that names the unknown point 'a'",
+        ],
+    );
+    // A row with neither: at its point cell.
+    std::fs::write(
+        dir.path().join("d.csv"),
+        "q1,q2,q3,q4,q5,q6,x,y,z,point\n0.1,0.2,0.3,0.4,0.5,0.6,0.4,,,\n",
+    )
+    .unwrap();
+    identify_refuses(
+        dir.path(),
+        &["d.csv:2:29:", "column 'y': empty", "name the unknown point"],
+    );
+    // Measured rows and point rows in one file: at the first row of the other kind.
+    let mut text = String::from("q1,q2,q3,q4,q5,q6,x,y,z,point\n");
+    for i in 0..12 {
+        text.push_str(&format!("0.{i},0.2,0.3,0.4,0.5,0.6,0.4,0.1,0.{i},\n"));
+    }
+    text.push_str("0.1,0.2,0.3,0.4,0.5,0.6,,,,a\n0.2,0.2,0.3,0.4,0.5,0.6,,,,a\n");
+    std::fs::write(dir.path().join("d.csv"), text).unwrap();
+    identify_refuses(
+        dir.path(),
+        &[
+            "d.csv:2:25:",
+            "column 'x': this row measures x, y, z while line 14 names an unknown point",
+            "not both",
+        ],
+    );
+}
+
+/// A file of measured coordinates with a `point` column (an id, as a
+/// tracker's export may have) reads exactly as before the extension: every
+/// row measures x, y, z, so the column is kept out of the computation.
+#[test]
+fn a_coordinate_file_with_a_point_id_column_reads_as_before() {
+    let dir = tempfile::tempdir().unwrap();
+    succeeds(
+        dir.path(),
+        &[
+            "simulate", "--model", "ur5e", "--poses", "30", "--out", "s.csv",
+        ],
+    );
+    let text = std::fs::read_to_string(dir.path().join("s.csv")).unwrap();
+    let mut with_id = String::new();
+    let mut header_seen = false;
+    for (i, line) in text.lines().enumerate() {
+        if line.starts_with('#') {
+            with_id.push_str(line);
+        } else if !header_seen {
+            header_seen = true;
+            with_id.push_str(&format!("{line},point"));
+        } else {
+            with_id.push_str(&format!("{line},P{i}"));
+        }
+        with_id.push('\n');
+    }
+    std::fs::write(dir.path().join("p.csv"), with_id).unwrap();
+    let run = |data: &str| {
+        let json = format!("{data}.json");
+        let out = succeeds(
+            dir.path(),
+            &[
+                "identify", "--model", "ur5e", "--data", data, "--json", &json,
+            ],
+        );
+        let report = std::fs::read_to_string(dir.path().join(&json)).unwrap();
+        (report, String::from_utf8_lossy(&out.stderr).into_owned())
+    };
+    let (plain, _) = run("s.csv");
+    let (with_point, warnings) = run("p.csv");
+    assert_eq!(plain, with_point);
+    assert!(
+        warnings.contains("columns kept out of the computation: 'point'"),
+        "{warnings}"
+    );
+}
+
+/// The MUKCA data and models.
+fn mukca() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/mukca-ball-socket")
+}
+
+/// The figures of `armcal holdout` per held-out file: the last path component
+/// and the six (or four) numbers of its row.
+fn holdout(args: &[&str]) -> Vec<(String, Vec<f64>)> {
+    let dir = tempfile::tempdir().unwrap();
+    let out = succeeds(dir.path(), args);
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter(|l| l.contains(".csv"))
+        .map(|l| {
+            let mut f = l.split_whitespace();
+            let file = f.next().unwrap().rsplit('/').next().unwrap().to_owned();
+            (file, f.map_while(|x| x.parse().ok()).collect())
+        })
+        .collect()
+}
+
+fn panda(robot: &str, placements: &[&str]) -> Vec<String> {
+    let m = mukca();
+    let mut args: Vec<String> = vec![
+        "holdout".into(),
+        "--model".into(),
+        m.join("original/urdf/panda.urdf").display().to_string(),
+        "--tip-link".into(),
+        "ball_link".into(),
+        "--reference".into(),
+        m.join(format!(
+            "original/calibrated_urdf/{robot}/panda_calibrated.urdf"
+        ))
+        .display()
+        .to_string(),
+        "--data".into(),
+    ];
+    args.extend(
+        placements
+            .iter()
+            .map(|p| m.join(format!("{robot}/{p}.csv")).display().to_string()),
+    );
+    args
+}
+
+/// Leave one plate placement out, calibrate on the others: columns are the
+/// nominal URDF's spread and distance error, MUKCA's calibrated URDF's, and
+/// armcal's (mm). MUKCA's URDF was fitted to the `front` placement (its
+/// config.yaml), so `front` is not held out for it; on `left` and `right`
+/// (held out for both) armcal's spread and distance error are smaller for
+/// panda_6. For panda_7 (two placements, each calibration from one) they are
+/// not: MUKCA's are smaller there, as measured here.
+#[test]
+fn mukca_panda_sessions_held_out() {
+    let args = panda("panda_6", &["front", "left", "right"]);
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let rows = holdout(&args);
+    assert_eq!(rows.len(), 3);
+    for (file, f) in &rows {
+        let (nominal, mukca, armcal) = ((f[0], f[1]), (f[2], f[3]), (f[4], f[5]));
+        // Far better than nominal.
+        assert!(armcal.0 < nominal.0 / 20.0, "{file}: {f:?}");
+        assert!(armcal.1.abs() < nominal.1.abs() / 20.0, "{file}: {f:?}");
+        if file != "front.csv" {
+            assert!(armcal.0 < mukca.0, "{file}: {f:?}");
+            assert!(armcal.1.abs() < mukca.1.abs(), "{file}: {f:?}");
+        }
+    }
+    let args = panda("panda_7", &["front", "right"]);
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    for (file, f) in holdout(&args) {
+        assert!(f[4] < f[0] / 5.0, "{file}: {f:?}");
+        assert!(
+            f[4] > f[2],
+            "{file}: armcal now beats MUKCA on panda_7: {f:?}"
+        );
+    }
+}
+
+#[test]
+fn a_plane_touched_fewer_than_three_times_is_refused_at_its_first_cell() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut text = String::from("q1,q2,q3,q4,q5,q6,point,plane\n");
+    for i in 0..10 {
+        text.push_str(&format!("0.{i},0.2,0.3,0.4,0.5,0.6,a,\n"));
+        text.push_str(&format!("0.{i},0.3,0.3,0.4,0.5,0.6,b,\n"));
+    }
+    text.push_str("0.1,0.4,0.3,0.4,0.5,0.6,,table\n0.2,0.4,0.3,0.4,0.5,0.6,,table\n");
+    text.push_str("distance,a,b,0.05\n");
+    std::fs::write(dir.path().join("d.csv"), text).unwrap();
+    identify_refuses(
+        dir.path(),
+        &[
+            "d.csv:22:26:",
+            "the plane 'table' is touched by 2 rows only",
+            "at least 3",
+        ],
+    );
+    // A row naming a point and a plane: at its plane cell.
+    std::fs::write(
+        dir.path().join("d.csv"),
+        "q1,q2,q3,q4,q5,q6,point,plane\n0.1,0.2,0.3,0.4,0.5,0.6,a,table\n",
+    )
+    .unwrap();
+    identify_refuses(
+        dir.path(),
+        &["d.csv:2:27:", "names the point 'a' and the plane 'table'"],
+    );
+}
+
+/// `check` shows the nominal model against the constraints; `diagnose`, which
+/// reads measured coordinates, refuses a constraint session naming the file.
+#[test]
+fn check_shows_the_spread_and_diagnose_refuses_a_constraint_session() {
+    let m = mukca();
+    let model = m.join("original/urdf/iiwa14.urdf").display().to_string();
+    let data = m.join("kuka_14/front.csv").display().to_string();
+    let dir = tempfile::tempdir().unwrap();
+    let out = succeeds(
+        dir.path(),
+        &[
+            "check",
+            "--model",
+            &model,
+            "--tip-link",
+            "ball_link",
+            "--data",
+            &data,
+        ],
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("point front.0      31 rows, spread"),
+        "{text}"
+    );
+    assert!(text.contains("predicted minus stated -0.103 mm"), "{text}");
+    refused(
+        dir.path(),
+        &[
+            "diagnose",
+            "--model",
+            &model,
+            "--tip-link",
+            "ball_link",
+            "--data",
+            &data,
+        ],
+        &[
+            "kuka_14/front.csv:4:1:",
+            "diagnose reads measured coordinates",
+        ],
+    );
+}
+
+/// The calibration of a session without a tracker, exported as a URDF (the
+/// Panda's own, its joint origins calibrated, the ball's calibrated centre
+/// the link `armcal_measured_point`), predicts a held-out session as the
+/// calibration itself does: `check` on the exported URDF gives `holdout`'s
+/// spread and distance error.
+#[test]
+fn the_exported_urdf_predicts_as_the_calibration() {
+    let m = mukca();
+    let panda = m.join("original/urdf/panda.urdf").display().to_string();
+    let train = m.join("panda_6/front.csv").display().to_string();
+    let held = m.join("panda_6/left.csv").display().to_string();
+    let dir = tempfile::tempdir().unwrap();
+    let chain = ["--tip-link", "ball_link"];
+    let mut args = vec![
+        "identify", "--model", &panda, "--data", &train, "--out", "p6.cal",
+    ];
+    args.extend(chain);
+    succeeds(dir.path(), &args);
+    let mut args = vec![
+        "export",
+        "--calibration",
+        "p6.cal",
+        "--model",
+        &panda,
+        "--format",
+        "urdf",
+        "--out",
+        "p6.urdf",
+    ];
+    args.extend(chain);
+    succeeds(dir.path(), &args);
+    let out = succeeds(
+        dir.path(),
+        &[
+            "check",
+            "--model",
+            "p6.urdf",
+            "--tip-link",
+            "armcal_measured_point",
+            "--data",
+            &held,
+        ],
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    let spreads: Vec<f64> = text
+        .lines()
+        .filter(|l| l.contains("spread (RMS"))
+        .map(|l| l.split_whitespace().rev().nth(1).unwrap().parse().unwrap())
+        .collect();
+    let spread = (spreads.iter().map(|s| s * s).sum::<f64>() / spreads.len() as f64).sqrt();
+    let mut args = vec![
+        "holdout", "--model", &panda, "--train", &train, "--data", &held,
+    ];
+    args.extend(chain);
+    let rows = holdout(&args);
+    let armcal = (rows[0].1[2], rows[0].1[3]);
+    assert!((spread - armcal.0).abs() < 2e-3, "{spread} {armcal:?}");
+    assert!(
+        text.contains(&format!("predicted minus stated {:+.3} mm", armcal.1)),
+        "{text}"
+    );
+}
+
+/// With the prior's scale chosen by cross-validation on the training
+/// placements (`--select-prior`, as `diagnose` chooses it), as measured: on
+/// panda_6's `left` and `right` (held out for MUKCA too) armcal's spread and
+/// distance error are smaller than MUKCA's; on panda_7's `right`, its distance
+/// error is smaller and its spread slightly larger (0.328 against 0.326 mm).
+#[test]
+fn mukca_panda_sessions_held_out_with_the_prior_chosen_by_cross_validation() {
+    let mut args = panda("panda_6", &["front", "left", "right"]);
+    args.push("--select-prior".into());
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    for (file, f) in holdout(&args).into_iter().filter(|(f, _)| f != "front.csv") {
+        assert!(f[4] < f[2] && f[5].abs() < f[3].abs(), "{file}: {f:?}");
+    }
+    let mut args = panda("panda_7", &["front", "right"]);
+    args.push("--select-prior".into());
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let rows = holdout(&args);
+    let (_, f) = rows.iter().find(|(f, _)| f == "right.csv").unwrap();
+    assert!(f[5].abs() < f[3].abs(), "{f:?}");
+    assert!(f[4] > f[2] && f[4] < f[2] + 0.01, "{f:?}");
+}
