@@ -30,15 +30,38 @@ pub const DEFAULT_DISTANCE_STD: f64 = 1e-5;
 /// Words that start a line of their own kind, not point names.
 pub const RESERVED: [&str; 1] = ["distance"];
 
-/// An unknown fixed point named in the file.
+/// An unknown fixed point or plane named in the file.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct FixedPoint {
-    /// Its name as written (`front.0`).
+pub struct Named {
+    /// Its name as written (`front.0`, `table`).
     pub name: String,
     /// The line and character column of the first row naming it.
     pub first: (usize, usize),
     /// How many rows name it.
     pub rows: usize,
+}
+
+/// An unknown fixed point: the tool point of every row naming it sits at it.
+pub type FixedPoint = Named;
+
+/// An unknown plane: the tool point of every row naming it touches it.
+pub type TouchedPlane = Named;
+
+/// Adds the names of `part` to `into` (a name already there counts the rows
+/// of both): the index in `into` of each of `part`'s.
+pub fn merge_named(into: &mut Vec<Named>, part: &[Named]) -> Vec<usize> {
+    part.iter()
+        .map(|p| match into.iter().position(|q| q.name == p.name) {
+            Some(k) => {
+                into[k].rows += p.rows;
+                k
+            }
+            None => {
+                into.push(p.clone());
+                into.len() - 1
+            }
+        })
+        .collect()
 }
 
 /// A known distance between two named points.
@@ -52,18 +75,6 @@ pub struct Distance {
     pub std: f64,
     /// The line of the file that gives it.
     pub line: usize,
-}
-
-/// An unknown plane named in the file: the tool point of every row naming it
-/// touches it.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct TouchedPlane {
-    /// Its name as written (`table`).
-    pub name: String,
-    /// The line and character column of the first row naming it.
-    pub first: (usize, usize),
-    /// How many rows name it.
-    pub rows: usize,
 }
 
 /// The least touches that say anything of a plane beyond its own three unknowns.

@@ -55,7 +55,7 @@ use nalgebra::{Point3, Quaternion, UnitQuaternion};
 use crate::io::builtin;
 use crate::io::constraints::{
     Constraints, DEFAULT_DISTANCE_STD, Distance, FixedPoint, MIN_PLANE_TOUCHES, RESERVED,
-    TouchedPlane,
+    TouchedPlane, merge_named,
 };
 use crate::io::input_error::{DATA_FILE, InputError, SizeLimit, open_bounded};
 use crate::io::model_file::RobotModel;
@@ -216,37 +216,9 @@ impl Measurements {
             constraints: Constraints::default(),
         };
         for part in parts {
-            // Each point of this part: its index in the merged constraints.
-            let index: Vec<usize> = part
-                .constraints
-                .points
-                .iter()
-                .map(|p| match out.constraints.index(&p.name) {
-                    Some(k) => {
-                        out.constraints.points[k].rows += p.rows;
-                        k
-                    }
-                    None => {
-                        out.constraints.points.push(p.clone());
-                        out.constraints.points.len() - 1
-                    }
-                })
-                .collect();
-            let planes: Vec<usize> = part
-                .constraints
-                .planes
-                .iter()
-                .map(|p| match out.constraints.plane_index(&p.name) {
-                    Some(k) => {
-                        out.constraints.planes[k].rows += p.rows;
-                        k
-                    }
-                    None => {
-                        out.constraints.planes.push(p.clone());
-                        out.constraints.planes.len() - 1
-                    }
-                })
-                .collect();
+            // Each point and plane of this part: its index in the merged constraints.
+            let index = merge_named(&mut out.constraints.points, &part.constraints.points);
+            let planes = merge_named(&mut out.constraints.planes, &part.constraints.planes);
             for pose in &part.poses {
                 let mut pose = pose.clone();
                 pose.contact = match pose.contact {
