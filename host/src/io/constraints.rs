@@ -98,11 +98,6 @@ impl Constraints {
         self.points.is_empty() && self.planes.is_empty()
     }
 
-    /// The index of the plane named `name`.
-    pub fn plane_index(&self, name: &str) -> Option<usize> {
-        self.planes.iter().position(|p| p.name == name)
-    }
-
     /// The index of the point named `name`.
     pub fn index(&self, name: &str) -> Option<usize> {
         self.points.iter().position(|p| p.name == name)

@@ -54,8 +54,7 @@ use nalgebra::{Point3, Quaternion, UnitQuaternion};
 
 use crate::io::builtin;
 use crate::io::constraints::{
-    Constraints, DEFAULT_DISTANCE_STD, Distance, FixedPoint, MIN_PLANE_TOUCHES, RESERVED,
-    TouchedPlane, merge_named,
+    Constraints, DEFAULT_DISTANCE_STD, Distance, MIN_PLANE_TOUCHES, Named, RESERVED, merge_named,
 };
 use crate::io::input_error::{DATA_FILE, InputError, SizeLimit, open_bounded};
 use crate::io::model_file::RobotModel;
@@ -806,8 +805,8 @@ fn read_measurements<R: std::io::Read>(
     // Kept for the constraint rows (x, y, z not measured, a point or plane
     // named), with their pose's index, and for the first row measuring x, y,
     // z: a file of coordinates keeps nothing per row.
-    type Named = Option<(String, usize)>;
-    type Tag = (usize, Option<(usize, &'static str)>, Named, Named);
+    type NameCell = Option<(String, usize)>;
+    type Tag = (usize, Option<(usize, &'static str)>, NameCell, NameCell);
     let mut constraint_rows: Vec<(usize, Tag)> = Vec::new();
     let mut first_measured: Option<Tag> = None;
     let mut columns = read_table(source, file, &schema, |item| {
@@ -893,27 +892,16 @@ fn read_measurements<R: std::io::Read>(
     }
     for (index, (line, _, point, plane)) in constraint_rows {
         let pose = &mut poses[index];
+        let named = |name: String, column: usize| Named {
+            name,
+            first: (line, column),
+            rows: 1,
+        };
         if let Some((name, column)) = plane {
-            let k = constraints.plane_index(&name).unwrap_or_else(|| {
-                constraints.planes.push(TouchedPlane {
-                    name,
-                    first: (line, column),
-                    rows: 0,
-                });
-                constraints.planes.len() - 1
-            });
-            constraints.planes[k].rows += 1;
+            let k = merge_named(&mut constraints.planes, &[named(name, column)])[0];
             pose.contact = Contact::Plane(k);
         } else if let Some((name, column)) = point {
-            let k = constraints.index(&name).unwrap_or_else(|| {
-                constraints.points.push(FixedPoint {
-                    name,
-                    first: (line, column),
-                    rows: 0,
-                });
-                constraints.points.len() - 1
-            });
-            constraints.points[k].rows += 1;
+            let k = merge_named(&mut constraints.points, &[named(name, column)])[0];
             pose.contact = Contact::Point(k);
         }
     }
