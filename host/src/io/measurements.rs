@@ -1991,11 +1991,18 @@ mod tests {
             Ok(_) => panic!("accepted:\n{text}"),
             Err(e) => e,
         };
-        assert_eq!(e.file, "data.csv");
+        assert_refused_at(&e, "data.csv", line, column, needles);
+    }
+
+    /// Asserts that `e` names `file` at exactly `line`:`column`, prints as
+    /// `file:line:column: …`, and has a message containing every one of `needles`.
+    #[track_caller]
+    fn assert_refused_at(e: &InputError, file: &str, line: usize, column: usize, needles: &[&str]) {
+        assert_eq!(e.file, file);
         assert_eq!((e.line, e.column), (line, column), "{e}");
         assert!(
             e.to_string()
-                .starts_with(&format!("data.csv:{line}:{column}: ")),
+                .starts_with(&format!("{file}:{line}:{column}: ")),
             "{e}"
         );
         for needle in needles {
@@ -2542,16 +2549,7 @@ mod tests {
             Ok(_) => panic!("accepted:\n{text}"),
             Err(e) => e,
         };
-        assert_eq!(e.file, "joints.csv");
-        assert_eq!((e.line, e.column), (line, column), "{e}");
-        assert!(
-            e.to_string()
-                .starts_with(&format!("joints.csv:{line}:{column}: ")),
-            "{e}"
-        );
-        for needle in needles {
-            assert!(e.message.contains(needle), "{e:?} does not name {needle:?}");
-        }
+        assert_refused_at(&e, "joints.csv", line, column, needles);
     }
 
     /// Every built-in measurement file reads as joint readings too: the same

@@ -20,6 +20,12 @@ fn constraint_file(dir: &Path, rows: &[&str], tail: &[&str]) {
     std::fs::write(dir.join("d.csv"), text).unwrap();
 }
 
+/// Writes `text` as `d.csv` in `dir` and asserts [`identify_refuses`] it.
+fn data_refused(dir: &Path, text: impl AsRef<[u8]>, needles: &[&str]) {
+    std::fs::write(dir.join("d.csv"), text).unwrap();
+    identify_refuses(dir, needles);
+}
+
 fn identify_refuses(dir: &Path, needles: &[&str]) {
     refused(
         dir,
@@ -88,28 +94,20 @@ fn a_bad_distance_line_is_refused_at_its_field() {
 fn coordinates_and_points_mixed_wrongly_are_refused_with_line_and_column() {
     let dir = tempfile::tempdir().unwrap();
     // A row with both a point and coordinates: at its x cell.
-    std::fs::write(
-        dir.path().join("d.csv"),
+    data_refused(
+        dir.path(),
         "q1,q2,q3,q4,q5,q6,x,y,z,point\n\
          0.1,0.2,0.3,0.4,0.5,0.6,,,,a\n\
          0.1,0.2,0.3,0.4,0.5,0.7,0.4,0.1,0.2,a\n",
-    )
-    .unwrap();
-    identify_refuses(
-        dir.path(),
         &[
             "d.csv:3:25:",
             "column 'x': a coordinate on a row that names the unknown point 'a'",
         ],
     );
     // A row with neither: at its point cell.
-    std::fs::write(
-        dir.path().join("d.csv"),
-        "q1,q2,q3,q4,q5,q6,x,y,z,point\n0.1,0.2,0.3,0.4,0.5,0.6,0.4,,,\n",
-    )
-    .unwrap();
-    identify_refuses(
+    data_refused(
         dir.path(),
+        "q1,q2,q3,q4,q5,q6,x,y,z,point\n0.1,0.2,0.3,0.4,0.5,0.6,0.4,,,\n",
         &["d.csv:2:29:", "column 'y': empty", "name the unknown point"],
     );
     // Measured rows and point rows in one file: at the first row of the other kind.
@@ -118,9 +116,9 @@ fn coordinates_and_points_mixed_wrongly_are_refused_with_line_and_column() {
         text.push_str(&format!("0.{i},0.2,0.3,0.4,0.5,0.6,0.4,0.1,0.{i},\n"));
     }
     text.push_str("0.1,0.2,0.3,0.4,0.5,0.6,,,,a\n0.2,0.2,0.3,0.4,0.5,0.6,,,,a\n");
-    std::fs::write(dir.path().join("d.csv"), text).unwrap();
-    identify_refuses(
+    data_refused(
         dir.path(),
+        text,
         &[
             "d.csv:2:25:",
             "column 'x': this row measures x, y, z while line 14 names an unknown point",
@@ -265,9 +263,9 @@ fn a_plane_touched_fewer_than_three_times_is_refused_at_its_first_cell() {
     }
     text.push_str("0.1,0.4,0.3,0.4,0.5,0.6,,table\n0.2,0.4,0.3,0.4,0.5,0.6,,table\n");
     text.push_str("distance,a,b,0.05\n");
-    std::fs::write(dir.path().join("d.csv"), text).unwrap();
-    identify_refuses(
+    data_refused(
         dir.path(),
+        text,
         &[
             "d.csv:22:26:",
             "the plane 'table' is touched by 2 rows only",
@@ -275,13 +273,9 @@ fn a_plane_touched_fewer_than_three_times_is_refused_at_its_first_cell() {
         ],
     );
     // A row naming a point and a plane: at its plane cell.
-    std::fs::write(
-        dir.path().join("d.csv"),
-        "q1,q2,q3,q4,q5,q6,point,plane\n0.1,0.2,0.3,0.4,0.5,0.6,a,table\n",
-    )
-    .unwrap();
-    identify_refuses(
+    data_refused(
         dir.path(),
+        "q1,q2,q3,q4,q5,q6,point,plane\n0.1,0.2,0.3,0.4,0.5,0.6,a,table\n",
         &["d.csv:2:27:", "names the point 'a' and the plane 'table'"],
     );
 }
