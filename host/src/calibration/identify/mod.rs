@@ -262,11 +262,12 @@ pub fn identify(
             (fit.iterations.len(), fit.converged, rows, calibrated, None)
         }
     };
-    let obs = observations(data);
     let (position_rms, orientation_rms) = match &fit {
-        // The distance of each tool point to its estimated fixed point.
-        Some(f) if data.is_constrained() => (f.position_rms, 0.0),
-        _ => full::residual_rms(&calibrated, obs),
+        // The fit's last linearisation is at the solution: its sums of squares
+        // (for a constraint session, of each tool point's distance to its
+        // estimated fixed point or plane).
+        Some(f) => (f.position_rms, f.orientation_rms),
+        None => full::residual_rms(&calibrated, observations(data)),
     };
     let mut calibration = Calibration::nominal(nominal.clone(), orientation, model.units);
     for row in parameters
