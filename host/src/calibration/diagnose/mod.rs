@@ -355,14 +355,17 @@ pub fn diagnose_with_progress(
             tests.push(((*c).clone(), subset, f, dof));
         }
         let m = tests.len().max(1) as f64;
-        let threshold =
-            |c: &Candidate, dof: f64| f_quantile(1.0 - ALPHA / m, c.parameter_count() as f64, dof);
+        // The same for every candidate of as many parameters (its `dof` too).
+        let mut thresholds = std::collections::BTreeMap::new();
         // The held-out gain of the strongest by the test (and of every one that
         // passes it): no other can be chosen.
         let mut tests: Vec<_> = tests
             .into_iter()
             .map(|(c, subset, f, dof)| {
-                let t = threshold(&c, dof);
+                let k = c.parameter_count();
+                let t = *thresholds
+                    .entry(k)
+                    .or_insert_with(|| f_quantile(1.0 - ALPHA / m, k as f64, dof));
                 (c, subset, f, t)
             })
             .collect();
