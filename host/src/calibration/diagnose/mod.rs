@@ -51,6 +51,7 @@ use crate::calibration::identify::full::{
     linearize,
 };
 use crate::calibration::identify::prior::{Geometry, Prior};
+use crate::calibration::parallel;
 use crate::calibration::stats::{f_quantile, significantly_smaller};
 pub use blunders::Blunder;
 pub use candidates::{Candidate, candidates};
@@ -326,33 +327,45 @@ pub fn diagnose_with_progress(
         let Some(base) = folds.evaluate(&base_subset) else {
             break;
         };
+        // Each candidate's columns: the fitted ones and its own.
         let mut extra_at = lin.fitted;
         let mut effect_at = lin.fitted + new_extra.len();
-        // Every separable candidate's F statistic from its fit to all poses.
-        let mut tests = Vec::new();
-        for (n, c) in remaining.iter().enumerate() {
-            progress(chosen.len() + 1, n + 1, remaining.len());
-            let mut columns = fitted.clone();
-            columns.extend(extra_at..extra_at + c.extra.len());
-            extra_at += c.extra.len();
-            let p = c.effect.map_or(0, |e| e.parameter_count());
-            columns.extend(effect_at..effect_at + p);
-            effect_at += p;
-            if !folds.separable(&columns, options.fit.separability) {
-                continue;
+        let subsets: Vec<(&Candidate, Subset)> = remaining
+            .iter()
+            .map(|c| {
+                let mut columns = fitted.clone();
+                columns.extend(extra_at..extra_at + c.extra.len());
+                extra_at += c.extra.len();
+                let p = c.effect.map_or(0, |e| e.parameter_count());
+                columns.extend(effect_at..effect_at + p);
+                effect_at += p;
+                let subset = Subset {
+                    columns,
+                    precision_factor: 1.0,
+                };
+                (*c, subset)
+            })
+            .collect();
+        // Every separable candidate's F statistic from its fit to all poses,
+        // the candidates on every core.
+        let objectives = parallel::map(&subsets, |(_, subset)| {
+            if folds.separable(&subset.columns, options.fit.separability) {
+                folds.objective(subset)
+            } else {
+                None
             }
-            let subset = Subset {
-                columns,
-                precision_factor: 1.0,
-            };
-            let Some(objective) = folds.objective(&subset) else {
+        });
+        let mut tests = Vec::new();
+        for (n, ((c, subset), objective)) in subsets.into_iter().zip(objectives).enumerate() {
+            progress(chosen.len() + 1, n + 1, remaining.len());
+            let Some(objective) = objective else {
                 continue;
             };
             let parameters = c.parameter_count() as f64;
             let dof = (current_fit.redundancy - parameters).max(1.0);
             let f = ((base.objective - objective) / parameters)
                 / (objective / dof).max(f64::MIN_POSITIVE);
-            tests.push(((*c).clone(), subset, f, dof));
+            tests.push((c.clone(), subset, f, dof));
         }
         let m = tests.len().max(1) as f64;
         // The same for every candidate of as many parameters (its `dof` too).
@@ -370,12 +383,16 @@ pub fn diagnose_with_progress(
             })
             .collect();
         tests.sort_by(|a, b| (b.2 / b.3).total_cmp(&(a.2 / a.3)));
+        let validated: Vec<_> = tests
+            .into_iter()
+            .enumerate()
+            .take_while(|(i, (_, _, f, t))| *i < CROSS_VALIDATED || f > t)
+            .map(|(_, test)| test)
+            .collect();
+        let evaluations = parallel::map(&validated, |(_, subset, _, _)| folds.evaluate(subset));
         let mut scored = Vec::new();
-        for (i, (c, subset, f, t)) in tests.into_iter().enumerate() {
-            if i >= CROSS_VALIDATED && f <= t {
-                break;
-            }
-            let Some(e) = folds.evaluate(&subset) else {
+        for ((c, _, f, t), e) in validated.into_iter().zip(evaluations) {
+            let Some(e) = e else {
                 continue;
             };
             let gain = base.held.rms / e.held.rms.max(f64::MIN_POSITIVE);
