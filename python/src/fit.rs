@@ -99,6 +99,7 @@ fn options(
         orientation_noise,
         prior_length,
         prior_angle,
+        ..StatedScales::default()
     };
     scales.options(model).map_err(|e| {
         let name = e.flag.trim_start_matches("--").replace('-', "_");

@@ -52,6 +52,7 @@ use armcal_shared::units::Units;
 use armcal_shared::{JointType, Robot};
 use nalgebra::{Point3, Quaternion, UnitQuaternion};
 
+use crate::calibration::identify::noise::Channel;
 use crate::io::builtin;
 use crate::io::constraints::{
     Constraints, DEFAULT_DISTANCE_STD, Distance, MIN_PLANE_TOUCHES, Named, RESERVED, merge_named,
@@ -145,6 +146,16 @@ impl Observation {
         match self.contact {
             Contact::Plane(k) => Some(k),
             _ => None,
+        }
+    }
+
+    /// The noise channel of the rows that locate its tool point: a measured
+    /// position, or the kind of its contact.
+    pub fn channel(&self) -> Channel {
+        match self.contact {
+            Contact::Measured => Channel::Position,
+            Contact::Point(_) => Channel::Point,
+            Contact::Plane(_) => Channel::Plane,
         }
     }
 
