@@ -506,7 +506,13 @@ impl FullFit {
     /// The weights of the rows of each channel at the noise the fit used (1
     /// for a channel without rows).
     pub fn weights(&self) -> Weights {
-        PerChannel::from_fn(|c| self.noise.channel(c).map_or(1.0, |n| 1.0 / n.used))
+        PerChannel::from_fn(|c| 1.0 / self.noise_of(c))
+    }
+
+    /// The noise the fit divided channel `c`'s rows by (1 for a channel
+    /// without rows).
+    pub fn noise_of(&self, c: Channel) -> f64 {
+        self.noise.channel(c).map_or(1.0, |n| n.used)
     }
 
     /// The fitted effects, with their identified parameters.
@@ -1232,7 +1238,7 @@ pub fn linearize(
         r: sys.r,
         first_rows,
         fitted: base,
-        noise: data.iter().map(|o| 1.0 / weights[o.channel()]).collect(),
+        noise: data.iter().map(|o| fit.noise_of(o.channel())).collect(),
         unknowns,
         precision,
         offset,
@@ -1320,7 +1326,7 @@ pub fn linearize_constrained(
         fitted: unknowns.len(),
         noise: data
             .iter()
-            .map(|o| 1.0 / weights[o.channel()])
+            .map(|o| fit.noise_of(o.channel()))
             .chain(constraints.distances.iter().map(|d| d.std))
             .collect(),
         unknowns,
