@@ -372,13 +372,25 @@ const DEFAULT_FOLDS: usize = 10;
 #[derive(clap::Args, Debug)]
 struct Weights {
     /// Position noise of the measurements, one standard deviation per axis, in
-    /// the model's length unit (default: estimated from the residuals).
+    /// the model's length unit (default: estimated from the residuals); also
+    /// the noise of the contacts of a session without a tracker whose kind
+    /// has none stated.
     #[arg(long, value_name = "LENGTH", value_parser = args::positive)]
     position_noise: Option<f64>,
     /// Orientation noise, one standard deviation per axis, in the model's angle
     /// unit (default: estimated from the residuals).
     #[arg(long, value_name = "ANGLE", value_parser = args::positive)]
     orientation_noise: Option<f64>,
+    /// Noise of a tool point at an unknown fixed point (`point` column), per
+    /// axis, model length unit (default: `--position-noise`, else estimated
+    /// from the residuals of those rows alone).
+    #[arg(long, value_name = "LENGTH", value_parser = args::positive)]
+    point_noise: Option<f64>,
+    /// Noise of a tool point on an unknown plane (`plane` column), along its
+    /// normal, model length unit (default: `--position-noise`, else estimated
+    /// from the residuals of those rows alone).
+    #[arg(long, value_name = "LENGTH", value_parser = args::positive)]
+    plane_noise: Option<f64>,
     /// Prior scale of a D-H length error (s, a), one standard deviation, model
     /// length unit (default: the model file's `[prior]`, else 1 mm).
     #[arg(long, value_name = "LENGTH", value_parser = args::positive)]
@@ -395,6 +407,8 @@ impl Weights {
         let scales = identify::StatedScales {
             position_noise: self.position_noise,
             orientation_noise: self.orientation_noise,
+            point_noise: self.point_noise,
+            plane_noise: self.plane_noise,
             prior_length: self.prior_length,
             prior_angle: self.prior_angle,
         };

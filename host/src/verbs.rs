@@ -229,17 +229,7 @@ pub(crate) fn diagnose(
         .output("--html", html.as_deref());
     outputs.check()?;
     let (model, data) = load_session(&model, &data)?;
-    if data.is_constrained() {
-        return Err(InputError::new(
-            &data.file,
-            data.lines.first().copied().unwrap_or(1),
-            1,
-            "diagnose reads measured coordinates; this session has none (unknown points, \
-             planes, distances): identify it with `armcal identify` and check it on another \
-             session with `armcal holdout`",
-        )
-        .into());
-    }
+    data.require_coordinates()?;
     warn(&data.warnings);
     let folds = match folds {
         None => DEFAULT_FOLDS.min(data.len()),

@@ -2,7 +2,8 @@
 //! arrays, or a simulated session.
 
 use armcal::arrays::{self, Conditions, PoseArrays};
-use armcal::{measurements, simulate as sim};
+use armcal::measurements::{self, Contact};
+use armcal::simulate as sim;
 use pyo3::prelude::*;
 
 use crate::errors::{self, ArrayLike, Owned};
@@ -235,15 +236,62 @@ impl Measurements {
         errors::to_numpy(py, rows.collect(), self.model.dof(), false)
     }
 
-    /// Measured tool points, `(N, 3)`, model length unit.
+    /// Measured tool points, `(N, 3)`, model length unit; NaN on the rows of
+    /// a session without a tracker, which measure none (see `contacts`).
     #[getter]
     fn xyz<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let rows = self
-            .data
+        let rows = self.data.poses.iter().map(|p| match p.contact {
+            Contact::Measured => pose_values(&p.position, None, &self.model.units),
+            Contact::Point(_) | Contact::Plane(_) => vec![f64::NAN; 3],
+        });
+        errors::to_numpy(py, rows.collect(), 3, false)
+    }
+
+    /// What each row's tool point touches in a session without a tracker:
+    /// `("point", name)` (an unknown fixed point), `("plane", name)` (an
+    /// unknown plane), or None where the row measures its position.
+    #[getter]
+    fn contacts(&self) -> Vec<Option<(&'static str, String)>> {
+        let c = &self.data.constraints;
+        let name = |named: &[armcal::io::constraints::Named], k: usize| {
+            named.get(k).map_or_else(String::new, |n| n.name.clone())
+        };
+        self.data
             .poses
             .iter()
-            .map(|p| pose_values(&p.position, None, &self.model.units));
-        errors::to_numpy(py, rows.collect(), 3, false)
+            .map(|p| match p.contact {
+                Contact::Measured => None,
+                Contact::Point(k) => Some(("point", name(&c.points, k))),
+                Contact::Plane(k) => Some(("plane", name(&c.planes, k))),
+            })
+            .collect()
+    }
+
+    /// The known distances between fixed points of a session without a
+    /// tracker: `(point, point, length, std)`, model length unit.
+    #[getter]
+    fn distances(&self) -> Vec<(String, String, f64, f64)> {
+        let c = &self.data.constraints;
+        let u = &self.model.units;
+        let name = |k: usize| c.points.get(k).map_or_else(String::new, |p| p.name.clone());
+        c.distances
+            .iter()
+            .map(|d| {
+                (
+                    name(d.points[0]),
+                    name(d.points[1]),
+                    u.length_from_si(d.length),
+                    u.length_from_si(d.std),
+                )
+            })
+            .collect()
+    }
+
+    /// Whether the rows carry constraints (unknown fixed points or planes,
+    /// known distances) instead of measured coordinates.
+    #[getter]
+    fn is_constrained(&self) -> bool {
+        self.data.is_constrained()
     }
 
     /// Measured orientations, `(N, 4)` `qw, qx, qy, qz` (`qw ≥ 0`), or None
@@ -296,8 +344,19 @@ impl Measurements {
     }
 
     fn __repr__(&self) -> String {
+        let c = &self.data.constraints;
+        let constraints = if self.data.is_constrained() {
+            format!(
+                ", points={}, planes={}, distances={}",
+                c.points.len(),
+                c.planes.len(),
+                c.distances.len()
+            )
+        } else {
+            String::new()
+        };
         format!(
-            "Measurements(file={:?}, poses={}, orientation={}, model={:?})",
+            "Measurements(file={:?}, poses={}, orientation={}{constraints}, model={:?})",
             self.data.file,
             self.data.len(),
             self.data.has_orientation(),

@@ -89,17 +89,7 @@ fn session(
 
 /// The fit's options: the model's prior, and the stated noise and prior
 /// scales (model units) when given, as `--position-noise`, `--prior-length`…
-fn options(
-    py: Python<'_>,
-    model: &RobotModel,
-    [position_noise, orientation_noise, prior_length, prior_angle]: [Option<f64>; 4],
-) -> PyResult<FullOptions> {
-    let scales = StatedScales {
-        position_noise,
-        orientation_noise,
-        prior_length,
-        prior_angle,
-    };
+fn options(py: Python<'_>, model: &RobotModel, scales: StatedScales) -> PyResult<FullOptions> {
     scales.options(model).map_err(|e| {
         let name = e.flag.trim_start_matches("--").replace('-', "_");
         errors::argument(py, &name, format!("{}: must be a positive number", e.value))
@@ -123,9 +113,11 @@ fn targets(py: Python<'_>, targets: &str) -> PyResult<TargetFrame> {
 /// CSV path or built-in data set name), as `armcal identify` does. `params`:
 /// `full` (every identifiable parameter, base and tool included) or `paper`
 /// (Mirman & Gupta's 3M model; needs orientations). Noise and prior scales in
-/// the model's units; `targets`: `world` or `base`.
+/// the model's units (`point_noise`, `plane_noise`: of the contacts of a
+/// session without a tracker, as `--point-noise`, `--plane-noise`);
+/// `targets`: `world` or `base`.
 #[pyfunction(name = "identify")]
-#[pyo3(signature = (model, data, params = "full", *, position_noise = None, orientation_noise = None, prior_length = None, prior_angle = None, targets = "world"))]
+#[pyo3(signature = (model, data, params = "full", *, position_noise = None, orientation_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None, targets = "world"))]
 #[allow(clippy::too_many_arguments)]
 pub fn identify_py(
     py: Python<'_>,
@@ -134,6 +126,8 @@ pub fn identify_py(
     params: &str,
     position_noise: Option<f64>,
     orientation_noise: Option<f64>,
+    point_noise: Option<f64>,
+    plane_noise: Option<f64>,
     prior_length: Option<f64>,
     prior_angle: Option<f64>,
     targets: &str,
@@ -151,11 +145,15 @@ pub fn identify_py(
     };
     let frame = self::targets(py, targets)?;
     let m = &model.inner;
-    let options = options(
-        py,
-        m,
-        [position_noise, orientation_noise, prior_length, prior_angle],
-    )?;
+    let scales = StatedScales {
+        position_noise,
+        orientation_noise,
+        point_noise,
+        plane_noise,
+        prior_length,
+        prior_angle,
+    };
+    let options = options(py, m, scales)?;
     let (data, arrays) = session(py, model, data)?;
     let mut result = py
         .detach(|| identify::identify(m, &data.data, set, &options))
@@ -209,12 +207,18 @@ pub fn diagnose(
 ) -> PyResult<Py<Diagnosis>> {
     let frame = self::targets(py, targets)?;
     let m = &model.inner;
-    let fit = options(
-        py,
-        m,
-        [position_noise, orientation_noise, prior_length, prior_angle],
-    )?;
+    let scales = StatedScales {
+        position_noise,
+        orientation_noise,
+        prior_length,
+        prior_angle,
+        ..StatedScales::default()
+    };
+    let fit = options(py, m, scales)?;
     let (data, arrays) = session(py, model, data)?;
+    data.data
+        .require_coordinates()
+        .map_err(|e| errors::input(py, &e, arrays))?;
     let n = data.data.len();
     let folds = match folds {
         None => DiagnoseOptions::default().folds.min(n),

@@ -1,7 +1,7 @@
 //! Robot models: a TOML file (`FORMAT.md` §1), any other format
 //! `armcal::model_file::load_model` reads, or the name of a built-in model.
 
-use armcal::{builtin, model_file};
+use armcal::{builtin, model_file, urdf};
 use armcal_shared::{JointType, Robot, units::Units};
 use nalgebra::{IsometryMatrix3, UnitQuaternion};
 use pyo3::prelude::*;
@@ -16,11 +16,24 @@ pub struct Model {
 }
 
 /// Loads a robot model: a built-in one (`builtin_models()`) or the file at
-/// `name_or_path`, as `armcal --model` does. Raises `InputError` naming the
-/// file, line and column of what is wrong.
+/// `name_or_path`, as `armcal --model` does; of a URDF, the chain from
+/// `base_link` (default: its root) to `tip_link` (default: found walking down
+/// from the base), as `--base-link` and `--tip-link`. Raises `InputError` naming the file, line
+/// and column of what is wrong.
 #[pyfunction]
-pub fn load_model(py: Python<'_>, name_or_path: &str) -> PyResult<Model> {
-    model_file::load_model(name_or_path)
+#[pyo3(signature = (name_or_path, *, base_link = None, tip_link = None))]
+pub fn load_model(
+    py: Python<'_>,
+    name_or_path: &str,
+    base_link: Option<String>,
+    tip_link: Option<String>,
+) -> PyResult<Model> {
+    let spec = urdf::ChainSpec {
+        base_link,
+        tip_link,
+        tip_point: None,
+    };
+    model_file::load_model_with(name_or_path, &spec)
         .map(|inner| Model { inner })
         .map_err(|e| errors::input(py, &e, false))
 }

@@ -246,3 +246,56 @@ def test_the_papers_model_needs_full_poses_and_stated_scales_must_be_positive(pu
         armcal.identify(puma, puma_session[0], params="paper")
     with pytest.raises(armcal.InputError, match="position_noise: -1"):
         armcal.identify(puma, puma_session[0], position_noise=-1.0)
+
+
+MUKCA = ROOT / "data" / "mukca-ball-socket"
+
+
+def test_a_session_without_a_tracker_identifies_as_the_command_line():
+    """MUKCA's panda_6 `front` placement: a ball on the flange seated in two
+    sockets 50 mm apart, no coordinate measured. Its rows name their socket
+    (xyz NaN); identify gives what
+
+        armcal identify --model data/mukca-ball-socket/original/urdf/panda.urdf \\
+          --tip-link ball_link --data data/mukca-ball-socket/panda_6/front.csv --json r.json
+
+    writes (its figures below, as written), with the contacts' noise
+    estimated and the distance's stated; the calibration puts each socket's
+    rows about its fitted point; diagnose refuses the session as the command
+    line does."""
+    model = armcal.load_model(str(MUKCA / "original" / "urdf" / "panda.urdf"), tip_link="ball_link")
+    data = armcal.load_measurements(str(MUKCA / "panda_6" / "front.csv"), model)
+    assert data.is_constrained
+    assert {c for c in data.contacts} == {("point", "front.0"), ("point", "front.1")}
+    assert data.distances == [("front.0", "front.1", 0.05, 5e-05)]
+    assert np.isnan(data.xyz).all()
+
+    result = armcal.identify(model, data)
+    report = result.report
+    assert report["residual"]["position_rms_mm"] == pytest.approx(0.21572791062581873, rel=1e-12)
+    assert report["noise"] == [
+        {
+            "channel": "point contact",
+            "used": pytest.approx(0.0001346940774343587, rel=1e-12),
+            "shown_by_residuals": pytest.approx(0.0001347424598807242, rel=1e-12),
+            "source": "estimated",
+            "unit": "m",
+        },
+        {"channel": "distance", "used": 5e-05, "shown_by_residuals": 5e-05, "source": "stated", "unit": "m"},
+    ]
+    # Each fitted socket is the mean of its rows' calibrated ball centres,
+    # pulled by the one distance within its standard error; at the optimum
+    # the distance row pulls the two sockets by equal and opposite amounts
+    # (31 rows of one weight each: n w² (P − mean) = ∓λ u).
+    predicted = result.calibration.predict(data.q)[:, :3]
+    pulls = []
+    for point in report["points"]:
+        rows = [i for i, c in enumerate(data.contacts) if c == ("point", point["name"])]
+        assert len(rows) == 31
+        pull = np.array(point["xyz"]) - predicted[rows].mean(axis=0)
+        assert np.all(np.abs(pull) < 3 * np.array(point["std"])), point["name"]
+        pulls.append(pull)
+    np.testing.assert_allclose(pulls[0], -pulls[1], rtol=0, atol=1e-9)
+
+    with pytest.raises(armcal.InputError, match="diagnose reads measured coordinates"):
+        armcal.diagnose(model, data)

@@ -52,6 +52,7 @@ use armcal_shared::units::Units;
 use armcal_shared::{JointType, Robot};
 use nalgebra::{Point3, Quaternion, UnitQuaternion};
 
+use crate::calibration::identify::noise::Channel;
 use crate::io::builtin;
 use crate::io::constraints::{
     Constraints, DEFAULT_DISTANCE_STD, Distance, MIN_PLANE_TOUCHES, Named, RESERVED, merge_named,
@@ -148,6 +149,16 @@ impl Observation {
         }
     }
 
+    /// The noise channel of the rows that locate its tool point: a measured
+    /// position, or the kind of its contact.
+    pub fn channel(&self) -> Channel {
+        match self.contact {
+            Contact::Measured => Channel::Position,
+            Contact::Point(_) => Channel::Point,
+            Contact::Plane(_) => Channel::Plane,
+        }
+    }
+
     /// The scalar equations this pose gives an identification: 3 (position) or 6
     /// (position and orientation).
     pub fn equations(&self) -> usize {
@@ -186,6 +197,23 @@ impl Measurements {
     /// Whether the rows carry constraints (unknown fixed points) instead of coordinates.
     pub fn is_constrained(&self) -> bool {
         !self.constraints.is_empty()
+    }
+
+    /// Refuses a session without measured coordinates (unknown points,
+    /// planes, distances) for what reads coordinates (`armcal diagnose`),
+    /// at its first data line.
+    pub fn require_coordinates(&self) -> Result<(), InputError> {
+        if !self.is_constrained() {
+            return Ok(());
+        }
+        Err(InputError::new(
+            &self.file,
+            self.lines.first().copied().unwrap_or(1),
+            1,
+            "diagnose reads measured coordinates; this session has none (unknown points, \
+             planes, distances): identify it with `armcal identify` and check it on another \
+             session with `armcal holdout`",
+        ))
     }
 
     /// The number of poses.

@@ -408,3 +408,59 @@ fn mukca_panda_sessions_held_out_with_the_prior_chosen_by_cross_validation() {
     assert!(f[5].abs() < f[3].abs(), "{f:?}");
     assert!(f[4] > f[2] && f[4] < f[2] + 0.01, "{f:?}");
 }
+
+/// The report names the noise of each kind of row: a ball seated in sockets
+/// (`point`) estimated from those rows' residuals, the socket distance at the
+/// uncertainty its line states. A stated `--point-noise` weighs the contacts;
+/// `--position-noise` states it too when no kind has its own (as before the
+/// contacts had channels of their own).
+#[test]
+fn identify_reports_the_noise_of_each_kind_of_row() {
+    let dir = tempfile::tempdir().unwrap();
+    let m = mukca();
+    let model = m.join("original/urdf/panda.urdf");
+    let data = m.join("panda_6/front.csv");
+    let noise = |extra: &[&str]| -> Vec<serde_json::Value> {
+        let mut args = vec![
+            "identify",
+            "--model",
+            model.to_str().unwrap(),
+            "--tip-link",
+            "ball_link",
+            "--data",
+            data.to_str().unwrap(),
+            "--json",
+            "r.json",
+        ];
+        args.extend(extra);
+        succeeds(dir.path(), &args);
+        let report: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.path().join("r.json")).unwrap()).unwrap();
+        report["noise"].as_array().unwrap().clone()
+    };
+    let field = |c: &serde_json::Value, key: &str| c[key].as_f64().unwrap();
+    let estimated = noise(&[]);
+    let channels: Vec<&str> = estimated
+        .iter()
+        .map(|c| c["channel"].as_str().unwrap())
+        .collect();
+    assert_eq!(channels, ["point contact", "distance"]);
+    let point = &estimated[0];
+    assert_eq!(point["source"], "estimated");
+    // Settled variance components: the noise used is the one the residuals show.
+    let (used, shown) = (field(point, "used"), field(point, "shown_by_residuals"));
+    assert!((shown / used - 1.0).abs() < 2e-3, "{used} {shown}");
+    assert_eq!(estimated[1]["source"], "stated");
+    assert_eq!(field(&estimated[1], "used"), 5e-5);
+
+    let stated = noise(&["--point-noise", "0.0002"]);
+    assert_eq!(stated[0]["source"], "stated");
+    assert_eq!(field(&stated[0], "used"), 2e-4);
+    // Weighed at a larger noise than they show, the contacts count for less
+    // against the prior on the D-H errors and the stated distance: the fit
+    // gives them more residual (least squares regularised harder leaves a
+    // residual no smaller), so they show more than the estimate.
+    let shown_stated = field(&stated[0], "shown_by_residuals");
+    assert!(shown_stated > used, "{shown_stated} {used}");
+    assert_eq!(noise(&["--position-noise", "0.0002"]), stated);
+}

@@ -294,7 +294,7 @@ impl<'a> Folds<'a> {
                             .map(|&c| lin.j[(row, c)] * delta[c])
                             .sum::<f64>()
                 });
-                errors[i] = e.norm() * lin.position_noise;
+                errors[i] = e.norm() * lin.noise[i];
             }
         }
         let objective = self.objective(subset)?;

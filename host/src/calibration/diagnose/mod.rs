@@ -588,29 +588,7 @@ impl Diagnosis {
         &self,
         units: &armcal_shared::units::Units,
     ) -> Vec<(&'static str, f64, f64, &'static str, String)> {
-        use crate::calibration::identify::noise::NoiseSource;
-        let n = &self.geometric.noise;
-        let source = |s: NoiseSource| match s {
-            NoiseSource::Stated => "stated",
-            NoiseSource::Estimated => "estimated",
-        };
-        let mut rows = vec![(
-            "position",
-            units.length_from_si(n.position.used),
-            units.length_from_si(n.position.shown),
-            source(n.position.source),
-            units.length.to_string(),
-        )];
-        if let Some(o) = n.orientation {
-            rows.push((
-                "orientation",
-                units.angle_from_si(o.used),
-                units.angle_from_si(o.shown),
-                source(o.source),
-                units.angle.to_string(),
-            ));
-        }
-        rows
+        crate::calibration::identify::noise_rows(&self.geometric.noise, units)
     }
 
     /// The held-out statistics of the nominal model, the geometric and the

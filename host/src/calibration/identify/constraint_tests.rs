@@ -26,9 +26,39 @@ fn session(
     per_socket: usize,
     contact_noise: f64,
 ) -> (Robot<f64>, Robot<f64>, SocketSession, Constraints) {
+    let kinds = Kinds {
+        per_socket,
+        point_noise: contact_noise,
+        touches: per_socket,
+        plane_noise: contact_noise,
+    };
+    session_of(model, seed, &kinds)
+}
+
+/// How a session contacts its sockets and its plane: contacts per socket and
+/// their noise (m, per axis), touches of the plane and their noise (m, along
+/// the normal).
+struct Kinds {
+    per_socket: usize,
+    point_noise: f64,
+    touches: usize,
+    plane_noise: f64,
+}
+
+/// [`session`] with each kind of contact drawn as `kinds` says.
+fn session_of(
+    model: &str,
+    seed: u64,
+    kinds: &Kinds,
+) -> (Robot<f64>, Robot<f64>, SocketSession, Constraints) {
+    let exact = Kinds {
+        point_noise: 0.0,
+        plane_noise: 0.0,
+        ..*kinds
+    };
     let nominal = load_model(model).expect("built-in model").robot;
     // Which parameters exact data of such a session separate.
-    let (probe, c) = draw(&nominal, seed, per_socket, 0.0);
+    let (probe, c) = draw_kinds(&nominal, seed, &exact);
     let held: Vec<Param> = fit(&nominal, &probe, &c, &FullOptions::least_squares())
         .params
         .iter()
@@ -41,7 +71,7 @@ fn session(
         .collect();
     let mut rng = simulate::rng(seed + 1000);
     let (truth, _) = simulate::with_random_errors(&nominal, &params, 1e-3, 1e-3, &mut rng);
-    let (session, constraints) = draw(&truth, seed, per_socket, contact_noise);
+    let (session, constraints) = draw_kinds(&truth, seed, kinds);
     (nominal, truth, session, constraints)
 }
 
@@ -55,30 +85,30 @@ fn plane_of(truth: &Robot<f64>, rng: &mut rand::rngs::StdRng) -> (Point3<f64>, V
 }
 
 /// A session of `truth` with three sockets at random reachable points and
-/// `per_socket` touches of one plane.
-fn draw(
-    truth: &Robot<f64>,
-    seed: u64,
-    per_socket: usize,
-    contact_noise: f64,
-) -> (SocketSession, Constraints) {
+/// the touches of one plane, each kind of contact as `kinds` says.
+fn draw_kinds(truth: &Robot<f64>, seed: u64, kinds: &Kinds) -> (SocketSession, Constraints) {
+    let &Kinds {
+        per_socket,
+        point_noise,
+        touches,
+        plane_noise,
+    } = kinds;
     let mut rng = simulate::rng(seed);
     let kin = truth.prepare();
     let sockets: Vec<Point3<f64>> = simulate::random_configurations(truth, 3, &mut rng)
         .iter()
         .map(|q| Point3::from(kin.forward(q).expect("joint count").translation.vector))
         .collect();
-    let mut session =
-        simulate::socket_session(truth, &sockets, per_socket, contact_noise, &mut rng)
-            .expect("every socket is reached");
+    let mut session = simulate::socket_session(truth, &sockets, per_socket, point_noise, &mut rng)
+        .expect("every socket is reached");
     let (centre, normal) = plane_of(truth, &mut rng);
     session.observations.extend(
         simulate::plane_touches(
             truth,
             (centre, normal, 0.1),
             0,
-            per_socket,
-            contact_noise,
+            touches,
+            plane_noise,
             &mut rng,
         )
         .expect("the plane is reached"),
@@ -103,7 +133,7 @@ fn draw(
     let planes = vec![TouchedPlane {
         name: "plate".into(),
         first: (0, 0),
-        rows: per_socket,
+        rows: touches,
     }];
     (
         session,
@@ -201,5 +231,104 @@ fn noisy_socket_sessions_recover_the_truth_within_four_standard_errors() {
         // The contact noise is what the residuals show.
         let shown = fit.position_rms / 3f64.sqrt();
         assert!((shown / 5e-5 - 1.0).abs() < 0.3, "{model}: {shown:e}");
+    }
+}
+
+/// RMS distance, over 200 random configurations, between the tool points of
+/// the fitted and the true robot, m.
+fn tool_point_rms(fit: &FullFit, truth: &Robot<f64>) -> f64 {
+    let mut rng = simulate::rng(99);
+    let (fitted, truth_kin) = (fit.calibrated.prepare(), truth.prepare());
+    let configurations = simulate::random_configurations(truth, 200, &mut rng);
+    let sum: f64 = configurations
+        .iter()
+        .map(|q| {
+            let a = fitted.forward(q).expect("joint count").translation.vector;
+            let b = truth_kin
+                .forward(q)
+                .expect("joint count")
+                .translation
+                .vector;
+            (a - b).norm_squared()
+        })
+        .sum();
+    (sum / configurations.len() as f64).sqrt()
+}
+
+/// A ball seated in sockets (0.02 mm per axis) and a probe touching a plate
+/// (0.2 mm along its normal) are two kinds of contact with two noises: each
+/// kind's noise is estimated on its own (variance components), each within
+/// three standard deviations of the truth — an estimated `σ` from a channel of
+/// redundancy `r` scatters by `σ / √(2r)` — and weighing each kind by its own
+/// noise identifies the robot no worse than one noise shared by both (the
+/// fit of the old single channel: both kinds weighed alike; without a prior
+/// its level does not move the estimate).
+#[test]
+fn each_kind_of_contact_gets_its_own_noise() {
+    use super::noise::NoiseSource;
+    use super::prior::Prior;
+    let kinds = Kinds {
+        per_socket: 40,
+        point_noise: 2e-5,
+        touches: 100,
+        plane_noise: 2e-4,
+    };
+    for (model, seed) in [("puma560", 21), ("ur5e", 22)] {
+        let (nominal, truth, s, c) = session_of(model, seed, &kinds);
+        let own = fit(
+            &nominal,
+            &s,
+            &c,
+            &FullOptions {
+                prior: Prior::NONE,
+                ..FullOptions::default()
+            },
+        );
+        assert!(own.converged, "{model}");
+        for (noise, truth_noise, what) in [
+            (own.noise.point, kinds.point_noise, "point"),
+            (own.noise.plane, kinds.plane_noise, "plane"),
+        ] {
+            let noise = noise.expect("the session has this kind");
+            assert_eq!(noise.source, NoiseSource::Estimated);
+            let tolerance = 3.0 / (2.0 * noise.redundancy).sqrt();
+            let relative = noise.used / truth_noise - 1.0;
+            assert!(
+                relative.abs() < tolerance,
+                "{model} {what}: estimated {:.3e} m against {truth_noise:e} m \
+                 (redundancy {:.1}, tolerance ±{tolerance:.3})",
+                noise.used,
+                noise.redundancy
+            );
+        }
+        // Distances keep their stated uncertainty.
+        let distance = own.noise.distance.expect("three distances");
+        assert_eq!(distance.source, NoiseSource::Stated);
+        assert_eq!(distance.used, DEFAULT_DISTANCE_STD);
+
+        let shared = fit(
+            &nominal,
+            &s,
+            &c,
+            &FullOptions {
+                position_noise: 1e-4,
+                ..FullOptions::least_squares()
+            },
+        );
+        assert!(shared.converged, "{model}");
+        let (own_rms, shared_rms) = (
+            tool_point_rms(&own, &truth),
+            tool_point_rms(&shared, &truth),
+        );
+        eprintln!(
+            "{model}: point noise {:.3e} m, plane noise {:.3e} m; tool point RMS error \
+             {own_rms:.3e} m with them, {shared_rms:.3e} m with one shared noise",
+            own.noise.point.unwrap().used,
+            own.noise.plane.unwrap().used
+        );
+        assert!(
+            own_rms <= shared_rms,
+            "{model}: own noises {own_rms:.3e} m, one shared noise {shared_rms:.3e} m"
+        );
     }
 }

@@ -13,9 +13,11 @@
 //! For each pose, the position residual `P_meas − P_model` (3 rows, with Jacobian
 //! rows `dP = dη + νdφ × P`, eq. 8) and, when measured, the orientation residual:
 //! the rotation vector of `R_meas R_modelᵀ` (3 rows, with the rotation part
-//! `νdφ` of the columns). Rows are divided by the stated noise, `σ_p` for
-//! positions and `σ_r` for orientations, so that both are in units of their noise
-//! and the fit is a weighted least-squares one.
+//! `νdφ` of the columns). Rows are divided by the noise of their channel
+//! ([`super::noise::Channel`]): `σ_p` for measured positions, `σ_r` for
+//! orientations, and in a session without a tracker the noise of the kind of
+//! contact (a tool point at a fixed point, on a plane), so that all are in
+//! units of their noise and the fit is a weighted least-squares one.
 //!
 //! ## Initial estimate
 //! The base and tool may be far from nominal (metres, tens of degrees). Before
@@ -71,7 +73,9 @@ use nalgebra::{IsometryMatrix3, Matrix3, Point3, Rotation3, Vector3};
 
 use crate::calibration::parallel;
 
-use super::noise::{ChannelNoise, NoiseEstimate, NoiseSource, SETTLED};
+use super::noise::{
+    Channel, ChannelNoise, Noise, NoiseEstimate, NoiseSource, PerChannel, SETTLED, Weights,
+};
 use super::prior::{Geometry, Prior};
 
 /// One unknown of the fit: a geometric parameter, or parameter `component` of
@@ -298,6 +302,12 @@ pub struct FullOptions {
     pub position_source: NoiseSource,
     /// Whether `orientation_noise` is the user's or a starting value to estimate from.
     pub orientation_source: NoiseSource,
+    /// The noise of the rows of a tool point at an unknown fixed point, m;
+    /// `None`: the position noise and its source.
+    pub point_noise: Option<Noise>,
+    /// The noise of the rows of a tool point on an unknown plane, m; `None`:
+    /// the position noise and its source.
+    pub plane_noise: Option<Noise>,
     /// The prior on the D-H parameter errors ([`Prior::NONE`]: least squares).
     pub prior: Prior,
     /// Which parameters are free; the others are held at nominal.
@@ -318,22 +328,58 @@ impl FullOptions {
     /// These options starting from the noise `fit` used (for an estimated noise,
     /// a start that settles in a round or two; a stated one is as stated).
     pub fn at_noise_of(self, fit: &FullFit) -> Self {
+        let contact = |c: Channel, own: Option<Noise>| {
+            fit.noise.channel(c).map_or(own, |n| {
+                Some(Noise {
+                    sigma: n.used,
+                    source: self.noise(c).source,
+                })
+            })
+        };
         Self {
             position_noise: fit.noise.position.used,
             orientation_noise: fit
                 .noise
                 .orientation
                 .map_or(self.orientation_noise, |o| o.used),
+            point_noise: contact(Channel::Point, self.point_noise),
+            plane_noise: contact(Channel::Plane, self.plane_noise),
             ..self
         }
     }
 
-    /// These options with both noises stated (as given), not estimated.
+    /// These options with every noise stated (as given), not estimated.
     pub fn stated(self) -> Self {
+        let stated = |n: Option<Noise>| {
+            n.map(|n| Noise {
+                source: NoiseSource::Stated,
+                ..n
+            })
+        };
         Self {
             position_source: NoiseSource::Stated,
             orientation_source: NoiseSource::Stated,
+            point_noise: stated(self.point_noise),
+            plane_noise: stated(self.plane_noise),
             ..self
+        }
+    }
+
+    /// The noise of channel `c`'s rows: its value and source (a contact's, the
+    /// position noise's unless set).
+    pub fn noise(&self, c: Channel) -> Noise {
+        let position = Noise {
+            sigma: self.position_noise,
+            source: self.position_source,
+        };
+        match c {
+            Channel::Position => position,
+            Channel::Orientation => Noise {
+                sigma: self.orientation_noise,
+                source: self.orientation_source,
+            },
+            Channel::Point => self.point_noise.unwrap_or(position),
+            Channel::Plane => self.plane_noise.unwrap_or(position),
         }
     }
 }
@@ -350,6 +396,8 @@ impl Default for FullOptions {
             initial_estimate: true,
             position_source: NoiseSource::Estimated,
             orientation_source: NoiseSource::Estimated,
+            point_noise: None,
+            plane_noise: None,
             prior: Prior::default(),
             geometry: Geometry::Full,
         }
@@ -455,6 +503,18 @@ pub struct PointFit {
 }
 
 impl FullFit {
+    /// The weights of the rows of each channel at the noise the fit used (1
+    /// for a channel without rows).
+    pub fn weights(&self) -> Weights {
+        PerChannel::from_fn(|c| 1.0 / self.noise_of(c))
+    }
+
+    /// The noise the fit divided channel `c`'s rows by (1 for a channel
+    /// without rows).
+    pub fn noise_of(&self, c: Channel) -> f64 {
+        self.noise.channel(c).map_or(1.0, |n| n.used)
+    }
+
     /// The fitted effects, with their identified parameters.
     pub fn fitted_effects(&self) -> Vec<Effect<f64>> {
         self.effects.iter().map(|e| e.effect).collect()
@@ -721,22 +781,28 @@ pub fn identify_constrained(
     // they settle. A stated noise is kept, but when the fit shows it
     // significantly larger the selection is made again with the noise the
     // residuals show.
-    let estimate = (
-        options.position_source == NoiseSource::Estimated,
-        orientation && options.orientation_source == NoiseSource::Estimated,
-    );
+    // The channels the data have rows in: each of those whose noise is not
+    // stated is estimated.
+    let present = PerChannel::from_fn(|c| match c {
+        Channel::Position => true,
+        Channel::Orientation => orientation,
+        Channel::Point => data.iter().any(|o| o.fixed_point().is_some()),
+        Channel::Plane => data.iter().any(|o| o.on_plane().is_some()),
+    });
+    let estimate =
+        present.map(|c, &present| present && options.noise(c).source == NoiseSource::Estimated);
     let start = robot.clone();
-    let mut noise = (options.position_noise, options.orientation_noise);
+    let mut noise = PerChannel::from_fn(|c| options.noise(c).sigma);
     let mut noise_scale = 1.0;
     let mut iterations = 0;
     let (mut free_params, mut fixed, mut converged, mut sys, mut prior, mut post);
     let mut round = 0;
     loop {
         round += 1;
-        let weights = (1.0 / noise.0, 1.0 / noise.1);
-        let system = NormalEquations::accumulate(&robot, data, &params, weights);
+        let weights = Weights::of(&noise);
+        let system = NormalEquations::accumulate(&robot, data, &params, &weights);
         let (free, f) = if constrained {
-            constrained_subset(&params, &robot, data, options, noise_scale, weights)
+            constrained_subset(&params, &robot, data, options, noise_scale, &weights)
         } else {
             separable_subset(&system, &params, &robot, data, options, noise_scale)
         };
@@ -767,47 +833,43 @@ pub fn identify_constrained(
         // The linearisation of every parameter serves the first iteration unless a
         // held parameter was just moved back.
         let first = if moved {
-            NormalEquations::accumulate(&robot, data, &free_params, weights)
+            NormalEquations::accumulate(&robot, data, &free_params, &weights)
         } else {
             system.select_columns(&free)
         };
         prior = prior_terms(&free_params, nominal, &options.prior);
         // The fit of the free parameters at `weights` from the linearisation `first`.
-        let solve = |robot: &mut Model, weights, first| {
+        let solve = |robot: &mut Model, weights: &Weights, first| {
             levenberg_marquardt(robot, data, &free_params, weights, options, first, &prior)
         };
         let run;
-        (run, converged, sys) = solve(&mut robot, weights, first)?;
+        (run, converged, sys) = solve(&mut robot, &weights, first)?;
         iterations += run;
         post = Posterior::at(&sys, &prior);
-        if estimate.0 || estimate.1 {
+        if estimate.0.contains(&true) {
             // The free parameters stay; each round reweighs the rows of the
             // solution's linearisation and iterates from there.
             loop {
-                let next = (
-                    if estimate.0 {
-                        ChannelNoise::update(noise.0, post.omega.0, post.redundancy.0)
+                let next = noise.map(|c, &sigma| {
+                    if estimate[c] {
+                        ChannelNoise::update(sigma, post.omega[c], post.redundancy[c])
                     } else {
-                        noise.0
-                    },
-                    if estimate.1 {
-                        ChannelNoise::update(noise.1, post.omega.1, post.redundancy.1)
-                    } else {
-                        noise.1
-                    },
-                );
-                let settled = (next.0 / noise.0 - 1.0).abs() < SETTLED
-                    && (next.1 / noise.1 - 1.0).abs() < SETTLED;
+                        sigma
+                    }
+                });
+                let settled = Channel::ALL
+                    .iter()
+                    .all(|&c| (next[c] / noise[c] - 1.0).abs() < SETTLED);
                 if settled || round >= MAX_NOISE_ROUNDS {
                     break;
                 }
                 round += 1;
-                let before = (1.0 / noise.0, 1.0 / noise.1);
+                let before = Weights::of(&noise);
                 noise = next;
-                let weights = (1.0 / noise.0, 1.0 / noise.1);
-                let first = sys.reweighted(before, weights);
+                let weights = Weights::of(&noise);
+                let first = sys.reweighted(&before, &weights);
                 let run;
-                (run, converged, sys) = solve(&mut robot, weights, first)?;
+                (run, converged, sys) = solve(&mut robot, &weights, first)?;
                 iterations += run;
                 post = Posterior::at(&sys, &prior);
             }
@@ -823,9 +885,9 @@ pub fn identify_constrained(
             break;
         }
         let (free_again, _) = if constrained {
-            constrained_subset(&params, &robot, data, options, new_scale, weights)
+            constrained_subset(&params, &robot, data, options, new_scale, &weights)
         } else {
-            let system = NormalEquations::accumulate(&robot, data, &params, weights);
+            let system = NormalEquations::accumulate(&robot, data, &params, &weights);
             separable_subset(&system, &params, &robot, data, options, new_scale)
         };
         noise_scale = new_scale;
@@ -869,33 +931,38 @@ pub fn identify_constrained(
     correlations.sort_by(|a, b| b.2.abs().total_cmp(&a.2.abs()));
     correlations.truncate(5);
 
-    let weights = (1.0 / noise.0, 1.0 / noise.1);
-    let (position_rms, orientation_rms) = sys.residual_rms(weights);
-    let channel =
-        |source: NoiseSource, used: f64, omega: f64, rows: usize, redundancy: f64| ChannelNoise {
-            source,
+    let (position_rms, orientation_rms) = sys.residual_rms(&Weights::of(&noise));
+    let channel = |c: Channel| ChannelNoise {
+        source: options.noise(c).source,
+        used: noise[c],
+        shown: ChannelNoise::update(noise[c], post.omega[c], post.redundancy[c]),
+        rows: post.rows[c],
+        redundancy: post.redundancy[c],
+    };
+    let distance = (!constraints.distances.is_empty()).then(|| {
+        let n = constraints.distances.len();
+        let used = (constraints
+            .distances
+            .iter()
+            .map(|d| d.std * d.std)
+            .sum::<f64>()
+            / n as f64)
+            .sqrt();
+        let (omega, redundancy) = post.distances;
+        ChannelNoise {
+            source: NoiseSource::Stated,
             used,
             shown: ChannelNoise::update(used, omega, redundancy),
-            rows,
+            rows: n,
             redundancy,
-        };
+        }
+    });
     let noise_estimate = NoiseEstimate {
-        position: channel(
-            options.position_source,
-            noise.0,
-            post.omega.0,
-            post.rows.0,
-            post.redundancy.0,
-        ),
-        orientation: orientation.then(|| {
-            channel(
-                options.orientation_source,
-                noise.1,
-                post.omega.1,
-                post.rows.1,
-                post.redundancy.1,
-            )
-        }),
+        position: channel(Channel::Position),
+        orientation: orientation.then(|| channel(Channel::Orientation)),
+        point: present[Channel::Point].then(|| channel(Channel::Point)),
+        plane: present[Channel::Plane].then(|| channel(Channel::Plane)),
+        distance,
     };
     let mut fixed_reason = fixed
         .into_iter()
@@ -1041,12 +1108,12 @@ fn prior_cost(robot: &Model, free: &[Unknown], prior: &[(f64, f64)]) -> f64 {
 struct Posterior {
     /// `(G + P)⁻¹` in the unit-diagonal scaling of the data's normal matrix `G`.
     cov: Option<Mat<f64>>,
-    /// Weighted sums of squares: positions, orientations.
-    omega: (f64, f64),
-    /// Rows: positions, orientations.
-    rows: (usize, usize),
-    /// Redundancies: positions, orientations.
-    redundancy: (f64, f64),
+    /// Weighted sums of squares per channel.
+    omega: PerChannel<f64>,
+    /// Rows per channel.
+    rows: PerChannel<usize>,
+    /// Redundancies per channel.
+    redundancy: PerChannel<f64>,
     /// The known-distance rows: weighted sum of squares and redundancy.
     distances: (f64, f64),
     /// The diagonal of the resolution matrix `(G + P)⁻¹ G`.
@@ -1057,10 +1124,6 @@ impl Posterior {
     fn at(sys: &NormalEquations, prior: &[(f64, f64)]) -> Self {
         let (g, _, scale) = sys.scaled_normal_equations();
         let p = g.nrows();
-        // The position rows alone.
-        let rows = (sys.rows[0], sys.rows[1]);
-        let gp = Mat::from_fn(p, p, |a, b| sys.jtj[0][(a, b)] * scale[a] * scale[b]);
-        let omega = (sys.rtr[0], sys.rtr[1]);
         let mut n = g.clone();
         for (k, (precision, _)) in prior.iter().enumerate() {
             n[(k, k)] += precision * scale[k] * scale[k];
@@ -1072,9 +1135,17 @@ impl Posterior {
                 .sum(),
             None => p as f64,
         };
-        let go = Mat::from_fn(p, p, |a, b| sys.jtj[1][(a, b)] * scale[a] * scale[b]);
+        // Each channel's rows less the parameters' share they determine,
+        // `tr(N⁻¹ J_cᵀ J_c)`; none for a channel without rows.
+        let redundancy = sys.rows.map(|c, &rows| {
+            if rows == 0 {
+                return 0.0;
+            }
+            let gc = Mat::from_fn(p, p, |a, b| sys.jtj[c][(a, b)] * scale[a] * scale[b]);
+            rows as f64 - trace(&gc)
+        });
         let gd = Mat::from_fn(p, p, |a, b| sys.distances.jtj[(a, b)] * scale[a] * scale[b]);
-        let (tp, to, td) = (trace(&gp), trace(&go), trace(&gd));
+        let td = trace(&gd);
         let share = (0..p)
             .map(|k| match &cov {
                 Some(c) => (0..p).map(|j| c[(k, j)] * g[(j, k)]).sum::<f64>(),
@@ -1083,9 +1154,9 @@ impl Posterior {
             .collect();
         Self {
             cov,
-            omega,
-            rows,
-            redundancy: (rows.0 as f64 - tp, rows.1 as f64 - to),
+            omega: sys.rtr,
+            rows: sys.rows,
+            redundancy,
             distances: (sys.distances.rtr, sys.distances.rows as f64 - td),
             share,
         }
@@ -1093,14 +1164,14 @@ impl Posterior {
 
     /// The total redundancy.
     fn redundancy(&self) -> f64 {
-        self.redundancy.0 + self.redundancy.1 + self.distances.1
+        self.redundancy.0.iter().sum::<f64>() + self.distances.1
     }
 
     /// The a-posteriori variance factor: the weighted sum of squares over the redundancy.
     fn variance_factor(&self) -> f64 {
         let r = self.redundancy();
         if r > 0.0 {
-            (self.omega.0 + self.omega.1 + self.distances.0) / r
+            (self.omega.0.iter().sum::<f64>() + self.distances.0) / r
         } else {
             1.0
         }
@@ -1154,14 +1225,8 @@ pub fn linearize(
             Unknown::Effect { .. } | Unknown::Point { .. } | Unknown::Plane { .. } => 0.0,
         })
         .collect();
-    let position_noise = fit.noise.position.used;
-    let orientation_noise = fit.noise.orientation.map_or(1.0, |o| o.used);
-    let sys = LinearSystem::build(
-        &model,
-        data,
-        &unknowns,
-        (1.0 / position_noise, 1.0 / orientation_noise),
-    );
+    let weights = fit.weights();
+    let sys = LinearSystem::build(&model, data, &unknowns, &weights);
     let mut first_rows = Vec::with_capacity(data.len());
     let mut row = 0;
     for obs in data {
@@ -1173,7 +1238,7 @@ pub fn linearize(
         r: sys.r,
         first_rows,
         fitted: base,
-        position_noise,
+        noise: data.iter().map(|o| fit.noise_of(o.channel())).collect(),
         unknowns,
         precision,
         offset,
@@ -1228,8 +1293,8 @@ pub fn linearize_constrained(
             _ => 0.0,
         })
         .collect();
-    let position_noise = fit.noise.position.used;
-    let sys = LinearSystem::build(&model, data, &unknowns, (1.0 / position_noise, 1.0));
+    let weights = fit.weights();
+    let sys = LinearSystem::build(&model, data, &unknowns, &weights);
     let distances = DistanceRows::rows(&model, &unknowns);
     let poses_rows = sys.j.nrows();
     let rows = poses_rows + distances.len();
@@ -1259,7 +1324,11 @@ pub fn linearize_constrained(
         r,
         first_rows,
         fitted: unknowns.len(),
-        position_noise,
+        noise: data
+            .iter()
+            .map(|o| fit.noise_of(o.channel()))
+            .chain(constraints.distances.iter().map(|d| d.std))
+            .collect(),
         unknowns,
         precision,
         offset,
@@ -1276,8 +1345,10 @@ pub struct Linearization {
     pub first_rows: Vec<usize>,
     /// How many leading columns are the fit's own unknowns.
     pub fitted: usize,
-    /// The position noise the rows are divided by, m.
-    pub position_noise: f64,
+    /// The noise the position rows of each pose (the rows of its tool point:
+    /// a measured position or a contact) are divided by, then of each
+    /// distance row: m, in the order of [`Linearization::first_rows`].
+    pub noise: Vec<f64>,
     /// The unknown of each column.
     pub unknowns: Vec<Unknown>,
     /// The prior precision `1/τ²` of each column (0: none).
@@ -1322,7 +1393,7 @@ fn levenberg_marquardt(
     robot: &mut Model,
     data: &[Observation],
     free_params: &[Unknown],
-    weights: (f64, f64),
+    weights: &Weights,
     options: &FullOptions,
     mut sys: NormalEquations,
     prior: &[(f64, f64)],
@@ -1457,7 +1528,7 @@ impl LinearSystem {
 
     /// The linearisation at `model`: per pose its 3 position rows, then its 3
     /// orientation rows when measured ([`for_each_pose_rows`]).
-    fn build(model: &Model, data: &[Observation], params: &[Unknown], weights: (f64, f64)) -> Self {
+    fn build(model: &Model, data: &[Observation], params: &[Unknown], weights: &Weights) -> Self {
         let rows = Self::rows(data);
         let mut j = Mat::zeros(rows, params.len());
         let mut r = Mat::zeros(rows, 1);
@@ -1491,6 +1562,8 @@ struct PoseRows {
     /// The position rows: 3, or 1 for a touch of a plane (its distance along
     /// the normal; rows 1..3 then hold zeros).
     position_rows: usize,
+    /// The channel of the position rows: a measured position or a contact.
+    channel: Channel,
 }
 
 impl PoseRows {
@@ -1515,9 +1588,10 @@ fn for_each_pose_rows(
     model: &Model,
     data: &[Observation],
     params: &[Unknown],
-    (wp, wr): (f64, f64),
+    weights: &Weights,
     mut emit: impl FnMut(&PoseRows),
 ) {
+    let wr = weights[Channel::Orientation];
     let robot = &model.robot;
     let kinematics = robot.prepare();
     let Some(Ok(mut chain)) = data.first().map(|o| kinematics.chain(&o.q)) else {
@@ -1529,6 +1603,7 @@ fn for_each_pose_rows(
         r: [0.0; 6],
         orientation: false,
         position_rows: 3,
+        channel: Channel::Position,
     };
     let base_columns = chain.base_columns();
     let effects = (!model.effects.is_empty())
@@ -1590,6 +1665,9 @@ fn for_each_pose_rows(
         let touched = obs
             .on_plane()
             .and_then(|k| model.planes.get(k).map(|pl| (k, pl, pl.normal())));
+        // The tool point's rows are weighed by the noise of their kind.
+        let channel = obs.channel();
+        let wp = weights[channel];
         for (k, &u) in params.iter().enumerate() {
             let col: Twist<f64> = match u {
                 Unknown::Param(Param::Base(ax)) => base_columns[ax.index()],
@@ -1670,6 +1748,7 @@ fn for_each_pose_rows(
             rows.r[i] = dp[i] * wp;
         }
         rows.position_rows = 3;
+        rows.channel = channel;
         if let Some((_, pl, normal)) = touched {
             rows.r = [0.0; 6];
             rows.r[0] = (pl.offset - normal.dot(&p.coords)) * wp;
@@ -1700,17 +1779,19 @@ const CHUNK_POSES: usize = 8 * BLOCK_POSES;
 /// it, in memory independent of the number of poses (`O(p²)`, plus
 /// `O(BLOCK_POSES · p)` while accumulating).
 ///
-/// Per channel (`[0]`: the position rows, `[1]`: the orientation rows) of the
-/// weighted Jacobian `J` and residual `r` of [`for_each_pose_rows`] — each row
-/// divided by its channel's noise (`σ_p` in m, `σ_r` in rad), so the residual is
+/// Per channel ([`Channel`]: measured positions and orientations, point and
+/// plane contacts) of the weighted Jacobian `J` and residual `r` of
+/// [`for_each_pose_rows`] — each row divided by its channel's noise (`σ_c` in
+/// m, or rad for orientations), so the residual is
 /// in units of the noise and a column is the change of the predictions, in units
 /// of the noise, per SI unit of its unknown:
 /// - `jtj`: `JᵀJ`, params × params;
 /// - `jtr`: `Jᵀr`, params × 1;
 /// - `rtr`: `rᵀr`, the channel's weighted sum of squares;
-/// - `rows`: the channel's rows (3 per pose; 3 per pose with an orientation).
+/// - `rows`: the channel's rows (3 per pose, 1 per touch of a plane; 3 per
+///   pose with an orientation).
 ///
-/// The position channel is kept apart for the per-channel redundancy of
+/// Each channel is kept apart for the per-channel redundancy of
 /// [`Posterior`], and so that a change of the noises is a scalar multiply of
 /// each channel ([`NormalEquations::reweighted`]).
 ///
@@ -1718,10 +1799,10 @@ const CHUNK_POSES: usize = 8 * BLOCK_POSES;
 /// (`distances`), each divided by its stated uncertainty and never reweighed.
 #[derive(Clone)]
 struct NormalEquations {
-    jtj: [Mat<f64>; 2],
-    jtr: [Mat<f64>; 2],
-    rtr: [f64; 2],
-    rows: [usize; 2],
+    jtj: PerChannel<Mat<f64>>,
+    jtr: PerChannel<Mat<f64>>,
+    rtr: PerChannel<f64>,
+    rows: PerChannel<usize>,
     distances: DistanceRows,
 }
 
@@ -1797,7 +1878,7 @@ impl NormalEquations {
         model: &Model,
         data: &[Observation],
         params: &[Unknown],
-        weights: (f64, f64),
+        weights: &Weights,
     ) -> Self {
         let chunks: Vec<&[Observation]> = data.chunks(CHUNK_POSES).collect();
         let partials = parallel::map(&chunks, |c| {
@@ -1811,7 +1892,7 @@ impl NormalEquations {
         };
         sums.distances = DistanceRows::of(model, params);
         for part in partials {
-            for c in 0..2 {
+            for c in Channel::ALL {
                 sums.jtj[c] += &part.jtj[c];
                 sums.jtr[c] += &part.jtr[c];
                 sums.rtr[c] += part.rtr[c];
@@ -1828,20 +1909,21 @@ impl NormalEquations {
         model: &Model,
         data: &[Observation],
         params: &[Unknown],
-        weights: (f64, f64),
+        weights: &Weights,
     ) -> Self {
         let p = params.len();
-        let orientations = data.iter().filter(|o| o.orientation.is_some()).count();
+        let mut rows = PerChannel::<usize>::default();
+        for o in data {
+            rows[o.channel()] += if o.on_plane().is_some() { 1 } else { 3 };
+            if o.orientation.is_some() && o.on_plane().is_none() {
+                rows[Channel::Orientation] += 3;
+            }
+        }
         let mut sums = Self {
-            jtj: [Mat::zeros(p, p), Mat::zeros(p, p)],
-            jtr: [Mat::zeros(p, 1), Mat::zeros(p, 1)],
-            rtr: [0.0; 2],
-            rows: [
-                data.iter()
-                    .map(|o| if o.on_plane().is_some() { 1 } else { 3 })
-                    .sum(),
-                3 * orientations,
-            ],
+            jtj: PerChannel::from_fn(|_| Mat::zeros(p, p)),
+            jtr: PerChannel::from_fn(|_| Mat::zeros(p, 1)),
+            rtr: PerChannel::default(),
+            rows,
             distances: DistanceRows {
                 jtj: Mat::zeros(p, p),
                 jtr: Mat::zeros(p, 1),
@@ -1849,19 +1931,20 @@ impl NormalEquations {
                 rows: 0,
             },
         };
+        // Room for the rows of a block of poses in each channel the poses have.
         let block_rows = 3 * BLOCK_POSES.min(data.len().max(1));
+        let capacity = rows.map(|_, &n| if n > 0 { block_rows } else { 0 });
         let mut block = Block {
-            j: [Mat::zeros(p, block_rows), Mat::zeros(p, block_rows)],
-            r: [Mat::zeros(block_rows, 1), Mat::zeros(block_rows, 1)],
-            filled: [0; 2],
+            j: capacity.map(|_, &n| Mat::zeros(p, n)),
+            r: capacity.map(|_, &n| Mat::zeros(n, 1)),
+            filled: PerChannel::default(),
         };
         for_each_pose_rows(model, data, params, weights, |pose| {
-            for (c, offset) in [(0, 0), (1, 3)] {
-                if c == 1 && !pose.orientation {
-                    continue;
-                }
+            let orientation = pose.orientation.then_some((Channel::Orientation, 3, 3));
+            for (c, offset, count) in
+                std::iter::once((pose.channel, 0, pose.position_rows)).chain(orientation)
+            {
                 let row = block.filled[c];
-                let count = if c == 0 { pose.position_rows } else { 3 };
                 for i in 0..count {
                     block.r[c][(row + i, 0)] = pose.r[offset + i];
                     if p > 0 {
@@ -1872,14 +1955,17 @@ impl NormalEquations {
                 }
                 block.filled[c] += count;
             }
-            // Room for the next pose's rows in both channels.
-            if block.filled[0] + 3 > block_rows || block.filled[1] + 3 > block_rows {
+            // Room for the next pose's rows in every channel.
+            if Channel::ALL
+                .iter()
+                .any(|&c| capacity[c] > 0 && block.filled[c] + 3 > capacity[c])
+            {
                 block.add_to(&mut sums);
             }
         });
         block.add_to(&mut sums);
         // Mirror the lower halves.
-        for g in &mut sums.jtj {
+        for g in &mut sums.jtj.0 {
             for a in 0..p {
                 for b in a + 1..p {
                     g[(a, b)] = g[(b, a)];
@@ -1891,15 +1977,14 @@ impl NormalEquations {
 
     /// The weighted sum of squares of the residual.
     fn cost(&self) -> f64 {
-        self.rtr[0] + self.rtr[1] + self.distances.rtr
+        self.rtr.0.iter().sum::<f64>() + self.distances.rtr
     }
 
-    /// `JᵀJ` of both channels and of the distance rows.
+    /// `JᵀJ` of every channel and of the distance rows.
     fn normal_matrix(&self) -> Mat<f64> {
-        let [p, o] = &self.jtj;
         let d = &self.distances.jtj;
-        Mat::from_fn(p.nrows(), p.ncols(), |a, b| {
-            p[(a, b)] + o[(a, b)] + d[(a, b)]
+        Mat::from_fn(d.nrows(), d.ncols(), |a, b| {
+            self.jtj.0.iter().map(|g| g[(a, b)]).sum::<f64>() + d[(a, b)]
         })
     }
 
@@ -1911,9 +1996,10 @@ impl NormalEquations {
         let n = g.nrows();
         let scale = unit_diagonal_scale(&g);
         let gs = Mat::from_fn(n, n, |a, b| g[(a, b)] * scale[a] * scale[b]);
-        let [p, o] = &self.jtr;
         let d = &self.distances.jtr;
-        let rhs = Mat::from_fn(n, 1, |a, _| (p[(a, 0)] + o[(a, 0)] + d[(a, 0)]) * scale[a]);
+        let rhs = Mat::from_fn(n, 1, |a, _| {
+            (self.jtr.0.iter().map(|v| v[(a, 0)]).sum::<f64>() + d[(a, 0)]) * scale[a]
+        });
         (gs, rhs, scale)
     }
 
@@ -1924,12 +2010,10 @@ impl NormalEquations {
         Self {
             jtj: self
                 .jtj
-                .each_ref()
-                .map(|g| Mat::from_fn(n, n, |a, b| g[(columns[a], columns[b])])),
+                .map(|_, g| Mat::from_fn(n, n, |a, b| g[(columns[a], columns[b])])),
             jtr: self
                 .jtr
-                .each_ref()
-                .map(|v| Mat::from_fn(n, 1, |a, _| v[(columns[a], 0)])),
+                .map(|_, v| Mat::from_fn(n, 1, |a, _| v[(columns[a], 0)])),
             rtr: self.rtr,
             rows: self.rows,
             distances: DistanceRows {
@@ -1942,12 +2026,12 @@ impl NormalEquations {
     }
 
     /// These normal equations with their rows weighed by `after` in place of
-    /// `before` (position, orientation weights): the same linearisation at other
-    /// noises, each channel multiplied by the square of its weight ratio.
-    fn reweighted(&self, before: (f64, f64), after: (f64, f64)) -> Self {
+    /// `before`: the same linearisation at other noises, each channel
+    /// multiplied by the square of its weight ratio.
+    fn reweighted(&self, before: &Weights, after: &Weights) -> Self {
         let mut next = self.clone();
-        let ratios = [after.0 / before.0, after.1 / before.1];
-        for (c, ratio) in ratios.into_iter().enumerate() {
+        for c in Channel::ALL {
+            let ratio = after[c] / before[c];
             let f = ratio * ratio;
             let (g, v) = (&mut next.jtj[c], &mut next.jtr[c]);
             for b in 0..g.ncols() {
@@ -1961,14 +2045,19 @@ impl NormalEquations {
         next
     }
 
-    /// RMS of the unweighted position residual (3-D distance, m) and of the
-    /// orientation residual angle (rad), from the sums of squares.
-    fn residual_rms(&self, (wp, wr): (f64, f64)) -> (f64, f64) {
+    /// RMS of the unweighted residual of the rows that locate the tool point
+    /// (3-D distance of a measured position or a fixed point, m; a touch of a
+    /// plane counts a third) and of the orientation residual angle (rad), from
+    /// the sums of squares.
+    fn residual_rms(&self, weights: &Weights) -> (f64, f64) {
+        let located = [Channel::Position, Channel::Point, Channel::Plane];
+        let sum = |c: Channel| self.rtr[c] / (weights[c] * weights[c]);
+        let wr = weights[Channel::Orientation];
         rms_pair(
-            self.rtr[0] / (wp * wp),
-            self.rows[0] / 3,
-            self.rtr[1] / (wr * wr),
-            self.rows[1] / 3,
+            located.iter().map(|&c| sum(c)).sum(),
+            located.iter().map(|&c| self.rows[c]).sum::<usize>() / 3,
+            self.rtr[Channel::Orientation] / (wr * wr),
+            self.rows[Channel::Orientation] / 3,
         )
     }
 }
@@ -1977,15 +2066,15 @@ impl NormalEquations {
 /// [`NormalEquations`].
 struct Block {
     /// The Jacobian rows, transposed: params × rows, a row of `J` a column here.
-    j: [Mat<f64>; 2],
-    r: [Mat<f64>; 2],
+    j: PerChannel<Mat<f64>>,
+    r: PerChannel<Mat<f64>>,
     /// Rows filled, per channel.
-    filled: [usize; 2],
+    filled: PerChannel<usize>,
 }
 
 impl Block {
     /// Row `row` of channel `c`'s Jacobian, to write.
-    fn row_mut(&mut self, c: usize, row: usize) -> &mut [f64] {
+    fn row_mut(&mut self, c: Channel, row: usize) -> &mut [f64] {
         self.j[c]
             .col_mut(row)
             .try_as_col_major_mut()
@@ -1996,7 +2085,7 @@ impl Block {
     /// Adds the filled rows' `JᵀJ` (lower half), `Jᵀr` and `rᵀr` to `sums`, and
     /// empties the block.
     fn add_to(&mut self, sums: &mut NormalEquations) {
-        for c in 0..2 {
+        for c in Channel::ALL {
             let n = self.filled[c];
             if n == 0 {
                 continue;
@@ -2124,7 +2213,7 @@ fn constrained_subset(
     data: &[Observation],
     options: &FullOptions,
     noise_scale: f64,
-    weights: (f64, f64),
+    weights: &Weights,
 ) -> (Vec<usize>, Vec<(Unknown, String)>) {
     let points = params
         .iter()

@@ -49,15 +49,22 @@ impl ParamSet {
 }
 
 /// The noise and prior scales a user states (`--position-noise`,
-/// `--orientation-noise`, `--prior-length`, `--prior-angle`), in the model's
-/// length and angle units; `None` leaves the default (the noise estimated from
-/// the residuals, the prior of the model file or 1 mm and 1 mrad).
+/// `--orientation-noise`, `--point-noise`, `--plane-noise`, `--prior-length`,
+/// `--prior-angle`), in the model's length and angle units; `None` leaves the
+/// default (the noise estimated from the residuals, each kind of row its own;
+/// the prior of the model file or 1 mm and 1 mrad). A stated position noise
+/// is also the noise of the contacts whose kind has none stated
+/// ([`noise`]).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct StatedScales {
     /// Position noise, one standard deviation per axis.
     pub position_noise: Option<f64>,
     /// Orientation noise, one standard deviation per axis.
     pub orientation_noise: Option<f64>,
+    /// Noise of a tool point at an unknown fixed point, per axis.
+    pub point_noise: Option<f64>,
+    /// Noise of a tool point on an unknown plane, along its normal.
+    pub plane_noise: Option<f64>,
     /// Prior scale of a D-H length error.
     pub prior_length: Option<f64>,
     /// Prior scale of a D-H angle error.
@@ -94,6 +101,12 @@ impl StatedScales {
             options.orientation_noise = u.angle_to_si(v);
             options.orientation_source = noise::NoiseSource::Stated;
         }
+        let stated = |v: f64| noise::Noise {
+            sigma: u.length_to_si(v),
+            source: noise::NoiseSource::Stated,
+        };
+        options.point_noise = positive("--point-noise", self.point_noise)?.map(stated);
+        options.plane_noise = positive("--plane-noise", self.plane_noise)?.map(stated);
         if let Some(v) = positive("--prior-length", self.prior_length)? {
             options.prior.length = u.length_to_si(v);
         }
@@ -294,6 +307,43 @@ pub fn identify(
     })
 }
 
+/// The noise of each channel the data have ([`noise::NoiseEstimate::rows`]),
+/// in the model's units, for reports: (what, used, shown by the residuals,
+/// source, unit).
+pub fn noise_rows(
+    noise: &noise::NoiseEstimate,
+    units: &Units,
+) -> Vec<(&'static str, f64, f64, &'static str, String)> {
+    noise
+        .rows()
+        .into_iter()
+        .map(|(channel, n)| {
+            let source = match n.source {
+                noise::NoiseSource::Stated => "stated",
+                noise::NoiseSource::Estimated => "estimated",
+            };
+            let what = channel.map_or("distance", noise::Channel::name);
+            if channel == Some(noise::Channel::Orientation) {
+                (
+                    what,
+                    units.angle_from_si(n.used),
+                    units.angle_from_si(n.shown),
+                    source,
+                    units.angle.to_string(),
+                )
+            } else {
+                (
+                    what,
+                    units.length_from_si(n.used),
+                    units.length_from_si(n.shown),
+                    source,
+                    units.length.to_string(),
+                )
+            }
+        })
+        .collect()
+}
+
 /// A parameter value in the model file's units.
 fn in_units(units: &Units, param: Param, si: f64) -> f64 {
     if param.is_angle() {
@@ -340,6 +390,15 @@ impl Identification {
             out["observability_index"] = json!(fit.observability);
             out["variance_factor"] = json!(fit.variance_factor);
             out["equations"] = json!(fit.equations);
+            out["noise"] = json!(
+                noise_rows(&fit.noise, units)
+                    .iter()
+                    .map(|(what, used, shown, source, unit)| json!({
+                        "channel": what, "used": used, "shown_by_residuals": shown,
+                        "source": source, "unit": unit,
+                    }))
+                    .collect::<Vec<_>>()
+            );
             out["correlations"] = json!(
                 fit.correlations
                     .iter()
@@ -425,6 +484,25 @@ impl Identification {
                 "condition number {:.3e}, observability index O1 {:.3e}, variance factor {:.3} (residual/stated noise)²",
                 fit.condition_number, fit.observability, fit.variance_factor
             );
+            let redundancies = fit.noise.rows().into_iter().map(|(_, n)| n.redundancy);
+            for ((what, used, shown, source, unit), r) in
+                noise_rows(&fit.noise, u).into_iter().zip(redundancies)
+            {
+                let _ = match source {
+                    "stated" if r < 1.0 => writeln!(
+                        out,
+                        "{what} noise {used:.3e} {unit} (stated); too few rows beyond the unknowns (redundancy {r:.2}) to check it"
+                    ),
+                    "stated" => writeln!(
+                        out,
+                        "{what} noise {used:.3e} {unit} (stated); the residuals show {shown:.3e} {unit}"
+                    ),
+                    _ => writeln!(
+                        out,
+                        "{what} noise {used:.3e} {unit} (estimated from the residuals)"
+                    ),
+                };
+            }
         }
         let _ = writeln!(
             out,

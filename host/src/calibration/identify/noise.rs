@@ -1,8 +1,13 @@
-//! The measurement noise of each channel (positions, orientations), estimated
-//! from the residuals as variance components.
+//! The measurement noise of each channel, estimated from the residuals as
+//! variance components.
 //!
-//! Each row of the fit is divided by its channel's noise `σ_c` (m for position
-//! rows, rad for orientation rows). At the solution, with the weighted Jacobian
+//! A channel is a kind of measurement ([`Channel`]): measured positions and
+//! orientations, and the two kinds of contact of a session without a tracker,
+//! a tool point at an unknown fixed point (a ball in a socket: 3 rows, tool
+//! point less fixed point) and a tool point on an unknown plane (a probe on a
+//! plate: 1 row, the signed distance to the plane). Each seats or scatters
+//! differently, so each has its own noise. Each row of the fit is divided by
+//! its channel's noise `σ_c` (m, or rad for orientation rows). At the solution, with the weighted Jacobian
 //! `J`, the prior precision `P` ([`super::prior`]) and `N = JᵀJ + P`, channel
 //! `c` has the weighted sum of squares `Ω_c` and the redundancy
 //! `r_c = n_c − tr(N⁻¹ J_cᵀ J_c)`: its rows' count less the share of the
@@ -18,7 +23,100 @@
 //! positions by what each delivers, and a channel whose rows scatter far more
 //! than the other's gets a weight to match: it adds only the information it
 //! carries. A stated noise (`--position-noise`, `--orientation-noise`) is used as
-//! given, and the noise its residuals show is reported beside it.
+//! given, and the noise its residuals show is reported beside it. A stated
+//! position noise is the noise of every row that locates the tool point:
+//! measured positions and both kinds of contact, unless `--point-noise` or
+//! `--plane-noise` states a kind's own; without any, each kind present is
+//! estimated on its own.
+//!
+//! The known distances of a constraint session are a length standard: their
+//! rows keep the uncertainty each line states and are never reweighed; the
+//! noise their residuals show, `σ̄ √(Ω_d / r_d)` with `σ̄` the RMS of the stated
+//! uncertainties, is reported beside it.
+
+use std::ops::{Index, IndexMut};
+
+/// A kind of measurement row, with its own noise.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Channel {
+    /// A measured position: 3 rows, m.
+    Position,
+    /// A measured orientation: 3 rows, rad.
+    Orientation,
+    /// A tool point at an unknown fixed point (`point` column): 3 rows, m.
+    Point,
+    /// A tool point on an unknown plane (`plane` column): 1 row, m.
+    Plane,
+}
+
+impl Channel {
+    /// Every channel, in the order of the reports.
+    pub const ALL: [Self; 4] = [Self::Position, Self::Orientation, Self::Point, Self::Plane];
+
+    /// Its name in the reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Position => "position",
+            Self::Orientation => "orientation",
+            Self::Point => "point contact",
+            Self::Plane => "plane contact",
+        }
+    }
+
+    /// Its place in a [`PerChannel`].
+    fn index(self) -> usize {
+        self as usize
+    }
+}
+
+/// One value per [`Channel`], indexed by it.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PerChannel<T>(pub [T; 4]);
+
+impl<T> PerChannel<T> {
+    /// The value of each channel from `f`.
+    pub fn from_fn(mut f: impl FnMut(Channel) -> T) -> Self {
+        Self(Channel::ALL.map(&mut f))
+    }
+
+    /// Each channel's value through `f`.
+    pub fn map<U>(&self, mut f: impl FnMut(Channel, &T) -> U) -> PerChannel<U> {
+        PerChannel::from_fn(|c| f(c, &self[c]))
+    }
+}
+
+impl<T> Index<Channel> for PerChannel<T> {
+    type Output = T;
+    fn index(&self, c: Channel) -> &T {
+        &self.0[c.index()]
+    }
+}
+
+impl<T> IndexMut<Channel> for PerChannel<T> {
+    fn index_mut(&mut self, c: Channel) -> &mut T {
+        &mut self.0[c.index()]
+    }
+}
+
+/// The weight of each channel's rows, `1/σ_c`.
+pub type Weights = PerChannel<f64>;
+
+impl Weights {
+    /// The weights of the noises `noise`.
+    pub fn of(noise: &PerChannel<f64>) -> Self {
+        noise.map(|_, s| 1.0 / s)
+    }
+}
+
+/// A channel's noise as an option gives it: the value, and whether it is the
+/// user's or a start to estimate from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Noise {
+    /// One standard deviation per axis, m or rad.
+    pub sigma: f64,
+    /// Stated or estimated.
+    pub source: NoiseSource,
+}
 
 /// Where a channel's noise comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -63,11 +161,44 @@ impl ChannelNoise {
     }
 }
 
-/// The noise of both channels after a fit.
+/// The noise of every channel after a fit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NoiseEstimate {
-    /// Positions, m per axis.
+    /// Positions, m per axis (no rows in a session without a tracker).
     pub position: ChannelNoise,
     /// Orientations, rad per axis, when measured.
     pub orientation: Option<ChannelNoise>,
+    /// Tool points at unknown fixed points, m per axis, when the data have them.
+    pub point: Option<ChannelNoise>,
+    /// Tool points on unknown planes, m along the normal, when the data have them.
+    pub plane: Option<ChannelNoise>,
+    /// The known distances, m, when the data have them: always
+    /// [`NoiseSource::Stated`], `used` the RMS of their stated uncertainties.
+    pub distance: Option<ChannelNoise>,
+}
+
+impl NoiseEstimate {
+    /// The noise of channel `c`, when the data have it.
+    pub fn channel(&self, c: Channel) -> Option<ChannelNoise> {
+        match c {
+            Channel::Position => Some(self.position),
+            Channel::Orientation => self.orientation,
+            Channel::Point => self.point,
+            Channel::Plane => self.plane,
+        }
+    }
+
+    /// The channels the data have rows in, in report order, the known
+    /// distances last (`None`): what the reports list. Positions are listed
+    /// whenever nothing else locates the tool point.
+    pub fn rows(&self) -> Vec<(Option<Channel>, ChannelNoise)> {
+        let contacts = self.point.is_some() || self.plane.is_some();
+        Channel::ALL
+            .into_iter()
+            .filter_map(|c| self.channel(c).map(|n| (c, n)))
+            .filter(|(c, n)| *c != Channel::Position || n.rows > 0 || !contacts)
+            .map(|(c, n)| (Some(c), n))
+            .chain(self.distance.map(|n| (None, n)))
+            .collect()
+    }
 }
