@@ -25,6 +25,17 @@ pub fn map<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync) -> Vec<R> 
     items.par_iter().with_max_len(1).map(f).collect()
 }
 
+/// `f` of each item, on every core (each item a piece of its own), for what
+/// it does to the item (a disjoint part of a result, say).
+pub fn each<T: Send>(items: Vec<T>, f: impl Fn(T) + Sync) {
+    use rayon::prelude::*;
+    if cores() <= 1 || items.len() <= 1 {
+        return items.into_iter().for_each(f);
+    }
+    let f = &f;
+    items.into_par_iter().with_max_len(1).for_each(f);
+}
+
 #[cfg(test)]
 mod tests {
     /// Results come back in the order of the items, whichever thread ran them.

@@ -1527,25 +1527,42 @@ impl LinearSystem {
     }
 
     /// The linearisation at `model`: per pose its 3 position rows, then its 3
-    /// orientation rows when measured ([`for_each_pose_rows`]).
+    /// orientation rows when measured ([`for_each_pose_rows`]); the poses in
+    /// one piece per core, each piece filling its own rows.
     fn build(model: &Model, data: &[Observation], params: &[Unknown], weights: &Weights) -> Self {
         let rows = Self::rows(data);
         let mut j = Mat::zeros(rows, params.len());
         let mut r = Mat::zeros(rows, 1);
-        let mut row = 0;
-        for_each_pose_rows(model, data, params, weights, |pose| {
-            let orientation = if pose.orientation { 3..6 } else { 0..0 };
-            for i in (0..pose.position_rows).chain(orientation) {
-                r[(row, 0)] = pose.r[i];
-                for k in 0..params.len() {
-                    j[(row, k)] = pose.row(i)[k];
+        let piece = data.len().div_ceil(parallel::cores()).max(MIN_PIECE_POSES);
+        let mut pieces = Vec::new();
+        let (mut j_rest, mut r_rest) = (j.as_mut(), r.as_mut());
+        for poses in data.chunks(piece) {
+            let n = Self::rows(poses);
+            let (j_piece, j_after) = j_rest.split_at_row_mut(n);
+            let (r_piece, r_after) = r_rest.split_at_row_mut(n);
+            pieces.push((poses, j_piece, r_piece));
+            (j_rest, r_rest) = (j_after, r_after);
+        }
+        parallel::each(pieces, |(poses, mut j, mut r)| {
+            let mut row = 0;
+            for_each_pose_rows(model, poses, params, weights, |pose| {
+                let orientation = if pose.orientation { 3..6 } else { 0..0 };
+                for i in (0..pose.position_rows).chain(orientation) {
+                    r[(row, 0)] = pose.r[i];
+                    for k in 0..params.len() {
+                        j[(row, k)] = pose.row(i)[k];
+                    }
+                    row += 1;
                 }
-                row += 1;
-            }
+            });
         });
         Self { j, r }
     }
 }
+
+/// The fewest poses [`LinearSystem::build`] gives a core: fewer take less
+/// time than handing them over.
+const MIN_PIECE_POSES: usize = 32;
 
 /// The weighted rows of one pose: 3 position rows, then 3 orientation rows when
 /// its orientation is measured.
