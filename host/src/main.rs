@@ -453,6 +453,12 @@ enum Paper {
 }
 
 fn main() -> ExitCode {
+    // An interrupt (Ctrl-C, SIGTERM) ends the run as it would, but leaves no
+    // temporary of the outputs being written (exit status 130).
+    let _ = ctrlc::set_handler(|| {
+        armcal::output::remove_pending();
+        std::process::exit(130);
+    });
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,

@@ -14,7 +14,9 @@
 //!   temporary `.NAME.PID.armcal-partial` beside its target and flushed to disk;
 //!   only when all of them are complete are they renamed over their targets.
 //!   Any failure before that (a missing or read-only directory, a full disk)
-//!   removes every temporary and leaves every target as it was. A rename is
+//!   removes every temporary and leaves every target as it was; so does an
+//!   interrupt (Ctrl-C, `SIGTERM`: the binary's handler calls
+//!   [`remove_pending`] and exits with status 130). A rename is
 //!   atomic; should one fail after another succeeded (practically impossible
 //!   once the temporaries exist beside their targets), the error says which
 //!   outputs were already replaced.
@@ -40,6 +42,7 @@ use std::fs::{self, File, OpenOptions};
 use std::io::Write as _;
 use std::os::unix::fs::{FileTypeExt as _, MetadataExt as _};
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 use crate::io::builtin;
 use crate::io::input_error::InputError;
@@ -383,6 +386,31 @@ fn failure(planned: &Planned, what: &str, e: std::io::Error) -> anyhow::Error {
     }
 }
 
+/// The temporaries of every commit in progress, not renamed yet: what
+/// [`remove_pending`] removes when the process is interrupted.
+static PENDING: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// Removes the temporaries of every commit in progress: the handler of an
+/// interrupt (Ctrl-C, `SIGTERM`) calls it before the process ends, so that an
+/// interrupted run leaves no `.armcal-partial` file behind.
+pub fn remove_pending() {
+    remove_all(&PENDING);
+}
+
+/// Removes and forgets every file of `pending`.
+fn remove_all(pending: &Mutex<Vec<PathBuf>>) {
+    let mut pending = pending.lock().unwrap_or_else(|e| e.into_inner());
+    for tmp in pending.drain(..) {
+        let _ = fs::remove_file(tmp);
+    }
+}
+
+/// `tmp` is no longer a temporary in progress (renamed or removed).
+fn settled(tmp: &Path) {
+    let mut pending = PENDING.lock().unwrap_or_else(|e| e.into_inner());
+    pending.retain(|p| p != tmp);
+}
+
 /// The temporaries of a commit; those not renamed yet are removed when it is
 /// dropped, on every path out of [`Outputs::commit`].
 #[derive(Default)]
@@ -413,7 +441,13 @@ impl Temporaries {
             };
             let tmp = target.with_file_name(format!(".{name}.{pid}{suffix}.armcal-partial"));
             match OpenOptions::new().write(true).create_new(true).open(&tmp) {
-                Ok(file) => break (tmp, file),
+                Ok(file) => {
+                    PENDING
+                        .lock()
+                        .unwrap_or_else(|e| e.into_inner())
+                        .push(tmp.clone());
+                    break (tmp, file);
+                }
                 Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && attempt < 100 => {
                     attempt += 1;
                 }
@@ -432,8 +466,11 @@ impl Temporaries {
 
 impl Drop for Temporaries {
     fn drop(&mut self) {
-        for tmp in self.paths.iter().skip(self.renamed) {
-            let _ = fs::remove_file(tmp);
+        for (i, tmp) in self.paths.iter().enumerate() {
+            if i >= self.renamed {
+                let _ = fs::remove_file(tmp);
+            }
+            settled(tmp);
         }
     }
 }
@@ -480,6 +517,46 @@ mod tests {
     /// A failure after the temporaries are written (here: a stream that is
     /// full, as a full disk would be) removes every temporary and leaves every
     /// target as it was; so does a directory removed between check and commit.
+    /// An interrupt between the writing of a commit's temporaries and their
+    /// renaming: each temporary is pending until renamed or removed, and the
+    /// interrupt's clean-up removes every pending one (here on a list of this
+    /// test's own, as other tests commit beside it).
+    #[test]
+    fn an_interrupted_commit_leaves_no_temporary() {
+        let dir = tempfile::tempdir().unwrap();
+        let pending = |tmp: &Path| PENDING.lock().unwrap().iter().any(|p| p == tmp);
+        let mut temporaries = Temporaries::default();
+        let a = temporaries
+            .write(&dir.path().join("a.cal"), b"new")
+            .unwrap();
+        let b = temporaries
+            .write(&dir.path().join("r.json"), b"{}")
+            .unwrap();
+        assert!(pending(&a) && pending(&b));
+        fs::rename(&a, dir.path().join("a.cal")).unwrap();
+        temporaries.renamed = 1;
+        drop(temporaries);
+        assert!(!pending(&a) && !pending(&b), "settled when the commit ends");
+        assert_eq!(
+            snapshot(dir.path()),
+            vec![("a.cal".to_owned(), b"new".to_vec())]
+        );
+
+        // The interrupt's clean-up of what is still pending.
+        let mine = Mutex::new(Vec::new());
+        for name in ["a.cal", "r.json"] {
+            let tmp = dir.path().join(format!(".{name}.1.armcal-partial"));
+            fs::write(&tmp, b"partial").unwrap();
+            mine.lock().unwrap().push(tmp);
+        }
+        remove_all(&mine);
+        assert!(mine.lock().unwrap().is_empty());
+        assert_eq!(
+            snapshot(dir.path()),
+            vec![("a.cal".to_owned(), b"new".to_vec())]
+        );
+    }
+
     #[test]
     fn a_failed_commit_leaves_no_temporary() {
         let dir = tempfile::tempdir().unwrap();
