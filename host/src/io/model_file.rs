@@ -56,6 +56,12 @@ pub struct RobotModel {
     /// The prior scale of its D-H parameter errors (`[prior]`), SI; 1 mm and
     /// 1 mrad when the file gives none.
     pub prior: Prior,
+    /// The joints (0-based) whose link carries Hayati's tilt `β` as a
+    /// parameter of the model itself: a URDF's nearly parallel consecutive
+    /// axes ([`crate::io::urdf::convert`]). `identify --params full` frees
+    /// their `β`; a model file has none (`armcal diagnose` adds tilts as it
+    /// finds them).
+    pub tilted: Vec<usize>,
 }
 
 impl RobotModel {
@@ -217,10 +223,8 @@ pub fn urdf_model(urdf: &urdf::Urdf, converted: urdf::convert::Converted) -> Rob
         .iter()
         .map(|&j| urdf.joints[j].name.as_str())
         .collect();
-    let hayati: Vec<String> = (0..joints.len())
-        .filter(|&k| converted.hayati[k])
-        .map(|k| (k + 1).to_string())
-        .collect();
+    let tilted: Vec<usize> = (0..joints.len()).filter(|&k| converted.hayati[k]).collect();
+    let hayati: Vec<String> = tilted.iter().map(|k| (k + 1).to_string()).collect();
     RobotModel {
         name,
         description: format!(
@@ -238,6 +242,7 @@ pub fn urdf_model(urdf: &urdf::Urdf, converted: urdf::convert::Converted) -> Rob
         units: Units::SI,
         robot: converted.robot,
         prior: Prior::default(),
+        tilted,
     }
 }
 
@@ -356,6 +361,7 @@ impl ModelReader<'_> {
             units,
             robot,
             prior,
+            tilted: Vec::new(),
         })
     }
 

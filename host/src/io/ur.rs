@@ -334,21 +334,20 @@ pub fn import(model: &RobotModel, deltas: &DhDeltas, file: &str) -> Result<Robot
     robot.base = frame(&(nominal.base.isometry() * robot.base.isometry()));
     robot.tool = frame(&(robot.tool.isometry() * nominal.tool.isometry()));
     robot.gravity = nominal.gravity;
-    let tilted: Vec<String> = (0..JOINTS)
-        .filter(|&k| converted.hayati[k])
-        .map(|k| (k + 1).to_string())
-        .collect();
+    let tilted: Vec<usize> = (0..JOINTS).filter(|&k| converted.hayati[k]).collect();
+    let joints: Vec<String> = tilted.iter().map(|k| (k + 1).to_string()).collect();
     Ok(RobotModel {
         name: model.name.clone(),
         description: format!(
             "{} with the factory calibration {file}, modified D-H with Hayati's tilt on joint(s) {}",
             model.name,
-            tilted.join(", ")
+            joints.join(", ")
         ),
         source: format!("{} + {file}", model.source),
         units: model.units,
         robot,
         prior: model.prior,
+        tilted,
     })
 }
 

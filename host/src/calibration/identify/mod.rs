@@ -195,11 +195,13 @@ pub fn identify(
     let orientation = data.poses.iter().any(|p| p.orientation.is_some());
     let (iterations, converged, parameters, calibrated, fit) = match set {
         ParamSet::Full => {
+            // The model's own tilts (a URDF's parallel axes) beside its D-H parameters.
+            let tilts: Vec<Param> = model.tilted.iter().map(|&k| Param::Beta(k)).collect();
             let fit = full::identify_constrained(
                 nominal,
                 None,
                 &[],
-                &[],
+                &tilts,
                 observations(data),
                 &data.constraints,
                 options,

@@ -42,7 +42,8 @@
 //! the 1 mm prior of a length and the linear range of the fit, and at exact
 //! parallelism (UR arms; URDF rounding leaves 1e-10 rad) the foot is undefined.
 //! There Hayati's tilt `β` replaces the redundant offset: every parameter then
-//! moves by about `r` per radian. Above the threshold Craig's four parameters
+//! moves by about `r` per radian, and `--params full` identifies `β` with the
+//! other four ([`crate::io::model_file::RobotModel::tilted`]). Above the threshold Craig's four parameters
 //! span every small motion of the next axis (`--params full` identifies those
 //! four; β is added by `armcal diagnose`'s `parallel_axis_tilt`), so the tilt
 //! is not used where it is not needed. Real arms have consecutive axes either
