@@ -679,9 +679,7 @@ impl Diagnosis {
         };
         json!({
             "noise_estimate_mm": mm(self.noise),
-            "noise": self.noise_rows(units).iter().map(|(what, used, shown, source, unit)| json!({
-                "channel": what, "used": used, "shown_by_residuals": shown, "source": source, "unit": unit,
-            })).collect::<Vec<_>>(),
+            "noise": crate::calibration::identify::noise_json(&self.geometric.noise, units),
             "chosen": {
                 "model": match self.choice {
                     Choice::Nominal => "nominal",

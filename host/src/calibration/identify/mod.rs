@@ -325,23 +325,33 @@ pub fn noise_rows(
                 noise::NoiseSource::Estimated => "estimated",
             };
             let what = channel.map_or("distance", noise::Channel::name);
-            if channel == Some(noise::Channel::Orientation) {
-                (
-                    what,
-                    units.angle_from_si(n.used),
-                    units.angle_from_si(n.shown),
-                    source,
-                    units.angle.to_string(),
-                )
-            } else {
-                (
-                    what,
-                    units.length_from_si(n.used),
-                    units.length_from_si(n.shown),
-                    source,
-                    units.length.to_string(),
-                )
-            }
+            let (in_units, unit): (fn(&Units, f64) -> f64, String) =
+                if channel == Some(noise::Channel::Orientation) {
+                    (Units::angle_from_si, units.angle.to_string())
+                } else {
+                    (Units::length_from_si, units.length.to_string())
+                };
+            (
+                what,
+                in_units(units, n.used),
+                in_units(units, n.shown),
+                source,
+                unit,
+            )
+        })
+        .collect()
+}
+
+/// [`noise_rows`] as the reports' JSON list: `channel`, `used`,
+/// `shown_by_residuals`, `source`, `unit`.
+pub fn noise_json(noise: &noise::NoiseEstimate, units: &Units) -> serde_json::Value {
+    noise_rows(noise, units)
+        .into_iter()
+        .map(|(what, used, shown, source, unit)| {
+            json!({
+                "channel": what, "used": used, "shown_by_residuals": shown,
+                "source": source, "unit": unit,
+            })
         })
         .collect()
 }
@@ -392,15 +402,7 @@ impl Identification {
             out["observability_index"] = json!(fit.observability);
             out["variance_factor"] = json!(fit.variance_factor);
             out["equations"] = json!(fit.equations);
-            out["noise"] = json!(
-                noise_rows(&fit.noise, units)
-                    .iter()
-                    .map(|(what, used, shown, source, unit)| json!({
-                        "channel": what, "used": used, "shown_by_residuals": shown,
-                        "source": source, "unit": unit,
-                    }))
-                    .collect::<Vec<_>>()
-            );
+            out["noise"] = noise_json(&fit.noise, units);
             out["correlations"] = json!(
                 fit.correlations
                     .iter()
