@@ -159,13 +159,24 @@ impl Observation {
         }
     }
 
-    /// The scalar equations this pose gives an identification: 3 (position) or 6
-    /// (position and orientation).
+    /// The scalar equations this pose gives an identification: its position
+    /// rows and its orientation rows.
     pub fn equations(&self) -> usize {
-        match (self.on_plane(), self.orientation) {
-            (Some(_), _) => 1,
-            (None, Some(_)) => 6,
-            (None, None) => 3,
+        self.position_rows() + self.orientation_rows()
+    }
+
+    /// The rows that locate its tool point: 3, or 1 for a touch of a plane
+    /// (its distance along the normal).
+    pub fn position_rows(&self) -> usize {
+        if self.on_plane().is_some() { 1 } else { 3 }
+    }
+
+    /// Its orientation rows: 3 when measured (a touch of a plane has none).
+    pub fn orientation_rows(&self) -> usize {
+        if self.orientation.is_some() && self.on_plane().is_none() {
+            3
+        } else {
+            0
         }
     }
 }

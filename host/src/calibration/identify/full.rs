@@ -1908,10 +1908,8 @@ impl NormalEquations {
         let p = params.len();
         let mut rows = PerChannel::<usize>::default();
         for o in data {
-            rows[o.channel()] += if o.on_plane().is_some() { 1 } else { 3 };
-            if o.orientation.is_some() && o.on_plane().is_none() {
-                rows[Channel::Orientation] += 3;
-            }
+            rows[o.channel()] += o.position_rows();
+            rows[Channel::Orientation] += o.orientation_rows();
         }
         let mut sums = Self {
             jtj: PerChannel::from_fn(|_| Mat::zeros(p, p)),
