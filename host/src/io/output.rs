@@ -42,7 +42,7 @@ use std::fs::{self, File, OpenOptions};
 use std::io::Write as _;
 use std::os::unix::fs::{FileTypeExt as _, MetadataExt as _};
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
+use std::sync::{Mutex, MutexGuard};
 
 use crate::io::builtin;
 use crate::io::input_error::InputError;
@@ -397,18 +397,22 @@ pub fn remove_pending() {
     remove_all(&PENDING);
 }
 
+/// The list `pending`, locked (a thread that panicked holding it left a
+/// usable list).
+fn locked(pending: &Mutex<Vec<PathBuf>>) -> MutexGuard<'_, Vec<PathBuf>> {
+    pending.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 /// Removes and forgets every file of `pending`.
 fn remove_all(pending: &Mutex<Vec<PathBuf>>) {
-    let mut pending = pending.lock().unwrap_or_else(|e| e.into_inner());
-    for tmp in pending.drain(..) {
+    for tmp in locked(pending).drain(..) {
         let _ = fs::remove_file(tmp);
     }
 }
 
 /// `tmp` is no longer a temporary in progress (renamed or removed).
 fn settled(tmp: &Path) {
-    let mut pending = PENDING.lock().unwrap_or_else(|e| e.into_inner());
-    pending.retain(|p| p != tmp);
+    locked(&PENDING).retain(|p| p != tmp);
 }
 
 /// The temporaries of a commit; those not renamed yet are removed when it is
@@ -442,10 +446,7 @@ impl Temporaries {
             let tmp = target.with_file_name(format!(".{name}.{pid}{suffix}.armcal-partial"));
             match OpenOptions::new().write(true).create_new(true).open(&tmp) {
                 Ok(file) => {
-                    PENDING
-                        .lock()
-                        .unwrap_or_else(|e| e.into_inner())
-                        .push(tmp.clone());
+                    locked(&PENDING).push(tmp.clone());
                     break (tmp, file);
                 }
                 Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && attempt < 100 => {
