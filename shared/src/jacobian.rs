@@ -189,6 +189,7 @@ impl<T: Real> Chain<T> {
     ///
     /// # Panics
     /// If a joint index is not below [`Chain::dof`].
+    #[inline(always)]
     pub fn column(&self, param: Param) -> Twist<T> {
         match param {
             Param::Theta(m) => self.theta_column(m),
