@@ -1437,6 +1437,16 @@ fn levenberg_marquardt(
             let size = (0..free_params.len())
                 .map(|k| ds[(k, 0)].abs())
                 .fold(0.0, f64::max);
+            // Near Gauss–Newton, the linearisation at `robot` predicts what the step
+            // would gain, `2δᵀb − δᵀGδ`: when that is negligible, `robot` is the
+            // minimum and the pass over the poses that would confirm it is spared.
+            if lambda <= LAMBDA_START
+                && (size < 1e-10 || negligible(predicted_decrease(&g, &rhs, &ds), cost))
+            {
+                accepted = true;
+                converged = true;
+                break;
+            }
             let mut trial = robot.clone();
             apply(&mut trial, free_params, &step);
             let trial_sys = NormalEquations::accumulate(&trial, data, free_params, weights);
@@ -1466,6 +1476,19 @@ fn levenberg_marquardt(
         }
     }
     Ok((iterations, converged, sys))
+}
+
+/// The decrease of the weighted sum of squares that the linearisation with
+/// normal matrix `g` and right-hand side `b` predicts for the step `d`:
+/// `‖r‖² − ‖r − Jd‖² = 2dᵀb − dᵀGd`.
+fn predicted_decrease(g: &Mat<f64>, b: &Mat<f64>, d: &Mat<f64>) -> f64 {
+    let n = d.nrows();
+    let mut decrease = 0.0;
+    for k in 0..n {
+        let gd: f64 = (0..n).map(|l| g[(k, l)] * d[(l, 0)]).sum();
+        decrease += d[(k, 0)] * (2.0 * b[(k, 0)] - gd);
+    }
+    decrease
 }
 
 /// Wraps an angle to (−π, π].
