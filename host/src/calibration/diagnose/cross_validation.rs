@@ -28,6 +28,7 @@ use faer::Mat;
 use nalgebra::{DMatrix, DVector, Vector3};
 
 use super::{DiagnoseOptions, position_errors};
+use crate::calibration::parallel;
 use crate::calibration::identify::full::{
     FullError, Linearization, Observation, identify_with_effects, unit_scale,
 };
@@ -152,9 +153,10 @@ impl<'a> Folds<'a> {
             )
         };
         let group = |g: Role| -> Vec<usize> { (0..fold.len()).filter(|&i| fold[i] == g).collect() };
-        let parts: Vec<(DMatrix<f64>, DVector<f64>)> =
-            (0..k).map(|f| normal(&group(Role::Fold(f)))).collect();
-        let mut all = normal(&group(Role::Train));
+        // Each fold's, then the poses trained on in every fold, on every core.
+        let groups: Vec<Role> = (0..k).map(Role::Fold).chain([Role::Train]).collect();
+        let mut parts = parallel::map(&groups, |&g| normal(&group(g)));
+        let mut all = parts.pop().expect("the poses trained on in every fold");
         for (a, b) in &parts {
             all.0 += a;
             all.1 += b;
