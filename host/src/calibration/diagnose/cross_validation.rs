@@ -90,6 +90,13 @@ pub enum Role {
     Out,
 }
 
+/// The Cholesky factor of a scaled MAP normal matrix (see [`Folds::factor`]):
+/// `L`, and each column's scale to a unit diagonal.
+struct Factor {
+    l: DMatrix<f64>,
+    scale: Vec<f64>,
+}
+
 /// The columns a step moves: the free ones and those moved back to nominal.
 fn moving(delta: &[f64]) -> Vec<usize> {
     (0..delta.len()).filter(|&c| delta[c] != 0.0).collect()
@@ -205,16 +212,16 @@ impl<'a> Folds<'a> {
             .all(|i| scale[i] > 0.0 && l[(i, i)] >= separability)
     }
 
-    /// The MAP step of `subset` from the normal matrix `a` and right-hand side
-    /// `b` of some poses: the step of every column (the free ones solved, the
-    /// others moved back to nominal).
-    fn step(&self, subset: &Subset, held: &[usize], fold: Option<usize>) -> Option<Vec<f64>> {
-        let lin = self.lin;
-        let s = &subset.columns;
+    /// The scaled MAP normal matrix of `columns` on a fold's training poses
+    /// (every pose's for `fold` `None`), factorised. The factor of a leading
+    /// block is the leading block of the factor, so one factorisation serves
+    /// every candidate whose columns are a prefix of `columns`.
+    fn factor(&self, columns: &[usize], precision_factor: f64, fold: Option<usize>) -> Option<Factor> {
+        let s = columns;
         let m = s.len();
         // The training poses' normal matrix: every pose's less the fold's.
-        let (a, b) = fold.map_or(&self.all, |f| &self.training[f]);
-        let precision = |c: usize| lin.precision[c] * subset.precision_factor;
+        let a = &fold.map_or(&self.all, |f| &self.training[f]).0;
+        let precision = |c: usize| self.lin.precision[c] * precision_factor;
         // Scaled to a unit diagonal, for the conditioning of the factorisation.
         let scale: Vec<f64> = s
             .iter()
@@ -224,13 +231,37 @@ impl<'a> Folds<'a> {
             let prior = if i == j { precision(s[i]) } else { 0.0 };
             (a[(s[i], s[j])] + prior) * scale[i] * scale[j]
         });
+        Some(Factor {
+            l: n.cholesky()?.unpack(),
+            scale,
+        })
+    }
+
+    /// The MAP step of `subset` on a fold's training poses (every pose's for
+    /// `None`) from `factor`, the factor of columns that `subset`'s are a
+    /// prefix of, at its prior: the step of every column (the free ones
+    /// solved, the `held` ones moved back to nominal).
+    fn solve(
+        &self,
+        factor: &Factor,
+        subset: &Subset,
+        held: &[usize],
+        fold: Option<usize>,
+    ) -> Option<Vec<f64>> {
+        let lin = self.lin;
+        let s = &subset.columns;
+        let m = s.len();
+        let (a, b) = fold.map_or(&self.all, |f| &self.training[f]);
+        let precision = |c: usize| lin.precision[c] * subset.precision_factor;
+        let scale = &factor.scale;
         let rhs = DVector::from_fn(m, |i, _| {
             let c = s[i];
             (b[c] + held.iter().map(|&h| a[(c, h)] * lin.offset[h]).sum::<f64>()
                 - precision(c) * lin.offset[c])
                 * scale[i]
         });
-        let x = n.cholesky()?.solve(&rhs);
+        let l = factor.l.view((0, 0), (m, m));
+        let x = l.tr_solve_lower_triangular(&l.solve_lower_triangular(&rhs)?)?;
         let mut delta: Vec<f64> = lin.offset.iter().map(|o| -o).collect();
         for i in 0..m {
             delta[s[i]] = x[i] * scale[i];
@@ -238,14 +269,27 @@ impl<'a> Folds<'a> {
         delta.iter().all(|d| d.is_finite()).then_some(delta)
     }
 
+    /// The MAP step of `subset` on a fold's training poses (every pose's for
+    /// `None`), the `held` columns moved back to nominal.
+    fn step(&self, subset: &Subset, held: &[usize], fold: Option<usize>) -> Option<Vec<f64>> {
+        let factor = self.factor(&subset.columns, subset.precision_factor, fold)?;
+        self.solve(&factor, subset, held, fold)
+    }
+
     /// The objective (weighted sum of squares plus the prior's term) of the
     /// fit of `subset` to every pose: `rᵀr − 2 δᵀb + δᵀAδ` with the step `δ`
     /// of every column (`b = Jᵀr`), plus the prior's term at the new values.
     pub fn objective(&self, subset: &Subset) -> Option<f64> {
-        let lin = self.lin;
         let held = self.held(subset);
         let delta = self.step(subset, &held, None)?;
-        let moved = moving(&delta);
+        Some(self.objective_after(subset, &delta))
+    }
+
+    /// The objective of the fit of `subset` to every pose after its step
+    /// `delta` (see [`Folds::objective`]).
+    fn objective_after(&self, subset: &Subset, delta: &[f64]) -> f64 {
+        let lin = self.lin;
+        let moved = moving(delta);
         let (a, b) = &self.all;
         let mut objective = self.rtr;
         for &c in &moved {
@@ -258,7 +302,7 @@ impl<'a> Folds<'a> {
             let x = lin.offset[c] + delta[c];
             objective += lin.precision[c] * subset.precision_factor * x * x;
         }
-        Some(objective)
+        objective
     }
 
     /// The columns outside `subset` moved back to nominal that move anything.
@@ -275,12 +319,52 @@ impl<'a> Folds<'a> {
     /// The linearised cross-validation of `subset`; `None` when a training
     /// set cannot determine it.
     pub fn evaluate(&self, subset: &Subset) -> Option<Evaluation> {
+        let held = self.held(subset);
+        self.evaluation(subset, |fold| self.step(subset, &held, fold))
+    }
+
+    /// [`Folds::evaluate`] of nested candidates (each one's columns a prefix
+    /// of the next one's, all at one prior: the geometric models at one prior
+    /// factor), each fold's steps from one factorisation of the largest (each
+    /// candidate factorised alone where that one cannot be).
+    pub fn evaluate_nested(&self, subsets: &[Subset]) -> Vec<Option<Evaluation>> {
+        debug_assert!(subsets.windows(2).all(|w| {
+            w[0].precision_factor == w[1].precision_factor
+                && w[1].columns.starts_with(&w[0].columns)
+        }));
+        let Some(largest) = subsets.last() else {
+            return Vec::new();
+        };
+        let folds = (0..self.training.len()).map(Some).chain([None]);
+        let factors: Vec<Option<Factor>> = folds
+            .map(|fold| self.factor(&largest.columns, largest.precision_factor, fold))
+            .collect();
+        subsets
+            .iter()
+            .map(|subset| {
+                let held = self.held(subset);
+                self.evaluation(subset, |fold| {
+                    match &factors[fold.unwrap_or(self.training.len())] {
+                        Some(factor) => self.solve(factor, subset, &held, fold),
+                        None => self.step(subset, &held, fold),
+                    }
+                })
+            })
+            .collect()
+    }
+
+    /// The cross-validation of `subset` from its step on each fold's training
+    /// poses (`Some(f)`) and on every pose (`None`).
+    fn evaluation(
+        &self,
+        subset: &Subset,
+        step: impl Fn(Option<usize>) -> Option<Vec<f64>>,
+    ) -> Option<Evaluation> {
         let lin = self.lin;
         let n = lin.first_rows.len();
         let mut errors = vec![0.0; n];
-        let held = self.held(subset);
         for f in 0..self.training.len() {
-            let delta = self.step(subset, &held, Some(f))?;
+            let delta = step(Some(f))?;
             let moved = moving(&delta);
             for i in (0..n).filter(|&i| self.fold[i] == Role::Fold(f)) {
                 // The position rows: 3, or 1 for a touch of a plane.
@@ -299,7 +383,7 @@ impl<'a> Folds<'a> {
                 errors[i] = e.norm() * lin.noise[i];
             }
         }
-        let objective = self.objective(subset)?;
+        let objective = self.objective_after(subset, &step(None)?);
         let held: Vec<f64> = (0..n)
             .filter(|&i| matches!(self.fold[i], Role::Fold(_)))
             .map(|i| errors[i])
@@ -309,5 +393,190 @@ impl<'a> Folds<'a> {
             errors,
             objective,
         })
+    }
+}
+
+/// A factor of a base model's scaled normal matrix on some poses, and the
+/// forward solution `L⁻¹ rhs` of its right-hand side.
+struct BaseFactor {
+    l: DMatrix<f64>,
+    scale: Vec<f64>,
+    y: DVector<f64>,
+}
+
+/// Candidates that each add a few columns `C` to one base model `B` (each
+/// round's effects beside the model fitted so far), solved by blocks: the
+/// base's factor `L_B` on each fold's training poses (and on every pose) is
+/// computed once, and each candidate only needs `W = L_B⁻¹ N_BC` and the
+/// factor `L_C` of its Schur complement `N_CC − WᵀW`, for `[L_B 0; Wᵀ L_C]` is
+/// the factor of its whole matrix. The same steps as [`Folds::evaluate`] and
+/// [`Folds::objective`] of the base's columns and the candidate's, but about
+/// `p²k` operations a fold instead of `p³/3` for a base of `p` columns. The
+/// columns outside the base must be at nominal (no column is then moved back,
+/// and the base's right-hand side is every candidate's); otherwise each
+/// candidate is solved whole.
+pub struct Extensions<'f, 'a> {
+    folds: &'f Folds<'a>,
+    base: Subset,
+    /// The base's factor on each fold's training poses, then on every pose;
+    /// empty when a column outside the base is not at nominal.
+    factors: Vec<Option<BaseFactor>>,
+    /// The base's factor of the unit-scaled normal matrix of every pose, no
+    /// prior (the test of [`Folds::separable`]), and its scales.
+    plain: Option<(DMatrix<f64>, Vec<f64>)>,
+}
+
+impl<'a> Folds<'a> {
+    /// The candidates that add columns to `base` (see [`Extensions`]).
+    pub fn extensions(&self, base: &Subset) -> Extensions<'_, 'a> {
+        let lin = self.lin;
+        let mut in_base = vec![false; lin.j.ncols()];
+        for &c in &base.columns {
+            in_base[c] = true;
+        }
+        let at_nominal = (0..in_base.len()).all(|c| in_base[c] || lin.offset[c] == 0.0);
+        let s = &base.columns;
+        let m = s.len();
+        let factor = |fold: Option<usize>| {
+            let (a, b) = fold.map_or(&self.all, |f| &self.training[f]);
+            let precision = |c: usize| lin.precision[c] * base.precision_factor;
+            let scale: Vec<f64> = s
+                .iter()
+                .map(|&c| unit_scale(a[(c, c)] + precision(c)))
+                .collect();
+            let n = DMatrix::from_fn(m, m, |i, j| {
+                let prior = if i == j { precision(s[i]) } else { 0.0 };
+                (a[(s[i], s[j])] + prior) * scale[i] * scale[j]
+            });
+            let rhs = DVector::from_fn(m, |i, _| {
+                (b[s[i]] - precision(s[i]) * lin.offset[s[i]]) * scale[i]
+            });
+            let l = n.cholesky()?.unpack();
+            let y = l.solve_lower_triangular(&rhs)?;
+            Some(BaseFactor { l, scale, y })
+        };
+        let factors = if at_nominal {
+            (0..self.training.len())
+                .map(Some)
+                .chain([None])
+                .map(factor)
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let a = &self.all.0;
+        let scale: Vec<f64> = s.iter().map(|&c| unit_scale(a[(c, c)])).collect();
+        let plain = DMatrix::from_fn(m, m, |i, j| a[(s[i], s[j])] * scale[i] * scale[j])
+            .cholesky()
+            .map(|l| (l.unpack(), scale));
+        Extensions {
+            folds: self,
+            base: base.clone(),
+            factors,
+            plain,
+        }
+    }
+}
+
+impl Extensions<'_, '_> {
+    /// The base's columns and `extra`.
+    pub fn subset(&self, extra: &[usize]) -> Subset {
+        let mut columns = self.base.columns.clone();
+        columns.extend_from_slice(extra);
+        Subset {
+            columns,
+            precision_factor: self.base.precision_factor,
+        }
+    }
+
+    /// [`Folds::separable`] of the base's columns and `extra` (the base's own
+    /// columns must come before `lin.fitted`, the extra ones after).
+    pub fn separable(&self, extra: &[usize], separability: f64) -> bool {
+        let Some((l, scale)) = &self.plain else {
+            return false;
+        };
+        let a = &self.folds.all.0;
+        let s = &self.base.columns;
+        let extra_scale: Vec<f64> = extra.iter().map(|&c| unit_scale(a[(c, c)])).collect();
+        let k = extra.len();
+        let nbc = DMatrix::from_fn(s.len(), k, |i, j| {
+            a[(s[i], extra[j])] * scale[i] * extra_scale[j]
+        });
+        let Some(w) = l.solve_lower_triangular(&nbc) else {
+            return false;
+        };
+        let schur = DMatrix::from_fn(k, k, |i, j| {
+            a[(extra[i], extra[j])] * extra_scale[i] * extra_scale[j]
+        }) - w.transpose() * &w;
+        let Some(lc) = schur.cholesky() else {
+            return false;
+        };
+        let lc = lc.l();
+        debug_assert!(s.iter().all(|&c| c < self.folds.lin.fitted));
+        (0..k).all(|i| {
+            extra[i] < self.folds.lin.fitted
+                || (extra_scale[i] > 0.0 && lc[(i, i)] >= separability)
+        })
+    }
+
+    /// The step of the base's columns and `extra` on a fold's training poses
+    /// (every pose's for `None`), by blocks.
+    fn step(&self, extra: &[usize], fold: Option<usize>) -> Option<Vec<f64>> {
+        let folds = self.folds;
+        let lin = folds.lin;
+        let factor = self.factors[fold.unwrap_or(folds.training.len())].as_ref()?;
+        let (a, b) = fold.map_or(&folds.all, |f| &folds.training[f]);
+        let precision = |c: usize| lin.precision[c] * self.base.precision_factor;
+        let s = &self.base.columns;
+        let k = extra.len();
+        let scale: Vec<f64> = extra
+            .iter()
+            .map(|&c| unit_scale(a[(c, c)] + precision(c)))
+            .collect();
+        let nbc = DMatrix::from_fn(s.len(), k, |i, j| {
+            a[(s[i], extra[j])] * factor.scale[i] * scale[j]
+        });
+        let w = factor.l.solve_lower_triangular(&nbc)?;
+        let ncc = DMatrix::from_fn(k, k, |i, j| {
+            let prior = if i == j { precision(extra[i]) } else { 0.0 };
+            (a[(extra[i], extra[j])] + prior) * scale[i] * scale[j]
+        });
+        let lc = (ncc - w.transpose() * &w).cholesky()?;
+        let rhs = DVector::from_fn(k, |i, _| {
+            let c = extra[i];
+            (b[c] - precision(c) * lin.offset[c]) * scale[i]
+        });
+        let x_extra = lc.solve(&(rhs - w.transpose() * &factor.y));
+        let x_base = factor
+            .l
+            .tr_solve_lower_triangular(&(&factor.y - &w * &x_extra))?;
+        let mut delta: Vec<f64> = lin.offset.iter().map(|o| -o).collect();
+        for (i, &c) in s.iter().enumerate() {
+            delta[c] = x_base[i] * factor.scale[i];
+        }
+        for (i, &c) in extra.iter().enumerate() {
+            delta[c] = x_extra[i] * scale[i];
+        }
+        delta.iter().all(|d| d.is_finite()).then_some(delta)
+    }
+
+    /// [`Folds::objective`] of the base's columns and `extra`.
+    pub fn objective(&self, extra: &[usize]) -> Option<f64> {
+        let subset = self.subset(extra);
+        if self.factors.is_empty() {
+            return self.folds.objective(&subset);
+        }
+        let delta = self.step(extra, None)?;
+        Some(self.folds.objective_after(&subset, &delta))
+    }
+
+    /// [`Folds::evaluate`] of the base's columns and `extra`.
+    pub fn evaluate(&self, extra: &[usize]) -> Option<Evaluation> {
+        let subset = self.subset(extra);
+        if self.factors.is_empty() {
+            return self.folds.evaluate(&subset);
+        }
+        self.folds
+            .evaluation(&subset, |fold| self.step(extra, fold))
     }
 }

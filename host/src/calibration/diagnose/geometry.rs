@@ -69,45 +69,68 @@ pub fn score(
         held: HeldOut::of(nominal),
         errors: nominal.to_vec(),
     }];
-    // Every (model, prior factor) scored alone, on every core.
-    let mut candidates = Vec::new();
-    for geometry in Geometry::ALL {
-        let columns: Vec<usize> = (0..lin.j.ncols())
-            .filter(|&c| match lin.unknowns[c] {
-                // A Hayati tilt is an effect found, free in every model.
-                Unknown::Param(Param::Beta(_))
-                | Unknown::Effect { .. }
-                | Unknown::Point { .. }
-                | Unknown::Plane { .. } => true,
-                Unknown::Param(p) => geometry.frees(robot, p),
+    // The columns each model frees, in the order of the first model that
+    // frees them, so that each model's are a prefix of the next one's: the
+    // models at one prior factor share one factorisation per fold.
+    let first = |c: usize| match lin.unknowns[c] {
+        // A Hayati tilt is an effect found, free in every model.
+        Unknown::Param(Param::Beta(_))
+        | Unknown::Effect { .. }
+        | Unknown::Point { .. }
+        | Unknown::Plane { .. } => Some(Geometry::Registration),
+        Unknown::Param(p) => Geometry::ALL.into_iter().find(|g| g.frees(robot, p)),
+    };
+    let mut order: Vec<usize> = (0..lin.j.ncols()).filter(|&c| first(c).is_some()).collect();
+    order.sort_by_key(|&c| first(c));
+    let columns = |geometry: Geometry| -> Vec<usize> {
+        order
+            .iter()
+            .copied()
+            .filter(|&c| first(c).is_some_and(|g| g <= geometry))
+            .collect()
+    };
+    // The registration at the stated prior only (it has no D-H parameter);
+    // every other model at every prior factor. Each factor's models on a core.
+    let groups: Vec<(f64, Vec<Geometry>)> = PRIOR_FACTORS
+        .iter()
+        .map(|&factor| {
+            let models = Geometry::ALL
+                .into_iter()
+                .filter(|&g| g != Geometry::Registration || factor == 1.0)
+                .collect();
+            (factor, models)
+        })
+        .collect();
+    let scored = parallel::map(&groups, |(factor, models)| {
+        let subsets: Vec<Subset> = models
+            .iter()
+            .map(|&g| Subset {
+                columns: columns(g),
+                precision_factor: 1.0 / (factor * factor),
             })
             .collect();
-        let factors: &[f64] = if geometry == Geometry::Registration {
-            &[1.0]
-        } else {
-            &PRIOR_FACTORS
-        };
-        for &factor in factors {
-            candidates.push((geometry, factor, columns.clone()));
-        }
-    }
-    let scored = parallel::map(&candidates, |(_, factor, columns)| {
-        folds.evaluate(&Subset {
-            columns: columns.clone(),
-            precision_factor: 1.0 / (factor * factor),
-        })
+        folds.evaluate_nested(&subsets)
     });
-    for ((geometry, prior_factor, columns), e) in candidates.into_iter().zip(scored) {
-        if let Some(e) = e {
-            out.push(ModelScore {
-                geometry: Some(geometry),
-                prior_factor,
-                parameters: columns.len(),
-                held: e.held,
-                errors: e.errors,
-            });
+    let mut scores = Vec::new();
+    for ((prior_factor, models), evaluations) in groups.into_iter().zip(scored) {
+        for (geometry, e) in models.into_iter().zip(evaluations) {
+            if let Some(e) = e {
+                scores.push(ModelScore {
+                    geometry: Some(geometry),
+                    prior_factor,
+                    parameters: columns(geometry).len(),
+                    held: e.held,
+                    errors: e.errors,
+                });
+            }
         }
     }
+    // In the order of the models, the simplest first (the first of equals is
+    // chosen), each at its prior factors in increasing order.
+    scores.sort_by(|a, b| {
+        (a.geometry.cmp(&b.geometry)).then(a.prior_factor.total_cmp(&b.prior_factor))
+    });
+    out.extend(scores);
     out
 }
 

@@ -348,9 +348,14 @@ pub fn diagnose_with_progress(
             .collect();
         // Every separable candidate's F statistic from its fit to all poses,
         // the candidates on every core.
+        // Each candidate adds its columns to the fitted ones: the factors of
+        // those are shared.
+        let extensions = folds.extensions(&base_subset);
+        let own = |subset: &Subset| subset.columns[lin.fitted..].to_vec();
         let objectives = parallel::map(&subsets, |(_, subset)| {
-            if folds.separable(&subset.columns, options.fit.separability) {
-                folds.objective(subset)
+            let own = own(subset);
+            if extensions.separable(&own, options.fit.separability) {
+                extensions.objective(&own)
             } else {
                 None
             }
@@ -389,7 +394,9 @@ pub fn diagnose_with_progress(
             .take_while(|(i, (_, _, f, t))| *i < CROSS_VALIDATED || f > t)
             .map(|(_, test)| test)
             .collect();
-        let evaluations = parallel::map(&validated, |(_, subset, _, _)| folds.evaluate(subset));
+        let evaluations = parallel::map(&validated, |(_, subset, _, _)| {
+            extensions.evaluate(&own(subset))
+        });
         let mut scored = Vec::new();
         for ((c, _, f, t), e) in validated.into_iter().zip(evaluations) {
             let Some(e) = e else {
