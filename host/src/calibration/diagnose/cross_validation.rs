@@ -24,8 +24,8 @@
 
 use armcal_shared::Robot;
 use armcal_shared::effects::Effect;
-use faer::Mat;
-use nalgebra::{DMatrix, DVector, Vector3};
+use faer::{Col, Mat};
+use nalgebra::{DMatrix, DVector};
 
 use super::{DiagnoseOptions, position_errors};
 use crate::calibration::parallel;
@@ -90,6 +90,14 @@ pub enum Role {
     Out,
 }
 
+/// The held-out poses of a fold and their rows of the Jacobian and the
+/// residual, gathered.
+struct HeldRows {
+    poses: Vec<usize>,
+    j: Mat<f64>,
+    r: Mat<f64>,
+}
+
 /// The Cholesky factor of a scaled MAP normal matrix (see [`Folds::factor`]):
 /// `L`, and each column's scale to a unit diagonal.
 struct Factor {
@@ -131,6 +139,8 @@ pub struct Folds<'a> {
     fold: Vec<Role>,
     /// Each fold's training normal equations: every pose's less the fold's.
     training: Vec<(DMatrix<f64>, DVector<f64>)>,
+    /// Each fold's held-out rows.
+    held_rows: Vec<HeldRows>,
     all: (DMatrix<f64>, DVector<f64>),
     rtr: f64,
 }
@@ -149,29 +159,30 @@ impl<'a> Folds<'a> {
             .unwrap_or(0);
         // Each group's rows gathered, its normal matrix by one product (the
         // small solves below run on nalgebra's dense matrices).
-        let normal = |poses: &[usize]| {
+        let normal = |poses: Vec<usize>| {
             let rows: Vec<usize> = poses.iter().flat_map(|&i| lin.rows_of(i)).collect();
             let j = Mat::from_fn(rows.len(), columns, |r, c| lin.j[(rows[r], c)]);
             let r = Mat::from_fn(rows.len(), 1, |i, _| lin.r[(rows[i], 0)]);
             let (a, b) = (j.transpose() * &j, j.transpose() * &r);
-            (
+            let normal = (
                 DMatrix::from_fn(columns, columns, |i, k| a[(i, k)]),
                 DVector::from_fn(columns, |i, _| b[(i, 0)]),
-            )
+            );
+            (normal, HeldRows { poses, j, r })
         };
         let group = |g: Role| -> Vec<usize> { (0..fold.len()).filter(|&i| fold[i] == g).collect() };
         // Each fold's, then the poses trained on in every fold, on every core.
         let groups: Vec<Role> = (0..k).map(Role::Fold).chain([Role::Train]).collect();
-        let mut parts = parallel::map(&groups, |&g| normal(&group(g)));
-        let mut all = parts.pop().expect("the poses trained on in every fold");
-        for (a, b) in &parts {
+        let mut parts = parallel::map(&groups, |&g| normal(group(g)));
+        let (mut all, _) = parts.pop().expect("the poses trained on in every fold");
+        for ((a, b), _) in &parts {
             all.0 += a;
             all.1 += b;
         }
-        let training = parts
+        let (training, held_rows) = parts
             .into_iter()
-            .map(|(a, b)| (&all.0 - a, &all.1 - b))
-            .collect();
+            .map(|((a, b), rows)| ((&all.0 - a, &all.1 - b), rows))
+            .unzip();
         let rtr = (0..fold.len())
             .filter(|&i| fold[i] != Role::Out)
             .flat_map(|i| lin.rows_of(i))
@@ -181,6 +192,7 @@ impl<'a> Folds<'a> {
             lin,
             fold,
             training,
+            held_rows,
             all,
             rtr,
         }
@@ -363,24 +375,19 @@ impl<'a> Folds<'a> {
         let lin = self.lin;
         let n = lin.first_rows.len();
         let mut errors = vec![0.0; n];
-        for f in 0..self.training.len() {
+        for (f, fold) in self.held_rows.iter().enumerate() {
             let delta = step(Some(f))?;
-            let moved = moving(&delta);
-            for i in (0..n).filter(|&i| self.fold[i] == Role::Fold(f)) {
+            // The held-out poses' residuals after the step: r − J δ.
+            let predicted = &fold.j * Col::from_fn(delta.len(), |c| delta[c]);
+            let mut row = 0;
+            for &i in &fold.poses {
+                let rows = lin.rows_of(i).len();
                 // The position rows: 3, or 1 for a touch of a plane.
-                let rows = lin.rows_of(i);
-                let e = Vector3::from_fn(|axis, _| {
-                    let row = rows.start + axis;
-                    if row >= rows.end {
-                        return 0.0;
-                    }
-                    lin.r[(row, 0)]
-                        - moved
-                            .iter()
-                            .map(|&c| lin.j[(row, c)] * delta[c])
-                            .sum::<f64>()
-                });
-                errors[i] = e.norm() * lin.noise[i];
+                let e: f64 = (row..row + rows.min(3))
+                    .map(|k| (fold.r[(k, 0)] - predicted[k]).powi(2))
+                    .sum();
+                errors[i] = e.sqrt() * lin.noise[i];
+                row += rows;
             }
         }
         let objective = self.objective_after(subset, &step(None)?);
