@@ -22,8 +22,8 @@
 //! the paired test of [`crate::calibration::stats::significantly_smaller`] at 5 %) than the
 //! model fitted with it; either way the summary gives both figures.
 
-use faer::linalg::solvers::DenseSolveCore;
-use faer::{Mat, Side};
+use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
+use faer::{Mat, Par, Side};
 use nalgebra::{DMatrix, DVector};
 
 use super::cross_validation::{Folds, Role, Subset};
@@ -72,9 +72,12 @@ pub fn most_suspect(fit: &FullFit, lin: &Linearization) -> Option<Suspect> {
     let normal = Mat::from_fn(p, p, |i, j| {
         (a[(i, j)] + if i == j { lin.precision[i] } else { 0.0 }) * scale[i] * scale[j]
     });
-    // N⁻¹ in the scaled unknowns, once (nalgebra for the many small products).
-    let inverse = normal.llt(Side::Lower).ok()?.inverse();
-    let inverse = DMatrix::from_fn(p, p, |i, j| inverse[(i, j)]);
+    // With N = L Lᵀ in the scaled unknowns, H = (JS) N⁻¹ (JS)ᵀ = BᵀB for
+    // B = L⁻¹ (JS)ᵀ: one triangular solve for every row at once, then each
+    // pose's block H_ii from its own columns of B.
+    let llt = normal.llt(Side::Lower).ok()?;
+    let mut b = Mat::from_fn(p, lin.j.nrows(), |c, row| lin.j[(row, c)] * scale[c]);
+    solve_lower_triangular_in_place(llt.L(), b.as_mut(), Par::Seq);
     let omega = lin.r.squared_norm_l2();
     let redundancy = fit.redundancy;
     let mut worst: Option<Suspect> = None;
@@ -85,10 +88,13 @@ pub fn most_suspect(fit: &FullFit, lin: &Linearization) -> Option<Suspect> {
         if redundancy - (k as f64) < 1.0 {
             return None;
         }
-        // The pose's scaled rows J_i, then H_ii = J_i N⁻¹ J_iᵀ.
-        let ji = DMatrix::from_fn(k, p, |r, c| lin.j[(rows.start + r, c)] * scale[c]);
-        let h = &ji * &inverse * ji.transpose();
-        let i_minus_h = DMatrix::from_fn(k, k, |r, s| if r == s { 1.0 } else { 0.0 } - h[(r, s)]);
+        let i_minus_h = DMatrix::from_fn(k, k, |r, s| {
+            let h: f64 = (0..p)
+                .map(|c| b[(c, rows.start + r)] * b[(c, rows.start + s)])
+                .sum();
+            let identity = if r == s { 1.0 } else { 0.0 };
+            identity - h
+        });
         let ri = DVector::from_fn(k, |r, _| lin.r[(rows.start + r, 0)]);
         let Some(f) = i_minus_h.cholesky() else {
             continue;

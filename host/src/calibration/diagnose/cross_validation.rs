@@ -28,10 +28,10 @@ use faer::{Col, Mat};
 use nalgebra::{DMatrix, DVector};
 
 use super::{DiagnoseOptions, position_errors};
-use crate::calibration::parallel;
 use crate::calibration::identify::full::{
     FullError, Linearization, Observation, identify_with_effects, unit_scale,
 };
+use crate::calibration::parallel;
 
 /// Held-out statistics: RMS, mean and max of the position error, m.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -110,6 +110,14 @@ fn moving(delta: &[f64]) -> Vec<usize> {
     (0..delta.len()).filter(|&c| delta[c] != 0.0).collect()
 }
 
+/// The fewest poses for which candidates are cross-validated on every core
+/// ([`Folds::spread`]). A candidate's cross-validation costs a few
+/// factorisations of its `p × p` system (`p` about 30: tens of µs) and, for
+/// each fold, one product with the fold's held-out rows (`3n/k × p`): on
+/// fewer poses it takes no longer than waking a sleeping worker, and the
+/// candidates run one after the other.
+pub const SPREAD_POSES: usize = 1000;
+
 /// A candidate model as the linearisation sees it.
 #[derive(Clone, Debug)]
 pub struct Subset {
@@ -173,7 +181,8 @@ impl<'a> Folds<'a> {
         let group = |g: Role| -> Vec<usize> { (0..fold.len()).filter(|&i| fold[i] == g).collect() };
         // Each fold's, then the poses trained on in every fold, on every core.
         let groups: Vec<Role> = (0..k).map(Role::Fold).chain([Role::Train]).collect();
-        let mut parts = parallel::map(&groups, |&g| normal(group(g)));
+        let mut parts =
+            parallel::map_if(fold.len() >= SPREAD_POSES, &groups, |&g| normal(group(g)));
         let (mut all, _) = parts.pop().expect("the poses trained on in every fold");
         for ((a, b), _) in &parts {
             all.0 += a;
@@ -196,6 +205,12 @@ impl<'a> Folds<'a> {
             all,
             rtr,
         }
+    }
+
+    /// Whether candidates are worth cross-validating on every core: at least
+    /// [`SPREAD_POSES`] poses.
+    pub fn spread(&self) -> bool {
+        self.fold.len() >= SPREAD_POSES
     }
 
     /// Interleaved folds over every pose: pose `i` in fold `i mod k`.
@@ -228,7 +243,12 @@ impl<'a> Folds<'a> {
     /// (every pose's for `fold` `None`), factorised. The factor of a leading
     /// block is the leading block of the factor, so one factorisation serves
     /// every candidate whose columns are a prefix of `columns`.
-    fn factor(&self, columns: &[usize], precision_factor: f64, fold: Option<usize>) -> Option<Factor> {
+    fn factor(
+        &self,
+        columns: &[usize],
+        precision_factor: f64,
+        fold: Option<usize>,
+    ) -> Option<Factor> {
         let s = columns;
         let m = s.len();
         // The training poses' normal matrix: every pose's less the fold's.
@@ -521,8 +541,7 @@ impl Extensions<'_, '_> {
         let lc = lc.l();
         debug_assert!(s.iter().all(|&c| c < self.folds.lin.fitted));
         (0..k).all(|i| {
-            extra[i] < self.folds.lin.fitted
-                || (extra_scale[i] > 0.0 && lc[(i, i)] >= separability)
+            extra[i] < self.folds.lin.fitted || (extra_scale[i] > 0.0 && lc[(i, i)] >= separability)
         })
     }
 

@@ -101,7 +101,7 @@ pub fn score(
             (factor, models)
         })
         .collect();
-    let scored = parallel::map(&groups, |(factor, models)| {
+    let scored = parallel::map_if(folds.spread(), &groups, |(factor, models)| {
         let subsets: Vec<Subset> = models
             .iter()
             .map(|&g| Subset {

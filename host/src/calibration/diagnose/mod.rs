@@ -352,7 +352,7 @@ pub fn diagnose_with_progress(
         // those are shared.
         let extensions = folds.extensions(&base_subset);
         let own = |subset: &Subset| subset.columns[lin.fitted..].to_vec();
-        let objectives = parallel::map(&subsets, |(_, subset)| {
+        let objectives = parallel::map_if(folds.spread(), &subsets, |(_, subset)| {
             let own = own(subset);
             if extensions.separable(&own, options.fit.separability) {
                 extensions.objective(&own)
@@ -394,7 +394,7 @@ pub fn diagnose_with_progress(
             .take_while(|(i, (_, _, f, t))| *i < CROSS_VALIDATED || f > t)
             .map(|(_, test)| test)
             .collect();
-        let evaluations = parallel::map(&validated, |(_, subset, _, _)| {
+        let evaluations = parallel::map_if(folds.spread(), &validated, |(_, subset, _, _)| {
             extensions.evaluate(&own(subset))
         });
         let mut scored = Vec::new();

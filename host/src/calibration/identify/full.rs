@@ -1560,9 +1560,10 @@ impl LinearSystem {
     }
 }
 
-/// The fewest poses [`LinearSystem::build`] gives a core: fewer take less
-/// time than handing them over.
-const MIN_PIECE_POSES: usize = 32;
+/// The fewest poses [`LinearSystem::build`] gives a core: about a µs each
+/// (their rows of tens of columns), fewer take no longer than waking a
+/// sleeping worker ([`parallel::map_if`]).
+const MIN_PIECE_POSES: usize = 512;
 
 /// The weighted rows of one pose: 3 position rows, then 3 orientation rows when
 /// its orientation is measured.
