@@ -24,7 +24,7 @@
 
 use armcal_shared::Robot;
 use armcal_shared::effects::Effect;
-use faer::{Col, Mat};
+use faer::Mat;
 use nalgebra::{DMatrix, DVector};
 
 use super::{DiagnoseOptions, position_errors};
@@ -90,12 +90,27 @@ pub enum Role {
     Out,
 }
 
-/// The held-out poses of a fold and their rows of the Jacobian and the
-/// residual, gathered.
+/// The held-out poses of a fold and their position rows (3, or 1 for a touch
+/// of a plane), in order.
 struct HeldRows {
-    poses: Vec<usize>,
-    j: Mat<f64>,
-    r: Mat<f64>,
+    poses: Vec<(usize, usize)>,
+    rows: Vec<usize>,
+}
+
+impl HeldRows {
+    fn of(lin: &Linearization, poses: &[usize]) -> Self {
+        let mut rows = Vec::new();
+        let poses = poses
+            .iter()
+            .map(|&i| {
+                let own = lin.rows_of(i);
+                let n = own.len().min(3);
+                rows.extend(own.start..own.start + n);
+                (i, n)
+            })
+            .collect();
+        Self { poses, rows }
+    }
 }
 
 /// The Cholesky factor of a scaled MAP normal matrix (see [`Folds::factor`]):
@@ -176,7 +191,7 @@ impl<'a> Folds<'a> {
                 DMatrix::from_fn(columns, columns, |i, k| a[(i, k)]),
                 DVector::from_fn(columns, |i, _| b[(i, 0)]),
             );
-            (normal, HeldRows { poses, j, r })
+            (normal, HeldRows::of(lin, &poses))
         };
         let group = |g: Role| -> Vec<usize> { (0..fold.len()).filter(|&i| fold[i] == g).collect() };
         // Each fold's, then the poses trained on in every fold, on every core.
@@ -397,17 +412,19 @@ impl<'a> Folds<'a> {
         let mut errors = vec![0.0; n];
         for (f, fold) in self.held_rows.iter().enumerate() {
             let delta = step(Some(f))?;
-            // The held-out poses' residuals after the step: r − J δ.
-            let predicted = &fold.j * Col::from_fn(delta.len(), |c| delta[c]);
-            let mut row = 0;
-            for &i in &fold.poses {
-                let rows = lin.rows_of(i).len();
-                // The position rows: 3, or 1 for a touch of a plane.
-                let e: f64 = (row..row + rows.min(3))
-                    .map(|k| (fold.r[(k, 0)] - predicted[k]).powi(2))
-                    .sum();
-                errors[i] = e.sqrt() * lin.noise[i];
-                row += rows;
+            // The held-out position rows' residuals after the step, r − J δ,
+            // a column of J at a time (it is stored by columns).
+            let mut e: Vec<f64> = fold.rows.iter().map(|&row| lin.r[(row, 0)]).collect();
+            for c in moving(&delta) {
+                let column = lin.j.col(c);
+                for (e, &row) in e.iter_mut().zip(&fold.rows) {
+                    *e -= column[row] * delta[c];
+                }
+            }
+            let mut e = e.into_iter();
+            for &(i, rows) in &fold.poses {
+                let sum: f64 = e.by_ref().take(rows).map(|x| x * x).sum();
+                errors[i] = sum.sqrt() * lin.noise[i];
             }
         }
         let objective = self.objective_after(subset, &step(None)?);
