@@ -443,8 +443,7 @@ impl<'a> Folds<'a> {
 /// A factor of a base model's scaled normal matrix on some poses, and the
 /// forward solution `L⁻¹ rhs` of its right-hand side.
 struct BaseFactor {
-    l: DMatrix<f64>,
-    scale: Vec<f64>,
+    factor: Factor,
     y: DVector<f64>,
 }
 
@@ -482,22 +481,14 @@ impl<'a> Folds<'a> {
         let s = &base.columns;
         let m = s.len();
         let factor = |fold: Option<usize>| {
-            let (a, b) = fold.map_or(&self.all, |f| &self.training[f]);
+            let factor = self.factor(s, base.precision_factor, fold)?;
+            let b = &fold.map_or(&self.all, |f| &self.training[f]).1;
             let precision = |c: usize| lin.precision[c] * base.precision_factor;
-            let scale: Vec<f64> = s
-                .iter()
-                .map(|&c| unit_scale(a[(c, c)] + precision(c)))
-                .collect();
-            let n = DMatrix::from_fn(m, m, |i, j| {
-                let prior = if i == j { precision(s[i]) } else { 0.0 };
-                (a[(s[i], s[j])] + prior) * scale[i] * scale[j]
-            });
             let rhs = DVector::from_fn(m, |i, _| {
-                (b[s[i]] - precision(s[i]) * lin.offset[s[i]]) * scale[i]
+                (b[s[i]] - precision(s[i]) * lin.offset[s[i]]) * factor.scale[i]
             });
-            let l = n.cholesky()?.unpack();
-            let y = l.solve_lower_triangular(&rhs)?;
-            Some(BaseFactor { l, scale, y })
+            let y = factor.l.solve_lower_triangular(&rhs)?;
+            Some(BaseFactor { factor, y })
         };
         let factors = if at_nominal {
             (0..self.training.len())
@@ -567,7 +558,8 @@ impl Extensions<'_, '_> {
     fn step(&self, extra: &[usize], fold: Option<usize>) -> Option<Vec<f64>> {
         let folds = self.folds;
         let lin = folds.lin;
-        let factor = self.factors[fold.unwrap_or(folds.training.len())].as_ref()?;
+        let shared = self.factors[fold.unwrap_or(folds.training.len())].as_ref()?;
+        let (factor, y) = (&shared.factor, &shared.y);
         let (a, b) = fold.map_or(&folds.all, |f| &folds.training[f]);
         let precision = |c: usize| lin.precision[c] * self.base.precision_factor;
         let s = &self.base.columns;
@@ -589,10 +581,8 @@ impl Extensions<'_, '_> {
             let c = extra[i];
             (b[c] - precision(c) * lin.offset[c]) * scale[i]
         });
-        let x_extra = lc.solve(&(rhs - w.transpose() * &factor.y));
-        let x_base = factor
-            .l
-            .tr_solve_lower_triangular(&(&factor.y - &w * &x_extra))?;
+        let x_extra = lc.solve(&(rhs - w.transpose() * y));
+        let x_base = factor.l.tr_solve_lower_triangular(&(y - &w * &x_extra))?;
         let mut delta: Vec<f64> = lin.offset.iter().map(|o| -o).collect();
         for (i, &c) in s.iter().enumerate() {
             delta[c] = x_base[i] * factor.scale[i];
