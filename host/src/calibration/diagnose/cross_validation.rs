@@ -194,7 +194,8 @@ impl<'a> Folds<'a> {
             (normal, HeldRows::of(lin, &poses))
         };
         let group = |g: Role| -> Vec<usize> { (0..fold.len()).filter(|&i| fold[i] == g).collect() };
-        // Each fold's, then the poses trained on in every fold, on every core.
+        // Each fold's, then the poses trained on in every fold; on every core
+        // when the poses are many (see `SPREAD_POSES`).
         let groups: Vec<Role> = (0..k).map(Role::Fold).chain([Role::Train]).collect();
         let mut parts =
             parallel::map_if(fold.len() >= SPREAD_POSES, &groups, |&g| normal(group(g)));
