@@ -25,9 +25,7 @@ use nalgebra::{Point3, Vector3};
 
 use crate::calibration::diagnose::cross_validation::{Folds, Role, Subset};
 use crate::calibration::diagnose::geometry::PRIOR_FACTORS;
-use crate::calibration::identify::full::{
-    FullOptions, identify_constrained, linearize_constrained,
-};
+use crate::calibration::identify::full::{FullOptions, identify_constrained, linearize};
 use crate::calibration::identify::{self, IdentifyError, ParamSet};
 use crate::io::measurements::Measurements;
 use crate::io::model_file::RobotModel;
@@ -143,7 +141,14 @@ pub fn choose_prior(
         &data.constraints,
         options,
     )?;
-    let lin = linearize_constrained(&fit, &data.poses, &data.constraints, &options.prior);
+    let lin = linearize(
+        &fit,
+        &[],
+        &[],
+        &data.poses,
+        &data.constraints,
+        &options.prior,
+    );
     let poses = data.poses.len();
     let k = folds.clamp(2, poses.max(2));
     let roles = (0..lin.first_rows.len())

@@ -42,6 +42,7 @@ pub mod candidates;
 pub mod cross_validation;
 pub mod geometry;
 
+use crate::io::constraints::Constraints;
 use armcal_shared::effects::{Effect, EffectModel};
 use armcal_shared::{JointType, Param, Robot};
 use nalgebra::Vector3;
@@ -230,7 +231,14 @@ pub fn diagnose_with_progress(
     let most = data.len() / 10;
     // The reference's linearisation on the poses kept, once per reference.
     let mut clean = subset(&kept);
-    let mut lin = linearize(&reference, &[], &[], &clean, &prior);
+    let mut lin = linearize(
+        &reference,
+        &[],
+        &[],
+        &clean,
+        &Constraints::default(),
+        &prior,
+    );
     while blunders.len() < most {
         let Some(s) = blunders::most_suspect(&reference, &lin) else {
             break;
@@ -264,7 +272,14 @@ pub fn diagnose_with_progress(
         kept = without;
         clean = subset(&kept);
         reference = identify_with_effects(nominal, &[], &[], &clean, &reference_options)?;
-        lin = linearize(&reference, &[], &[], &clean, &prior);
+        lin = linearize(
+            &reference,
+            &[],
+            &[],
+            &clean,
+            &Constraints::default(),
+            &prior,
+        );
     }
 
     // 3. The geometric model.
@@ -317,7 +332,14 @@ pub fn diagnose_with_progress(
         // One linearisation with every remaining candidate's columns.
         let new_extra: Vec<Param> = remaining.iter().flat_map(|c| c.extra.clone()).collect();
         let new_effects: Vec<Effect<f64>> = remaining.iter().filter_map(|c| c.effect).collect();
-        let lin = linearize(&current_fit, &new_effects, &new_extra, &clean, &geo_prior);
+        let lin = linearize(
+            &current_fit,
+            &new_effects,
+            &new_extra,
+            &clean,
+            &Constraints::default(),
+            &geo_prior,
+        );
         let folds = Folds::interleaved(&lin, options.folds);
         let fitted: Vec<usize> = (0..lin.fitted).collect();
         let base_subset = Subset {
@@ -466,7 +488,14 @@ pub fn diagnose_with_progress(
             .map(|r| r.param)
             .filter(|&p| identified(&reference, p) && !identified(&current_fit, p))
             .collect();
-        let lin = linearize(&current_fit, &[], &missing, &clean, &prior);
+        let lin = linearize(
+            &current_fit,
+            &[],
+            &missing,
+            &clean,
+            &Constraints::default(),
+            &prior,
+        );
         let rescored = geometry::score(nominal, &lin, options.folds, &nominal_errors);
         let again = geometry::best(&rescored).clone();
         if let Some(g) = again.geometry
@@ -943,7 +972,14 @@ mod tests {
             compliance: 0.0,
         };
         for effects in [vec![], vec![fresh]] {
-            let lin = linearize(&fit, &effects, &[], &data, &options.fit.prior);
+            let lin = linearize(
+                &fit,
+                &effects,
+                &[],
+                &data,
+                &Constraints::default(),
+                &options.fit.prior,
+            );
             let screened = Folds::interleaved(&lin, options.folds)
                 .evaluate(&Subset {
                     columns: (0..lin.j.ncols()).collect(),
@@ -1005,7 +1041,14 @@ mod tests {
             joint: 5,
             scale: 0.0,
         };
-        let lin = linearize(&fit, &[scale], &[], &data, &options.prior);
+        let lin = linearize(
+            &fit,
+            &[scale],
+            &[],
+            &data,
+            &Constraints::default(),
+            &options.prior,
+        );
         let columns: Vec<usize> = (0..lin.j.ncols()).collect();
         assert!(!Folds::interleaved(&lin, 10).separable(&columns, options.separability));
     }
@@ -1036,7 +1079,14 @@ mod tests {
         let all = candidates(&nominal, &data);
         let extra: Vec<Param> = all.iter().flat_map(|c| c.extra.clone()).collect();
         let effects: Vec<Effect<f64>> = all.iter().filter_map(|c| c.effect).collect();
-        let lin = linearize(&fit, &effects, &extra, &data, &options.fit.prior);
+        let lin = linearize(
+            &fit,
+            &effects,
+            &extra,
+            &data,
+            &Constraints::default(),
+            &options.fit.prior,
+        );
         let folds = Folds::interleaved(&lin, options.folds);
         let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
         let base = Subset {

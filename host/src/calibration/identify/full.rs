@@ -1179,22 +1179,35 @@ impl Posterior {
 }
 
 /// The weighted linearisation of a fitted model, extended: the Jacobian columns
-/// of `fit`'s identified unknowns (geometry, then its effects' parameters), then of
-/// the `extra` geometric parameters, then of the parameters of `effects` (at their
-/// values, usually zero), all at `fit`'s solution; and the weighted residual.
-/// Rows as in the fit: per pose 3 position rows (divided by the fit's position
-/// noise), then 3 orientation rows when measured. Each column carries its
-/// `prior` precision and its current offset from nominal, so that a solve
-/// on any subset of the poses is the MAP step of the fit. What
-/// [`crate::calibration::diagnose`] cross-validates models with, by one Gauss–Newton step per fold.
+/// of `fit`'s identified unknowns (geometry, the identified coordinates of a
+/// constraint session's points and every parameter of its planes, then its
+/// effects' parameters), then of the `extra` geometric parameters, then of the
+/// parameters of `effects` (at their values, usually zero), all at `fit`'s
+/// solution; and the weighted residual. Rows as in the fit: per pose 3
+/// position rows (divided by the noise of its kind), or 1 for a touch of a
+/// plane, then 3 orientation rows when measured; then one row per known
+/// distance of `constraints` (empty for a session of coordinates), after the
+/// poses in [`Linearization::first_rows`] (a cross-validation trains on them
+/// always). Each column carries its `prior` precision and its current offset
+/// from nominal, so that a solve on any subset of the poses is the MAP step of
+/// the fit. What [`crate::calibration::diagnose`] cross-validates models with,
+/// by one Gauss–Newton step per fold.
 pub fn linearize(
     fit: &FullFit,
     effects: &[Effect<f64>],
     extra: &[Param],
     data: &[Observation],
+    constraints: &Constraints,
     prior: &Prior,
 ) -> Linearization {
     let mut model = Model::of(fit.calibrated.clone(), fit.fitted_effects());
+    model.constraints = constraints.clone();
+    model.points = fit.points.iter().map(|p| p.position).collect();
+    model.planes = fit
+        .planes
+        .iter()
+        .map(|p| PlaneEstimate::through(&Point3::from(p.normal * p.offset), &p.normal))
+        .collect();
     let identified = |s: &Status| matches!(s, Status::Identified { .. });
     let mut unknowns: Vec<Unknown> = Vec::new();
     let mut offset: Vec<f64> = Vec::new();
@@ -1202,13 +1215,22 @@ pub fn linearize(
         unknowns.push(Unknown::Param(p.param));
         offset.push(p.error);
     }
+    for (point, p) in fit.points.iter().enumerate() {
+        unknowns.extend(
+            (0..3)
+                .filter(|&a| p.std[a].is_finite())
+                .map(|axis| Unknown::Point { point, axis }),
+        );
+    }
+    for plane in 0..fit.planes.len() {
+        unknowns.extend((0..3).map(|component| Unknown::Plane { plane, component }));
+    }
     for (effect, e) in fit.effects.iter().enumerate() {
         for (component, _) in e.status.iter().enumerate().filter(|(_, s)| identified(s)) {
             unknowns.push(Unknown::Effect { effect, component });
-            offset.push(0.0);
         }
     }
-    let base = unknowns.len();
+    let fitted = unknowns.len();
     unknowns.extend(extra.iter().map(|p| Unknown::Param(*p)));
     for e in effects {
         let effect = model.effects.len();
@@ -1217,6 +1239,8 @@ pub fn linearize(
             (0..e.parameter_count()).map(|component| Unknown::Effect { effect, component }),
         );
     }
+    // Only the geometry is off its nominal value: points, planes and effects
+    // have no prior's centre.
     offset.resize(unknowns.len(), 0.0);
     let precision = unknowns
         .iter()
@@ -1227,103 +1251,40 @@ pub fn linearize(
         .collect();
     let weights = fit.weights();
     let sys = LinearSystem::build(&model, data, &unknowns, &weights);
-    let mut first_rows = Vec::with_capacity(data.len());
-    let mut row = 0;
-    for obs in data {
-        first_rows.push(row);
-        row += obs.equations();
-    }
-    Linearization {
-        j: sys.j,
-        r: sys.r,
-        first_rows,
-        fitted: base,
-        noise: data.iter().map(|o| fit.noise_of(o.channel())).collect(),
-        unknowns,
-        precision,
-        offset,
-    }
-}
-
-/// [`linearize`] of a constraint session's fit (`constraints` the session's):
-/// the columns of the identified geometry, then of the identified points and
-/// every plane parameter, at the solution; the rows of the poses (a touch of a
-/// plane one row), then one row per known distance, after the poses in
-/// [`Linearization::first_rows`] (a cross-validation trains on them always).
-pub fn linearize_constrained(
-    fit: &FullFit,
-    data: &[Observation],
-    constraints: &Constraints,
-    prior: &Prior,
-) -> Linearization {
-    let mut model = Model::of(fit.calibrated.clone(), Vec::new());
-    model.constraints = constraints.clone();
-    model.points = fit.points.iter().map(|p| p.position).collect();
-    model.planes = fit
-        .planes
-        .iter()
-        .map(|p| PlaneEstimate::through(&Point3::from(p.normal * p.offset), &p.normal))
-        .collect();
-    let mut unknowns: Vec<Unknown> = Vec::new();
-    let mut offset: Vec<f64> = Vec::new();
-    for p in fit
-        .params
-        .iter()
-        .filter(|p| matches!(p.status, Status::Identified { .. }))
-    {
-        unknowns.push(Unknown::Param(p.param));
-        offset.push(p.error);
-    }
-    for (point, p) in fit.points.iter().enumerate() {
-        for axis in (0..3).filter(|&a| p.std[a].is_finite()) {
-            unknowns.push(Unknown::Point { point, axis });
-            offset.push(0.0);
-        }
-    }
-    for plane in 0..fit.planes.len() {
-        for component in 0..3 {
-            unknowns.push(Unknown::Plane { plane, component });
-            offset.push(0.0);
-        }
-    }
-    let precision = unknowns
-        .iter()
-        .map(|u| match u {
-            Unknown::Param(p) => prior.precision(*p),
-            _ => 0.0,
-        })
-        .collect();
-    let weights = fit.weights();
-    let sys = LinearSystem::build(&model, data, &unknowns, &weights);
     let distances = DistanceRows::rows(&model, &unknowns);
     let poses_rows = sys.j.nrows();
-    let rows = poses_rows + distances.len();
-    let j = Mat::from_fn(rows, unknowns.len(), |i, c| {
-        if i < poses_rows {
-            sys.j[(i, c)]
-        } else {
-            distances[i - poses_rows].0[c]
-        }
-    });
-    let r = Mat::from_fn(rows, 1, |i, _| {
-        if i < poses_rows {
-            sys.r[(i, 0)]
-        } else {
-            distances[i - poses_rows].1
-        }
-    });
+    let (j, r) = if distances.is_empty() {
+        (sys.j, sys.r)
+    } else {
+        let rows = poses_rows + distances.len();
+        let j = Mat::from_fn(rows, unknowns.len(), |i, c| {
+            if i < poses_rows {
+                sys.j[(i, c)]
+            } else {
+                distances[i - poses_rows].0[c]
+            }
+        });
+        let r = Mat::from_fn(rows, 1, |i, _| {
+            if i < poses_rows {
+                sys.r[(i, 0)]
+            } else {
+                distances[i - poses_rows].1
+            }
+        });
+        (j, r)
+    };
     let mut first_rows = Vec::with_capacity(data.len() + distances.len());
     let mut row = 0;
     for obs in data {
         first_rows.push(row);
         row += obs.equations();
     }
-    first_rows.extend(poses_rows..rows);
+    first_rows.extend(poses_rows..poses_rows + distances.len());
     Linearization {
         j,
         r,
         first_rows,
-        fitted: unknowns.len(),
+        fitted,
         noise: data
             .iter()
             .map(|o| fit.noise_of(o.channel()))
