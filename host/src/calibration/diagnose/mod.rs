@@ -212,6 +212,8 @@ pub fn diagnose_with_progress(
     options: &DiagnoseOptions,
     progress: &mut dyn FnMut(usize, usize, usize),
 ) -> Result<Diagnosis, FullError> {
+    // A session of coordinates: no unknown points, planes or distances.
+    let constraints = Constraints::default();
     let prior = options.fit.prior;
     let reference_options = FullOptions {
         geometry: Geometry::Full,
@@ -231,14 +233,7 @@ pub fn diagnose_with_progress(
     let most = data.len() / 10;
     // The reference's linearisation on the poses kept, once per reference.
     let mut clean = subset(&kept);
-    let mut lin = linearize(
-        &reference,
-        &[],
-        &[],
-        &clean,
-        &Constraints::default(),
-        &prior,
-    );
+    let mut lin = linearize(&reference, &[], &[], &clean, &constraints, &prior);
     while blunders.len() < most {
         let Some(s) = blunders::most_suspect(&reference, &lin) else {
             break;
@@ -272,14 +267,7 @@ pub fn diagnose_with_progress(
         kept = without;
         clean = subset(&kept);
         reference = identify_with_effects(nominal, &[], &[], &clean, &reference_options)?;
-        lin = linearize(
-            &reference,
-            &[],
-            &[],
-            &clean,
-            &Constraints::default(),
-            &prior,
-        );
+        lin = linearize(&reference, &[], &[], &clean, &constraints, &prior);
     }
 
     // 3. The geometric model.
@@ -337,7 +325,7 @@ pub fn diagnose_with_progress(
             &new_effects,
             &new_extra,
             &clean,
-            &Constraints::default(),
+            &constraints,
             &geo_prior,
         );
         let folds = Folds::interleaved(&lin, options.folds);
@@ -488,14 +476,7 @@ pub fn diagnose_with_progress(
             .map(|r| r.param)
             .filter(|&p| identified(&reference, p) && !identified(&current_fit, p))
             .collect();
-        let lin = linearize(
-            &current_fit,
-            &[],
-            &missing,
-            &clean,
-            &Constraints::default(),
-            &prior,
-        );
+        let lin = linearize(&current_fit, &[], &missing, &clean, &constraints, &prior);
         let rescored = geometry::score(nominal, &lin, options.folds, &nominal_errors);
         let again = geometry::best(&rescored).clone();
         if let Some(g) = again.geometry
