@@ -240,17 +240,11 @@ impl<'a> Folds<'a> {
     /// least `separability` of its (unit) norm beside the columns before it:
     /// a candidate the data cannot tell apart from the model is not scored.
     pub fn separable(&self, columns: &[usize], separability: f64) -> bool {
-        let m = columns.len();
-        let a = &self.all.0;
-        let scale: Vec<f64> = columns.iter().map(|&c| unit_scale(a[(c, c)])).collect();
-        let scaled = DMatrix::from_fn(m, m, |i, j| {
-            a[(columns[i], columns[j])] * scale[i] * scale[j]
-        });
-        let Some(llt) = scaled.cholesky() else {
+        // Every pose's normal matrix without the prior, unit-scaled.
+        let Some(Factor { l, scale }) = self.factor(columns, 0.0, None) else {
             return false;
         };
-        let l = llt.l();
-        (0..m)
+        (0..columns.len())
             .filter(|&i| columns[i] >= self.lin.fitted)
             .all(|i| scale[i] > 0.0 && l[(i, i)] >= separability)
     }
@@ -448,6 +442,15 @@ struct BaseFactor {
     y: DVector<f64>,
 }
 
+/// A candidate's columns `C` beside a factored base `B` (see [`Extensions`]):
+/// `W = L_B⁻¹ N_BC`, the factor of the Schur complement `N_CC − WᵀW`, and the
+/// scales of `C` to a unit diagonal.
+struct Block {
+    w: DMatrix<f64>,
+    schur: nalgebra::Cholesky<f64, nalgebra::Dyn>,
+    scale: Vec<f64>,
+}
+
 /// Candidates that each add a few columns `C` to one base model `B` (each
 /// round's effects beside the model fitted so far), solved by blocks: the
 /// base's factor `L_B` on each fold's training poses (and on every pose) is
@@ -466,8 +469,8 @@ pub struct Extensions<'f, 'a> {
     /// empty when a column outside the base is not at nominal.
     factors: Vec<Option<BaseFactor>>,
     /// The base's factor of the unit-scaled normal matrix of every pose, no
-    /// prior (the test of [`Folds::separable`]), and its scales.
-    plain: Option<(DMatrix<f64>, Vec<f64>)>,
+    /// prior (the test of [`Folds::separable`]).
+    plain: Option<Factor>,
 }
 
 impl<'a> Folds<'a> {
@@ -500,16 +503,11 @@ impl<'a> Folds<'a> {
         } else {
             Vec::new()
         };
-        let a = &self.all.0;
-        let scale: Vec<f64> = s.iter().map(|&c| unit_scale(a[(c, c)])).collect();
-        let plain = DMatrix::from_fn(m, m, |i, j| a[(s[i], s[j])] * scale[i] * scale[j])
-            .cholesky()
-            .map(|l| (l.unpack(), scale));
         Extensions {
             folds: self,
             base: base.clone(),
             factors,
-            plain,
+            plain: self.factor(s, 0.0, None),
         }
     }
 }
@@ -528,41 +526,29 @@ impl Extensions<'_, '_> {
     /// [`Folds::separable`] of the base's columns and `extra` (the base's own
     /// columns must come before `lin.fitted`, the extra ones after).
     pub fn separable(&self, extra: &[usize], separability: f64) -> bool {
-        let Some((l, scale)) = &self.plain else {
+        let Some(plain) = &self.plain else {
             return false;
         };
-        let a = &self.folds.all.0;
-        let s = &self.base.columns;
-        let extra_scale: Vec<f64> = extra.iter().map(|&c| unit_scale(a[(c, c)])).collect();
-        let k = extra.len();
-        let nbc = DMatrix::from_fn(s.len(), k, |i, j| {
-            a[(s[i], extra[j])] * scale[i] * extra_scale[j]
-        });
-        let Some(w) = l.solve_lower_triangular(&nbc) else {
+        let Some(block) = self.block(plain, &self.folds.all.0, extra, |_| 0.0) else {
             return false;
         };
-        let schur = DMatrix::from_fn(k, k, |i, j| {
-            a[(extra[i], extra[j])] * extra_scale[i] * extra_scale[j]
-        }) - w.transpose() * &w;
-        let Some(lc) = schur.cholesky() else {
-            return false;
-        };
-        let lc = lc.l();
-        debug_assert!(s.iter().all(|&c| c < self.folds.lin.fitted));
-        (0..k).all(|i| {
-            extra[i] < self.folds.lin.fitted || (extra_scale[i] > 0.0 && lc[(i, i)] >= separability)
+        let lc = block.schur.l();
+        debug_assert!(self.base.columns.iter().all(|&c| c < self.folds.lin.fitted));
+        (0..extra.len()).all(|i| {
+            extra[i] < self.folds.lin.fitted || (block.scale[i] > 0.0 && lc[(i, i)] >= separability)
         })
     }
 
-    /// The step of the base's columns and `extra` on a fold's training poses
-    /// (every pose's for `None`), by blocks.
-    fn step(&self, extra: &[usize], fold: Option<usize>) -> Option<Vec<f64>> {
-        let folds = self.folds;
-        let lin = folds.lin;
-        let shared = self.factors[fold.unwrap_or(folds.training.len())].as_ref()?;
-        let (factor, y) = (&shared.factor, &shared.y);
-        let (a, b) = fold.map_or(&folds.all, |f| &folds.training[f]);
-        let precision = |c: usize| lin.precision[c] * self.base.precision_factor;
+    /// The block of `extra` beside the base's `factor` of the normal matrix
+    /// `a` plus `precision` on the diagonal, `extra`'s columns scaled to a
+    /// unit diagonal: `W = L_B⁻¹ N_BC` and the factor of `N_CC − WᵀW`.
+    fn block(
+        &self,
+        factor: &Factor,
+        a: &DMatrix<f64>,
+        extra: &[usize],
+        precision: impl Fn(usize) -> f64,
+    ) -> Option<Block> {
         let s = &self.base.columns;
         let k = extra.len();
         let scale: Vec<f64> = extra
@@ -577,12 +563,27 @@ impl Extensions<'_, '_> {
             let prior = if i == j { precision(extra[i]) } else { 0.0 };
             (a[(extra[i], extra[j])] + prior) * scale[i] * scale[j]
         });
-        let lc = (ncc - w.transpose() * &w).cholesky()?;
+        let schur = (ncc - w.transpose() * &w).cholesky()?;
+        Some(Block { w, schur, scale })
+    }
+
+    /// The step of the base's columns and `extra` on a fold's training poses
+    /// (every pose's for `None`), by blocks.
+    fn step(&self, extra: &[usize], fold: Option<usize>) -> Option<Vec<f64>> {
+        let folds = self.folds;
+        let lin = folds.lin;
+        let shared = self.factors[fold.unwrap_or(folds.training.len())].as_ref()?;
+        let (factor, y) = (&shared.factor, &shared.y);
+        let (a, b) = fold.map_or(&folds.all, |f| &folds.training[f]);
+        let precision = |c: usize| lin.precision[c] * self.base.precision_factor;
+        let s = &self.base.columns;
+        let k = extra.len();
+        let Block { w, schur, scale } = self.block(factor, a, extra, precision)?;
         let rhs = DVector::from_fn(k, |i, _| {
             let c = extra[i];
             (b[c] - precision(c) * lin.offset[c]) * scale[i]
         });
-        let x_extra = lc.solve(&(rhs - w.transpose() * y));
+        let x_extra = schur.solve(&(rhs - w.transpose() * y));
         let x_base = factor.l.tr_solve_lower_triangular(&(y - &w * &x_extra))?;
         let mut delta: Vec<f64> = lin.offset.iter().map(|o| -o).collect();
         for (i, &c) in s.iter().enumerate() {
