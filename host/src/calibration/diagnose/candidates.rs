@@ -40,6 +40,27 @@ impl Candidate {
     }
 }
 
+/// Each candidate's own columns in a linearisation whose columns after the
+/// fit's `fitted` ones are every candidate's extra parameters, then every
+/// candidate's effect parameters, both in the order of `candidates` (as
+/// [`crate::calibration::identify::full::linearize`] lays out its `extra` and
+/// `effects`, given those of every candidate in turn).
+pub fn own_columns(candidates: &[&Candidate], fitted: usize) -> Vec<Vec<usize>> {
+    let extras: usize = candidates.iter().map(|c| c.extra.len()).sum();
+    let (mut extra_at, mut effect_at) = (fitted, fitted + extras);
+    candidates
+        .iter()
+        .map(|c| {
+            let mut own: Vec<usize> = (extra_at..extra_at + c.extra.len()).collect();
+            extra_at += c.extra.len();
+            let p = c.effect.map_or(0, |e| e.parameter_count());
+            own.extend(effect_at..effect_at + p);
+            effect_at += p;
+            own
+        })
+        .collect()
+}
+
 /// Every candidate the data can show (see the module header).
 pub fn candidates(robot: &Robot<f64>, data: &[Observation]) -> Vec<Candidate> {
     let mut out = Vec::new();

@@ -42,20 +42,20 @@ pub mod candidates;
 pub mod cross_validation;
 pub mod geometry;
 
-use crate::io::constraints::Constraints;
 use armcal_shared::effects::{Effect, EffectModel};
 use armcal_shared::{JointType, Param, Robot};
 use nalgebra::Vector3;
 
 use crate::calibration::identify::full::{
-    FullError, FullFit, FullOptions, Observation, Status, identify_from, identify_with_effects,
-    linearize,
+    FullError, FullFit, FullOptions, Linearization, Observation, Status, identify_from,
+    identify_with_effects, linearize,
 };
 use crate::calibration::identify::prior::{Geometry, Prior};
 use crate::calibration::parallel;
 use crate::calibration::stats::{f_quantile, significantly_smaller};
+use crate::io::constraints::Constraints;
 pub use blunders::Blunder;
-pub use candidates::{Candidate, candidates};
+pub use candidates::{Candidate, candidates, own_columns};
 use cross_validation::{Folds, Role, Subset};
 pub use cross_validation::{HeldOut, cross_validate};
 pub use geometry::ModelScore;
@@ -318,60 +318,34 @@ pub fn diagnose_with_progress(
             break;
         }
         // One linearisation with every remaining candidate's columns.
-        let new_extra: Vec<Param> = remaining.iter().flat_map(|c| c.extra.clone()).collect();
-        let new_effects: Vec<Effect<f64>> = remaining.iter().filter_map(|c| c.effect).collect();
-        let lin = linearize(
-            &current_fit,
-            &new_effects,
-            &new_extra,
-            &clean,
-            &constraints,
-            &geo_prior,
-        );
+        let lin = linearize_candidates(&current_fit, &remaining, &clean, &constraints, &geo_prior);
         let folds = Folds::interleaved(&lin, options.folds);
-        let fitted: Vec<usize> = (0..lin.fitted).collect();
         let base_subset = Subset {
-            columns: fitted.clone(),
+            columns: (0..lin.fitted).collect(),
             precision_factor: 1.0,
         };
         let Some(base) = folds.evaluate(&base_subset) else {
             break;
         };
-        // Each candidate's columns: the fitted ones and its own.
-        let mut extra_at = lin.fitted;
-        let mut effect_at = lin.fitted + new_extra.len();
-        let subsets: Vec<(&Candidate, Subset)> = remaining
+        // Each candidate adds its own columns to the fitted ones, whose
+        // factors it shares.
+        let own: Vec<(&Candidate, Vec<usize>)> = remaining
             .iter()
-            .map(|c| {
-                let mut columns = fitted.clone();
-                columns.extend(extra_at..extra_at + c.extra.len());
-                extra_at += c.extra.len();
-                let p = c.effect.map_or(0, |e| e.parameter_count());
-                columns.extend(effect_at..effect_at + p);
-                effect_at += p;
-                let subset = Subset {
-                    columns,
-                    precision_factor: 1.0,
-                };
-                (*c, subset)
-            })
+            .copied()
+            .zip(own_columns(&remaining, lin.fitted))
             .collect();
-        // Every separable candidate's F statistic from its fit to all poses,
-        // the candidates on every core.
-        // Each candidate adds its columns to the fitted ones: the factors of
-        // those are shared.
         let extensions = folds.extensions(&base_subset);
-        let own = |subset: &Subset| subset.columns[lin.fitted..].to_vec();
-        let objectives = parallel::map_if(folds.spread(), &subsets, |(_, subset)| {
-            let own = own(subset);
-            if extensions.separable(&own, options.fit.separability) {
-                extensions.objective(&own)
+        // Every separable candidate's F statistic from its fit to all poses
+        // (the candidates on every core when the poses are many).
+        let objectives = parallel::map_if(folds.spread(), &own, |(_, own)| {
+            if extensions.separable(own, options.fit.separability) {
+                extensions.objective(own)
             } else {
                 None
             }
         });
         let mut tests = Vec::new();
-        for (n, ((c, subset), objective)) in subsets.into_iter().zip(objectives).enumerate() {
+        for (n, ((c, own), objective)) in own.into_iter().zip(objectives).enumerate() {
             progress(chosen.len() + 1, n + 1, remaining.len());
             let Some(objective) = objective else {
                 continue;
@@ -380,7 +354,7 @@ pub fn diagnose_with_progress(
             let dof = (current_fit.redundancy - parameters).max(1.0);
             let f = ((base.objective - objective) / parameters)
                 / (objective / dof).max(f64::MIN_POSITIVE);
-            tests.push((c.clone(), subset, f, dof));
+            tests.push((c.clone(), own, f, dof));
         }
         let m = tests.len().max(1) as f64;
         // The same for every candidate of as many parameters (its `dof` too).
@@ -389,12 +363,12 @@ pub fn diagnose_with_progress(
         // passes it): no other can be chosen.
         let mut tests: Vec<_> = tests
             .into_iter()
-            .map(|(c, subset, f, dof)| {
+            .map(|(c, own, f, dof)| {
                 let k = c.parameter_count();
                 let t = *thresholds
                     .entry(k)
                     .or_insert_with(|| f_quantile(1.0 - ALPHA / m, k as f64, dof));
-                (c, subset, f, t)
+                (c, own, f, t)
             })
             .collect();
         tests.sort_by(|a, b| (b.2 / b.3).total_cmp(&(a.2 / a.3)));
@@ -404,8 +378,8 @@ pub fn diagnose_with_progress(
             .take_while(|(i, (_, _, f, t))| *i < CROSS_VALIDATED || f > t)
             .map(|(_, test)| test)
             .collect();
-        let evaluations = parallel::map_if(folds.spread(), &validated, |(_, subset, _, _)| {
-            extensions.evaluate(&own(subset))
+        let evaluations = parallel::map_if(folds.spread(), &validated, |(_, own, _, _)| {
+            extensions.evaluate(own)
         });
         let mut scored = Vec::new();
         for ((c, _, f, t), e) in validated.into_iter().zip(evaluations) {
@@ -537,6 +511,21 @@ pub fn diagnose_with_progress(
         tried,
         unsettled,
     })
+}
+
+/// The linearisation of `fit` with the columns of every one of `candidates`:
+/// their extra parameters, then their effects, each in the order of
+/// `candidates` (the layout of [`candidates::own_columns`]).
+fn linearize_candidates(
+    fit: &FullFit,
+    candidates: &[&Candidate],
+    data: &[Observation],
+    constraints: &Constraints,
+    prior: &Prior,
+) -> Linearization {
+    let extra: Vec<Param> = candidates.iter().flat_map(|c| c.extra.clone()).collect();
+    let effects: Vec<Effect<f64>> = candidates.iter().filter_map(|c| c.effect).collect();
+    linearize(fit, &effects, &extra, data, constraints, prior)
 }
 
 /// `a2, theta3`, or `none`: parameters as reports list them.
@@ -1058,12 +1047,10 @@ mod tests {
         let options = DiagnoseOptions::default();
         let fit = identify_with_effects(&nominal, &[], &[], &data, &options.fit).expect("fits");
         let all = candidates(&nominal, &data);
-        let extra: Vec<Param> = all.iter().flat_map(|c| c.extra.clone()).collect();
-        let effects: Vec<Effect<f64>> = all.iter().filter_map(|c| c.effect).collect();
-        let lin = linearize(
+        let all: Vec<&Candidate> = all.iter().collect();
+        let lin = linearize_candidates(
             &fit,
-            &effects,
-            &extra,
+            &all,
             &data,
             &Constraints::default(),
             &options.fit.prior,
@@ -1075,14 +1062,8 @@ mod tests {
             precision_factor: 1.0,
         };
         let extensions = folds.extensions(&base);
-        let (mut extra_at, mut effect_at) = (lin.fitted, lin.fitted + extra.len());
         let mut scored = 0;
-        for c in &all {
-            let mut own: Vec<usize> = (extra_at..extra_at + c.extra.len()).collect();
-            extra_at += c.extra.len();
-            let p = c.effect.map_or(0, |e| e.parameter_count());
-            own.extend(effect_at..effect_at + p);
-            effect_at += p;
+        for (c, own) in all.iter().zip(own_columns(&all, lin.fitted)) {
             let whole = extensions.subset(&own);
             let separable = folds.separable(&whole.columns, options.fit.separability);
             assert_eq!(
