@@ -284,8 +284,14 @@ enum Command {
         /// Choose the prior's scale on the training sessions by 10-fold
         /// cross-validation of their rows, as `diagnose` does (shown beside the
         /// figures); otherwise the stated prior.
-        #[arg(long)]
+        #[arg(long, conflicts_with = "diagnose")]
         select_prior: bool,
+        /// Calibrate the training sessions as `armcal diagnose` does: blunders
+        /// set aside, the geometric model and the prior's scale chosen by
+        /// 10-fold cross-validation of their rows, the effects the data name
+        /// (the choice shown beside the figures, its effects in the prediction).
+        #[arg(long)]
+        diagnose: bool,
     },
     /// List the built-in robot models and data sets.
     Models,
@@ -558,7 +564,19 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             reference,
             weights,
             select_prior,
-        } => verbs::holdout(model, data, train, reference, weights, select_prior),
+            diagnose,
+        } => {
+            let selection = match (select_prior, diagnose) {
+                (_, true) => contact_check::Selection::Diagnosis {
+                    folds: DEFAULT_FOLDS,
+                },
+                (true, false) => contact_check::Selection::Prior {
+                    folds: DEFAULT_FOLDS,
+                },
+                (false, false) => contact_check::Selection::Stated,
+            };
+            verbs::holdout(model, data, train, reference, weights, selection)
+        }
         Command::Reproduce {
             paper: Paper::MirmanGupta,
         } => verbs::reproduce_mirman_gupta(),

@@ -18,7 +18,7 @@ pub(crate) fn holdout(
     train: Vec<String>,
     reference: Option<String>,
     weights: Weights,
-    select_prior: bool,
+    selection: contact_check::Selection,
 ) -> anyhow::Result<()> {
     let chain = model.chain.spec();
     let model = model.load()?;
@@ -65,24 +65,15 @@ pub(crate) fn holdout(
     }
     let options = weights.options(&model)?;
     let reference_robot = reference_model.as_ref().map(|r| &r.robot);
-    let select = select_prior.then_some(DEFAULT_FOLDS);
     let rows = if training.is_empty() {
-        contact_check::leave_one_out(&model, &sessions, reference_robot, &options, select)?
+        contact_check::leave_one_out(&model, &sessions, reference_robot, &options, selection)?
     } else {
         let parts: Vec<&measurements::Measurements> = training.iter().collect();
         let merged = measurements::Measurements::merged(&parts);
-        let (fit, prior_factor) = contact_check::calibrate(&model, &merged, &options, select)?;
-        let calibrated = fit.calibrated();
+        let calibration = contact_check::calibrate(&model, &merged, &options, selection)?;
         sessions
             .iter()
-            .map(|s| contact_check::HeldOut {
-                file: s.file.clone(),
-                nominal: contact_check::contact_check(&model.robot, s),
-                reference: reference_robot.map(|r| contact_check::contact_check(r, s)),
-                calibrated: contact_check::contact_check(&calibrated, s),
-                training_rms: fit.position_rms,
-                prior_factor,
-            })
+            .map(|s| contact_check::HeldOut::of(s, &model.robot, reference_robot, &calibration))
             .collect()
     };
     print!(
@@ -229,7 +220,6 @@ pub(crate) fn diagnose(
         .output("--html", html.as_deref());
     outputs.check()?;
     let (model, data) = load_session(&model, &data)?;
-    data.require_coordinates()?;
     warn(&data.warnings);
     let folds = match folds {
         None => DEFAULT_FOLDS.min(data.len()),
@@ -263,8 +253,13 @@ pub(crate) fn diagnose(
             )
         });
     };
-    let diagnosis =
-        armcal::diagnose::diagnose_with_progress(&model.robot, observations, &options, &mut bar)?;
+    let diagnosis = armcal::diagnose::diagnose_with_progress(
+        &model.robot,
+        observations,
+        &data.constraints,
+        &options,
+        &mut bar,
+    )?;
     progress.finish();
     data.require_fit_supported(&model, diagnosis.reference.position_rms)?;
     let lines = &data.lines;

@@ -189,10 +189,11 @@ fn identify_error(py: Python<'_>, e: identify::IdentifyError) -> PyErr {
 
 /// Fits the geometry, analyses the residuals, names what geometry misses,
 /// extends the model and measures the gain on held-out poses, as `armcal
-/// diagnose` does. `folds`: of the cross-validation (default 10, or one per
+/// diagnose` does, for measured coordinates and for a session without a
+/// tracker alike. `folds`: of the cross-validation (default 10, or one per
 /// pose with fewer poses). Other options as `identify`.
 #[pyfunction]
-#[pyo3(signature = (model, data, *, folds = None, position_noise = None, orientation_noise = None, prior_length = None, prior_angle = None, targets = "world"))]
+#[pyo3(signature = (model, data, *, folds = None, position_noise = None, orientation_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None, targets = "world"))]
 #[allow(clippy::too_many_arguments)]
 pub fn diagnose(
     py: Python<'_>,
@@ -201,6 +202,8 @@ pub fn diagnose(
     folds: Option<usize>,
     position_noise: Option<f64>,
     orientation_noise: Option<f64>,
+    point_noise: Option<f64>,
+    plane_noise: Option<f64>,
     prior_length: Option<f64>,
     prior_angle: Option<f64>,
     targets: &str,
@@ -210,15 +213,13 @@ pub fn diagnose(
     let scales = StatedScales {
         position_noise,
         orientation_noise,
+        point_noise,
+        plane_noise,
         prior_length,
         prior_angle,
-        ..StatedScales::default()
     };
     let fit = options(py, m, scales)?;
     let (data, arrays) = session(py, model, data)?;
-    data.data
-        .require_coordinates()
-        .map_err(|e| errors::input(py, &e, arrays))?;
     let n = data.data.len();
     let folds = match folds {
         None => DiagnoseOptions::default().folds.min(n),
@@ -238,7 +239,7 @@ pub fn diagnose(
     };
     let observations = identify::observations(&data.data);
     let diagnosis = py
-        .detach(|| diag::diagnose(&m.robot, observations, &options))
+        .detach(|| diag::diagnose_session(&m.robot, observations, &data.data.constraints, &options))
         .map_err(|e| errors::refused(py, e))?;
     data.data
         .require_fit_supported(m, diagnosis.reference.position_rms)

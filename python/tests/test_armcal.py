@@ -261,8 +261,9 @@ def test_a_session_without_a_tracker_identifies_as_the_command_line():
 
     writes (its figures below, as written), with the contacts' noise
     estimated and the distance's stated; the calibration puts each socket's
-    rows about its fitted point; diagnose refuses the session as the command
-    line does."""
+    rows about its fitted point; diagnose chooses the model the command line
+    chooses (`armcal diagnose` on the same files: every D-H parameter at ten
+    times the stated prior, no effect, no blunder) with its held-out figures."""
     model = armcal.load_model(str(MUKCA / "original" / "urdf" / "panda.urdf"), tip_link="ball_link")
     data = armcal.load_measurements(str(MUKCA / "panda_6" / "front.csv"), model)
     assert data.is_constrained
@@ -297,5 +298,10 @@ def test_a_session_without_a_tracker_identifies_as_the_command_line():
         pulls.append(pull)
     np.testing.assert_allclose(pulls[0], -pulls[1], rtol=0, atol=1e-9)
 
-    with pytest.raises(armcal.InputError, match="diagnose reads measured coordinates"):
-        armcal.diagnose(model, data)
+    diagnosis = armcal.diagnose(model, data).report
+    assert diagnosis["chosen"]["label"] == "full, prior ×10"
+    assert diagnosis["effects"] == [] and diagnosis["outlier_rows"] == []
+    assert diagnosis["noise"][0]["channel"] == "point contact"
+    holdout = diagnosis["holdout"]
+    assert holdout["nominal_rms_mm"] == pytest.approx(9.784269027398766, rel=1e-12)
+    assert holdout["extended_rms_mm"] == pytest.approx(0.23133917884507466, rel=1e-12)

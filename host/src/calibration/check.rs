@@ -188,7 +188,10 @@ pub fn report(model: &RobotModel, data: &Measurements) -> String {
     if data.is_constrained() {
         // No coordinate to compare with: how well the nominal model keeps the
         // rows of each point together and the known distances.
-        let c = crate::calibration::contact_check::contact_check(robot, data);
+        let c = crate::calibration::contact_check::contact_check(
+            &crate::calibration::contact_check::geometric(robot),
+            data,
+        );
         let _ = writeln!(
             out,
             "\nnominal model against the constraints ({} points, {} planes, {} distances)",

@@ -21,11 +21,13 @@
 //! model (another calibration of the same chain) on the same held-out rows.
 
 use armcal_shared::Robot;
+use armcal_shared::effects::EffectModel;
 use nalgebra::{Point3, Vector3};
 
-use crate::calibration::diagnose::cross_validation::{Folds, Role, Subset};
+use crate::calibration::diagnose::cross_validation::{Folds, Subset};
 use crate::calibration::diagnose::geometry::PRIOR_FACTORS;
-use crate::calibration::identify::full::{FullOptions, identify_constrained, linearize};
+use crate::calibration::diagnose::{Choice, DiagnoseOptions, diagnose_session};
+use crate::calibration::identify::full::{FullError, FullOptions, identify_constrained, linearize};
 use crate::calibration::identify::{self, IdentifyError, ParamSet};
 use crate::io::measurements::Measurements;
 use crate::io::model_file::RobotModel;
@@ -79,14 +81,14 @@ impl ContactCheck {
     }
 }
 
-/// The spread of `robot`'s tool points at each fixed point of `data` and its
-/// error of each known distance. Rows whose kinematics fail are left out.
-pub fn contact_check(robot: &Robot<f64>, data: &Measurements) -> ContactCheck {
-    let kin = robot.prepare();
+/// The spread of `model`'s tool points (its effects included, at each row's
+/// context) at each fixed point of `data` and its error of each known
+/// distance. Rows whose kinematics fail are left out.
+pub fn contact_check(model: &EffectModel<f64>, data: &Measurements) -> ContactCheck {
     let c = &data.constraints;
     let mut predicted: Vec<Vec<Vector3<f64>>> = vec![Vec::new(); c.points.len()];
     for obs in &data.poses {
-        if let (Some(k), Ok(t)) = (obs.fixed_point(), kin.forward(&obs.q))
+        if let (Some(k), Ok(t)) = (obs.fixed_point(), model.forward(&obs.q, &obs.context))
             && let Some(v) = predicted.get_mut(k)
         {
             v.push(t.translation.vector);
@@ -149,18 +151,7 @@ pub fn choose_prior(
         &data.constraints,
         &options.prior,
     );
-    let poses = data.poses.len();
-    let k = folds.clamp(2, poses.max(2));
-    let roles = (0..lin.first_rows.len())
-        .map(|i| {
-            if i < poses {
-                Role::Fold(i % k)
-            } else {
-                Role::Train
-            }
-        })
-        .collect();
-    let cv = Folds::new(&lin, roles);
+    let cv = Folds::interleaved(&lin, folds);
     let columns: Vec<usize> = (0..lin.j.ncols()).collect();
     let scores: Vec<(f64, f64)> = PRIOR_FACTORS
         .iter()
@@ -179,6 +170,98 @@ pub fn choose_prior(
     Ok((best, scores))
 }
 
+/// A robot model without effects, as [`contact_check`] reads it.
+pub fn geometric(robot: &Robot<f64>) -> EffectModel<f64> {
+    EffectModel {
+        robot: robot.clone(),
+        effects: heapless::Vec::new(),
+    }
+}
+
+/// How a held-out evaluation calibrates each training set.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Selection {
+    /// `armcal identify --params full` at the stated prior.
+    Stated,
+    /// The same at the prior's scale [`choose_prior`] picks with `folds` folds.
+    Prior {
+        /// Folds of the cross-validation.
+        folds: usize,
+    },
+    /// What `armcal diagnose` chooses with `folds` folds: blunders set aside,
+    /// the geometric model and its prior's scale, the effects the data name;
+    /// the nominal model when nothing beats it held-out.
+    Diagnosis {
+        /// Folds of the cross-validation.
+        folds: usize,
+    },
+}
+
+/// One calibration of a training set ([`calibrate`]).
+#[derive(Clone, Debug)]
+pub struct Calibrated {
+    /// The calibrated model, its effects included.
+    pub model: EffectModel<f64>,
+    /// The RMS distance of the training rows' tool points to their fitted
+    /// points (or planes), m.
+    pub training_rms: f64,
+    /// What was chosen, as reports name it (`prior ×10`; the diagnosis'
+    /// model); empty for the stated prior.
+    pub choice: String,
+}
+
+/// Calibrates `model` on `data` as `selection` says.
+pub fn calibrate(
+    model: &RobotModel,
+    data: &Measurements,
+    options: &FullOptions,
+    selection: Selection,
+) -> Result<Calibrated, IdentifyError> {
+    let identified = |factor: f64| -> Result<Calibrated, IdentifyError> {
+        let options = FullOptions {
+            prior: options.prior.scaled(factor),
+            ..*options
+        };
+        let fit = identify::identify(model, data, ParamSet::Full, &options)?;
+        Ok(Calibrated {
+            model: geometric(&fit.calibrated()),
+            training_rms: fit.position_rms,
+            choice: if factor == 1.0 {
+                String::new()
+            } else {
+                format!("prior ×{factor}")
+            },
+        })
+    };
+    match selection {
+        Selection::Stated => identified(1.0),
+        Selection::Prior { folds } => identified(choose_prior(model, data, options, folds)?.0),
+        Selection::Diagnosis { folds } => {
+            let options = DiagnoseOptions {
+                folds: folds.min(data.len()),
+                fit: *options,
+                ..DiagnoseOptions::default()
+            };
+            let d = diagnose_session(&model.robot, &data.poses, &data.constraints, &options)?;
+            let calibrated = match d.choice {
+                Choice::Nominal => geometric(&model.robot),
+                Choice::Calibrated { .. } => {
+                    EffectModel::new(d.fit.calibrated.clone(), &d.fit.fitted_effects()).map_err(
+                        |_| FullError::EffectJoint {
+                            joint: model.robot.dof() + 1,
+                        },
+                    )?
+                }
+            };
+            Ok(Calibrated {
+                model: calibrated,
+                training_rms: d.fit.position_rms,
+                choice: d.chosen_label(),
+            })
+        }
+    }
+}
+
 /// One held-out session of [`leave_one_out`].
 #[derive(Clone, Debug)]
 pub struct HeldOut {
@@ -192,20 +275,39 @@ pub struct HeldOut {
     pub calibrated: ContactCheck,
     /// The RMS distance of the training rows' tool points to their fitted points, m.
     pub training_rms: f64,
-    /// The factor on the stated prior the calibration used.
-    pub prior_factor: f64,
+    /// What the calibration chose ([`Calibrated::choice`]).
+    pub choice: String,
 }
 
-/// Leaves each of `sessions` out in turn, identifies `model` on the others
-/// (`armcal identify --params full` with `options`; with `select` folds, the
-/// prior's scale first chosen on them by [`choose_prior`]) and checks the
-/// nominal model, `reference` and the calibration on the one left out.
+impl HeldOut {
+    /// The figures of the nominal model, `reference` and `calibration` on
+    /// `held`, the session left out.
+    pub fn of(
+        held: &Measurements,
+        nominal: &Robot<f64>,
+        reference: Option<&Robot<f64>>,
+        calibration: &Calibrated,
+    ) -> Self {
+        Self {
+            file: held.file.clone(),
+            nominal: contact_check(&geometric(nominal), held),
+            reference: reference.map(|r| contact_check(&geometric(r), held)),
+            calibrated: contact_check(&calibration.model, held),
+            training_rms: calibration.training_rms,
+            choice: calibration.choice.clone(),
+        }
+    }
+}
+
+/// Leaves each of `sessions` out in turn, calibrates `model` on the others
+/// as `selection` says (with `options`) and checks the nominal model,
+/// `reference` and the calibration on the one left out.
 pub fn leave_one_out(
     model: &RobotModel,
     sessions: &[Measurements],
     reference: Option<&Robot<f64>>,
     options: &FullOptions,
-    select: Option<usize>,
+    selection: Selection,
 ) -> Result<Vec<HeldOut>, IdentifyError> {
     let mut out = Vec::new();
     for (i, held) in sessions.iter().enumerate() {
@@ -216,39 +318,10 @@ pub fn leave_one_out(
             .map(|(_, s)| s)
             .collect();
         let merged = Measurements::merged(&training);
-        let (fit, prior_factor) = calibrate(model, &merged, options, select)?;
-        out.push(HeldOut {
-            file: held.file.clone(),
-            nominal: contact_check(&model.robot, held),
-            reference: reference.map(|r| contact_check(r, held)),
-            calibrated: contact_check(&fit.calibrated(), held),
-            training_rms: fit.position_rms,
-            prior_factor,
-        });
+        let calibration = calibrate(model, &merged, options, selection)?;
+        out.push(HeldOut::of(held, &model.robot, reference, &calibration));
     }
     Ok(out)
-}
-
-/// `armcal identify --params full` of `data`, with `select` folds at the
-/// prior's scale [`choose_prior`] picks: the identification and the factor.
-pub fn calibrate(
-    model: &RobotModel,
-    data: &Measurements,
-    options: &FullOptions,
-    select: Option<usize>,
-) -> Result<(identify::Identification, f64), IdentifyError> {
-    let factor = match select {
-        Some(folds) => choose_prior(model, data, options, folds)?.0,
-        None => 1.0,
-    };
-    let options = FullOptions {
-        prior: options.prior.scaled(factor),
-        ..*options
-    };
-    Ok((
-        identify::identify(model, data, ParamSet::Full, &options)?,
-        factor,
-    ))
 }
 
 /// The table of [`leave_one_out`], in mm: per held-out session, the spread
@@ -287,8 +360,8 @@ pub fn holdout_table(rows: &[HeldOut], reference: Option<&str>) -> String {
             line.push_str(&figures(c));
         }
         line.push_str(&figures(&r.calibrated));
-        if r.prior_factor != 1.0 {
-            let _ = write!(line, "   (prior ×{})", r.prior_factor);
+        if !r.choice.is_empty() {
+            let _ = write!(line, "   ({})", r.choice);
         }
         let _ = writeln!(out, "{line}");
     }

@@ -210,23 +210,6 @@ impl Measurements {
         !self.constraints.is_empty()
     }
 
-    /// Refuses a session without measured coordinates (unknown points,
-    /// planes, distances) for what reads coordinates (`armcal diagnose`),
-    /// at its first data line.
-    pub fn require_coordinates(&self) -> Result<(), InputError> {
-        if !self.is_constrained() {
-            return Ok(());
-        }
-        Err(InputError::new(
-            &self.file,
-            self.lines.first().copied().unwrap_or(1),
-            1,
-            "diagnose reads measured coordinates; this session has none (unknown points, \
-             planes, distances): identify it with `armcal identify` and check it on another \
-             session with `armcal holdout`",
-        ))
-    }
-
     /// The number of poses.
     pub fn len(&self) -> usize {
         self.poses.len()

@@ -280,48 +280,49 @@ fn a_plane_touched_fewer_than_three_times_is_refused_at_its_first_cell() {
     );
 }
 
-/// `check` shows the nominal model against the constraints; `diagnose`, which
-/// reads measured coordinates, refuses a constraint session naming the file.
+/// `check` shows the nominal model against the constraints; `diagnose` reads
+/// the same session as it reads a tracker's: the noise of the ball's contacts
+/// estimated, the model chosen by its held-out error (each row's predicted
+/// ball centre against the socket its fold's other rows put there), far below
+/// the nominal model's, and a calibration written.
 #[test]
-fn check_shows_the_spread_and_diagnose_refuses_a_constraint_session() {
+fn check_shows_the_spread_and_diagnose_reads_a_constraint_session() {
     let m = mukca();
     let model = m.join("original/urdf/iiwa14.urdf").display().to_string();
     let data = m.join("kuka_14/front.csv").display().to_string();
     let dir = tempfile::tempdir().unwrap();
-    let out = succeeds(
-        dir.path(),
-        &[
-            "check",
-            "--model",
-            &model,
-            "--tip-link",
-            "ball_link",
-            "--data",
-            &data,
-        ],
-    );
+    let chain = [
+        "--model",
+        &model,
+        "--tip-link",
+        "ball_link",
+        "--data",
+        &data,
+    ];
+    let mut args = vec!["check"];
+    args.extend(chain);
+    let out = succeeds(dir.path(), &args);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
         text.contains("point front.0      31 rows, spread"),
         "{text}"
     );
     assert!(text.contains("predicted minus stated -0.103 mm"), "{text}");
-    refused(
-        dir.path(),
-        &[
-            "diagnose",
-            "--model",
-            &model,
-            "--tip-link",
-            "ball_link",
-            "--data",
-            &data,
-        ],
-        &[
-            "kuka_14/front.csv:4:1:",
-            "diagnose reads measured coordinates",
-        ],
-    );
+    let mut args = vec!["diagnose", "--json", "d.json", "--out", "d.cal"];
+    args.extend(chain);
+    succeeds(dir.path(), &args);
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("d.json")).unwrap()).unwrap();
+    assert_eq!(report["noise"][0]["channel"], "point contact");
+    assert_eq!(report["noise"][0]["source"], "estimated");
+    assert_eq!(report["chosen"]["calibration_changes_nothing"], false);
+    let held = |key: &str| report["holdout"][key].as_f64().unwrap();
+    // The nominal iiwa misplaces the ball by about a millimetre (`check`'s
+    // spreads); the calibration leaves about the contacts' noise (0.07 mm
+    // per axis, `identify`'s estimate: 0.13 mm in 3-D).
+    assert!(held("nominal_rms_mm") > 0.5, "{report}");
+    assert!(held("extended_rms_mm") < 0.2, "{report}");
+    assert!(dir.path().join("d.cal").exists());
 }
 
 /// The calibration of a session without a tracker, exported as a URDF (the
@@ -407,6 +408,28 @@ fn mukca_panda_sessions_held_out_with_the_prior_chosen_by_cross_validation() {
     let (_, f) = rows.iter().find(|(f, _)| f == "right.csv").unwrap();
     assert!(f[5].abs() < f[3].abs(), "{f:?}");
     assert!(f[4] > f[2] && f[4] < f[2] + 0.01, "{f:?}");
+}
+
+/// Calibrated on the training placements as `armcal diagnose` chooses
+/// (`holdout --diagnose`: blunders, the geometric model and its prior, the
+/// effects the rows name), as measured: on panda_6's `left` and `right` (held
+/// out for MUKCA too) armcal's spread and distance error are smaller than
+/// MUKCA's; on panda_7's `right`, predicted from `front` alone, far below the
+/// nominal model's, each placement's choice shown beside its figures.
+#[test]
+fn mukca_panda_sessions_held_out_as_diagnose_chooses() {
+    let mut args = panda("panda_6", &["front", "left", "right"]);
+    args.push("--diagnose".into());
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    for (file, f) in holdout(&args).into_iter().filter(|(f, _)| f != "front.csv") {
+        assert!(f[4] < f[2] && f[5].abs() < f[3].abs(), "{file}: {f:?}");
+    }
+    let mut args = panda("panda_7", &["front", "right"]);
+    args.push("--diagnose".into());
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let rows = holdout(&args);
+    let (_, f) = rows.iter().find(|(f, _)| f == "right.csv").unwrap();
+    assert!(f[4] < f[0] / 10.0, "{f:?}");
 }
 
 /// The report names the noise of each kind of row: a ball seated in sockets

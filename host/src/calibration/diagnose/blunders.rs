@@ -66,7 +66,7 @@ pub struct Blunder {
 /// linearisation of `fit`'s own unknowns at its solution).
 pub fn most_suspect(fit: &FullFit, lin: &Linearization) -> Option<Suspect> {
     let p = lin.j.ncols();
-    let n = lin.first_rows.len();
+    let n = lin.poses;
     let a = lin.j.transpose() * &lin.j;
     let scale = unit_diagonal_scale(&a);
     let normal = Mat::from_fn(p, p, |i, j| {
@@ -126,7 +126,7 @@ pub fn held_out_of_others(
     suspect: usize,
     role: Role,
 ) -> Option<Vec<f64>> {
-    let n = lin.first_rows.len();
+    let n = lin.poses;
     let k = k.clamp(2, n.saturating_sub(1).max(2));
     let mut index = 0;
     let roles = (0..n)

@@ -169,8 +169,12 @@ pub struct Folds<'a> {
 }
 
 impl<'a> Folds<'a> {
-    /// Folds of `lin`'s poses: `fold[i]` is pose `i`'s role.
+    /// Folds of `lin`'s poses: `fold[i]` is pose `i`'s role. The known
+    /// distances of a session without a tracker are trained on in every fold:
+    /// they tie the points together, and a fold holds out where a pose's tool
+    /// point lands, not a distance.
     pub fn new(lin: &'a Linearization, fold: Vec<Role>) -> Self {
+        debug_assert_eq!(fold.len(), lin.poses);
         let columns = lin.j.ncols();
         let k = fold
             .iter()
@@ -193,7 +197,15 @@ impl<'a> Folds<'a> {
             );
             (normal, HeldRows::of(lin, &poses))
         };
-        let group = |g: Role| -> Vec<usize> { (0..fold.len()).filter(|&i| fold[i] == g).collect() };
+        let distances = lin.poses..lin.first_rows.len();
+        let group = |g: Role| -> Vec<usize> {
+            let poses = (0..fold.len()).filter(|&i| fold[i] == g);
+            if g == Role::Train {
+                poses.chain(distances.clone()).collect()
+            } else {
+                poses.collect()
+            }
+        };
         // Each fold's, then the poses trained on in every fold; on every core
         // when the poses are many (see `SPREAD_POSES`).
         let groups: Vec<Role> = (0..k).map(Role::Fold).chain([Role::Train]).collect();
@@ -210,6 +222,7 @@ impl<'a> Folds<'a> {
             .unzip();
         let rtr = (0..fold.len())
             .filter(|&i| fold[i] != Role::Out)
+            .chain(distances)
             .flat_map(|i| lin.rows_of(i))
             .map(|row| lin.r[(row, 0)].powi(2))
             .sum();
@@ -231,7 +244,7 @@ impl<'a> Folds<'a> {
 
     /// Interleaved folds over every pose: pose `i` in fold `i mod k`.
     pub fn interleaved(lin: &'a Linearization, k: usize) -> Self {
-        let n = lin.first_rows.len();
+        let n = lin.poses;
         let k = k.clamp(2, n.max(2));
         Self::new(lin, (0..n).map(|i| Role::Fold(i % k)).collect())
     }
@@ -403,7 +416,7 @@ impl<'a> Folds<'a> {
         step: impl Fn(Option<usize>) -> Option<Vec<f64>>,
     ) -> Option<Evaluation> {
         let lin = self.lin;
-        let n = lin.first_rows.len();
+        let n = lin.poses;
         let mut errors = vec![0.0; n];
         for (f, fold) in self.held_rows.iter().enumerate() {
             let delta = step(Some(f))?;

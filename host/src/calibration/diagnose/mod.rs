@@ -47,13 +47,14 @@ use armcal_shared::{JointType, Param, Robot};
 use nalgebra::Vector3;
 
 use crate::calibration::identify::full::{
-    FullError, FullFit, FullOptions, Linearization, Observation, Status, identify_from,
-    identify_with_effects, linearize,
+    FullError, FullFit, FullOptions, Linearization, Observation, Status, identify_constrained,
+    linearize,
 };
 use crate::calibration::identify::prior::{Geometry, Prior};
 use crate::calibration::parallel;
 use crate::calibration::stats::{f_quantile, significantly_smaller};
-use crate::io::constraints::Constraints;
+use crate::io::constraints::{Constraints, MIN_PLANE_TOUCHES};
+use crate::io::measurements::Contact;
 pub use blunders::Blunder;
 pub use candidates::{Candidate, candidates, own_columns};
 use cross_validation::{Folds, Role, Subset};
@@ -91,17 +92,29 @@ impl Default for DiagnoseOptions {
 /// The residual vectors `P_measured − P_model` (m) of a fitted model, effects
 /// included, at every observation, in order (zero where the model cannot be
 /// evaluated; joint counts are checked before any fit, so that does not happen).
+/// In a session without a tracker, what the tool point is held to stands for
+/// the measured point: the fitted fixed point, or the foot of the tool point
+/// on the fitted plane (a residual along the plane's normal).
 pub fn residuals(fit: &FullFit, data: &[Observation]) -> Vec<Vector3<f64>> {
     let Ok(model) = EffectModel::new(fit.calibrated.clone(), &fit.fitted_effects()) else {
         return Vec::new();
     };
     data.iter()
         .map(|o| {
-            model
-                .forward(&o.q, &o.context)
-                .map_or(Vector3::zeros(), |t| {
-                    o.position.coords - t.translation.vector
-                })
+            let Ok(t) = model.forward(&o.q, &o.context) else {
+                return Vector3::zeros();
+            };
+            let tool = t.translation.vector;
+            match o.contact {
+                Contact::Measured => o.position.coords - tool,
+                Contact::Point(k) => fit
+                    .points
+                    .get(k)
+                    .map_or(Vector3::zeros(), |p| p.position.coords - tool),
+                Contact::Plane(k) => fit.planes.get(k).map_or(Vector3::zeros(), |p| {
+                    p.normal * (p.offset - p.normal.dot(&tool))
+                }),
+            }
         })
         .collect()
 }
@@ -111,14 +124,62 @@ pub(crate) fn position_errors(fit: &FullFit, data: &[Observation]) -> Vec<f64> {
     residuals(fit, data).iter().map(|r| r.norm()).collect()
 }
 
-/// Position errors (m) of the nominal model, nothing fitted, at the observations.
-fn nominal_errors(nominal: &Robot<f64>, data: &[Observation]) -> Vec<f64> {
-    data.iter()
-        .filter_map(|o| {
+/// The held-out position errors (m) of the nominal model, nothing of the robot
+/// fitted, at the observations in `k` interleaved folds (pose `i` in fold
+/// `i mod k`, as [`Folds::interleaved`]): a measured point's distance from the
+/// nominal model's tool point; a contact's from the fixed point (or plane)
+/// the nominal tool points of the other folds' rows put there (their mean; the
+/// least-squares plane through them), as the cross-validation of a calibrated
+/// model estimates it. The rows of the same fold stand in where the others
+/// are too few (a point named by one fold's rows only).
+fn nominal_errors(nominal: &Robot<f64>, data: &[Observation], k: usize) -> Vec<f64> {
+    let k = k.clamp(2, data.len().max(2));
+    let tool: Vec<Vector3<f64>> = data
+        .iter()
+        .map(|o| {
             nominal
                 .forward(&o.q)
-                .ok()
-                .map(|t| (o.position.coords - t.translation.vector).norm())
+                .map_or(Vector3::zeros(), |t| t.translation.vector)
+        })
+        .collect();
+    // The nominal tool points of the rows held to the same contact as row
+    // `i`, from the other folds (or, too few there, every other row).
+    let others = |i: usize, least: usize| -> Vec<Vector3<f64>> {
+        let same = |j: &usize| *j != i && data[*j].contact == data[i].contact;
+        let from_folds: Vec<usize> = (0..data.len())
+            .filter(|j| same(j) && j % k != i % k)
+            .collect();
+        let rows = if from_folds.len() >= least {
+            from_folds
+        } else {
+            (0..data.len()).filter(same).collect()
+        };
+        rows.into_iter().map(|j| tool[j]).collect()
+    };
+    data.iter()
+        .enumerate()
+        .map(|(i, o)| match o.contact {
+            Contact::Measured => (o.position.coords - tool[i]).norm(),
+            Contact::Point(_) => {
+                let points = others(i, 1);
+                let mean = points.iter().sum::<Vector3<f64>>() / points.len().max(1) as f64;
+                (tool[i] - mean).norm()
+            }
+            Contact::Plane(_) => {
+                let points = others(i, MIN_PLANE_TOUCHES);
+                let centre = points.iter().sum::<Vector3<f64>>() / points.len().max(1) as f64;
+                let scatter = points
+                    .iter()
+                    .map(|p| (p - centre) * (p - centre).transpose())
+                    .sum::<nalgebra::Matrix3<f64>>();
+                // The normal: the direction of least scatter.
+                let eigen = scatter.symmetric_eigen();
+                let normal = eigen
+                    .eigenvectors
+                    .column(eigen.eigenvalues.imin())
+                    .into_owned();
+                normal.dot(&(tool[i] - centre)).abs()
+            }
         })
         .collect()
 }
@@ -201,19 +262,47 @@ pub fn diagnose(
     data: &[Observation],
     options: &DiagnoseOptions,
 ) -> Result<Diagnosis, FullError> {
-    diagnose_with_progress(nominal, data, options, &mut |_, _, _| {})
+    diagnose_with_progress(
+        nominal,
+        data,
+        &Constraints::default(),
+        options,
+        &mut |_, _, _| {},
+    )
 }
 
-/// [`diagnose`], calling `progress(round, candidate, candidates)` before each
-/// effect candidate is scored (for a progress bar on a terminal).
+/// [`diagnose`] of a session without a tracker: its rows held to the unknown
+/// fixed points and planes of `constraints`, tied by its known distances
+/// (empty for measured coordinates). The points and planes are estimated with
+/// every fit, a held-out row is predicted against the point (or plane) its
+/// fold's training rows put there, and the known distances are trained on in
+/// every fold.
+pub fn diagnose_session(
+    nominal: &Robot<f64>,
+    data: &[Observation],
+    constraints: &Constraints,
+    options: &DiagnoseOptions,
+) -> Result<Diagnosis, FullError> {
+    diagnose_with_progress(nominal, data, constraints, options, &mut |_, _, _| {})
+}
+
+/// [`diagnose_session`], calling `progress(round, candidate, candidates)`
+/// before each effect candidate is scored (for a progress bar on a terminal).
 pub fn diagnose_with_progress(
     nominal: &Robot<f64>,
     data: &[Observation],
+    constraints: &Constraints,
     options: &DiagnoseOptions,
     progress: &mut dyn FnMut(usize, usize, usize),
 ) -> Result<Diagnosis, FullError> {
-    // A session of coordinates: no unknown points, planes or distances.
-    let constraints = Constraints::default();
+    // Every fit of the session, from the nominal model or from `start`.
+    let fit = |start: Option<&Robot<f64>>,
+               effects: &[Effect<f64>],
+               extra: &[Param],
+               data: &[Observation],
+               options: &FullOptions| {
+        identify_constrained(nominal, start, effects, extra, data, constraints, options)
+    };
     let prior = options.fit.prior;
     let reference_options = FullOptions {
         geometry: Geometry::Full,
@@ -223,7 +312,7 @@ pub fn diagnose_with_progress(
     let mut kept: Vec<usize> = (0..data.len()).collect();
     let subset =
         |kept: &[usize]| -> Vec<Observation> { kept.iter().map(|&i| data[i].clone()).collect() };
-    let mut reference = identify_with_effects(nominal, &[], &[], data, &reference_options)?;
+    let mut reference = fit(None, &[], &[], data, &reference_options)?;
     // Every later fit starts from the noise the reference shows (an estimated
     // noise then settles in a round or two; a stated one stays as stated).
     let fit_options = options.fit.at_noise_of(&reference);
@@ -233,7 +322,7 @@ pub fn diagnose_with_progress(
     let most = data.len() / 10;
     // The reference's linearisation on the poses kept, once per reference.
     let mut clean = subset(&kept);
-    let mut lin = linearize(&reference, &[], &[], &clean, &constraints, &prior);
+    let mut lin = linearize(&reference, &[], &[], &clean, constraints, &prior);
     while blunders.len() < most {
         let Some(s) = blunders::most_suspect(&reference, &lin) else {
             break;
@@ -266,12 +355,12 @@ pub fn diagnose_with_progress(
         blunders.push(b.pose);
         kept = without;
         clean = subset(&kept);
-        reference = identify_with_effects(nominal, &[], &[], &clean, &reference_options)?;
-        lin = linearize(&reference, &[], &[], &clean, &constraints, &prior);
+        reference = fit(None, &[], &[], &clean, &reference_options)?;
+        lin = linearize(&reference, &[], &[], &clean, constraints, &prior);
     }
 
     // 3. The geometric model.
-    let nominal_errors = nominal_errors(nominal, &clean);
+    let nominal_errors = nominal_errors(nominal, &clean, options.folds);
     let mut models = geometry::score(nominal, &lin, options.folds, &nominal_errors);
     let best = geometry::best(&models).clone();
     let nominal_holdout = models[0].held;
@@ -287,14 +376,7 @@ pub fn diagnose_with_progress(
     let geometric = if geo_options.geometry == Geometry::Full && prior_factor == 1.0 {
         reference.clone()
     } else {
-        identify_from(
-            nominal,
-            Some(&reference.calibrated),
-            &[],
-            &[],
-            &clean,
-            &geo_options,
-        )?
+        fit(Some(&reference.calibrated), &[], &[], &clean, &geo_options)?
     };
     // The held-out figures of the step to it from the reference, which the
     // refit reaches to second order.
@@ -318,7 +400,7 @@ pub fn diagnose_with_progress(
             break;
         }
         // One linearisation with every remaining candidate's columns.
-        let lin = linearize_candidates(&current_fit, &remaining, &clean, &constraints, &geo_prior);
+        let lin = linearize_candidates(&current_fit, &remaining, &clean, constraints, &geo_prior);
         let folds = Folds::interleaved(&lin, options.folds);
         let base_subset = Subset {
             columns: (0..lin.fitted).collect(),
@@ -419,7 +501,7 @@ pub fn diagnose_with_progress(
         // At the noise the geometric model shows: the weights stay those the
         // candidates were scored with.
         let start = Some(&current_fit.calibrated);
-        let Ok(fit) = identify_from(nominal, start, &e, &x, &clean, &effect_options) else {
+        let Ok(refit) = fit(start, &e, &x, &clean, &effect_options) else {
             break;
         };
         // Its held-out figures are those of the step from the current fit,
@@ -433,7 +515,7 @@ pub fn diagnose_with_progress(
             f_test: (f, t),
         });
         current = held;
-        current_fit = fit;
+        current_fit = refit;
     }
 
     // The geometry again, with the effects found: an effect's residual may
@@ -450,7 +532,7 @@ pub fn diagnose_with_progress(
             .map(|r| r.param)
             .filter(|&p| identified(&reference, p) && !identified(&current_fit, p))
             .collect();
-        let lin = linearize(&current_fit, &[], &missing, &clean, &constraints, &prior);
+        let lin = linearize(&current_fit, &[], &missing, &clean, constraints, &prior);
         let rescored = geometry::score(nominal, &lin, options.folds, &nominal_errors);
         let again = geometry::best(&rescored).clone();
         if let Some(g) = again.geometry
@@ -465,8 +547,7 @@ pub fn diagnose_with_progress(
             // Only if it predicts better held-out (the step to it, which the
             // refit reaches to second order).
             if again.held.rms < current.rms
-                && let Ok(fit) = identify_from(
-                    nominal,
+                && let Ok(refit) = fit(
                     Some(&current_fit.calibrated),
                     &effects,
                     &extra,
@@ -476,7 +557,7 @@ pub fn diagnose_with_progress(
             {
                 (geometry, prior_factor) = (g, again.prior_factor);
                 current = again.held;
-                current_fit = fit;
+                current_fit = refit;
                 models = rescored;
             }
         }
@@ -496,7 +577,7 @@ pub fn diagnose_with_progress(
         Choice::Nominal => (nominal_holdout, nominal_holdout),
         Choice::Calibrated { .. } => (geometric_holdout, current),
     };
-    let noise = current_fit.noise.position.shown;
+    let noise = current_fit.noise.tool_point().shown;
     Ok(Diagnosis {
         choice,
         findings: chosen,
@@ -904,6 +985,7 @@ impl Diagnosis {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::calibration::identify::full::identify_with_effects;
     use crate::calibration::simulate::{Scenario, simulate};
     use crate::io::model_file::load_model;
 

@@ -4,6 +4,7 @@
 //! parameter, three sockets tied by their three distances, and one plane
 //! touched by the ball.
 
+use armcal_shared::effects::{Effect, EffectModel};
 use armcal_shared::{Param, Robot};
 use nalgebra::{Point3, Vector3};
 
@@ -331,4 +332,92 @@ fn each_kind_of_contact_gets_its_own_noise() {
             "{model}: own noises {own_rms:.3e} m, one shared noise {shared_rms:.3e} m"
         );
     }
+}
+
+/// The readings a robot with the joint effects `effects` gives at the true
+/// joint values `q` (each observation's, replaced): the readings `q̂` with
+/// `q̂ + Δq(q̂) = q`, by fixed-point iteration (`Δq` is a few mrad and varies
+/// slowly with `q̂`, so each step shrinks the error by far more than 10).
+fn readings_under(truth: &Robot<f64>, effects: &[Effect<f64>], session: &mut SocketSession) {
+    let model = EffectModel::new(truth.clone(), effects).expect("the effects' joints exist");
+    let kinematics = truth.prepare();
+    for o in &mut session.observations {
+        let q = o.q.clone();
+        let mut read = q.clone();
+        for _ in 0..30 {
+            let real = model
+                .joint_values(&kinematics, truth, &read, &o.context)
+                .expect("joint count");
+            for j in 0..q.len() {
+                read[j] = q[j] - (real[j] - read[j]);
+            }
+        }
+        o.q = read;
+    }
+}
+
+/// `armcal diagnose` reads a session without a tracker as it reads a
+/// tracker's: a PUMA with random ±1 mm / ±1 mrad errors and a joint 2 that
+/// yields under gravity (2·10⁻⁵ rad/(N·m): up to about 1 mrad, half a
+/// millimetre at the tool) seats a ball in three sockets 40 times each and
+/// touches a plate 40 times, 0.05 mm contact noise. The diagnosis names the
+/// compliance of joint 2 and nothing else, estimates it within four of its
+/// standard errors, and predicts the contacts held-out better than the
+/// geometric calibration; on the same session without the compliance it names
+/// nothing (the 1 % family-wise test).
+#[test]
+fn diagnose_names_a_compliance_hidden_in_a_socket_session() {
+    use crate::calibration::diagnose::{Choice, DiagnoseOptions, diagnose_session};
+    let kinds = Kinds {
+        per_socket: 40,
+        point_noise: 5e-5,
+        touches: 40,
+        plane_noise: 5e-5,
+    };
+    let (nominal, truth, geometric, c) = session_of("puma560", 31, &kinds);
+    let compliance = 2e-5;
+    let hidden = Effect::JointCompliance {
+        joint: 1,
+        compliance,
+    };
+    let mut yielding = geometric.clone();
+    readings_under(&truth, &[hidden], &mut yielding);
+    let options = DiagnoseOptions::default();
+
+    let d = diagnose_session(&nominal, &yielding.observations, &c, &options).expect("diagnoses");
+    assert!(matches!(d.choice, Choice::Calibrated { .. }));
+    let named: Vec<(&str, Vec<usize>)> = d
+        .findings
+        .iter()
+        .map(|f| (f.candidate.name, f.candidate.joints.clone()))
+        .collect();
+    assert_eq!(
+        named,
+        [("joint_compliance", vec![1])],
+        "{}",
+        d.chosen_label()
+    );
+    let fitted = &d.fit.effects[0];
+    let Status::Identified { std } = fitted.status[0] else {
+        panic!("the compliance is identified: {:?}", fitted.status[0]);
+    };
+    let estimate = fitted.effect.parameter(0).expect("one parameter");
+    assert!(
+        (estimate - compliance).abs() < 4.0 * std,
+        "compliance {estimate:e} ± {std:e} rad/(N·m), truly {compliance:e}"
+    );
+    let (_, geometric_held, extended_held) = d.holdout;
+    eprintln!(
+        "{}: compliance {estimate:.4e} ± {std:.1e} rad/(N·m); held-out RMS {:.4} mm \
+         geometric, {:.4} mm with it",
+        d.chosen_label(),
+        geometric_held.rms * 1e3,
+        extended_held.rms * 1e3
+    );
+    assert!(extended_held.rms < geometric_held.rms / options.min_gain);
+
+    let rigid =
+        diagnose_session(&nominal, &geometric.observations, &c, &options).expect("diagnoses");
+    assert!(matches!(rigid.choice, Choice::Calibrated { .. }));
+    assert!(rigid.findings.is_empty(), "{}", rigid.chosen_label());
 }

@@ -1284,6 +1284,7 @@ pub fn linearize(
         j,
         r,
         first_rows,
+        poses: data.len(),
         fitted,
         noise: data
             .iter()
@@ -1302,8 +1303,12 @@ pub struct Linearization {
     pub j: Mat<f64>,
     /// Weighted residual, rows × 1.
     pub r: Mat<f64>,
-    /// The first row of each pose (its 3 position rows; then 3 orientation rows if measured).
+    /// The first row of each pose (its 3 position rows; then 3 orientation
+    /// rows if measured), then of each known distance.
     pub first_rows: Vec<usize>,
+    /// How many of [`Linearization::first_rows`] are poses; the others are
+    /// known distances, which a cross-validation trains on in every fold.
+    pub poses: usize,
     /// How many leading columns are the fit's own unknowns.
     pub fitted: usize,
     /// The noise the position rows of each pose (the rows of its tool point:

@@ -188,6 +188,17 @@ impl NoiseEstimate {
         }
     }
 
+    /// The noise of the rows that locate the tool point: the measured
+    /// positions, or in a session without a tracker the point contacts, else
+    /// the plane contacts.
+    pub fn tool_point(&self) -> ChannelNoise {
+        [self.point, self.plane]
+            .into_iter()
+            .flatten()
+            .find(|_| self.position.rows == 0)
+            .unwrap_or(self.position)
+    }
+
     /// The channels the data have rows in, in report order, the known
     /// distances last (`None`): what the reports list. Positions are listed
     /// whenever nothing else locates the tool point.
