@@ -39,7 +39,8 @@
 //!   correction so far), so the null-space part of the correction is removed
 //!   at every step, from whichever start, and the search goes on until a step
 //!   no longer moves the joints (the task's residual says nothing of the null
-//!   space). It is measured from `q_cmd`, never
+//!   space; a search whose iterations run out first, near a singularity, is
+//!   flagged [`Fault::NotConverged`]). It is measured from `q_cmd`, never
 //!   from the previous tick, and it keeps the tool's orientation within the
 //!   correction's size of the nominal command's. Position rows alone with steps
 //!   from the previous tick would leave three directions free, along which a
@@ -184,8 +185,11 @@ pub enum Fault {
     /// The command has the wrong number of joints: the command is returned unchanged.
     JointCount,
     /// The residual stayed above the tolerance after every iteration (near a
-    /// singularity, out of reach, or within a joint's lost motion): the best
-    /// correction found is returned, bounded.
+    /// singularity, out of reach, or within a joint's lost motion), or, where
+    /// joints remain beyond the task's rows, the least correction was still
+    /// moving after the last (near a singularity: the target is reached, but
+    /// the correction is not yet the command's own): the best correction
+    /// found is returned, bounded.
     NotConverged,
     /// The correction was clipped to its size bound, or (servo ticks) its
     /// change from the previous tick to the change bound.
@@ -347,7 +351,8 @@ pub(crate) struct Tick<T: Real> {
 /// the [`Tick`].
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Answer<T: Real> {
-    /// Whether the residual is below the tolerance.
+    /// Whether the residual is below the tolerance and, where joints remain
+    /// beyond the task's rows, the least correction settled.
     pub converged: bool,
     /// Whether it converged from a warm start (the correction's change is
     /// then the next predictor's rate).
@@ -612,14 +617,14 @@ impl<T: Real> Compensator<T> {
         };
         let payload = conditions.payload.unwrap_or(T::zero());
         // 1. The joint positions that reach the target: warm, and cold if the
-        // warm search does not converge.
+        // warm search does not converge (or its least correction does not settle).
         let tolerance2 = self.limits.tolerance * self.limits.tolerance;
         let mut start = self.start(q_cmd, previous, start, rate, tick);
         let mut iterations = 0;
         let solved = loop {
             let solved = self.search(&geometry, &target, q_cmd, payload, start, factors, tick)?;
             iterations += solved.iterations;
-            if solved.residual2 <= tolerance2 || start == Start::Cold {
+            if (solved.residual2 <= tolerance2 && solved.settled) || start == Start::Cold {
                 break solved;
             }
             start = self.start(q_cmd, None, Start::Cold, rate, tick);
@@ -665,7 +670,7 @@ impl<T: Real> Compensator<T> {
             q.copy_from_slice(&p[..n]);
         }
         Ok(Answer {
-            converged: residual2 <= tolerance2,
+            converged: residual2 <= tolerance2 && solved.settled,
             extrapolates,
             iterations,
             residual: norm.unwrap_or_else(|| residual2.sqrt()),

@@ -106,6 +106,9 @@ pub(crate) struct Solved<T: Real> {
     pub residual2: T,
     /// The bound on the residual, when the last step was taken on it.
     pub bound: Option<T>,
+    /// Whether the least correction settled (a step no longer moved the
+    /// joints); always for a task without joints beyond its rows.
+    pub settled: bool,
 }
 
 impl<T: Real> Compensator<T> {
@@ -244,6 +247,7 @@ impl<T: Real> Compensator<T> {
                         iterations,
                         residual2: bound * bound,
                         bound: Some(bound),
+                        settled: true,
                     });
                 }
                 geometry.chain(point.current(), true, false, chain)?;
@@ -281,6 +285,7 @@ impl<T: Real> Compensator<T> {
             iterations,
             residual2: residual.1,
             bound: None,
+            settled: !settling,
         })
     }
 

@@ -6,7 +6,9 @@
 //!   command, `x = q_cmd + (q_prev − q_cmd_prev)` with joint effects (the
 //!   estimate of the commands, where the gravity torques are evaluated) and `x =
 //!   q_cmd + (p_prev − q_cmd_prev)` without (the estimate of the joint
-//!   positions), when that correction is within the size bound. The first
+//!   positions), when the previous tick's solution `p_prev − q_cmd_prev` is
+//!   within the size bound (a search that found a root beyond it, clipped,
+//!   has left the command's own: the next starts cold). The first
 //!   step's predictor `δ₀` is the previous tick's step from the commands to the
 //!   joint positions, `p_prev − q_prev` (the joint effects' offsets; zero
 //!   without effects), plus the correction's last change (the
@@ -32,7 +34,7 @@ pub enum Start {
 impl<T: Real> Compensator<T> {
     /// Writes the start into `tick.x` and, for a warm start, the predictor into
     /// `tick.steps.first`; returns the start taken (cold when there is no
-    /// previous tick or its correction is beyond the size bound).
+    /// previous tick or its solution's correction is beyond the size bound).
     pub(crate) fn start(
         &self,
         q_cmd: &[T],
@@ -55,9 +57,10 @@ impl<T: Real> Compensator<T> {
             let mut within = true;
             for (m, joint) in self.joints.iter().enumerate() {
                 let correction = from[m] - q_cmd_prev[m];
-                within &= correction.abs() <= joint.max_correction;
                 x[m] = q_cmd[m] + correction;
                 predictor[m] = p_prev[m] - from[m];
+                // The previous solution's own correction, before any bound.
+                within &= (correction + predictor[m]).abs() <= joint.max_correction;
             }
             if rate.known {
                 let predicted = predictor.iter_mut().zip(&rate.change);
