@@ -19,6 +19,9 @@
 //! but one (merged, their points kept apart by name), predict the one left out,
 //! for each in turn; beside the nominal model and, optionally, a reference
 //! model (another calibration of the same chain) on the same held-out rows.
+//! [`Selection`] says how each training set is calibrated: `identify --params
+//! full` at the stated prior or at the one [`choose_prior`] picks, or the model
+//! `armcal diagnose` chooses (its effects applied in the prediction).
 
 use armcal_shared::Robot;
 use armcal_shared::effects::EffectModel;

@@ -18,7 +18,7 @@ use armcal_shared::jacobian::at_point;
 use armcal_shared::{Param, Twist};
 use nalgebra::Vector3;
 
-use crate::calibration::diagnose::{DiagnoseOptions, Diagnosis, residuals};
+use crate::calibration::diagnose::{DiagnoseOptions, Diagnosis, residuals, significant};
 use crate::calibration::identify::full::{Observation, Status};
 use crate::io::model_file::RobotModel;
 
@@ -307,9 +307,10 @@ pub fn html(
     }
     let _ = write!(s, "</table><p>");
     for (what, used, shown, source, unit) in d.noise_rows(&model.units) {
+        let (used, shown) = (significant(used), significant(shown));
         let _ = write!(
             s,
-            "Noise of the {what}s: <b>{used:.4} {unit}</b> per axis ({source}; the residuals show {shown:.4} {unit}). "
+            "Noise of the {what}s: <b>{used} {unit}</b> per axis ({source}; the residuals show {shown} {unit}). "
         );
     }
     let (held, moved) = d.prior_role();

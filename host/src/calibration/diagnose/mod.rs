@@ -35,6 +35,12 @@
 //! 5. **Never worse than nominal**: when the chosen model's held-out error is
 //!    not below the nominal model's, the calibration changes nothing.
 //!
+//! A session without a tracker ([`diagnose_session`]) goes the same way: every
+//! fit estimates its unknown points and planes, a held-out row's error is its
+//! tool point's distance from the point (or plane) its fold's training rows
+//! put there, the nominal model's likewise, and the known distances are
+//! trained on in every fold.
+//!
 //! Units: SI inside; `_mm` fields in millimetres.
 
 pub mod blunders;
@@ -243,8 +249,9 @@ pub struct Diagnosis {
     pub holdout: (HeldOut, HeldOut, HeldOut),
     /// Every geometric model scored, nominal first.
     pub models: Vec<ModelScore>,
-    /// The estimated measurement noise of the positions, m per axis: what the
-    /// final model's residuals show.
+    /// The estimated measurement noise of the rows that locate the tool point
+    /// (measured positions, or the contacts of a session without a tracker),
+    /// m per axis: what the final model's residuals show.
     pub noise: f64,
     /// Indices of the observations set aside as blunders.
     pub blunders: Vec<usize>,
@@ -609,6 +616,16 @@ fn linearize_candidates(
     linearize(fit, &effects, &extra, data, constraints, prior)
 }
 
+/// `x` to four significant digits, in fixed notation (`0.02000` mm, `0.0001081` m).
+pub(crate) fn significant(x: f64) -> String {
+    let decimals = if x.is_normal() {
+        (3 - x.abs().log10().floor() as i32).max(0) as usize
+    } else {
+        4
+    };
+    format!("{x:.decimals$}")
+}
+
 /// `a2, theta3`, or `none`: parameters as reports list them.
 pub fn parameter_list(params: &[Param]) -> String {
     if params.is_empty() {
@@ -833,14 +850,15 @@ impl Diagnosis {
         let mm = |x: f64| x * 1e3;
         let line = |i: usize| lines.get(i).copied().unwrap_or(0);
         for (what, used, shown, source, unit) in self.noise_rows(units) {
+            let (used, shown) = (significant(used), significant(shown));
             let _ = match source {
                 "stated" => writeln!(
                     out,
-                    "{what} noise {used:.4} {unit} per axis (stated); the residuals show {shown:.4} {unit}"
+                    "{what} noise {used} {unit} per axis (stated); the residuals show {shown} {unit}"
                 ),
                 _ => writeln!(
                     out,
-                    "{what} noise {used:.4} {unit} per axis (estimated from the residuals)"
+                    "{what} noise {used} {unit} per axis (estimated from the residuals)"
                 ),
             };
         }
