@@ -94,7 +94,7 @@ pub struct Observation {
 }
 
 /// What a pose's tool point is held to.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Contact {
     /// The position measured on the row.
     #[default]

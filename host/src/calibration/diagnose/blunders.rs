@@ -26,9 +26,10 @@ use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::{Mat, Par, Side};
 use nalgebra::{DMatrix, DVector};
 
-use super::cross_validation::{Folds, Role, Subset};
+use super::cross_validation::{Folds, Role, Subset, interleaved_folds};
 use crate::calibration::identify::full::{FullFit, Linearization, unit_diagonal_scale};
 use crate::calibration::stats::f_quantile;
+use crate::io::measurements::Contact;
 
 /// The family-wise error rate of the test over all poses.
 pub const ALPHA: f64 = 0.01;
@@ -128,14 +129,17 @@ pub fn held_out_of_others(
 ) -> Option<Vec<f64>> {
     let n = lin.poses;
     let k = k.clamp(2, n.saturating_sub(1).max(2));
-    let mut index = 0;
+    let others: Vec<Contact> = (0..n)
+        .filter(|&i| i != suspect)
+        .map(|i| lin.contacts[i])
+        .collect();
+    let mut folds = interleaved_folds(&others, k).into_iter();
     let roles = (0..n)
         .map(|i| {
             if i == suspect {
                 role
             } else {
-                index += 1;
-                Role::Fold((index - 1) % k)
+                Role::Fold(folds.next().unwrap_or(0))
             }
         })
         .collect();

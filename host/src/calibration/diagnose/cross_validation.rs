@@ -1,7 +1,9 @@
 //! Held-out errors: k-fold cross-validation of the tool-point position.
 //!
-//! Folds are interleaved (pose `i` in fold `i mod k`), so that a drift in time
-//! falls into every fold. The figure is the held-out 3-D position error of each
+//! Folds are interleaved (pose `i` in fold `i mod k`; the rows of each fixed
+//! point or plane of a session without a tracker interleaved among
+//! themselves: [`interleaved_folds`]), so that a drift in time falls into
+//! every fold. The figure is the held-out 3-D position error of each
 //! pose, in metres, from a model fitted without its fold.
 //!
 //! [`Folds`] cross-validates by linearisation: about one fit's solution `x*`
@@ -32,6 +34,8 @@ use crate::calibration::identify::full::{
     FullError, Linearization, Observation, identify_with_effects, unit_scale,
 };
 use crate::calibration::parallel;
+use crate::io::measurements::Contact;
+use std::collections::HashMap;
 
 /// Held-out statistics: RMS, mean and max of the position error, m.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -77,6 +81,28 @@ pub fn cross_validate(
         errors.extend(position_errors(&fit, &test));
     }
     Ok(HeldOut::of(&errors))
+}
+
+/// The fold of each pose of `contacts` (what each pose's tool point is held
+/// to) in `k` interleaved folds: the `r`-th pose held to one contact (a
+/// measured position, or one fixed point or plane) in fold `(f + r) mod k`,
+/// `f` the index of that contact's first pose. For measured coordinates pose
+/// `i` is in fold `i mod k`; the rows of each fixed point or plane are spread
+/// over the folds, so that every fold trains on some of them (a session that
+/// visits ten sockets in turn, twice, would otherwise hold out both rows of a
+/// socket together, and nothing would locate it in that fold).
+pub fn interleaved_folds(contacts: &[Contact], k: usize) -> Vec<usize> {
+    let mut seen: HashMap<Contact, (usize, usize)> = HashMap::new();
+    contacts
+        .iter()
+        .enumerate()
+        .map(|(i, c)| {
+            let (first, rank) = seen.entry(*c).or_insert((i, 0));
+            let fold = (*first + *rank) % k;
+            *rank += 1;
+            fold
+        })
+        .collect()
 }
 
 /// What a pose is to a cross-validation.
@@ -242,11 +268,12 @@ impl<'a> Folds<'a> {
         self.fold.len() >= SPREAD_POSES
     }
 
-    /// Interleaved folds over every pose: pose `i` in fold `i mod k`.
+    /// Interleaved folds over every pose ([`interleaved_folds`]): for
+    /// measured coordinates pose `i` in fold `i mod k`.
     pub fn interleaved(lin: &'a Linearization, k: usize) -> Self {
-        let n = lin.poses;
-        let k = k.clamp(2, n.max(2));
-        Self::new(lin, (0..n).map(|i| Role::Fold(i % k)).collect())
+        let k = k.clamp(2, lin.poses.max(2));
+        let folds = interleaved_folds(&lin.contacts, k);
+        Self::new(lin, folds.into_iter().map(Role::Fold).collect())
     }
 
     /// Whether every column of `columns` from index `lin.fitted` on keeps at

@@ -131,8 +131,8 @@ pub(crate) fn position_errors(fit: &FullFit, data: &[Observation]) -> Vec<f64> {
 }
 
 /// The held-out position errors (m) of the nominal model, nothing of the robot
-/// fitted, at the observations in `k` interleaved folds (pose `i` in fold
-/// `i mod k`, as [`Folds::interleaved`]): a measured point's distance from the
+/// fitted, at the observations in `k` interleaved folds (those of
+/// [`Folds::interleaved`]): a measured point's distance from the
 /// nominal model's tool point; a contact's from the fixed point (or plane)
 /// the nominal tool points of the other folds' rows put there (their mean; the
 /// least-squares plane through them), as the cross-validation of a calibrated
@@ -140,6 +140,8 @@ pub(crate) fn position_errors(fit: &FullFit, data: &[Observation]) -> Vec<f64> {
 /// are too few (a point named by one fold's rows only).
 fn nominal_errors(nominal: &Robot<f64>, data: &[Observation], k: usize) -> Vec<f64> {
     let k = k.clamp(2, data.len().max(2));
+    let contacts: Vec<Contact> = data.iter().map(|o| o.contact).collect();
+    let fold = cross_validation::interleaved_folds(&contacts, k);
     let tool: Vec<Vector3<f64>> = data
         .iter()
         .map(|o| {
@@ -153,7 +155,7 @@ fn nominal_errors(nominal: &Robot<f64>, data: &[Observation], k: usize) -> Vec<f
     let others = |i: usize, least: usize| -> Vec<Vector3<f64>> {
         let same = |j: &usize| *j != i && data[*j].contact == data[i].contact;
         let from_folds: Vec<usize> = (0..data.len())
-            .filter(|j| same(j) && j % k != i % k)
+            .filter(|j| same(j) && fold[*j] != fold[i])
             .collect();
         let rows = if from_folds.len() >= least {
             from_folds

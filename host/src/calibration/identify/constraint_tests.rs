@@ -421,3 +421,80 @@ fn diagnose_names_a_compliance_hidden_in_a_socket_session() {
     assert!(matches!(rigid.choice, Choice::Calibrated { .. }));
     assert!(rigid.findings.is_empty(), "{}", rigid.chosen_label());
 }
+
+/// A session that visits its sockets in turn (ten sockets, three rounds, the
+/// rows in the order taken) is cross-validated with every socket located in
+/// every fold: its three rows fall in three different folds of ten, though
+/// they stand ten rows apart, so each fold trains on two of them. The
+/// diagnosis then scores the calibrated models and chooses one, far better
+/// held-out than the nominal model.
+#[test]
+fn a_session_visiting_its_sockets_in_turn_locates_each_in_every_fold() {
+    use crate::calibration::diagnose::cross_validation::interleaved_folds;
+    use crate::calibration::diagnose::{Choice, DiagnoseOptions, diagnose_session};
+    use crate::io::measurements::Contact;
+    let nominal = load_model("puma560").expect("built-in model").robot;
+    let mut rng = simulate::rng(41);
+    let (truth, _) = simulate::with_random_errors(
+        &nominal,
+        &full_params(&nominal, false),
+        1e-3,
+        1e-3,
+        &mut rng,
+    );
+    let kin = truth.prepare();
+    let sockets: Vec<Point3<f64>> = simulate::random_configurations(&truth, 10, &mut rng)
+        .iter()
+        .map(|q| Point3::from(kin.forward(q).expect("joint count").translation.vector))
+        .collect();
+    let session = simulate::socket_session(&truth, &sockets, 3, 5e-5, &mut rng)
+        .expect("every socket is reached");
+    // Round by round: socket 0, 1, …, 9, then again.
+    let rows: Vec<super::full::Observation> = (0..3)
+        .flat_map(|round| (0..10).map(move |k| (k, round)))
+        .map(|(k, round)| session.observations[3 * k + round].clone())
+        .collect();
+    let contacts: Vec<Contact> = rows.iter().map(|o| o.contact).collect();
+    let folds = interleaved_folds(&contacts, 10);
+    for k in 0..10 {
+        let mine: Vec<usize> = (0..rows.len())
+            .filter(|&i| contacts[i] == Contact::Point(k))
+            .map(|i| folds[i])
+            .collect();
+        assert_eq!(mine.len(), 3);
+        assert!(
+            mine[0] != mine[1] && mine[1] != mine[2] && mine[0] != mine[2],
+            "{mine:?}"
+        );
+    }
+    let c = Constraints {
+        points: (0..10)
+            .map(|k| FixedPoint {
+                name: format!("socket.{k}"),
+                first: (0, 0),
+                rows: 3,
+            })
+            .collect(),
+        planes: Vec::new(),
+        distances: (0..9)
+            .map(|k| Distance {
+                points: [k, k + 1],
+                length: (sockets[k] - sockets[k + 1]).norm(),
+                std: DEFAULT_DISTANCE_STD,
+                line: 0,
+            })
+            .collect(),
+    };
+    let d = diagnose_session(&nominal, &rows, &c, &DiagnoseOptions::default()).expect("diagnoses");
+    assert!(d.models.len() > 1, "no calibrated model was scored");
+    assert!(
+        matches!(d.choice, Choice::Calibrated { .. }),
+        "{}",
+        d.chosen_label()
+    );
+    let (nominal_held, _, chosen_held) = d.holdout;
+    assert!(
+        chosen_held.rms < nominal_held.rms / 2.0,
+        "{nominal_held:?} {chosen_held:?}"
+    );
+}

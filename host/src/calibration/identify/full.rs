@@ -278,6 +278,7 @@ pub fn effect_parameter_name(effect: &Effect<f64>, component: usize) -> String {
 }
 
 pub use crate::io::constraints::Constraints;
+use crate::io::measurements::Contact;
 pub use crate::io::measurements::Observation;
 
 /// Settings of the full identification.
@@ -1285,6 +1286,7 @@ pub fn linearize(
         r,
         first_rows,
         poses: data.len(),
+        contacts: data.iter().map(|o| o.contact).collect(),
         fitted,
         noise: data
             .iter()
@@ -1309,6 +1311,9 @@ pub struct Linearization {
     /// How many of [`Linearization::first_rows`] are poses; the others are
     /// known distances, which a cross-validation trains on in every fold.
     pub poses: usize,
+    /// What each pose's tool point is held to (its folds follow it:
+    /// [`crate::calibration::diagnose::cross_validation::interleaved_folds`]).
+    pub contacts: Vec<Contact>,
     /// How many leading columns are the fit's own unknowns.
     pub fitted: usize,
     /// The noise the position rows of each pose (the rows of its tool point:
