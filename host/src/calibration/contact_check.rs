@@ -29,8 +29,8 @@ use nalgebra::{Point3, Vector3};
 
 use crate::calibration::diagnose::cross_validation::{Folds, Subset};
 use crate::calibration::diagnose::geometry::PRIOR_FACTORS;
-use crate::calibration::diagnose::{Choice, DiagnoseOptions, diagnose_session};
-use crate::calibration::identify::full::{FullError, FullOptions, identify_constrained, linearize};
+use crate::calibration::diagnose::{DiagnoseOptions, diagnose_session};
+use crate::calibration::identify::full::{FullOptions, identify_constrained, linearize};
 use crate::calibration::identify::{self, IdentifyError, ParamSet};
 use crate::io::measurements::Measurements;
 use crate::io::model_file::RobotModel;
@@ -246,18 +246,11 @@ pub fn calibrate(
                 ..DiagnoseOptions::default()
             };
             let d = diagnose_session(&model.robot, &data.poses, &data.constraints, &options)?;
-            let calibrated = match d.choice {
-                Choice::Nominal => geometric(&model.robot),
-                Choice::Calibrated { .. } => {
-                    EffectModel::new(d.fit.calibrated.clone(), &d.fit.fitted_effects()).map_err(
-                        |_| FullError::EffectJoint {
-                            joint: model.robot.dof() + 1,
-                        },
-                    )?
-                }
-            };
+            // The model of the calibration `diagnose --out` writes (the
+            // nominal model when nothing beats it held-out).
+            let calibration = d.calibration(&model.robot, false, model.units);
             Ok(Calibrated {
-                model: calibrated,
+                model: calibration.model(),
                 training_rms: d.fit.position_rms,
                 choice: d.chosen_label(),
             })

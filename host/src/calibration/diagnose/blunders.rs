@@ -67,7 +67,7 @@ pub struct Blunder {
 /// linearisation of `fit`'s own unknowns at its solution).
 pub fn most_suspect(fit: &FullFit, lin: &Linearization) -> Option<Suspect> {
     let p = lin.j.ncols();
-    let n = lin.poses;
+    let n = lin.poses();
     let a = lin.j.transpose() * &lin.j;
     let scale = unit_diagonal_scale(&a);
     let normal = Mat::from_fn(p, p, |i, j| {
@@ -127,7 +127,7 @@ pub fn held_out_of_others(
     suspect: usize,
     role: Role,
 ) -> Option<Vec<f64>> {
-    let n = lin.poses;
+    let n = lin.poses();
     let k = k.clamp(2, n.saturating_sub(1).max(2));
     let others: Vec<Contact> = (0..n)
         .filter(|&i| i != suspect)

@@ -200,7 +200,7 @@ impl<'a> Folds<'a> {
     /// they tie the points together, and a fold holds out where a pose's tool
     /// point lands, not a distance.
     pub fn new(lin: &'a Linearization, fold: Vec<Role>) -> Self {
-        debug_assert_eq!(fold.len(), lin.poses);
+        debug_assert_eq!(fold.len(), lin.poses());
         let columns = lin.j.ncols();
         let k = fold
             .iter()
@@ -223,7 +223,7 @@ impl<'a> Folds<'a> {
             );
             (normal, HeldRows::of(lin, &poses))
         };
-        let distances = lin.poses..lin.first_rows.len();
+        let distances = lin.poses()..lin.first_rows.len();
         let group = |g: Role| -> Vec<usize> {
             let poses = (0..fold.len()).filter(|&i| fold[i] == g);
             if g == Role::Train {
@@ -271,7 +271,7 @@ impl<'a> Folds<'a> {
     /// Interleaved folds over every pose ([`interleaved_folds`]): for
     /// measured coordinates pose `i` in fold `i mod k`.
     pub fn interleaved(lin: &'a Linearization, k: usize) -> Self {
-        let k = k.clamp(2, lin.poses.max(2));
+        let k = k.clamp(2, lin.poses().max(2));
         let folds = interleaved_folds(&lin.contacts, k);
         Self::new(lin, folds.into_iter().map(Role::Fold).collect())
     }
@@ -443,7 +443,7 @@ impl<'a> Folds<'a> {
         step: impl Fn(Option<usize>) -> Option<Vec<f64>>,
     ) -> Option<Evaluation> {
         let lin = self.lin;
-        let n = lin.poses;
+        let n = lin.poses();
         let mut errors = vec![0.0; n];
         for (f, fold) in self.held_rows.iter().enumerate() {
             let delta = step(Some(f))?;

@@ -1285,7 +1285,6 @@ pub fn linearize(
         j,
         r,
         first_rows,
-        poses: data.len(),
         contacts: data.iter().map(|o| o.contact).collect(),
         fitted,
         noise: data
@@ -1308,10 +1307,7 @@ pub struct Linearization {
     /// The first row of each pose (its 3 position rows; then 3 orientation
     /// rows if measured), then of each known distance.
     pub first_rows: Vec<usize>,
-    /// How many of [`Linearization::first_rows`] are poses; the others are
-    /// known distances, which a cross-validation trains on in every fold.
-    pub poses: usize,
-    /// What each pose's tool point is held to (its folds follow it:
+    /// What each pose's tool point is held to, one per pose (its folds follow it:
     /// [`crate::calibration::diagnose::cross_validation::interleaved_folds`]).
     pub contacts: Vec<Contact>,
     /// How many leading columns are the fit's own unknowns.
@@ -1329,6 +1325,12 @@ pub struct Linearization {
 }
 
 impl Linearization {
+    /// How many of [`Linearization::first_rows`] are poses; the others are
+    /// known distances, which a cross-validation trains on in every fold.
+    pub fn poses(&self) -> usize {
+        self.contacts.len()
+    }
+
     /// The rows of pose `i`.
     pub fn rows_of(&self, i: usize) -> std::ops::Range<usize> {
         self.first_rows[i]
