@@ -1335,9 +1335,14 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
     fn next_row(&mut self, row: &mut Row) -> Result<bool, InputError> {
         loop {
             let read = self.reader.read_record(&mut row.fields);
-            // The text may end early where the reader stopped.
+            // The text may end early where the reader stopped: the record
+            // read is cut there unless its line ended just before the stop
+            // (then the record is whole, and the stop is the next line's).
+            let at = self.reader.position().byte() as usize;
+            let line_ended =
+                matches!(read, Ok(true)) && self.source().byte(at.wrapping_sub(1)) == Some(b'\n');
             if let Some((offset, why)) = self.source().stop.clone()
-                && offset <= self.reader.position().byte() as usize
+                && (offset < at || (offset == at && !line_ended))
             {
                 return Err(match why {
                     Stop::TooLarge => SizeLimit {
