@@ -13,10 +13,16 @@
 //! the end of that line), or line 0 and column 0; an accepted file has at
 //! least one row, rows in increasing line order within the text, exactly one
 //! joint value per model joint, finite values everywhere, and each measured
-//! orientation a unit quaternion.
+//! orientation a unit quaternion. An accepted session without a tracker
+//! (`point`, `plane` columns, distance lines) keeps its promises too: every
+//! row names a point or plane that exists, every point is named by at least
+//! two rows and every plane by at least three (the counts the constraints
+//! state are the rows'), and every distance joins two different points with a
+//! finite positive length and uncertainty.
 
 use armcal::input_error::{InputError, ends_line};
-use armcal::measurements::{parse_joints, parse_measurements};
+use armcal::io::constraints::MIN_PLANE_TOUCHES;
+use armcal::measurements::{Contact, Measurements, parse_joints, parse_measurements};
 
 /// The harness; see [the module](self). Returns whether both readers
 /// accepted the file (for the tests of the seeds).
@@ -57,6 +63,7 @@ pub fn run(data: &[u8]) -> bool {
                     assert!(v.is_finite(), "{p:?}");
                 }
             }
+            check_constraints(&m);
         }
     }
     match parse_joints(&text, "fuzz.csv", &model.robot, &model.units) {
@@ -79,6 +86,38 @@ pub fn run(data: &[u8]) -> bool {
         }
     }
     accepted
+}
+
+/// An accepted session's points, planes and distances are consistent with
+/// its rows: see [the module](self).
+fn check_constraints(m: &Measurements) {
+    let c = &m.constraints;
+    let mut point_rows = vec![0; c.points.len()];
+    let mut plane_rows = vec![0; c.planes.len()];
+    for p in &m.poses {
+        match p.contact {
+            Contact::Measured => assert!(c.is_empty(), "a measured row in a constraint file"),
+            Contact::Point(k) => point_rows[k] += 1,
+            Contact::Plane(k) => plane_rows[k] += 1,
+        }
+    }
+    for (named, rows) in c.points.iter().zip(&point_rows) {
+        assert_eq!(named.rows, *rows, "{named:?}");
+        assert!(*rows >= 2, "a point named by {rows} row(s): {named:?}");
+    }
+    for (named, rows) in c.planes.iter().zip(&plane_rows) {
+        assert_eq!(named.rows, *rows, "{named:?}");
+        assert!(
+            *rows >= MIN_PLANE_TOUCHES,
+            "a plane touched {rows} time(s): {named:?}"
+        );
+    }
+    for d in &c.distances {
+        let [a, b] = d.points;
+        assert!(a != b && a < c.points.len() && b < c.points.len(), "{d:?}");
+        assert!(d.length.is_finite() && d.length > 0.0, "{d:?}");
+        assert!(d.std.is_finite() && d.std > 0.0, "{d:?}");
+    }
 }
 
 /// A refusal names a place in `text`: see [the module](self).

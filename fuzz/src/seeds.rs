@@ -71,6 +71,17 @@ fn measurements() -> Vec<Seed> {
                 \r\n\
                 8,0.1,-0.2,0.3,-0.4,0.5,-0.6,11,19,31,,,,,,,,\r\n";
     let lift = "q1,x,y,z,temp\n0,350,250,130,20\n200,350,250,330,20.5\n400,350,250,530,\n";
+    // A session without a tracker: two sockets 2 in apart, a plate touched
+    // three times.
+    let sockets = "q1,q2,q3,q4,q5,q6,point,plane\n\
+                   0,0,0,0,0,0,s.0,\n\
+                   0.1,-0.2,0.3,-0.4,0.5,-0.6,s.0,\n\
+                   0.2,0.1,-0.1,0.3,0.2,0.1,s.1,\n\
+                   -0.2,0.3,0.2,-0.1,0.4,0.2,s.1,\n\
+                   distance,s.0,s.1,2,0.002\n\
+                   0.3,0.2,0.1,0,0,0,,plate\n\
+                   0.4,0.1,0.2,0.1,0,0,,plate\n\
+                   0.5,0,0.3,0.2,0,0,,plate\n";
     vec![
         ("seed-puma-optional-columns".into(), with_selector(0, puma)),
         (
@@ -86,6 +97,7 @@ fn measurements() -> Vec<Seed> {
             with_selector(3, &head("figaroh-ur10e-camera", 3)),
         ),
         ("seed-lift-mm-deg".into(), with_selector(4, lift)),
+        ("seed-puma-sockets-plate".into(), with_selector(0, sockets)),
     ]
 }
 
