@@ -282,6 +282,7 @@ pub fn convert_dh(links: &[Link<f64>], file: &str) -> Result<Converted, InputErr
             body_start: 0,
             axis: Vector3::z(),
             limits: l.limits,
+            mimic: None,
         });
     }
     urdf_links.push(UrdfLink {
@@ -300,6 +301,7 @@ pub fn convert_dh(links: &[Link<f64>], file: &str) -> Result<Converted, InputErr
         body_start: 0,
         axis: Vector3::z(),
         limits: None,
+        mimic: None,
     });
     let urdf = Urdf {
         file: file.into(),

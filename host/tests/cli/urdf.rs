@@ -588,7 +588,7 @@ const SMALL: &str = r#"<?xml version="1.0"?>
 /// nothing is written.
 #[test]
 fn bad_urdfs_are_refused_with_their_place() {
-    let cases: [(usize, &str, &str); 10] = [
+    let cases: [(usize, &str, &str); 11] = [
         (
             9,
             r#"    <origin xyz="1 2" rpy="0 0 0"/>"#,
@@ -641,6 +641,12 @@ fn bad_urdfs_are_refused_with_their_place() {
             10,
             r#"    <axis xyz="0 0 0"/>"#,
             "small.urdf:10:5: joint \"j1\": the axis of a revolute joint is zero",
+        ),
+        // A joint of the chain whose reading is another's.
+        (
+            16,
+            r#"    <axis xyz="0 0 1"/><mimic joint="j1" multiplier="2"/>"#,
+            "small.urdf:16:24: joint \"j2\" on the chain from \"base\" to \"l2\" mimics joint \"j1\"",
         ),
     ];
     let dir = tempfile::tempdir().unwrap();

@@ -5,8 +5,9 @@
 //! `<inertial>` with its `<origin>` and `<mass>`) and `<joint>`s (name, type,
 //! `<origin xyz rpy>`, `<parent link>`, `<child link>`, `<axis xyz>`, `<limit
 //! lower upper>`). Everything else (visuals, collisions, materials,
-//! transmissions, `<gazebo>`, mimic, dynamics) is not read, and an export
-//! keeps it as it is.
+//! transmissions, `<gazebo>`, dynamics) is not read, and an export keeps it
+//! as it is. A `<mimic>` is read only to refuse it on the chain: its joint's
+//! reading is another's, not one of its own in the data.
 //!
 //! Frames and units, as the URDF specification has them: a joint's `<origin>`
 //! places the joint frame, which is the child link's frame at zero reading, in
@@ -29,7 +30,8 @@
 //! that is not the numbers it must be (`xyz="1 2"`), an unknown joint type, a
 //! joint whose `<parent>` or `<child>` names no link, a link with two parents,
 //! several roots or none, a `floating` or `planar` joint on the chain, a zero
-//! axis on a moving joint, `lower > upper`, a negative mass, a base or tip link
+//! axis on a moving joint, `lower > upper`, a moving joint on the chain that
+//! mimics another (at its `<mimic>`), a negative mass, a base or tip link
 //! that does not exist, a tip not below the base, a tree that branches into
 //! several moving branches when no tip is given, a chain without moving joints
 //! or with more than [`MAX_JOINTS`].
@@ -135,6 +137,9 @@ pub struct UrdfJoint {
     /// `[lower, upper]` of a revolute or prismatic joint's `<limit>`, if it
     /// allows motion (`lower < upper`).
     pub limits: Option<[f64; 2]>,
+    /// Byte offset of its `<mimic>` element and the joint it names, if it
+    /// has one (its reading is then that joint's, scaled and offset).
+    pub mimic: Option<(usize, String)>,
 }
 
 /// A parsed URDF: its links and joints as a tree, with the places of their
@@ -530,6 +535,12 @@ impl Reader<'_> {
             }
             limits = (lower < upper).then_some([lower, upper]);
         }
+        let mimic = Self::child(node, "mimic").map(|m| {
+            (
+                m.range().start,
+                m.attribute("joint").unwrap_or_default().to_string(),
+            )
+        });
         Ok(UrdfJoint {
             name,
             kind,
@@ -541,6 +552,7 @@ impl Reader<'_> {
             body_start,
             axis,
             limits,
+            mimic,
         })
     }
 }
@@ -684,6 +696,17 @@ impl Urdf {
                         self.links[base].name,
                         self.links[tip].name,
                         joint.kind.name()
+                    ),
+                ));
+            }
+            if let (Some((at, leader)), true) = (&joint.mimic, joint.kind.moves()) {
+                return Err(self.err(
+                    *at,
+                    format!(
+                        "joint {:?} on the chain from {:?} to {:?} mimics joint {leader:?}: its reading is not a joint reading of its own, and armcal reads one per moving joint of the chain (choose a chain without it, or make it a joint of its own)",
+                        joint.name,
+                        self.links[base].name,
+                        self.links[tip].name,
                     ),
                 ));
             }
