@@ -27,7 +27,8 @@
 //!    geometric model shows, so that the weights stay those the candidates
 //!    were scored with). When the search stops on a candidate that gains but
 //!    is not significant, the summary says how many poses would settle it (the
-//!    F statistic grows with the poses). When effects were found on a
+//!    F statistic grows with the poses); on one that is significant but gains
+//!    too little, it says so (more poses would not raise the gain). When effects were found on a
 //!    geometric model simpler than every parameter, the geometric models are
 //!    scored again with the effects in them, and the model refitted if another
 //!    predicts better: an effect's residual can make a simpler geometry look
@@ -203,8 +204,7 @@ pub struct Finding {
     pub f_test: (f64, f64),
 }
 
-/// A candidate the data did not settle: it gained held-out but its test fell
-/// short; the F statistic grows in proportion to the poses.
+/// A candidate that gained held-out but was not chosen, and why.
 #[derive(Clone, Debug)]
 pub struct Unsettled {
     /// The candidate.
@@ -213,8 +213,27 @@ pub struct Unsettled {
     pub gain: f64,
     /// Its F statistic and the threshold.
     pub f_test: (f64, f64),
-    /// About how many poses would settle it (the threshold reached).
-    pub poses_needed: usize,
+    /// What it fell short of.
+    pub shortfall: Shortfall,
+}
+
+/// What a candidate that gained held-out fell short of.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Shortfall {
+    /// Its F test: the effect may be real, but these poses do not show it
+    /// beyond chance. The F statistic grows in proportion to the poses:
+    /// about `poses_needed` would settle it.
+    Significance {
+        /// About how many poses would reach the threshold.
+        poses_needed: usize,
+    },
+    /// The gain asked ([`DiagnoseOptions::min_gain`]): it passes the F test,
+    /// so the effect is there, but it improves the held-out error too little
+    /// to be worth modelling, and more poses would not make it larger.
+    Gain {
+        /// The least gain asked.
+        min_gain: f64,
+    },
 }
 
 /// The model the diagnosis chose.
@@ -497,8 +516,15 @@ pub fn diagnose_with_progress(
                     candidate: c.clone(),
                     gain: *gain,
                     f_test: (*f, *t),
-                    poses_needed: (clean.len() as f64 * (t / f).max(options.min_gain)).ceil()
-                        as usize,
+                    shortfall: if f > t {
+                        Shortfall::Gain {
+                            min_gain: options.min_gain,
+                        }
+                    } else {
+                        Shortfall::Significance {
+                            poses_needed: (clean.len() as f64 * t / f).ceil() as usize,
+                        }
+                    },
                 });
             break;
         };
@@ -835,7 +861,14 @@ impl Diagnosis {
                 "name": u.candidate.name,
                 "joints": u.candidate.joints.iter().map(|j| j + 1).collect::<Vec<_>>(),
                 "gain": u.gain, "f": u.f_test.0, "threshold": u.f_test.1,
-                "poses_needed": u.poses_needed,
+                "shortfall": match u.shortfall {
+                    Shortfall::Significance { .. } => "significance",
+                    Shortfall::Gain { .. } => "gain",
+                },
+                "poses_needed": match u.shortfall {
+                    Shortfall::Significance { poses_needed } => Some(poses_needed),
+                    Shortfall::Gain { .. } => None,
+                },
             })),
         })
     }
@@ -927,16 +960,22 @@ impl Diagnosis {
             );
         }
         if let Some(u) = &self.unsettled {
-            let _ = writeln!(
-                out,
-                "not settled: {} (joints {}) gains ×{:.2} held-out but F {:.1} < {:.1}; about {} poses would settle it",
-                u.candidate.name,
+            let (name, joints, gain, (f, t)) = (
+                &u.candidate.name,
                 u.candidate.joints_label(),
                 u.gain,
-                u.f_test.0,
-                u.f_test.1,
-                u.poses_needed
+                u.f_test,
             );
+            let _ = match u.shortfall {
+                Shortfall::Significance { poses_needed } => writeln!(
+                    out,
+                    "not settled: {name} (joints {joints}) gains ×{gain:.2} held-out but F {f:.1} < {t:.1}; about {poses_needed} poses would settle it",
+                ),
+                Shortfall::Gain { min_gain } => writeln!(
+                    out,
+                    "not worth modelling: {name} (joints {joints}) passes the test (F {f:.1} > {t:.1}) but gains only ×{gain:.2} held-out (×{min_gain:.2} asked); more poses would not make it larger",
+                ),
+            };
         }
         let _ = writeln!(
             out,
