@@ -41,42 +41,16 @@ pub struct Diagnosis {
 }
 
 /// The data of a fit: given, or loaded from a path or built-in name against
-/// `model`; refused, as the command line refuses it, when it gives fewer
-/// equations than the model's independent parameters or cannot be
-/// measurements of this robot.
+/// `model` ([`measurements_of`]); refused, as the command line refuses it,
+/// when it gives fewer equations than the model's independent parameters or
+/// cannot be measurements of this robot.
 fn session(
     py: Python<'_>,
     model: &Model,
     data: &Bound<'_, PyAny>,
 ) -> PyResult<(Measurements, bool)> {
     let m = &model.inner;
-    let data = if let Ok(d) = data.cast::<Measurements>() {
-        let d = d.get();
-        if d.model.robot != m.robot || d.model.units != m.units {
-            return Err(errors::argument(
-                py,
-                "data",
-                format!(
-                    "read against the model {:?} ({}), not {:?} ({}): load it against this model",
-                    d.model.name, d.model.source, m.name, m.source
-                ),
-            ));
-        }
-        Measurements {
-            data: d.data.clone(),
-            model: d.model.clone(),
-            arrays: d.arrays,
-        }
-    } else {
-        let name: String = data.extract().map_err(|_| {
-            errors::argument(
-                py,
-                "data",
-                "expected Measurements, or a path or built-in data set name",
-            )
-        })?;
-        crate::data::load_measurements(py, &name, model)?
-    };
+    let data = measurements_of(py, model, data, "data")?;
     let checks = || -> Result<(), input_error::InputError> {
         let d = &data.data;
         d.require_poses(independent_parameter_count(&m.robot, d.has_orientation()))?;
@@ -87,9 +61,52 @@ fn session(
     Ok((data, arrays))
 }
 
+/// The measurements `data` (the argument `argument`): given, read against
+/// `model` (refused otherwise), or loaded from a path or built-in name
+/// against it.
+pub(crate) fn measurements_of(
+    py: Python<'_>,
+    model: &Model,
+    data: &Bound<'_, PyAny>,
+    argument: &str,
+) -> PyResult<Measurements> {
+    let m = &model.inner;
+    if let Ok(d) = data.cast::<Measurements>() {
+        let d = d.get();
+        if d.model.robot != m.robot || d.model.units != m.units {
+            return Err(errors::argument(
+                py,
+                argument,
+                format!(
+                    "read against the model {:?} ({}), not {:?} ({}): load it against this model",
+                    d.model.name, d.model.source, m.name, m.source
+                ),
+            ));
+        }
+        Ok(Measurements {
+            data: d.data.clone(),
+            model: d.model.clone(),
+            arrays: d.arrays,
+        })
+    } else {
+        let name: String = data.extract().map_err(|_| {
+            errors::argument(
+                py,
+                argument,
+                "expected Measurements, or a path or built-in data set name",
+            )
+        })?;
+        crate::data::load_measurements(py, &name, model)
+    }
+}
+
 /// The fit's options: the model's prior, and the stated noise and prior
 /// scales (model units) when given, as `--position-noise`, `--prior-length`…
-fn options(py: Python<'_>, model: &RobotModel, scales: StatedScales) -> PyResult<FullOptions> {
+pub(crate) fn options(
+    py: Python<'_>,
+    model: &RobotModel,
+    scales: StatedScales,
+) -> PyResult<FullOptions> {
     scales.options(model).map_err(|e| {
         let name = e.flag.trim_start_matches("--").replace('-', "_");
         errors::argument(py, &name, format!("{}: must be a positive number", e.value))
@@ -180,7 +197,7 @@ pub fn identify_py(
 /// An identification's failure: a refusal of the data is an `InputError`, as
 /// the command line's exit status 2 says; a calibration that cannot be
 /// encoded is an `ArmcalError`.
-fn identify_error(py: Python<'_>, e: identify::IdentifyError) -> PyErr {
+pub(crate) fn identify_error(py: Python<'_>, e: identify::IdentifyError) -> PyErr {
     match e {
         identify::IdentifyError::Calibration(_) => errors::failure(e),
         e => errors::refused(py, e),

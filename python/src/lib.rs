@@ -3,7 +3,8 @@
 //! The Python package `armcal` re-exports what this module defines: robot
 //! models ([`model::Model`]), measurements from files or numpy arrays
 //! ([`data::Measurements`]), identification and diagnosis with their reports
-//! ([`fit`]), and calibrations that predict and compensate with numpy arrays in
+//! ([`fit`]), the held-out check of sessions without a tracker ([`holdout`]),
+//! and calibrations that predict and compensate with numpy arrays in
 //! and out ([`calibration::Calibration`]). Every computation is the library's
 //! (`armcal`), composed as the command line composes it; lengths and angles in
 //! and out are in the model's units, as in the files.
@@ -19,6 +20,7 @@ mod calibration;
 mod data;
 mod errors;
 mod fit;
+mod holdout;
 mod model;
 
 /// The module `armcal._native`.
@@ -43,6 +45,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(data::simulate, m)?)?;
     m.add_function(wrap_pyfunction!(fit::identify_py, m)?)?;
     m.add_function(wrap_pyfunction!(fit::diagnose, m)?)?;
+    m.add_function(wrap_pyfunction!(holdout::holdout, m)?)?;
     m.add_function(wrap_pyfunction!(calibration::load_calibration, m)?)?;
     Ok(())
 }

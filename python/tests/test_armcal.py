@@ -305,3 +305,48 @@ def test_a_session_without_a_tracker_identifies_as_the_command_line():
     holdout = diagnosis["holdout"]
     assert holdout["nominal_rms_mm"] == pytest.approx(9.784269027398766, rel=1e-12)
     assert holdout["extended_rms_mm"] == pytest.approx(0.23133917884507466, rel=1e-12)
+
+
+def test_sessions_without_a_tracker_are_held_out_as_the_command_line():
+    """MUKCA's panda_6: each plate placement left out in turn, the arm
+    calibrated on the other two with the prior's scale chosen by their rows'
+    cross-validation, and the placement left out predicted by the nominal
+    URDF, MUKCA's calibrated URDF and the calibration, as
+
+        armcal holdout --model data/mukca-ball-socket/original/urdf/panda.urdf --tip-link ball_link \\
+          --reference data/mukca-ball-socket/original/calibrated_urdf/panda_6/panda_calibrated.urdf \\
+          --data data/mukca-ball-socket/panda_6/{front,left,right}.csv --select-prior
+
+    prints (mm, to its three decimals: the spread of the predicted ball centres
+    at each socket, RMS over the sockets, and the predicted socket distance
+    less 50 mm). Here in m, the URDF's unit, to the printed rounding."""
+    urdf = MUKCA / "original" / "urdf" / "panda.urdf"
+    model = armcal.load_model(str(urdf), tip_link="ball_link")
+    mukca = armcal.load_model(
+        str(MUKCA / "original" / "calibrated_urdf" / "panda_6" / "panda_calibrated.urdf"), tip_link="ball_link"
+    )
+    sessions = [str(MUKCA / "panda_6" / f"{p}.csv") for p in ("front", "left", "right")]
+    rows = armcal.holdout(model, sessions, reference=mukca, select="prior")
+    printed = {  # placement: nominal, MUKCA, armcal; each (spread, distance error) in mm
+        "front": ((9.609, 6.885), (0.197, -0.003), (0.239, -0.085)),
+        "left": ((10.958, 3.532), (0.248, 0.195), (0.232, 0.146)),
+        "right": ((11.255, 8.210), (0.318, 0.071), (0.282, -0.066)),
+    }
+    assert [r["file"].endswith(f"{p}.csv") for r, p in zip(rows, printed)] == [True] * 3
+    for row, figures in zip(rows, printed.values()):
+        assert row["choice"] == "prior ×10"
+        for key, (spread, distance) in zip(("nominal", "reference", "calibrated"), figures):
+            assert row[key]["spread"] == pytest.approx(spread / 1000, abs=5e-7), key
+            assert row[key]["distance_error"] == pytest.approx(distance / 1000, abs=5e-7), key
+        sockets = row["calibrated"]["points"]
+        assert len(sockets) == 2 and len(row["calibrated"]["distances"]) == 1
+        # The spread is the RMS of the two sockets' own.
+        rms = np.sqrt(np.mean([p["spread"] ** 2 for p in sockets]))
+        assert row["calibrated"]["spread"] == pytest.approx(rms, rel=1e-12)
+    # Trained once on `front` (MUKCA's own training placement), predicting the others.
+    once = armcal.holdout(model, sessions[1:], train=[sessions[0]])
+    assert [r["calibrated"]["spread"] < r["nominal"]["spread"] / 10 for r in once] == [True, True]
+    with pytest.raises(armcal.InputError, match="two or more sessions"):
+        armcal.holdout(model, sessions[:1])
+    with pytest.raises(armcal.InputError, match="select"):
+        armcal.holdout(model, sessions, select="best")

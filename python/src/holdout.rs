@@ -1,0 +1,173 @@
+//! `holdout`: sessions without a tracker, each left out in turn, as `armcal
+//! holdout` composes it (`armcal::contact_check`).
+//!
+//! A session without a tracker measures no coordinate, so a calibration is
+//! judged on one it was not fitted to by what needs none: the *spread* of the
+//! predicted tool points at each unknown fixed point (RMS distance to their
+//! mean, RMS over the points) and the *distance error* of each known distance
+//! (the distance between the predicted points' means less the stated one).
+//! Both in the model's length unit, in the model's base frame, which they do
+//! not depend on.
+
+use armcal::contact_check::{self, ContactCheck, HeldOut, Selection};
+use armcal::diagnose::DiagnoseOptions;
+use armcal::identify::StatedScales;
+use armcal::input_error::InputError;
+use armcal::measurements;
+use pyo3::prelude::*;
+use serde_json::json;
+
+use crate::errors;
+use crate::fit::{identify_error, measurements_of, options};
+use crate::model::Model;
+
+/// Leaves each of `sessions` (Measurements, or paths, of sessions without a
+/// tracker: rows naming their fixed point or plane) out in turn, calibrates
+/// `model` on the others, and returns, for each session left out, what the
+/// nominal model, `reference` (another Model of the same chain, such as
+/// another tool's calibrated URDF) and the calibration predict of it. With
+/// `train` (a list as `sessions`), calibrates once on those and predicts each
+/// of `sessions`.
+///
+/// `select`: how a training set is calibrated, as the command line's flags:
+/// `"stated"` (identify, every parameter, at the stated prior), `"prior"`
+/// (`--select-prior`: the prior's scale chosen by the cross-validation of the
+/// training rows) or `"diagnose"` (`--diagnose`: blunders, geometric model and
+/// prior, effects, as `diagnose` chooses; the effects applied in the
+/// prediction). Noise and prior scales in the model's units, as `identify`.
+///
+/// Each item is a dict: `file`, `choice` (what the calibration chose; empty
+/// for the stated prior), `training_rms` (the training rows' RMS distance to
+/// their fitted points or planes), and `nominal`, `reference` (None without
+/// one), `calibrated`, each a dict: `spread` (RMS over the points), `distance_error`
+/// (the largest in magnitude, signed; 0 without distances), `points` (`name`,
+/// `rows`, `centre` [x, y, z], `spread`) and `distances` (`points` [a, b],
+/// `stated`, `error`). Lengths in the model's unit.
+#[pyfunction]
+#[pyo3(signature = (model, sessions, *, train = None, reference = None, select = "stated", position_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None))]
+#[allow(clippy::too_many_arguments)]
+pub fn holdout<'py>(
+    py: Python<'py>,
+    model: &Model,
+    sessions: Vec<Bound<'py, PyAny>>,
+    train: Option<Vec<Bound<'py, PyAny>>>,
+    reference: Option<&Model>,
+    select: &str,
+    position_noise: Option<f64>,
+    point_noise: Option<f64>,
+    plane_noise: Option<f64>,
+    prior_length: Option<f64>,
+    prior_angle: Option<f64>,
+) -> PyResult<Vec<Bound<'py, PyAny>>> {
+    let m = &model.inner;
+    let folds = DiagnoseOptions::default().folds;
+    let selection = match select {
+        "stated" => Selection::Stated,
+        "prior" => Selection::Prior { folds },
+        "diagnose" => Selection::Diagnosis { folds },
+        other => {
+            return Err(errors::argument(
+                py,
+                "select",
+                format!("{other:?}: expected \"stated\", \"prior\" or \"diagnose\""),
+            ));
+        }
+    };
+    let scales = StatedScales {
+        position_noise,
+        orientation_noise: None,
+        point_noise,
+        plane_noise,
+        prior_length,
+        prior_angle,
+    };
+    let options = options(py, m, scales)?;
+    if let Some(r) = reference
+        && r.inner.robot.dof() != m.robot.dof()
+    {
+        return Err(errors::argument(
+            py,
+            "reference",
+            format!(
+                "{} joints, the model has {}",
+                r.inner.robot.dof(),
+                m.robot.dof()
+            ),
+        ));
+    }
+    let load = |argument: &str, list: &[Bound<'py, PyAny>]| {
+        list.iter()
+            .map(|d| {
+                let d = measurements_of(py, model, d, argument)?;
+                if d.data.is_constrained() {
+                    Ok(d.data)
+                } else {
+                    let e = InputError::new(
+                        &d.data.file,
+                        d.data.lines.first().copied().unwrap_or(1),
+                        1,
+                        "holdout checks sessions without a tracker: the rows must name the unknown \
+                         fixed point their tool point sits at (a `point` column; docs/file-formats.md)",
+                    );
+                    Err(errors::input(py, &e, d.arrays))
+                }
+            })
+            .collect::<PyResult<Vec<measurements::Measurements>>>()
+    };
+    let sessions = load("sessions", &sessions)?;
+    let training = load("train", train.as_deref().unwrap_or(&[]))?;
+    if training.is_empty() && sessions.len() < 2 {
+        return Err(errors::argument(
+            py,
+            "sessions",
+            "give two or more sessions to leave out in turn, or the training sessions with train=",
+        ));
+    }
+    let reference = reference.map(|r| &r.inner.robot);
+    let rows = py
+        .detach(|| {
+            if training.is_empty() {
+                contact_check::leave_one_out(m, &sessions, reference, &options, selection)
+            } else {
+                let parts: Vec<&measurements::Measurements> = training.iter().collect();
+                let merged = measurements::Measurements::merged(&parts);
+                let calibration = contact_check::calibrate(m, &merged, &options, selection)?;
+                Ok(sessions
+                    .iter()
+                    .map(|s| HeldOut::of(s, &m.robot, reference, &calibration))
+                    .collect())
+            }
+        })
+        .map_err(|e| identify_error(py, e))?;
+    let length = |v: f64| m.units.length_from_si(v);
+    let check = |c: &ContactCheck| {
+        json!({
+            "spread": length(c.spread_rms()),
+            "distance_error": length(c.worst_distance_error()),
+            "points": c.points.iter().map(|p| json!({
+                "name": p.name,
+                "rows": p.rows,
+                "centre": p.centre.iter().map(|&x| length(x)).collect::<Vec<_>>(),
+                "spread": length(p.spread),
+            })).collect::<Vec<_>>(),
+            "distances": c.distances.iter().map(|d| json!({
+                "points": d.points,
+                "stated": length(d.stated),
+                "error": length(d.error),
+            })).collect::<Vec<_>>(),
+        })
+    };
+    rows.iter()
+        .map(|h| {
+            let item = json!({
+                "file": h.file,
+                "choice": h.choice,
+                "training_rms": length(h.training_rms),
+                "nominal": check(&h.nominal),
+                "reference": h.reference.as_ref().map(check),
+                "calibrated": check(&h.calibrated),
+            });
+            errors::to_python(py, &item)
+        })
+        .collect()
+}
