@@ -30,7 +30,8 @@ pub(crate) fn holdout(
                 d.lines.first().copied().unwrap_or(1),
                 1,
                 "holdout checks sessions without a tracker: the rows must name the unknown \
-                 fixed point their tool point sits at (a `point` column; docs/file-formats.md)",
+                 fixed point or plane their tool point is held to (a `point` or `plane` column; \
+                 docs/file-formats.md)",
             )
             .into());
         }

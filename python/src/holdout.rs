@@ -39,10 +39,14 @@ use crate::model::Model;
 /// Each item is a dict: `file`, `choice` (what the calibration chose; empty
 /// for the stated prior), `training_rms` (the training rows' RMS distance to
 /// their fitted points or planes), and `nominal`, `reference` (None without
-/// one), `calibrated`, each a dict: `spread` (RMS over the points), `distance_error`
-/// (the largest in magnitude, signed; 0 without distances), `points` (`name`,
-/// `rows`, `centre` [x, y, z], `spread`) and `distances` (`points` [a, b],
-/// `stated`, `error`). Lengths in the model's unit.
+/// one), `calibrated`, each a dict: `spread` (RMS over the points),
+/// `distance_error` (the largest in magnitude, signed), `flatness` (of the
+/// predicted touches of each plane, RMS distance to their least-squares
+/// plane, RMS over the planes), each None where the session has none of
+/// that kind; `points` (`name`, `rows`, `centre` [x, y, z], `spread`),
+/// `planes` (`name`, `rows`, unit `normal`, `offset` along it, `flatness`)
+/// and `distances` (`points` [a, b], `stated`, `error`). Lengths in the
+/// model's unit.
 #[pyfunction]
 #[pyo3(signature = (model, sessions, *, train = None, reference = None, select = "stated", position_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None))]
 #[allow(clippy::too_many_arguments)]
@@ -107,7 +111,8 @@ pub fn holdout<'py>(
                         d.data.lines.first().copied().unwrap_or(1),
                         1,
                         "holdout checks sessions without a tracker: the rows must name the unknown \
-                         fixed point their tool point sits at (a `point` column; docs/file-formats.md)",
+                         fixed point or plane their tool point is held to (a `point` or `plane` \
+                         column; docs/file-formats.md)",
                     );
                     Err(errors::input(py, &e, d.arrays))
                 }
@@ -142,13 +147,21 @@ pub fn holdout<'py>(
     let length = |v: f64| m.units.length_from_si(v);
     let check = |c: &ContactCheck| {
         json!({
-            "spread": length(c.spread_rms()),
-            "distance_error": length(c.worst_distance_error()),
+            "spread": c.spread_rms().map(length),
+            "distance_error": c.worst_distance_error().map(length),
+            "flatness": c.flatness_rms().map(length),
             "points": c.points.iter().map(|p| json!({
                 "name": p.name,
                 "rows": p.rows,
                 "centre": p.centre.iter().map(|&x| length(x)).collect::<Vec<_>>(),
                 "spread": length(p.spread),
+            })).collect::<Vec<_>>(),
+            "planes": c.planes.iter().map(|p| json!({
+                "name": p.name,
+                "rows": p.rows,
+                "normal": p.plane.normal().iter().copied().collect::<Vec<_>>(),
+                "offset": length(p.plane.offset),
+                "flatness": length(p.flatness),
             })).collect::<Vec<_>>(),
             "distances": c.distances.iter().map(|d| json!({
                 "points": d.points,

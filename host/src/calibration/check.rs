@@ -208,6 +208,15 @@ pub fn report(model: &RobotModel, data: &Measurements) -> String {
                 p.spread * 1e3
             );
         }
+        for p in &c.planes {
+            let _ = writeln!(
+                out,
+                "        plane {:<12} {} touches, flatness (RMS distance to their least-squares plane) {:.3} mm",
+                p.name,
+                p.rows,
+                p.flatness * 1e3
+            );
+        }
         for d in &c.distances {
             let _ = writeln!(
                 out,

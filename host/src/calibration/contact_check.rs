@@ -4,9 +4,11 @@
 //! For each unknown fixed point of a constraint session (see
 //! [`crate::io::constraints`]) the model's tool points of the rows naming it
 //! should coincide: their *spread* is the RMS distance of those predicted
-//! points to their mean (m). For each known distance, the distance between the
-//! two means less the stated one is the model's *distance error* (m). All in
-//! the model's base frame, which the figures do not depend on.
+//! points to their mean (m). For each unknown plane, the predicted points of
+//! its touches should lie on one plane: their *flatness* is their RMS distance
+//! to their least-squares plane (m). For each known distance, the distance
+//! between the two means less the stated one is the model's *distance error*
+//! (m). All in the model's base frame, which the figures do not depend on.
 //!
 //! [`choose_prior`] picks the scale of the prior on the D-H errors as
 //! `armcal diagnose` does for measured coordinates: the linearised k-fold
@@ -30,9 +32,11 @@ use nalgebra::{Point3, Vector3};
 use crate::calibration::diagnose::cross_validation::{Folds, Subset};
 use crate::calibration::diagnose::geometry::PRIOR_FACTORS;
 use crate::calibration::diagnose::{DiagnoseOptions, diagnose_session};
-use crate::calibration::identify::full::{FullOptions, identify_constrained, linearize};
+use crate::calibration::identify::full::{
+    FullOptions, PlaneEstimate, identify_constrained, linearize,
+};
 use crate::calibration::identify::{self, IdentifyError, ParamSet};
-use crate::io::measurements::Measurements;
+use crate::io::measurements::{Contact, Measurements};
 use crate::io::model_file::RobotModel;
 
 /// One point's figures.
@@ -46,6 +50,19 @@ pub struct PointSpread {
     pub centre: Point3<f64>,
     /// RMS distance of the predicted tool points to their mean, m.
     pub spread: f64,
+}
+
+/// One plane's figures.
+#[derive(Clone, Debug)]
+pub struct PlaneFlatness {
+    /// Its name.
+    pub name: String,
+    /// The rows touching it.
+    pub rows: usize,
+    /// The least-squares plane of the predicted tool points, base frame.
+    pub plane: PlaneEstimate,
+    /// RMS distance of the predicted tool points to that plane, m.
+    pub flatness: f64,
 }
 
 /// One known distance's figures.
@@ -64,39 +81,74 @@ pub struct DistanceError {
 pub struct ContactCheck {
     /// Per point, in the order of the file.
     pub points: Vec<PointSpread>,
+    /// Per plane, in the order of the file.
+    pub planes: Vec<PlaneFlatness>,
     /// Per distance line, in the order of the file.
     pub distances: Vec<DistanceError>,
 }
 
 impl ContactCheck {
-    /// The spreads' RMS over the points (each point's spread squared, averaged), m.
-    pub fn spread_rms(&self) -> f64 {
-        let n = self.points.len().max(1) as f64;
-        (self.points.iter().map(|p| p.spread * p.spread).sum::<f64>() / n).sqrt()
+    /// The spreads' RMS over the points (each point's spread squared,
+    /// averaged), m; `None` without points.
+    pub fn spread_rms(&self) -> Option<f64> {
+        rms(self.points.iter().map(|p| p.spread))
     }
 
-    /// The largest distance error in magnitude, signed, m (0 without distances).
-    pub fn worst_distance_error(&self) -> f64 {
+    /// The flatness' RMS over the planes, m; `None` without planes.
+    pub fn flatness_rms(&self) -> Option<f64> {
+        rms(self.planes.iter().map(|p| p.flatness))
+    }
+
+    /// The largest distance error in magnitude, signed, m; `None` without
+    /// distances.
+    pub fn worst_distance_error(&self) -> Option<f64> {
         self.distances
             .iter()
             .map(|d| d.error)
-            .fold(0.0, |a, e| if e.abs() > a.abs() { e } else { a })
+            .reduce(|a, e| if e.abs() > a.abs() { e } else { a })
     }
 }
 
+/// The RMS of `values`; `None` when there are none.
+fn rms(values: impl Iterator<Item = f64>) -> Option<f64> {
+    let (n, sum) = values.fold((0usize, 0.0), |(n, s), v| (n + 1, s + v * v));
+    (n > 0).then(|| (sum / n as f64).sqrt())
+}
+
 /// The spread of `model`'s tool points (its effects included, at each row's
-/// context) at each fixed point of `data` and its error of each known
-/// distance. Rows whose kinematics fail are left out.
+/// context) at each fixed point of `data`, their flatness on each plane and
+/// its error of each known distance. Rows whose kinematics fail are left out.
 pub fn contact_check(model: &EffectModel<f64>, data: &Measurements) -> ContactCheck {
     let c = &data.constraints;
     let mut predicted: Vec<Vec<Vector3<f64>>> = vec![Vec::new(); c.points.len()];
+    let mut touches: Vec<Vec<Vector3<f64>>> = vec![Vec::new(); c.planes.len()];
     for obs in &data.poses {
-        if let (Some(k), Ok(t)) = (obs.fixed_point(), model.forward(&obs.q, &obs.context))
-            && let Some(v) = predicted.get_mut(k)
-        {
+        let Ok(t) = model.forward(&obs.q, &obs.context) else {
+            continue;
+        };
+        let v = match obs.contact {
+            Contact::Point(k) => predicted.get_mut(k),
+            Contact::Plane(k) => touches.get_mut(k),
+            Contact::Measured => None,
+        };
+        if let Some(v) = v {
             v.push(t.translation.vector);
         }
     }
+    let planes = c
+        .planes
+        .iter()
+        .zip(&touches)
+        .map(|(p, v)| {
+            let (plane, flatness) = PlaneEstimate::least_squares(v);
+            PlaneFlatness {
+                name: p.name.clone(),
+                rows: v.len(),
+                plane,
+                flatness,
+            }
+        })
+        .collect();
     let points: Vec<PointSpread> = c
         .points
         .iter()
@@ -125,7 +177,11 @@ pub fn contact_check(model: &EffectModel<f64>, data: &Measurements) -> ContactCh
             }
         })
         .collect();
-    ContactCheck { points, distances }
+    ContactCheck {
+        points,
+        planes,
+        distances,
+    }
 }
 
 /// The factor of [`PRIOR_FACTORS`] on `options.prior` of least held-out RMS
@@ -321,33 +377,54 @@ pub fn leave_one_out(
 }
 
 /// The table of [`leave_one_out`], in mm: per held-out session, the spread
-/// (RMS over its points) and the worst distance error of each model.
+/// (RMS over its points) and the worst distance error of each model, and the
+/// flatness (RMS over its planes) when a session has planes; `–` where a
+/// session has none of that kind.
 pub fn holdout_table(rows: &[HeldOut], reference: Option<&str>) -> String {
     use std::fmt::Write as _;
+    let planes = rows.iter().any(|r| !r.nominal.planes.is_empty());
     let mut out = String::new();
-    let _ = writeln!(
+    let _ = write!(
         out,
         "held-out session: spread of the predicted points (RMS distance to their mean, RMS over the points) \
-         and distance error (predicted minus stated), mm"
+         and distance error (predicted minus stated)"
     );
-    let mut header = format!("  {:<40} {:>16} {:>16}", "held out", "nominal", "");
-    if let Some(name) = reference {
-        let _ = write!(header, " {:>16} {:>16}", name, "");
+    if planes {
+        let _ = write!(
+            out,
+            ", flatness of the predicted touches (RMS distance to their least-squares plane, RMS over the planes)"
+        );
     }
-    let _ = write!(header, " {:>16} {:>16}", "armcal", "");
+    let _ = writeln!(out, ", mm");
+    let mut models = vec!["nominal"];
+    models.extend(reference);
+    models.push("armcal");
+    let kinds: &[&str] = if planes {
+        &["spread", "distance", "flatness"]
+    } else {
+        &["spread", "distance"]
+    };
+    let mut header = format!("  {:<40}", "held out");
+    let mut sub = format!("  {:<40}", "");
+    for model in models {
+        for (i, kind) in kinds.iter().enumerate() {
+            let _ = write!(header, " {:>16}", if i == 0 { model } else { "" });
+            let _ = write!(sub, " {kind:>16}");
+        }
+    }
     let _ = writeln!(out, "{header}");
-    let mut sub = format!("  {:<40} {:>16} {:>16}", "", "spread", "distance");
-    if reference.is_some() {
-        let _ = write!(sub, " {:>16} {:>16}", "spread", "distance");
-    }
-    let _ = write!(sub, " {:>16} {:>16}", "spread", "distance");
     let _ = writeln!(out, "{sub}");
+    let mm = |v: Option<f64>, signed: bool| match v {
+        Some(v) if signed => format!(" {:>+16.3}", v * 1e3),
+        Some(v) => format!(" {:>16.3}", v * 1e3),
+        None => format!(" {:>16}", "–"),
+    };
     let figures = |c: &ContactCheck| {
-        format!(
-            " {:>16.3} {:>+16.3}",
-            c.spread_rms() * 1e3,
-            c.worst_distance_error() * 1e3
-        )
+        let mut f = mm(c.spread_rms(), false) + &mm(c.worst_distance_error(), true);
+        if planes {
+            f.push_str(&mm(c.flatness_rms(), false));
+        }
+        f
     };
     for r in rows {
         let mut line = format!("  {:<40}", r.file);

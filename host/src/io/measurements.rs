@@ -983,6 +983,21 @@ fn read_measurements<R: std::io::Read>(
             line: d.line,
         });
     }
+    let mut warnings = columns.warnings;
+    let prismatic = model
+        .robot
+        .links
+        .iter()
+        .any(|l| l.joint == JointType::Prismatic);
+    if !constraints.is_empty() && constraints.distances.is_empty() && !prismatic {
+        warnings.push(
+            "no known distance (no `distance` line): nothing in this file fixes the arm's scale \
+             (a larger arm reaching larger points or planes fits these rows as well), so only the \
+             prior on the lengths holds it; give the distance between two of its points (a \
+             plate's socket spacing, a ball-bar's length)"
+                .to_owned(),
+        );
+    }
     Ok(Measurements {
         file: file.to_owned(),
         poses,
@@ -990,7 +1005,7 @@ fn read_measurements<R: std::io::Read>(
         times,
         columns_used: columns.used,
         columns_ignored: columns.ignored,
-        warnings: columns.warnings,
+        warnings,
         constraints,
     })
 }

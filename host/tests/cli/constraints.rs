@@ -495,3 +495,66 @@ fn identify_reports_the_noise_of_each_kind_of_row() {
     assert!(shown_stated > used, "{shown_stated} {used}");
     assert_eq!(noise(&["--position-noise", "0.0002"]), stated);
 }
+
+/// Unknown points alone fix no length: a larger arm reaching larger points
+/// fits the rows as well. A session without a known distance is read, and
+/// says that only the prior holds the arm's scale; with the distance, it
+/// says nothing of the kind. `check` shows a touched plane's flatness.
+#[test]
+fn a_session_without_a_known_distance_says_what_holds_the_scale() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut rows = vec!["front.0"; 10];
+    rows.extend(["front.1"; 10]);
+    let check = ["check", "--model", "ur5e", "--data", "d.csv"];
+    constraint_file(d, &rows, &[]);
+    // `check` lists what was read, its warnings among it.
+    let out = succeeds(d, &check);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("warning: no known distance")
+            && stdout.contains("only the prior on the lengths holds it"),
+        "{stdout}"
+    );
+    constraint_file(d, &rows, &["distance,front.0,front.1,0.05"]);
+    let out = succeeds(d, &check);
+    assert!(!String::from_utf8_lossy(&out.stdout).contains("no known distance"));
+    // `identify` warns on a real session without its distance line.
+    let m = mukca();
+    let front = std::fs::read_to_string(m.join("panda_6/front.csv")).unwrap();
+    let without: String = front
+        .lines()
+        .filter(|l| !l.starts_with("distance"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    assert!(without.len() < front.len());
+    std::fs::write(d.join("front.csv"), without).unwrap();
+    let panda = m.join("original/urdf/panda.urdf").display().to_string();
+    let identify = [
+        "identify",
+        "--model",
+        &panda,
+        "--tip-link",
+        "ball_link",
+        "--data",
+        "front.csv",
+    ];
+    let out = succeeds(d, &identify);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("no known distance"), "{stderr}");
+
+    let mut text = String::from("q1,q2,q3,q4,q5,q6,plane\n");
+    for i in 0..30 {
+        let q = 0.03 * (i + 1) as f64;
+        text.push_str(&format!("{q},0.2,{q},0.4,0.5,{q},table\n"));
+    }
+    std::fs::write(d.join("d.csv"), text).unwrap();
+    let out = succeeds(d, &check);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains(
+            "plane table        30 touches, flatness (RMS distance to their least-squares plane)"
+        ),
+        "{stdout}"
+    );
+}

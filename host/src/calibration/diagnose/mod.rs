@@ -54,8 +54,8 @@ use armcal_shared::{JointType, Param, Robot};
 use nalgebra::Vector3;
 
 use crate::calibration::identify::full::{
-    FullError, FullFit, FullOptions, Linearization, Observation, Status, identify_constrained,
-    linearize,
+    FullError, FullFit, FullOptions, Linearization, Observation, PlaneEstimate, Status,
+    identify_constrained, linearize,
 };
 use crate::calibration::identify::prior::{Geometry, Prior};
 use crate::calibration::parallel;
@@ -175,19 +175,8 @@ fn nominal_errors(nominal: &Robot<f64>, data: &[Observation], k: usize) -> Vec<f
                 (tool[i] - mean).norm()
             }
             Contact::Plane(_) => {
-                let points = others(i, MIN_PLANE_TOUCHES);
-                let centre = points.iter().sum::<Vector3<f64>>() / points.len().max(1) as f64;
-                let scatter = points
-                    .iter()
-                    .map(|p| (p - centre) * (p - centre).transpose())
-                    .sum::<nalgebra::Matrix3<f64>>();
-                // The normal: the direction of least scatter.
-                let eigen = scatter.symmetric_eigen();
-                let normal = eigen
-                    .eigenvectors
-                    .column(eigen.eigenvalues.imin())
-                    .into_owned();
-                normal.dot(&(tool[i] - centre)).abs()
+                let (plane, _) = PlaneEstimate::least_squares(&others(i, MIN_PLANE_TOUCHES));
+                plane.distance(&tool[i]).abs()
             }
         })
         .collect()

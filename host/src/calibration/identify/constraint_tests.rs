@@ -502,3 +502,96 @@ fn a_session_visiting_its_sockets_in_turn_locates_each_in_every_fold() {
         "{nominal_held:?} {chosen_held:?}"
     );
 }
+
+/// A block probed on three faces in each of two placements (no socket, no
+/// distance: 40 touches per face, 0.05 mm along the normal, a UR5e with
+/// ±1 mm / ±1 mrad errors), each placement's faces turned 30° from the
+/// other's. Calibrated on one placement, the other's predicted touches lie on
+/// their three planes far closer than the nominal model puts them, and
+/// `holdout`'s table shows that flatness (and no spread or distance, which
+/// such a session has not).
+#[test]
+fn a_probed_block_held_out_is_judged_by_its_flatness() {
+    use crate::calibration::contact_check::{Selection, holdout_table, leave_one_out};
+    use crate::io::measurements::Measurements;
+    use nalgebra::Rotation3;
+
+    let model = load_model("ur5e").expect("built-in model");
+    let nominal = &model.robot;
+    let mut rng = simulate::rng(41);
+    let (truth, _) =
+        simulate::with_random_errors(nominal, &full_params(nominal, false), 1e-3, 1e-3, &mut rng);
+    let noise = 5e-5;
+    let placement = |name: &str, turn: f64, rng: &mut rand::rngs::StdRng| {
+        let (corner, _) = plane_of(&truth, rng);
+        let r = Rotation3::from_euler_angles(0.2, -0.1, turn);
+        let mut poses = Vec::new();
+        let mut planes = Vec::new();
+        for face in 0..3 {
+            let normal = r * Vector3::ith(face, 1.0);
+            poses.extend(
+                simulate::plane_touches(&truth, (corner, normal, 0.1), face, 40, noise, rng)
+                    .expect("the face is reached"),
+            );
+            planes.push(TouchedPlane {
+                name: format!("{name}.{face}"),
+                first: (0, 0),
+                rows: 40,
+            });
+        }
+        let n = poses.len();
+        Measurements {
+            file: format!("{name}.csv"),
+            poses,
+            lines: (2..2 + n).collect(),
+            times: vec![None; n],
+            columns_used: Vec::new(),
+            columns_ignored: Vec::new(),
+            warnings: Vec::new(),
+            constraints: Constraints {
+                planes,
+                ..Constraints::default()
+            },
+        }
+    };
+    let sessions = [
+        placement("a", 0.0, &mut rng),
+        placement("b", 30f64.to_radians(), &mut rng),
+    ];
+    // As `armcal holdout` calibrates: the model's prior, the noise estimated.
+    // Without it nothing would hold the arm's scale (no distance is known),
+    // and a fit shrinking the arm would flatten every plane.
+    let options = crate::calibration::identify::StatedScales::default()
+        .options(&model)
+        .expect("no scale stated");
+    let rows = leave_one_out(&model, &sessions, None, &options, Selection::Stated).expect("fits");
+    for r in &rows {
+        let (nominal, calibrated) = (
+            r.nominal.flatness_rms().expect("planes"),
+            r.calibrated.flatness_rms().expect("planes"),
+        );
+        eprintln!(
+            "{}: flatness nominal {nominal:e} m, calibrated {calibrated:e} m, training {:e} m",
+            r.file, r.training_rms
+        );
+        // The touches' own scatter is the noise: neither fit nor prediction
+        // goes far below it (a shrunk arm would).
+        assert!(
+            r.training_rms > noise / 2.0,
+            "{}: {:e}",
+            r.file,
+            r.training_rms
+        );
+        assert!(calibrated > noise / 2.0, "{}: {calibrated:e}", r.file);
+        assert!(
+            calibrated < nominal / 5.0,
+            "{}: {calibrated} against {nominal}",
+            r.file
+        );
+        assert_eq!(r.calibrated.spread_rms(), None);
+        assert_eq!(r.calibrated.worst_distance_error(), None);
+    }
+    let table = holdout_table(&rows, None);
+    assert!(table.contains("flatness"), "{table}");
+    assert!(table.contains('–'), "{table}");
+}

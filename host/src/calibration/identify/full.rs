@@ -145,6 +145,29 @@ impl PlaneEstimate {
         self.frame * Vector3::new(self.tilt[0], self.tilt[1], 1.0).normalize()
     }
 
+    /// The least-squares plane of `points` (at least three): through their
+    /// centroid, normal to their least scatter (the eigenvector of the
+    /// smallest eigenvalue of `Σ (x − c)(x − c)ᵀ`). Also the RMS distance of
+    /// the points to it, m.
+    pub fn least_squares(points: &[Vector3<f64>]) -> (Self, f64) {
+        let n = points.len().max(1) as f64;
+        let centre = points.iter().sum::<Vector3<f64>>() / n;
+        let scatter: Matrix3<f64> = points
+            .iter()
+            .map(|x| (x - centre) * (x - centre).transpose())
+            .sum();
+        let eigen = scatter.symmetric_eigen();
+        let smallest = eigen.eigenvalues.imin();
+        let normal: Vector3<f64> = eigen.eigenvectors.column(smallest).into();
+        let rms = (eigen.eigenvalues[smallest].max(0.0) / n).sqrt();
+        (Self::through(&Point3::from(centre), &normal), rms)
+    }
+
+    /// The signed distance of `x` from the plane, along its normal, m.
+    pub fn distance(&self, x: &Vector3<f64>) -> f64 {
+        self.normal().dot(x) - self.offset
+    }
+
     /// The derivative of the unit normal with respect to tilt `c` (0 or 1).
     fn normal_derivative(&self, c: usize) -> Vector3<f64> {
         let m = Vector3::new(self.tilt[0], self.tilt[1], 1.0);
@@ -2529,15 +2552,7 @@ fn initial_points_tool(model: &mut Model, data: &[Observation], tool: bool) {
         if touches.len() < 3 {
             continue;
         }
-        let centre = touches.iter().sum::<Vector3<f64>>() / touches.len() as f64;
-        let scatter: Matrix3<f64> = touches
-            .iter()
-            .map(|x| (x - centre) * (x - centre).transpose())
-            .sum();
-        let eigen = scatter.symmetric_eigen();
-        let smallest = eigen.eigenvalues.imin();
-        let normal: Vector3<f64> = eigen.eigenvectors.column(smallest).into();
-        *plane = PlaneEstimate::through(&Point3::from(centre), &normal);
+        *plane = PlaneEstimate::least_squares(&touches).0;
     }
 }
 
