@@ -199,22 +199,19 @@ pub fn report(model: &RobotModel, data: &Measurements) -> String {
             data.constraints.planes.len(),
             data.constraints.distances.len()
         );
-        for p in &c.points {
+        let points = c.points.iter().map(|p| {
+            let what = "rows, spread (RMS distance to their mean)";
+            ("point", &p.name, p.rows, what, p.spread)
+        });
+        let planes = c.planes.iter().map(|p| {
+            let what = "touches, flatness (RMS distance to their least-squares plane)";
+            ("plane", &p.name, p.rows, what, p.flatness)
+        });
+        for (kind, name, rows, what, figure) in points.chain(planes) {
             let _ = writeln!(
                 out,
-                "        point {:<12} {} rows, spread (RMS distance to their mean) {:.3} mm",
-                p.name,
-                p.rows,
-                p.spread * 1e3
-            );
-        }
-        for p in &c.planes {
-            let _ = writeln!(
-                out,
-                "        plane {:<12} {} touches, flatness (RMS distance to their least-squares plane) {:.3} mm",
-                p.name,
-                p.rows,
-                p.flatness * 1e3
+                "        {kind} {name:<12} {rows} {what} {:.3} mm",
+                figure * 1e3
             );
         }
         for d in &c.distances {
