@@ -293,9 +293,25 @@ impl Measurements {
         if equations >= unknowns {
             return Ok(());
         }
+        let line = self.lines.last().copied().unwrap_or(1);
+        if self.is_constrained() {
+            return Err(InputError::new(
+                &self.file,
+                line,
+                1,
+                format!(
+                    "fewer equations than unknowns: {} and {} give {equations} (3 per row at a \
+                     point, 1 per touch of a plane, 1 per distance), fewer than the {unknowns} \
+                     unknowns (the arm's less the base's 6, and 3 per point or plane); at least \
+                     {} more are needed",
+                    plural(self.poses.len(), "row"),
+                    plural(self.constraints.distances.len(), "distance"),
+                    unknowns - equations
+                ),
+            ));
+        }
         let per_pose = if self.has_orientation() { 6 } else { 3 };
         let needed = unknowns.div_ceil(per_pose);
-        let line = self.lines.last().copied().unwrap_or(1);
         Err(InputError::new(
             &self.file,
             line,

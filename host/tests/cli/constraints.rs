@@ -543,6 +543,20 @@ fn a_session_without_a_known_distance_says_what_holds_the_scale() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("no known distance"), "{stderr}");
 
+    // Four touches of a plane give four equations, not twelve.
+    let mut text = String::from("q1,q2,q3,q4,q5,q6,plane\n");
+    for i in 0..4 {
+        let q = 0.1 * (i + 1) as f64;
+        text.push_str(&format!("{q},0.2,{q},0.4,0.5,{q},table\n"));
+    }
+    std::fs::write(d.join("d.csv"), text).unwrap();
+    refused(
+        d,
+        &check,
+        &[
+            "d.csv:5:1: fewer equations than unknowns: 4 rows and 0 distances give 4 (3 per row at a point, 1 per touch of a plane",
+        ],
+    );
     let mut text = String::from("q1,q2,q3,q4,q5,q6,plane\n");
     for i in 0..30 {
         let q = 0.03 * (i + 1) as f64;
