@@ -698,20 +698,24 @@ struct Record {
     temp: Option<f64>,
     load: Option<f64>,
     /// The unknown fixed point the row names (`point` column): its name and the
-    /// character column of its cell.
-    point: Option<(String, usize)>,
+    /// place of its cell.
+    point: Option<(String, Place)>,
     /// The unknown plane the row names (`plane` column), likewise.
-    plane: Option<(String, usize)>,
-    /// The character column and the name of the row's first coordinate when it
-    /// measures all of x, y, z (in a file with a `point` or `plane` column).
-    measured: Option<(usize, &'static str)>,
+    plane: Option<(String, Place)>,
+    /// The place and the name of the row's first coordinate when it measures
+    /// all of x, y, z (in a file with a `point` or `plane` column).
+    measured: Option<(Place, &'static str)>,
 }
+
+/// The line and character column of a cell. A cell after a quoted field that
+/// spans lines is on a later line than its record's first.
+type Place = (usize, usize);
 
 /// A distance line of a constraint file, as read (see [`crate::io::constraints`]).
 struct DistanceLine {
     line: usize,
-    /// The two point names and the character column of each.
-    points: [(String, usize); 2],
+    /// The two point names and the place of each.
+    points: [(String, Place); 2],
     /// Length and standard uncertainty, m.
     length: f64,
     std: f64,
@@ -843,8 +847,8 @@ fn read_measurements<R: std::io::Read>(
     // Kept for the constraint rows (x, y, z not measured, a point or plane
     // named), with their pose's index, and for the first row measuring x, y,
     // z: a file of coordinates keeps nothing per row.
-    type NameCell = Option<(String, usize)>;
-    type Tag = (usize, Option<(usize, &'static str)>, NameCell, NameCell);
+    type NameCell = Option<(String, Place)>;
+    type Tag = (usize, Option<(Place, &'static str)>, NameCell, NameCell);
     let mut constraint_rows: Vec<(usize, Tag)> = Vec::new();
     let mut first_measured: Option<Tag> = None;
     let mut columns = read_table(source, file, &schema, |item| {
@@ -908,7 +912,7 @@ fn read_measurements<R: std::io::Read>(
             constraints,
         });
     };
-    if let Some((line, Some((column, coordinate)), point, plane)) = &first_measured {
+    if let Some((_, Some(((line, column), coordinate)), point, plane)) = &first_measured {
         let message = match point
             .as_ref()
             .map(|p| ("point", p))
@@ -928,18 +932,18 @@ fn read_measurements<R: std::io::Read>(
         };
         return Err(InputError::new(file, *line, *column, message));
     }
-    for (index, (line, _, point, plane)) in constraint_rows {
+    for (index, (_, _, point, plane)) in constraint_rows {
         let pose = &mut poses[index];
-        let named = |name: String, column: usize| Named {
+        let named = |name: String, first: Place| Named {
             name,
-            first: (line, column),
+            first,
             rows: 1,
         };
-        if let Some((name, column)) = plane {
-            let k = merge_named(&mut constraints.planes, &[named(name, column)])[0];
+        if let Some((name, place)) = plane {
+            let k = merge_named(&mut constraints.planes, &[named(name, place)])[0];
             pose.contact = Contact::Plane(k);
-        } else if let Some((name, column)) = point {
-            let k = merge_named(&mut constraints.points, &[named(name, column)])[0];
+        } else if let Some((name, place)) = point {
+            let k = merge_named(&mut constraints.points, &[named(name, place)])[0];
             pose.contact = Contact::Point(k);
         }
     }
@@ -974,12 +978,12 @@ fn read_measurements<R: std::io::Read>(
     }
     for d in distance_lines {
         let mut ends = [0; 2];
-        for (end, (name, column)) in ends.iter_mut().zip(&d.points) {
+        for (end, (name, (line, column))) in ends.iter_mut().zip(&d.points) {
             *end = constraints.index(name).ok_or_else(|| {
                 let named: Vec<&str> = constraints.points.iter().map(|p| p.name.as_str()).collect();
                 InputError::new(
                     file,
-                    d.line,
+                    *line,
                     *column,
                     format!(
                         "distance: no row names the point '{name}' (points named: {})",
@@ -1260,6 +1264,12 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
 
     fn source(&self) -> &Source<R> {
         self.reader.get_ref()
+    }
+
+    /// The place of field `index` of the record at `start`.
+    fn place(&self, start: usize, index: usize) -> Place {
+        let e = self.err_at(self.field_offset(start, index), "");
+        (e.line, e.column)
     }
 
     /// The refusal `message` at byte `offset`: its line and character column.
@@ -1608,8 +1618,8 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
         let mut position = [0.0; 3];
         // Position cells as read (a constraint row leaves them empty).
         let mut given: [Option<usize>; 3] = [None; 3];
-        let mut point: Option<(String, usize)> = None;
-        let mut plane: Option<(String, usize)> = None;
+        let mut point: Option<(String, Place)> = None;
+        let mut plane: Option<(String, Place)> = None;
         let point_index = roles.iter().position(|r| *r == Role::Point);
         let plane_index = roles.iter().position(|r| *r == Role::Plane);
         let constraint_file = point_index.is_some() || plane_index.is_some();
@@ -1695,13 +1705,12 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
                                 ),
                             ));
                         }
-                        let column = self.err_at(self.field_offset(row.start, i), "").column;
                         let slot = if *role == Role::Point {
                             &mut point
                         } else {
                             &mut plane
                         };
-                        *slot = Some((value.to_owned(), column));
+                        *slot = Some((value.to_owned(), self.place(row.start, i)));
                     }
                 }
                 Role::Quat(c) => {
@@ -1853,8 +1862,7 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
                     .enumerate()
                     .filter_map(|(c, g)| g.map(|i| (i, c)))
                     .min()?;
-                let column = self.err_at(self.field_offset(row.start, i), "").column;
-                Some((column, POSITION[c]))
+                Some((self.place(row.start, i), POSITION[c]))
             })
             .flatten(),
         })
@@ -1875,7 +1883,7 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
                 ),
             ));
         }
-        let name = |i: usize| -> Result<(String, usize), InputError> {
+        let name = |i: usize| -> Result<(String, Place), InputError> {
             let value = row.field(i).unwrap_or("");
             if value.is_empty() {
                 return Err(at(
@@ -1886,10 +1894,7 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
                     ),
                 ));
             }
-            Ok((
-                value.to_owned(),
-                self.err_at(self.field_offset(row.start, i), "").column,
-            ))
+            Ok((value.to_owned(), self.place(row.start, i)))
         };
         let points = [name(1)?, name(2)?];
         if points[0].0 == points[1].0 {
@@ -2775,6 +2780,61 @@ mod tests {
             self.bytes = &self.bytes[n..];
             Ok(n)
         }
+    }
+
+    /// A quoted cell may span lines: the cells after it are on a later line
+    /// than their record's first, and a refusal at one of them names that
+    /// line and the column within it (fuzzing found the column counted from
+    /// the record's start, beyond the end of its first line). Each named
+    /// cell: a point named once, a plane touched twice, a distance to a point
+    /// no row names, a coordinate on a constraint row.
+    #[test]
+    fn a_named_cell_after_a_quoted_line_break_is_placed_on_its_own_line() {
+        let model = ur5e();
+        let header = "q1,q2,q3,q4,q5,q6,note,x,y,z,point,plane\n";
+        let row = |note: &str, point: &str, plane: &str| {
+            format!("0.1,0.2,0.3,0.4,0.5,0.6,{note},,,,{point},{plane}\n")
+        };
+        let split = "\"two\nlines\"";
+        // The point cell of line 4's record is on line 5, after `lines",,,,`.
+        let at = "lines\",,,,".chars().count() + 1;
+        let mut text = format!("{header}{}{}", row("a", "s.0", ""), row("b", "s.0", ""));
+        text.push_str(&row(split, "s.1", ""));
+        refused(&model, &text, 5, at, &["'s.1' is named by this row only"]);
+
+        let mut text = format!("{header}{}{}", row("a", "s.0", ""), row("b", "s.0", ""));
+        text.push_str(&row(split, "", "table"));
+        text.push_str(&row("c", "", "table"));
+        refused(
+            &model,
+            &text,
+            5,
+            at + 1,
+            &["plane 'table' is touched by 2 rows"],
+        );
+
+        // A point named across a line break (rows on lines 2–3 and 4–5), and a
+        // distance from it (lines 6–7) to a point no row names, on line 7.
+        let named = "\"s\n.0\"";
+        let mut text = format!("{header}{}{}", row("a", named, ""), row("b", named, ""));
+        text.push_str(&format!("distance,{named},s.1,0.05\n"));
+        refused(
+            &model,
+            &text,
+            7,
+            ".0\",".chars().count() + 1,
+            &["no row names the point 's.1'"],
+        );
+
+        let mut text = format!("{header}{}{}", row("a", "s.0", ""), row("b", "s.0", ""));
+        text.push_str("0.1,0.2,0.3,0.4,0.5,0.6,\"x\ny\",1,2,3,,\n");
+        refused(
+            &model,
+            &text,
+            5,
+            "y\",".chars().count() + 1,
+            &["column 'x': this row measures x, y, z"],
+        );
     }
 
     /// A file far longer than the reader keeps (it lets go of what lies
