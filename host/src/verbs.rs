@@ -24,17 +24,7 @@ pub(crate) fn holdout(
     let model = model.load()?;
     let load = |file: &String| -> anyhow::Result<measurements::Measurements> {
         let d = measurements::load_measurements(file, &model)?;
-        if !d.is_constrained() {
-            return Err(InputError::new(
-                file,
-                d.lines.first().copied().unwrap_or(1),
-                1,
-                "holdout checks sessions without a tracker: the rows must name the unknown \
-                 fixed point or plane their tool point is held to (a `point` or `plane` column; \
-                 docs/file-formats.md)",
-            )
-            .into());
-        }
+        contact_check::require_session(&d)?;
         warn(&d.warnings);
         Ok(d)
     };
@@ -66,17 +56,14 @@ pub(crate) fn holdout(
     }
     let options = weights.options(&model)?;
     let reference_robot = reference_model.as_ref().map(|r| &r.robot);
-    let rows = if training.is_empty() {
-        contact_check::leave_one_out(&model, &sessions, reference_robot, &options, selection)?
-    } else {
-        let parts: Vec<&measurements::Measurements> = training.iter().collect();
-        let merged = measurements::Measurements::merged(&parts);
-        let calibration = contact_check::calibrate(&model, &merged, &options, selection)?;
-        sessions
-            .iter()
-            .map(|s| contact_check::HeldOut::of(s, &model.robot, reference_robot, &calibration))
-            .collect()
-    };
+    let rows = contact_check::held_out(
+        &model,
+        &sessions,
+        &training,
+        reference_robot,
+        &options,
+        selection,
+    )?;
     print!(
         "{}",
         contact_check::holdout_table(&rows, reference.as_deref().map(|_| "reference"))

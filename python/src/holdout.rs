@@ -9,10 +9,9 @@
 //! Both in the model's length unit, in the model's base frame, which they do
 //! not depend on.
 
-use armcal::contact_check::{self, ContactCheck, HeldOut, Selection};
+use armcal::contact_check::{self, ContactCheck, Selection};
 use armcal::diagnose::DiagnoseOptions;
 use armcal::identify::StatedScales;
-use armcal::input_error::InputError;
 use armcal::measurements;
 use pyo3::prelude::*;
 use serde_json::json;
@@ -103,19 +102,9 @@ pub fn holdout<'py>(
         list.iter()
             .map(|d| {
                 let d = measurements_of(py, model, d, argument)?;
-                if d.data.is_constrained() {
-                    Ok(d.data)
-                } else {
-                    let e = InputError::new(
-                        &d.data.file,
-                        d.data.lines.first().copied().unwrap_or(1),
-                        1,
-                        "holdout checks sessions without a tracker: the rows must name the unknown \
-                         fixed point or plane their tool point is held to (a `point` or `plane` \
-                         column; docs/file-formats.md)",
-                    );
-                    Err(errors::input(py, &e, d.arrays))
-                }
+                contact_check::require_session(&d.data)
+                    .map_err(|e| errors::input(py, &e, d.arrays))?;
+                Ok(d.data)
             })
             .collect::<PyResult<Vec<measurements::Measurements>>>()
     };
@@ -130,19 +119,7 @@ pub fn holdout<'py>(
     }
     let reference = reference.map(|r| &r.inner.robot);
     let rows = py
-        .detach(|| {
-            if training.is_empty() {
-                contact_check::leave_one_out(m, &sessions, reference, &options, selection)
-            } else {
-                let parts: Vec<&measurements::Measurements> = training.iter().collect();
-                let merged = measurements::Measurements::merged(&parts);
-                let calibration = contact_check::calibrate(m, &merged, &options, selection)?;
-                Ok(sessions
-                    .iter()
-                    .map(|s| HeldOut::of(s, &m.robot, reference, &calibration))
-                    .collect())
-            }
-        })
+        .detach(|| contact_check::held_out(m, &sessions, &training, reference, &options, selection))
         .map_err(|e| identify_error(py, e))?;
     let length = |v: f64| m.units.length_from_si(v);
     let check = |c: &ContactCheck| {

@@ -36,6 +36,7 @@ use crate::calibration::identify::full::{
     FullOptions, PlaneEstimate, identify_constrained, linearize,
 };
 use crate::calibration::identify::{self, IdentifyError, ParamSet};
+use crate::io::input_error::InputError;
 use crate::io::measurements::{Contact, Measurements};
 use crate::io::model_file::RobotModel;
 
@@ -349,6 +350,47 @@ impl HeldOut {
             choice: calibration.choice.clone(),
         }
     }
+}
+
+/// Refuses `data` unless it is a session without a tracker (its rows name
+/// the fixed point or plane their tool point is held to): the held-out
+/// figures here need no coordinate, and a file of coordinates has none of
+/// them.
+pub fn require_session(data: &Measurements) -> Result<(), InputError> {
+    if data.is_constrained() {
+        return Ok(());
+    }
+    Err(InputError::new(
+        &data.file,
+        data.lines.first().copied().unwrap_or(1),
+        1,
+        "holdout checks sessions without a tracker: the rows must name the unknown fixed \
+         point or plane their tool point is held to (a `point` or `plane` column; \
+         docs/file-formats.md)",
+    ))
+}
+
+/// The held-out figures of `sessions`, as `armcal holdout` gives them:
+/// without `training`, each left out in turn ([`leave_one_out`]); with it,
+/// `model` calibrated once on `training` (merged) and each of `sessions`
+/// predicted.
+pub fn held_out(
+    model: &RobotModel,
+    sessions: &[Measurements],
+    training: &[Measurements],
+    reference: Option<&Robot<f64>>,
+    options: &FullOptions,
+    selection: Selection,
+) -> Result<Vec<HeldOut>, IdentifyError> {
+    if training.is_empty() {
+        return leave_one_out(model, sessions, reference, options, selection);
+    }
+    let parts: Vec<&Measurements> = training.iter().collect();
+    let calibration = calibrate(model, &Measurements::merged(&parts), options, selection)?;
+    Ok(sessions
+        .iter()
+        .map(|s| HeldOut::of(s, &model.robot, reference, &calibration))
+        .collect())
 }
 
 /// Leaves each of `sessions` out in turn, calibrates `model` on the others

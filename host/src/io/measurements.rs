@@ -1268,12 +1268,17 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
 
     /// The place of field `index` of the record at `start`.
     fn place(&self, start: usize, index: usize) -> Place {
-        let e = self.err_at(self.field_offset(start, index), "");
-        (e.line, e.column)
+        self.place_at(self.field_offset(start, index))
     }
 
-    /// The refusal `message` at byte `offset`: its line and character column.
+    /// The refusal `message` at byte `offset` ([`Self::place_at`]).
     fn err_at(&self, offset: usize, message: impl Into<String>) -> InputError {
+        let (line, column) = self.place_at(offset);
+        InputError::new(self.file, line, column, message)
+    }
+
+    /// The line and character column of byte `offset`.
+    fn place_at(&self, offset: usize) -> Place {
         let source = self.source();
         let mut offset = offset.clamp(self.byte, source.end());
         // Not inside a character.
@@ -1288,7 +1293,7 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
             .count()
             + 1;
         let line = self.line + memchr::memchr_iter(b'\n', before).count();
-        InputError::new(self.file, line, column, message)
+        (line, column)
     }
 
     /// The 1-based line of byte `offset`; offsets come in increasing order, so

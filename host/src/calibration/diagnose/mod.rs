@@ -28,11 +28,11 @@
 //!    were scored with). When the search stops on a candidate that gains but
 //!    is not significant, the summary says how many poses would settle it (the
 //!    F statistic grows with the poses); on one that is significant but gains
-//!    too little, it says so (more poses would not raise the gain). When effects were found on a
-//!    geometric model simpler than every parameter, the geometric models are
-//!    scored again with the effects in them, and the model refitted if another
-//!    predicts better: an effect's residual can make a simpler geometry look
-//!    better than it is.
+//!    too little, it says so (more poses would not raise the gain). When
+//!    effects were found on a geometric model simpler than every parameter,
+//!    the geometric models are scored again with the effects in them, and the
+//!    model refitted if another predicts better: an effect's residual can make
+//!    a simpler geometry look better than it is.
 //! 5. **Never worse than nominal**: when the chosen model's held-out error is
 //!    not below the nominal model's, the calibration changes nothing.
 //!
