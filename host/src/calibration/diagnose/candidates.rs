@@ -6,7 +6,7 @@
 //! nominally parallel consecutive axes. Effect parameters start at zero.
 
 use armcal_shared::effects::{Effect, gravity_torques};
-use armcal_shared::{JointType, Param, Robot};
+use armcal_shared::{Convention, JointType, Param, Robot};
 
 use crate::calibration::identify::full::Observation;
 
@@ -153,14 +153,22 @@ pub fn candidates(robot: &Robot<f64>, data: &[Observation]) -> Vec<Candidate> {
         }
     }
     // Nominally parallel consecutive axes: the joint axes at any configuration.
+    // Hayati's tilt about y sits between the two axes: after axis `j`'s link
+    // transform in standard D-H (`A_j · Rot_y(β_j)`), inside the next link's
+    // in modified D-H (`Rot_x(α) Trans_x(a) · Rot_y(β) · Rot_z(θ) Trans_z(s)`
+    // of link `j + 1`, whose `α`, `a` join axis `j` to axis `j + 1`).
     if let Some(chain) = data.first().and_then(|o| robot.chain(&o.q).ok()) {
         for j in 0..robot.dof().saturating_sub(1) {
             if chain.axes[j].w.cross(&chain.axes[j + 1].w).norm() < 1e-6 {
+                let tilted = match robot.convention {
+                    Convention::Dh => j,
+                    Convention::Mdh => j + 1,
+                };
                 out.push(Candidate {
                     name: "parallel_axis_tilt",
                     joints: vec![j, j + 1],
                     effect: None,
-                    extra: vec![Param::Beta(j)],
+                    extra: vec![Param::Beta(tilted)],
                 });
             }
         }

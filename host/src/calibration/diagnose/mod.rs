@@ -50,7 +50,8 @@ pub mod cross_validation;
 pub mod geometry;
 
 use armcal_shared::effects::{Effect, EffectModel};
-use armcal_shared::{JointType, Param, Robot};
+use armcal_shared::units::Units;
+use armcal_shared::{Calibration, JointType, Param, Robot};
 use nalgebra::Vector3;
 
 use crate::calibration::identify::full::{
@@ -271,6 +272,11 @@ pub struct Diagnosis {
     pub tried: Vec<(Candidate, f64)>,
     /// The candidate the search stopped on, if the data did not settle it.
     pub unsettled: Option<Unsettled>,
+    /// The position errors of the calibration written ([`Diagnosis::calibration`],
+    /// evaluated as `armcal predict` evaluates it) at the measured poses it
+    /// was fitted to (blunders set aside), m; `None` for a session without a
+    /// tracker, which measures no position.
+    pub fitted: Option<HeldOut>,
 }
 
 /// Runs the diagnosis (see the module header).
@@ -408,10 +414,13 @@ pub fn diagnose_with_progress(
     let mut extra: Vec<Param> = Vec::new();
     let mut current = geometric_holdout;
     let mut current_fit = geometric.clone();
+    // Candidates whose refit could not identify them: the linearised step
+    // scored them, but the calibration would hold them at zero.
+    let mut unidentified: Vec<Candidate> = Vec::new();
     while best.geometry.is_some() {
         let remaining: Vec<&Candidate> = all
             .iter()
-            .filter(|c| !chosen.iter().any(|f| f.candidate == **c))
+            .filter(|c| !chosen.iter().any(|f| f.candidate == **c) && !unidentified.contains(c))
             .collect();
         if remaining.is_empty() {
             break;
@@ -528,6 +537,12 @@ pub fn diagnose_with_progress(
         let Ok(refit) = fit(start, &e, &x, &clean, &effect_options) else {
             break;
         };
+        // What is reported found is what the calibration holds: a candidate
+        // whose parameters the refit holds fixed is not chosen.
+        if !identifies(&refit, &c) {
+            unidentified.push(c);
+            continue;
+        }
         // Its held-out figures are those of the step from the current fit,
         // which the refit reaches to second order; the next round scores the
         // refit itself.
@@ -578,6 +593,7 @@ pub fn diagnose_with_progress(
                     &clean,
                     &options,
                 )
+                && chosen.iter().all(|f| identifies(&refit, &f.candidate))
             {
                 (geometry, prior_factor) = (g, again.prior_factor);
                 current = again.held;
@@ -602,6 +618,9 @@ pub fn diagnose_with_progress(
         Choice::Calibrated { .. } => (geometric_holdout, current),
     };
     let noise = current_fit.noise.tool_point().shown;
+    let orientation = clean.iter().all(|o| o.orientation.is_some());
+    let written = written_calibration(choice, &current_fit, nominal, orientation, Units::SI);
+    let fitted = fitted_errors(&written, &clean).map(|e| HeldOut::of(&e));
     Ok(Diagnosis {
         choice,
         findings: chosen,
@@ -615,7 +634,74 @@ pub fn diagnose_with_progress(
         suspects,
         tried,
         unsettled,
+        fitted,
     })
+}
+
+/// The calibration of `choice`: the errors `fit` identified (Hayati tilts
+/// included) and its effects; none when the nominal model was chosen. The one
+/// builder of what `diagnose` writes and of the figures it reports of it.
+fn written_calibration(
+    choice: Choice,
+    fit: &FullFit,
+    nominal: &Robot<f64>,
+    orientation: bool,
+    units: Units,
+) -> Calibration {
+    let mut cal = Calibration::nominal(nominal.clone(), orientation, units);
+    if choice == Choice::Nominal {
+        return cal;
+    }
+    for p in fit
+        .params
+        .iter()
+        .filter(|p| matches!(p.status, Status::Identified { .. }) && p.error != 0.0)
+    {
+        let _ = cal.errors.push(armcal_shared::calibration::ParamError {
+            param: p.param,
+            error: p.error,
+        });
+    }
+    for e in &fit.effects {
+        let _ = cal.effects.push(e.effect);
+    }
+    cal
+}
+
+/// The position errors (m) of `cal` at the measured poses of `data`, its
+/// model evaluated as `armcal predict` evaluates it; `None` when no pose has
+/// a measured position.
+fn fitted_errors(cal: &Calibration, data: &[Observation]) -> Option<Vec<f64>> {
+    let model = cal.model();
+    let errors: Vec<f64> = data
+        .iter()
+        .filter(|o| o.contact == Contact::Measured)
+        .map(|o| {
+            model.forward(&o.q, &o.context).map_or(f64::INFINITY, |t| {
+                (o.position.coords - t.translation.vector).norm()
+            })
+        })
+        .collect();
+    (!errors.is_empty()).then_some(errors)
+}
+
+/// Whether `fit` identifies every parameter of `candidate` (its effect's and
+/// its extra tilts), none held fixed.
+fn identifies(fit: &FullFit, candidate: &Candidate) -> bool {
+    let identified = |s: &Status| matches!(s, Status::Identified { .. });
+    let effect = candidate.effect.is_none_or(|c| {
+        fit.effects.iter().any(|e| {
+            e.effect.name() == c.name()
+                && e.effect.joint() == c.joint()
+                && e.status.iter().all(identified)
+        })
+    });
+    let extra = candidate.extra.iter().all(|p| {
+        fit.params
+            .iter()
+            .any(|r| r.param == *p && identified(&r.status))
+    });
+    effect && extra
 }
 
 /// The linearisation of `fit` with the columns of every one of `candidates`:
@@ -757,24 +843,34 @@ impl Diagnosis {
         let line = |i: usize| lines.get(i).copied().unwrap_or(0);
         let (nominal, geometric, extended) = self.holdout;
         let units = &model.units;
+        // The effects' values as the calibration written holds them.
+        let written = self.calibration(&model.robot, false, *units);
         let effects: Vec<serde_json::Value> = self
             .findings
             .iter()
             .map(|f| {
                 let mut parameters = serde_json::Map::new();
-                if let Some(e) = self.fit.effects.iter().find(|e| Some(e.effect.name()) == f.candidate.effect.map(|c| c.name()) && e.effect.joint() == f.candidate.effect.and_then(|c| c.joint())) {
-                    for i in 0..e.effect.parameter_count() {
-                        let v = e.effect.parameter(i).unwrap_or(0.0);
+                let same = |e: &&Effect<f64>| {
+                    f.candidate
+                        .effect
+                        .is_some_and(|c| c.name() == e.name() && c.joint() == e.joint())
+                };
+                if let Some(e) = written.effects.iter().find(same) {
+                    for i in 0..e.parameter_count() {
+                        let v = e.parameter(i).unwrap_or(0.0);
                         parameters.insert(
-                            crate::calibration::identify::full::effect_parameter_name(&e.effect, i),
-                            json!(effect_value(&model.robot, &e.effect, units, v)),
+                            crate::calibration::identify::full::effect_parameter_name(e, i),
+                            json!(effect_value(&model.robot, e, units, v)),
                         );
                     }
                 }
                 for p in &f.candidate.extra {
-                    if let Some(r) = self.fit.params.iter().find(|r| r.param == *p) {
-                        parameters.insert(p.to_string(), json!(units.angle_from_si(r.error)));
-                    }
+                    let error = written
+                        .errors
+                        .iter()
+                        .find(|r| r.param == *p)
+                        .map_or(0.0, |r| r.error);
+                    parameters.insert(p.to_string(), json!(units.angle_from_si(error)));
                 }
                 json!({
                     "name": f.candidate.name,
@@ -834,6 +930,9 @@ impl Diagnosis {
                 "extended_mean_mm": mm(extended.mean), "extended_max_mm": mm(extended.max),
             },
             "effects": effects,
+            "fitted": self.fitted.map(|h| json!({
+                "rms_mm": mm(h.rms), "mean_mm": mm(h.mean), "max_mm": mm(h.max),
+            })),
             "outlier_rows": self.blunders.iter().map(|&i| line(i)).collect::<Vec<_>>(),
             "suspect_rows": self.suspects.iter().map(|b| json!({
                 "row": line(b.pose), "f": b.f, "threshold": b.threshold,
@@ -980,6 +1079,16 @@ impl Diagnosis {
                 mm(h.max)
             );
         }
+        if let Some(h) = self.fitted {
+            let _ = writeln!(
+                out,
+                "  {:<24} {:>8.4} {:>8.4} {:>8.4}  (the calibration written, at the poses it was fitted to: `armcal predict` gives these)",
+                "fitted, in-sample",
+                mm(h.rms),
+                mm(h.mean),
+                mm(h.max)
+            );
+        }
         let mut tried = self.tried.clone();
         tried.sort_by(|a, b| b.1.total_cmp(&a.1));
         if !tried.is_empty() {
@@ -1006,27 +1115,9 @@ impl Diagnosis {
         &self,
         nominal: &Robot<f64>,
         orientation: bool,
-        units: armcal_shared::units::Units,
-    ) -> armcal_shared::Calibration {
-        let mut cal = armcal_shared::Calibration::nominal(nominal.clone(), orientation, units);
-        if self.choice == Choice::Nominal {
-            return cal;
-        }
-        for p in self
-            .fit
-            .params
-            .iter()
-            .filter(|p| matches!(p.status, Status::Identified { .. }) && p.error != 0.0)
-        {
-            let _ = cal.errors.push(armcal_shared::calibration::ParamError {
-                param: p.param,
-                error: p.error,
-            });
-        }
-        for e in &self.fit.effects {
-            let _ = cal.effects.push(e.effect);
-        }
-        cal
+        units: Units,
+    ) -> Calibration {
+        written_calibration(self.choice, &self.fit, nominal, orientation, units)
     }
 }
 
