@@ -14,6 +14,7 @@ mod predict;
 mod refusals;
 mod ur;
 mod urdf;
+mod written;
 
 /// Runs `armcal` with `args` in `dir`.
 pub fn armcal(args: &[&str], dir: &Path) -> Output {

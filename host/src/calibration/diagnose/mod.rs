@@ -76,6 +76,12 @@ pub const ALPHA: f64 = 0.01;
 /// cross-validated besides those that pass it.
 pub const CROSS_VALIDATED: usize = 3;
 
+/// The most the in-sample position RMS may rise when the geometric model is
+/// chosen again with the effects found (a simpler geometry or a stronger
+/// prior fits its own poses a little worse; one whose refit rises further has
+/// left the linearised step its held-out figure came from).
+const REFIT_SLACK: f64 = 1.05;
+
 /// Settings of the diagnosis.
 #[derive(Clone, Copy, Debug)]
 pub struct DiagnoseOptions {
@@ -559,6 +565,10 @@ pub fn diagnose_with_progress(
 
     // The geometry again, with the effects found: an effect's residual may
     // have made a simpler geometry, or a stronger prior, look better than it is.
+    // Its refit is kept only where it stays within the linearisation's reach:
+    // a refit whose in-sample error rises by more than `REFIT_SLACK` has
+    // settled elsewhere than the step scored, and the held-out figure would
+    // not describe it.
     if !chosen.is_empty() {
         let identified = |fit: &FullFit, p: Param| {
             fit.params
@@ -594,6 +604,7 @@ pub fn diagnose_with_progress(
                     &options,
                 )
                 && chosen.iter().all(|f| identifies(&refit, &f.candidate))
+                && refit.position_rms <= REFIT_SLACK * current_fit.position_rms
             {
                 (geometry, prior_factor) = (g, again.prior_factor);
                 current = again.held;
