@@ -28,6 +28,7 @@
 //! | [`calibration::check`] | `armcal check`: what was read, and the error of the nominal model against the data |
 //! | [`calibration::identify`] | `armcal identify`: the paper's iterative regression and the full model, report and calibration |
 //! | [`calibration::diagnose`] | `armcal diagnose`: the model chosen on held-out poses (geometry, prior, effects), never worse than nominal; blunders; held-out gain |
+//! | [`calibration::replicates`] | repeated configurations: distinct poses for every data-sufficiency rule, the instrument noise the repeats show, the lack-of-fit test |
 //! | [`calibration::report`] | the self-contained HTML page of `armcal diagnose --html` (inline SVG) |
 //! | [`calibration::sweep`] | `armcal sweep`: detection and false-positive rates of the diagnosis over many simulated sessions |
 //! | [`calibration::stats`] | Fisher's F distribution and its quantiles, for the diagnosis' tests |
@@ -57,7 +58,8 @@ pub mod io;
 
 pub use apply::{compensate, link, predict};
 pub use calibration::{
-    check, contact_check, demo, diagnose, identify, report, reproduce, simulate, stats, sweep,
+    check, contact_check, demo, diagnose, identify, replicates, report, reproduce, simulate, stats,
+    sweep,
 };
 pub use io::{arrays, builtin, input_error, measurements, model_file, output, ur, urdf};
 

@@ -508,10 +508,10 @@ fn load_session(
 ) -> anyhow::Result<(model_file::RobotModel, measurements::Measurements)> {
     let model = model.load()?;
     let data = measurements::load_measurements(data, &model)?;
-    data.require_poses(check::independent_parameter_count(
+    data.require_poses(
         &model.robot,
-        data.has_orientation(),
-    ))?;
+        check::independent_parameter_count(&model.robot, data.has_orientation()),
+    )?;
     data.require_plausible(&model)?;
     Ok((model, data))
 }

@@ -53,7 +53,10 @@ fn session(
     let data = measurements_of(py, model, data, "data")?;
     let checks = || -> Result<(), input_error::InputError> {
         let d = &data.data;
-        d.require_poses(independent_parameter_count(&m.robot, d.has_orientation()))?;
+        d.require_poses(
+            &m.robot,
+            independent_parameter_count(&m.robot, d.has_orientation()),
+        )?;
         d.require_plausible(m)
     };
     checks().map_err(|e| errors::input(py, &e, data.arrays))?;

@@ -9,6 +9,7 @@ pub mod demo;
 pub mod diagnose;
 pub mod identify;
 pub mod parallel;
+pub mod replicates;
 pub mod report;
 pub mod reproduce;
 pub mod simulate;

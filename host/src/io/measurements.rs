@@ -53,6 +53,7 @@ use armcal_shared::{JointType, Robot};
 use nalgebra::{Point3, Quaternion, UnitQuaternion};
 
 use crate::calibration::identify::noise::Channel;
+use crate::calibration::replicates::Configurations;
 use crate::io::builtin;
 use crate::io::constraints::{
     Constraints, DEFAULT_DISTANCE_STD, Distance, MIN_PLANE_TOUCHES, Named, RESERVED, merge_named,
@@ -277,18 +278,57 @@ impl Measurements {
         self.poses.iter().map(Observation::equations).sum::<usize>() + self.constraints.equations()
     }
 
-    /// Refuses the file if its poses give fewer equations than `unknowns`.
-    ///
-    /// The error is placed at the last data line, column 1, and says how many poses
-    /// and equations there are, how many unknowns, and how many poses are needed.
-    pub fn require_poses(&self, unknowns: usize) -> Result<(), InputError> {
-        // Constraint rows: no base (6 fewer), three coordinates per fixed point.
-        let unknowns = if self.is_constrained() {
+    /// The unknowns of a fit of `unknowns` robot parameters to these rows: a
+    /// constraint session has no base (6 fewer) and three coordinates per
+    /// fixed point or plane.
+    fn unknowns(&self, unknowns: usize) -> usize {
+        if self.is_constrained() {
             (unknowns + 3 * (self.constraints.points.len() + self.constraints.planes.len()))
                 .saturating_sub(6)
         } else {
             unknowns
-        };
+        }
+    }
+
+    /// Refuses the file if its distinct configurations (a configuration measured
+    /// again adds no geometry: [`Configurations`]) give fewer equations than
+    /// `unknowns` of `robot`.
+    ///
+    /// The error is placed at the last data line, column 1, and says how many poses
+    /// and equations there are, how many unknowns, and how many poses are needed.
+    pub fn require_poses(&self, robot: &Robot<f64>, unknowns: usize) -> Result<(), InputError> {
+        let configurations = Configurations::of(robot, &self.poses);
+        if configurations.repeated() {
+            let equations = configurations
+                .rows
+                .iter()
+                .map(|rows| self.poses[rows[0]].equations())
+                .sum::<usize>()
+                + self.constraints.equations();
+            let distinct = configurations.count();
+            let line = self.lines.last().copied().unwrap_or(1);
+            let unknowns = self.unknowns(unknowns);
+            if equations < unknowns && self.equations() >= unknowns {
+                return Err(InputError::new(
+                    &self.file,
+                    line,
+                    1,
+                    format!(
+                        "{} in {} (joints equal within the encoder's resolution: a repeat adds no \
+                         geometry) give {equations} equations, fewer than the {unknowns} unknowns; \
+                         measure more distinct poses",
+                        plural(self.poses.len(), "row"),
+                        plural(distinct, "distinct configuration"),
+                    ),
+                ));
+            }
+        }
+        self.require_equations(unknowns)
+    }
+
+    /// Refuses the file if its rows give fewer equations than `unknowns`.
+    fn require_equations(&self, unknowns: usize) -> Result<(), InputError> {
+        let unknowns = self.unknowns(unknowns);
         let equations = self.equations();
         if equations >= unknowns {
             return Ok(());
@@ -2564,10 +2604,17 @@ mod tests {
 
     #[test]
     fn require_poses_refuses_fewer_equations_than_unknowns() {
-        let text = format!("{HEADER6}\n{ROW6}\n{ROW6}\n# end\n{ROW6}\n");
+        let row = |k: f64| format!("0.1,0.2,0.3,0.4,0.5,{k},1.0,2.0,3.0");
+        let text = format!(
+            "{HEADER6}\n{}\n{}\n# end\n{}\n",
+            row(0.6),
+            row(0.7),
+            row(0.8)
+        );
+        let robot = ur5e().robot;
         let m = parse_measurements(&text, "data.csv", &ur5e()).unwrap();
-        assert!(m.require_poses(9).is_ok());
-        let e = m.require_poses(27).unwrap_err();
+        assert!(m.require_poses(&robot, 9).is_ok());
+        let e = m.require_poses(&robot, 27).unwrap_err();
         assert_eq!(
             (e.file.as_str(), e.line, e.column),
             ("data.csv", 5, 1),
@@ -2583,12 +2630,23 @@ mod tests {
         // With orientation, 6 equations per pose.
         let text = format!("{HEADER6},qw,qx,qy,qz\n{ROW6},1,0,0,0\n");
         let m = parse_measurements(&text, "data.csv", &ur5e()).unwrap();
-        let e = m.require_poses(30).unwrap_err();
+        let e = m.require_poses(&robot, 30).unwrap_err();
         assert!(
             e.message.contains("1 pose gives 6 equations (6 per pose)"),
             "{e}"
         );
         assert!(e.message.contains("at least 5 poses"), "{e}");
+        // One configuration read three times: 3 equations, not 9.
+        let text = format!("{HEADER6}\n{ROW6}\n{ROW6}\n# end\n{ROW6}\n");
+        let m = parse_measurements(&text, "data.csv", &ur5e()).unwrap();
+        assert!(m.require_poses(&robot, 3).is_ok());
+        let e = m.require_poses(&robot, 9).unwrap_err();
+        assert_eq!(e.line, 5, "{e}");
+        assert!(
+            e.message.contains("3 rows in 1 distinct configuration")
+                && e.message.contains("give 3 equations"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -2928,7 +2986,7 @@ mod tests {
                     prop_assert!(e.column >= 1, "{e}");
                 }
                 Ok(m) => {
-                    let _ = m.require_poses(usize::MAX);
+                    let _ = m.require_poses(&model.robot, usize::MAX);
                 }
             }
         }

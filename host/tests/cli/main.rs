@@ -12,6 +12,7 @@ mod link;
 mod outputs;
 mod predict;
 mod refusals;
+mod replicates;
 mod ur;
 mod urdf;
 mod written;

@@ -1,6 +1,6 @@
 //! Blunders: a pose is set aside only when the evidence against it is strong at
-//! the estimated noise, and only when setting it aside improves the held-out
-//! error of the other poses.
+//! a scale that blunders cannot inflate, and only when setting it aside
+//! improves the held-out error of the other poses.
 //!
 //! The test is the deleted residual (Cook & Weisberg, *Residuals and Influence
 //! in Regression*, 1982, §2.2) of each pose: with the weighted Jacobian `J`, the
@@ -10,29 +10,48 @@
 //!
 //! `T_i = r_iᵀ (I − H_ii)⁻¹ r_i`
 //!
-//! is its squared norm in units of the noise. Against the noise estimated
-//! without the pose, `s²₋ᵢ = (Ω − T_i) / (R − k)` (`Ω` the weighted sum of
-//! squares, `R` the redundancy), `F_i = (T_i / k) / s²₋ᵢ` follows `F(k, R − k)`
-//! when the pose is good. With `n` poses tested, a pose is suspect when `F_i`
-//! exceeds the `1 − α/n` quantile (Bonferroni, α = 1 %): on clean data the
-//! chance of suspecting any pose is at most 1 %.
+//! is its squared norm in units of the noise (a pose the fit left out is
+//! predicted: `T_i = r_iᵀ (I + H_ii)⁻¹ r_i`). With `n` poses tested, a pose is
+//! suspect when `F_i = (T_i / k) / s²` exceeds the `1 − α/n` quantile of
+//! `F(k, R − k)` (Bonferroni, α = 1 %): on clean data the chance of
+//! suspecting any pose is at most 1 %.
+//!
+//! The scale `s²` is where blunders hide: the mean square of the residuals
+//! grows with the square of every blunder, so that a few 1–5 mm blunders
+//! among 20 µm tracker readings raise the noise estimate tenfold and pass
+//! each other's test. The screen is therefore iterated (a hard-rejection
+//! M-estimator, Hampel et al., *Robust Statistics*, 1986, §8.3):
+//!
+//! 1. every pose's `T_i` about the fit to all poses, against the robust scale
+//!    [`robust_scale`], the median of `T_i / med(χ²_k)` (breakdown point one
+//!    half): the suspects;
+//! 2. the fit again without the suspects, every pose's `T_i` about it
+//!    against its own variance factor (`s²₋ᵢ = (Ω − T_i) / (R − k)` for a
+//!    pose in the fit, `Ω / R` for one left out): the suspects again, until
+//!    they repeat (at most [`ROUNDS`] rounds, at most a tenth of the poses).
 //!
 //! A suspect is set aside only when the model fitted without it predicts the
-//! other poses significantly better held-out ([`super::cross_validation`],
-//! the paired test of [`crate::calibration::stats::significantly_smaller`] at 5 %) than the
-//! model fitted with it; either way the summary gives both figures.
+//! poses no test flagged significantly better held-out
+//! ([`super::cross_validation`], the paired test of
+//! [`crate::calibration::stats::significantly_smaller`] at 5 %) than the model
+//! fitted with it, the other suspects left out of both: on a small real set a
+//! pose far from the others can be the one that carries the information. Either
+//! way the summary gives both figures.
 
 use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::{Mat, Par, Side};
 use nalgebra::{DMatrix, DVector};
 
 use super::cross_validation::{Folds, Role, Subset, interleaved_folds};
-use crate::calibration::identify::full::{FullFit, Linearization, unit_diagonal_scale};
+use crate::calibration::identify::full::{Linearization, unit_diagonal_scale};
 use crate::calibration::stats::f_quantile;
 use crate::io::measurements::Contact;
 
 /// The family-wise error rate of the test over all poses.
 pub const ALPHA: f64 = 0.01;
+
+/// The most rounds of the screen (fit without the suspects, test again).
+pub const ROUNDS: usize = 5;
 
 /// A pose the test flags.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -63,12 +82,42 @@ pub struct Blunder {
     pub set_aside: bool,
 }
 
-/// The most suspect pose of a fit, if any exceeds its threshold (`lin`: the
-/// linearisation of `fit`'s own unknowns at its solution).
-pub fn most_suspect(fit: &FullFit, lin: &Linearization) -> Option<Suspect> {
+/// The scale the deleted residuals are tested against.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Scale {
+    /// The robust scale of every pose's deleted residual ([`robust_scale`]):
+    /// the first screen, which blunders cannot inflate.
+    Robust,
+    /// The fit's own weighted sum of squares over the poses it was fitted to,
+    /// less the pose's own (`s²₋ᵢ`; a pose left out of the fit is tested
+    /// against `Ω / R`): once the suspects are left out, the efficient scale.
+    Fitted,
+}
+
+/// The deleted residuals of every pose about one fit.
+#[derive(Clone, Debug)]
+pub struct Deleted {
+    /// Each pose's `T_i` (the squared norm of its deleted residual in units of
+    /// the fit's weights) and its rows `k`.
+    pub stats: Vec<(f64, usize)>,
+    /// The weighted sum of squares `Ω` of the rows the fit was fitted to.
+    pub omega: f64,
+}
+
+/// Each pose's deleted residual about the fit `lin` linearises, which was
+/// fitted to the poses not `excluded`. A pose in the fit has
+/// `T_i = r_iᵀ (I − H_ii)⁻¹ r_i`; one left out is predicted, and its residual
+/// has the covariance `I + H_ii`: `T_i = r_iᵀ (I + H_ii)⁻¹ r_i`.
+pub fn deleted_residuals(lin: &Linearization, excluded: &[bool]) -> Option<Deleted> {
     let p = lin.j.ncols();
     let n = lin.poses();
-    let a = lin.j.transpose() * &lin.j;
+    // The rows of the fit: every included pose's, and every known distance's.
+    let fitted: Vec<usize> = (0..lin.first_rows.len())
+        .filter(|&i| i >= n || !excluded[i])
+        .flat_map(|i| lin.rows_of(i))
+        .collect();
+    let jf = Mat::from_fn(fitted.len(), p, |r, c| lin.j[(fitted[r], c)]);
+    let a = jf.transpose() * &jf;
     let scale = unit_diagonal_scale(&a);
     let normal = Mat::from_fn(p, p, |i, j| {
         (a[(i, j)] + if i == j { lin.precision[i] } else { 0.0 }) * scale[i] * scale[j]
@@ -79,65 +128,123 @@ pub fn most_suspect(fit: &FullFit, lin: &Linearization) -> Option<Suspect> {
     let llt = normal.llt(Side::Lower).ok()?;
     let mut b = Mat::from_fn(p, lin.j.nrows(), |c, row| lin.j[(row, c)] * scale[c]);
     solve_lower_triangular_in_place(llt.L(), b.as_mut(), Par::Seq);
-    let omega = lin.r.squared_norm_l2();
-    let redundancy = fit.redundancy;
-    let mut worst: Option<Suspect> = None;
-    let mut thresholds = std::collections::HashMap::new();
-    for i in 0..n {
-        let rows = lin.rows_of(i);
-        let k = rows.len();
-        if redundancy - (k as f64) < 1.0 {
-            return None;
-        }
-        let i_minus_h = DMatrix::from_fn(k, k, |r, s| {
-            let h: f64 = (0..p)
-                .map(|c| b[(c, rows.start + r)] * b[(c, rows.start + s)])
-                .sum();
-            let identity = if r == s { 1.0 } else { 0.0 };
-            identity - h
-        });
-        let ri = DVector::from_fn(k, |r, _| lin.r[(rows.start + r, 0)]);
-        let Some(f) = i_minus_h.cholesky() else {
-            continue;
-        };
-        let t = ri.dot(&f.solve(&ri));
-        let rest = (omega - t).max(f64::MIN_POSITIVE) / (redundancy - k as f64);
-        let stat = (t / k as f64) / rest;
-        // The same for every pose of k rows.
-        let threshold = *thresholds
-            .entry(k)
-            .or_insert_with(|| f_quantile(1.0 - ALPHA / n as f64, k as f64, redundancy - k as f64));
-        if stat > threshold && worst.is_none_or(|w| stat / threshold > w.f / w.threshold) {
-            worst = Some(Suspect {
-                pose: i,
-                f: stat,
-                threshold,
+    let omega = fitted.iter().map(|&row| lin.r[(row, 0)].powi(2)).sum();
+    let stats = (0..n)
+        .map(|i| {
+            let rows = lin.rows_of(i);
+            let k = rows.len();
+            let sign = if excluded[i] { 1.0 } else { -1.0 };
+            let m = DMatrix::from_fn(k, k, |r, s| {
+                let h: f64 = (0..p)
+                    .map(|c| b[(c, rows.start + r)] * b[(c, rows.start + s)])
+                    .sum();
+                let identity = if r == s { 1.0 } else { 0.0 };
+                identity + sign * h
             });
-        }
-    }
-    worst
+            let ri = DVector::from_fn(k, |r, _| lin.r[(rows.start + r, 0)]);
+            let t = m
+                .cholesky()
+                .map_or(f64::INFINITY, |f| ri.dot(&f.solve(&ri)));
+            (t, k)
+        })
+        .collect();
+    Some(Deleted { stats, omega })
 }
 
-/// The held-out errors (m) of every pose but `suspect`, in order (interleaved
-/// folds over them, `k` of them), with the suspect in every training set
-/// ([`Role::Train`]) or in none ([`Role::Out`]).
+/// The median of `χ²_k`: `k` times the median of `F(k, ∞)`.
+fn chi_squared_median(k: usize) -> f64 {
+    k as f64 * f_quantile(0.5, k as f64, 1e9)
+}
+
+/// The robust variance factor of the deleted residuals `stats`: the median
+/// over the poses of `T_i / med(χ²_k)`. A good pose's `T_i / σ²` follows
+/// `χ²_k`, so each term has the median `σ²`; blunders, however large, move
+/// the median of the terms by no more than their share of the poses
+/// (breakdown point one half), where the mean square `Ω / R` grows with the
+/// square of each blunder.
+pub fn robust_scale(stats: &[(f64, usize)]) -> f64 {
+    let mut medians = std::collections::HashMap::new();
+    let mut terms: Vec<f64> = stats
+        .iter()
+        .map(|&(t, k)| t / *medians.entry(k).or_insert_with(|| chi_squared_median(k)))
+        .collect();
+    if terms.is_empty() {
+        return 0.0;
+    }
+    let half = terms.len() / 2;
+    *terms.select_nth_unstable_by(half, f64::total_cmp).1
+}
+
+/// The poses whose deleted residual exceeds the `1 − α/n` quantile of
+/// `F(k, R − k)` at `scale` (`deleted` from [`deleted_residuals`],
+/// `redundancy` the fit's `R`), the most suspect (largest `F` over its
+/// threshold) first.
+pub fn suspects(
+    deleted: &Deleted,
+    excluded: &[bool],
+    scale: Scale,
+    redundancy: f64,
+) -> Vec<Suspect> {
+    let (stats, omega) = (&deleted.stats, deleted.omega);
+    let n = stats.len();
+    let robust = robust_scale(stats);
+    let mut thresholds = std::collections::HashMap::new();
+    let mut out: Vec<Suspect> = stats
+        .iter()
+        .enumerate()
+        .filter_map(|(i, &(t, k))| {
+            let dof = redundancy - k as f64;
+            if dof < 1.0 || !t.is_finite() {
+                return None;
+            }
+            // The variance factor the pose is measured against.
+            let s2 = match scale {
+                Scale::Robust => robust,
+                // The fit's variance factor; less the pose's own share when
+                // it was fitted to.
+                Scale::Fitted if excluded[i] => omega / redundancy,
+                Scale::Fitted => (omega - t).max(0.0) / dof,
+            };
+            let f = (t / k as f64) / s2.max(f64::MIN_POSITIVE);
+            let threshold = *thresholds
+                .entry(k)
+                .or_insert_with(|| f_quantile(1.0 - ALPHA / n as f64, k as f64, dof));
+            (f > threshold).then_some(Suspect {
+                pose: i,
+                f,
+                threshold,
+            })
+        })
+        .collect();
+    out.sort_by(|a, b| (b.f / b.threshold).total_cmp(&(a.f / a.threshold)));
+    out
+}
+
+/// The held-out errors (m) of the poses not `excluded`, in order (interleaved
+/// folds over them, `k` of them), with the `suspect` in every training set
+/// ([`Role::Train`]) or in none ([`Role::Out`]), and the other excluded poses
+/// in none: each suspect judged by the poses no test flagged, so that one
+/// blunder's error does not hide another's.
 pub fn held_out_of_others(
     lin: &Linearization,
     k: usize,
+    excluded: &[bool],
     suspect: usize,
     role: Role,
 ) -> Option<Vec<f64>> {
     let n = lin.poses();
-    let k = k.clamp(2, n.saturating_sub(1).max(2));
     let others: Vec<Contact> = (0..n)
-        .filter(|&i| i != suspect)
+        .filter(|&i| !excluded[i] && i != suspect)
         .map(|i| lin.contacts[i])
         .collect();
+    let k = k.clamp(2, others.len().max(2));
     let mut folds = interleaved_folds(&others, k).into_iter();
     let roles = (0..n)
         .map(|i| {
             if i == suspect {
                 role
+            } else if excluded[i] {
+                Role::Out
             } else {
                 Role::Fold(folds.next().unwrap_or(0))
             }
@@ -152,7 +259,7 @@ pub fn held_out_of_others(
         e.errors
             .into_iter()
             .enumerate()
-            .filter(|(i, _)| *i != suspect)
+            .filter(|(i, _)| !excluded[*i] && *i != suspect)
             .map(|(_, x)| x)
             .collect()
     })

@@ -60,10 +60,12 @@ use crate::calibration::identify::full::{
 };
 use crate::calibration::identify::prior::{Geometry, Prior};
 use crate::calibration::parallel;
+use crate::calibration::replicates::{Configurations, LackOfFit};
 use crate::calibration::stats::{f_quantile, significantly_smaller};
 use crate::io::constraints::{Constraints, MIN_PLANE_TOUCHES};
 use crate::io::measurements::Contact;
 pub use blunders::Blunder;
+use blunders::Scale;
 pub use candidates::{Candidate, candidates, own_columns};
 use cross_validation::{Folds, Role, Subset};
 pub use cross_validation::{HeldOut, cross_validate};
@@ -283,6 +285,8 @@ pub struct Diagnosis {
     /// was fitted to (blunders set aside), m; `None` for a session without a
     /// tracker, which measures no position.
     pub fitted: Option<HeldOut>,
+    /// The session's repeated configurations, when it has some.
+    pub replicates: Option<Replicates>,
 }
 
 /// Runs the diagnosis (see the module header).
@@ -317,7 +321,72 @@ pub fn diagnose_session(
 
 /// [`diagnose_session`], calling `progress(round, candidate, candidates)`
 /// before each effect candidate is scored (for a progress bar on a terminal).
+///
+/// A session that measured some configuration more than once
+/// ([`Configurations`]) is diagnosed on its distinct configurations, each the
+/// mean of its repeats: every fold, test and count sees configurations, not
+/// rows. The blunders and suspects are then reported as rows, the in-sample
+/// figure is the written calibration's on every row kept, and the model's
+/// residuals at the means are tested against the instrument noise the
+/// repeats show ([`LackOfFit`]).
 pub fn diagnose_with_progress(
+    nominal: &Robot<f64>,
+    data: &[Observation],
+    constraints: &Constraints,
+    options: &DiagnoseOptions,
+    progress: &mut dyn FnMut(usize, usize, usize),
+) -> Result<Diagnosis, FullError> {
+    let configurations = Configurations::of(nominal, data);
+    if !configurations.repeated() {
+        return diagnose_distinct(nominal, data, constraints, options, progress);
+    }
+    let means = configurations.means(data);
+    let mut d = diagnose_distinct(nominal, &means, constraints, options, progress)?;
+    let rows = &configurations.rows;
+    d.blunders = d.blunders.iter().flat_map(|&c| rows[c].clone()).collect();
+    d.blunders.sort_unstable();
+    for s in &mut d.suspects {
+        s.pose = rows[s.pose][0];
+    }
+    let kept: Vec<Observation> = (0..data.len())
+        .filter(|i| d.blunders.binary_search(i).is_err())
+        .map(|i| data[i].clone())
+        .collect();
+    let orientation = kept.iter().all(|o| o.orientation.is_some());
+    let written = d.calibration(nominal, orientation, Units::SI);
+    d.fitted = fitted_errors(&written, &kept).map(|e| HeldOut::of(&e));
+    let kept_configurations = Configurations::of(nominal, &kept);
+    let shown = d.fit.noise.position;
+    d.replicates = Some(Replicates {
+        rows: data.len(),
+        configurations: configurations.count(),
+        lack_of_fit: kept_configurations.pure_error(&kept).map(|pure| {
+            LackOfFit::test(
+                pure,
+                shown.shown,
+                shown.redundancy,
+                kept_configurations.mean_inverse_count(&kept),
+                ALPHA,
+            )
+        }),
+    });
+    Ok(d)
+}
+
+/// What the repeated configurations of a session showed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Replicates {
+    /// The session's rows.
+    pub rows: usize,
+    /// Its distinct configurations, what the diagnosis fitted and held out.
+    pub configurations: usize,
+    /// The instrument noise the repeats show and the lack-of-fit test of the
+    /// chosen model against it; `None` when no measured position repeats.
+    pub lack_of_fit: Option<LackOfFit>,
+}
+
+/// [`diagnose_with_progress`] of a session whose configurations are distinct.
+fn diagnose_distinct(
     nominal: &Robot<f64>,
     data: &[Observation],
     constraints: &Constraints,
@@ -338,55 +407,87 @@ pub fn diagnose_with_progress(
         ..options.fit
     };
     // 1–2. The reference fit, and blunders.
-    let mut kept: Vec<usize> = (0..data.len()).collect();
     let subset =
         |kept: &[usize]| -> Vec<Observation> { kept.iter().map(|&i| data[i].clone()).collect() };
     let mut reference = fit(None, &[], &[], data, &reference_options)?;
     // Every later fit starts from the noise the reference shows (an estimated
     // noise then settles in a round or two; a stated one stays as stated).
-    let fit_options = options.fit.at_noise_of(&reference);
     let reference_options = reference_options.at_noise_of(&reference);
-    let mut blunders = Vec::new();
+    // The screen (see `blunders`): the suspects at the robust scale of every
+    // pose, then again about the fit without them, until they repeat.
+    let n = data.len();
+    let most = n / 10;
+    let mut excluded = vec![false; n];
+    let mut screen_fit = reference.clone();
+    let mut screen_lin = linearize(&reference, &[], &[], data, constraints, &prior);
+    let mut flagged = blunders::deleted_residuals(&screen_lin, &excluded)
+        .map(|d| blunders::suspects(&d, &excluded, Scale::Robust, reference.redundancy))
+        .unwrap_or_default();
+    for _ in 0..blunders::ROUNDS {
+        flagged.truncate(most);
+        let mut next = vec![false; n];
+        for s in &flagged {
+            next[s.pose] = true;
+        }
+        if next == excluded {
+            break;
+        }
+        let kept: Vec<usize> = (0..n).filter(|&i| !next[i]).collect();
+        // Leaving them out can leave a fixed point too few rows: keep them then.
+        let Ok(f) = fit(None, &[], &[], &subset(&kept), &reference_options) else {
+            flagged.clear();
+            break;
+        };
+        excluded = next;
+        screen_lin = linearize(&f, &[], &[], data, constraints, &prior);
+        flagged = blunders::deleted_residuals(&screen_lin, &excluded)
+            .map(|d| blunders::suspects(&d, &excluded, Scale::Fitted, f.redundancy))
+            .unwrap_or_default();
+        screen_fit = f;
+    }
+    // Each suspect judged by the poses no test flagged, with it in every
+    // training set and without it, the other suspects left out of both.
     let mut suspects = Vec::new();
-    let most = data.len() / 10;
-    // The reference's linearisation on the poses kept, once per reference.
-    let mut clean = subset(&kept);
-    let mut lin = linearize(&reference, &[], &[], &clean, constraints, &prior);
-    while blunders.len() < most {
-        let Some(s) = blunders::most_suspect(&reference, &lin) else {
-            break;
-        };
-        let without: Vec<usize> = kept
-            .iter()
-            .copied()
-            .filter(|&i| i != kept[s.pose])
-            .collect();
-        // The other poses held-out, with the suspect in every training set and
-        // without it: one step from this fit each.
+    for s in flagged.iter().take(most) {
         let (Some(held_with), Some(held_without)) = (
-            blunders::held_out_of_others(&lin, options.folds, s.pose, Role::Train),
-            blunders::held_out_of_others(&lin, options.folds, s.pose, Role::Out),
+            blunders::held_out_of_others(
+                &screen_lin,
+                options.folds,
+                &excluded,
+                s.pose,
+                Role::Train,
+            ),
+            blunders::held_out_of_others(&screen_lin, options.folds, &excluded, s.pose, Role::Out),
         ) else {
-            break;
+            continue;
         };
-        let b = Blunder {
-            pose: kept[s.pose],
+        suspects.push(Blunder {
+            pose: s.pose,
             f: s.f,
             threshold: s.threshold,
             held_with: HeldOut::of(&held_with).rms,
             held_without: HeldOut::of(&held_without).rms,
             set_aside: significantly_smaller(&held_with, &held_without, geometry::LEVEL),
-        };
-        suspects.push(b);
-        if !b.set_aside {
-            break;
-        }
-        blunders.push(b.pose);
-        kept = without;
-        clean = subset(&kept);
-        reference = fit(None, &[], &[], &clean, &reference_options)?;
-        lin = linearize(&reference, &[], &[], &clean, constraints, &prior);
+        });
     }
+    let blunders: Vec<usize> = suspects
+        .iter()
+        .filter(|b| b.set_aside)
+        .map(|b| b.pose)
+        .collect();
+    let kept: Vec<usize> = (0..n).filter(|i| !blunders.contains(i)).collect();
+    let clean = subset(&kept);
+    let set_aside: Vec<bool> = (0..n).map(|i| blunders.contains(&i)).collect();
+    if blunders.is_empty() {
+        // The reference as fitted to every pose.
+    } else if set_aside == excluded {
+        reference = screen_fit;
+    } else {
+        reference = fit(None, &[], &[], &clean, &reference_options)?;
+    }
+    let lin = linearize(&reference, &[], &[], &clean, constraints, &prior);
+    // The noise the reference shows without its blunders.
+    let fit_options = options.fit.at_noise_of(&reference);
 
     // 3. The geometric model.
     let nominal_errors = nominal_errors(nominal, &clean, options.folds);
@@ -646,6 +747,7 @@ pub fn diagnose_with_progress(
         tried,
         unsettled,
         fitted,
+        replicates: None,
     })
 }
 
@@ -941,6 +1043,19 @@ impl Diagnosis {
                 "extended_mean_mm": mm(extended.mean), "extended_max_mm": mm(extended.max),
             },
             "effects": effects,
+            "replicates": self.replicates.map(|r| json!({
+                "rows": r.rows,
+                "configurations": r.configurations,
+                "pure_error_mm": r.lack_of_fit.map(|l| mm(l.pure.sigma)),
+                "pure_error_dof": r.lack_of_fit.map(|l| l.pure.dof),
+                "repeated_configurations": r.lack_of_fit.map(|l| l.pure.repeated),
+                "residual_at_means_mm": r.lack_of_fit.map(|l| mm(l.shown)),
+                "expected_at_means_mm": r.lack_of_fit.map(|l| mm(l.expected)),
+                "lack_of_fit_f": r.lack_of_fit.map(|l| l.f),
+                "lack_of_fit_threshold": r.lack_of_fit.map(|l| l.threshold),
+                "lack_of_fit_p": r.lack_of_fit.map(|l| l.p),
+                "lack_of_fit": r.lack_of_fit.map(|l| l.significant()),
+            })),
             "fitted": self.fitted.map(|h| json!({
                 "rms_mm": mm(h.rms), "mean_mm": mm(h.mean), "max_mm": mm(h.max),
             })),
@@ -995,6 +1110,38 @@ impl Diagnosis {
                     "{what} noise {used} {unit} per axis (estimated from the residuals)"
                 ),
             };
+        }
+        if let Some(r) = &self.replicates {
+            let _ = writeln!(
+                out,
+                "{} rows in {} distinct configurations (joints equal within the encoder's resolution): every fold, test and count is of configurations, each the mean of its repeats",
+                r.rows, r.configurations
+            );
+            if r.lack_of_fit.is_none() {
+                let _ = writeln!(
+                    out,
+                    "the repeated positions are identical (copies of one reading, not readings of one pose): they show no instrument noise"
+                );
+            }
+            if let Some(l) = &r.lack_of_fit {
+                let _ = writeln!(
+                    out,
+                    "instrument noise from the repeats of {} configurations: {} mm per axis ({} degrees of freedom, model-free); the model's residuals at the means show {} mm where the instrument alone would leave {} mm: F {:.2} {} {:.2} (1%), {}",
+                    l.pure.repeated,
+                    significant(mm(l.pure.sigma)),
+                    l.pure.dof,
+                    significant(mm(l.shown)),
+                    significant(mm(l.expected)),
+                    l.f,
+                    if l.significant() { ">" } else { "<" },
+                    l.threshold,
+                    if l.significant() {
+                        "lack of fit: the model leaves more than the instrument's noise (an effect not modelled, or the robot's own repeatability)"
+                    } else {
+                        "no lack of fit"
+                    }
+                );
+            }
         }
         for b in &self.suspects {
             let _ = writeln!(
