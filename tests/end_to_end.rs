@@ -1240,19 +1240,24 @@ mod blunders {
     use armcal::diagnose::{DiagnoseOptions, diagnose};
     use armcal::model_file::load_model;
     use armcal::simulate::{Scenario, simulate};
+    use armcal_shared::effects::Effect;
     use armcal_shared::units::Units;
     use nalgebra::Vector3;
 
-    /// `n` training poses of a UR5e (±1 mm / ±1 mrad, σ = 20 µm per axis)
-    /// with 2 % of them moved by 1–5 mm in fixed directions, and 100 poses of
-    /// the same robot held out: every blunder is set aside, nothing else, the
-    /// noise is the simulated 20 µm within 10 %, and the calibration written
-    /// predicts the held-out poses near the noise (σ√3 = 34.6 µm, grown by the
+    /// `n` training poses of `robot` (±1 mm / ±1 mrad, σ = 20 µm per axis, the
+    /// `effects` hidden) with 2 % of them moved by 1–5 mm in fixed directions,
+    /// and 100 poses of the same robot held out: every blunder is set aside,
+    /// nothing else, the effects are named, the noise is the simulated 20 µm
+    /// within 10 %, and the calibration written predicts the held-out poses near the noise (σ√3 = 34.6 µm, grown by the
     /// parameters' own uncertainty, √(1 + 30/300) ≈ 1.05, and the sampling
     /// error of an RMS over 100 poses, 3 × 4 %: below 1.2 × 34.6 µm).
-    fn blunders_are_set_aside(n: usize, seed: u64) {
-        let nominal = load_model("ur5e").unwrap().robot;
-        let session = simulate(&nominal, &Scenario::tracker(n + 100, seed)).unwrap();
+    fn blunders_are_set_aside(robot: &str, n: usize, seed: u64, effects: Vec<Effect<f64>>) {
+        let nominal = load_model(robot).unwrap().robot;
+        let scenario = Scenario {
+            effects: effects.clone(),
+            ..Scenario::tracker(n + 100, seed)
+        };
+        let session = simulate(&nominal, &scenario).unwrap();
         let (train, test) = session.observations.split_at(n);
         let mut train = train.to_vec();
         let blunders: Vec<usize> = (0..n / 50).map(|b| 7 + b * 47 % n).collect();
@@ -1265,6 +1270,9 @@ mod blunders {
         let mut found = d.blunders.clone();
         found.sort_unstable();
         assert_eq!(found, blunders, "{n} poses: {:?}", d.suspects);
+        let named: Vec<&str> = d.findings.iter().map(|f| f.candidate.name).collect();
+        let hidden: Vec<&str> = effects.iter().map(|e| e.name()).collect();
+        assert_eq!(named, hidden);
         assert!((d.noise / 20e-6 - 1.0).abs() < 0.1, "noise {}", d.noise);
         let cal = d.calibration(&nominal, false, Units::SI);
         let model = cal.model();
@@ -1286,14 +1294,27 @@ mod blunders {
     /// A 100-pose session with two blunders.
     #[test]
     fn two_blunders_in_100_poses_are_set_aside() {
-        blunders_are_set_aside(100, 1);
+        blunders_are_set_aside("ur5e", 100, 1, Vec::new());
+    }
+
+    /// Six among 300 poses of a UR10e with a hidden compliance of joint 2: the
+    /// compliance's residual fills the other poses' held-out errors before it
+    /// is modelled, and the smallest blunder's harm does not show there; about
+    /// the final model it does.
+    #[test]
+    fn blunders_behind_an_effect_are_set_aside() {
+        let compliance = Effect::JointCompliance {
+            joint: 1,
+            compliance: 2e-6,
+        };
+        blunders_are_set_aside("ur10e", 300, 5, vec![compliance]);
     }
 
     /// A 600-pose session with twelve: each would hide the others at the
     /// mean square of the residuals.
     #[test]
     fn twelve_blunders_in_600_poses_are_set_aside() {
-        blunders_are_set_aside(600, 2);
+        blunders_are_set_aside("ur5e", 600, 2, Vec::new());
     }
 }
 

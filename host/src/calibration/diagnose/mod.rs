@@ -386,7 +386,111 @@ pub struct Replicates {
 }
 
 /// [`diagnose_with_progress`] of a session whose configurations are distinct.
+///
+/// A blunder can hide behind an effect the geometry does not model: the
+/// effect's residual fills the other poses' held-out errors, and setting the
+/// blunder aside then does not show. The poses kept are therefore screened
+/// again about the final model ([`late_blunders`]); those it sets aside are
+/// left out and the whole diagnosis is made again without them, so that every
+/// figure is of one set of poses.
 fn diagnose_distinct(
+    nominal: &Robot<f64>,
+    data: &[Observation],
+    constraints: &Constraints,
+    options: &DiagnoseOptions,
+    progress: &mut dyn FnMut(usize, usize, usize),
+) -> Result<Diagnosis, FullError> {
+    let first = diagnose_once(nominal, data, constraints, options, progress)?;
+    let late = late_blunders(&first, data, constraints, options);
+    if !late.iter().any(|b| b.set_aside) {
+        let mut d = first;
+        d.suspects.extend(late);
+        return Ok(d);
+    }
+    let kept: Vec<usize> = (0..data.len())
+        .filter(|i| !late.iter().any(|b| b.set_aside && b.pose == *i))
+        .collect();
+    let rest: Vec<Observation> = kept.iter().map(|&i| data[i].clone()).collect();
+    let mut d = diagnose_once(nominal, &rest, constraints, options, progress)?;
+    for b in &mut d.blunders {
+        *b = kept[*b];
+    }
+    for s in &mut d.suspects {
+        s.pose = kept[s.pose];
+    }
+    // Each pose once: as the final model judged it, else as the first screen did.
+    let mut suspects = late;
+    for s in first.suspects.iter().chain(&d.suspects) {
+        if !suspects.iter().any(|b| b.pose == s.pose) {
+            suspects.push(*s);
+        }
+    }
+    d.suspects = suspects;
+    d.blunders
+        .extend(d.suspects.iter().filter(|b| b.set_aside).map(|b| b.pose));
+    d.blunders.sort_unstable();
+    d.blunders.dedup();
+    Ok(d)
+}
+
+/// The poses a diagnosis kept, screened again about its final model (its
+/// effects in it): the suspects at the robust scale of the kept poses, each
+/// judged by the others held-out as [`blunders`] judges them. Indices into
+/// `data`; none when the diagnosis kept the nominal model or found no effect
+/// (the first screen was made about that model already).
+fn late_blunders(
+    d: &Diagnosis,
+    data: &[Observation],
+    constraints: &Constraints,
+    options: &DiagnoseOptions,
+) -> Vec<Blunder> {
+    let Choice::Calibrated { prior, .. } = d.choice else {
+        return Vec::new();
+    };
+    if d.findings.is_empty() {
+        return Vec::new();
+    }
+    let kept: Vec<usize> = (0..data.len())
+        .filter(|i| !d.blunders.contains(i))
+        .collect();
+    let clean: Vec<Observation> = kept.iter().map(|&i| data[i].clone()).collect();
+    let lin = linearize(&d.fit, &[], &[], &clean, constraints, &prior);
+    let none = vec![false; clean.len()];
+    let Some(deleted) = blunders::deleted_residuals(&lin, &none) else {
+        return Vec::new();
+    };
+    let mut flagged = blunders::suspects(&deleted, &none, Scale::Robust, d.fit.redundancy);
+    let known: Vec<usize> = d.suspects.iter().map(|b| b.pose).collect();
+    flagged.truncate((data.len() / 10).saturating_sub(d.blunders.len()));
+    let mut excluded = none;
+    for s in &flagged {
+        excluded[s.pose] = true;
+    }
+    flagged
+        .iter()
+        .filter_map(|s| {
+            let with =
+                blunders::held_out_of_others(&lin, options.folds, &excluded, s.pose, Role::Train)?;
+            let without =
+                blunders::held_out_of_others(&lin, options.folds, &excluded, s.pose, Role::Out)?;
+            let pose = kept[s.pose];
+            let set_aside = significantly_smaller(&with, &without, geometry::LEVEL);
+            // A pose the first screen judged and kept is reported again only
+            // when the final model sets it aside.
+            (set_aside || !known.contains(&pose)).then(|| Blunder {
+                pose,
+                f: s.f,
+                threshold: s.threshold,
+                held_with: HeldOut::of(&with).rms,
+                held_without: HeldOut::of(&without).rms,
+                set_aside,
+            })
+        })
+        .collect()
+}
+
+/// One pass of the diagnosis (see the module header).
+fn diagnose_once(
     nominal: &Robot<f64>,
     data: &[Observation],
     constraints: &Constraints,
