@@ -365,9 +365,51 @@ pub fn html(
             mm(h.max)
         );
     }
+    if let Some(h) = d.fitted {
+        let _ = write!(
+            s,
+            "<tr><td>fitted, in-sample: the calibration written, at the poses it was fitted to (what <code>armcal predict</code> gives with it)</td><td>{:.4}</td><td>{:.4}</td><td>{:.4}</td></tr>",
+            mm(h.rms),
+            mm(h.mean),
+            mm(h.max)
+        );
+    }
+    let _ = write!(s, "</table>");
+    let set_aside = d.suspects.iter().filter(|b| b.set_aside).count();
+    if !d.suspects.is_empty() {
+        let _ = write!(
+            s,
+            "<p>Blunders: {} poses flagged at a robust scale, {set_aside} set aside because the other poses are predicted better held-out without them (the data lines: the summary and the JSON's <code>outlier_rows</code>).</p>",
+            d.suspects.len()
+        );
+    }
+    if let Some(r) = &d.replicates {
+        let _ = write!(
+            s,
+            "<p>Repeated configurations: {} rows in {} distinct configurations, fitted and held out as their means.",
+            r.rows, r.configurations
+        );
+        if let Some(l) = &r.lack_of_fit {
+            let _ = write!(
+                s,
+                " The repeats show an instrument noise of {} mm per axis; the model leaves {} mm at the means where the instrument alone would leave {} mm (F = {:.2}, 1 % threshold {:.2}: {}).",
+                significant(mm(l.pure.sigma)),
+                significant(mm(l.shown)),
+                significant(mm(l.expected)),
+                l.f,
+                l.threshold,
+                if l.significant() {
+                    "lack of fit"
+                } else {
+                    "no lack of fit"
+                }
+            );
+        }
+        let _ = write!(s, "</p>");
+    }
     let _ = write!(
         s,
-        "</table><h2>Parameters of the extended calibration</h2><table><tr><th>parameter</th><th>nominal</th><th>error</th><th>std</th><th>status</th></tr>"
+        "<h2>Parameters of the extended calibration</h2><table><tr><th>parameter</th><th>nominal</th><th>error</th><th>std</th><th>status</th></tr>"
     );
     for p in &d.fit.params {
         let conv = |v: f64| {
