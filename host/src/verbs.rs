@@ -350,7 +350,13 @@ pub(crate) fn compensate(
     };
     let result = compensate::compensate(&cal, &rows, pacing);
     let csv = result.to_csv(&cal, &calibration);
-    warn(rows.warnings.iter().chain(&result.warnings(&joints)));
+    let outside = ranges::check(&cal, &rows, ranges::RowNames::FileLines);
+    warn(
+        rows.warnings
+            .iter()
+            .chain(&outside)
+            .chain(&result.warnings(&joints)),
+    );
     finish_csv(outputs, csv)?;
     Ok(())
 }
@@ -367,7 +373,8 @@ pub(crate) fn predict(
     let mut predictions = predict::predict(&cal, &rows)?;
     predictions.calibration_file = Some(calibration);
     let csv = predictions.to_csv(&cal.units);
-    warn(&rows.warnings);
+    let outside = ranges::check(&cal, &rows, ranges::RowNames::FileLines);
+    warn(rows.warnings.iter().chain(&outside));
     finish_csv(outputs, csv)?;
     Ok(())
 }
@@ -438,7 +445,13 @@ pub(crate) fn stream(
         session.status(Request::Halt)?;
     }
     let csv = streamed.to_csv(&cal, &calibration, &name);
-    warn(rows.warnings.iter().chain(&streamed.warnings(&joints)));
+    let outside = ranges::check(&cal, &rows, ranges::RowNames::FileLines);
+    warn(
+        rows.warnings
+            .iter()
+            .chain(&outside)
+            .chain(&streamed.warnings(&joints)),
+    );
     eprintln!("armcal: {}", streamed.summary());
     finish_csv(outputs, csv)?;
     Ok(())

@@ -50,6 +50,7 @@ pub mod cross_validation;
 pub mod geometry;
 
 use armcal_shared::effects::{Effect, EffectModel};
+use armcal_shared::ranges::Ranges;
 use armcal_shared::{JointType, Param, Robot};
 use nalgebra::Vector3;
 
@@ -271,6 +272,9 @@ pub struct Diagnosis {
     pub tried: Vec<(Candidate, f64)>,
     /// The candidate the search stopped on, if the data did not settle it.
     pub unsettled: Option<Unsettled>,
+    /// The joint, temperature and payload ranges of the poses the final fit
+    /// used (blunders set aside), SI: where the calibration was tested.
+    pub ranges: Ranges<f64>,
 }
 
 /// Runs the diagnosis (see the module header).
@@ -615,6 +619,7 @@ pub fn diagnose_with_progress(
         suspects,
         tried,
         unsettled,
+        ranges: crate::io::measurements::ranges(&clean),
     })
 }
 
@@ -1009,6 +1014,7 @@ impl Diagnosis {
         units: armcal_shared::units::Units,
     ) -> armcal_shared::Calibration {
         let mut cal = armcal_shared::Calibration::nominal(nominal.clone(), orientation, units);
+        cal.ranges = Some(self.ranges.clone());
         if self.choice == Choice::Nominal {
             return cal;
         }
