@@ -112,8 +112,13 @@ pub enum TargetFrame {
     Base,
 }
 
-/// A version 2 payload: a [`Calibration`] without [`Calibration::targets`] and
-/// [`Calibration::ranges`].
+/// The fields every version's payload starts with: a version 2 payload, a
+/// [`Calibration`] without [`Calibration::targets`] and [`Calibration::ranges`].
+/// Postcard writes a struct as its fields in order, so a version 3 payload is
+/// these and the targets, a version 4 payload these, the targets and the
+/// ranges: one deserialiser of the common fields, and one of each later field,
+/// read every version (and take a third of the flash three whole-payload
+/// deserialisers would).
 #[derive(Deserialize)]
 struct PayloadV2 {
     nominal: Robot<f64>,
@@ -123,50 +128,31 @@ struct PayloadV2 {
     effects: Vec<Effect<f64>, MAX_EFFECTS>,
 }
 
-/// A version 3 payload: a [`Calibration`] without [`Calibration::ranges`].
-#[derive(Deserialize)]
-struct PayloadV3 {
-    nominal: Robot<f64>,
-    errors: Vec<ParamError, MAX_PARAMS>,
-    orientation: bool,
-    units: Units,
-    effects: Vec<Effect<f64>, MAX_EFFECTS>,
-    targets: TargetFrame,
-}
-
-/// The payload of `version`, decoded, and the bytes after it; files before
-/// version 4 with their ranges unknown.
+/// The payload of `version`, decoded, and the bytes after it; before version
+/// 3 with targets in the world frame, before version 4 with the ranges unknown.
 fn decode_payload(version: u16, payload: &[u8]) -> Result<(Calibration, &[u8]), CalibrationError> {
     let bad = |_| CalibrationError::Payload;
-    Ok(match version {
-        2 => {
-            let (v2, rest) = postcard::take_from_bytes::<PayloadV2>(payload).map_err(bad)?;
-            let cal = Calibration {
-                nominal: v2.nominal,
-                errors: v2.errors,
-                orientation: v2.orientation,
-                units: v2.units,
-                effects: v2.effects,
-                targets: TargetFrame::World,
-                ranges: None,
-            };
-            (cal, rest)
-        }
-        3 => {
-            let (v3, rest) = postcard::take_from_bytes::<PayloadV3>(payload).map_err(bad)?;
-            let cal = Calibration {
-                nominal: v3.nominal,
-                errors: v3.errors,
-                orientation: v3.orientation,
-                units: v3.units,
-                effects: v3.effects,
-                targets: v3.targets,
-                ranges: None,
-            };
-            (cal, rest)
-        }
-        _ => postcard::take_from_bytes::<Calibration>(payload).map_err(bad)?,
-    })
+    let (v2, rest) = postcard::take_from_bytes::<PayloadV2>(payload).map_err(bad)?;
+    let (targets, rest) = if version >= 3 {
+        postcard::take_from_bytes::<TargetFrame>(rest).map_err(bad)?
+    } else {
+        (TargetFrame::World, rest)
+    };
+    let (ranges, rest) = if version >= 4 {
+        postcard::take_from_bytes::<Option<Ranges<f64>>>(rest).map_err(bad)?
+    } else {
+        (None, rest)
+    };
+    let cal = Calibration {
+        nominal: v2.nominal,
+        errors: v2.errors,
+        orientation: v2.orientation,
+        units: v2.units,
+        effects: v2.effects,
+        targets,
+        ranges,
+    };
+    Ok((cal, rest))
 }
 
 /// Why a calibration file was refused, or could not be written.
