@@ -114,6 +114,26 @@ fn read_commands(path: &std::path::Path) -> Vec<Vec<f64>> {
         .collect()
 }
 
+/// Runs `armcal stream` in `dir` with `cal.bin` and `j.csv` against the
+/// controller at `address`, writing `c.csv`, and halts it.
+fn stream_and_halt(dir: &std::path::Path, address: &str) -> std::process::Output {
+    armcal(
+        &[
+            "stream",
+            "--calibration",
+            "cal.bin",
+            "--joints",
+            "j.csv",
+            "--tcp",
+            address,
+            "--out",
+            "c.csv",
+            "--halt",
+        ],
+        dir,
+    )
+}
+
 #[test]
 fn streams_every_row_through_the_controller() {
     let dir = tempfile::tempdir().unwrap();
@@ -123,21 +143,7 @@ fn streams_every_row_through_the_controller() {
     write_joints(&dir.path().join("j.csv"), &rows);
     // The first frame is cut: the session opens on a later Hello.
     let (address, thread) = controller(5);
-    let out = armcal(
-        &[
-            "stream",
-            "--calibration",
-            "cal.bin",
-            "--joints",
-            "j.csv",
-            "--tcp",
-            &address,
-            "--out",
-            "c.csv",
-            "--halt",
-        ],
-        dir.path(),
-    );
+    let out = stream_and_halt(dir.path(), &address);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
     assert!(
@@ -311,21 +317,7 @@ fn the_controller_counts_the_ticks_outside_the_identified_ranges() {
         .map(|m| format!("q{}", m + 1))
         .collect();
     let (address, thread) = controller(0);
-    let out = armcal(
-        &[
-            "stream",
-            "--calibration",
-            "cal.bin",
-            "--joints",
-            "j.csv",
-            "--tcp",
-            &address,
-            "--out",
-            "c.csv",
-            "--halt",
-        ],
-        dir.path(),
-    );
+    let out = stream_and_halt(dir.path(), &address);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
     assert!(
