@@ -70,7 +70,10 @@ fn calibration() -> Result<Calibration, ModelError> {
         // 5 of MAX_EFFECTS: always room.
         let _ = cal.effects.push(effect);
     }
-    let (lo, hi) = (Q0.map(|q| f64::from(q) - 0.5), Q0.map(|q| f64::from(q) + 0.5));
+    let (lo, hi) = (
+        Q0.map(|q| f64::from(q) - 0.5),
+        Q0.map(|q| f64::from(q) + 0.5),
+    );
     cal.ranges = Some(Ranges::of([
         (&lo[..], Some(20.0), Some(0.0)),
         (&hi[..], Some(40.0), Some(5.0)),

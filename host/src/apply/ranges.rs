@@ -213,7 +213,7 @@ fn missing(
     }
     let name = quantity.name();
     let (_, unit) = quantity.in_units(cal, 0.0);
-    let given = rows.columns_used.iter().any(|c| *c == name);
+    let given = rows.columns_used.contains(&name);
     let whom = if given {
         format!(
             "`{name}` empty on {} of {} rows ({}): {} {unit} assumed there",
