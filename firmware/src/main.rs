@@ -180,6 +180,14 @@ fn serve(
                 defmt::warn!("calibration refused: {=str}", reason.message());
             }
             (Ok(Request::Halt), Response::Status(s)) => {
+                let ranges = device.range_report();
+                defmt::info!(
+                    "halt: {=u32} ticks outside the identified ranges (joints {=u16:#b}, temperature {=bool}, payload {=bool})",
+                    ranges.ticks_outside,
+                    ranges.outside.joints,
+                    ranges.outside.temperature,
+                    ranges.outside.load
+                );
                 defmt::info!(
                     "halt: {=u32} ticks, {=u32} faults, {=u32} deadline misses (worst {=u32} cycles of {=u32}), {=u32} frame errors, stack used {=u32} bytes",
                     s.ticks,

@@ -197,6 +197,21 @@ pub fn run(data: &[u8]) -> Summary {
                 );
             }
             (Ok(Request::Command(_)), other) => panic!("a command answered with {other:?}"),
+            (Ok(Request::Ranges), Response::Ranges(r)) => {
+                assert!(
+                    !r.known || device.is_calibrated(),
+                    "ranges without a calibration"
+                );
+                assert!(
+                    r.ticks_outside <= now.ticks,
+                    "more ticks outside than ticks"
+                );
+                assert!(
+                    r.known || r.ticks_outside == 0,
+                    "ticks judged without ranges"
+                );
+            }
+            (Ok(Request::Ranges), other) => panic!("Ranges answered with {other:?}"),
             (_, Response::ChunkReceived { received }) => {
                 assert!(usize::from(*received) <= MAX_FILE_LEN);
             }

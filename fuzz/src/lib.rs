@@ -125,7 +125,8 @@ pub fn models() -> &'static [RobotModel] {
 
 /// A calibration of built-in model `name` with small identified errors of
 /// every kind of parameter, and, if `effects`, one effect of each kind:
-/// what `armcal identify` / `diagnose` would write.
+/// what `armcal identify` / `diagnose` would write, identified on every joint
+/// within 1 rad (or m) of 0, at 20–30 °C and 0–5 kg.
 pub fn calibration_of(name: &str, orientation: bool, effects: bool) -> Calibration {
     use armcal_shared::effects::one_of_each;
     use armcal_shared::{FrameAxis, Param, ParamError};
@@ -147,5 +148,10 @@ pub fn calibration_of(name: &str, orientation: bool, effects: bool) -> Calibrati
             cal.effects.push(e).expect("room");
         }
     }
+    let (lo, hi) = (vec![-1.0; cal.nominal.dof()], vec![1.0; cal.nominal.dof()]);
+    cal.ranges = Some(armcal_shared::ranges::Ranges::of([
+        (&lo[..], Some(20.0), Some(0.0)),
+        (&hi[..], Some(30.0), Some(5.0)),
+    ]));
     cal
 }

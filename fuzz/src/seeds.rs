@@ -4,9 +4,10 @@
 use armcal_shared::Calibration;
 use armcal_shared::calibration::{HEADER_LEN, MAGIC, OLDEST_VERSION, model_hash};
 use armcal_shared::link::{
-    self, Command, Context, Corrected, FrameError, HALT_FRAME, MAX_FRAME, Rejection, Request,
-    Response, StatusReport, TickStatus,
+    self, Command, Context, Corrected, FrameError, HALT_FRAME, MAX_FRAME, RangeReport, Rejection,
+    Request, Response, StatusReport, TickStatus,
 };
+use armcal_shared::ranges::Outside;
 use serde::Serialize;
 
 use crate::calibration_of;
@@ -113,8 +114,10 @@ fn models() -> Vec<Seed> {
     seeds
 }
 
-/// `cal` as a version 2 file (no frame of the targets), as older armcal wrote.
-fn version2(cal: &Calibration) -> Vec<u8> {
+/// `cal` as a file of an older `version`, as older armcal wrote it: version
+/// 2 without the frame of the targets and the ranges, version 3 without the
+/// ranges.
+fn older(cal: &Calibration, version: u16) -> Vec<u8> {
     #[derive(Serialize)]
     struct PayloadV2<'a> {
         nominal: &'a armcal_shared::Robot<f64>,
@@ -123,7 +126,7 @@ fn version2(cal: &Calibration) -> Vec<u8> {
         units: armcal_shared::units::Units,
         effects: &'a [armcal_shared::effects::Effect<f64>],
     }
-    let payload = postcard::to_stdvec(&PayloadV2 {
+    let mut payload = postcard::to_stdvec(&PayloadV2 {
         nominal: &cal.nominal,
         errors: &cal.errors,
         orientation: cal.orientation,
@@ -131,9 +134,12 @@ fn version2(cal: &Calibration) -> Vec<u8> {
         effects: &cal.effects,
     })
     .expect("serialises");
+    if version == 3 {
+        payload.extend(postcard::to_stdvec(&cal.targets).expect("serialises"));
+    }
     let mut file = Vec::with_capacity(HEADER_LEN + payload.len() + 4);
     file.extend_from_slice(&MAGIC);
-    file.extend_from_slice(&OLDEST_VERSION.to_le_bytes());
+    file.extend_from_slice(&version.to_le_bytes());
     file.push(cal.nominal.dof() as u8);
     file.push(0);
     file.extend_from_slice(&model_hash(&cal.nominal).to_le_bytes());
@@ -153,11 +159,17 @@ fn calibrations() -> Vec<Seed> {
         crate::models()[4].units,
     );
     lift.targets = armcal_shared::TargetFrame::Base;
-    let v2 = version2(&talos);
+    let v2 = older(&talos, OLDEST_VERSION);
+    let v3 = older(&lift, 3);
     assert_eq!(
         Calibration::decode(&v2).map(|c| c.effects),
         Ok(talos.effects.clone()),
         "the version 2 seed reads"
+    );
+    assert_eq!(
+        Calibration::decode(&v3).map(|c| (c.targets, c.ranges)),
+        Ok((lift.targets, None)),
+        "the version 3 seed reads, its ranges unknown"
     );
     let seed = |mode: u8, file: Vec<u8>| [vec![mode], file].concat();
     vec![
@@ -165,6 +177,7 @@ fn calibrations() -> Vec<Seed> {
         ("seed-talos-effects-fixup".into(), seed(1, file_of(&talos))),
         ("seed-lift-base-frame".into(), seed(0, file_of(&lift))),
         ("seed-talos-version2-fixup".into(), seed(1, v2)),
+        ("seed-lift-version3".into(), seed(0, v3)),
     ]
 }
 
@@ -203,6 +216,7 @@ fn frames() -> Vec<Seed> {
         ),
         command(2, &Q9, None),
         load_requests(&file_of(&calibration_of("puma560", true, false)))[0].clone(),
+        Request::Ranges,
         Request::Halt,
     ];
     let responses = [
@@ -235,6 +249,15 @@ fn frames() -> Vec<Seed> {
         Response::FrameRejected {
             reason: FrameError::Cobs,
         },
+        Response::Ranges(RangeReport {
+            known: true,
+            ticks_outside: 3,
+            outside: Outside {
+                joints: 0b101,
+                temperature: true,
+                load: false,
+            },
+        }),
     ];
     // A lone 0x00 first, as `armcal stream` opens; a too-long frame; a bad one.
     let mut noisy = vec![0u8];
@@ -295,7 +318,7 @@ fn streams() -> Vec<Seed> {
                     vec![Request::Hello { nonce: 2 }],
                     ticks(&Q6, 0, 4, warm),
                     ticks(&Q6[..5], 9, 1, None),
-                    vec![Request::Halt],
+                    vec![Request::Ranges, Request::Halt],
                 ]
                 .concat(),
             ),
@@ -383,7 +406,7 @@ mod tests {
             .iter()
             .map(|(_, bytes)| crate::link_frames::run(bytes))
             .collect();
-        assert_eq!(decoded, [6, 7, 1]);
+        assert_eq!(decoded, [7, 8, 1]);
         let summaries: Vec<Summary> = seeds("device")
             .iter()
             .map(|(_, bytes)| crate::device::run(bytes))

@@ -16,8 +16,8 @@ use armcal::identify::{self, ParamSet};
 use armcal::input_error::{InputError, MODEL_FILE, read_text};
 use armcal::urdf::{self, ChainSpec};
 use armcal::{
-    builtin, compensate, contact_check, link, measurements, model_file, output, predict, reproduce,
-    simulate,
+    builtin, compensate, contact_check, link, measurements, model_file, output, predict, ranges,
+    reproduce, simulate,
 };
 use armcal_shared::compensation::Pacing;
 use armcal_shared::link::Request;

@@ -333,6 +333,14 @@ pub(crate) fn sweep(
     Ok(())
 }
 
+/// The warnings of a joints file used with `cal`: the reader's, the rows
+/// outside the ranges the calibration was identified on ([`ranges::check`]),
+/// then `rows_reported` (what the computation said of single rows).
+fn warn_rows(cal: &Calibration, rows: &measurements::JointRows, rows_reported: &[String]) {
+    let outside = ranges::check(cal, rows, ranges::RowNames::FileLines);
+    warn(rows.warnings.iter().chain(&outside).chain(rows_reported));
+}
+
 /// `armcal compensate`.
 pub(crate) fn compensate(
     calibration: String,
@@ -350,7 +358,7 @@ pub(crate) fn compensate(
     };
     let result = compensate::compensate(&cal, &rows, pacing);
     let csv = result.to_csv(&cal, &calibration);
-    warn(rows.warnings.iter().chain(&result.warnings(&joints)));
+    warn_rows(&cal, &rows, &result.warnings(&joints));
     finish_csv(outputs, csv)?;
     Ok(())
 }
@@ -367,7 +375,7 @@ pub(crate) fn predict(
     let mut predictions = predict::predict(&cal, &rows)?;
     predictions.calibration_file = Some(calibration);
     let csv = predictions.to_csv(&cal.units);
-    warn(&rows.warnings);
+    warn_rows(&cal, &rows, &[]);
     finish_csv(outputs, csv)?;
     Ok(())
 }
@@ -438,7 +446,7 @@ pub(crate) fn stream(
         session.status(Request::Halt)?;
     }
     let csv = streamed.to_csv(&cal, &calibration, &name);
-    warn(rows.warnings.iter().chain(&streamed.warnings(&joints)));
+    warn_rows(&cal, &rows, &streamed.warnings(&joints));
     eprintln!("armcal: {}", streamed.summary());
     finish_csv(outputs, csv)?;
     Ok(())

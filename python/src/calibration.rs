@@ -5,6 +5,7 @@ use std::ffi::CString;
 
 use armcal::arrays::{self, Conditions};
 use armcal::measurements::JointRows;
+use armcal::ranges::{self, RowNames};
 use armcal::{compensate as comp, input_error, predict as pred};
 use armcal_shared::compensation::Pacing;
 use armcal_shared::{Calibration as Cal, TargetFrame};
@@ -60,6 +61,15 @@ fn joint_rows(
     Ok((rows, q.single))
 }
 
+/// Each of `messages` as a Python `UserWarning`.
+fn warn_all(py: Python<'_>, messages: impl IntoIterator<Item = String>) -> PyResult<()> {
+    for message in messages {
+        let message = CString::new(message).map_err(errors::failure)?;
+        PyErr::warn(py, &py.get_type::<PyUserWarning>(), &message, 1)?;
+    }
+    Ok(())
+}
+
 #[pymethods]
 impl Calibration {
     /// Reads and checks the calibration file at `path`.
@@ -101,6 +111,9 @@ impl Calibration {
     /// (`(N, M)`, or one row `(M,)`, model units, rows in motion order), with
     /// optional `temp` (°C) and `load` (kg) per row: `(N, 3)` `x, y, z`, or
     /// `(N, 7)` with `qw, qx, qy, qz` when the calibration has orientation.
+    /// Rows outside the ranges the calibration was identified on (a joint, the
+    /// temperature or the payload), and a `temp` or `load` its effects need but
+    /// not given, are named in a `UserWarning` each.
     #[pyo3(signature = (q, temp = None, load = None))]
     fn predict<'py>(
         &self,
@@ -110,6 +123,7 @@ impl Calibration {
         load: Option<ArrayLike<'py>>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let (rows, single) = joint_rows(py, &self.cal, &q, temp, load)?;
+        warn_all(py, ranges::check(&self.cal, &rows, RowNames::ArrayRows))?;
         let predictions =
             pred::predict(&self.cal, &rows).map_err(|e| errors::input(py, &e, true))?;
         let out: Vec<Vec<f64>> = predictions
@@ -125,7 +139,8 @@ impl Calibration {
     /// calibrated robot reach the pose the nominal model intended; same
     /// shape. `servo`: the rows are consecutive servo ticks, as on the
     /// controller. A row whose correction was bounded or did not converge is
-    /// named in a `UserWarning`.
+    /// named in a `UserWarning`, and so are rows outside the identified ranges
+    /// (as for `predict`).
     #[pyo3(signature = (q, temp = None, load = None, servo = false))]
     fn compensate<'py>(
         &self,
@@ -142,7 +157,9 @@ impl Calibration {
             Pacing::Program
         };
         let cal = &self.cal;
+        warn_all(py, ranges::check(cal, &rows, RowNames::ArrayRows))?;
         let result = py.detach(|| comp::compensate(cal, &rows, pacing));
+        let mut messages = Vec::new();
         for warning in result.warnings(arrays::JOINTS) {
             // `joints:LINE: what`, the row named as numpy indexes it.
             let row = warning
@@ -150,13 +167,12 @@ impl Calibration {
                 .and_then(|w| w.strip_prefix(':'))
                 .and_then(|w| w.split_once(": "))
                 .and_then(|(line, what)| Some((line.parse::<usize>().ok()?.checked_sub(1)?, what)));
-            let message = match row {
+            messages.push(match row {
                 Some((row, what)) => format!("{} row {row}: {what}", arrays::JOINTS),
                 None => warning,
-            };
-            let message = CString::new(message).map_err(errors::failure)?;
-            PyErr::warn(py, &py.get_type::<PyUserWarning>(), &message, 1)?;
+            });
         }
+        warn_all(py, messages)?;
         let out: Vec<Vec<f64>> = result
             .rows
             .iter()

@@ -164,12 +164,37 @@ def test_compensated_commands_take_the_calibrated_robot_to_the_nominal_pose(puma
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # no row may be bounded or unconverged
         corrected = cal.compensate(q)
-    reached = cal.predict(corrected)
+    with warnings.catch_warnings():
+        # The corrected commands of poses at the edge of the session's joint
+        # ranges lie beyond them by the correction (milliradians): warned,
+        # and expected here.
+        warnings.simplefilter("ignore")
+        reached = cal.predict(corrected)
     intended = puma.forward(q)
     tolerance = 10 * COMPENSATION_TOLERANCE_M / METRES_PER_UNIT[puma.length_unit]
     assert np.max(np.linalg.norm(reached - intended, axis=1)) < tolerance
     # The corrections are real: the uncorrected commands miss by the calibration's errors.
     assert np.max(np.linalg.norm(cal.predict(q) - intended, axis=1)) > 1000 * tolerance
+
+
+def test_rows_outside_the_identified_ranges_warn_once_each(puma_fit, puma_session):
+    """The calibration was identified on the session's joint ranges at 20–30 °C:
+    a row with q2 0.5 rad beyond its largest value and a row at 140 °C are
+    predicted all the same, and named in one UserWarning each, with the worst
+    excess in the model's units (rad) and the row as numpy counts it."""
+    data, _ = puma_session
+    cal = puma_fit.calibration
+    q = np.array(data.q[:3])
+    q[1, 1] = np.max(data.q[:, 1]) + 0.5
+    with pytest.warns(UserWarning) as caught:
+        predicted = cal.predict(q, temp=[25.0, 25.0, 140.0])
+    assert predicted.shape == (3, 3)
+    messages = [str(w.message) for w in caught]
+    assert len(messages) == 2, messages
+    assert messages[0].startswith("joints: q2 outside the range the calibration was identified on")
+    assert "on 1 of 3 rows, at worst 0.5 rad beyond (row 1)" in messages[0]
+    assert messages[1].startswith("joints: temp outside")
+    assert "(20 to 30 °C) on 1 of 3 rows, at worst 110 °C beyond (row 2)" in messages[1]
 
 
 def test_a_calibration_written_to_a_file_reads_back_with_equal_bytes(puma_fit, tmp_path):

@@ -14,12 +14,15 @@
 //! 20       4    payload length n
 //! 24       n    payload: postcard bytes of the Calibration (nominal model, identified
 //!               errors, whether orientation was calibrated, the model file's units,
-//!               the effects, and from version 3 the frame of the targets)
+//!               the effects, from version 3 the frame of the targets, from
+//!               version 4 the ranges it was identified on)
 //! 24+n     4    CRC-32/ISO-HDLC of bytes 0 .. 24+n
 //! ```
 //!
 //! Version 2 files (without the frame of the targets) are read as targets in the
-//! world frame, what they meant.
+//! world frame, what they meant. Version 2 and 3 files (without the ranges) are
+//! read with the ranges unknown ([`Calibration::ranges`] `None`): nothing can be
+//! said of where they extrapolate.
 //!
 //! Lengths and angles are SI (m, rad) in `f64`; the controller converts to `f32`
 //! after validation. A file is accepted only whole: right magic, a version this
@@ -34,6 +37,7 @@ use heapless::Vec;
 use serde::{Deserialize, Serialize};
 
 use crate::effects::{Effect, EffectModel, MAX_EFFECTS};
+use crate::ranges::Ranges;
 use crate::units::Units;
 use crate::{MAX_JOINTS, Param, Robot};
 
@@ -41,7 +45,7 @@ use crate::{MAX_JOINTS, Param, Robot};
 pub const MAGIC: [u8; 8] = *b"\x89ARMCAL\n";
 
 /// The format version this build writes and the newest it reads.
-pub const FORMAT_VERSION: u16 = 3;
+pub const FORMAT_VERSION: u16 = 4;
 
 /// The oldest format version this build reads.
 pub const OLDEST_VERSION: u16 = 2;
@@ -89,6 +93,10 @@ pub struct Calibration {
     pub effects: Vec<Effect<f64>, MAX_EFFECTS>,
     /// The frame the targets of the compensation are given in.
     pub targets: TargetFrame,
+    /// The joint, temperature and payload ranges of the session it was
+    /// identified on, SI; `None` when unknown (a file before version 4, or a
+    /// calibration not identified from data).
+    pub ranges: Option<Ranges<f64>>,
 }
 
 /// The frame the targets (the nominal model's poses) of the compensation are
@@ -104,7 +112,13 @@ pub enum TargetFrame {
     Base,
 }
 
-/// A version 2 payload: a [`Calibration`] without [`Calibration::targets`].
+/// The fields every version's payload starts with: a version 2 payload, a
+/// [`Calibration`] without [`Calibration::targets`] and [`Calibration::ranges`].
+/// Postcard writes a struct as its fields in order, so a version 3 payload is
+/// these and the targets, a version 4 payload these, the targets and the
+/// ranges: one deserialiser of the common fields, and one of each later field,
+/// read every version (and take a third of the flash three whole-payload
+/// deserialisers would).
 #[derive(Deserialize)]
 struct PayloadV2 {
     nominal: Robot<f64>,
@@ -112,6 +126,33 @@ struct PayloadV2 {
     orientation: bool,
     units: Units,
     effects: Vec<Effect<f64>, MAX_EFFECTS>,
+}
+
+/// The payload of `version`, decoded, and the bytes after it; before version
+/// 3 with targets in the world frame, before version 4 with the ranges unknown.
+fn decode_payload(version: u16, payload: &[u8]) -> Result<(Calibration, &[u8]), CalibrationError> {
+    let bad = |_| CalibrationError::Payload;
+    let (v2, rest) = postcard::take_from_bytes::<PayloadV2>(payload).map_err(bad)?;
+    let (targets, rest) = if version >= 3 {
+        postcard::take_from_bytes::<TargetFrame>(rest).map_err(bad)?
+    } else {
+        (TargetFrame::World, rest)
+    };
+    let (ranges, rest) = if version >= 4 {
+        postcard::take_from_bytes::<Option<Ranges<f64>>>(rest).map_err(bad)?
+    } else {
+        (None, rest)
+    };
+    let cal = Calibration {
+        nominal: v2.nominal,
+        errors: v2.errors,
+        orientation: v2.orientation,
+        units: v2.units,
+        effects: v2.effects,
+        targets,
+        ranges,
+    };
+    Ok((cal, rest))
 }
 
 /// Why a calibration file was refused, or could not be written.
@@ -176,6 +217,9 @@ pub enum CalibrationError {
     },
     /// An effect acts on a joint the model does not have.
     EffectJoint,
+    /// The identified ranges are not one finite interval per joint with
+    /// `min ≤ max` (and finite temperature and payload intervals).
+    Ranges,
     /// The same parameter is identified twice.
     DuplicateParam {
         /// The parameter.
@@ -235,6 +279,9 @@ impl fmt::Display for CalibrationError {
             Self::EffectJoint => {
                 f.write_str("calibration has an effect on a joint its model does not have")
             }
+            Self::Ranges => {
+                f.write_str("calibration's identified ranges are not one finite interval per joint")
+            }
             Self::BufferTooSmall => write!(
                 f,
                 "output buffer too small (at most {MAX_FILE_LEN} bytes needed)"
@@ -292,6 +339,7 @@ impl Calibration {
             units,
             effects: Vec::new(),
             targets: TargetFrame::World,
+            ranges: None,
         }
     }
 
@@ -426,22 +474,7 @@ impl Calibration {
             return Err(CalibrationError::Crc { stored, computed });
         }
         let payload = &bytes[HEADER_LEN..body_end];
-        let (cal, rest) = if version == OLDEST_VERSION {
-            let (v2, rest) = postcard::take_from_bytes::<PayloadV2>(payload)
-                .map_err(|_| CalibrationError::Payload)?;
-            let cal = Calibration {
-                nominal: v2.nominal,
-                errors: v2.errors,
-                orientation: v2.orientation,
-                units: v2.units,
-                effects: v2.effects,
-                targets: TargetFrame::World,
-            };
-            (cal, rest)
-        } else {
-            postcard::take_from_bytes::<Calibration>(payload)
-                .map_err(|_| CalibrationError::Payload)?
-        };
+        let (cal, rest) = decode_payload(version, payload)?;
         if !rest.is_empty() {
             return Err(CalibrationError::Payload);
         }
@@ -466,7 +499,8 @@ impl Calibration {
         Ok(cal)
     }
 
-    /// Finite values everywhere, and every identified parameter exists once.
+    /// Finite values everywhere, every identified parameter exists once, and
+    /// the ranges (when known) have one interval per joint.
     fn validate(&self) -> Result<(), CalibrationError> {
         let model = &self.nominal;
         let finite3 = |v: &nalgebra::Vector3<f64>| v.iter().all(|x| x.is_finite());
@@ -494,6 +528,13 @@ impl Calibration {
             if e.joint().is_some_and(|j| j >= model.dof()) {
                 return Err(CalibrationError::EffectJoint);
             }
+        }
+        if self
+            .ranges
+            .as_ref()
+            .is_some_and(|r| !r.is_valid(model.dof()))
+        {
+            return Err(CalibrationError::Ranges);
         }
         for (i, e) in self.errors.iter().enumerate() {
             if !e.error.is_finite() {

@@ -14,6 +14,7 @@
 //! | [`compensation`] | the corrected joint commands that make the calibrated robot reach the nominal model's pose, Kirchner et al. section 4 (eq. 4.9) |
 //! | [`effects`] | non-geometric effects (joint compliance, gear transmission, backlash, thermal expansion, encoder scale) and the model that carries them |
 //! | [`calibration`] | the calibration file the calibrator writes and the controller loads: magic, version, model hash, CRC, postcard payload |
+//! | [`ranges`] | the joint, temperature and payload ranges a calibration was identified on, and which values of a pose lie outside them |
 //! | [`link`] | the serial link to the controller: wire messages (postcard + COBS), and the controller's side of the protocol |
 //! | [`units`] | the model file's length and angle units, and their conversion to SI |
 //! | [`param`] | the names of the geometric parameters (`theta3`, `alpha1`, `base.rx`, `tool.z`, ...) |
@@ -47,6 +48,7 @@ pub mod model;
 pub mod param;
 pub mod perturbation;
 pub mod pose_error;
+pub mod ranges;
 pub mod scalar;
 pub mod servo_chain;
 pub mod units;

@@ -30,6 +30,7 @@
 //! | [`Request::Command`] `{ seq, q, context }` | [`Response::Corrected`] `{ seq, status, q, iterations, residual }` | one servo tick: the nominal joint commands, the corrected ones |
 //! | [`Request::Status`] | [`Response::Status`] ([`StatusReport`]) | the calibration in force, tick, fault and deadline counters, the last refusal, the stack used |
 //! | [`Request::Halt`] | [`Response::Status`] | the final report; then the controller stops serving (under QEMU it ends the emulation) |
+//! | [`Request::Ranges`] | [`Response::Ranges`] ([`RangeReport`]) | the ticks since the calibration was loaded with a joint, the temperature or the payload outside the ranges it was identified on |
 //! | a malformed frame | [`Response::FrameRejected`] `{ reason }` | |
 //!
 //! # Units
@@ -50,9 +51,21 @@
 //! once ([`Compensator::<f32>::from_calibration`]), corrects the commands as
 //! one servo [`Stream`] (the per-tick change bound, the approach directions,
 //! the warm start), and counts ticks, faults, sequence
-//! gaps and deadline misses. With no calibration in force a command passes
+//! gaps and deadline misses. After each correction it compares the tick's
+//! commands and context with the ranges the calibration was identified on
+//! ([`crate::ranges`]) and counts the ticks outside them ([`RangeReport`]); it
+//! corrects them all the same. With no calibration in force a command passes
 //! through unchanged with [`TickStatus::Uncalibrated`]. Its per-command cost is
 //! bounded by [`Limits::max_iterations`] and it never allocates.
+//!
+//! # Compatibility
+//!
+//! Messages are postcard, which is not self-describing: a message's fields
+//! cannot change without both ends changing. New requests and responses are
+//! added as new enum variants at the end, which both ends' older builds
+//! decode as before: a controller that does not know a request answers
+//! [`Response::FrameRejected`] ([`FrameError::Message`]), and the host reads
+//! that as "not reported by this controller".
 
 use heapless::Vec;
 use serde::de::DeserializeOwned;
@@ -61,6 +74,7 @@ use serde::{Deserialize, Serialize};
 use crate::calibration::{MAX_FILE_LEN, model_hash};
 use crate::compensation::{Compensator, Conditions, Fault, Limits, Pacing, Stream};
 use crate::effects::Effect;
+use crate::ranges::{Outside, Ranges};
 use crate::{Calibration, CalibrationError, MAX_JOINTS};
 
 /// The most calibration bytes one [`Request::CalibrationChunk`] carries.
@@ -141,6 +155,8 @@ pub enum Request {
         /// Chosen by the host, new for each try.
         nonce: u32,
     },
+    /// Ask for a [`RangeReport`].
+    Ranges,
 }
 
 /// What a correction is: the status of one tick.
@@ -233,6 +249,8 @@ pub enum Rejection {
     EffectTooLarge,
     /// Any other reason.
     Other,
+    /// [`CalibrationError::Ranges`].
+    Ranges,
 }
 
 impl From<&CalibrationError> for Rejection {
@@ -251,6 +269,7 @@ impl From<&CalibrationError> for Rejection {
             CalibrationError::UnknownParam { .. } => Self::UnknownParam,
             CalibrationError::DuplicateParam { .. } => Self::DuplicateParam,
             CalibrationError::EffectJoint => Self::UnknownParam,
+            CalibrationError::Ranges => Self::Ranges,
             CalibrationError::BufferTooSmall => Self::Other,
         }
     }
@@ -280,6 +299,7 @@ impl Rejection {
                 "an effect parameter beyond what a real arm shows: check the diagnosis"
             }
             Self::Other => "refused",
+            Self::Ranges => "the identified ranges are not one finite interval per joint",
         }
     }
 }
@@ -344,6 +364,22 @@ pub struct StatusReport {
     pub stack_used: u32,
 }
 
+/// The ticks outside the ranges the calibration in force was identified on
+/// ([`crate::ranges`]), counted since it was loaded. They are corrected all
+/// the same: the count says where the correction extrapolates.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct RangeReport {
+    /// True if the calibration in force records its ranges; false with none in
+    /// force, or one written before the ranges were recorded (format version 3
+    /// and older), whose ticks are not judged.
+    pub known: bool,
+    /// Ticks with a joint, or the temperature or payload of their context,
+    /// outside the ranges.
+    pub ticks_outside: u32,
+    /// Which of them were outside, over those ticks.
+    pub outside: Outside,
+}
+
 /// Controller → host.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub enum Response {
@@ -382,6 +418,8 @@ pub enum Response {
         /// The counters.
         status: StatusReport,
     },
+    /// The answer to [`Request::Ranges`].
+    Ranges(RangeReport),
 }
 
 /// Why a message could not be encoded.
@@ -538,6 +576,9 @@ pub struct Device {
     file: Vec<u8, MAX_FILE_LEN>,
     file_total: usize,
     status: StatusReport,
+    /// The ranges of the calibration in force, when it records them.
+    ranges: Option<Ranges<f32>>,
+    range_report: RangeReport,
 }
 
 impl Device {
@@ -563,6 +604,16 @@ impl Device {
                 loads: 0,
                 last_rejection: None,
                 stack_used: 0,
+            },
+            ranges: None,
+            range_report: RangeReport {
+                known: false,
+                ticks_outside: 0,
+                outside: Outside {
+                    joints: 0,
+                    temperature: false,
+                    load: false,
+                },
             },
         }
     }
@@ -601,7 +652,14 @@ impl Device {
                 nonce: *nonce,
                 status: self.status(platform),
             },
+            Request::Ranges => Response::Ranges(self.range_report),
         }
+    }
+
+    /// The ticks outside the identified ranges since the calibration in force
+    /// was loaded.
+    pub fn range_report(&self) -> RangeReport {
+        self.range_report
     }
 
     /// The response to a frame that [`decode`] or [`FrameBuffer::push`] refused.
@@ -653,6 +711,11 @@ impl Device {
                 let joints = compensator.dof() as u8;
                 let model_hash = model_hash(&cal.nominal);
                 self.compensator = Some(compensator);
+                self.ranges = cal.ranges.as_ref().map(Ranges::cast);
+                self.range_report = RangeReport {
+                    known: self.ranges.is_some(),
+                    ..RangeReport::default()
+                };
                 self.stream.reset();
                 self.last_seq = None;
                 self.file.clear();
@@ -697,6 +760,15 @@ impl Device {
         };
         let c = self.stream.tick(compensator, &command.q, &conditions);
         platform.after_correct();
+        // Outside the benchmarked correction: a few comparisons per joint.
+        if let Some(ranges) = &self.ranges {
+            let outside = ranges.outside(&command.q, context.temperature, context.payload);
+            if outside.any() {
+                let r = &mut self.range_report;
+                r.ticks_outside = r.ticks_outside.wrapping_add(1);
+                r.outside = r.outside.union(outside);
+            }
+        }
         let status = TickStatus::from(c.fault);
         if !matches!(status, TickStatus::Corrected) {
             s.faults = s.faults.wrapping_add(1);
@@ -839,6 +911,97 @@ mod tests {
         round_trip(&Response::FrameRejected {
             reason: FrameError::Cobs,
         });
+        round_trip(&Request::Ranges);
+        round_trip(&Response::Ranges(RangeReport {
+            known: true,
+            ticks_outside: u32::MAX,
+            outside: Outside {
+                joints: u16::MAX,
+                temperature: true,
+                load: true,
+            },
+        }));
+        round_trip(&Response::CalibrationRejected {
+            reason: Rejection::Ranges,
+        });
+    }
+
+    /// The messages before [`Request::Ranges`] keep their bytes: an older
+    /// controller or host reads them as before, and answers the new request
+    /// it does not know as a frame that is not a request.
+    #[test]
+    fn new_messages_leave_the_old_ones_unchanged() {
+        let mut buf = [0u8; MAX_FRAME];
+        let bytes = |m: &Request, buf: &mut [u8; MAX_FRAME]| encode(m, buf).unwrap().to_vec();
+        // The variant indices of postcard: Status 2, Halt 3, Hello 4, Ranges 5.
+        assert_eq!(bytes(&Request::Status, &mut buf), [0x02, 0x02, 0x00]);
+        assert_eq!(bytes(&Request::Halt, &mut buf), HALT_FRAME);
+        assert_eq!(bytes(&Request::Ranges, &mut buf), [0x02, 0x05, 0x00]);
+    }
+
+    /// A calibration identified on joints within 0.2 rad of `Q` and at 20–30 °C
+    /// counts the ticks beyond those ranges, naming which, and corrects them
+    /// all the same; a new calibration starts the count again, and one
+    /// without recorded ranges (format version 3) judges nothing.
+    #[test]
+    fn counts_ticks_outside_the_identified_ranges() {
+        let mut cal = calibration();
+        let lo: StdVec<f64> = Q.iter().map(|&q| f64::from(q) - 0.2).collect();
+        let hi: StdVec<f64> = Q.iter().map(|&q| f64::from(q) + 0.2).collect();
+        cal.ranges = Some(Ranges::of([
+            (&lo[..], Some(20.0), None),
+            (&hi[..], Some(30.0), None),
+        ]));
+        let mut device = Device::new(1000);
+        assert!(!device.range_report().known);
+        load(&mut device, &bytes(&cal), CHUNK_LEN);
+        let report = |device: &mut Device| match device.handle(&Request::Ranges, &mut ()) {
+            Response::Ranges(r) => r,
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(
+            report(&mut device),
+            RangeReport {
+                known: true,
+                ..RangeReport::default()
+            }
+        );
+        // Inside (21.5 °C, `command`'s context), then joint 3 at 0.5 rad beyond
+        // its range, then at 140 °C.
+        let mut beyond = Q;
+        beyond[2] += 0.7;
+        let mut seq = 0;
+        for q in [Q, beyond, Q] {
+            let c = tick(&mut device, seq, &q);
+            assert_ne!(c.status, TickStatus::Uncalibrated);
+            assert!(c.q.iter().zip(&q).any(|(a, b)| a != b), "it corrects");
+            seq += 1;
+        }
+        let mut hot = command(seq, &Q);
+        hot.context = Some(Context {
+            temperature: Some(140.0),
+            payload: Some(4000.0),
+        });
+        assert!(matches!(
+            device.handle(&Request::Command(hot), &mut ()),
+            Response::Corrected(_)
+        ));
+        let r = report(&mut device);
+        assert_eq!(r.ticks_outside, 2, "{r:?}");
+        assert_eq!(
+            r.outside,
+            Outside {
+                joints: 1 << 2,
+                temperature: true,
+                // The session had no payload: a tick's payload is not judged.
+                load: false
+            }
+        );
+        // A calibration without ranges: nothing judged, the count starts again.
+        cal.ranges = None;
+        load(&mut device, &bytes(&cal), CHUNK_LEN);
+        tick(&mut device, 0, &beyond);
+        assert_eq!(report(&mut device), RangeReport::default());
     }
 
     /// Malformed frames are refused with their reason, never decoded as something else.

@@ -5,13 +5,15 @@ use armcal_shared::calibration::{
     FORMAT_VERSION, HEADER_LEN, MAGIC, MAX_FILE_LEN, MAX_PARAMS, OLDEST_VERSION, TargetFrame,
     model_hash,
 };
-use armcal_shared::effects::Effect;
+use armcal_shared::effects::{Effect, MAX_EFFECTS};
+use armcal_shared::ranges::{Interval, Ranges};
 use armcal_shared::units::{AngleUnit, LengthUnit, Units};
 use armcal_shared::{
     Calibration, CalibrationError, Convention, Frame, FrameAxis, JointType, Link, LinkMass,
     MAX_JOINTS, Param, ParamError, Robot,
 };
 use nalgebra::Vector3;
+use serde::Serialize;
 
 /// A 6R arm with limits and masses and a handful of identified errors.
 fn sample() -> Calibration {
@@ -54,7 +56,37 @@ fn sample() -> Calibration {
     ] {
         cal.errors.push(ParamError { param, error }).unwrap();
     }
+    // Identified on joints within ±1.5 rad, at 21–29 °C and 0–5 kg.
+    let poses = [
+        ([-1.5; 6], Some(21.0), Some(0.0)),
+        ([1.5; 6], Some(29.0), Some(5.0)),
+    ];
+    cal.ranges = Some(Ranges::of(poses.iter().map(|(q, t, l)| (&q[..], *t, *l))));
     cal
+}
+
+/// The payload of a version 3 file: a calibration without its ranges.
+#[derive(Serialize)]
+struct PayloadV3<'a> {
+    nominal: &'a Robot<f64>,
+    errors: &'a [ParamError],
+    orientation: bool,
+    units: Units,
+    effects: &'a [Effect<f64>],
+    targets: TargetFrame,
+}
+
+/// A whole file of `version` around `payload`, as an older armcal wrote it.
+fn file_of(version: u16, cal: &Calibration, payload: &[u8]) -> Vec<u8> {
+    let mut bytes = MAGIC.to_vec();
+    bytes.extend_from_slice(&version.to_le_bytes());
+    bytes.extend_from_slice(&[cal.nominal.dof() as u8, 0]);
+    bytes.extend_from_slice(&model_hash(&cal.nominal).to_le_bytes());
+    bytes.extend_from_slice(&(payload.len() as u32).to_le_bytes());
+    bytes.extend_from_slice(payload);
+    bytes.extend_from_slice(&[0; 4]);
+    reseal(&mut bytes);
+    bytes
 }
 
 /// The file's bytes, through the `no_std` writer the firmware side links too.
@@ -89,11 +121,26 @@ fn round_trip_is_exact() {
     );
 }
 
+/// The largest calibration: the most joints, every parameter identified with
+/// values that need all eight bytes, the most effects (the largest, gear
+/// harmonics), every range recorded.
 #[test]
 fn the_largest_calibration_fits_the_loader_buffer() {
     let mut cal = sample();
     let link = cal.nominal.links[0];
     cal.nominal = Robot::new(Convention::Mdh, &[link; MAX_JOINTS]).unwrap();
+    let wide = [-1.234_567_890_123; MAX_JOINTS];
+    cal.ranges = Some(Ranges::of([(&wide[..], Some(21.1), Some(0.3))]));
+    for joint in 0..MAX_EFFECTS {
+        let a = 1.234_567_890_123e-4;
+        cal.effects
+            .push(Effect::GearTransmission {
+                joint: joint % MAX_JOINTS,
+                first: [a, -a],
+                second: [-a, a],
+            })
+            .unwrap();
+    }
     cal.nominal.gravity = Some(Vector3::new(0.0, 0.0, -9.81));
     cal.errors.clear();
     let tilts = (0..MAX_JOINTS).map(Param::Beta);
@@ -111,6 +158,10 @@ fn the_largest_calibration_fits_the_loader_buffer() {
     let bytes = bytes_of(&cal).unwrap();
     assert!(bytes.len() <= MAX_FILE_LEN, "{} bytes", bytes.len());
     assert_eq!(Calibration::decode(&bytes).unwrap(), cal);
+    println!(
+        "the largest calibration: {} bytes of {MAX_FILE_LEN}",
+        bytes.len()
+    );
 }
 
 /// CRC-32 detects every error burst of up to 32 bits, so every single-byte change
@@ -164,17 +215,14 @@ fn the_frame_of_the_targets_and_version_2_files() {
     assert_eq!(compensated.len(), cal.errors.len() - 1);
     assert!(!compensated.contains(&Param::Base(FrameAxis::Rz)));
 
-    // Version 2: the payload without its last byte (the enum's index), the
-    // version and length in the header, the CRC resealed.
-    let world = bytes_of(&sample()).unwrap();
-    let payload = u32::from_le_bytes(world[20..24].try_into().unwrap()) as usize;
-    assert_eq!(world[HEADER_LEN + payload - 1], 0, "World is the last byte");
-    let mut v2 = world[..HEADER_LEN + payload - 1].to_vec();
-    v2[8..10].copy_from_slice(&OLDEST_VERSION.to_le_bytes());
-    v2[20..24].copy_from_slice(&((payload - 1) as u32).to_le_bytes());
-    v2.extend_from_slice(&[0; 4]);
-    reseal(&mut v2);
-    assert_eq!(Calibration::decode(&v2).unwrap(), sample());
+    // Version 2: the version 3 payload without its last byte (the frame's
+    // enum index), as an older armcal wrote it.
+    let v3 = v3_payload(&sample());
+    assert_eq!(v3.last(), Some(&0), "World is the last byte");
+    let v2 = file_of(OLDEST_VERSION, &sample(), &v3[..v3.len() - 1]);
+    let mut want = sample();
+    want.ranges = None;
+    assert_eq!(Calibration::decode(&v2).unwrap(), want);
 
     let mut older = v2.clone();
     older[8..10].copy_from_slice(&(OLDEST_VERSION - 1).to_le_bytes());
@@ -185,6 +233,67 @@ fn the_frame_of_the_targets_and_version_2_files() {
             found: OLDEST_VERSION - 1
         })
     );
+}
+
+/// The postcard payload of `cal` as version 3 wrote it.
+fn v3_payload(cal: &Calibration) -> Vec<u8> {
+    let mut buf = vec![0u8; MAX_FILE_LEN];
+    let payload = PayloadV3 {
+        nominal: &cal.nominal,
+        errors: &cal.errors,
+        orientation: cal.orientation,
+        units: cal.units,
+        effects: &cal.effects,
+        targets: cal.targets,
+    };
+    postcard::to_slice(&payload, &mut buf).unwrap().to_vec()
+}
+
+/// The ranges are written and read back; a version 3 file (written before
+/// calibrations recorded them) reads whole, with its ranges unknown.
+#[test]
+fn the_ranges_and_version_3_files() {
+    let mut cal = sample();
+    let read = Calibration::decode(&bytes_of(&cal).unwrap()).unwrap();
+    let ranges = read.ranges.as_ref().unwrap();
+    assert_eq!(ranges.joints.len(), 6);
+    assert_eq!(
+        ranges.joints[2],
+        Interval {
+            min: -1.5,
+            max: 1.5
+        }
+    );
+    assert_eq!(
+        ranges.temperature,
+        Some(Interval {
+            min: 21.0,
+            max: 29.0
+        })
+    );
+    assert_eq!(ranges.load, Some(Interval { min: 0.0, max: 5.0 }));
+    cal.targets = TargetFrame::Base;
+    cal.effects
+        .push(Effect::ThermalExpansion {
+            coefficient: 2.3e-5,
+            reference: 25.0,
+        })
+        .unwrap();
+    let v3 = file_of(3, &cal, &v3_payload(&cal));
+    let old = Calibration::decode(&v3).unwrap();
+    assert_eq!(old.ranges, None);
+    cal.ranges = None;
+    assert_eq!(old, cal);
+    // Not one interval per joint, or not finite: neither written nor read.
+    let mut bad = sample();
+    bad.ranges.as_mut().unwrap().joints.pop();
+    assert_eq!(bytes_of(&bad), Err(CalibrationError::Ranges));
+    let mut bad = sample();
+    bad.ranges.as_mut().unwrap().load = Some(Interval {
+        min: 5.0,
+        max: f64::NAN,
+    });
+    assert_eq!(bytes_of(&bad), Err(CalibrationError::Ranges));
 }
 
 #[test]

@@ -15,7 +15,9 @@
 //!    0, with the row's `temp` and `load` as the context; the answer of each is
 //!    awaited (lock-step) for at most [`RESPONSE_TIMEOUT`];
 //! 4. `Status`, for the counters (faults, deadline misses, worst tick, stack),
-//!    and with `--halt` a final `Halt`.
+//!    then `Ranges`, for the ticks outside the ranges the calibration was
+//!    identified on (a controller that predates it refuses the frame: not
+//!    reported), and with `--halt` a final `Halt`.
 //!
 //! Units: rows are read in the calibration's model units and converted to SI;
 //! the wire carries SI `f32` (rad, m); the corrected commands are written back
@@ -27,8 +29,8 @@ use std::time::{Duration, Instant};
 
 use armcal_shared::Calibration;
 use armcal_shared::link::{
-    self, CHUNK_LEN, Command, Context, Corrected, FrameBuffer, MAX_FRAME, Rejection, Request,
-    Response, StatusReport, TickStatus,
+    self, CHUNK_LEN, Command, Context, Corrected, FrameBuffer, MAX_FRAME, RangeReport, Rejection,
+    Request, Response, StatusReport, TickStatus,
 };
 
 use crate::io::measurements::JointRows;
@@ -282,6 +284,20 @@ impl Session {
         }
     }
 
+    /// The ticks outside the identified ranges since the calibration was
+    /// loaded; `None` from a controller that does not count them (it refuses
+    /// the request as a frame it does not know).
+    pub fn ranges(&mut self) -> Result<Option<RangeReport>, StreamError> {
+        match self.request(&Request::Ranges, "Ranges")? {
+            Response::Ranges(r) => Ok(Some(r)),
+            Response::FrameRejected { .. } => Ok(None),
+            other => Err(StreamError::Unexpected {
+                what: "Ranges",
+                got: format!("{other:?}"),
+            }),
+        }
+    }
+
     /// One tick: the row's commands (SI) and context; the controller's answer.
     pub fn command(
         &mut self,
@@ -311,6 +327,8 @@ pub struct Streamed {
     pub rows: Vec<(usize, Corrected)>,
     /// The counters after the last row.
     pub status: StatusReport,
+    /// The ticks outside the identified ranges, if the controller counts them.
+    pub ranges: Option<RangeReport>,
 }
 
 /// Streams every row of `commands` (read against `cal`) through `session`.
@@ -324,7 +342,12 @@ pub fn stream_rows(session: &mut Session, commands: &JointRows) -> Result<Stream
         rows.push((row.line, session.command(seq as u32, &row.q, context)?));
     }
     let status = session.status(Request::Status)?;
-    Ok(Streamed { rows, status })
+    let ranges = session.ranges()?;
+    Ok(Streamed {
+        rows,
+        status,
+        ranges,
+    })
 }
 
 impl Streamed {
@@ -365,7 +388,41 @@ impl Streamed {
             .collect()
     }
 
-    /// The summary for standard error: rows, faults, deadline misses, stack.
+    /// What the controller says of the ranges: the ticks outside and which
+    /// values were, or why it says nothing.
+    fn ranges_summary(&self) -> String {
+        match self.ranges {
+            None => "ticks outside the identified ranges not reported (the controller predates the count)".into(),
+            Some(RangeReport { known: false, .. }) => {
+                "ticks outside the identified ranges not judged (the calibration does not record them)".into()
+            }
+            Some(RangeReport {
+                ticks_outside,
+                outside,
+                ..
+            }) => {
+                let mut which: Vec<String> = (0..16)
+                    .filter(|&m| outside.joint(m))
+                    .map(|m| format!("q{}", m + 1))
+                    .collect();
+                if outside.temperature {
+                    which.push("temp".into());
+                }
+                if outside.load {
+                    which.push("load".into());
+                }
+                let which = if which.is_empty() {
+                    String::new()
+                } else {
+                    format!(" ({})", which.join(", "))
+                };
+                format!("{ticks_outside} ticks outside the identified ranges{which}")
+            }
+        }
+    }
+
+    /// The summary for standard error: rows, faults, deadline misses, stack,
+    /// the ticks outside the identified ranges.
     pub fn summary(&self) -> String {
         let s = &self.status;
         let corrected = self
@@ -374,7 +431,7 @@ impl Streamed {
             .filter(|(_, c)| c.status.is_corrected())
             .count();
         format!(
-            "{} commands, {} corrected to tolerance; controller: {} ticks, {} faults, {} sequence gaps, {} deadline misses (worst tick {} cycles of {}), {} frame errors, stack used {} bytes",
+            "{} commands, {} corrected to tolerance; controller: {} ticks, {} faults, {} sequence gaps, {} deadline misses (worst tick {} cycles of {}), {} frame errors, stack used {} bytes, {}",
             self.rows.len(),
             corrected,
             s.ticks,
@@ -384,7 +441,8 @@ impl Streamed {
             s.worst_tick_cycles,
             s.tick_period_cycles,
             s.frame_errors,
-            s.stack_used
+            s.stack_used,
+            self.ranges_summary()
         )
     }
 }

@@ -48,6 +48,7 @@
 //! with the text.
 
 use armcal_shared::effects::{Approach, Context};
+use armcal_shared::ranges::Ranges;
 use armcal_shared::units::Units;
 use armcal_shared::{JointType, Robot};
 use nalgebra::{Point3, Quaternion, UnitQuaternion};
@@ -92,6 +93,16 @@ pub struct Observation {
     /// (a row of a constraint file, `position` not measured and 0) an unknown
     /// fixed point or plane.
     pub contact: Contact,
+}
+
+/// The ranges of `poses` (SI: each joint, the temperature and the payload
+/// where the rows give them), recorded in a calibration identified from them.
+pub fn ranges<'a>(poses: impl IntoIterator<Item = &'a Observation>) -> Ranges<f64> {
+    Ranges::of(
+        poses
+            .into_iter()
+            .map(|o| (&o.q[..], o.context.temperature, o.context.payload)),
+    )
 }
 
 /// What a pose's tool point is held to.

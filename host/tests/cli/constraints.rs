@@ -322,7 +322,13 @@ fn check_shows_the_spread_and_diagnose_reads_a_constraint_session() {
     // per axis, `identify`'s estimate: 0.13 mm in 3-D).
     assert!(held("nominal_rms_mm") > 0.5, "{report}");
     assert!(held("extended_rms_mm") < 0.2, "{report}");
-    assert!(dir.path().join("d.cal").exists());
+    // A session without a tracker has joints too: the calibration records
+    // the range each of the seven swept.
+    let bytes = std::fs::read(dir.path().join("d.cal")).unwrap();
+    let cal = armcal_shared::Calibration::decode(&bytes).unwrap();
+    let ranges = cal.ranges.expect("diagnose records the ranges");
+    assert_eq!(ranges.joints.len(), 7);
+    assert!(ranges.joints.iter().all(|r| r.min < r.max), "{ranges:?}");
 }
 
 /// The calibration of a session without a tracker, exported as a URDF (the

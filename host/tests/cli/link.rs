@@ -114,6 +114,26 @@ fn read_commands(path: &std::path::Path) -> Vec<Vec<f64>> {
         .collect()
 }
 
+/// Runs `armcal stream` in `dir` with `cal.bin` and `j.csv` against the
+/// controller at `address`, writing `c.csv`, and halts it.
+fn stream_and_halt(dir: &std::path::Path, address: &str) -> std::process::Output {
+    armcal(
+        &[
+            "stream",
+            "--calibration",
+            "cal.bin",
+            "--joints",
+            "j.csv",
+            "--tcp",
+            address,
+            "--out",
+            "c.csv",
+            "--halt",
+        ],
+        dir,
+    )
+}
+
 #[test]
 fn streams_every_row_through_the_controller() {
     let dir = tempfile::tempdir().unwrap();
@@ -123,21 +143,7 @@ fn streams_every_row_through_the_controller() {
     write_joints(&dir.path().join("j.csv"), &rows);
     // The first frame is cut: the session opens on a later Hello.
     let (address, thread) = controller(5);
-    let out = armcal(
-        &[
-            "stream",
-            "--calibration",
-            "cal.bin",
-            "--joints",
-            "j.csv",
-            "--tcp",
-            &address,
-            "--out",
-            "c.csv",
-            "--halt",
-        ],
-        dir.path(),
-    );
+    let out = stream_and_halt(dir.path(), &address);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
     assert!(
@@ -275,4 +281,61 @@ fn no_controller_is_an_error_not_a_hang() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{stderr}");
     assert!(stderr.contains("cannot connect to"), "{stderr}");
+}
+
+/// A calibration identified on the first 20 ticks of the motion (and at
+/// 25 °C) streams 40: the controller corrects every one and counts those with
+/// a joint beyond the first 20's ranges, as `Ranges::outside` says in f32;
+/// `armcal stream` prints that count with the joints in its summary, warns
+/// of the same rows from the file, and exits 0.
+#[test]
+fn the_controller_counts_the_ticks_outside_the_identified_ranges() {
+    use armcal_shared::ranges::Ranges;
+    let dir = tempfile::tempdir().unwrap();
+    let rows = trajectory(40);
+    let mut cal = calibration();
+    let ranges = Ranges::of(rows[..20].iter().map(|q| (&q[..], Some(25.0), None)));
+    cal.ranges = Some(ranges.clone());
+    std::fs::write(dir.path().join("cal.bin"), cal.to_bytes().unwrap()).unwrap();
+    write_joints(&dir.path().join("j.csv"), &rows);
+    // What the controller sees: f32 commands against f32 ranges.
+    let narrow = ranges.cast::<f32>();
+    let verdicts: Vec<_> = rows
+        .iter()
+        .map(|q| {
+            let q: Vec<f32> = q.iter().map(|&v| v as f32).collect();
+            narrow.outside(&q, Some(25.0), None)
+        })
+        .collect();
+    let outside = verdicts.iter().filter(|o| o.any()).count();
+    assert!(
+        outside >= 5,
+        "the motion leaves the first 20 ticks' ranges: {outside}"
+    );
+    let joints: Vec<String> = (0..6)
+        .filter(|&m| verdicts.iter().any(|o| o.joint(m)))
+        .map(|m| format!("q{}", m + 1))
+        .collect();
+    let (address, thread) = controller(0);
+    let out = stream_and_halt(dir.path(), &address);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains(&format!(
+            "{outside} ticks outside the identified ranges ({})",
+            joints.join(", ")
+        )),
+        "{stderr}"
+    );
+    for q in &joints {
+        assert!(
+            stderr.contains(&format!(
+                "j.csv: {q} outside the range the calibration was identified on"
+            )),
+            "{q}: {stderr}"
+        );
+    }
+    assert_eq!(read_commands(&dir.path().join("c.csv")).len(), 40);
+    let status = thread.join().unwrap();
+    assert_eq!((status.ticks, status.faults), (40, 0));
 }

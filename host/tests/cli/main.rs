@@ -11,6 +11,7 @@ mod demo;
 mod link;
 mod outputs;
 mod predict;
+mod ranges;
 mod refusals;
 mod replicates;
 mod ur;

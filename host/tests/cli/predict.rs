@@ -5,11 +5,20 @@
 
 use crate::{armcal, assert_success};
 use armcal::model_file::{RobotModel, load_model, parse_model};
+use armcal_shared::ranges::Ranges;
 use armcal_shared::{Calibration, Param, ParamError};
 
-/// `model`'s nominal calibration with the given errors (SI).
+/// `model`'s nominal calibration with the given errors (SI), as if identified
+/// on every joint within a turn either way (m for a prismatic joint), at
+/// 15–40 °C and 0–5 kg: the rows of these tests lie inside.
 fn calibration(model: &RobotModel, orientation: bool, errors: &[(&str, f64)]) -> Calibration {
     let mut cal = Calibration::nominal(model.robot.clone(), orientation, model.units);
+    let turn = vec![std::f64::consts::TAU; model.dof()];
+    let back: Vec<f64> = turn.iter().map(|x| -x).collect();
+    cal.ranges = Some(Ranges::of([
+        (&back[..], Some(15.0), Some(0.0)),
+        (&turn[..], Some(40.0), Some(5.0)),
+    ]));
     for (name, error) in errors {
         let param: Param = name.parse().unwrap();
         cal.errors
@@ -341,6 +350,14 @@ fn ur10e_commands(extra: impl Fn(usize) -> String) -> (Vec<Vec<f64>>, String) {
 /// Runs `armcal compensate` with `cal` on the joints file `text`; checks that it
 /// succeeds and reports no row; returns the corrected rows.
 fn compensate_rows(cal: &Calibration, text: &str) -> Vec<Vec<f64>> {
+    let (rows, stderr) = compensate_warning(cal, text);
+    assert!(stderr.is_empty(), "no row reported: {stderr}");
+    rows
+}
+
+/// Runs `armcal compensate` with `cal` on the joints file `text`; checks that it
+/// succeeds; returns the corrected rows and its standard error.
+fn compensate_warning(cal: &Calibration, text: &str) -> (Vec<Vec<f64>>, String) {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("cal.bin"), cal.to_bytes().unwrap()).unwrap();
     std::fs::write(dir.path().join("cmd.csv"), text).unwrap();
@@ -357,15 +374,10 @@ fn compensate_rows(cal: &Calibration, text: &str) -> Vec<Vec<f64>> {
         dir.path(),
     );
     assert_success(&out);
-    assert!(
-        out.stderr.is_empty(),
-        "no row reported: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let (header, rows) =
         read_predictions(&std::fs::read_to_string(dir.path().join("c.csv")).unwrap());
     assert_eq!(header, "q1,q2,q3,q4,q5,q6");
-    rows
+    (rows, String::from_utf8_lossy(&out.stderr).into_owned())
 }
 
 /// `armcal compensate`: the calibrated robot at each corrected command reaches
@@ -411,7 +423,8 @@ fn compensate_makes_the_calibrated_robot_reach_the_nominal_pose() {
 /// reaches the nominal pose. Tolerance: 1 nm of the geometric step plus at most
 /// 1e-9 rad per joint left by the inversion at the UR10e's 1.6 m reach, 11 nm
 /// (see `shared/tests/compensation.rs`); the printed values read back exactly.
-/// Without the columns (20 °C, no payload) the commands differ.
+/// Without the columns (the reference temperature, no payload) the commands
+/// differ, and the warning names both columns with the value assumed.
 #[test]
 fn compensate_applies_the_effects_in_each_rows_context() {
     use armcal_shared::effects::{Approach, Context, one_of_each};
@@ -438,7 +451,18 @@ fn compensate_applies_the_effects_in_each_rows_context() {
         assert!(dp < 1.1e-8, "{dp:e} m at row {r}");
     }
     let (_, plain) = ur10e_commands(|_| String::new());
-    let without = compensate_rows(&cal, &format!("q1,q2,q3,q4,q5,q6\n{plain}"));
+    let (without, stderr) = compensate_warning(&cal, &format!("q1,q2,q3,q4,q5,q6\n{plain}"));
+    let (_, reference) = cal
+        .effects
+        .iter()
+        .find_map(|e| e.thermal_expansion())
+        .unwrap();
+    for needle in [
+        format!("cmd.csv: no `temp` column: {reference} °C assumed for every row, the calibration's thermal expansion needs it (identified at 15 to 40 °C)"),
+        "cmd.csv: no `load` column: 0 kg assumed for every row, the calibration's joint compliance needs it (identified at 0 to 5 kg)".into(),
+    ] {
+        assert!(stderr.contains(&needle), "{needle} not in {stderr}");
+    }
     let differ = rows
         .iter()
         .flatten()

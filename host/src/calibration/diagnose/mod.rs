@@ -50,6 +50,7 @@ pub mod cross_validation;
 pub mod geometry;
 
 use armcal_shared::effects::{Effect, EffectModel};
+use armcal_shared::ranges::Ranges;
 use armcal_shared::units::Units;
 use armcal_shared::{Calibration, JointType, Param, Robot};
 use nalgebra::Vector3;
@@ -287,6 +288,9 @@ pub struct Diagnosis {
     pub fitted: Option<HeldOut>,
     /// The session's repeated configurations, when it has some.
     pub replicates: Option<Replicates>,
+    /// The joint, temperature and payload ranges of the poses the final fit
+    /// used (blunders set aside), SI: where the calibration was tested.
+    pub ranges: Ranges<f64>,
 }
 
 /// Runs the diagnosis (see the module header).
@@ -353,6 +357,7 @@ pub fn diagnose_with_progress(
         .map(|i| data[i].clone())
         .collect();
     let orientation = kept.iter().all(|o| o.orientation.is_some());
+    d.ranges = crate::io::measurements::ranges(&kept);
     let written = d.calibration(nominal, orientation, Units::SI);
     d.fitted = fitted_errors(&written, &kept).map(|e| HeldOut::of(&e));
     let kept_configurations = Configurations::of(nominal, &kept);
@@ -835,7 +840,15 @@ fn diagnose_once(
     };
     let noise = current_fit.noise.tool_point().shown;
     let orientation = clean.iter().all(|o| o.orientation.is_some());
-    let written = written_calibration(choice, &current_fit, nominal, orientation, Units::SI);
+    let ranges = crate::io::measurements::ranges(&clean);
+    let written = written_calibration(
+        choice,
+        &current_fit,
+        nominal,
+        orientation,
+        Units::SI,
+        &ranges,
+    );
     let fitted = fitted_errors(&written, &clean).map(|e| HeldOut::of(&e));
     Ok(Diagnosis {
         choice,
@@ -852,6 +865,7 @@ fn diagnose_once(
         unsettled,
         fitted,
         replicates: None,
+        ranges,
     })
 }
 
@@ -864,8 +878,10 @@ fn written_calibration(
     nominal: &Robot<f64>,
     orientation: bool,
     units: Units,
+    ranges: &Ranges<f64>,
 ) -> Calibration {
     let mut cal = Calibration::nominal(nominal.clone(), orientation, units);
+    cal.ranges = Some(ranges.clone());
     if choice == Choice::Nominal {
         return cal;
     }
@@ -1379,7 +1395,14 @@ impl Diagnosis {
         orientation: bool,
         units: Units,
     ) -> Calibration {
-        written_calibration(self.choice, &self.fit, nominal, orientation, units)
+        written_calibration(
+            self.choice,
+            &self.fit,
+            nominal,
+            orientation,
+            units,
+            &self.ranges,
+        )
     }
 }
 

@@ -285,6 +285,7 @@ pub fn identify(
         None => full::residual_rms(&calibrated, observations(data)),
     };
     let mut calibration = Calibration::nominal(nominal.clone(), orientation, model.units);
+    calibration.ranges = Some(crate::io::measurements::ranges(&data.poses));
     for row in parameters
         .iter()
         .filter(|r| r.fixed.is_none() && r.error != 0.0)
