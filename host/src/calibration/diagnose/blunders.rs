@@ -19,16 +19,16 @@
 //! The scale `s²` is where blunders hide: the mean square of the residuals
 //! grows with the square of every blunder, so that a few 1–5 mm blunders
 //! among 20 µm tracker readings raise the noise estimate tenfold and pass
-//! each other's test. The screen is therefore iterated (a hard-rejection
-//! M-estimator, Hampel et al., *Robust Statistics*, 1986, §8.3):
+//! each other's test. The screen is therefore a hard-rejection M-estimator
+//! started at a robust scale (Hampel et al., *Robust Statistics*, 1986, §8.3):
 //!
 //! 1. every pose's `T_i` about the fit to all poses, against the robust scale
 //!    [`robust_scale`], the median of `T_i / med(χ²_k)` (breakdown point one
 //!    half): the suspects;
 //! 2. the fit again without the suspects, every pose's `T_i` about it
 //!    against its own variance factor (`s²₋ᵢ = (Ω − T_i) / (R − k)` for a
-//!    pose in the fit, `Ω / R` for one left out): the suspects again, until
-//!    they repeat (at most [`ROUNDS`] rounds, at most a tenth of the poses).
+//!    pose in the fit, `Ω / R` for one left out): the suspects confirmed
+//!    ([`REFITS`] such fits; at most a tenth of the poses).
 //!
 //! A suspect is set aside only when the model fitted without it predicts the
 //! poses no test flagged significantly better held-out
@@ -42,16 +42,19 @@ use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::{Mat, Par, Side};
 use nalgebra::{DMatrix, DVector};
 
-use super::cross_validation::{Folds, Role, Subset, interleaved_folds};
+use super::cross_validation::{Folds, HeldOut, Role, Subset, interleaved_folds};
 use crate::calibration::identify::full::{Linearization, unit_diagonal_scale};
-use crate::calibration::stats::f_quantile;
+use crate::calibration::stats::{f_quantile, significantly_smaller};
 use crate::io::measurements::Contact;
 
 /// The family-wise error rate of the test over all poses.
 pub const ALPHA: f64 = 0.01;
 
-/// The most rounds of the screen (fit without the suspects, test again).
-pub const ROUNDS: usize = 5;
+/// The fits without the suspects the screen makes (each followed by the test
+/// again about it): one confirms the robust screen's suspects at the clean
+/// fit's own noise; the robust scale is not masked, so more rarely change
+/// them, and each costs a fit.
+pub const REFITS: usize = 1;
 
 /// A pose the test flags.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -263,4 +266,37 @@ pub fn held_out_of_others(
             .map(|(_, x)| x)
             .collect()
     })
+}
+
+/// Each of the `flagged` poses judged by the poses no test flagged (`k`
+/// interleaved folds over them): held-out with it in every training set and
+/// without it, the other flagged poses left out of both (so one cross-
+/// validation, every flagged pose out, serves as "without" for all), and set
+/// aside when the paired test at `level` finds the others significantly
+/// better predicted without it. Poses are `lin`'s.
+pub fn judge(lin: &Linearization, k: usize, flagged: &[Suspect], level: f64) -> Vec<Blunder> {
+    let mut excluded = vec![false; lin.poses()];
+    for s in flagged {
+        excluded[s.pose] = true;
+    }
+    let Some(first) = flagged.first() else {
+        return Vec::new();
+    };
+    let Some(without) = held_out_of_others(lin, k, &excluded, first.pose, Role::Out) else {
+        return Vec::new();
+    };
+    flagged
+        .iter()
+        .filter_map(|s| {
+            let with = held_out_of_others(lin, k, &excluded, s.pose, Role::Train)?;
+            Some(Blunder {
+                pose: s.pose,
+                f: s.f,
+                threshold: s.threshold,
+                held_with: HeldOut::of(&with).rms,
+                held_without: HeldOut::of(&without).rms,
+                set_aside: significantly_smaller(&with, &without, level),
+            })
+        })
+        .collect()
 }

@@ -62,13 +62,13 @@ use crate::calibration::identify::full::{
 use crate::calibration::identify::prior::{Geometry, Prior};
 use crate::calibration::parallel;
 use crate::calibration::replicates::{Configurations, LackOfFit};
-use crate::calibration::stats::{f_quantile, significantly_smaller};
+use crate::calibration::stats::f_quantile;
 use crate::io::constraints::{Constraints, MIN_PLANE_TOUCHES};
 use crate::io::measurements::Contact;
 pub use blunders::Blunder;
 use blunders::Scale;
 pub use candidates::{Candidate, candidates, own_columns};
-use cross_validation::{Folds, Role, Subset};
+use cross_validation::{Folds, Subset};
 pub use cross_validation::{HeldOut, cross_validate};
 pub use geometry::ModelScore;
 
@@ -467,30 +467,15 @@ fn late_blunders(
     let mut flagged = blunders::suspects(&deleted, &none, Scale::Robust, d.fit.redundancy);
     let known: Vec<usize> = d.suspects.iter().map(|b| b.pose).collect();
     flagged.truncate((data.len() / 10).saturating_sub(d.blunders.len()));
-    let mut excluded = none;
-    for s in &flagged {
-        excluded[s.pose] = true;
-    }
-    flagged
-        .iter()
-        .filter_map(|s| {
-            let with =
-                blunders::held_out_of_others(&lin, options.folds, &excluded, s.pose, Role::Train)?;
-            let without =
-                blunders::held_out_of_others(&lin, options.folds, &excluded, s.pose, Role::Out)?;
-            let pose = kept[s.pose];
-            let set_aside = significantly_smaller(&with, &without, geometry::LEVEL);
-            // A pose the first screen judged and kept is reported again only
-            // when the final model sets it aside.
-            (set_aside || !known.contains(&pose)).then(|| Blunder {
-                pose,
-                f: s.f,
-                threshold: s.threshold,
-                held_with: HeldOut::of(&with).rms,
-                held_without: HeldOut::of(&without).rms,
-                set_aside,
-            })
+    blunders::judge(&lin, options.folds, &flagged, geometry::LEVEL)
+        .into_iter()
+        .map(|b| Blunder {
+            pose: kept[b.pose],
+            ..b
         })
+        // A pose the first screen judged and kept is reported again only
+        // when the final model sets it aside.
+        .filter(|b| b.set_aside || !known.contains(&b.pose))
         .collect()
 }
 
@@ -523,7 +508,7 @@ fn diagnose_once(
     // noise then settles in a round or two; a stated one stays as stated).
     let reference_options = reference_options.at_noise_of(&reference);
     // The screen (see `blunders`): the suspects at the robust scale of every
-    // pose, then again about the fit without them, until they repeat.
+    // pose, then again about the fit without them.
     let n = data.len();
     let most = n / 10;
     let mut excluded = vec![false; n];
@@ -532,7 +517,7 @@ fn diagnose_once(
     let mut flagged = blunders::deleted_residuals(&screen_lin, &excluded)
         .map(|d| blunders::suspects(&d, &excluded, Scale::Robust, reference.redundancy))
         .unwrap_or_default();
-    for _ in 0..blunders::ROUNDS {
+    for _ in 0..blunders::REFITS {
         flagged.truncate(most);
         let mut next = vec![false; n];
         for s in &flagged {
@@ -556,29 +541,8 @@ fn diagnose_once(
     }
     // Each suspect judged by the poses no test flagged, with it in every
     // training set and without it, the other suspects left out of both.
-    let mut suspects = Vec::new();
-    for s in flagged.iter().take(most) {
-        let (Some(held_with), Some(held_without)) = (
-            blunders::held_out_of_others(
-                &screen_lin,
-                options.folds,
-                &excluded,
-                s.pose,
-                Role::Train,
-            ),
-            blunders::held_out_of_others(&screen_lin, options.folds, &excluded, s.pose, Role::Out),
-        ) else {
-            continue;
-        };
-        suspects.push(Blunder {
-            pose: s.pose,
-            f: s.f,
-            threshold: s.threshold,
-            held_with: HeldOut::of(&held_with).rms,
-            held_without: HeldOut::of(&held_without).rms,
-            set_aside: significantly_smaller(&held_with, &held_without, geometry::LEVEL),
-        });
-    }
+    flagged.truncate(most);
+    let suspects = blunders::judge(&screen_lin, options.folds, &flagged, geometry::LEVEL);
     let blunders: Vec<usize> = suspects
         .iter()
         .filter(|b| b.set_aside)
