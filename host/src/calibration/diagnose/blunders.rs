@@ -223,72 +223,59 @@ pub fn suspects(
     out
 }
 
-/// The held-out errors (m) of the poses not `excluded`, in order (interleaved
-/// folds over them, `k` of them), with the `suspect` in every training set
-/// ([`Role::Train`]) or in none ([`Role::Out`]), and the other excluded poses
-/// in none: each suspect judged by the poses no test flagged, so that one
-/// blunder's error does not hide another's.
-pub fn held_out_of_others(
-    lin: &Linearization,
-    k: usize,
-    excluded: &[bool],
-    suspect: usize,
-    role: Role,
-) -> Option<Vec<f64>> {
+/// Each of the `flagged` poses judged by the poses no test flagged (`k`
+/// interleaved folds over them): held-out with it in every training set and
+/// without it, the other flagged poses left out of both (the folds with every
+/// flagged pose out serve as "without" for all, and each one's "with" adds
+/// its rows to them), and set aside when the paired test at `level` finds
+/// the others significantly better predicted without it. Poses are `lin`'s.
+pub fn judge(lin: &Linearization, k: usize, flagged: &[Suspect], level: f64) -> Vec<Blunder> {
     let n = lin.poses();
+    let mut excluded = vec![false; n];
+    for s in flagged {
+        excluded[s.pose] = true;
+    }
     let others: Vec<Contact> = (0..n)
-        .filter(|&i| !excluded[i] && i != suspect)
+        .filter(|&i| !excluded[i])
         .map(|i| lin.contacts[i])
         .collect();
-    let k = k.clamp(2, others.len().max(2));
+    if flagged.is_empty() || others.len() < 2 {
+        return Vec::new();
+    }
+    let k = k.clamp(2, others.len());
     let mut folds = interleaved_folds(&others, k).into_iter();
     let roles = (0..n)
         .map(|i| {
-            if i == suspect {
-                role
-            } else if excluded[i] {
+            if excluded[i] {
                 Role::Out
             } else {
                 Role::Fold(folds.next().unwrap_or(0))
             }
         })
         .collect();
-    let folds = Folds::new(lin, roles);
+    let without_all = Folds::new(lin, roles);
     let all = Subset {
         columns: (0..lin.j.ncols()).collect(),
         precision_factor: 1.0,
     };
-    folds.evaluate(&all).map(|e| {
-        e.errors
-            .into_iter()
-            .enumerate()
-            .filter(|(i, _)| !excluded[*i] && *i != suspect)
-            .map(|(_, x)| x)
-            .collect()
-    })
-}
-
-/// Each of the `flagged` poses judged by the poses no test flagged (`k`
-/// interleaved folds over them): held-out with it in every training set and
-/// without it, the other flagged poses left out of both (so one cross-
-/// validation, every flagged pose out, serves as "without" for all), and set
-/// aside when the paired test at `level` finds the others significantly
-/// better predicted without it. Poses are `lin`'s.
-pub fn judge(lin: &Linearization, k: usize, flagged: &[Suspect], level: f64) -> Vec<Blunder> {
-    let mut excluded = vec![false; lin.poses()];
-    for s in flagged {
-        excluded[s.pose] = true;
-    }
-    let Some(first) = flagged.first() else {
-        return Vec::new();
+    // The held-out errors of the poses no test flagged.
+    let of_others = |folds: &Folds| -> Option<Vec<f64>> {
+        folds.evaluate(&all).map(|e| {
+            e.errors
+                .into_iter()
+                .enumerate()
+                .filter(|(i, _)| !excluded[*i])
+                .map(|(_, x)| x)
+                .collect()
+        })
     };
-    let Some(without) = held_out_of_others(lin, k, &excluded, first.pose, Role::Out) else {
+    let Some(without) = of_others(&without_all) else {
         return Vec::new();
     };
     flagged
         .iter()
         .filter_map(|s| {
-            let with = held_out_of_others(lin, k, &excluded, s.pose, Role::Train)?;
+            let with = of_others(&without_all.adding(s.pose))?;
             Some(Blunder {
                 pose: s.pose,
                 f: s.f,

@@ -262,6 +262,40 @@ impl<'a> Folds<'a> {
         }
     }
 
+    /// These folds with `pose`, left out of them ([`Role::Out`]), trained on
+    /// in every fold ([`Role::Train`]): its rows' normal equations added to
+    /// every fold's training set, without a pass over the other poses.
+    pub fn adding(&self, pose: usize) -> Self {
+        debug_assert_eq!(self.fold[pose], Role::Out);
+        let lin = self.lin;
+        let rows: Vec<usize> = lin.rows_of(pose).collect();
+        let columns = lin.j.ncols();
+        let a = DMatrix::from_fn(columns, columns, |i, k| {
+            rows.iter().map(|&r| lin.j[(r, i)] * lin.j[(r, k)]).sum()
+        });
+        let b = DVector::from_fn(columns, |i, _| {
+            rows.iter().map(|&r| lin.j[(r, i)] * lin.r[(r, 0)]).sum()
+        });
+        let add = |(m, v): &(DMatrix<f64>, DVector<f64>)| (m + &a, v + &b);
+        let mut fold = self.fold.clone();
+        fold[pose] = Role::Train;
+        Self {
+            lin,
+            fold,
+            training: self.training.iter().map(add).collect(),
+            held_rows: self
+                .held_rows
+                .iter()
+                .map(|h| HeldRows {
+                    poses: h.poses.clone(),
+                    rows: h.rows.clone(),
+                })
+                .collect(),
+            all: add(&self.all),
+            rtr: self.rtr + rows.iter().map(|&r| lin.r[(r, 0)].powi(2)).sum::<f64>(),
+        }
+    }
+
     /// Whether candidates are worth cross-validating on every core: at least
     /// [`SPREAD_POSES`] poses.
     pub fn spread(&self) -> bool {

@@ -512,11 +512,12 @@ fn diagnose_once(
     let n = data.len();
     let most = n / 10;
     let mut excluded = vec![false; n];
-    let mut screen_fit = reference.clone();
-    let mut screen_lin = linearize(&reference, &[], &[], data, constraints, &prior);
-    let mut flagged = blunders::deleted_residuals(&screen_lin, &excluded)
+    let all_lin = linearize(&reference, &[], &[], data, constraints, &prior);
+    let mut flagged = blunders::deleted_residuals(&all_lin, &excluded)
         .map(|d| blunders::suspects(&d, &excluded, Scale::Robust, reference.redundancy))
         .unwrap_or_default();
+    // The fit without the suspects, and its linearisation at every pose.
+    let mut screen: Option<(FullFit, Linearization)> = None;
     for _ in 0..blunders::REFITS {
         flagged.truncate(most);
         let mut next = vec![false; n];
@@ -527,22 +528,25 @@ fn diagnose_once(
             break;
         }
         let kept: Vec<usize> = (0..n).filter(|&i| !next[i]).collect();
-        // Leaving them out can leave a fixed point too few rows: keep them then.
-        let Ok(f) = fit(None, &[], &[], &subset(&kept), &reference_options) else {
+        // From the reference, which lies near. Leaving them out can leave a
+        // fixed point too few rows: keep them then.
+        let start = Some(&reference.calibrated);
+        let Ok(f) = fit(start, &[], &[], &subset(&kept), &reference_options) else {
             flagged.clear();
             break;
         };
         excluded = next;
-        screen_lin = linearize(&f, &[], &[], data, constraints, &prior);
-        flagged = blunders::deleted_residuals(&screen_lin, &excluded)
+        let lin = linearize(&f, &[], &[], data, constraints, &prior);
+        flagged = blunders::deleted_residuals(&lin, &excluded)
             .map(|d| blunders::suspects(&d, &excluded, Scale::Fitted, f.redundancy))
             .unwrap_or_default();
-        screen_fit = f;
+        screen = Some((f, lin));
     }
     // Each suspect judged by the poses no test flagged, with it in every
     // training set and without it, the other suspects left out of both.
     flagged.truncate(most);
-    let suspects = blunders::judge(&screen_lin, options.folds, &flagged, geometry::LEVEL);
+    let screen_lin = screen.as_ref().map_or(&all_lin, |(_, lin)| lin);
+    let suspects = blunders::judge(screen_lin, options.folds, &flagged, geometry::LEVEL);
     let blunders: Vec<usize> = suspects
         .iter()
         .filter(|b| b.set_aside)
@@ -551,14 +555,21 @@ fn diagnose_once(
     let kept: Vec<usize> = (0..n).filter(|i| !blunders.contains(i)).collect();
     let clean = subset(&kept);
     let set_aside: Vec<bool> = (0..n).map(|i| blunders.contains(&i)).collect();
-    if blunders.is_empty() {
+    let lin = match screen {
         // The reference as fitted to every pose.
-    } else if set_aside == excluded {
-        reference = screen_fit;
-    } else {
-        reference = fit(None, &[], &[], &clean, &reference_options)?;
-    }
-    let lin = linearize(&reference, &[], &[], &clean, constraints, &prior);
+        _ if blunders.is_empty() => all_lin,
+        Some((f, _)) if set_aside == excluded => {
+            reference = f;
+            linearize(&reference, &[], &[], &clean, constraints, &prior)
+        }
+        screen => {
+            let start = screen
+                .as_ref()
+                .map_or(&reference.calibrated, |(f, _)| &f.calibrated);
+            reference = fit(Some(start), &[], &[], &clean, &reference_options)?;
+            linearize(&reference, &[], &[], &clean, constraints, &prior)
+        }
+    };
     // The noise the reference shows without its blunders.
     let fit_options = options.fit.at_noise_of(&reference);
 
