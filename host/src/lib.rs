@@ -57,7 +57,8 @@ pub mod io;
 
 pub use apply::{compensate, link, predict};
 pub use calibration::{
-    check, contact_check, demo, diagnose, identify, report, reproduce, simulate, stats, sweep,
+    acceptance, check, contact_check, demo, diagnose, identify, report, reproduce, simulate, stats,
+    sweep,
 };
 pub use io::{arrays, builtin, input_error, measurements, model_file, output, ur, urdf};
 

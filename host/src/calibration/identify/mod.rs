@@ -608,4 +608,32 @@ impl Identification {
     pub fn calibrated(&self) -> Robot<f64> {
         self.calibration.calibrated()
     }
+
+    /// Why this calibration of `model` from `data` must not be written (it
+    /// did not converge, or fits `data` worse than the nominal model:
+    /// [`crate::calibration::acceptance`]); `flag` names the way to write it
+    /// anyway. `None` when it may be.
+    pub fn refusal(
+        &self,
+        model: &RobotModel,
+        data: &Measurements,
+        flag: &'static str,
+    ) -> Option<crate::calibration::acceptance::FailedCalibration> {
+        use crate::calibration::acceptance::{Ending, refusal};
+        use crate::calibration::contact_check::geometric;
+        let ending = Ending {
+            iterations: self.iterations,
+            converged: self.converged,
+            last_decrease: self.full.as_ref().map(|f| f.last_decrease),
+        };
+        refusal(
+            &model.robot,
+            &geometric(&self.calibrated()),
+            data,
+            &[],
+            ending,
+            &model.units,
+            flag,
+        )
+    }
 }
