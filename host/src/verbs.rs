@@ -30,6 +30,7 @@ pub(crate) fn holdout(
     };
     let sessions = data.iter().map(load).collect::<anyhow::Result<Vec<_>>>()?;
     let training = train.iter().map(load).collect::<anyhow::Result<Vec<_>>>()?;
+    contact_check::require_distinct(&sessions.iter().chain(&training).collect::<Vec<_>>())?;
     if training.is_empty() && sessions.len() < 2 {
         return Err(InputError::argument(
             "--data",

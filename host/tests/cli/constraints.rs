@@ -572,3 +572,51 @@ fn a_session_without_a_known_distance_says_what_holds_the_scale() {
         "{stdout}"
     );
 }
+
+/// `holdout` refuses a session given twice: the same path (also as another
+/// spelling of it), or a copy with the same rows, among `--data` and
+/// `--train` together, naming both; nothing is computed.
+#[test]
+fn holdout_refuses_the_same_session_twice() {
+    let dir = tempfile::tempdir().unwrap();
+    let m = mukca();
+    let front = m.join("panda_6/front.csv");
+    std::fs::copy(&front, dir.path().join("copy.csv")).unwrap();
+    let front = front.display().to_string();
+    let left = m.join("panda_6/left.csv").display().to_string();
+    let other_spelling = m.join("panda_6/../panda_6/front.csv").display().to_string();
+    let model = m.join("original/urdf/panda.urdf").display().to_string();
+    let run = |data: &[&str], train: &[&str], needles: &[&str]| {
+        let mut args = vec![
+            "holdout",
+            "--model",
+            &model,
+            "--tip-link",
+            "ball_link",
+            "--data",
+        ];
+        args.extend(data);
+        if !train.is_empty() {
+            args.push("--train");
+            args.extend(train);
+        }
+        refused(dir.path(), &args, needles);
+    };
+    run(
+        &[&front, &front],
+        &[],
+        &["the same session as", "(the same file)", "front.csv"],
+    );
+    run(
+        &[&front, &left, &other_spelling],
+        &[],
+        &["(the same file)", "give each session once"],
+    );
+    run(
+        &[&front, "copy.csv"],
+        &[],
+        &["copy.csv: the same session as", "front.csv (the same rows"],
+    );
+    run(&[&left], &[&front, "copy.csv"], &["the same rows"]);
+    run(&[&left], &[&left], &["(the same file)"]);
+}
