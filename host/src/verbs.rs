@@ -540,6 +540,7 @@ pub(crate) fn export_ur(
         )
         .into());
     }
+    armcal::ur::require_same_type(&cal.nominal, &nominal, &calibration)?;
     let exported = armcal::ur::export_deltas(&robot, &nominal.robot);
     let text = if matches!(format, ExportFormat::UrDeltas) {
         armcal::ur::deltas_yaml(&exported, &calibration)
