@@ -425,27 +425,8 @@ fn angle_delta(x: f64, nominal: f64) -> f64 {
 pub fn export_deltas(robot: &Robot<f64>, nominal: &Robot<f64>) -> UrExport {
     let base = robot.base.isometry();
     let (joints, tip) = joint_frames(robot);
-    let lines: Vec<(Point3<f64>, Vector3<f64>)> = joints
-        .iter()
-        .map(|f| {
-            (
-                Point3::from(f.translation.vector),
-                f.rotation * Vector3::z(),
-            )
-        })
-        .collect();
-    // UR base frame.
-    let (p0, z0) = lines[0];
-    let foot = p0 - z0 * p0.coords.dot(&z0);
-    let mut x0 = Vector3::x() - z0 * z0.x;
-    if x0.norm() < 1e-6 {
-        x0 = Vector3::y() - z0 * z0.y;
-    }
-    let x0 = x0.normalize();
-    let ur_base = Pose::from_parts(
-        nalgebra::Translation3::from(foot.coords),
-        nalgebra::Rotation3::from_basis_unchecked(&[x0, z0.cross(&x0), z0]),
-    );
+    let lines = axis_lines(&Pose::identity(), &joints);
+    let ur_base = ur_base_frame(lines[0]);
     let mut at = ur_base;
     let mut out = [[0.0; JOINTS]; 4];
     let mut links = Vec::with_capacity(JOINTS);
@@ -512,6 +493,37 @@ pub fn export_deltas(robot: &Robot<f64>, nominal: &Robot<f64>) -> UrExport {
         flange: at,
         links,
     }
+}
+
+/// The axis line (a point, the direction) of each joint frame of `joints`
+/// (z along the axis), in the frame `base` puts them in.
+fn axis_lines(base: &Pose, joints: &[Pose]) -> Vec<(Point3<f64>, Vector3<f64>)> {
+    joints
+        .iter()
+        .map(|f| {
+            let f = base * f;
+            (
+                Point3::from(f.translation.vector),
+                f.rotation * Vector3::z(),
+            )
+        })
+        .collect()
+}
+
+/// The UR base frame on axis 1, `(p0, z0)`: its origin at the foot of the
+/// perpendicular from the origin, z along the axis, x the frame's x made
+/// perpendicular (its y, where x is along the axis).
+fn ur_base_frame((p0, z0): (Point3<f64>, Vector3<f64>)) -> Pose {
+    let foot = p0 - z0 * p0.coords.dot(&z0);
+    let mut x0 = Vector3::x() - z0 * z0.x;
+    if x0.norm() < 1e-6 {
+        x0 = Vector3::y() - z0 * z0.y;
+    }
+    let x0 = x0.normalize();
+    Pose::from_parts(
+        nalgebra::Translation3::from(foot.coords),
+        nalgebra::Rotation3::from_basis_unchecked(&[x0, z0.cross(&x0), z0]),
+    )
 }
 
 /// For each joint of `robot` (of six), a frame on its axis with z along it
@@ -719,35 +731,13 @@ pub fn require_same_type(
     // made perpendicular). Its D-H would not do: between nearly parallel
     // axes the common normals lie far away, where `d`, `a` and `θ` are
     // ill-conditioned; the axes near the arm are not.
-    let axes = |robot: &Robot<f64>| -> Vec<(Point3<f64>, Vector3<f64>)> {
-        let base = robot.base.isometry();
-        let lines: Vec<(Point3<f64>, Vector3<f64>)> = joint_frames(robot)
-            .0
-            .iter()
-            .map(|f| {
-                let f = base * f;
-                (
-                    Point3::from(f.translation.vector),
-                    f.rotation * Vector3::z(),
-                )
-            })
-            .collect();
-        let (p0, z0) = lines[0];
-        let foot = p0 - z0 * p0.coords.dot(&z0);
-        let mut x0 = Vector3::x() - z0 * z0.x;
-        if x0.norm() < 1e-6 {
-            x0 = Vector3::y() - z0 * z0.y;
-        }
-        let x0 = x0.normalize();
-        let to_ur = Pose::from_parts(
-            nalgebra::Translation3::from(foot.coords),
-            nalgebra::Rotation3::from_basis_unchecked(&[x0, z0.cross(&x0), z0]),
-        )
-        .inverse();
+    let axes = |robot: &Robot<f64>| {
+        let lines = axis_lines(&robot.base.isometry(), &joint_frames(robot).0);
+        let to_ur = ur_base_frame(lines[0]).inverse();
         lines
             .into_iter()
             .map(|(p, z)| (to_ur * p, to_ur * z))
-            .collect()
+            .collect::<Vec<_>>()
     };
     for (k, ((p, z), (q, w))) in axes(ours).into_iter().zip(axes(theirs)).enumerate() {
         // The type's joint origin's distance to our axis, and the angle
