@@ -27,7 +27,7 @@ use armcal_shared::pose_error::rotation_error;
 
 use crate::calibration::contact_check::{contact_check, geometric};
 use crate::calibration::diagnose::{Choice, Diagnosis};
-use crate::io::measurements::{Contact, Measurements, Observation};
+use crate::io::measurements::Measurements;
 use crate::io::model_file::{RobotModel, Units};
 
 /// RMS residuals of one model on a session's rows.
@@ -42,19 +42,30 @@ pub struct Residual {
 /// The residuals of `model` on the rows of `data` not in `set_aside`
 /// (indices into its poses), as the module header says.
 pub fn residual(model: &EffectModel<f64>, data: &Measurements, set_aside: &[usize]) -> Residual {
-    let rows: Vec<Observation> = data
-        .poses
-        .iter()
-        .enumerate()
-        .filter(|(i, _)| !set_aside.contains(i))
-        .map(|(_, p)| p.clone())
-        .collect();
+    let mut kept = vec![true; data.poses.len()];
+    for &i in set_aside {
+        if let Some(k) = kept.get_mut(i) {
+            *k = false;
+        }
+    }
+    // Read in place: a session of a million positions is not copied.
+    let rows = || {
+        data.poses
+            .iter()
+            .zip(&kept)
+            .filter(|(_, k)| **k)
+            .map(|(p, _)| p)
+    };
     if data.is_constrained() {
-        let kept = Measurements {
-            poses: rows,
-            ..data.clone()
+        let c = if set_aside.is_empty() {
+            contact_check(model, data)
+        } else {
+            let kept = Measurements {
+                poses: rows().cloned().collect(),
+                ..data.clone()
+            };
+            contact_check(model, &kept)
         };
-        let c = contact_check(model, &kept);
         let sum = c
             .points
             .iter()
@@ -65,19 +76,17 @@ pub fn residual(model: &EffectModel<f64>, data: &Measurements, set_aside: &[usiz
                     .map(|p| p.flatness * p.flatness * p.rows as f64),
             )
             .sum::<f64>();
-        let n = kept
-            .poses
-            .iter()
-            .filter(|p| p.contact != Contact::Measured)
-            .count();
+        let n = c.points.iter().map(|p| p.rows).sum::<usize>()
+            + c.planes.iter().map(|p| p.rows).sum::<usize>();
         return Residual {
             position: if n > 0 { (sum / n as f64).sqrt() } else { 0.0 },
             orientation: None,
         };
     }
     let prepared = model.effects.is_empty().then(|| model.robot.prepare());
-    let (mut pos, mut rot, mut n_rot) = (0.0, 0.0, 0usize);
-    for obs in &rows {
+    let (mut pos, mut rot, mut n, mut n_rot) = (0.0, 0.0, 0usize, 0usize);
+    for obs in rows() {
+        n += 1;
         let t = match &prepared {
             Some(k) => k.forward(&obs.q).ok(),
             None => model.forward(&obs.q, &obs.context).ok(),
@@ -93,9 +102,8 @@ pub fn residual(model: &EffectModel<f64>, data: &Measurements, set_aside: &[usiz
             n_rot += 1;
         }
     }
-    let n = rows.len().max(1) as f64;
     Residual {
-        position: (pos / n).sqrt(),
+        position: (pos / n.max(1) as f64).sqrt(),
         orientation: (n_rot > 0).then(|| (rot / n_rot as f64).sqrt()),
     }
 }
