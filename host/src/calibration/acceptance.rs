@@ -27,7 +27,8 @@ use armcal_shared::pose_error::rotation_error;
 
 use crate::calibration::contact_check::{contact_check, geometric};
 use crate::calibration::diagnose::{Choice, Diagnosis};
-use crate::io::measurements::Measurements;
+use crate::calibration::parallel;
+use crate::io::measurements::{Measurements, Observation};
 use crate::io::model_file::{RobotModel, Units};
 
 /// RMS residuals of one model on a session's rows.
@@ -83,30 +84,44 @@ pub fn residual(model: &EffectModel<f64>, data: &Measurements, set_aside: &[usiz
             orientation: None,
         };
     }
+    // Sums of squares over fixed chunks of rows, on every core, added in
+    // order: the same answer on any number of cores.
     let prepared = model.effects.is_empty().then(|| model.robot.prepare());
-    let (mut pos, mut rot, mut n, mut n_rot) = (0.0, 0.0, 0usize, 0usize);
-    for obs in rows() {
-        n += 1;
-        let t = match &prepared {
-            Some(k) => k.forward(&obs.q).ok(),
-            None => model.forward(&obs.q, &obs.context).ok(),
-        };
-        let Some(t) = t else {
-            // A row the model cannot place counts as far off as it can be.
-            pos = f64::INFINITY;
-            continue;
-        };
-        pos += (obs.position.coords - t.translation.vector).norm_squared();
-        if let Some(q) = obs.orientation {
-            rot += rotation_error(&q.to_rotation_matrix(), &t.rotation).norm_squared();
-            n_rot += 1;
+    let chunks: Vec<(&[Observation], &[bool])> =
+        data.poses.chunks(CHUNK).zip(kept.chunks(CHUNK)).collect();
+    let sums = parallel::map_if(chunks.len() > 1, &chunks, |(poses, kept)| {
+        let (mut pos, mut rot, mut n, mut n_rot) = (0.0, 0.0, 0usize, 0usize);
+        for (obs, _) in poses.iter().zip(*kept).filter(|(_, k)| **k) {
+            n += 1;
+            let t = match &prepared {
+                Some(k) => k.forward(&obs.q).ok(),
+                None => model.forward(&obs.q, &obs.context).ok(),
+            };
+            let Some(t) = t else {
+                // A row the model cannot place counts as far off as it can be.
+                pos = f64::INFINITY;
+                continue;
+            };
+            pos += (obs.position.coords - t.translation.vector).norm_squared();
+            if let Some(q) = obs.orientation {
+                rot += rotation_error(&q.to_rotation_matrix(), &t.rotation).norm_squared();
+                n_rot += 1;
+            }
         }
-    }
+        (pos, rot, n, n_rot)
+    });
+    let (pos, rot, n, n_rot) = sums.into_iter().fold((0.0, 0.0, 0, 0), |a, b| {
+        (a.0 + b.0, a.1 + b.1, a.2 + b.2, a.3 + b.3)
+    });
     Residual {
         position: (pos / n.max(1) as f64).sqrt(),
         orientation: (n_rot > 0).then(|| (rot / n_rot as f64).sqrt()),
     }
 }
+
+/// Rows per piece of [`residual`]'s pass: thousands of forward kinematics,
+/// far longer than handing a piece to a core.
+const CHUNK: usize = 16_384;
 
 /// How a fit ended: what [`refusal`] reads besides the residuals.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -134,13 +149,23 @@ pub struct FailedCalibration {
     pub flag: &'static str,
 }
 
+/// The calibrated model a [`refusal`] judges, and its [`residual`] when the
+/// caller has it already (a fit's own RMS, on the same rows, the same way).
+#[derive(Clone, Copy, Debug)]
+pub struct Judged<'a> {
+    /// The model the calibration file holds.
+    pub model: &'a EffectModel<f64>,
+    /// Its residual on the rows, if known.
+    pub residual: Option<Residual>,
+}
+
 /// The nominal `robot` and the `calibrated` model on `data` (its rows but
 /// `set_aside`): `None` when the fit that `ending` describes converged and
 /// the calibration fits the rows no worse than the nominal model, else why
 /// it must not be written; `flag` names the way to write it anyway.
 pub fn refusal(
     robot: &Robot<f64>,
-    calibrated: &EffectModel<f64>,
+    calibrated: Judged<'_>,
     data: &Measurements,
     set_aside: &[usize],
     ending: Ending,
@@ -148,7 +173,9 @@ pub fn refusal(
     flag: &'static str,
 ) -> Option<FailedCalibration> {
     let nominal = residual(&geometric(robot), data, set_aside);
-    let ours = residual(calibrated, data, set_aside);
+    let ours = calibrated
+        .residual
+        .unwrap_or_else(|| residual(calibrated.model, data, set_aside));
     let worse = ours.position > nominal.position
         && match (ours.orientation, nominal.orientation) {
             (Some(a), Some(b)) => a > b,
@@ -219,7 +246,10 @@ pub fn diagnosis_refusal(
     };
     refusal(
         &model.robot,
-        &cal.model(),
+        Judged {
+            model: &cal.model(),
+            residual: None,
+        },
         data,
         &diagnosis.blunders,
         ending,
@@ -234,6 +264,14 @@ mod tests {
     use crate::calibration::simulate::{Scenario, simulate};
     use crate::io::measurements::parse_measurements;
     use crate::io::model_file::load_model;
+
+    /// `model`, its residual to be computed.
+    fn judged(model: &EffectModel<f64>) -> Judged<'_> {
+        Judged {
+            model,
+            residual: None,
+        }
+    }
 
     /// A simulated UR5e session, read as `armcal` reads it.
     fn session() -> (RobotModel, Measurements) {
@@ -259,12 +297,23 @@ mod tests {
         };
         let same = geometric(&model.robot);
         let units = &model.units;
-        assert!(refusal(&model.robot, &same, &data, &[], converged, units, "--f").is_none());
+        assert!(
+            refusal(
+                &model.robot,
+                judged(&same),
+                &data,
+                &[],
+                converged,
+                units,
+                "--f"
+            )
+            .is_none()
+        );
         let mut off = model.robot.clone();
         off.links[1].a += 0.05;
         let failed = refusal(
             &model.robot,
-            &geometric(&off),
+            judged(&geometric(&off)),
             &data,
             &[],
             converged,
@@ -286,12 +335,27 @@ mod tests {
             converged: false,
             last_decrease: Some(None),
         };
-        let text = refusal(&model.robot, &same, &data, &[], stuck, units, "--f")
+        let text = refusal(&model.robot, judged(&same), &data, &[], stuck, units, "--f")
             .expect("not converged")
             .to_string();
         assert!(
             text.contains("did not converge after 2 iterations: its last iteration found no step"),
             "{text}"
+        );
+    }
+
+    /// `identify` takes its fit's own RMS for the calibration it writes (no
+    /// second pass over the rows): the same figure [`residual`] computes.
+    #[test]
+    fn the_fits_own_residual_is_the_calibrations() {
+        use crate::calibration::identify::{ParamSet, full::FullOptions, identify};
+        let (model, data) = session();
+        let fit = identify(&model, &data, ParamSet::Full, &FullOptions::default()).unwrap();
+        let computed = residual(&geometric(&fit.calibrated()), &data, &[]).position;
+        assert!(
+            (computed - fit.position_rms).abs() < 1e-9 * fit.position_rms,
+            "{computed} {}",
+            fit.position_rms
         );
     }
 }

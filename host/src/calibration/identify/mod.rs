@@ -619,16 +619,32 @@ impl Identification {
         data: &Measurements,
         flag: &'static str,
     ) -> Option<crate::calibration::acceptance::FailedCalibration> {
-        use crate::calibration::acceptance::{Ending, refusal};
+        use crate::calibration::acceptance::{Ending, Judged, Residual, refusal};
         use crate::calibration::contact_check::geometric;
         let ending = Ending {
             iterations: self.iterations,
             converged: self.converged,
             last_decrease: self.full.as_ref().map(|f| f.last_decrease),
         };
+        // Measured coordinates, and every parameter held at its nominal
+        // value: the file holds the fit's own model, whose residual the fit
+        // has (a pass over a million rows spared).
+        let own = self.full.is_some()
+            && !data.is_constrained()
+            && self
+                .parameters
+                .iter()
+                .all(|r| r.fixed.is_none() || r.error == 0.0);
+        let residual = own.then(|| Residual {
+            position: self.position_rms,
+            orientation: data.has_orientation().then_some(self.orientation_rms),
+        });
         refusal(
             &model.robot,
-            &geometric(&self.calibrated()),
+            Judged {
+                model: &geometric(&self.calibrated()),
+                residual,
+            },
             data,
             &[],
             ending,
