@@ -59,8 +59,8 @@ pub mod io;
 
 pub use apply::{compensate, link, predict, ranges};
 pub use calibration::{
-    check, contact_check, demo, diagnose, identify, replicates, report, reproduce, simulate, stats,
-    sweep,
+    acceptance, check, contact_check, demo, diagnose, identify, replicates, report, reproduce,
+    simulate, stats, sweep,
 };
 pub use io::{arrays, builtin, input_error, measurements, model_file, output, ur, urdf};
 

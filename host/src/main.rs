@@ -74,6 +74,12 @@ enum Command {
         /// registration of the instrument, is not). Stored in the calibration.
         #[arg(long, value_enum, default_value = "world")]
         targets: Targets,
+        /// Write the calibration (and the reports) even when the fit did not
+        /// converge or fits its own data worse than the nominal model (the
+        /// reason is printed as a warning); otherwise such a fit exits with
+        /// status 1 and writes nothing.
+        #[arg(long)]
+        write_failed: bool,
     },
     /// Where the calibrated robot puts its tool point (and how it turns its tool
     /// frame, when the calibration has orientation) for each row of joint
@@ -202,6 +208,12 @@ enum Command {
         /// registration of the instrument, is not). Stored in the calibration.
         #[arg(long, value_enum, default_value = "world")]
         targets: Targets,
+        /// Write the calibration (and the reports) even when the fit did not
+        /// converge or fits its own data worse than the nominal model (the
+        /// reason is printed as a warning); otherwise such a fit exits with
+        /// status 1 and writes nothing.
+        #[arg(long)]
+        write_failed: bool,
     },
     /// Measure the diagnosis: hide a random effect (or none) in many simulated
     /// sessions and count how often it is named.
@@ -588,7 +600,17 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             json,
             weights,
             targets,
-        } => verbs::identify(model, data, params, out, json, weights, targets),
+            write_failed,
+        } => verbs::identify(
+            model,
+            data,
+            params,
+            out,
+            json,
+            weights,
+            targets,
+            write_failed,
+        ),
         Command::Simulate {
             model,
             poses,
@@ -619,7 +641,18 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             weights,
             folds,
             targets,
-        } => verbs::diagnose(model, data, out, json, html, weights, folds, targets),
+            write_failed,
+        } => verbs::diagnose(
+            model,
+            data,
+            out,
+            json,
+            html,
+            weights,
+            folds,
+            targets,
+            write_failed,
+        ),
         Command::Demo { seed, html } => verbs::demo(seed, html),
         Command::Sweep {
             cases,
@@ -664,6 +697,25 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             out,
         } => verbs::export_ur(calibration, model, chain, format, out),
         Command::Models => verbs::models(),
+    }
+}
+
+/// Refuses (exit status 1) the calibration `refusal` names unless
+/// `write_failed`, in which case its reason is printed as a warning.
+fn accept(
+    refusal: Option<armcal::acceptance::FailedCalibration>,
+    write_failed: bool,
+) -> anyhow::Result<()> {
+    match refusal {
+        Some(failed) if write_failed => {
+            eprintln!(
+                "armcal: warning: {}: {} (written as --write-failed asks)",
+                failed.file, failed.reason
+            );
+            Ok(())
+        }
+        Some(failed) => Err(failed.into()),
+        None => Ok(()),
     }
 }
 

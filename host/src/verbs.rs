@@ -30,6 +30,7 @@ pub(crate) fn holdout(
     };
     let sessions = data.iter().map(load).collect::<anyhow::Result<Vec<_>>>()?;
     let training = train.iter().map(load).collect::<anyhow::Result<Vec<_>>>()?;
+    contact_check::require_distinct(&sessions.iter().chain(&training).collect::<Vec<_>>())?;
     if training.is_empty() && sessions.len() < 2 {
         return Err(InputError::argument(
             "--data",
@@ -83,6 +84,7 @@ pub(crate) fn reproduce_mirman_gupta() -> anyhow::Result<()> {
 }
 
 /// `armcal identify`.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn identify(
     model: ModelArgs,
     data: String,
@@ -91,6 +93,7 @@ pub(crate) fn identify(
     json: Option<PathBuf>,
     weights: Weights,
     targets: Targets,
+    write_failed: bool,
 ) -> anyhow::Result<()> {
     let mut outputs = output::Outputs::new()
         .model_input(&model.model)
@@ -107,6 +110,10 @@ pub(crate) fn identify(
     };
     let mut result = identify::identify(&model, &data, set, &options)?;
     data.require_fit_supported(&model, result.position_rms)?;
+    accept(
+        result.refusal(&model, &data, "--write-failed"),
+        write_failed,
+    )?;
     result.calibration.targets = targets.into();
     // Everything is computed and encoded before the first byte is written.
     if out.is_some() {
@@ -199,6 +206,7 @@ pub(crate) fn diagnose(
     weights: Weights,
     folds: Option<usize>,
     targets: Targets,
+    write_failed: bool,
 ) -> anyhow::Result<()> {
     let mut outputs = output::Outputs::new()
         .model_input(&model.model)
@@ -250,6 +258,10 @@ pub(crate) fn diagnose(
     )?;
     progress.finish();
     data.require_fit_supported(&model, diagnosis.reference.position_rms)?;
+    accept(
+        armcal::acceptance::diagnosis_refusal(&model, &data, &diagnosis, "--write-failed"),
+        write_failed,
+    )?;
     let lines = &data.lines;
     if out.is_some() {
         let mut cal = diagnosis.calibration(&model.robot, data.has_orientation(), model.units);
@@ -536,6 +548,7 @@ pub(crate) fn export_ur(
         )
         .into());
     }
+    armcal::ur::require_same_type(&cal.nominal, &nominal, &calibration)?;
     let exported = armcal::ur::export_deltas(&robot, &nominal.robot);
     let text = if matches!(format, ExportFormat::UrDeltas) {
         armcal::ur::deltas_yaml(&exported, &calibration)

@@ -22,11 +22,30 @@ use crate::model::{joints_in_units, pose_values};
 #[pyclass(module = "armcal", frozen)]
 pub struct Calibration {
     cal: Cal,
+    /// Why it must not be written (a fit that did not converge, or worse
+    /// than the nominal model on its own data), as the command line says it.
+    failed: Option<String>,
 }
 
 impl From<Cal> for Calibration {
     fn from(cal: Cal) -> Self {
-        Self { cal }
+        Self { cal, failed: None }
+    }
+}
+
+impl Calibration {
+    /// A calibration that `write` and `to_bytes` refuse with `failed` unless
+    /// asked with `write_failed=True`.
+    pub(crate) fn failed(cal: Cal, failed: Option<String>) -> Self {
+        Self { cal, failed }
+    }
+
+    /// Its bytes, refused as the command line refuses to write a failed fit.
+    fn bytes(&self, write_failed: bool) -> PyResult<Vec<u8>> {
+        if let (Some(why), false) = (&self.failed, write_failed) {
+            return Err(errors::failure(why));
+        }
+        self.cal.to_bytes().map_err(errors::failure)
     }
 }
 
@@ -91,18 +110,29 @@ impl Calibration {
     }
 
     /// The calibration's bytes: what the file holds and the firmware loads.
-    fn to_bytes<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyBytes>> {
-        let bytes = self.cal.to_bytes().map_err(errors::failure)?;
-        Ok(PyBytes::new(py, &bytes))
+    /// A calibration whose fit did not converge, or that fits its own data
+    /// worse than the nominal model (`failure`), raises `ArmcalError` with
+    /// the reason unless `write_failed=True`.
+    #[pyo3(signature = (*, write_failed = false))]
+    fn to_bytes<'py>(&self, py: Python<'py>, write_failed: bool) -> PyResult<Bound<'py, PyBytes>> {
+        Ok(PyBytes::new(py, &self.bytes(write_failed)?))
     }
 
     fn __bytes__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyBytes>> {
-        self.to_bytes(py)
+        self.to_bytes(py, false)
     }
 
-    /// Writes the calibration file `path` (its bytes).
-    fn write(&self, path: &str) -> PyResult<()> {
-        let bytes = self.cal.to_bytes().map_err(errors::failure)?;
+    /// Why this calibration is not written (its fit did not converge, or it
+    /// fits its own data worse than the nominal model), or None.
+    #[getter]
+    fn failure(&self) -> Option<&str> {
+        self.failed.as_deref()
+    }
+
+    /// Writes the calibration file `path` (its bytes); refused as `to_bytes`.
+    #[pyo3(signature = (path, *, write_failed = false))]
+    fn write(&self, path: &str, write_failed: bool) -> PyResult<()> {
+        let bytes = self.bytes(write_failed)?;
         std::fs::write(path, bytes)
             .map_err(|e| errors::failure(format!("{path}: cannot write the calibration: {e}")))
     }

@@ -8,7 +8,7 @@ use armcal::identify::StatedScales;
 use armcal::identify::full::FullOptions;
 use armcal::identify::{self, ParamSet};
 use armcal::model_file::RobotModel;
-use armcal::{diagnose as diag, input_error, report};
+use armcal::{acceptance, diagnose as diag, input_error, report};
 use armcal_shared::TargetFrame;
 use pyo3::prelude::*;
 
@@ -25,6 +25,8 @@ pub struct Outcome {
     report: serde_json::Value,
     summary: String,
     calibration: armcal_shared::Calibration,
+    /// Why the calibration must not be written, as the command line says.
+    failed: Option<String>,
 }
 
 /// The outcome of `identify` (see `Outcome`), with its residuals.
@@ -116,6 +118,9 @@ pub(crate) fn options(
     })
 }
 
+/// The keyword that writes a failed calibration anyway, as named in its reason.
+const WRITE_FAILED: &str = "write_failed=True";
+
 /// `world` or `base`: the frame the compensation's targets are given in.
 fn targets(py: Python<'_>, targets: &str) -> PyResult<TargetFrame> {
     match targets {
@@ -182,10 +187,14 @@ pub fn identify_py(
         .require_fit_supported(m, result.position_rms)
         .map_err(|e| errors::input(py, &e, arrays))?;
     result.calibration.targets = frame;
+    let failed = result
+        .refusal(m, &data.data, WRITE_FAILED)
+        .map(|f| f.to_string());
     let outcome = Outcome {
         report: result.to_json(&m.units),
         summary: result.summary(m, &data.data),
         calibration: result.calibration.clone(),
+        failed,
     };
     let identification = Identification {
         position_rms: m.units.length_from_si(result.position_rms),
@@ -269,10 +278,13 @@ pub fn diagnose(
     let lines: Vec<usize> = data.data.lines.iter().map(|line| line - from).collect();
     let mut calibration = diagnosis.calibration(&m.robot, data.data.has_orientation(), m.units);
     calibration.targets = frame;
+    let failed = acceptance::diagnosis_refusal(m, &data.data, &diagnosis, WRITE_FAILED)
+        .map(|f| f.to_string());
     let outcome = Outcome {
         report: diagnosis.to_json(m, &lines, &options),
         summary: diagnosis.summary(&lines, &options, &m.units),
         calibration,
+        failed,
     };
     let html = report::html(m, &data.data.file, &diagnosis, observations, &options);
     Py::new(
@@ -299,10 +311,21 @@ impl Outcome {
         &self.summary
     }
 
-    /// The calibration: what `--out` writes.
+    /// The calibration: what `--out` writes. When its fit did not converge,
+    /// or it fits its own data worse than the nominal model, its `write` and
+    /// `to_bytes` raise `ArmcalError` with the reason (`failure`) unless
+    /// given `write_failed=True`, as the command line exits 1 without
+    /// `--write-failed`.
     #[getter]
     fn calibration(&self) -> Calibration {
-        Calibration::from(self.calibration.clone())
+        Calibration::failed(self.calibration.clone(), self.failed.clone())
+    }
+
+    /// Why the calibration is not written (the fit did not converge, or it
+    /// fits its own data worse than the nominal model), or None.
+    #[getter]
+    fn failure(&self) -> Option<&str> {
+        self.failed.as_deref()
     }
 }
 

@@ -110,6 +110,8 @@ pub fn holdout<'py>(
     };
     let sessions = load("sessions", &sessions)?;
     let training = load("train", train.as_deref().unwrap_or(&[]))?;
+    contact_check::require_distinct(&sessions.iter().chain(&training).collect::<Vec<_>>())
+        .map_err(|e| errors::input(py, &e, false))?;
     if training.is_empty() && sessions.len() < 2 {
         return Err(errors::argument(
             py,

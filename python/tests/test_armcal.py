@@ -197,6 +197,31 @@ def test_rows_outside_the_identified_ranges_warn_once_each(puma_fit, puma_sessio
     assert "(20 to 30 °C) on 1 of 3 rows, at worst 110 °C beyond (row 2)" in messages[1]
 
 
+def test_a_fit_that_did_not_converge_is_returned_but_not_written(puma, puma_session, tmp_path):
+    """As `armcal identify` exits 1 without `--write-failed`: the result is
+    there to inspect (`converged`, `failure`, the residuals), and writing its
+    calibration raises ArmcalError with the reason unless write_failed=True."""
+    fit = armcal.identify(puma, puma_session[0], prior_length=1e-300, prior_angle=1e-300)
+    assert fit.converged is False
+    assert "did not converge after" in fit.failure
+    assert "nominal" in fit.failure
+    cal = fit.calibration
+    assert cal.failure == fit.failure
+    path = tmp_path / "failed.cal"
+    with pytest.raises(armcal.ArmcalError, match="write_failed=True writes it anyway") as e:
+        cal.write(str(path))
+    assert not isinstance(e.value, armcal.InputError)
+    assert not path.exists()
+    with pytest.raises(armcal.ArmcalError, match="did not converge"):
+        cal.to_bytes()
+    cal.write(str(path), write_failed=True)
+    assert path.read_bytes() == cal.to_bytes(write_failed=True)
+
+
+def test_a_converged_fit_has_no_failure(puma_fit):
+    assert puma_fit.failure is None and puma_fit.calibration.failure is None
+
+
 def test_a_calibration_written_to_a_file_reads_back_with_equal_bytes(puma_fit, tmp_path):
     cal = puma_fit.calibration
     path = tmp_path / "puma.cal"
@@ -375,3 +400,8 @@ def test_sessions_without_a_tracker_are_held_out_as_the_command_line():
         armcal.holdout(model, sessions[:1])
     with pytest.raises(armcal.InputError, match="select"):
         armcal.holdout(model, sessions, select="best")
+    # A session held out and trained on at once is refused, as on the command line.
+    with pytest.raises(armcal.InputError, match=r"the same session as .*front\.csv \(the same file\)"):
+        armcal.holdout(model, [sessions[0], sessions[0]])
+    with pytest.raises(armcal.InputError, match="the same session as"):
+        armcal.holdout(model, sessions[1:], train=[armcal.load_measurements(sessions[1], model)])

@@ -22,8 +22,17 @@
 //! Units: commands are read in the calibration's model units (the angle unit for
 //! revolute joints, the length unit for prismatic ones) and written back in them,
 //! `q1..qM` with Rust's shortest round-trip formatting. A row whose correction was
-//! bounded, did not converge or could not be computed is named on standard error
-//! with its line; a row that could not be computed keeps its nominal command.
+//! bounded, whose pose was not reached or that could not be computed is named on
+//! standard error with its line; a row that could not be computed keeps its
+//! nominal command.
+//!
+//! A correction flagged [`Fault::NotConverged`] is one of two things, told apart
+//! by the residual it carries: above the tolerance the pose is missed (near a
+//! singularity, out of reach, within a joint's lost motion), and the row is
+//! named; at or below it the pose is reached and only the search for the least
+//! correction (the joints left free by the task) ran out of iterations, so the
+//! commands are good but may not be the command's own least change: such rows
+//! are counted once ([`unsettled`]).
 
 use core::fmt::Write as _;
 
@@ -73,11 +82,37 @@ pub fn joints_csv(
 pub struct Compensated {
     /// `(line, correction)` per input row.
     pub rows: Vec<(usize, Correction<f64>)>,
+    /// The residual below which a row's pose is reached, m ([`Limits::tolerance`]).
+    pub tolerance: f64,
+}
+
+/// The warning of a row flagged [`Fault::NotConverged`] whose `residual` (m)
+/// is above the tolerance: its pose is not reached.
+pub fn missed(residual: f64) -> String {
+    format!(
+        "did not converge: the pose is missed by {residual:.3e} m (near a singularity, out of \
+         reach, or within a joint's lost motion)"
+    )
+}
+
+/// The one warning for `count` of `rows` rows flagged [`Fault::NotConverged`]
+/// whose pose is reached (residual within the tolerance) but whose search for
+/// the least correction did not settle in its iterations; `None` for none.
+pub fn unsettled(commands_file: &str, count: usize, rows: usize) -> Option<String> {
+    (count > 0).then(|| {
+        format!(
+            "{commands_file}: {count} of {rows} rows reach their pose, but the search for the \
+             least joint change did not settle in its iterations (near a singularity, or a \
+             servo tick's few): their commands reach the pose and may differ from the least \
+             correction"
+        )
+    })
 }
 
 /// Compensates every row of `commands` in order, with `pacing`.
 pub fn compensate(cal: &Calibration, commands: &JointRows, pacing: Pacing) -> Compensated {
-    let compensator = Compensator::<f64>::from_calibration(cal, Limits::of(pacing));
+    let limits = Limits::of(pacing);
+    let compensator = Compensator::<f64>::from_calibration(cal, limits);
     let mut stream = Stream::new(pacing);
     let rows = commands
         .rows
@@ -87,7 +122,10 @@ pub fn compensate(cal: &Calibration, commands: &JointRows, pacing: Pacing) -> Co
             (row.line, c)
         })
         .collect();
-    Compensated { rows }
+    Compensated {
+        rows,
+        tolerance: limits.tolerance,
+    }
 }
 
 impl Compensated {
@@ -102,24 +140,34 @@ impl Compensated {
         )
     }
 
-    /// One line per row that reported something, for standard error.
+    /// One line per row that reported something, for standard error, and one
+    /// line counting the rows whose pose is reached but whose least correction
+    /// did not settle ([`unsettled`]).
     pub fn warnings(&self, commands_file: &str) -> Vec<String> {
-        self.rows
+        let mut settling = 0;
+        let mut out: Vec<String> = self
+            .rows
             .iter()
             .filter_map(|(line, c)| {
-                c.fault.map(|f| {
-                    let what = match f {
-                        Fault::NonFinite => "not computable (a value was not finite): nominal command kept".to_string(),
-                        Fault::JointCount => "wrong joint count: nominal command kept".to_string(),
-                        Fault::NotConverged => {
-                            format!("did not converge (residual {:.3e} m): near a singularity or out of reach", c.residual)
-                        }
-                        Fault::Limited => "correction bounded (its size, or its change per servo tick)".to_string(),
-                        _ => format!("{f:?}"),
-                    };
-                    format!("{commands_file}:{line}: {what}")
-                })
+                let what = match c.fault? {
+                    Fault::NonFinite => {
+                        "not computable (a value was not finite): nominal command kept".to_string()
+                    }
+                    Fault::JointCount => "wrong joint count: nominal command kept".to_string(),
+                    Fault::NotConverged if c.residual <= self.tolerance => {
+                        settling += 1;
+                        return None;
+                    }
+                    Fault::NotConverged => missed(c.residual),
+                    Fault::Limited => {
+                        "correction bounded (its size, or its change per servo tick)".to_string()
+                    }
+                    f => format!("{f:?}"),
+                };
+                Some(format!("{commands_file}:{line}: {what}"))
             })
-            .collect()
+            .collect();
+        out.extend(unsettled(commands_file, settling, self.rows.len()));
+        out
     }
 }

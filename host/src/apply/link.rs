@@ -33,7 +33,9 @@ use armcal_shared::link::{
     Request, Response, StatusReport, TickStatus,
 };
 
+use crate::apply::compensate;
 use crate::io::measurements::JointRows;
+use armcal_shared::compensation::Limits;
 
 /// How often `Hello` is repeated until answered.
 pub const HELLO_RETRY: Duration = Duration::from_millis(250);
@@ -364,28 +366,41 @@ impl Streamed {
         )
     }
 
-    /// One line per row whose status was not `Corrected`, for standard error.
+    /// One line per row whose status was not `Corrected`, for standard error,
+    /// and one line counting the rows whose pose is reached but whose least
+    /// correction did not settle ([`compensate::unsettled`], told apart by the
+    /// residual against the controller's tolerance).
     pub fn warnings(&self, commands_file: &str) -> Vec<String> {
-        self.rows
+        let tolerance = f64::from(Limits::<f32>::default().tolerance);
+        let mut settling = 0;
+        let mut out: Vec<String> = self
+            .rows
             .iter()
             .filter(|(_, c)| !c.status.is_corrected())
-            .map(|(line, c)| {
+            .filter_map(|(line, c)| {
                 let what = match c.status {
                     TickStatus::Uncalibrated => "passed through: no calibration in force".into(),
                     TickStatus::NonFinite => {
                         "not computable (a value was not finite): nominal command kept".into()
                     }
                     TickStatus::JointCount => "wrong joint count: nominal command kept".into(),
-                    TickStatus::NotConverged => format!(
-                        "did not converge (residual {:.3e} m): near a singularity or out of reach",
-                        c.residual
-                    ),
+                    TickStatus::NotConverged if f64::from(c.residual) <= tolerance => {
+                        settling += 1;
+                        return None;
+                    }
+                    TickStatus::NotConverged => compensate::missed(f64::from(c.residual)),
                     TickStatus::Limited => "correction bounded (size or change per tick)".into(),
                     TickStatus::Corrected => String::new(),
                 };
-                format!("{commands_file}:{line}: {what}")
+                Some(format!("{commands_file}:{line}: {what}"))
             })
-            .collect()
+            .collect();
+        out.extend(compensate::unsettled(
+            commands_file,
+            settling,
+            self.rows.len(),
+        ));
+        out
     }
 
     /// What the controller says of the ranges: the ticks outside and which

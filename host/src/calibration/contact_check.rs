@@ -370,6 +370,76 @@ pub fn require_session(data: &Measurements) -> Result<(), InputError> {
     ))
 }
 
+/// Refuses a session given twice among `sessions` (the sessions to hold out
+/// and those to train on, together): the same file (paths compared once
+/// canonicalised) or the same rows (the joint readings of every row and the
+/// names of the points and planes they are held to, and the known
+/// distances), naming both. Left out and trained on at once, a session's
+/// held-out figures would be in-sample ones.
+pub fn require_distinct(sessions: &[&Measurements]) -> Result<(), InputError> {
+    // Only a file on disk has a path (numpy arrays and built-in sets are
+    // labels, compared by their rows).
+    let path = |m: &Measurements| {
+        let p = std::path::Path::new(&m.file);
+        p.is_file().then(|| std::fs::canonicalize(p).ok()).flatten()
+    };
+    /// Every row as held (readings, point, plane) and every distance.
+    #[allow(clippy::type_complexity)]
+    fn rows(
+        m: &Measurements,
+    ) -> (
+        Vec<(Vec<u64>, Option<&str>, Option<&str>)>,
+        Vec<(&str, &str, u64)>,
+    ) {
+        let c = &m.constraints;
+        let held: Vec<(Vec<u64>, Option<&str>, Option<&str>)> = m
+            .poses
+            .iter()
+            .map(|p| {
+                let (point, plane) = match p.contact {
+                    Contact::Point(k) => (c.points.get(k).map(|n| n.name.as_str()), None),
+                    Contact::Plane(k) => (None, c.planes.get(k).map(|n| n.name.as_str())),
+                    Contact::Measured => (None, None),
+                };
+                (p.q.iter().map(|v| v.to_bits()).collect(), point, plane)
+            })
+            .collect();
+        let distances: Vec<(&str, &str, u64)> = c
+            .distances
+            .iter()
+            .map(|d| {
+                let [a, b] = d
+                    .points
+                    .map(|k| c.points.get(k).map_or("", |p| p.name.as_str()));
+                (a, b, d.length.to_bits())
+            })
+            .collect();
+        (held, distances)
+    }
+    for (j, b) in sessions.iter().enumerate() {
+        for a in &sessions[..j] {
+            let how = if path(a).is_some_and(|p| Some(p) == path(b)) {
+                "the same file"
+            } else if rows(a) == rows(b) {
+                "the same rows (every joint reading, point, plane and distance)"
+            } else {
+                continue;
+            };
+            return Err(InputError::new(
+                &b.file,
+                0,
+                0,
+                format!(
+                    "the same session as {} ({how}): a session held out and trained on gives \
+                     in-sample figures as held-out ones; give each session once",
+                    a.file
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// The held-out figures of `sessions`, as `armcal holdout` gives them:
 /// without `training`, each left out in turn ([`leave_one_out`]); with it,
 /// `model` calibrated once on `training` (merged) and each of `sessions`

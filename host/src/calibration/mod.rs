@@ -3,6 +3,7 @@
 //! These modules work on SI values read by [`crate::io`]; none of them opens a
 //! file of its own (the HTML page of [`report`] is returned as text).
 
+pub mod acceptance;
 pub mod check;
 pub mod contact_check;
 pub mod demo;

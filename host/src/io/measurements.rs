@@ -532,6 +532,85 @@ impl Measurements {
     }
 }
 
+/// The mean nominal tool point (m, base frame) of the rows of `poses` held
+/// to each of `points` fixed points; `None` for a point no row the model
+/// can place names.
+fn nominal_point_means(
+    robot: &Robot<f64>,
+    poses: &[Observation],
+    points: usize,
+) -> Vec<Option<Point3<f64>>> {
+    let kinematics = robot.prepare();
+    let mut sums = vec![(nalgebra::Vector3::zeros(), 0usize); points];
+    for p in poses {
+        if let (Contact::Point(k), Ok(t)) = (p.contact, kinematics.forward(&p.q))
+            && let Some((sum, n)) = sums.get_mut(k)
+        {
+            *sum += t.translation.vector;
+            *n += 1;
+        }
+    }
+    sums.into_iter()
+        .map(|(sum, n)| (n > 0).then(|| Point3::from(sum / n as f64)))
+        .collect()
+}
+
+/// Refuses the distance line `d` when the nominal model puts its two points
+/// `nominal` m apart and the stated length contradicts it by far more than
+/// a geometric error could: more than a factor of 2 apart and by more than
+/// twice [`FIT_LIMIT`] of the robot's `reach` (each point's nominal tool
+/// point may miss by that much and the data still carry a calibration). A
+/// length unit other than the model's gives a factor of 25.4 or more (mm,
+/// in, m): the message names the unit that fits, if one does.
+fn require_plausible_distance(
+    file: &str,
+    d: &DistanceLine,
+    nominal: f64,
+    reach: f64,
+    units: &Units,
+) -> Result<(), InputError> {
+    let (stated, apart) = (d.length, (d.length - nominal).abs());
+    let within_factor = |x: f64| x <= 2.0 * nominal && nominal <= 2.0 * x;
+    if within_factor(stated) || apart <= 2.0 * FIT_LIMIT * reach {
+        return Ok(());
+    }
+    let unit = units.length;
+    let value = units.length_from_si(stated);
+    // The unit the written number fits the nominal distance in, if any.
+    let hint = armcal_shared::units::LengthUnit::ALL
+        .into_iter()
+        .filter(|&u| u != unit)
+        .find(|&u| {
+            let as_u = Units {
+                length: u,
+                ..*units
+            }
+            .length_to_si(value);
+            within_factor(as_u)
+        })
+        .map_or_else(
+            || "a typo, or the two points' names swapped with others?".to_owned(),
+            |u| match u {
+                armcal_shared::units::LengthUnit::In => "is the distance in inches?".to_owned(),
+                u => format!("is the distance in {}?", u.name()),
+            },
+        );
+    Err(InputError::new(
+        file,
+        d.length_at.0,
+        d.length_at.1,
+        format!(
+            "distance: {value} {} stated between '{}' and '{}', the nominal model puts them {:.4} \
+             {} apart: {hint}",
+            unit.name(),
+            d.points[0].0,
+            d.points[1].0,
+            units.length_from_si(nominal),
+            unit.name()
+        ),
+    ))
+}
+
 /// Loads measurements: a built-in set if `name_or_path` is the name of one (see
 /// [`builtin::DATA`]), otherwise the file at that path, read against `model`.
 pub fn load_measurements(
@@ -770,6 +849,8 @@ struct DistanceLine {
     /// Length and standard uncertainty, m.
     length: f64,
     std: f64,
+    /// The place of the length's cell.
+    length_at: Place,
 }
 
 /// What a data line of a file is.
@@ -1027,6 +1108,10 @@ fn read_measurements<R: std::io::Read>(
             ),
         ));
     }
+    // The nominal tool point of every row held to a point, for the distances'
+    // check; computed only when there is a distance.
+    let nominal_points = (!distance_lines.is_empty())
+        .then(|| nominal_point_means(&model.robot, &poses, constraints.points.len()));
     for d in distance_lines {
         let mut ends = [0; 2];
         for (end, (name, (line, column))) in ends.iter_mut().zip(&d.points) {
@@ -1046,6 +1131,12 @@ fn read_measurements<R: std::io::Read>(
                     ),
                 )
             })?;
+        }
+        if let Some(means) = &nominal_points {
+            let reach = reach(&model.robot, poses.iter().map(|p| p.q.as_slice()));
+            if let (Some(a), Some(b)) = (means[ends[0]], means[ends[1]]) {
+                require_plausible_distance(file, &d, (a - b).norm(), reach, &model.units)?;
+            }
         }
         constraints.distances.push(Distance {
             points: ends,
@@ -1983,6 +2074,7 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
             points,
             length,
             std,
+            length_at: self.place(row.start, 3),
         })
     }
 }

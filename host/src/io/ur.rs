@@ -425,27 +425,8 @@ fn angle_delta(x: f64, nominal: f64) -> f64 {
 pub fn export_deltas(robot: &Robot<f64>, nominal: &Robot<f64>) -> UrExport {
     let base = robot.base.isometry();
     let (joints, tip) = joint_frames(robot);
-    let lines: Vec<(Point3<f64>, Vector3<f64>)> = joints
-        .iter()
-        .map(|f| {
-            (
-                Point3::from(f.translation.vector),
-                f.rotation * Vector3::z(),
-            )
-        })
-        .collect();
-    // UR base frame.
-    let (p0, z0) = lines[0];
-    let foot = p0 - z0 * p0.coords.dot(&z0);
-    let mut x0 = Vector3::x() - z0 * z0.x;
-    if x0.norm() < 1e-6 {
-        x0 = Vector3::y() - z0 * z0.y;
-    }
-    let x0 = x0.normalize();
-    let ur_base = Pose::from_parts(
-        nalgebra::Translation3::from(foot.coords),
-        nalgebra::Rotation3::from_basis_unchecked(&[x0, z0.cross(&x0), z0]),
-    );
+    let lines = axis_lines(&Pose::identity(), &joints);
+    let ur_base = ur_base_frame(lines[0]);
     let mut at = ur_base;
     let mut out = [[0.0; JOINTS]; 4];
     let mut links = Vec::with_capacity(JOINTS);
@@ -512,6 +493,37 @@ pub fn export_deltas(robot: &Robot<f64>, nominal: &Robot<f64>) -> UrExport {
         flange: at,
         links,
     }
+}
+
+/// The axis line (a point, the direction) of each joint frame of `joints`
+/// (z along the axis), in the frame `base` puts them in.
+fn axis_lines(base: &Pose, joints: &[Pose]) -> Vec<(Point3<f64>, Vector3<f64>)> {
+    joints
+        .iter()
+        .map(|f| {
+            let f = base * f;
+            (
+                Point3::from(f.translation.vector),
+                f.rotation * Vector3::z(),
+            )
+        })
+        .collect()
+}
+
+/// The UR base frame on axis 1, `(p0, z0)`: its origin at the foot of the
+/// perpendicular from the origin, z along the axis, x the frame's x made
+/// perpendicular (its y, where x is along the axis).
+fn ur_base_frame((p0, z0): (Point3<f64>, Vector3<f64>)) -> Pose {
+    let foot = p0 - z0 * p0.coords.dot(&z0);
+    let mut x0 = Vector3::x() - z0 * z0.x;
+    if x0.norm() < 1e-6 {
+        x0 = Vector3::y() - z0 * z0.y;
+    }
+    let x0 = x0.normalize();
+    Pose::from_parts(
+        nalgebra::Translation3::from(foot.coords),
+        nalgebra::Rotation3::from_basis_unchecked(&[x0, z0.cross(&x0), z0]),
+    )
 }
 
 /// For each joint of `robot` (of six), a frame on its axis with z along it
@@ -625,4 +637,124 @@ pub fn deltas_yaml(export: &UrExport, label: &str) -> String {
         list(&d.d),
         list(&d.alpha)
     )
+}
+
+/// How far a D-H length of a calibration's nominal model may be from the UR
+/// type's and still be that nominal, m: far below any real calibration delta
+/// (tens of µm and more: above a tracker's noise) and far above the rounding
+/// of a unit conversion (1e-16 of the value) or of π/2 written to seven
+/// digits (3e-7).
+pub const SAME_LENGTH: f64 = 1e-6;
+
+/// The same for a D-H angle, rad.
+pub const SAME_ANGLE: f64 = 1e-6;
+
+/// How far a joint axis of a calibration's nominal may pass from the UR
+/// type's joint origin when that nominal is not in UR's form (a UR model
+/// read with `--factory-calibration`, converted to modified D-H with
+/// tilts), m: a factory calibration moves an axis by a few mm (the three
+/// real sets of `data/ur`, on the UR10 or the UR10e: 4.3 mm at most, at
+/// axis 6), while two UR types differ by more (the UR10's and the UR10e's shoulder
+/// height `d1` by 53 mm; the UR5e's and the UR10e's `a2` by 188 mm).
+pub const FACTORY_LENGTH: f64 = 0.02;
+
+/// The angle a joint axis may turn from the type's, rad: a factory
+/// calibration turns one by tens of mrad (the real sets: 20.5 mrad at most,
+/// axis 4 of set 1, its twists `α2 + α3`); another arm's axes are at right
+/// angles to UR's.
+pub const FACTORY_ANGLE: f64 = 0.05;
+
+/// Refuses (as an error of `--calibration` and `--model`) a calibration whose
+/// nominal model `ours` is not the nominal of the UR type `model`: in UR's
+/// form (standard D-H, six revolute joints), every `θ`, `d`, `a`, `α` within
+/// [`SAME_LENGTH`] and [`SAME_ANGLE`]; otherwise (a model read with a factory
+/// calibration) every joint axis at zero readings within [`FACTORY_LENGTH`]
+/// of the type's joint origin and [`FACTORY_ANGLE`] of its direction. The
+/// deltas written against `model` would otherwise turn one robot into
+/// another. `calibration` names the file in the message; base and tool are
+/// not compared (UR's chain holds neither).
+pub fn require_same_type(
+    ours: &Robot<f64>,
+    model: &RobotModel,
+    calibration: &str,
+) -> Result<(), InputError> {
+    let theirs = &model.robot;
+    let refuse = |what: String| {
+        InputError::argument(
+            "--calibration",
+            format!(
+                "{calibration} is not a calibration of the --model {}: {what}; export it with \
+                 the UR model it was identified with",
+                model.name
+            ),
+        )
+    };
+    if ours.dof() != JOINTS {
+        return Err(refuse(format!(
+            "its nominal has {} joints, a UR {JOINTS}",
+            ours.dof()
+        )));
+    }
+    let ur_form = ours.convention == Convention::Dh
+        && ours
+            .links
+            .iter()
+            .all(|l| l.joint == JointType::Revolute && l.beta == 0.0);
+    if ur_form {
+        let mut differ = Vec::new();
+        for (k, (a, b)) in ours.links.iter().zip(&theirs.links).enumerate() {
+            let params = [
+                ("theta", a.theta, b.theta, SAME_ANGLE, "rad"),
+                ("d", a.s, b.s, SAME_LENGTH, "m"),
+                ("a", a.a, b.a, SAME_LENGTH, "m"),
+                ("alpha", a.alpha, b.alpha, SAME_ANGLE, "rad"),
+            ];
+            for (name, x, y, _, unit) in params
+                .into_iter()
+                .filter(|(_, x, y, tol, _)| (x - y).abs() > *tol)
+            {
+                differ.push(format!(
+                    "{name}{} is {x:.6} {unit} in the calibration's nominal, {y:.6} {unit} in {}'s",
+                    k + 1,
+                    model.name
+                ));
+            }
+        }
+        if differ.is_empty() {
+            return Ok(());
+        }
+        return Err(refuse(differ.join(", ")));
+    }
+    // Not in UR's form: each joint axis at zero readings, in the UR base
+    // frame each model puts on its axis 1 (origin at the foot of the
+    // perpendicular from its measurement frame's origin, x that frame's x
+    // made perpendicular). Its D-H would not do: between nearly parallel
+    // axes the common normals lie far away, where `d`, `a` and `θ` are
+    // ill-conditioned; the axes near the arm are not.
+    let axes = |robot: &Robot<f64>| {
+        let lines = axis_lines(&robot.base.isometry(), &joint_frames(robot).0);
+        let to_ur = ur_base_frame(lines[0]).inverse();
+        lines
+            .into_iter()
+            .map(|(p, z)| (to_ur * p, to_ur * z))
+            .collect::<Vec<_>>()
+    };
+    for (k, ((p, z), (q, w))) in axes(ours).into_iter().zip(axes(theirs)).enumerate() {
+        // The type's joint origin's distance to our axis, and the angle
+        // between the directions.
+        let off = (q - p).cross(&z).norm();
+        let turn = z.angle(&w);
+        if off > FACTORY_LENGTH || turn > FACTORY_ANGLE {
+            return Err(refuse(format!(
+                "its nominal (a factory-calibrated model) has joint {}'s axis {:.4} m from \
+                 {}'s joint origin and turned {:.4} rad from its axis (a factory calibration \
+                 moves an axis by a few mm and tens of mrad at most)",
+                k + 1,
+                off,
+                model.name,
+                turn
+            )));
+        }
+    }
+    Ok(())
 }

@@ -495,3 +495,59 @@ fn diagnose_html_is_self_contained_and_renders_in_chromium() {
         png.len()
     );
 }
+
+/// A fit that did not converge is not written: a prior of 1e-300 m and rad
+/// on a simulated UR5e session leaves Levenberg–Marquardt no step that lowers
+/// the sum of squares after 2 iterations. `identify` exits 1 naming the
+/// iterations, the last step and the residuals nominal and calibrated, and
+/// writes neither the calibration nor the report; `--write-failed` writes
+/// them with the reason as a warning.
+#[test]
+fn identify_refuses_to_write_a_fit_that_did_not_converge() {
+    let dir = tempfile::tempdir().unwrap();
+    crate::succeeds(
+        dir.path(),
+        &[
+            "simulate", "--model", "ur5e", "--out", "s.csv", "--poses", "100", "--seed", "2",
+        ],
+    );
+    let mut args = vec![
+        "identify",
+        "--model",
+        "ur5e",
+        "--data",
+        "s.csv",
+        "--prior-length",
+        "1e-300",
+        "--prior-angle",
+        "1e-300",
+        "--out",
+        "nc.cal",
+        "--json",
+        "nc.json",
+    ];
+    let before = crate::snapshot(dir.path());
+    let out = armcal(&args, dir.path());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    for needle in [
+        "s.csv: the fit did not converge after 2 iterations",
+        "no step that lowers the sum of squares",
+        "m calibrated, 0.003191 m nominal",
+        "nothing is written (--write-failed writes it anyway)",
+    ] {
+        assert!(stderr.contains(needle), "{needle:?} not in {stderr}");
+    }
+    assert_eq!(crate::snapshot(dir.path()), before, "nothing written");
+    args.push("--write-failed");
+    let out = crate::succeeds(dir.path(), &args);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("warning: s.csv: the fit did not converge"),
+        "{stderr}"
+    );
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("nc.json")).unwrap()).unwrap();
+    assert_eq!(report["converged"], false);
+    assert!(dir.path().join("nc.cal").exists());
+}

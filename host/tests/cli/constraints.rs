@@ -522,7 +522,8 @@ fn a_session_without_a_known_distance_says_what_holds_the_scale() {
             && stdout.contains("only the prior on the lengths holds it"),
         "{stdout}"
     );
-    constraint_file(d, &rows, &["distance,front.0,front.1,0.05"]);
+    // These rows' nominal tool points are 0.635 m apart: a distance near it.
+    constraint_file(d, &rows, &["distance,front.0,front.1,0.6"]);
     let out = succeeds(d, &check);
     assert!(!String::from_utf8_lossy(&out.stdout).contains("no known distance"));
     // `identify` warns on a real session without its distance line.
@@ -577,4 +578,116 @@ fn a_session_without_a_known_distance_says_what_holds_the_scale() {
         ),
         "{stdout}"
     );
+}
+
+/// `holdout` refuses a session given twice: the same path (also as another
+/// spelling of it), or a copy with the same rows, among `--data` and
+/// `--train` together, naming both; nothing is computed.
+#[test]
+fn holdout_refuses_the_same_session_twice() {
+    let dir = tempfile::tempdir().unwrap();
+    let m = mukca();
+    let front = m.join("panda_6/front.csv");
+    std::fs::copy(&front, dir.path().join("copy.csv")).unwrap();
+    let front = front.display().to_string();
+    let left = m.join("panda_6/left.csv").display().to_string();
+    let other_spelling = m.join("panda_6/../panda_6/front.csv").display().to_string();
+    let model = m.join("original/urdf/panda.urdf").display().to_string();
+    let run = |data: &[&str], train: &[&str], needles: &[&str]| {
+        let mut args = vec![
+            "holdout",
+            "--model",
+            &model,
+            "--tip-link",
+            "ball_link",
+            "--data",
+        ];
+        args.extend(data);
+        if !train.is_empty() {
+            args.push("--train");
+            args.extend(train);
+        }
+        refused(dir.path(), &args, needles);
+    };
+    run(
+        &[&front, &front],
+        &[],
+        &["the same session as", "(the same file)", "front.csv"],
+    );
+    run(
+        &[&front, &left, &other_spelling],
+        &[],
+        &["(the same file)", "give each session once"],
+    );
+    run(
+        &[&front, "copy.csv"],
+        &[],
+        &["copy.csv: the same session as", "front.csv (the same rows"],
+    );
+    run(&[&left], &[&front, "copy.csv"], &["the same rows"]);
+    run(&[&left], &[&left], &["(the same file)"]);
+}
+
+/// A stated distance that the nominal model contradicts by far more than a
+/// geometric error could is refused at its cell with the unit that fits:
+/// MUKCA's 50 mm socket spacing (the nominal URDF puts the sockets 56.9 mm
+/// apart: its error is 6.9 mm) written as `50` in a session in m, or as
+/// `1.9685` (inches), or `5` (no unit fits: a typo). A distance off by a
+/// factor within 2 is a calibration's business, not a refusal.
+#[test]
+fn a_distance_in_another_unit_than_the_model_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let m = mukca();
+    let front = std::fs::read_to_string(m.join("panda_6/front.csv")).unwrap();
+    let line = front
+        .lines()
+        .position(|l| l.starts_with("distance,front.0,front.1,0.05,"))
+        .unwrap()
+        + 1;
+    let panda = m.join("original/urdf/panda.urdf").display().to_string();
+    let check = [
+        "check",
+        "--model",
+        &panda,
+        "--tip-link",
+        "ball_link",
+        "--data",
+        "front.csv",
+    ];
+    let place = format!("front.csv:{line}:26: distance: ");
+    for (length, needles) in [
+        (
+            "50",
+            vec![
+                "50 m stated between 'front.0' and 'front.1'",
+                "is the distance in mm?",
+            ],
+        ),
+        (
+            "1.9685",
+            vec!["1.9685 m stated", "is the distance in inches?"],
+        ),
+        ("5", vec!["5 m stated", "a typo"]),
+    ] {
+        let text = front.replace(
+            "distance,front.0,front.1,0.05,",
+            &format!("distance,front.0,front.1,{length},"),
+        );
+        std::fs::write(dir.path().join("front.csv"), text).unwrap();
+        let mut needles = needles.clone();
+        needles.push(&place);
+        needles.push("the nominal model puts them 0.0569 m apart");
+        refused(dir.path(), &check, &needles);
+        for verb in ["identify", "holdout"] {
+            let mut args = check.to_vec();
+            args[0] = verb;
+            refused(dir.path(), &args, &[&place]);
+        }
+    }
+    let text = front.replace(
+        "distance,front.0,front.1,0.05,",
+        "distance,front.0,front.1,0.1,",
+    );
+    std::fs::write(dir.path().join("front.csv"), text).unwrap();
+    succeeds(dir.path(), &check);
 }

@@ -422,3 +422,75 @@ fn ur_factory_ur_calibration_yaml_has_the_shape_of_real_ones() {
         assert_eq!(shape(&ours), shape(&text), "{example}");
     }
 }
+
+/// The UR export refuses a calibration of another robot: a UR5e's exported
+/// as a UR10e (`a2` 0.19 m apart), a PUMA's in inches as a UR10e, with exit
+/// status 2 naming `--calibration`, `--model` and the first D-H parameter
+/// that differs, nothing written; the UR5e's as a UR5e is written. A UR10
+/// or UR10e with a factory calibration (each real set, modified D-H with
+/// tilts) passes the axis check against its own type and fails it against
+/// the other (axis 2 is 53 mm off: the shoulder heights `d1` differ).
+#[test]
+fn ur_export_refuses_another_robots_calibration() {
+    let dir = tempfile::tempdir().unwrap();
+    for (model, seed) in [("ur5e", "2"), ("puma560", "3")] {
+        let data = format!("{model}.csv");
+        let cal = format!("{model}.cal");
+        succeeds(
+            dir.path(),
+            &[
+                "simulate", "--model", model, "--out", &data, "--poses", "60", "--seed", seed,
+            ],
+        );
+        succeeds(
+            dir.path(),
+            &["identify", "--model", model, "--data", &data, "--out", &cal],
+        );
+    }
+    for format in ["ur-deltas", "ur-calibration"] {
+        let export = |cal: &'static str, model: &'static str| {
+            vec![
+                "export",
+                "--calibration",
+                cal,
+                "--model",
+                model,
+                "--format",
+                format,
+                "--out",
+                "out.yaml",
+            ]
+        };
+        refused(
+            dir.path(),
+            &export("ur5e.cal", "ur10e"),
+            &[
+                "--calibration",
+                "ur5e.cal is not a calibration of the --model ur10e",
+                "a2 is -0.425000 m in the calibration's nominal, -0.612700 m in ur10e's",
+            ],
+        );
+        refused(
+            dir.path(),
+            &export("puma560.cal", "ur10e"),
+            &["puma560.cal is not a calibration of the --model ur10e"],
+        );
+        succeeds(dir.path(), &export("ur5e.cal", "ur5e"));
+    }
+    let ur10 = load_model("ur10").unwrap();
+    let ur10e = load_model("ur10e").unwrap();
+    for (i, set) in real_sets().iter().enumerate() {
+        for nominal in [&ur10, &ur10e] {
+            let model = import(dir.path(), nominal, "set.yaml", &yaml(set, false));
+            for against in [&ur10, &ur10e] {
+                let r = ur::require_same_type(&model.robot, against, "c.cal");
+                if against.name == nominal.name {
+                    r.unwrap_or_else(|e| panic!("set {} on {}: {e}", i + 1, nominal.name));
+                } else {
+                    let e = r.unwrap_err().to_string();
+                    assert!(e.contains("joint 2's axis 0.05"), "{e}");
+                }
+            }
+        }
+    }
+}

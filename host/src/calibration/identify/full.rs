@@ -473,6 +473,10 @@ pub struct FullFit {
     pub iterations: usize,
     /// True if the last step was below the convergence threshold.
     pub converged: bool,
+    /// How the last Levenberg–Marquardt iteration ended: the share of the
+    /// weighted sum of squares its step removed (`(cost − new) / cost`), or
+    /// `None` when no damping tried gave a step that lowered it.
+    pub last_decrease: Option<f64>,
     /// RMS of the position residual (3-D distance), m.
     pub position_rms: f64,
     /// RMS of the orientation residual angle, rad (0 without orientation data).
@@ -820,6 +824,7 @@ pub fn identify_constrained(
     let mut noise_scale = 1.0;
     let mut iterations = 0;
     let (mut free_params, mut fixed, mut converged, mut sys, mut prior, mut post);
+    let mut last_decrease;
     let mut round = 0;
     loop {
         round += 1;
@@ -867,7 +872,7 @@ pub fn identify_constrained(
             levenberg_marquardt(robot, data, &free_params, weights, options, first, &prior)
         };
         let run;
-        (run, converged, sys) = solve(&mut robot, &weights, first)?;
+        (run, converged, last_decrease, sys) = solve(&mut robot, &weights, first)?;
         iterations += run;
         post = Posterior::at(&sys, &prior);
         if estimate.0.contains(&true) {
@@ -893,7 +898,7 @@ pub fn identify_constrained(
                 let weights = Weights::of(&noise);
                 let first = sys.reweighted(&before, &weights);
                 let run;
-                (run, converged, sys) = solve(&mut robot, &weights, first)?;
+                (run, converged, last_decrease, sys) = solve(&mut robot, &weights, first)?;
                 iterations += run;
                 post = Posterior::at(&sys, &prior);
             }
@@ -1087,6 +1092,7 @@ pub fn identify_constrained(
         effects: effect_fits,
         iterations,
         converged,
+        last_decrease,
         position_rms,
         orientation_rms,
         condition_number,
@@ -1383,8 +1389,9 @@ fn negligible(decrease: f64, cost: f64) -> bool {
 
 /// Levenberg–Marquardt on `free` from `robot`, minimising the weighted sum of
 /// squares plus the prior's `Σ (x − x_nominal)²/τ²` (`prior`: precision and
-/// nominal value of each free unknown): iterations, convergence and the
-/// linearisation at the solution.
+/// nominal value of each free unknown): iterations, convergence, the share
+/// of the sum its last iteration removed (`None` when no damping lowered it:
+/// [`FullFit::last_decrease`]) and the linearisation at the solution.
 fn levenberg_marquardt(
     robot: &mut Model,
     data: &[Observation],
@@ -1393,7 +1400,7 @@ fn levenberg_marquardt(
     options: &FullOptions,
     mut sys: NormalEquations,
     prior: &[(f64, f64)],
-) -> Result<(usize, bool, NormalEquations), FullError> {
+) -> Result<(usize, bool, Option<f64>, NormalEquations), FullError> {
     // One linearisation per trial: an accepted trial's normal equations are the
     // next iteration's, so each iteration costs one pass over the poses. `sys` is
     // the linearisation at `robot`.
@@ -1401,6 +1408,7 @@ fn levenberg_marquardt(
     let mut lambda = LAMBDA_START;
     let mut iterations = 0;
     let mut converged = false;
+    let mut last_decrease = Some(0.0);
     while iterations < options.max_iterations && !converged {
         iterations += 1;
         let (mut g, mut rhs, scale) = sys.scaled_normal_equations();
@@ -1451,6 +1459,11 @@ fn levenberg_marquardt(
                 // Converged when the step no longer matters: below 1e-10 of the
                 // noise, or lowering the sum of squares negligibly.
                 converged = size < 1e-10 || negligible(cost - trial_cost, cost);
+                last_decrease = Some(if cost > 0.0 {
+                    (cost - trial_cost) / cost
+                } else {
+                    0.0
+                });
                 (*robot, cost, sys) = (trial, trial_cost, trial_sys);
                 lambda = (lambda / 10.0).max(1e-12);
                 accepted = true;
@@ -1468,10 +1481,11 @@ fn levenberg_marquardt(
         }
         if !accepted {
             converged = cost == 0.0;
+            last_decrease = None;
             break;
         }
     }
-    Ok((iterations, converged, sys))
+    Ok((iterations, converged, last_decrease, sys))
 }
 
 /// The decrease of the weighted sum of squares that the linearisation with

@@ -609,4 +609,48 @@ impl Identification {
     pub fn calibrated(&self) -> Robot<f64> {
         self.calibration.calibrated()
     }
+
+    /// Why this calibration of `model` from `data` must not be written (it
+    /// did not converge, or fits `data` worse than the nominal model:
+    /// [`crate::calibration::acceptance`]); `flag` names the way to write it
+    /// anyway. `None` when it may be.
+    pub fn refusal(
+        &self,
+        model: &RobotModel,
+        data: &Measurements,
+        flag: &'static str,
+    ) -> Option<crate::calibration::acceptance::FailedCalibration> {
+        use crate::calibration::acceptance::{Ending, Judged, Residual, refusal};
+        use crate::calibration::contact_check::geometric;
+        let ending = Ending {
+            iterations: self.iterations,
+            converged: self.converged,
+            last_decrease: self.full.as_ref().map(|f| f.last_decrease),
+        };
+        // Measured coordinates, and every parameter held at its nominal
+        // value: the file holds the fit's own model, whose residual the fit
+        // has (a pass over a million rows spared).
+        let own = self.full.is_some()
+            && !data.is_constrained()
+            && self
+                .parameters
+                .iter()
+                .all(|r| r.fixed.is_none() || r.error == 0.0);
+        let residual = own.then(|| Residual {
+            position: self.position_rms,
+            orientation: data.has_orientation().then_some(self.orientation_rms),
+        });
+        refusal(
+            &model.robot,
+            Judged {
+                model: &geometric(&self.calibrated()),
+                residual,
+            },
+            data,
+            &[],
+            ending,
+            &model.units,
+            flag,
+        )
+    }
 }
