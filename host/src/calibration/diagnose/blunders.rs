@@ -25,10 +25,12 @@
 //! 1. every pose's `T_i` about the fit to all poses, against the robust scale
 //!    [`robust_scale`], the median of `T_i / med(χ²_k)` (breakdown point one
 //!    half): the suspects;
-//! 2. the fit again without the suspects, every pose's `T_i` about it
-//!    against its own variance factor (`s²₋ᵢ = (Ω − T_i) / (R − k)` for a
-//!    pose in the fit, `Ω / R` for one left out): the suspects confirmed
-//!    ([`REFITS`] such fits; at most a tenth of the poses).
+//! 2. when the mean square exceeds the robust scale by more than a factor
+//!    2 ([`inflated`]: blunders weigh on the fit), the fit again without the
+//!    suspects, every pose's `T_i` about it against its own variance factor
+//!    (`s²₋ᵢ = (Ω − T_i) / (R − k)` for a pose in the fit, `Ω / R` for one
+//!    left out): the suspects confirmed ([`REFITS`] such fits; at most a
+//!    tenth of the poses).
 //!
 //! A suspect is set aside only when the model fitted without it predicts the
 //! poses no test flagged significantly better held-out
@@ -176,6 +178,23 @@ pub fn robust_scale(stats: &[(f64, usize)]) -> f64 {
     }
     let half = terms.len() / 2;
     *terms.select_nth_unstable_by(half, f64::total_cmp).1
+}
+
+/// How far the mean square of a fit's residuals may exceed the robust scale
+/// of its deleted residuals before the fit is made again without the
+/// suspects: a factor 2 in variance, the noise the rows were weighed by √2
+/// off in σ. Below it the fit weighs its rows against the prior much as a
+/// clean fit would, and the suspects are judged about it as it is (an
+/// unmodelled effect's heavier tail raises the ratio to 1.2–1.6; a few
+/// blunders of 1–5 mm among 20 µm readings to 10–50).
+pub const INFLATION: f64 = 2.0;
+
+/// Whether the mean square of the fit's residuals, `Ω / R`, exceeds the
+/// robust scale of its deleted residuals by more than [`INFLATION`]:
+/// something (blunders) inflates the noise the fit weighed its rows by.
+pub fn inflated(deleted: &Deleted, redundancy: f64) -> bool {
+    let robust = robust_scale(&deleted.stats);
+    redundancy >= 1.0 && robust > 0.0 && deleted.omega / redundancy > INFLATION * robust
 }
 
 /// The poses whose deleted residual exceeds the `1 − α/n` quantile of

@@ -513,12 +513,22 @@ fn diagnose_once(
     let most = n / 10;
     let mut excluded = vec![false; n];
     let all_lin = linearize(&reference, &[], &[], data, constraints, &prior);
-    let mut flagged = blunders::deleted_residuals(&all_lin, &excluded)
-        .map(|d| blunders::suspects(&d, &excluded, Scale::Robust, reference.redundancy))
+    let deleted = blunders::deleted_residuals(&all_lin, &excluded);
+    let mut flagged = deleted
+        .as_ref()
+        .map(|d| blunders::suspects(d, &excluded, Scale::Robust, reference.redundancy))
         .unwrap_or_default();
+    let refits = if deleted
+        .as_ref()
+        .is_some_and(|d| blunders::inflated(d, reference.redundancy))
+    {
+        blunders::REFITS
+    } else {
+        0
+    };
     // The fit without the suspects, and its linearisation at every pose.
     let mut screen: Option<(FullFit, Linearization)> = None;
-    for _ in 0..blunders::REFITS {
+    for _ in 0..refits {
         flagged.truncate(most);
         let mut next = vec![false; n];
         for s in &flagged {
