@@ -362,10 +362,16 @@ pub fn diagnose_with_progress(
     d.fitted = fitted_errors(&written, &kept).map(|e| HeldOut::of(&e));
     let kept_configurations = Configurations::of(nominal, &kept);
     let shown = d.fit.noise.position;
+    let pure = kept_configurations.pure_error(&kept);
+    let measured_repeats = kept_configurations
+        .rows
+        .iter()
+        .any(|r| r.len() > 1 && kept[r[0]].contact == Contact::Measured);
     d.replicates = Some(Replicates {
         rows: data.len(),
         configurations: configurations.count(),
-        lack_of_fit: kept_configurations.pure_error(&kept).map(|pure| {
+        copies: measured_repeats && pure.is_none(),
+        lack_of_fit: pure.map(|pure| {
             LackOfFit::test(
                 pure,
                 shown.shown,
@@ -386,8 +392,12 @@ pub struct Replicates {
     /// Its distinct configurations, what the diagnosis fitted and held out.
     pub configurations: usize,
     /// The instrument noise the repeats show and the lack-of-fit test of the
-    /// chosen model against it; `None` when no measured position repeats.
+    /// chosen model against it; `None` when no measured position repeats, or
+    /// the repeats are copies.
     pub lack_of_fit: Option<LackOfFit>,
+    /// Whether the measured positions repeated are identical: copies of one
+    /// reading, which show no instrument noise.
+    pub copies: bool,
 }
 
 /// [`diagnose_with_progress`] of a session whose configurations are distinct.
@@ -1151,6 +1161,7 @@ impl Diagnosis {
             "replicates": self.replicates.map(|r| json!({
                 "rows": r.rows,
                 "configurations": r.configurations,
+                "copies": r.copies,
                 "pure_error_mm": r.lack_of_fit.map(|l| mm(l.pure.sigma)),
                 "pure_error_dof": r.lack_of_fit.map(|l| l.pure.dof),
                 "repeated_configurations": r.lack_of_fit.map(|l| l.pure.repeated),
@@ -1222,7 +1233,7 @@ impl Diagnosis {
                 "{} rows in {} distinct configurations (joints equal within the encoder's resolution): every fold, test and count is of configurations, each the mean of its repeats",
                 r.rows, r.configurations
             );
-            if r.lack_of_fit.is_none() {
+            if r.copies {
                 let _ = writeln!(
                     out,
                     "the repeated positions are identical (copies of one reading, not readings of one pose): they show no instrument noise"
