@@ -24,9 +24,10 @@
 //!
 //! 1. every pose's `T_i` about the fit to all poses, against the robust scale
 //!    [`robust_scale`], the median of `T_i / med(χ²_k)` (breakdown point one
-//!    half): the suspects;
-//! 2. when the mean square exceeds the robust scale by more than a factor
-//!    2 ([`inflated`]: blunders weigh on the fit), the fit again without the
+//!    half), when the fit's mean square exceeds it by more than a factor 2
+//!    ([`inflated`]: blunders weigh on the fit); otherwise against the fit's
+//!    own scale, the more efficient one ([`scale`]): the suspects;
+//! 2. when the scale was inflated, the fit again without the
 //!    suspects, every pose's `T_i` about it against its own variance factor
 //!    (`s²₋ᵢ = (Ω − T_i) / (R − k)` for a pose in the fit, `Ω / R` for one
 //!    left out): the suspects confirmed ([`REFITS`] such fits; at most a
@@ -202,6 +203,19 @@ pub const INFLATION: f64 = 2.0;
 pub fn inflated(deleted: &Deleted, redundancy: f64) -> bool {
     let robust = robust_scale(&deleted.stats);
     redundancy >= 1.0 && robust > 0.0 && deleted.omega / redundancy > INFLATION * robust
+}
+
+/// The scale to test a fit's deleted residuals against: the robust one when
+/// the fit's own mean square is [`inflated`] (blunders weigh on it), else
+/// the fit's own, which is the more efficient estimate (the median of `χ²`
+/// terms keeps about 37 % of a normal sample's information on its variance,
+/// Hampel et al. 1986, §2.3, and so flags more good poses by chance).
+pub fn scale(deleted: Option<&Deleted>, redundancy: f64) -> Scale {
+    if deleted.is_some_and(|d| inflated(d, redundancy)) {
+        Scale::Robust
+    } else {
+        Scale::Fitted
+    }
 }
 
 /// The poses whose deleted residual exceeds the `1 − α/n` quantile of

@@ -474,7 +474,8 @@ fn late_blunders(
     let Some(deleted) = blunders::deleted_residuals(&lin, &none) else {
         return Vec::new();
     };
-    let mut flagged = blunders::suspects(&deleted, &none, Scale::Robust, d.fit.redundancy);
+    let scale = blunders::scale(Some(&deleted), d.fit.redundancy);
+    let mut flagged = blunders::suspects(&deleted, &none, scale, d.fit.redundancy);
     let known: Vec<usize> = d.suspects.iter().map(|b| b.pose).collect();
     flagged.truncate((data.len() / 10).saturating_sub(d.blunders.len()));
     blunders::judge(&lin, options.folds, &flagged, geometry::LEVEL)
@@ -524,17 +525,14 @@ fn diagnose_once(
     let mut excluded = vec![false; n];
     let all_lin = linearize(&reference, &[], &[], data, constraints, &prior);
     let deleted = blunders::deleted_residuals(&all_lin, &excluded);
+    let scale = blunders::scale(deleted.as_ref(), reference.redundancy);
     let mut flagged = deleted
         .as_ref()
-        .map(|d| blunders::suspects(d, &excluded, Scale::Robust, reference.redundancy))
+        .map(|d| blunders::suspects(d, &excluded, scale, reference.redundancy))
         .unwrap_or_default();
-    let refits = if deleted
-        .as_ref()
-        .is_some_and(|d| blunders::inflated(d, reference.redundancy))
-    {
-        blunders::REFITS
-    } else {
-        0
+    let refits = match scale {
+        Scale::Robust => blunders::REFITS,
+        Scale::Fitted => 0,
     };
     // The fit without the suspects, and its linearisation at every pose.
     let mut screen: Option<(FullFit, Linearization)> = None;
