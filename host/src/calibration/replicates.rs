@@ -68,9 +68,8 @@ pub const IDENTICAL: f64 = 1e-9;
 /// The configurations of a session: which rows repeat which.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Configurations {
-    /// Each row's configuration, numbered in order of first appearance.
-    pub of_row: Vec<usize>,
-    /// Each configuration's rows, in order.
+    /// Each configuration's rows, in order, the configurations in order of
+    /// their first row.
     pub rows: Vec<Vec<usize>>,
 }
 
@@ -147,7 +146,6 @@ impl Configurations {
         }
         let mut number = vec![usize::MAX; data.len()];
         let mut rows: Vec<Vec<usize>> = Vec::new();
-        let mut of_row = Vec::with_capacity(data.len());
         for i in 0..data.len() {
             let r = root(&mut parent, i);
             if number[r] == usize::MAX {
@@ -155,9 +153,20 @@ impl Configurations {
                 rows.push(Vec::new());
             }
             rows[number[r]].push(i);
-            of_row.push(number[r]);
         }
-        Self { of_row, rows }
+        Self { rows }
+    }
+
+    /// These configurations less those holding any of the `rows` (sorted).
+    pub fn without(&self, rows: &[usize]) -> Self {
+        Self {
+            rows: self
+                .rows
+                .iter()
+                .filter(|c| c.iter().all(|i| rows.binary_search(i).is_err()))
+                .cloned()
+                .collect(),
+        }
     }
 
     /// How many distinct configurations.
@@ -167,7 +176,15 @@ impl Configurations {
 
     /// Whether some configuration was measured more than once.
     pub fn repeated(&self) -> bool {
-        self.rows.len() < self.of_row.len()
+        self.rows.iter().any(|r| r.len() > 1)
+    }
+
+    /// Whether some configuration of measured positions (rows of `data`) was
+    /// measured more than once.
+    pub fn measured_repeats(&self, data: &[Observation]) -> bool {
+        self.rows
+            .iter()
+            .any(|r| r.len() > 1 && data[r[0]].contact == Contact::Measured)
     }
 
     /// One observation per configuration: the mean of its rows' joints,

@@ -34,6 +34,13 @@ impl Candidate {
         }
     }
 
+    /// Whether `effect` is this candidate's effect (the same kind at the same
+    /// joint), whatever its parameters' values.
+    pub fn is(&self, effect: &Effect<f64>) -> bool {
+        self.effect
+            .is_some_and(|c| c.name() == effect.name() && c.joint() == effect.joint())
+    }
+
     /// Parameters the candidate adds.
     pub fn parameter_count(&self) -> usize {
         self.effect.map_or(0, |e| e.parameter_count()) + self.extra.len()

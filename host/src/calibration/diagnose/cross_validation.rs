@@ -118,6 +118,7 @@ pub enum Role {
 
 /// The held-out poses of a fold and their position rows (3, or 1 for a touch
 /// of a plane), in order.
+#[derive(Clone)]
 struct HeldRows {
     poses: Vec<(usize, usize)>,
     rows: Vec<usize>,
@@ -283,14 +284,7 @@ impl<'a> Folds<'a> {
             lin,
             fold,
             training: self.training.iter().map(add).collect(),
-            held_rows: self
-                .held_rows
-                .iter()
-                .map(|h| HeldRows {
-                    poses: h.poses.clone(),
-                    rows: h.rows.clone(),
-                })
-                .collect(),
+            held_rows: self.held_rows.clone(),
             all: add(&self.all),
             rtr: self.rtr + rows.iter().map(|&r| lin.r[(r, 0)].powi(2)).sum::<f64>(),
         }

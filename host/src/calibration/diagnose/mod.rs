@@ -356,27 +356,22 @@ pub fn diagnose_with_progress(
         .filter(|i| d.blunders.binary_search(i).is_err())
         .map(|i| data[i].clone())
         .collect();
-    let orientation = kept.iter().all(|o| o.orientation.is_some());
     d.ranges = crate::io::measurements::ranges(&kept);
-    let written = d.calibration(nominal, orientation, Units::SI);
-    d.fitted = fitted_errors(&written, &kept).map(|e| HeldOut::of(&e));
-    let kept_configurations = Configurations::of(nominal, &kept);
+    d.fitted = d.fitted_at(nominal, &kept);
+    // A blunder is a whole configuration: the others are those kept.
+    let kept_configurations = configurations.without(&d.blunders);
     let shown = d.fit.noise.position;
-    let pure = kept_configurations.pure_error(&kept);
-    let measured_repeats = kept_configurations
-        .rows
-        .iter()
-        .any(|r| r.len() > 1 && kept[r[0]].contact == Contact::Measured);
+    let pure = kept_configurations.pure_error(data);
     d.replicates = Some(Replicates {
         rows: data.len(),
         configurations: configurations.count(),
-        copies: measured_repeats && pure.is_none(),
+        copies: kept_configurations.measured_repeats(data) && pure.is_none(),
         lack_of_fit: pure.map(|pure| {
             LackOfFit::test(
                 pure,
                 shown.shown,
                 shown.redundancy,
-                kept_configurations.mean_inverse_count(&kept),
+                kept_configurations.mean_inverse_count(data),
                 ALPHA,
             )
         }),
@@ -832,18 +827,7 @@ fn diagnose_once(
         Choice::Calibrated { .. } => (geometric_holdout, current),
     };
     let noise = current_fit.noise.tool_point().shown;
-    let orientation = clean.iter().all(|o| o.orientation.is_some());
-    let ranges = crate::io::measurements::ranges(&clean);
-    let written = written_calibration(
-        choice,
-        &current_fit,
-        nominal,
-        orientation,
-        Units::SI,
-        &ranges,
-    );
-    let fitted = fitted_errors(&written, &clean).map(|e| HeldOut::of(&e));
-    Ok(Diagnosis {
+    let mut d = Diagnosis {
         choice,
         findings: chosen,
         fit: current_fit,
@@ -856,71 +840,22 @@ fn diagnose_once(
         suspects,
         tried,
         unsettled,
-        fitted,
+        fitted: None,
         replicates: None,
-        ranges,
-    })
-}
-
-/// The calibration of `choice`: the errors `fit` identified (Hayati tilts
-/// included) and its effects; none when the nominal model was chosen. The one
-/// builder of what `diagnose` writes and of the figures it reports of it.
-fn written_calibration(
-    choice: Choice,
-    fit: &FullFit,
-    nominal: &Robot<f64>,
-    orientation: bool,
-    units: Units,
-    ranges: &Ranges<f64>,
-) -> Calibration {
-    let mut cal = Calibration::nominal(nominal.clone(), orientation, units);
-    cal.ranges = Some(ranges.clone());
-    if choice == Choice::Nominal {
-        return cal;
-    }
-    for p in fit
-        .params
-        .iter()
-        .filter(|p| matches!(p.status, Status::Identified { .. }) && p.error != 0.0)
-    {
-        let _ = cal.errors.push(armcal_shared::calibration::ParamError {
-            param: p.param,
-            error: p.error,
-        });
-    }
-    for e in &fit.effects {
-        let _ = cal.effects.push(e.effect);
-    }
-    cal
-}
-
-/// The position errors (m) of `cal` at the measured poses of `data`, its
-/// model evaluated as `armcal predict` evaluates it; `None` when no pose has
-/// a measured position.
-fn fitted_errors(cal: &Calibration, data: &[Observation]) -> Option<Vec<f64>> {
-    let model = cal.model();
-    let errors: Vec<f64> = data
-        .iter()
-        .filter(|o| o.contact == Contact::Measured)
-        .map(|o| {
-            model.forward(&o.q, &o.context).map_or(f64::INFINITY, |t| {
-                (o.position.coords - t.translation.vector).norm()
-            })
-        })
-        .collect();
-    (!errors.is_empty()).then_some(errors)
+        ranges: crate::io::measurements::ranges(&clean),
+    };
+    d.fitted = d.fitted_at(nominal, &clean);
+    Ok(d)
 }
 
 /// Whether `fit` identifies every parameter of `candidate` (its effect's and
 /// its extra tilts), none held fixed.
 fn identifies(fit: &FullFit, candidate: &Candidate) -> bool {
     let identified = |s: &Status| matches!(s, Status::Identified { .. });
-    let effect = candidate.effect.is_none_or(|c| {
-        fit.effects.iter().any(|e| {
-            e.effect.name() == c.name()
-                && e.effect.joint() == c.joint()
-                && e.status.iter().all(identified)
-        })
+    let effect = candidate.effect.is_none_or(|_| {
+        fit.effects
+            .iter()
+            .any(|e| candidate.is(&e.effect) && e.status.iter().all(identified))
     });
     let extra = candidate.extra.iter().all(|p| {
         fit.params
@@ -1076,12 +1011,7 @@ impl Diagnosis {
             .iter()
             .map(|f| {
                 let mut parameters = serde_json::Map::new();
-                let same = |e: &&Effect<f64>| {
-                    f.candidate
-                        .effect
-                        .is_some_and(|c| c.name() == e.name() && c.joint() == e.joint())
-                };
-                if let Some(e) = written.effects.iter().find(same) {
+                if let Some(e) = written.effects.iter().find(|e| f.candidate.is(e)) {
                     for i in 0..e.parameter_count() {
                         let v = e.parameter(i).unwrap_or(0.0);
                         parameters.insert(
@@ -1382,21 +1312,55 @@ impl Diagnosis {
     }
 
     /// The calibration of the chosen model: its geometric errors (Hayati tilts
-    /// included) and its effects; none when the nominal model was chosen.
+    /// included), its effects and the ranges its poses span; nothing changed
+    /// when the nominal model was chosen. The one builder of what `diagnose`
+    /// writes and of the figures it reports of it (the JSON's effect values,
+    /// [`Diagnosis::fitted`]).
     pub fn calibration(
         &self,
         nominal: &Robot<f64>,
         orientation: bool,
         units: Units,
     ) -> Calibration {
-        written_calibration(
-            self.choice,
-            &self.fit,
-            nominal,
-            orientation,
-            units,
-            &self.ranges,
-        )
+        let mut cal = Calibration::nominal(nominal.clone(), orientation, units);
+        cal.ranges = Some(self.ranges.clone());
+        if self.choice == Choice::Nominal {
+            return cal;
+        }
+        for p in self
+            .fit
+            .params
+            .iter()
+            .filter(|p| matches!(p.status, Status::Identified { .. }) && p.error != 0.0)
+        {
+            let _ = cal.errors.push(armcal_shared::calibration::ParamError {
+                param: p.param,
+                error: p.error,
+            });
+        }
+        for e in &self.fit.effects {
+            let _ = cal.effects.push(e.effect);
+        }
+        cal
+    }
+
+    /// The position errors (m) of the calibration written
+    /// ([`Diagnosis::calibration`]) at the measured poses of `data`, its model
+    /// evaluated as `armcal predict` evaluates it; `None` when no pose has a
+    /// measured position.
+    fn fitted_at(&self, nominal: &Robot<f64>, data: &[Observation]) -> Option<HeldOut> {
+        let orientation = data.iter().all(|o| o.orientation.is_some());
+        let model = self.calibration(nominal, orientation, Units::SI).model();
+        let errors: Vec<f64> = data
+            .iter()
+            .filter(|o| o.contact == Contact::Measured)
+            .map(|o| {
+                model.forward(&o.q, &o.context).map_or(f64::INFINITY, |t| {
+                    (o.position.coords - t.translation.vector).norm()
+                })
+            })
+            .collect();
+        (!errors.is_empty()).then(|| HeldOut::of(&errors))
     }
 }
 
