@@ -73,38 +73,83 @@ pub struct Configurations {
     pub rows: Vec<Vec<usize>>,
 }
 
+/// When two rows are one configuration, for a robot's joint types.
+struct Sameness {
+    /// Each joint's resolution: rad, or m for a prismatic joint.
+    resolution: Vec<f64>,
+}
+
+impl Sameness {
+    fn of(robot: &Robot<f64>) -> Self {
+        Self {
+            resolution: robot
+                .links
+                .iter()
+                .map(|l| match l.joint {
+                    JointType::Revolute => REVOLUTE_RESOLUTION,
+                    JointType::Prismatic => PRISMATIC_RESOLUTION,
+                })
+                .collect(),
+        }
+    }
+
+    /// Whether `a` and `b` are one configuration (see the module header).
+    fn same(&self, a: &Observation, b: &Observation) -> bool {
+        let close = |x: Option<f64>, y: Option<f64>, tol: f64| match (x, y) {
+            (Some(x), Some(y)) => (x - y).abs() <= tol,
+            (None, None) => true,
+            _ => false,
+        };
+        a.contact == b.contact
+            && a.q.len() == b.q.len()
+            && a.q
+                .iter()
+                .zip(&b.q)
+                .zip(&self.resolution)
+                .all(|((x, y), r)| (x - y).abs() <= *r)
+            && same_approach(&a.context.approach, &b.context.approach)
+            && close(
+                a.context.temperature,
+                b.context.temperature,
+                TEMPERATURE_RESOLUTION,
+            )
+            && close(a.context.payload, b.context.payload, PAYLOAD_RESOLUTION)
+    }
+}
+
+/// Whether the distinct configurations of `data` give at least `needed`
+/// equations (`equations` of each configuration's first row). Rows are taken
+/// in order and kept when they repeat none kept before, until the kept ones
+/// give enough: a session of distinct poses is decided on its first few rows,
+/// one of few configurations read many times in one pass over few kept rows
+/// (never a partition of 10⁶ rows, as [`Configurations::of`] makes).
+pub fn distinct_equations_reach(
+    robot: &Robot<f64>,
+    data: &[Observation],
+    needed: usize,
+    equations: impl Fn(&Observation) -> usize,
+) -> bool {
+    let sameness = Sameness::of(robot);
+    let mut kept: Vec<&Observation> = Vec::new();
+    let mut total = 0;
+    for o in data {
+        if total >= needed {
+            break;
+        }
+        if !kept.iter().any(|k| sameness.same(k, o)) {
+            total += equations(o);
+            kept.push(o);
+        }
+    }
+    total >= needed
+}
+
 impl Configurations {
     /// The configurations of `data` for `robot`'s joint types.
     pub fn of(robot: &Robot<f64>, data: &[Observation]) -> Self {
-        let resolution: Vec<f64> = robot
-            .links
-            .iter()
-            .map(|l| match l.joint {
-                JointType::Revolute => REVOLUTE_RESOLUTION,
-                JointType::Prismatic => PRISMATIC_RESOLUTION,
-            })
-            .collect();
-        let same = |a: &Observation, b: &Observation| {
-            let close = |x: Option<f64>, y: Option<f64>, tol: f64| match (x, y) {
-                (Some(x), Some(y)) => (x - y).abs() <= tol,
-                (None, None) => true,
-                _ => false,
-            };
-            a.contact == b.contact
-                && a.q.len() == b.q.len()
-                && a.q
-                    .iter()
-                    .zip(&b.q)
-                    .zip(&resolution)
-                    .all(|((x, y), r)| (x - y).abs() <= *r)
-                && same_approach(&a.context.approach, &b.context.approach)
-                && close(
-                    a.context.temperature,
-                    b.context.temperature,
-                    TEMPERATURE_RESOLUTION,
-                )
-                && close(a.context.payload, b.context.payload, PAYLOAD_RESOLUTION)
-        };
+        let sameness = Sameness::of(robot);
+        let resolution = &sameness.resolution;
+        let same = |a: &Observation, b: &Observation| sameness.same(a, b);
         // Rows sorted by the joint that varies most; a repeat lies within the
         // resolution of it there, so each row is compared with its
         // neighbours in that order only.

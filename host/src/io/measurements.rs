@@ -54,7 +54,7 @@ use armcal_shared::{JointType, Robot};
 use nalgebra::{Point3, Quaternion, UnitQuaternion};
 
 use crate::calibration::identify::noise::Channel;
-use crate::calibration::replicates::Configurations;
+use crate::calibration::replicates::{Configurations, distinct_equations_reach};
 use crate::io::builtin;
 use crate::io::constraints::{
     Constraints, DEFAULT_DISTANCE_STD, Distance, MIN_PLANE_TOUCHES, Named, RESERVED, merge_named,
@@ -308,6 +308,13 @@ impl Measurements {
     /// The error is placed at the last data line, column 1, and says how many poses
     /// and equations there are, how many unknowns, and how many poses are needed.
     pub fn require_poses(&self, robot: &Robot<f64>, unknowns: usize) -> Result<(), InputError> {
+        let needed = self
+            .unknowns(unknowns)
+            .saturating_sub(self.constraints.equations());
+        if distinct_equations_reach(robot, &self.poses, needed, Observation::equations) {
+            return Ok(());
+        }
+        // Too few: the rows' count or the configurations', said as it is.
         let configurations = Configurations::of(robot, &self.poses);
         if configurations.repeated() {
             let equations = configurations

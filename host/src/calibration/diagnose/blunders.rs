@@ -25,7 +25,7 @@
 //! 1. every pose's `T_i` about the fit to all poses, against the robust scale
 //!    [`robust_scale`], the median of `T_i / med(χ²_k)` (breakdown point one
 //!    half), when the fit's mean square exceeds it by more than a factor 2
-//!    ([`inflated`]: blunders weigh on the fit); otherwise against the fit's
+//!    ([`INFLATION`]: blunders weigh on the fit); otherwise against the fit's
 //!    own scale, the more efficient one ([`scale`]): the suspects;
 //! 2. when the scale was inflated, the fit again without the
 //!    suspects, every pose's `T_i` about it against its own variance factor
@@ -91,12 +91,13 @@ pub struct Blunder {
 /// The scale the deleted residuals are tested against.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Scale {
-    /// The robust scale of every pose's deleted residual ([`robust_scale`]):
-    /// the first screen, which blunders cannot inflate.
-    Robust,
+    /// The robust variance factor of every pose's deleted residual
+    /// ([`robust_scale`]): the first screen, which blunders cannot inflate.
+    Robust(f64),
     /// The fit's own weighted sum of squares over the poses it was fitted to,
     /// less the pose's own (`s²₋ᵢ`; a pose left out of the fit is tested
-    /// against `Ω / R`): once the suspects are left out, the efficient scale.
+    /// against `Ω / R`): the efficient scale, when nothing inflates it or
+    /// once the suspects are left out of the fit.
     Fitted,
 }
 
@@ -197,22 +198,19 @@ pub fn robust_scale(stats: &[(f64, usize)]) -> f64 {
 /// blunders of 1–5 mm among 20 µm readings to 10–50).
 pub const INFLATION: f64 = 2.0;
 
-/// Whether the mean square of the fit's residuals, `Ω / R`, exceeds the
-/// robust scale of its deleted residuals by more than [`INFLATION`]:
-/// something (blunders) inflates the noise the fit weighed its rows by.
-pub fn inflated(deleted: &Deleted, redundancy: f64) -> bool {
-    let robust = robust_scale(&deleted.stats);
-    redundancy >= 1.0 && robust > 0.0 && deleted.omega / redundancy > INFLATION * robust
-}
-
 /// The scale to test a fit's deleted residuals against: the robust one when
-/// the fit's own mean square is [`inflated`] (blunders weigh on it), else
-/// the fit's own, which is the more efficient estimate (the median of `χ²`
-/// terms keeps about 37 % of a normal sample's information on its variance,
-/// Hampel et al. 1986, §2.3, and so flags more good poses by chance).
+/// the fit's own mean square `Ω / R` exceeds it by more than [`INFLATION`]
+/// (blunders inflate the noise the fit weighed its rows by), else the fit's
+/// own, which is the more efficient estimate (the median of `χ²` terms keeps
+/// about 37 % of a normal sample's information on its variance, Hampel et al.
+/// 1986, §2.3, and so flags more good poses by chance).
 pub fn scale(deleted: Option<&Deleted>, redundancy: f64) -> Scale {
-    if deleted.is_some_and(|d| inflated(d, redundancy)) {
-        Scale::Robust
+    let Some(deleted) = deleted else {
+        return Scale::Fitted;
+    };
+    let robust = robust_scale(&deleted.stats);
+    if redundancy >= 1.0 && robust > 0.0 && deleted.omega / redundancy > INFLATION * robust {
+        Scale::Robust(robust)
     } else {
         Scale::Fitted
     }
@@ -230,7 +228,6 @@ pub fn suspects(
 ) -> Vec<Suspect> {
     let (stats, omega) = (&deleted.stats, deleted.omega);
     let n = stats.len();
-    let robust = robust_scale(stats);
     let mut thresholds = std::collections::HashMap::new();
     let mut out: Vec<Suspect> = stats
         .iter()
@@ -242,7 +239,7 @@ pub fn suspects(
             }
             // The variance factor the pose is measured against.
             let s2 = match scale {
-                Scale::Robust => robust,
+                Scale::Robust(robust) => robust,
                 // The fit's variance factor; less the pose's own share when
                 // it was fitted to.
                 Scale::Fitted if excluded[i] => omega / redundancy,

@@ -526,7 +526,7 @@ fn diagnose_once(
         .map(|d| blunders::suspects(d, &excluded, scale, reference.redundancy))
         .unwrap_or_default();
     let refits = match scale {
-        Scale::Robust => blunders::REFITS,
+        Scale::Robust(_) => blunders::REFITS,
         Scale::Fitted => 0,
     };
     // The fit without the suspects, and its linearisation at every pose.
