@@ -68,6 +68,13 @@ enum Command {
         json: Option<PathBuf>,
         #[command(flatten)]
         weights: Weights,
+        /// `chosen`: the stated prior (--prior-length, --prior-angle, the model
+        /// file's `[prior]`, else 1 mm, 1 mrad) times the factor of 0.1, 0.3, 1,
+        /// 3 or 10 that predicts held-out poses best (10-fold cross-validation
+        /// of the rows, as `diagnose` chooses it; shown in the summary);
+        /// `stated`: the stated prior as it is.
+        #[arg(long, value_enum, default_value = "chosen")]
+        prior_scale: PriorScaleArg,
         /// The frame the compensation's targets will be given in: `world` (the
         /// measurement frame of these data: the identified base is compensated)
         /// or `base` (the robot's own base frame: the identified base, the
@@ -293,11 +300,15 @@ enum Command {
         reference: Option<String>,
         #[command(flatten)]
         weights: Weights,
-        /// Choose the prior's scale on the training sessions by 10-fold
-        /// cross-validation of their rows, as `diagnose` does (shown beside the
-        /// figures); otherwise the stated prior.
-        #[arg(long, conflicts_with = "diagnose")]
-        select_prior: bool,
+        /// The prior's scale the training sessions are identified at, as
+        /// `armcal identify --prior-scale` (shown beside the figures).
+        #[arg(
+            long,
+            value_enum,
+            default_value = "chosen",
+            conflicts_with = "diagnose"
+        )]
+        prior_scale: PriorScaleArg,
         /// Calibrate the training sessions as `armcal diagnose` does: blunders
         /// set aside, the geometric model and the prior's scale chosen by
         /// 10-fold cross-validation of their rows, the effects the data name
@@ -384,7 +395,7 @@ enum ExportFormat {
 }
 
 /// The folds of the diagnosis' cross-validation unless `--folds` says otherwise.
-const DEFAULT_FOLDS: usize = 10;
+use armcal::identify::prior_scale::{DEFAULT_FOLDS, PriorScale};
 
 /// The noise and the prior: what weighs the rows and the parameters.
 #[derive(clap::Args, Debug)]
@@ -433,6 +444,25 @@ impl Weights {
         scales.options(model).map_err(|e| {
             InputError::argument(e.flag, format!("{}: must be a positive number", e.value))
         })
+    }
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum PriorScaleArg {
+    /// The stated scale times the factor that predicts held-out poses best.
+    Chosen,
+    /// The stated scale.
+    Stated,
+}
+
+impl From<PriorScaleArg> for PriorScale {
+    fn from(a: PriorScaleArg) -> Self {
+        match a {
+            PriorScaleArg::Chosen => PriorScale::Chosen {
+                folds: DEFAULT_FOLDS,
+            },
+            PriorScaleArg::Stated => PriorScale::Stated,
+        }
     }
 }
 
@@ -575,17 +605,17 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             train,
             reference,
             weights,
-            select_prior,
+            prior_scale,
             diagnose,
         } => {
-            let selection = match (select_prior, diagnose) {
+            let selection = match (prior_scale, diagnose) {
                 (_, true) => contact_check::Selection::Diagnosis {
                     folds: DEFAULT_FOLDS,
                 },
-                (true, false) => contact_check::Selection::Prior {
+                (PriorScaleArg::Chosen, false) => contact_check::Selection::Prior {
                     folds: DEFAULT_FOLDS,
                 },
-                (false, false) => contact_check::Selection::Stated,
+                (PriorScaleArg::Stated, false) => contact_check::Selection::Stated,
             };
             verbs::holdout(model, data, train, reference, weights, selection)
         }
@@ -599,6 +629,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             out,
             json,
             weights,
+            prior_scale,
             targets,
             write_failed,
         } => verbs::identify(
@@ -608,6 +639,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             out,
             json,
             weights,
+            prior_scale.into(),
             targets,
             write_failed,
         ),

@@ -92,6 +92,7 @@ pub(crate) fn identify(
     out: Option<PathBuf>,
     json: Option<PathBuf>,
     weights: Weights,
+    prior_scale: PriorScale,
     targets: Targets,
     write_failed: bool,
 ) -> anyhow::Result<()> {
@@ -108,7 +109,7 @@ pub(crate) fn identify(
         Params::Full => ParamSet::Full,
         Params::Paper => ParamSet::Paper,
     };
-    let mut result = identify::identify(&model, &data, set, &options)?;
+    let mut result = identify::identify(&model, &data, set, &options, prior_scale)?;
     data.require_fit_supported(&model, result.position_rms)?;
     accept(
         result.refusal(&model, &data, "--write-failed"),

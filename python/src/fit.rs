@@ -6,6 +6,7 @@ use armcal::check::independent_parameter_count;
 use armcal::diagnose::DiagnoseOptions;
 use armcal::identify::StatedScales;
 use armcal::identify::full::FullOptions;
+use armcal::identify::prior_scale::PriorScale;
 use armcal::identify::{self, ParamSet};
 use armcal::model_file::RobotModel;
 use armcal::{acceptance, diagnose as diag, input_error, report};
@@ -140,9 +141,11 @@ fn targets(py: Python<'_>, targets: &str) -> PyResult<TargetFrame> {
 /// (Mirman & Gupta's 3M model; needs orientations). Noise and prior scales in
 /// the model's units (`point_noise`, `plane_noise`: of the contacts of a
 /// session without a tracker, as `--point-noise`, `--plane-noise`);
+/// `prior_scale`: `chosen` (the stated prior times the factor that predicts
+/// held-out poses best, as `--prior-scale chosen`, the default) or `stated`;
 /// `targets`: `world` or `base`.
 #[pyfunction(name = "identify")]
-#[pyo3(signature = (model, data, params = "full", *, position_noise = None, orientation_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None, targets = "world"))]
+#[pyo3(signature = (model, data, params = "full", *, position_noise = None, orientation_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None, prior_scale = "chosen", targets = "world"))]
 #[allow(clippy::too_many_arguments)]
 pub fn identify_py(
     py: Python<'_>,
@@ -155,8 +158,20 @@ pub fn identify_py(
     plane_noise: Option<f64>,
     prior_length: Option<f64>,
     prior_angle: Option<f64>,
+    prior_scale: &str,
     targets: &str,
 ) -> PyResult<Py<Identification>> {
+    let scale = match prior_scale {
+        "chosen" => PriorScale::default(),
+        "stated" => PriorScale::Stated,
+        other => {
+            return Err(errors::argument(
+                py,
+                "prior_scale",
+                format!("{other:?}: expected \"chosen\" or \"stated\""),
+            ));
+        }
+    };
     let set = match params {
         "full" => ParamSet::Full,
         "paper" => ParamSet::Paper,
@@ -181,7 +196,7 @@ pub fn identify_py(
     let options = options(py, m, scales)?;
     let (data, arrays) = session(py, model, data)?;
     let mut result = py
-        .detach(|| identify::identify(m, &data.data, set, &options))
+        .detach(|| identify::identify(m, &data.data, set, &options, scale))
         .map_err(|e| identify_error(py, e))?;
     data.data
         .require_fit_supported(m, result.position_rms)

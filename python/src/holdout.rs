@@ -29,11 +29,12 @@ use crate::model::Model;
 /// of `sessions`.
 ///
 /// `select`: how a training set is calibrated, as the command line's flags:
-/// `"stated"` (identify, every parameter, at the stated prior), `"prior"`
-/// (`--select-prior`: the prior's scale chosen by the cross-validation of the
-/// training rows) or `"diagnose"` (`--diagnose`: blunders, geometric model and
-/// prior, effects, as `diagnose` chooses; the effects applied in the
-/// prediction). Noise and prior scales in the model's units, as `identify`.
+/// `"prior"` (identify, every parameter, the prior's scale chosen by the
+/// cross-validation of the training rows: `identify`'s default), `"stated"`
+/// (`--prior-scale stated`: at the stated prior) or `"diagnose"`
+/// (`--diagnose`: blunders, geometric model and prior, effects, as `diagnose`
+/// chooses; the effects applied in the prediction). Noise and prior scales in
+/// the model's units, as `identify`.
 ///
 /// Each item is a dict: `file`, `choice` (what the calibration chose; empty
 /// for the stated prior), `training_rms` (the training rows' RMS distance to
@@ -47,7 +48,7 @@ use crate::model::Model;
 /// and `distances` (`points` [a, b], `stated`, `error`). Lengths in the
 /// model's unit.
 #[pyfunction]
-#[pyo3(signature = (model, sessions, *, train = None, reference = None, select = "stated", position_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None))]
+#[pyo3(signature = (model, sessions, *, train = None, reference = None, select = "prior", position_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn holdout<'py>(
     py: Python<'py>,

@@ -350,7 +350,8 @@ mod tests {
     fn the_fits_own_residual_is_the_calibrations() {
         use crate::calibration::identify::{ParamSet, full::FullOptions, identify};
         let (model, data) = session();
-        let fit = identify(&model, &data, ParamSet::Full, &FullOptions::default()).unwrap();
+        let options = FullOptions::default();
+        let fit = identify(&model, &data, ParamSet::Full, &options, Default::default()).unwrap();
         let computed = residual(&geometric(&fit.calibrated()), &data, &[]).position;
         assert!(
             (computed - fit.position_rms).abs() < 1e-9 * fit.position_rms,

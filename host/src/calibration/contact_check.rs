@@ -10,31 +10,22 @@
 //! between the two means less the stated one is the model's *distance error*
 //! (m). All in the model's base frame, which the figures do not depend on.
 //!
-//! [`choose_prior`] picks the scale of the prior on the D-H errors as
-//! `armcal diagnose` does for measured coordinates: the linearised k-fold
-//! cross-validation of the rows ([`crate::calibration::diagnose::cross_validation`],
-//! the known distances trained on in every fold) about the fit at the stated
-//! prior, each factor of [`PRIOR_FACTORS`] scored by the held-out RMS distance
-//! of the tool points to their fixed points (or planes).
-//!
 //! [`leave_one_out`] is the held-out evaluation: calibrate on every session
 //! but one (merged, their points kept apart by name), predict the one left out,
 //! for each in turn; beside the nominal model and, optionally, a reference
 //! model (another calibration of the same chain) on the same held-out rows.
 //! [`Selection`] says how each training set is calibrated: `identify --params
-//! full` at the stated prior or at the one [`choose_prior`] picks, or the model
-//! `armcal diagnose` chooses (its effects applied in the prediction).
+//! full` at the stated prior or at the scale it chooses by cross-validation
+//! ([`crate::calibration::identify::prior_scale`]), or the model `armcal
+//! diagnose` chooses (its effects applied in the prediction).
 
 use armcal_shared::Robot;
 use armcal_shared::effects::EffectModel;
 use nalgebra::{Point3, Vector3};
 
-use crate::calibration::diagnose::cross_validation::{Folds, Subset};
-use crate::calibration::diagnose::geometry::PRIOR_FACTORS;
 use crate::calibration::diagnose::{DiagnoseOptions, diagnose_session};
-use crate::calibration::identify::full::{
-    FullOptions, PlaneEstimate, identify_constrained, linearize,
-};
+use crate::calibration::identify::full::{FullOptions, PlaneEstimate};
+use crate::calibration::identify::prior_scale::PriorScale;
 use crate::calibration::identify::{self, IdentifyError, ParamSet};
 use crate::io::input_error::InputError;
 use crate::io::measurements::{Contact, Measurements};
@@ -185,51 +176,6 @@ pub fn contact_check(model: &EffectModel<f64>, data: &Measurements) -> ContactCh
     }
 }
 
-/// The factor of [`PRIOR_FACTORS`] on `options.prior` of least held-out RMS
-/// over `folds` interleaved folds of `data`'s rows, and each factor's held-out
-/// RMS (m). The stated prior (factor 1) when no factor can be scored.
-pub fn choose_prior(
-    model: &RobotModel,
-    data: &Measurements,
-    options: &FullOptions,
-    folds: usize,
-) -> Result<(f64, Vec<(f64, f64)>), IdentifyError> {
-    let fit = identify_constrained(
-        &model.robot,
-        None,
-        &[],
-        &[],
-        &data.poses,
-        &data.constraints,
-        options,
-    )?;
-    let lin = linearize(
-        &fit,
-        &[],
-        &[],
-        &data.poses,
-        &data.constraints,
-        &options.prior,
-    );
-    let cv = Folds::interleaved(&lin, folds);
-    let columns: Vec<usize> = (0..lin.j.ncols()).collect();
-    let scores: Vec<(f64, f64)> = PRIOR_FACTORS
-        .iter()
-        .filter_map(|&f| {
-            let subset = Subset {
-                columns: columns.clone(),
-                precision_factor: 1.0 / (f * f),
-            };
-            cv.evaluate(&subset).map(|e| (f, e.held.rms))
-        })
-        .collect();
-    let best = scores
-        .iter()
-        .min_by(|a, b| a.1.total_cmp(&b.1))
-        .map_or(1.0, |s| s.0);
-    Ok((best, scores))
-}
-
 /// A robot model without effects, as [`contact_check`] reads it.
 pub fn geometric(robot: &Robot<f64>) -> EffectModel<f64> {
     EffectModel {
@@ -243,7 +189,8 @@ pub fn geometric(robot: &Robot<f64>) -> EffectModel<f64> {
 pub enum Selection {
     /// `armcal identify --params full` at the stated prior.
     Stated,
-    /// The same at the prior's scale [`choose_prior`] picks with `folds` folds.
+    /// The same at the prior's scale `armcal identify` chooses with `folds`
+    /// folds ([`PriorScale::Chosen`]).
     Prior {
         /// Folds of the cross-validation.
         folds: usize,
@@ -277,25 +224,20 @@ pub fn calibrate(
     options: &FullOptions,
     selection: Selection,
 ) -> Result<Calibrated, IdentifyError> {
-    let identified = |factor: f64| -> Result<Calibrated, IdentifyError> {
-        let options = FullOptions {
-            prior: options.prior.scaled(factor),
-            ..*options
-        };
-        let fit = identify::identify(model, data, ParamSet::Full, &options)?;
+    let identified = |scale: PriorScale| -> Result<Calibrated, IdentifyError> {
+        let fit = identify::identify(model, data, ParamSet::Full, options, scale)?;
         Ok(Calibrated {
             model: geometric(&fit.calibrated()),
             training_rms: fit.position_rms,
-            choice: if factor == 1.0 {
-                String::new()
-            } else {
-                format!("prior ×{factor}")
+            choice: match fit.prior.as_ref().map(|c| c.factor()) {
+                Some(f) if f != 1.0 => format!("prior ×{f}"),
+                _ => String::new(),
             },
         })
     };
     match selection {
-        Selection::Stated => identified(1.0),
-        Selection::Prior { folds } => identified(choose_prior(model, data, options, folds)?.0),
+        Selection::Stated => identified(PriorScale::Stated),
+        Selection::Prior { folds } => identified(PriorScale::Chosen { folds }),
         Selection::Diagnosis { folds } => {
             let options = DiagnoseOptions {
                 folds: folds.min(data.len()),

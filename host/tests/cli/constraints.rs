@@ -394,11 +394,11 @@ fn the_exported_urdf_predicts_as_the_calibration() {
     );
 }
 
-/// `holdout` of `robot`'s `placements` with the MUKCA reference and `flag`
+/// `holdout` of `robot`'s `placements` with the MUKCA reference and `flags`
 /// (how the training placements are calibrated): each held-out file's figures.
-fn panda_held_out(robot: &str, placements: &[&str], flag: &str) -> Vec<(String, Vec<f64>)> {
+fn panda_held_out(robot: &str, placements: &[&str], flags: &[&str]) -> Vec<(String, Vec<f64>)> {
     let mut args = panda(robot, placements);
-    args.push(flag.into());
+    args.extend(flags.iter().map(|f| f.to_string()));
     let args: Vec<&str> = args.iter().map(String::as_str).collect();
     holdout(&args)
 }
@@ -406,29 +406,29 @@ fn panda_held_out(robot: &str, placements: &[&str], flag: &str) -> Vec<(String, 
 /// On panda_6's `left` and `right` (held out for MUKCA too), armcal's spread
 /// and distance error are smaller than MUKCA's (columns 4, 5 against 2, 3);
 /// panda_7's `right` row.
-fn panda_6_beats_mukca_and_panda_7_right(flag: &str) -> Vec<f64> {
-    for (file, f) in panda_held_out("panda_6", &["front", "left", "right"], flag)
+fn panda_6_beats_mukca_and_panda_7_right(flags: &[&str]) -> Vec<f64> {
+    for (file, f) in panda_held_out("panda_6", &["front", "left", "right"], flags)
         .into_iter()
         .filter(|(f, _)| f != "front.csv")
     {
         assert!(
             f[4] < f[2] && f[5].abs() < f[3].abs(),
-            "{flag} {file}: {f:?}"
+            "{flags:?} {file}: {f:?}"
         );
     }
-    let rows = panda_held_out("panda_7", &["front", "right"], flag);
+    let rows = panda_held_out("panda_7", &["front", "right"], flags);
     let (_, f) = rows.into_iter().find(|(f, _)| f == "right.csv").unwrap();
     f
 }
 
 /// With the prior's scale chosen by cross-validation on the training
-/// placements (`--select-prior`, as `diagnose` chooses it), as measured: on
+/// placements (the default, as `identify` and `diagnose` choose it), as measured: on
 /// panda_6's `left` and `right` (held out for MUKCA too) armcal's spread and
 /// distance error are smaller than MUKCA's; on panda_7's `right`, its distance
 /// error is smaller and its spread slightly larger (0.328 against 0.326 mm).
 #[test]
 fn mukca_panda_sessions_held_out_with_the_prior_chosen_by_cross_validation() {
-    let f = panda_6_beats_mukca_and_panda_7_right("--select-prior");
+    let f = panda_6_beats_mukca_and_panda_7_right(&[]);
     assert!(f[5].abs() < f[3].abs(), "{f:?}");
     assert!(f[4] > f[2] && f[4] < f[2] + 0.01, "{f:?}");
 }
@@ -441,7 +441,7 @@ fn mukca_panda_sessions_held_out_with_the_prior_chosen_by_cross_validation() {
 /// far below the nominal model's and its distance error below MUKCA's.
 #[test]
 fn mukca_panda_sessions_held_out_as_diagnose_chooses() {
-    let f = panda_6_beats_mukca_and_panda_7_right("--diagnose");
+    let f = panda_6_beats_mukca_and_panda_7_right(&["--diagnose"]);
     assert!(f[4] < f[0] / 10.0, "{f:?}");
     assert!(f[5].abs() < f[3].abs(), "{f:?}");
 }
@@ -694,15 +694,16 @@ fn a_distance_in_another_unit_than_the_model_is_refused() {
 
 /// Like for like with MUKCA's URDF, which was fitted to `front` alone: armcal
 /// trained on `front` alone too (`--train`), judged on the other placements,
-/// as measured (the README's comparison): with the default prior (1 mm /
-/// 1 mrad) armcal's spread is larger than MUKCA's on every held-out placement
-/// (panda_7 `right` 0.561 against 0.326 mm); with the prior chosen by
-/// cross-validation (`--select-prior`, ×10) it is smaller on panda_6 `left`
-/// and `right` and within 0.01 mm on panda_7 `right`.
+/// as measured (the README's comparison): at the stated prior (1 mm / 1 mrad,
+/// `--prior-scale stated`) armcal's spread is larger than MUKCA's on every
+/// held-out placement (panda_7 `right` 0.561 against 0.326 mm: the prior
+/// holds joint 5's offset, which the data put at 23 mrad); with the scale
+/// `identify` chooses by default (×10) it is smaller on panda_6 `left` and
+/// `right` and within 0.01 mm on panda_7 `right`.
 #[test]
 fn mukca_like_for_like_trained_on_front_alone() {
     let m = mukca();
-    let run = |robot: &str, held: &[&str], flag: Option<&str>| {
+    let run = |robot: &str, held: &[&str], flags: &[&str]| {
         let mut args = panda(robot, held);
         let data = args.iter().position(|a| a == "--data").unwrap();
         args.insert(
@@ -710,11 +711,11 @@ fn mukca_like_for_like_trained_on_front_alone() {
             m.join(format!("{robot}/front.csv")).display().to_string(),
         );
         args.insert(data, "--train".into());
-        args.extend(flag.map(str::to_owned));
+        args.extend(flags.iter().map(|f| f.to_string()));
         let args: Vec<&str> = args.iter().map(String::as_str).collect();
         let rows = holdout(&args);
         for (file, f) in &rows {
-            eprintln!("{robot} {file} {flag:?}: {f:?}");
+            eprintln!("{robot} {file} {flags:?}: {f:?}");
         }
         rows
     };
@@ -722,16 +723,16 @@ fn mukca_like_for_like_trained_on_front_alone() {
         ("panda_6", &["left", "right"][..]),
         ("panda_7", &["right"][..]),
     ] {
-        for (file, f) in run(robot, held, None) {
-            assert!(f[4] > f[2], "{robot} {file}, default prior: {f:?}");
+        for (file, f) in run(robot, held, &["--prior-scale", "stated"]) {
+            assert!(f[4] > f[2], "{robot} {file}, stated prior: {f:?}");
         }
-        for (file, f) in run(robot, held, Some("--select-prior")) {
+        for (file, f) in run(robot, held, &[]) {
             if robot == "panda_6" {
-                assert!(f[4] < f[2], "{robot} {file}, --select-prior: {f:?}");
+                assert!(f[4] < f[2], "{robot} {file}, chosen prior: {f:?}");
             } else {
                 assert!(
                     (f[4] - f[2]).abs() < 0.01,
-                    "{robot} {file}, --select-prior: {f:?}"
+                    "{robot} {file}, chosen prior: {f:?}"
                 );
             }
         }

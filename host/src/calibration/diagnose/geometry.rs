@@ -23,8 +23,7 @@ use crate::calibration::stats::significantly_smaller;
 /// The level of the paired test a calibrated model must pass against nominal.
 pub const LEVEL: f64 = 0.05;
 
-/// The prior scales tried, as factors on the stated one (1 mm, 1 mrad by default).
-pub const PRIOR_FACTORS: [f64; 5] = [0.1, 0.3, 1.0, 3.0, 10.0];
+pub use crate::calibration::identify::prior::PRIOR_FACTORS;
 
 /// One candidate geometric model and its held-out error.
 #[derive(Clone, Debug, PartialEq)]

@@ -69,14 +69,15 @@ use armcal_shared::{FrameAxis, JointType, Param, Robot, Twist, rotation_error};
 use faer::linalg::matmul::{self, triangular, triangular::BlockStructure};
 use faer::linalg::solvers::{DenseSolveCore, Solve};
 use faer::{Accum, Mat, Par, Side};
-use nalgebra::{IsometryMatrix3, Matrix3, Point3, Rotation3, Vector3};
+use nalgebra::{DMatrix, DVector, IsometryMatrix3, Matrix3, Point3, Rotation3, Vector3};
 
 use crate::calibration::parallel;
+use std::borrow::Borrow;
 
 use super::noise::{
     Channel, ChannelNoise, Noise, NoiseEstimate, NoiseSource, PerChannel, SETTLED, Weights,
 };
-use super::prior::{Geometry, Prior};
+use super::prior::{Geometry, PRIOR_FACTORS, Prior};
 
 /// One unknown of the fit: a geometric parameter, or parameter `component` of
 /// effect `effect` of the model's effect list.
@@ -498,6 +499,10 @@ pub struct FullFit {
     pub redundancy: f64,
     /// The noise of each channel: used and shown by the residuals.
     pub noise: NoiseEstimate,
+    /// How much another scale of the prior (a factor of [`PRIOR_FACTORS`])
+    /// could change the sum of squares of the held-out residuals, in units
+    /// of its sampling error ([`prior_reach`]): 0 without a prior.
+    pub prior_reach: f64,
     /// The unknown fixed points of a constraint session, estimated with the
     /// robot (empty for measured coordinates).
     pub points: Vec<PointFit>,
@@ -946,6 +951,7 @@ pub fn identify_constrained(
             .sum();
         (log_sum / p).exp() / (equations.max(1) as f64).sqrt()
     };
+    let prior_reach = prior_reach(&g, &scale, &robot, &free_params, &prior, equations);
     let mut correlations = Vec::new();
     let mut std_of = vec![f64::NAN; free_params.len()];
     if let Some(c) = &post.cov {
@@ -1102,7 +1108,71 @@ pub fn identify_constrained(
         equations,
         redundancy: post.redundancy(),
         noise: noise_estimate,
+        prior_reach,
     })
+}
+
+/// How much another scale of the prior could change the fit's held-out
+/// error: the most, over the factors `f` of [`PRIOR_FACTORS`], of the change
+/// of the predictions' sum of squares over the rows, in units of the sampling
+/// error of that sum.
+///
+/// About the solution `x` at the prior precision `P` (centre `x₀`), the data's
+/// normal matrix `G` gives the fit at `P_f = P/f²` to first order as the step
+/// `(G + P_f) δ = −(P_f − P)(x − x₀)`, which moves the predictions by `Jδ`:
+/// `δᵀGδ` in units of the noise², the most it can change the expected sum of
+/// squares of the residuals of as many new rows. That sum, `n` rows of unit
+/// variance, scatters by `√(2n)`: a change far below it is one no
+/// cross-validation of these rows can see. The reach is `max_f δᵀGδ / √(2n)`;
+/// `g` and the step are in the unit-diagonal scaling `scale` of
+/// [`NormalEquations::scaled_normal_equations`].
+fn prior_reach(
+    g: &Mat<f64>,
+    scale: &[f64],
+    robot: &Model,
+    free: &[Unknown],
+    prior: &[(f64, f64)],
+    rows: usize,
+) -> f64 {
+    let p = free.len();
+    if p == 0 || rows == 0 {
+        return 0.0;
+    }
+    // The prior's precision and the offset from its centre, scaled.
+    let precision: Vec<f64> = (0..p).map(|k| prior[k].0 * scale[k] * scale[k]).collect();
+    let offset: Vec<f64> = (0..p)
+        .map(|k| {
+            let x = robot.get(free[k]).unwrap_or(prior[k].1);
+            if scale[k] > 0.0 {
+                (x - prior[k].1) / scale[k]
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    PRIOR_FACTORS
+        .iter()
+        .filter_map(|&f| {
+            let mut n = g.clone();
+            for k in 0..p {
+                n[(k, k)] += precision[k] / (f * f);
+            }
+            let rhs = Mat::from_fn(p, 1, |k, _| {
+                -(precision[k] / (f * f) - precision[k]) * offset[k]
+            });
+            let d = n.llt(Side::Lower).ok()?.solve(&rhs);
+            let moved: f64 = (0..p)
+                .map(|a| {
+                    (0..p)
+                        .map(|b| d[(a, 0)] * g[(a, b)] * d[(b, 0)])
+                        .sum::<f64>()
+                })
+                .sum();
+            moved
+                .is_finite()
+                .then(|| moved.max(0.0) / (2.0 * rows as f64).sqrt())
+        })
+        .fold(0.0, f64::max)
 }
 
 /// Most rounds of the variance-component iteration (each a fit from the last);
@@ -1208,6 +1278,84 @@ impl Posterior {
     }
 }
 
+/// The model at a fit's solution and the unknowns of a linearisation about
+/// it ([`linearize`], [`fold_normals`]): the fit's identified parameters, its
+/// points, planes and effects, then `extra` and `effects`'s parameters.
+struct AtFit {
+    model: Model,
+    unknowns: Vec<Unknown>,
+    fitted: usize,
+    precision: Vec<f64>,
+    offset: Vec<f64>,
+}
+
+impl AtFit {
+    fn of(
+        fit: &FullFit,
+        effects: &[Effect<f64>],
+        extra: &[Param],
+        constraints: &Constraints,
+        prior: &Prior,
+    ) -> Self {
+        let mut model = Model::of(fit.calibrated.clone(), fit.fitted_effects());
+        model.constraints = constraints.clone();
+        model.points = fit.points.iter().map(|p| p.position).collect();
+        model.planes = fit
+            .planes
+            .iter()
+            .map(|p| PlaneEstimate::through(&Point3::from(p.normal * p.offset), &p.normal))
+            .collect();
+        let identified = |s: &Status| matches!(s, Status::Identified { .. });
+        let mut unknowns: Vec<Unknown> = Vec::new();
+        let mut offset: Vec<f64> = Vec::new();
+        for p in fit.params.iter().filter(|p| identified(&p.status)) {
+            unknowns.push(Unknown::Param(p.param));
+            offset.push(p.error);
+        }
+        for (point, p) in fit.points.iter().enumerate() {
+            unknowns.extend(
+                (0..3)
+                    .filter(|&a| p.std[a].is_finite())
+                    .map(|axis| Unknown::Point { point, axis }),
+            );
+        }
+        for plane in 0..fit.planes.len() {
+            unknowns.extend((0..3).map(|component| Unknown::Plane { plane, component }));
+        }
+        for (effect, e) in fit.effects.iter().enumerate() {
+            for (component, _) in e.status.iter().enumerate().filter(|(_, s)| identified(s)) {
+                unknowns.push(Unknown::Effect { effect, component });
+            }
+        }
+        let fitted = unknowns.len();
+        unknowns.extend(extra.iter().map(|p| Unknown::Param(*p)));
+        for e in effects {
+            let effect = model.effects.len();
+            model.effects.push(*e);
+            unknowns.extend(
+                (0..e.parameter_count()).map(|component| Unknown::Effect { effect, component }),
+            );
+        }
+        // Only the geometry is off its nominal value: points, planes and effects
+        // have no prior's centre.
+        offset.resize(unknowns.len(), 0.0);
+        let precision = unknowns
+            .iter()
+            .map(|u| match u {
+                Unknown::Param(p) => prior.precision(*p),
+                Unknown::Effect { .. } | Unknown::Point { .. } | Unknown::Plane { .. } => 0.0,
+            })
+            .collect();
+        Self {
+            model,
+            unknowns,
+            fitted,
+            precision,
+            offset,
+        }
+    }
+}
+
 /// The weighted linearisation of a fitted model, extended: the Jacobian columns
 /// of `fit`'s identified unknowns (geometry, the identified coordinates of a
 /// constraint session's points and every parameter of its planes, then its
@@ -1230,55 +1378,13 @@ pub fn linearize(
     constraints: &Constraints,
     prior: &Prior,
 ) -> Linearization {
-    let mut model = Model::of(fit.calibrated.clone(), fit.fitted_effects());
-    model.constraints = constraints.clone();
-    model.points = fit.points.iter().map(|p| p.position).collect();
-    model.planes = fit
-        .planes
-        .iter()
-        .map(|p| PlaneEstimate::through(&Point3::from(p.normal * p.offset), &p.normal))
-        .collect();
-    let identified = |s: &Status| matches!(s, Status::Identified { .. });
-    let mut unknowns: Vec<Unknown> = Vec::new();
-    let mut offset: Vec<f64> = Vec::new();
-    for p in fit.params.iter().filter(|p| identified(&p.status)) {
-        unknowns.push(Unknown::Param(p.param));
-        offset.push(p.error);
-    }
-    for (point, p) in fit.points.iter().enumerate() {
-        unknowns.extend(
-            (0..3)
-                .filter(|&a| p.std[a].is_finite())
-                .map(|axis| Unknown::Point { point, axis }),
-        );
-    }
-    for plane in 0..fit.planes.len() {
-        unknowns.extend((0..3).map(|component| Unknown::Plane { plane, component }));
-    }
-    for (effect, e) in fit.effects.iter().enumerate() {
-        for (component, _) in e.status.iter().enumerate().filter(|(_, s)| identified(s)) {
-            unknowns.push(Unknown::Effect { effect, component });
-        }
-    }
-    let fitted = unknowns.len();
-    unknowns.extend(extra.iter().map(|p| Unknown::Param(*p)));
-    for e in effects {
-        let effect = model.effects.len();
-        model.effects.push(*e);
-        unknowns.extend(
-            (0..e.parameter_count()).map(|component| Unknown::Effect { effect, component }),
-        );
-    }
-    // Only the geometry is off its nominal value: points, planes and effects
-    // have no prior's centre.
-    offset.resize(unknowns.len(), 0.0);
-    let precision = unknowns
-        .iter()
-        .map(|u| match u {
-            Unknown::Param(p) => prior.precision(*p),
-            Unknown::Effect { .. } | Unknown::Point { .. } | Unknown::Plane { .. } => 0.0,
-        })
-        .collect();
+    let AtFit {
+        model,
+        unknowns,
+        fitted,
+        precision,
+        offset,
+    } = AtFit::of(fit, effects, extra, constraints, prior);
     let weights = fit.weights();
     let sys = LinearSystem::build(&model, data, &unknowns, &weights);
     let distances = DistanceRows::rows(&model, &unknowns);
@@ -1368,6 +1474,103 @@ impl Linearization {
                 .get(i + 1)
                 .copied()
                 .unwrap_or(self.j.nrows())
+    }
+}
+
+/// One fold's share of the normal equations about a fit ([`fold_normals`]).
+pub struct FoldNormal {
+    /// `JᵀJ` of the fold's pose rows, every channel, each row divided by its
+    /// noise as in the fit.
+    pub a: DMatrix<f64>,
+    /// `Jᵀr` of the same rows.
+    pub b: DVector<f64>,
+    /// `JᵀJ` of its tool-point rows alone (a measured position or a
+    /// contact; not the orientation), each row in m (multiplied back by its
+    /// noise), so that `‖r − Jδ‖²` of those rows is in m².
+    pub held_a: DMatrix<f64>,
+    /// `Jᵀr` of the same rows, m.
+    pub held_b: DVector<f64>,
+    /// `rᵀr` of the same rows, m².
+    pub held_rtr: f64,
+    /// The fold's poses.
+    pub poses: usize,
+}
+
+/// The normal equations about a fit's solution, summed fold by fold: all a
+/// linearised k-fold cross-validation of the fit's unknowns at another prior
+/// needs, in memory independent of the number of poses (`O(k p²)`).
+pub struct FoldNormals {
+    /// Each fold's.
+    pub folds: Vec<FoldNormal>,
+    /// `JᵀJ` and `Jᵀr` of the known distances (trained on in every fold).
+    pub distances: (DMatrix<f64>, DVector<f64>),
+    /// Each unknown's prior precision `1/τ²` (0: none).
+    pub precision: Vec<f64>,
+    /// Each unknown's value less its nominal value (its prior's centre), SI.
+    pub offset: Vec<f64>,
+}
+
+/// The normal equations of the fit's unknowns (those of [`linearize`]
+/// without effects or extras) at its solution, summed over the poses of each
+/// fold: pose `i` in fold `fold[i]` of `k`. One pass over the poses, however
+/// many folds.
+pub fn fold_normals(
+    fit: &FullFit,
+    data: &[Observation],
+    constraints: &Constraints,
+    prior: &Prior,
+    fold: &[usize],
+    k: usize,
+) -> FoldNormals {
+    let AtFit {
+        model,
+        unknowns,
+        precision,
+        offset,
+        ..
+    } = AtFit::of(fit, &[], &[], constraints, prior);
+    let weights = fit.weights();
+    let p = unknowns.len();
+    let matrix = |m: &Mat<f64>| DMatrix::from_fn(m.nrows(), m.ncols(), |i, j| m[(i, j)]);
+    let vector = |v: &Mat<f64>| DVector::from_fn(v.nrows(), |i, _| v[(i, 0)]);
+    let tool = [Channel::Position, Channel::Point, Channel::Plane];
+    let folds = (0..k)
+        .map(|f| {
+            let poses: Vec<&Observation> = data
+                .iter()
+                .zip(fold)
+                .filter(|&(_, &g)| g == f)
+                .map(|(o, _)| o)
+                .collect();
+            let sums = NormalEquations::accumulate(&model, &poses, &unknowns, &weights);
+            let mut fold = FoldNormal {
+                a: DMatrix::zeros(p, p),
+                b: DVector::zeros(p),
+                held_a: DMatrix::zeros(p, p),
+                held_b: DVector::zeros(p),
+                held_rtr: 0.0,
+                poses: poses.len(),
+            };
+            for c in Channel::ALL {
+                let (a, b) = (matrix(&sums.jtj[c]), vector(&sums.jtr[c]));
+                if tool.contains(&c) {
+                    let s2 = fit.noise_of(c).powi(2);
+                    fold.held_a += &a * s2;
+                    fold.held_b += &b * s2;
+                    fold.held_rtr += sums.rtr[c] * s2;
+                }
+                fold.a += a;
+                fold.b += b;
+            }
+            fold
+        })
+        .collect();
+    let distances = DistanceRows::of(&model, &unknowns);
+    FoldNormals {
+        folds,
+        distances: (matrix(&distances.jtj), vector(&distances.jtr)),
+        precision,
+        offset,
     }
 }
 
@@ -1612,9 +1815,9 @@ impl PoseRows {
 /// expansion's is `ΔT Σ_i (a_i ∂/∂a_i + s_i ∂/∂s_i)`. The dependence of `Δq`
 /// on the geometry (through the gravity torque) is left out of the Jacobian:
 /// it only slows convergence, the residuals stay exact.
-fn for_each_pose_rows(
+fn for_each_pose_rows<O: Borrow<Observation>>(
     model: &Model,
-    data: &[Observation],
+    data: &[O],
     params: &[Unknown],
     weights: &Weights,
     mut emit: impl FnMut(&PoseRows),
@@ -1622,7 +1825,7 @@ fn for_each_pose_rows(
     let wr = weights[Channel::Orientation];
     let robot = &model.robot;
     let kinematics = robot.prepare();
-    let Some(Ok(mut chain)) = data.first().map(|o| kinematics.chain(&o.q)) else {
+    let Some(Ok(mut chain)) = data.first().map(|o| kinematics.chain(&o.borrow().q)) else {
         return;
     };
     let mut rows = PoseRows {
@@ -1650,6 +1853,7 @@ fn for_each_pose_rows(
         .any(|e| matches!(e, Effect::JointCompliance { .. }));
     let mut q_eff: Vec<f64> = Vec::new();
     for obs in data {
+        let obs: &Observation = obs.borrow();
         // Joint counts were checked on entry.
         let ctx = &obs.context;
         let delta_t = match (thermal, ctx.temperature) {
@@ -1902,13 +2106,13 @@ impl NormalEquations {
     /// ([`NormalEquations::accumulate_chunk`]), on as many threads as the machine
     /// has, then added in pose order — the same sums whatever the number of
     /// threads.
-    fn accumulate(
+    fn accumulate<O: Borrow<Observation> + Sync>(
         model: &Model,
-        data: &[Observation],
+        data: &[O],
         params: &[Unknown],
         weights: &Weights,
     ) -> Self {
-        let chunks: Vec<&[Observation]> = data.chunks(CHUNK_POSES).collect();
+        let chunks: Vec<&[O]> = data.chunks(CHUNK_POSES).collect();
         let partials = parallel::map(&chunks, |c| {
             Self::accumulate_chunk(model, c, params, weights)
         });
@@ -1933,15 +2137,16 @@ impl NormalEquations {
     /// The normal equations of the poses `data` at `model`, their rows filled a
     /// block of [`BLOCK_POSES`] poses at a time into a reused block matrix
     /// whose `JᵀJ` (lower half) and `Jᵀr` are then added by faer's matrix product.
-    fn accumulate_chunk(
+    fn accumulate_chunk<O: Borrow<Observation>>(
         model: &Model,
-        data: &[Observation],
+        data: &[O],
         params: &[Unknown],
         weights: &Weights,
     ) -> Self {
         let p = params.len();
         let mut rows = PerChannel::<usize>::default();
         for o in data {
+            let o: &Observation = o.borrow();
             rows[o.channel()] += o.position_rows();
             rows[Channel::Orientation] += o.orientation_rows();
         }

@@ -14,6 +14,7 @@ pub mod full;
 pub mod noise;
 pub mod paper;
 pub mod prior;
+pub mod prior_scale;
 
 #[cfg(test)]
 mod constraint_tests;
@@ -28,6 +29,8 @@ use crate::io::measurements::Measurements;
 use crate::io::model_file::{RobotModel, Units};
 use full::{FullFit, FullOptions, Observation, Status};
 use paper::{PaperOptions, PaperPose};
+use prior::{PRIOR_FACTORS, Prior};
+use prior_scale::{PriorChoice, PriorScale};
 
 /// Which model to identify.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -149,6 +152,11 @@ pub struct Identification {
     pub orientation_rms: f64,
     /// Full model only: its statistics.
     pub full: Option<FullFit>,
+    /// The prior as stated (flags, model file, default), SI.
+    pub stated_prior: Prior,
+    /// Full model with the prior's scale chosen: the factor on the stated
+    /// prior it was fitted at and every factor's held-out score.
+    pub prior: Option<PriorChoice>,
     /// The calibration to write.
     pub calibration: Calibration,
 }
@@ -185,27 +193,54 @@ pub fn observations(data: &Measurements) -> &[Observation] {
 }
 
 /// Runs the identification of `set` on `data`.
+///
+/// `--params full` fits at the prior `scale` says: as stated, or at the
+/// factor on it that predicts held-out poses best ([`prior_scale`]; the fit at
+/// the stated prior first, then again at the factor chosen when it differs).
 pub fn identify(
     model: &RobotModel,
     data: &Measurements,
     set: ParamSet,
     options: &FullOptions,
+    scale: PriorScale,
 ) -> Result<Identification, IdentifyError> {
     let nominal = &model.robot;
     let orientation = data.poses.iter().any(|p| p.orientation.is_some());
+    let mut prior = None;
     let (iterations, converged, parameters, calibrated, fit) = match set {
         ParamSet::Full => {
             // The model's own tilts (a URDF's parallel axes) beside its D-H parameters.
             let tilts: Vec<Param> = model.tilted.iter().map(|&k| Param::Beta(k)).collect();
-            let fit = full::identify_constrained(
-                nominal,
-                None,
-                &[],
-                &tilts,
-                observations(data),
-                &data.constraints,
-                options,
-            )?;
+            let fit_at = |factor: f64| {
+                full::identify_constrained(
+                    nominal,
+                    None,
+                    &[],
+                    &tilts,
+                    observations(data),
+                    &data.constraints,
+                    &FullOptions {
+                        prior: options.prior.scaled(factor),
+                        ..*options
+                    },
+                )
+            };
+            let mut fit = fit_at(1.0)?;
+            // A prior without a finite scale (least squares) has none to choose.
+            let scalable = options.prior.length.is_finite() || options.prior.angle.is_finite();
+            if let (PriorScale::Chosen { folds }, true) = (scale, scalable) {
+                let choice = prior_scale::choose(
+                    &fit,
+                    observations(data),
+                    &data.constraints,
+                    &options.prior,
+                    folds,
+                );
+                if choice.factor() != 1.0 {
+                    fit = fit_at(choice.factor())?;
+                }
+                prior = Some(choice);
+            }
             let rows: Vec<ParamRow> = fit
                 .params
                 .iter()
@@ -306,6 +341,8 @@ pub fn identify(
         position_rms,
         orientation_rms,
         full: fit,
+        stated_prior: options.prior,
+        prior,
         calibration,
     })
 }
@@ -404,6 +441,7 @@ impl Identification {
             out["variance_factor"] = json!(fit.variance_factor);
             out["equations"] = json!(fit.equations);
             out["noise"] = noise_json(&fit.noise, units);
+            out["prior"] = self.prior_json(units);
             out["correlations"] = json!(
                 fit.correlations
                     .iter()
@@ -441,6 +479,80 @@ impl Identification {
             }
         }
         out
+    }
+
+    /// The JSON's `prior`: the scale fitted at (model units; `null` for
+    /// none), the factor on the stated one, and how it was chosen.
+    fn prior_json(&self, units: &Units) -> serde_json::Value {
+        let factor = self.prior.as_ref().map_or(1.0, PriorChoice::factor);
+        let scaled = self.stated_prior.scaled(factor);
+        let finite = |x: f64| x.is_finite().then_some(x);
+        let (chosen_by, scores) = match &self.prior {
+            None => ("stated", None),
+            Some(PriorChoice::Immaterial) => ("stated: immaterial to the data", None),
+            Some(PriorChoice::Undetermined { .. }) => ("stated: folds undetermined", None),
+            Some(PriorChoice::CrossValidated { scores, .. }) => {
+                ("cross-validation", Some(scores.as_slice()))
+            }
+        };
+        json!({
+            "length": finite(units.length_from_si(scaled.length)),
+            "angle": finite(units.angle_from_si(scaled.angle)),
+            "factor": factor,
+            "chosen_by": chosen_by,
+            "reach": self.full.as_ref().map(|f| f.prior_reach),
+            "held_out": scores.map(|s| s.iter().map(|s| json!({
+                "factor": s.factor,
+                "rms_mm": s.held_out * 1e3,
+            })).collect::<Vec<_>>()),
+        })
+    }
+
+    /// The summary's line on the prior: its scale, and how it was chosen.
+    fn prior_line(&self, u: &Units) -> Option<String> {
+        self.full.as_ref()?;
+        let p = &self.stated_prior;
+        if !(p.length.is_finite() || p.angle.is_finite()) {
+            return Some("prior: none (least squares)".into());
+        }
+        let factor = self.prior.as_ref().map_or(1.0, PriorChoice::factor);
+        let scaled = p.scaled(factor);
+        let mut line = format!(
+            "prior {} {}, {} {} on the D-H errors",
+            fmt_sig(u.length_from_si(scaled.length)),
+            u.length,
+            fmt_sig(u.angle_from_si(scaled.angle)),
+            u.angle
+        );
+        match &self.prior {
+            None => line.push_str(" (as stated)"),
+            Some(PriorChoice::Immaterial) => line.push_str(&format!(
+                " (as stated: no scale from ×{} to ×{} could change the held-out error by {} of its sampling error)",
+                PRIOR_FACTORS[0],
+                PRIOR_FACTORS[PRIOR_FACTORS.len() - 1],
+                prior_scale::IMMATERIAL
+            )),
+            Some(PriorChoice::Undetermined { folds }) => line.push_str(&format!(
+                " (as stated: no training set of the {folds}-fold cross-validation determines the model)"
+            )),
+            Some(
+                c @ PriorChoice::CrossValidated {
+                    factor, folds, ..
+                },
+            ) => {
+                let mm = |f: f64| c.score_of(f).map(|s| format!("{} mm", fmt_sig(s * 1e3)));
+                line.push_str(&format!(
+                    ", the stated ×{factor}: held-out {} by {folds}-fold cross-validation",
+                    mm(*factor).unwrap_or_default(),
+                ));
+                if *factor != 1.0
+                    && let Some(stated) = mm(1.0)
+                {
+                    line.push_str(&format!(" against {stated} at the stated scale"));
+                }
+            }
+        }
+        Some(line)
     }
 
     /// The human summary.
@@ -508,6 +620,9 @@ impl Identification {
                     ),
                 };
             }
+        }
+        if let Some(line) = self.prior_line(u) {
+            let _ = writeln!(out, "{line}");
         }
         let _ = writeln!(
             out,
@@ -652,5 +767,23 @@ impl Identification {
             &model.units,
             flag,
         )
+    }
+}
+
+/// `x` to four significant digits, without trailing zeros (`1`, `0.03937`,
+/// `3.937e-5`).
+fn fmt_sig(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return x.to_string();
+    }
+    let digits = 3 - x.abs().log10().floor() as i32;
+    if !(0..=6).contains(&digits) {
+        return format!("{x:.3e}");
+    }
+    let s = format!("{x:.*}", digits as usize);
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
     }
 }

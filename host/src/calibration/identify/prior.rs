@@ -32,6 +32,10 @@
 
 use armcal_shared::{JointType, Param, Robot};
 
+/// The prior scales a cross-validation tries, as factors on the stated one
+/// ([`super::prior_scale`], [`crate::calibration::diagnose::geometry`]).
+pub const PRIOR_FACTORS: [f64; 5] = [0.1, 0.3, 1.0, 3.0, 10.0];
+
 /// The prior scale of the D-H parameter errors: one standard deviation, SI.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Prior {
