@@ -9,6 +9,7 @@ mod check_identify;
 mod constraints;
 mod demo;
 mod link;
+mod mukca_urdf;
 mod outputs;
 mod predict;
 mod ranges;
