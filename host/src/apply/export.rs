@@ -91,12 +91,7 @@ pub fn geometry_only(cal: &Calibration, format: &str) -> GeometryExport {
         Some(geometric) => {
             let with = cal
                 .held_out
-                .map(|h| {
-                    format!(
-                        "; the calibration with its effects: {}",
-                        length(units, h)
-                    )
-                })
+                .map(|h| format!("; the calibration with its effects: {}", length(units, h)))
                 .unwrap_or_default();
             GeometryExport {
                 note: Some(format!(
@@ -162,11 +157,9 @@ mod tests {
         let old = geometry_only(&cal, "a URDF");
         assert!(old.warning);
         assert_eq!(old.calibration, cal);
-        assert!(
-            old.note
-                .unwrap()
-                .starts_with("a URDF cannot carry the effects (encoder scale of joint 2): they are left out")
-        );
+        assert!(old.note.unwrap().starts_with(
+            "a URDF cannot carry the effects (encoder scale of joint 2): they are left out"
+        ));
         let mut errors = cal.errors.clone();
         errors[0].error = 2e-3;
         cal.geometric = Some(GeometricCalibration {

@@ -533,7 +533,10 @@ fn mm_figures(line: &str) -> Vec<f64> {
 ///   fitted with the effect would without it, and its RMS agrees with the
 ///   printed figure within sampling error: the residual left is the
 ///   encoder scale's, which an RMS over 100 poses estimates to about 10 %
-///   (as does the 10-fold figure over 150): within 30 %.
+///   (as does the 10-fold figure over 150): within 30 %. Measured: the URDF
+///   0.1125 mm, the geometry fitted with the effect 0.1212 mm, printed
+///   0.0997 mm; the URDF is the fallback's kinematics to 9.5e-16 m and
+///   7.2e-5 m from the geometry fitted with the effect.
 #[test]
 fn export_of_a_diagnosis_with_an_effect_holds_the_geometry_refitted_without_it() {
     let dir = tempfile::tempdir().unwrap();
@@ -541,8 +544,17 @@ fn export_of_a_diagnosis_with_an_effect_holds_the_geometry_refitted_without_it()
     succeeds(
         d,
         &[
-            "simulate", "--model", "ur5e", "--poses", "250", "--seed", "3", "--effect",
-            "encoder_scale:2", "--out", "all.csv",
+            "simulate",
+            "--model",
+            "ur5e",
+            "--poses",
+            "250",
+            "--seed",
+            "3",
+            "--effect",
+            "encoder_scale:2",
+            "--out",
+            "all.csv",
         ],
     );
     let all = std::fs::read_to_string(d.join("all.csv")).unwrap();
@@ -555,7 +567,14 @@ fn export_of_a_diagnosis_with_an_effect_holds_the_geometry_refitted_without_it()
     succeeds(
         d,
         &[
-            "diagnose", "--model", "ur5e", "--data", "train.csv", "--out", "arm.cal", "--json",
+            "diagnose",
+            "--model",
+            "ur5e",
+            "--data",
+            "train.csv",
+            "--out",
+            "arm.cal",
+            "--json",
             "r.json",
         ],
     );
@@ -594,7 +613,10 @@ fn export_of_a_diagnosis_with_an_effect_holds_the_geometry_refitted_without_it()
     assert_eq!(with_effects, report["holdout"]["extended_rms_mm"]);
     assert_eq!(printed.len(), 2, "{note}");
     for (p, j) in printed.iter().zip([fallback, with_effects]) {
-        assert!((p / j - 1.0).abs() <= 5e-4, "printed {p} mm, the JSON {j} mm");
+        assert!(
+            (p / j - 1.0).abs() <= 5e-4,
+            "printed {p} mm, the JSON {j} mm"
+        );
     }
 
     // The URDF's forward kinematics: the fallback's, not the geometry fitted

@@ -49,10 +49,10 @@ pub mod candidates;
 pub mod cross_validation;
 pub mod geometry;
 
+use armcal_shared::calibration::MAX_PARAMS;
 use armcal_shared::effects::{Effect, EffectModel};
 use armcal_shared::ranges::Ranges;
 use armcal_shared::units::Units;
-use armcal_shared::calibration::MAX_PARAMS;
 use armcal_shared::{Calibration, GeometricCalibration, JointType, Param, ParamError, Robot};
 use nalgebra::Vector3;
 
