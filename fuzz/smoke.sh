@@ -35,9 +35,9 @@ scratch=$(mktemp -d)
 trap 'rm -rf "$scratch"' EXIT
 for target in $(cargo +nightly fuzz list); do
     case $target in
-        # A whole calibration file (up to 4096 bytes) and its mode byte; a
+        # A whole calibration file (up to 5120 bytes) and its mode byte; a
         # stream that loads one through the link.
-        calibration_decode) max_len=4200 ;;
+        calibration_decode) max_len=5200 ;;
         device) max_len=8192 ;;
         *) max_len=4096 ;;
     esac

@@ -43,6 +43,7 @@
 //! | [`apply::predict`] | `armcal predict`: the calibrated model's tool point (and frame) for each row of joint readings |
 //! | [`apply::compensate`] | `armcal compensate`: corrected joint commands for the calibrated robot |
 //! | [`apply::ranges`] | the warnings of `predict`, `compensate` and `stream` where rows lie outside the ranges a calibration was identified on, or lack a condition its effects need |
+//! | [`apply::export`] | what `armcal export` writes of a calibration with effects into a format that cannot carry them (the geometry refitted without them), and its expected held-out error |
 //! | [`apply::link`] | `armcal stream`: the serial link to the controller (TCP or serial port), calibration load and command stream |
 //!
 //! Every module is also re-exported at the crate root under its old name
@@ -57,7 +58,7 @@ pub mod apply;
 pub mod calibration;
 pub mod io;
 
-pub use apply::{compensate, link, predict, ranges};
+pub use apply::{compensate, export, link, predict, ranges};
 pub use calibration::{
     acceptance, check, contact_check, demo, diagnose, identify, replicates, report, reproduce,
     simulate, stats, sweep,

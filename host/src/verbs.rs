@@ -479,7 +479,11 @@ pub(crate) fn export_urdf(
     let outputs = outputs.output("--out", out.as_deref());
     outputs.check()?;
     let spec = chain.spec();
-    let cal = predict::load_calibration(&calibration)?;
+    let loaded = predict::load_calibration(&calibration)?;
+    // The geometry refitted without the effects a URDF cannot carry, when the
+    // calibration has one.
+    let held = armcal::export::geometry_only(&loaded, "a URDF");
+    let cal = &held.calibration;
     let exported = match &model {
         Some(m) => {
             let text = read_text(m, MODEL_FILE)?;
@@ -491,7 +495,7 @@ pub(crate) fn export_urdf(
                 .into());
             }
             let (parsed, converted) = model_file::urdf_chain(&text, m, &spec)?;
-            urdf::export::into_urdf(&cal, &parsed, &converted)?
+            urdf::export::into_urdf(cal, &parsed, &converted)?
         }
         None if !spec.is_default() => {
             return Err(InputError::argument(
@@ -500,8 +504,9 @@ pub(crate) fn export_urdf(
             )
             .into());
         }
-        None => urdf::export::generate(&cal, &calibration),
+        None => urdf::export::generate(cal, &calibration),
     };
+    note(&held);
     warn(&exported.warnings);
     finish_csv(outputs, exported.text)?;
     Ok(())
@@ -535,7 +540,15 @@ pub(crate) fn export_ur(
         )
         .into());
     }
-    let cal = predict::load_calibration(&calibration)?;
+    let loaded = predict::load_calibration(&calibration)?;
+    let held = armcal::export::geometry_only(
+        &loaded,
+        match format {
+            ExportFormat::UrDeltas => "a UR deltas file",
+            _ => "a ur_calibration file",
+        },
+    );
+    let cal = &held.calibration;
     let robot = cal.calibrated();
     if robot.dof() != armcal::ur::JOINTS
         || robot
@@ -556,8 +569,21 @@ pub(crate) fn export_ur(
     } else {
         armcal::ur::ur_calibration_yaml(&exported, &calibration)
     };
+    note(&held);
     finish_csv(outputs, text)?;
     Ok(())
+}
+
+/// The note of an export that cannot carry effects on standard error: a
+/// warning when it leaves them out with the geometry fitted with them.
+fn note(held: &armcal::export::GeometryExport) {
+    if let Some(note) = &held.note {
+        if held.warning {
+            warn([note]);
+        } else {
+            eprintln!("armcal: {note}");
+        }
+    }
 }
 
 /// `armcal models`.

@@ -269,6 +269,24 @@ impl Calibration {
         self.cal.effects.iter().map(|e| e.name()).collect()
     }
 
+    /// The tool-point error (RMS, model length unit) the calibration is
+    /// expected to make on poses it was not fitted to, from the
+    /// cross-validation of `diagnose`; None when unknown (a file before
+    /// format version 5, or `identify`).
+    #[getter]
+    fn held_out(&self) -> Option<f64> {
+        self.cal.held_out.map(|h| self.cal.units.length_from_si(h))
+    }
+
+    /// With effects, the geometry refitted without them, as a calibration
+    /// without effects (its `held_out` its own): what a format that cannot
+    /// carry the effects (a URDF, UR deltas) should hold; None without
+    /// effects or from a file before format version 5.
+    #[getter]
+    fn geometric(&self) -> Option<Calibration> {
+        self.cal.geometric_only().map(Calibration::from)
+    }
+
     fn __eq__(&self, other: &Self) -> bool {
         self.cal == other.cal
     }

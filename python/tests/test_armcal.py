@@ -134,6 +134,14 @@ def test_diagnose_names_a_hidden_joint_compliance_and_reports_interface_fields(p
     # Rows of arrays are numbered from 0, as numpy indexes them.
     assert all(0 <= r < len(data) for r in report["outlier_rows"])
     assert diagnosis.calibration.effects == ["joint_compliance"]
+    # The expected held-out errors, model units: the calibration's with its
+    # effect, and its geometry refitted without it (what a URDF holds).
+    cal = diagnosis.calibration
+    mm = {"m": 1e3, "mm": 1.0, "in": 25.4}[cal.length_unit]
+    assert abs(cal.held_out * mm - holdout["extended_rms_mm"]) <= 1e-9 * holdout["extended_rms_mm"]
+    geometric = cal.geometric
+    assert geometric.effects == [] and geometric.geometric is None
+    assert abs(geometric.held_out * mm - holdout["geometric_rms_mm"]) <= 1e-9 * holdout["geometric_rms_mm"]
     assert "joint_compliance" in diagnosis.summary
     assert diagnosis.html.lstrip().lower().startswith("<!doctype html")
 

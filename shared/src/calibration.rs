@@ -15,14 +15,35 @@
 //! 24       n    payload: postcard bytes of the Calibration (nominal model, identified
 //!               errors, whether orientation was calibrated, the model file's units,
 //!               the effects, from version 3 the frame of the targets, from
-//!               version 4 the ranges it was identified on)
+//!               version 4 the ranges it was identified on, from version 5
+//!               its expected held-out error and the geometric fallback)
 //! 24+n     4    CRC-32/ISO-HDLC of bytes 0 .. 24+n
+//! ```
+//!
+//! The payload's fields, in order (postcard: each field's bytes after the
+//! previous one's; `Option` a tag byte 0/1 and the value):
+//!
+//! ```text
+//! version  field                                   Calibration::
+//!  2       nominal model                           nominal
+//!  2       identified errors (parameter, error)    errors
+//!  2       calibrated from full poses              orientation
+//!  2       the model file's units                  units
+//!  2       the non-geometric effects               effects
+//!  3       the frame of the targets                targets
+//!  4       Option: the ranges identified on        ranges
+//!  5       Option: expected held-out error, m      held_out
+//!  5       Option: the geometric fallback          geometric
+//!            (errors, Option: its held-out error)
 //! ```
 //!
 //! Version 2 files (without the frame of the targets) are read as targets in the
 //! world frame, what they meant. Version 2 and 3 files (without the ranges) are
 //! read with the ranges unknown ([`Calibration::ranges`] `None`): nothing can be
-//! said of where they extrapolate.
+//! said of where they extrapolate. Files before version 5 are read with the
+//! held-out error unknown and without a geometric fallback
+//! ([`Calibration::held_out`], [`Calibration::geometric`] `None`): an export
+//! that cannot carry their effects has only the geometry fitted with them.
 //!
 //! Lengths and angles are SI (m, rad) in `f64`; the controller converts to `f32`
 //! after validation. A file is accepted only whole: right magic, a version this
@@ -45,7 +66,7 @@ use crate::{MAX_JOINTS, Param, Robot};
 pub const MAGIC: [u8; 8] = *b"\x89ARMCAL\n";
 
 /// The format version this build writes and the newest it reads.
-pub const FORMAT_VERSION: u16 = 4;
+pub const FORMAT_VERSION: u16 = 5;
 
 /// The oldest format version this build reads.
 pub const OLDEST_VERSION: u16 = 2;
@@ -61,7 +82,10 @@ const CRC_LEN: usize = 4;
 pub const MAX_PARAMS: usize = 5 * MAX_JOINTS + 12;
 
 /// The largest calibration file, bytes: the receive buffer a loader needs.
-pub const MAX_FILE_LEN: usize = 4096;
+/// The largest possible file (every parameter identified twice, in the
+/// calibration and in its geometric fallback, the most effects, every range)
+/// is asserted to fit by the `calibration_file` tests.
+pub const MAX_FILE_LEN: usize = 5120;
 
 // Bit by bit, without lookup tables: a file is checked once per load, and the
 // tables would take 3 KB of the controller's 64 KB of flash.
@@ -97,6 +121,32 @@ pub struct Calibration {
     /// identified on, SI; `None` when unknown (a file before version 4, or a
     /// calibration not identified from data).
     pub ranges: Option<Ranges<f64>>,
+    /// The tool-point error this calibration is expected to make on poses it
+    /// was not fitted to, m, from the cross-validation of its session: the RMS
+    /// of the 3-D position error, or for a session without a tracker of the
+    /// tool point's distance from its fixed point or plane. `None` when
+    /// unknown (a file before version 5, or a calibration not identified from
+    /// data).
+    pub held_out: Option<f64>,
+    /// Present only when the calibration has effects: the geometry refitted
+    /// without any effect, for a format that cannot carry effects (a URDF, UR
+    /// deltas), and its expected held-out error. `None` in a file before
+    /// version 5.
+    pub geometric: Option<GeometricCalibration>,
+}
+
+/// The best geometry-only calibration of a calibration with effects: the
+/// geometric model of its session fitted without any effect (the errors of
+/// the effects' geometry fitted together with them would leave what the
+/// effects explain to the geometry, and predict worse without them).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GeometricCalibration {
+    /// The identified errors, of the same nominal model; parameters not listed
+    /// keep their nominal value.
+    pub errors: Vec<ParamError, MAX_PARAMS>,
+    /// Its expected tool-point error on poses it was not fitted to, m, as
+    /// [`Calibration::held_out`]; `None` when unknown.
+    pub held_out: Option<f64>,
 }
 
 /// The frame the targets (the nominal model's poses) of the compensation are
@@ -113,11 +163,12 @@ pub enum TargetFrame {
 }
 
 /// The fields every version's payload starts with: a version 2 payload, a
-/// [`Calibration`] without [`Calibration::targets`] and [`Calibration::ranges`].
+/// [`Calibration`] without [`Calibration::targets`] and the later fields.
 /// Postcard writes a struct as its fields in order, so a version 3 payload is
 /// these and the targets, a version 4 payload these, the targets and the
-/// ranges: one deserialiser of the common fields, and one of each later field,
-/// read every version (and take a third of the flash three whole-payload
+/// ranges, a version 5 payload these, the targets, the ranges and
+/// [`AddedV5`]: one deserialiser of the common fields, and one of each later
+/// addition, read every version (and take a third of the flash whole-payload
 /// deserialisers would).
 #[derive(Deserialize)]
 struct PayloadV2 {
@@ -128,8 +179,16 @@ struct PayloadV2 {
     effects: Vec<Effect<f64>, MAX_EFFECTS>,
 }
 
+/// The fields version 5 added, after the ranges: one deserialiser for both.
+#[derive(Deserialize)]
+struct AddedV5 {
+    held_out: Option<f64>,
+    geometric: Option<GeometricCalibration>,
+}
+
 /// The payload of `version`, decoded, and the bytes after it; before version
-/// 3 with targets in the world frame, before version 4 with the ranges unknown.
+/// 3 with targets in the world frame, before version 4 with the ranges
+/// unknown, before version 5 with neither held-out error nor fallback.
 fn decode_payload(version: u16, payload: &[u8]) -> Result<(Calibration, &[u8]), CalibrationError> {
     let bad = |_| CalibrationError::Payload;
     let (v2, rest) = postcard::take_from_bytes::<PayloadV2>(payload).map_err(bad)?;
@@ -143,6 +202,17 @@ fn decode_payload(version: u16, payload: &[u8]) -> Result<(Calibration, &[u8]), 
     } else {
         (None, rest)
     };
+    let (added, rest) = if version >= 5 {
+        postcard::take_from_bytes::<AddedV5>(rest).map_err(bad)?
+    } else {
+        (
+            AddedV5 {
+                held_out: None,
+                geometric: None,
+            },
+            rest,
+        )
+    };
     let cal = Calibration {
         nominal: v2.nominal,
         errors: v2.errors,
@@ -151,6 +221,8 @@ fn decode_payload(version: u16, payload: &[u8]) -> Result<(Calibration, &[u8]), 
         effects: v2.effects,
         targets,
         ranges,
+        held_out: added.held_out,
+        geometric: added.geometric,
     };
     Ok((cal, rest))
 }
@@ -225,6 +297,8 @@ pub enum CalibrationError {
         /// The parameter.
         param: Param,
     },
+    /// An expected held-out error is negative.
+    HeldOut,
     /// The output buffer is too small (writing).
     BufferTooSmall,
 }
@@ -276,6 +350,7 @@ impl fmt::Display for CalibrationError {
                 )
             }
             Self::DuplicateParam { param } => write!(f, "calibration identifies {param} twice"),
+            Self::HeldOut => f.write_str("calibration's expected held-out error is negative"),
             Self::EffectJoint => {
                 f.write_str("calibration has an effect on a joint its model does not have")
             }
@@ -340,7 +415,28 @@ impl Calibration {
             effects: Vec::new(),
             targets: TargetFrame::World,
             ranges: None,
+            held_out: None,
+            geometric: None,
         }
+    }
+
+    /// The geometric fallback as a calibration of its own, without effects:
+    /// what a format that cannot carry the effects should hold (its
+    /// [`Calibration::held_out`] the fallback's). `None` without a fallback
+    /// (no effects, or a file before version 5).
+    pub fn geometric_only(&self) -> Option<Calibration> {
+        let g = self.geometric.as_ref()?;
+        Some(Calibration {
+            nominal: self.nominal.clone(),
+            errors: g.errors.clone(),
+            orientation: self.orientation,
+            units: self.units,
+            effects: Vec::new(),
+            targets: self.targets,
+            ranges: self.ranges.clone(),
+            held_out: g.held_out,
+            geometric: None,
+        })
     }
 
     /// The identified errors the compensation corrects: all of them for
@@ -499,8 +595,9 @@ impl Calibration {
         Ok(cal)
     }
 
-    /// Finite values everywhere, every identified parameter exists once, and
-    /// the ranges (when known) have one interval per joint.
+    /// Finite values everywhere, every identified parameter exists once (in
+    /// the errors, and in the geometric fallback's), the ranges (when known)
+    /// have one interval per joint, and the held-out errors are not negative.
     fn validate(&self) -> Result<(), CalibrationError> {
         let model = &self.nominal;
         let finite3 = |v: &nalgebra::Vector3<f64>| v.iter().all(|x| x.is_finite());
@@ -536,17 +633,38 @@ impl Calibration {
         {
             return Err(CalibrationError::Ranges);
         }
-        for (i, e) in self.errors.iter().enumerate() {
-            if !e.error.is_finite() {
+        validate_errors(model, &self.errors)?;
+        let held_out = [
+            self.held_out,
+            self.geometric.as_ref().and_then(|g| g.held_out),
+        ];
+        for h in held_out.into_iter().flatten() {
+            if !h.is_finite() {
                 return Err(CalibrationError::NonFinite);
             }
-            if model.param(e.param).is_none() {
-                return Err(CalibrationError::UnknownParam { param: e.param });
+            if h < 0.0 {
+                return Err(CalibrationError::HeldOut);
             }
-            if self.errors[..i].iter().any(|o| o.param == e.param) {
-                return Err(CalibrationError::DuplicateParam { param: e.param });
-            }
+        }
+        if let Some(g) = &self.geometric {
+            validate_errors(model, &g.errors)?;
         }
         Ok(())
     }
+}
+
+/// Every error finite, of a parameter `model` has, each parameter once.
+fn validate_errors(model: &Robot<f64>, errors: &[ParamError]) -> Result<(), CalibrationError> {
+    for (i, e) in errors.iter().enumerate() {
+        if !e.error.is_finite() {
+            return Err(CalibrationError::NonFinite);
+        }
+        if model.param(e.param).is_none() {
+            return Err(CalibrationError::UnknownParam { param: e.param });
+        }
+        if errors[..i].iter().any(|o| o.param == e.param) {
+            return Err(CalibrationError::DuplicateParam { param: e.param });
+        }
+    }
+    Ok(())
 }

@@ -53,7 +53,9 @@ pub mod scalar;
 pub mod servo_chain;
 pub mod units;
 
-pub use calibration::{Calibration, CalibrationError, ParamError, TargetFrame};
+pub use calibration::{
+    Calibration, CalibrationError, GeometricCalibration, ParamError, TargetFrame,
+};
 pub use jacobian::{SpecialJacobians, Twist};
 pub use kinematics::{Chain, FrameAxes, LinkAxes, Prepared};
 pub use model::{Convention, Frame, JointType, Link, LinkMass, MAX_JOINTS, ModelError, Robot};

@@ -270,7 +270,7 @@ impl From<&CalibrationError> for Rejection {
             CalibrationError::DuplicateParam { .. } => Self::DuplicateParam,
             CalibrationError::EffectJoint => Self::UnknownParam,
             CalibrationError::Ranges => Self::Ranges,
-            CalibrationError::BufferTooSmall => Self::Other,
+            CalibrationError::HeldOut | CalibrationError::BufferTooSmall => Self::Other,
         }
     }
 }
@@ -864,8 +864,8 @@ mod tests {
     fn every_message_round_trips() {
         let full: Vec<u8, CHUNK_LEN> = (0..CHUNK_LEN).map(|i| (i % 7) as u8).collect();
         round_trip(&Request::CalibrationChunk {
-            total: 4096,
-            offset: 3968,
+            total: MAX_FILE_LEN as u16,
+            offset: (MAX_FILE_LEN - CHUNK_LEN) as u16,
             bytes: full,
         });
         round_trip(&Request::Command(command(
@@ -1208,7 +1208,7 @@ mod tests {
             }
         );
         assert_eq!(
-            device.handle(&part(0, 5000, 100), &mut ()),
+            device.handle(&part(0, MAX_FILE_LEN as u16 + 1, 100), &mut ()),
             Response::CalibrationRejected {
                 reason: Rejection::TooLong
             }

@@ -9,8 +9,8 @@ use armcal_shared::effects::{Effect, MAX_EFFECTS};
 use armcal_shared::ranges::{Interval, Ranges};
 use armcal_shared::units::{AngleUnit, LengthUnit, Units};
 use armcal_shared::{
-    Calibration, CalibrationError, Convention, Frame, FrameAxis, JointType, Link, LinkMass,
-    MAX_JOINTS, Param, ParamError, Robot,
+    Calibration, CalibrationError, Convention, Frame, FrameAxis, GeometricCalibration, JointType,
+    Link, LinkMass, MAX_JOINTS, Param, ParamError, Robot,
 };
 use nalgebra::Vector3;
 use serde::Serialize;
@@ -63,6 +63,48 @@ fn sample() -> Calibration {
     ];
     cal.ranges = Some(Ranges::of(poses.iter().map(|(q, t, l)| (&q[..], *t, *l))));
     cal
+}
+
+/// [`sample`] as `armcal diagnose` writes a calibration with an effect: an
+/// encoder scale of joint 2 identified with the geometry, the expected
+/// held-out error, and the geometric fallback (the geometry refitted without
+/// the effect) with its own.
+fn with_fallback() -> Calibration {
+    let mut cal = sample();
+    cal.effects
+        .push(Effect::EncoderScale {
+            joint: 1,
+            scale: 2.5e-4,
+        })
+        .unwrap();
+    cal.held_out = Some(3.7e-4);
+    let mut errors = cal.errors.clone();
+    errors.clear();
+    for (param, error) in [
+        (Param::Theta(1), 1.2e-3),
+        (Param::A(3), 2.9e-4),
+        (Param::Base(FrameAxis::Rz), 0.021),
+    ] {
+        errors.push(ParamError { param, error }).unwrap();
+    }
+    cal.geometric = Some(GeometricCalibration {
+        errors,
+        held_out: Some(5.6e-4),
+    });
+    cal
+}
+
+/// The payload of a version 4 file: a calibration without its held-out error
+/// and geometric fallback.
+#[derive(Serialize)]
+struct PayloadV4<'a> {
+    nominal: &'a Robot<f64>,
+    errors: &'a [ParamError],
+    orientation: bool,
+    units: Units,
+    effects: &'a [Effect<f64>],
+    targets: TargetFrame,
+    ranges: &'a Option<Ranges<f64>>,
 }
 
 /// The payload of a version 3 file: a calibration without its ranges.
@@ -123,7 +165,8 @@ fn round_trip_is_exact() {
 
 /// The largest calibration: the most joints, every parameter identified with
 /// values that need all eight bytes, the most effects (the largest, gear
-/// harmonics), every range recorded.
+/// harmonics), every range recorded, the held-out error known, and the
+/// geometric fallback identifying every parameter again.
 #[test]
 fn the_largest_calibration_fits_the_loader_buffer() {
     let mut cal = sample();
@@ -155,6 +198,12 @@ fn the_largest_calibration_fits_the_loader_buffer() {
             })
             .unwrap();
     }
+    // The geometric fallback identifies every parameter again.
+    cal.held_out = Some(1.234_567_890_123e-4);
+    cal.geometric = Some(GeometricCalibration {
+        errors: cal.errors.clone(),
+        held_out: Some(2.345_678_901_234e-4),
+    });
     let bytes = bytes_of(&cal).unwrap();
     assert!(bytes.len() <= MAX_FILE_LEN, "{} bytes", bytes.len());
     assert_eq!(Calibration::decode(&bytes).unwrap(), cal);
@@ -168,7 +217,7 @@ fn the_largest_calibration_fits_the_loader_buffer() {
 /// anywhere in the file must be refused, whatever the byte becomes.
 #[test]
 fn every_single_byte_corruption_is_refused() {
-    let bytes = bytes_of(&sample()).unwrap();
+    let bytes = bytes_of(&with_fallback()).unwrap();
     for i in 0..bytes.len() {
         for flip in [0x01u8, 0x80, 0xff, 0x5a] {
             let mut bad = bytes.clone();
@@ -183,7 +232,7 @@ fn every_single_byte_corruption_is_refused() {
 
 #[test]
 fn every_truncation_is_refused_as_truncated() {
-    let bytes = bytes_of(&sample()).unwrap();
+    let bytes = bytes_of(&with_fallback()).unwrap();
     for len in 0..bytes.len() {
         match Calibration::decode(&bytes[..len]) {
             Err(CalibrationError::Truncated { len: got, .. }) => assert_eq!(got, len),
@@ -397,4 +446,147 @@ fn model_hash_tells_models_apart() {
     let bytes = bytes_of(&cal).unwrap();
     assert_eq!(&bytes[12..20], &model_hash(&cal.nominal).to_le_bytes());
     assert!(bytes.len() > HEADER_LEN);
+}
+
+/// Version 5: the expected held-out error and the geometric fallback are
+/// written and read back bit for bit; the fallback as a calibration of its own
+/// has the fallback's errors and held-out error and no effects.
+#[test]
+fn the_held_out_error_and_the_geometric_fallback() {
+    let cal = with_fallback();
+    let bytes = bytes_of(&cal).unwrap();
+    assert_eq!(&bytes[8..10], &5u16.to_le_bytes());
+    let read = Calibration::decode(&bytes).unwrap();
+    assert_eq!(read, cal);
+    assert_eq!(read.held_out, Some(3.7e-4));
+    let geometric = read.geometric_only().unwrap();
+    assert!(geometric.effects.is_empty());
+    assert_eq!(geometric.geometric, None);
+    assert_eq!(geometric.held_out, Some(5.6e-4));
+    assert_eq!(&geometric.errors, &cal.geometric.as_ref().unwrap().errors);
+    assert_eq!(
+        (geometric.nominal, geometric.units, geometric.ranges),
+        (cal.nominal.clone(), cal.units, cal.ranges.clone())
+    );
+    // Nothing to fall back to without a fallback.
+    assert_eq!(sample().geometric_only(), None);
+    // Unknown held-out errors are written and read as unknown.
+    let mut unknown = with_fallback();
+    unknown.held_out = None;
+    unknown.geometric.as_mut().unwrap().held_out = None;
+    assert_eq!(
+        Calibration::decode(&bytes_of(&unknown).unwrap()).unwrap(),
+        unknown
+    );
+}
+
+/// A version 4 file (written before calibrations carried their held-out
+/// error and fallback) reads whole, with both unknown: a calibration with
+/// effects then has no geometric fallback.
+#[test]
+fn version_4_files() {
+    let mut cal = with_fallback();
+    let mut buf = vec![0u8; MAX_FILE_LEN];
+    let payload = PayloadV4 {
+        nominal: &cal.nominal,
+        errors: &cal.errors,
+        orientation: cal.orientation,
+        units: cal.units,
+        effects: &cal.effects,
+        targets: cal.targets,
+        ranges: &cal.ranges,
+    };
+    let payload = postcard::to_slice(&payload, &mut buf).unwrap().to_vec();
+    let v4 = file_of(4, &cal, &payload);
+    let old = Calibration::decode(&v4).unwrap();
+    assert_eq!((old.held_out, old.geometric.is_some()), (None, false));
+    assert_eq!(old.geometric_only(), None);
+    cal.held_out = None;
+    cal.geometric = None;
+    assert_eq!(old, cal);
+    // The version 5 payload is the version 4 payload and the added fields.
+    let v5 = bytes_of(&with_fallback()).unwrap();
+    assert_eq!(&v5[HEADER_LEN..HEADER_LEN + payload.len()], &payload[..]);
+}
+
+/// A fallback or held-out error that is not valid is neither written nor
+/// read: errors not finite, of a parameter the model does not have or twice,
+/// held-out errors not finite or negative.
+#[test]
+fn an_invalid_fallback_is_refused() {
+    let fallback = |f: &dyn Fn(&mut Calibration)| {
+        let mut cal = with_fallback();
+        f(&mut cal);
+        bytes_of(&cal)
+    };
+    fn errors(cal: &mut Calibration) -> &mut [ParamError] {
+        &mut cal.geometric.as_mut().unwrap().errors
+    }
+    assert_eq!(
+        fallback(&|c| errors(c)[1].error = f64::NAN),
+        Err(CalibrationError::NonFinite)
+    );
+    assert_eq!(
+        fallback(&|c| errors(c)[1].param = Param::S(6)),
+        Err(CalibrationError::UnknownParam { param: Param::S(6) })
+    );
+    assert_eq!(
+        fallback(&|c| errors(c)[1].param = Param::Theta(1)),
+        Err(CalibrationError::DuplicateParam {
+            param: Param::Theta(1)
+        })
+    );
+    assert_eq!(
+        fallback(&|c| c.held_out = Some(f64::INFINITY)),
+        Err(CalibrationError::NonFinite)
+    );
+    assert_eq!(
+        fallback(&|c| c.geometric.as_mut().unwrap().held_out = Some(-1e-4)),
+        Err(CalibrationError::HeldOut)
+    );
+    // The same refused on read: a good file with a value's eight bytes
+    // replaced, resealed.
+    let good = bytes_of(&with_fallback()).unwrap();
+    for (value, bad, why) in [
+        (2.9e-4f64, f64::NAN, CalibrationError::NonFinite),
+        (5.6e-4, f64::NEG_INFINITY, CalibrationError::NonFinite),
+        (3.7e-4, -3.7e-4, CalibrationError::HeldOut),
+        (5.6e-4, -5.6e-4, CalibrationError::HeldOut),
+    ] {
+        let at = good
+            .windows(8)
+            .position(|w| w == value.to_le_bytes())
+            .unwrap();
+        let mut bytes = good.clone();
+        bytes[at..at + 8].copy_from_slice(&bad.to_le_bytes());
+        reseal(&mut bytes);
+        assert_eq!(Calibration::decode(&bytes), Err(why), "{value} as {bad}");
+    }
+    // A fallback's parameter the model does not have: joint 2's θ error
+    // renamed to joint 7's (its index byte, after the variant's).
+    let theta = Param::Theta(1);
+    let mut bytes = good.clone();
+    let bytes_of_error = |e: &ParamError| {
+        let mut buf = [0u8; 32];
+        postcard::to_slice(e, &mut buf).unwrap().to_vec()
+    };
+    let name = bytes_of_error(&ParamError {
+        param: theta,
+        error: 1.2e-3,
+    });
+    let at = bytes.windows(name.len()).position(|w| w == name).unwrap();
+    let renamed = ParamError {
+        param: Param::Theta(6),
+        error: 1.2e-3,
+    };
+    let other = bytes_of_error(&renamed);
+    assert_eq!(other.len(), name.len());
+    bytes[at..at + name.len()].copy_from_slice(&other);
+    reseal(&mut bytes);
+    assert_eq!(
+        Calibration::decode(&bytes),
+        Err(CalibrationError::UnknownParam {
+            param: Param::Theta(6)
+        })
+    );
 }

@@ -1,8 +1,10 @@
 //! Using a calibration: the calibrated robot's tool point, corrected joint
-//! commands, the link that loads the calibration into the controller, and the
-//! warnings where a calibration is used outside the ranges it was identified on.
+//! commands, the link that loads the calibration into the controller, the
+//! warnings where a calibration is used outside the ranges it was identified
+//! on, and what an export that cannot carry effects holds.
 
 pub mod compensate;
+pub mod export;
 pub mod link;
 pub mod predict;
 pub mod ranges;

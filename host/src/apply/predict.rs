@@ -70,7 +70,7 @@ pub struct Predictions {
 
 /// The bytes of the calibration file at `path`, not decoded.
 ///
-/// A calibration has at most [`MAX_FILE_LEN`] (4 KiB) bytes: at most that and
+/// A calibration has at most [`MAX_FILE_LEN`] (5 KiB) bytes: at most that and
 /// one byte more is read, and a larger file is refused naming the limit (so a
 /// large CSV or `/dev/zero` given by mistake is refused at once). A file that
 /// cannot be read is an [`InputError`] at line 0 naming the file.

@@ -22,7 +22,7 @@
 //! such a (line, column) pair. It never panics, whatever the offset.
 //!
 //! Every input file is read through [`read_bounded`] with the limit of its kind
-//! ([`MODEL_FILE`]: 1 MiB, [`DATA_FILE`]: 1 GiB; a calibration's 4 KiB in
+//! ([`MODEL_FILE`]: 1 MiB, [`DATA_FILE`]: 1 GiB; a calibration's 5 KiB in
 //! [`predict`](crate::apply::predict::CALIBRATION_FILE)): at most the limit and one
 //! byte is read, and a larger file is refused naming the limit.
 

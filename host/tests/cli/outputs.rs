@@ -292,7 +292,7 @@ fn devices_and_fifos_are_written_into_links_followed() {
     assert_eq!(names, ["a.cal", "r.fifo", "r.json", "real.json"]);
 }
 
-/// Item 5: a calibration is read up to its 4 KiB limit and one byte, so
+/// Item 5: a calibration is read up to its 5 KiB limit and one byte, so
 /// `/dev/zero` is refused at once; a larger file, a model larger than 1 MiB,
 /// likewise, naming the limit; nothing is written.
 #[test]
@@ -311,11 +311,11 @@ fn inputs_are_read_only_up_to_their_limit() {
             "--out",
             "p.csv",
         ],
-        &["/dev/zero: the file is larger than 4 KiB, the most a calibration file may have"],
+        &["/dev/zero: the file is larger than 5 KiB, the most a calibration file may have"],
     );
     assert!(start.elapsed() < Duration::from_secs(10), "{e}");
 
-    std::fs::write(d.join("zeros.bin"), vec![0u8; 5 * 1024]).unwrap();
+    std::fs::write(d.join("zeros.bin"), vec![0u8; 6 * 1024]).unwrap();
     for verb in ["predict", "compensate"] {
         refused(
             d,
@@ -328,7 +328,7 @@ fn inputs_are_read_only_up_to_their_limit() {
                 "--out",
                 "p.csv",
             ],
-            &["zeros.bin: the file is larger than 4 KiB"],
+            &["zeros.bin: the file is larger than 5 KiB"],
         );
     }
     refused(
@@ -344,7 +344,7 @@ fn inputs_are_read_only_up_to_their_limit() {
             "--out",
             "p.csv",
         ],
-        &["zeros.bin: the file is larger than 4 KiB"],
+        &["zeros.bin: the file is larger than 5 KiB"],
     );
 
     let mut model = std::fs::read_to_string(d.join("m.toml")).unwrap();

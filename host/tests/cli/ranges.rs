@@ -170,16 +170,17 @@ fn a_version_3_calibration_still_predicts_with_one_note() {
     let dir = tempfile::tempdir().unwrap();
     let model = armcal::model_file::load_model("ur10e").unwrap();
     let cal = Calibration::nominal(model.robot, false, model.units);
-    let v4 = cal.to_bytes().unwrap();
-    let payload = u32::from_le_bytes(v4[20..24].try_into().unwrap()) as usize;
+    let v5 = cal.to_bytes().unwrap();
+    let payload = u32::from_le_bytes(v5[20..24].try_into().unwrap()) as usize;
+    // Version 3 is the version 5 payload without its last three fields.
     assert_eq!(
-        v4[HEADER_LEN + payload - 1],
-        0,
-        "ranges: None, the last byte"
+        v5[HEADER_LEN + payload - 3..HEADER_LEN + payload],
+        [0, 0, 0],
+        "ranges, held-out error and fallback: None, the last three bytes"
     );
-    let mut v3 = v4[..HEADER_LEN + payload - 1].to_vec();
+    let mut v3 = v5[..HEADER_LEN + payload - 3].to_vec();
     v3[8..10].copy_from_slice(&3u16.to_le_bytes());
-    v3[20..24].copy_from_slice(&((payload - 1) as u32).to_le_bytes());
+    v3[20..24].copy_from_slice(&((payload - 3) as u32).to_le_bytes());
     let crc = crc32(&v3);
     v3.extend_from_slice(&crc.to_le_bytes());
     std::fs::write(dir.path().join("v3.bin"), &v3).unwrap();

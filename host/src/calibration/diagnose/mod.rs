@@ -49,10 +49,11 @@ pub mod candidates;
 pub mod cross_validation;
 pub mod geometry;
 
+use armcal_shared::calibration::MAX_PARAMS;
 use armcal_shared::effects::{Effect, EffectModel};
 use armcal_shared::ranges::Ranges;
 use armcal_shared::units::Units;
-use armcal_shared::{Calibration, JointType, Param, Robot};
+use armcal_shared::{Calibration, GeometricCalibration, JointType, Param, ParamError, Robot};
 use nalgebra::Vector3;
 
 use crate::calibration::identify::full::{
@@ -848,6 +849,23 @@ fn diagnose_once(
     Ok(d)
 }
 
+/// The errors `fit` identified (not held fixed, not zero), as a calibration
+/// holds them.
+fn identified_errors(fit: &FullFit) -> heapless::Vec<ParamError, MAX_PARAMS> {
+    let mut errors = heapless::Vec::new();
+    for p in fit
+        .params
+        .iter()
+        .filter(|p| matches!(p.status, Status::Identified { .. }) && p.error != 0.0)
+    {
+        let _ = errors.push(ParamError {
+            param: p.param,
+            error: p.error,
+        });
+    }
+    errors
+}
+
 /// Whether `fit` identifies every parameter of `candidate` (its effect's and
 /// its extra tilts), none held fixed.
 fn identifies(fit: &FullFit, candidate: &Candidate) -> bool {
@@ -1086,6 +1104,13 @@ impl Diagnosis {
                 "extended_mean_mm": mm(extended.mean), "extended_max_mm": mm(extended.max),
             },
             "effects": effects,
+            "written": {
+                "held_out_rms_mm": written.held_out.map(mm),
+                "geometric_fallback": written.geometric.as_ref().map(|g| json!({
+                    "held_out_rms_mm": g.held_out.map(mm),
+                    "parameters": g.errors.len(),
+                })),
+            },
             "replicates": self.replicates.map(|r| json!({
                 "rows": r.rows,
                 "configurations": r.configurations,
@@ -1291,6 +1316,13 @@ impl Diagnosis {
                 mm(h.max)
             );
         }
+        if !self.fit.effects.is_empty() && self.choice != Choice::Nominal {
+            let _ = writeln!(
+                out,
+                "a format that cannot carry the effects (`armcal export --format urdf`, `ur-deltas`, `ur-calibration`) gets the geometric calibration fitted without them: {:.4} mm held-out",
+                mm(self.holdout.1.rms)
+            );
+        }
         let mut tried = self.tried.clone();
         tried.sort_by(|a, b| b.1.total_cmp(&a.1));
         if !tried.is_empty() {
@@ -1312,10 +1344,14 @@ impl Diagnosis {
     }
 
     /// The calibration of the chosen model: its geometric errors (Hayati tilts
-    /// included), its effects and the ranges its poses span; nothing changed
-    /// when the nominal model was chosen. The one builder of what `diagnose`
-    /// writes and of the figures it reports of it (the JSON's effect values,
-    /// [`Diagnosis::fitted`]).
+    /// included), its effects, the ranges its poses span and its held-out
+    /// error (the chosen model's, [`Diagnosis::holdout`]); nothing changed
+    /// when the nominal model was chosen. With effects, its geometric
+    /// fallback: the geometric model chosen before the effects were added
+    /// ([`Diagnosis::geometric`], fitted without them to the poses kept) and
+    /// its held-out error, for a format that cannot carry the effects. The
+    /// one builder of what `diagnose` writes and of the figures it reports of
+    /// it (the JSON's effect values, [`Diagnosis::fitted`]).
     pub fn calibration(
         &self,
         nominal: &Robot<f64>,
@@ -1324,22 +1360,20 @@ impl Diagnosis {
     ) -> Calibration {
         let mut cal = Calibration::nominal(nominal.clone(), orientation, units);
         cal.ranges = Some(self.ranges.clone());
+        let (_, geometric_held, held) = self.holdout;
+        cal.held_out = Some(held.rms);
         if self.choice == Choice::Nominal {
             return cal;
         }
-        for p in self
-            .fit
-            .params
-            .iter()
-            .filter(|p| matches!(p.status, Status::Identified { .. }) && p.error != 0.0)
-        {
-            let _ = cal.errors.push(armcal_shared::calibration::ParamError {
-                param: p.param,
-                error: p.error,
-            });
-        }
+        cal.errors = identified_errors(&self.fit);
         for e in &self.fit.effects {
             let _ = cal.effects.push(e.effect);
+        }
+        if !cal.effects.is_empty() {
+            cal.geometric = Some(GeometricCalibration {
+                errors: identified_errors(&self.geometric),
+                held_out: Some(geometric_held.rms),
+            });
         }
         cal
     }

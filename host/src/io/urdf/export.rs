@@ -42,8 +42,11 @@
 //! Numbers are written with Rust's shortest round-trip decimal (`{}`): every
 //! `f64` reads back exactly. Lengths in m, angles in rad.
 //!
-//! Not in a URDF, so left out with a warning: the non-geometric effects of
-//! `armcal diagnose` (compliance, backlash, thermal expansion, ...).
+//! Not in a URDF: the non-geometric effects of `armcal diagnose` (compliance,
+//! backlash, thermal expansion, ...). Only the geometry of the calibration
+//! given is written; the caller gives the geometry refitted without the
+//! effects when the calibration has one, and says what is left out
+//! ([`crate::apply::export`]).
 
 use core::fmt::Write as _;
 
@@ -123,18 +126,6 @@ fn added_links(
     out
 }
 
-/// Warnings for what a URDF cannot hold.
-fn effect_warnings(cal: &Calibration) -> Vec<String> {
-    if cal.effects.is_empty() {
-        return Vec::new();
-    }
-    let names: Vec<String> = cal.effects.iter().map(|e| format!("{e:?}")).collect();
-    vec![format!(
-        "the calibration's non-geometric effects cannot be expressed in a URDF and are left out ({}): the URDF has the calibrated geometry only",
-        names.join("; ")
-    )]
-}
-
 /// The calibration `cal` written into the URDF `urdf` its model was read from
 /// (`converted`, the chain as read again now). Refused, naming `urdf`, when the
 /// model read now is not the calibration's nominal model.
@@ -198,7 +189,7 @@ pub fn into_urdf(
     text.push_str(&urdf.text[at..]);
     Ok(Exported {
         text,
-        warnings: effect_warnings(cal),
+        warnings: Vec::new(),
     })
 }
 
@@ -236,7 +227,7 @@ pub fn generate(cal: &Calibration, label: &str) -> Exported {
         robot.dof()
     );
     let mut after = frame0;
-    let mut warnings = effect_warnings(cal);
+    let mut warnings = Vec::new();
     for (k, l) in robot.links.iter().enumerate() {
         let (pre, post) = split(robot.convention, l);
         let parent = if k == 0 {
