@@ -34,10 +34,11 @@ struct Joint {
 fn joints(text: &str) -> HashMap<String, Joint> {
     let doc = roxmltree::Document::parse(text).unwrap();
     let numbers = |node: Option<roxmltree::Node>, attribute: &str, default: [f64; 3]| {
-        node.and_then(|n| n.attribute(attribute)).map_or(default, |s| {
-            let v: Vec<f64> = s.split_whitespace().map(|x| x.parse().unwrap()).collect();
-            [v[0], v[1], v[2]]
-        })
+        node.and_then(|n| n.attribute(attribute))
+            .map_or(default, |s| {
+                let v: Vec<f64> = s.split_whitespace().map(|x| x.parse().unwrap()).collect();
+                [v[0], v[1], v[2]]
+            })
     };
     doc.root_element()
         .children()
@@ -85,7 +86,10 @@ fn point(joints: &HashMap<String, Joint>, tip: &str, q: &[f64]) -> Vector3<f64> 
             pose *= UnitQuaternion::from_scaled_axis(j.axis.normalize() * angle);
         }
     }
-    assert!(readings.next().is_none(), "as many readings as moving joints");
+    assert!(
+        readings.next().is_none(),
+        "as many readings as moving joints"
+    );
     pose.translation.vector
 }
 
@@ -166,7 +170,14 @@ fn default_identify_and_diagnose_urdfs_are_level_with_mukca_held_out() {
     ] {
         let front = m.join(format!("{robot}/front.csv"));
         let front = front.to_str().unwrap();
-        let session = ["--model", nominal, "--tip-link", "ball_link", "--data", front];
+        let session = [
+            "--model",
+            nominal,
+            "--tip-link",
+            "ball_link",
+            "--data",
+            front,
+        ];
         for verb in ["identify", "diagnose"] {
             let cal = format!("{robot}-{verb}.cal");
             let urdf = format!("{robot}-{verb}.urdf");
@@ -188,7 +199,9 @@ fn default_identify_and_diagnose_urdfs_are_level_with_mukca_held_out() {
                 ],
             );
         }
-        let reference = m.join(format!("original/calibrated_urdf/{robot}/panda_calibrated.urdf"));
+        let reference = m.join(format!(
+            "original/calibrated_urdf/{robot}/panda_calibrated.urdf"
+        ));
         for placement in held {
             let csv = m.join(format!("{robot}/{placement}.csv"));
             let mukca = judge(&reference, "ball_link", &csv);

@@ -25,6 +25,7 @@ use armcal_shared::calibration::ParamError;
 use armcal_shared::{Calibration, Param, Robot};
 use serde_json::json;
 
+use crate::calibration::diagnose::significant;
 use crate::io::measurements::Measurements;
 use crate::io::model_file::{RobotModel, Units};
 use full::{FullFit, FullOptions, Observation, Status};
@@ -321,6 +322,8 @@ pub fn identify(
     };
     let mut calibration = Calibration::nominal(nominal.clone(), orientation, model.units);
     calibration.ranges = Some(crate::io::measurements::ranges(&data.poses));
+    // What the prior's cross-validation measured of the fit written.
+    calibration.held_out = prior.as_ref().and_then(PriorChoice::held_out);
     for row in parameters
         .iter()
         .filter(|r| r.fixed.is_none() && r.error != 0.0)
@@ -519,9 +522,9 @@ impl Identification {
         let scaled = p.scaled(factor);
         let mut line = format!(
             "prior {} {}, {} {} on the D-H errors",
-            fmt_sig(u.length_from_si(scaled.length)),
+            significant(u.length_from_si(scaled.length)),
             u.length,
-            fmt_sig(u.angle_from_si(scaled.angle)),
+            significant(u.angle_from_si(scaled.angle)),
             u.angle
         );
         match &self.prior {
@@ -540,7 +543,7 @@ impl Identification {
                     factor, folds, ..
                 },
             ) => {
-                let mm = |f: f64| c.score_of(f).map(|s| format!("{} mm", fmt_sig(s * 1e3)));
+                let mm = |f: f64| c.score_of(f).map(|s| format!("{} mm", significant(s * 1e3)));
                 line.push_str(&format!(
                     ", the stated ×{factor}: held-out {} by {folds}-fold cross-validation",
                     mm(*factor).unwrap_or_default(),
@@ -767,23 +770,5 @@ impl Identification {
             &model.units,
             flag,
         )
-    }
-}
-
-/// `x` to four significant digits, without trailing zeros (`1`, `0.03937`,
-/// `3.937e-5`).
-fn fmt_sig(x: f64) -> String {
-    if x == 0.0 || !x.is_finite() {
-        return x.to_string();
-    }
-    let digits = 3 - x.abs().log10().floor() as i32;
-    if !(0..=6).contains(&digits) {
-        return format!("{x:.3e}");
-    }
-    let s = format!("{x:.*}", digits as usize);
-    if s.contains('.') {
-        s.trim_end_matches('0').trim_end_matches('.').to_string()
-    } else {
-        s
     }
 }
