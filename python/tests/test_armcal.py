@@ -373,7 +373,7 @@ def test_sessions_without_a_tracker_are_held_out_as_the_command_line():
 
         armcal holdout --model data/mukca-ball-socket/original/urdf/panda.urdf --tip-link ball_link \\
           --reference data/mukca-ball-socket/original/calibrated_urdf/panda_6/panda_calibrated.urdf \\
-          --data data/mukca-ball-socket/panda_6/{front,left,right}.csv --select-prior
+          --data data/mukca-ball-socket/panda_6/{front,left,right}.csv
 
     prints (mm, to its three decimals: the spread of the predicted ball centres
     at each socket, RMS over the sockets, and the predicted socket distance
