@@ -318,7 +318,8 @@ def test_a_session_without_a_tracker_identifies_as_the_command_line():
           --tip-link ball_link --data data/mukca-ball-socket/panda_6/front.csv --json r.json
 
     writes (its figures below, as written), with the contacts' noise
-    estimated and the distance's stated; the calibration puts each socket's
+    estimated, the distance's stated and the prior's scale chosen by the
+    rows' cross-validation (×10); the calibration puts each socket's
     rows about its fitted point; diagnose chooses the model the command line
     chooses (`armcal diagnose` on the same files: every D-H parameter at ten
     times the stated prior, no effect, no blunder) with its held-out figures."""
@@ -331,12 +332,12 @@ def test_a_session_without_a_tracker_identifies_as_the_command_line():
 
     result = armcal.identify(model, data)
     report = result.report
-    assert report["residual"]["position_rms_mm"] == pytest.approx(0.21572750831763388, rel=1e-12)
+    assert report["residual"]["position_rms_mm"] == pytest.approx(0.1943856698480506, rel=1e-12)
     assert report["noise"] == [
         {
             "channel": "point contact",
-            "used": pytest.approx(0.0001346933310615365, rel=1e-12),
-            "shown_by_residuals": pytest.approx(0.0001347422127580819, rel=1e-12),
+            "used": pytest.approx(0.00012236266355448796, rel=1e-12),
+            "shown_by_residuals": pytest.approx(0.0001223851727753088, rel=1e-12),
             "source": "estimated",
             "unit": "m",
         },
@@ -356,8 +357,13 @@ def test_a_session_without_a_tracker_identifies_as_the_command_line():
         pulls.append(pull)
     np.testing.assert_allclose(pulls[0], -pulls[1], rtol=0, atol=1e-9)
 
+    assert report["prior"]["factor"] == 10.0 and report["prior"]["chosen_by"] == "cross-validation"
     diagnosis = armcal.diagnose(model, data).report
     assert diagnosis["chosen"]["label"] == "full, prior ×10"
+    # identify's cross-validation of every parameter at ×10 is diagnose's of the model it chose.
+    assert report["prior"]["held_out"][-1]["rms_mm"] == pytest.approx(
+        diagnosis["holdout"]["extended_rms_mm"], rel=1e-9
+    )
     assert diagnosis["effects"] == [] and diagnosis["outlier_rows"] == []
     assert diagnosis["noise"][0]["channel"] == "point contact"
     holdout = diagnosis["holdout"]
