@@ -36,7 +36,7 @@
 //!
 //! When the data determine the geometry so well that no factor could change
 //! the held-out residuals' sum of squares by a tenth of its own sampling
-//! error ([`immaterial`]: a tracker's 10⁵ positions), no cross-validation
+//! error ([`immaterial`]: a PUMA 560 tracker session from 10³ positions on), no cross-validation
 //! could tell the scales apart, and the stated one is kept without one.
 
 use super::full::{Constraints, FoldNormals, FullFit, Observation, fold_normals, unit_scale};
