@@ -501,7 +501,8 @@ pub struct FullFit {
     pub noise: NoiseEstimate,
     /// How much another scale of the prior (a factor of [`PRIOR_FACTORS`])
     /// could change the sum of squares of the held-out residuals, in units
-    /// of its sampling error ([`prior_reach`]): 0 without a prior.
+    /// of its sampling error (the first-order change of the fit between
+    /// scales; see the function `prior_reach` of this module): 0 without a prior.
     pub prior_reach: f64,
     /// The unknown fixed points of a constraint session, estimated with the
     /// robot (empty for measured coordinates).
