@@ -832,7 +832,7 @@ mod extended_fit {
     /// a time (397 tracker positions, σ = 20 µm, ±1 mm / ±1 mrad geometry), a
     /// hidden backlash of joint 2 (0.2 mrad half the lost motion). In 5 of 6
     /// rows joint 2 holds, on the flank of its last move. Written as a
-    /// `FORMAT.md` file and read back, the rows in measurement order give the
+    /// measurement CSV (`docs/file-formats.md` §2) and read back, the rows in measurement order give the
     /// fit the simulator's approach signs; with the backlash's structure added
     /// the variance factor is 1 within 5 standard deviations of its sampling
     /// distribution (√(2/dof)) and the backlash lies within 4 standard errors of

@@ -3,7 +3,7 @@
 //!
 //! A refused value exits with status 2 and clap's message `invalid value 'V'
 //! for '--FLAG <NAME>': what it must be`. Numbers are in the model's units
-//! (its length and angle units, FORMAT.md §1) except where a flag says SI; the
+//! (its length and angle units, docs/file-formats.md §1) except where a flag says SI; the
 //! verbs convert them. Bounds that depend on the model or the data (a joint
 //! number, the folds against the number of poses) are checked by the verb once
 //! those are read.

@@ -7,7 +7,7 @@
 //!
 //! ## [`io`]: files in and out
 //!
-//! Reads the two interchange formats of `FORMAT.md` and the vendors' formats, and
+//! Reads the two interchange formats of `docs/file-formats.md` (§1, §2) and the vendors' formats, and
 //! refuses, with file, line and column, anything it cannot use:
 //!
 //! | module | idea |

@@ -44,7 +44,7 @@ enum Command {
     Check {
         #[command(flatten)]
         model: ModelArgs,
-        /// Measurements: a CSV file (FORMAT.md §2) or the name of a built-in data set.
+        /// Measurements: a CSV file (docs/file-formats.md §2) or the name of a built-in data set.
         #[arg(long, value_name = "D.csv|NAME")]
         data: String,
     },
@@ -53,7 +53,7 @@ enum Command {
     Identify {
         #[command(flatten)]
         model: ModelArgs,
-        /// Measurements: a CSV file (FORMAT.md §2) or the name of a built-in data set.
+        /// Measurements: a CSV file (docs/file-formats.md §2) or the name of a built-in data set.
         #[arg(long, value_name = "D.csv|NAME")]
         data: String,
         /// `full`: every identifiable parameter, base and tool included; `paper`: the
@@ -96,7 +96,7 @@ enum Command {
         /// The calibration file written by `armcal identify --out`.
         #[arg(long, value_name = "CAL")]
         calibration: String,
-        /// Joint readings: a CSV with q1..qM in the model's units (FORMAT.md §2;
+        /// Joint readings: a CSV with q1..qM in the model's units (docs/file-formats.md §2;
         /// x, y, z and the quaternion of a measurement file are not read).
         #[arg(long, value_name = "J.csv")]
         joints: String,
@@ -125,7 +125,7 @@ enum Command {
     },
     /// Simulate a measurement session: a true robot (nominal + random geometric,
     /// base and tool errors + hidden effects) measured with noise; writes the
-    /// measurements (FORMAT.md) and, with --truth, what was built in.
+    /// measurements (docs/file-formats.md §2) and, with --truth, what was built in.
     Simulate {
         #[command(flatten)]
         model: ModelArgs,
@@ -329,7 +329,7 @@ enum Command {
 /// The robot model and, for a URDF, which chain of it to read.
 #[derive(clap::Args, Debug)]
 struct ModelArgs {
-    /// Robot model: a TOML file (FORMAT.md §1), a URDF (`*.urdf`, or text
+    /// Robot model: a TOML file (docs/file-formats.md §1), a URDF (`*.urdf`, or text
     /// starting with `<`; docs/urdf.md) or the name of a built-in model.
     #[arg(long, value_name = "M.toml|M.urdf|NAME")]
     model: String,

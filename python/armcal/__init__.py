@@ -3,7 +3,7 @@
 Load a robot model, identify or diagnose its errors from measurements (files or
 numpy arrays), read the report as Python objects, predict and compensate with
 numpy arrays in and out, read and write calibration files. Lengths and angles
-in and out are in the model's units, as in the files of FORMAT.md.
+in and out are in the model's units, as in the files of docs/file-formats.md.
 
     import armcal
     model = armcal.load_model("puma560")

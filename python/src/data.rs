@@ -1,4 +1,4 @@
-//! Measurements: a CSV file (`FORMAT.md` §2) or built-in data set, numpy
+//! Measurements: a CSV file (`docs/file-formats.md` §2) or built-in data set, numpy
 //! arrays, or a simulated session.
 
 use armcal::arrays::{self, Conditions, PoseArrays};

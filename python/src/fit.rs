@@ -1,6 +1,6 @@
 //! `identify` and `diagnose`, composed as `armcal identify` and `armcal
 //! diagnose` compose them: the same checks of the data, the same options, the
-//! same report (the JSON of `INTERFACE.md`, as Python dicts), the same refusals.
+//! same report (the JSON report (`docs/file-formats.md` §6), as Python dicts), the same refusals.
 
 use armcal::check::independent_parameter_count;
 use armcal::diagnose::DiagnoseOptions;
@@ -310,7 +310,7 @@ pub fn diagnose(
 
 #[pymethods]
 impl Outcome {
-    /// The report of `--json` (`INTERFACE.md`), model units: for `identify`
+    /// The report of `--json` (`docs/file-formats.md` §6), model units: for `identify`
     /// `params`, `iterations`, `converged`, `parameters` (name, nominal,
     /// error, std, status, reason), `residual`, `condition_number`; for
     /// `diagnose` `noise_estimate_mm`, `holdout`, `effects`, `outlier_rows`

@@ -1,4 +1,4 @@
-//! Robot models: a TOML file (`FORMAT.md` §1), any other format
+//! Robot models: a TOML file (`docs/file-formats.md` §1), any other format
 //! `armcal::model_file::load_model` reads, or the name of a built-in model.
 
 use armcal::{builtin, model_file, urdf};

@@ -117,7 +117,7 @@ pub enum Effect<T: Real> {
 }
 
 impl<T: Real> Effect<T> {
-    /// The effect name used in reports and JSON (`INTERFACE.md`).
+    /// The effect name used in reports and JSON (`docs/file-formats.md` §6).
     pub fn name(&self) -> &'static str {
         match self {
             Self::JointCompliance { .. } => "joint_compliance",

@@ -1,7 +1,7 @@
 //! Forward kinematics of the measured frame and point, and the chain of link frames
 //! from which the Jacobians are built.
 //!
-//! The measured frame is `T = base · A_1(q_1) ⋯ A_M(q_M) · tool` (`FORMAT.md` §1,
+//! The measured frame is `T = base · A_1(q_1) ⋯ A_M(q_M) · tool` (`docs/file-formats.md` §1,
 //! Mirman & Gupta eq. 1 with base and tool added); the measured point is its origin.
 //! Everything is expressed in the measurement frame, in metres and radians.
 //!

@@ -1,6 +1,6 @@
 //! The nominal robot model: D-H links, joint types, base and tool frames.
 //!
-//! Two link conventions are supported (`FORMAT.md` §1):
+//! Two link conventions are supported (`docs/file-formats.md` §1):
 //! - [`Convention::Dh`], the one of Mirman & Gupta eq. (5):
 //!   `A_m = Rot_z(θ_m) Trans_z(s_m) Trans_x(a_m) Rot_x(α_m)`;
 //! - [`Convention::Mdh`], Craig's modified D-H:

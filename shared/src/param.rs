@@ -1,11 +1,11 @@
 //! The names of the geometric parameters, as the calibration engineer reads them
-//! in reports, JSON and the calibration file (`INTERFACE.md`).
+//! in reports, JSON and the calibration file (`docs/file-formats.md` §6).
 //!
 //! Joints count from 1 in names (`theta1`, `s2`, `a3`, `alpha4`); the index held
 //! in a [`Param`] counts from 0. Base and tool parameters are `base.x`, `base.y`,
 //! `base.z`, `base.rx`, `base.ry`, `base.rz` and likewise `tool.*`, where `rx`,
 //! `ry`, `rz` are the roll, pitch and yaw of the frame's
-//! `R = Rot_z(yaw) Rot_y(pitch) Rot_x(roll)` (`FORMAT.md` §1).
+//! `R = Rot_z(yaw) Rot_y(pitch) Rot_x(roll)` (`docs/file-formats.md` §1).
 
 use core::fmt;
 use core::str::FromStr;

@@ -1,6 +1,6 @@
 //! The units of a model file and of every data file read against it.
 //!
-//! `FORMAT.md` §1: `length_unit` is `"m"`, `"mm"` or `"in"` (25.4 mm exactly),
+//! `docs/file-formats.md` §1: `length_unit` is `"m"`, `"mm"` or `"in"` (25.4 mm exactly),
 //! `angle_unit` is `"rad"` or `"deg"`; every length and angle of the model file and
 //! of its data files is in these units. Inside armcal everything is SI (m, rad);
 //! these types convert on the way in and out. They live in the shared crate

@@ -8,9 +8,9 @@
 //! [`Robot::forward`](armcal_shared::Robot::forward)). Rows keep their file order.
 //!
 //! Frames: the position is the origin of the tool frame (the measured point of
-//! `FORMAT.md` §1) and the orientation that of the tool frame, both in the
+//! `docs/file-formats.md` §1) and the orientation that of the tool frame, both in the
 //! measurement frame (the tracker's or world frame, after the model's `base`), as
-//! the measurements of `FORMAT.md` §2 are.
+//! the measurements of `docs/file-formats.md` §2 are.
 //!
 //! Units: readings are converted to SI on reading (the calibration's model units,
 //! [`Calibration::units`], apply to the joints file as they applied to the model
@@ -23,7 +23,7 @@
 //!
 //! Non-geometric effects (`armcal diagnose`) are applied in each row's context:
 //! the `temp` and `load` columns, and the approach direction of each joint from
-//! row order (row order is motion order, as in `FORMAT.md`): the sign of its last
+//! row order (row order is motion order, as in `docs/file-formats.md` §2): the sign of its last
 //! change, held while the joint holds.
 
 use core::fmt::Write as _;
@@ -105,7 +105,7 @@ pub fn row_conditions(row: &JointRow) -> Conditions<f64> {
 
 /// The context of the effects at a row: its conditions ([`row_conditions`]) and
 /// the approach direction of each joint from `approach`, which has seen the rows
-/// before (row order is motion order, `FORMAT.md`); the row is added to it.
+/// before (row order is motion order, `docs/file-formats.md` §2); the row is added to it.
 pub fn row_context(row: &JointRow, approach: &mut Approach) -> Context<f64> {
     let conditions = row_conditions(row);
     Context {

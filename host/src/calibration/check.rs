@@ -7,7 +7,7 @@
 //! normal; metres mean a wrong unit, a wrong base frame or a wrong joint order.
 //!
 //! Position errors are `|P_measured − P_nominal|` of the tool point in the
-//! measurement frame (FORMAT.md §1: `base · A_1 ⋯ A_M · tool`); orientation errors
+//! measurement frame (docs/file-formats.md §1: `base · A_1 ⋯ A_M · tool`); orientation errors
 //! are the angle of `R_measured · R_nominalᵀ`. The count of independent geometric
 //! parameters a full calibration identifies is `4R + 2P + 6` for full poses and
 //! `4R + 2P + 3` for positions only (R revolute, P prismatic joints; Everett,

@@ -57,7 +57,7 @@ pub const APPROACH: f64 = 0.02;
 /// What was hidden in the simulated robot.
 #[derive(Clone, Debug)]
 pub struct Hidden {
-    /// The effect name of `INTERFACE.md`.
+    /// The effect name of `docs/file-formats.md` §6.
     pub name: &'static str,
     /// Its joints, 0-based (empty for thermal expansion).
     pub joints: Vec<usize>,

@@ -253,7 +253,7 @@ fn panels(model: &RobotModel, d: &Diagnosis, data: &[Observation]) -> Vec<Plot> 
                 after: a,
             })
         };
-    // Time: the rows are in measurement order (FORMAT.md), so the row stands for it.
+    // Time: the rows are in measurement order (docs/file-formats.md §2), so the row stands for it.
     out.extend(norm_against("row (measurement order: time)", &|i, _| {
         Some(i as f64)
     }));

@@ -189,7 +189,7 @@ impl Scenario {
 
 /// Simulates `scenario` on `nominal`. Poses are visited in random order, so that
 /// every joint approaches them from both sides; the approach direction of each
-/// joint is the sign of its last change, held while it holds, as `FORMAT.md`
+/// joint is the sign of its last change, held while it holds, as `docs/file-formats.md` §2
 /// reads row order ([`armcal_shared::effects::Approach`]).
 pub fn simulate(
     nominal: &Robot<f64>,
@@ -272,7 +272,7 @@ pub fn simulate_visiting(
 }
 
 impl Session {
-    /// The measurements as a `FORMAT.md` CSV in `units`, with `t`, `temp`, `load`.
+    /// The measurements as a measurement CSV (`docs/file-formats.md` §2) in `units`, with `t`, `temp`, `load`.
     pub fn to_csv(&self, units: &armcal_shared::units::Units, description: &str) -> String {
         use std::fmt::Write as _;
         let joints: Vec<JointType> = self.truth.links.iter().map(|l| l.joint).collect();

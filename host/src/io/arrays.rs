@@ -1,7 +1,7 @@
 //! Measurements and joint readings given as arrays (the Python package's numpy
 //! input) instead of a CSV file.
 //!
-//! The arrays hold what the columns of `FORMAT.md` §2 hold, in the same units
+//! The arrays hold what the columns of `docs/file-formats.md` §2 hold, in the same units
 //! (the model's length and angle units, °C, kg): `q` is `N × M` (joints),
 //! `xyz` is `N × 3`, `quat` (optional) is `N × 4` (`qw, qx, qy, qz`), `t`,
 //! `temp` and `load` (optional) have `N` values. They are refused as the CSV
@@ -116,7 +116,7 @@ pub fn measurements(model: &RobotModel, a: &PoseArrays<'_>) -> Result<Measuremen
 }
 
 impl PoseArrays<'_> {
-    /// The names of the columns given, in the order of `FORMAT.md`.
+    /// The names of the columns given, in the order of `docs/file-formats.md` §2.
     fn columns(&self, dof: usize) -> Vec<String> {
         let mut names: Vec<String> = (1..=dof).map(|j| format!("q{j}")).collect();
         names.extend(["x", "y", "z"].map(String::from));

@@ -1,7 +1,7 @@
 //! Robot models and measurement sets built into the binary.
 //!
-//! The files are those of the repository's `models/` (robot models, `FORMAT.md`
-//! §1) and `data/<name>/measurements.csv` (measurements, `FORMAT.md` §2),
+//! The files are those of the repository's `models/` (robot models, `docs/file-formats.md`
+//! §1) and `data/<name>/measurements.csv` (measurements, `docs/file-formats.md` §2),
 //! included with `include_str!`, so that `armcal identify --model puma560` works
 //! from any directory. `models/README.md` and each `data/<name>/README.md` give
 //! their sources and licences. Units are those each file declares; nothing is

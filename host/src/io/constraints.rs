@@ -3,7 +3,7 @@
 //! A session without a tracker measures no coordinate. It says instead "these
 //! poses put the tool point at the same unknown point" (a ball on the flange in
 //! a socket) and "these two points are 50 mm apart" (two sockets of a plate).
-//! Such a session is written in the measurement CSV of `FORMAT.md` §2 with one
+//! Such a session is written in the measurement CSV of `docs/file-formats.md` §2 with one
 //! more column and one more kind of line (armcal's extension; a file without a
 //! `point` column reads exactly as before):
 //!

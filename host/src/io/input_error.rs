@@ -1,6 +1,6 @@
 //! Why a model or data file was refused, and where.
 //!
-//! Every refusal of an input file (a robot model of `FORMAT.md` §1, a measurement
+//! Every refusal of an input file (a robot model of `docs/file-formats.md` §1, a measurement
 //! CSV of §2) is an [`InputError`] that names the file, the line and the column
 //! of the offending text, so that an editor or a terminal can jump to it:
 //!
@@ -137,14 +137,14 @@ pub struct SizeLimit {
     pub what: &'static str,
 }
 
-/// A robot model (TOML, `FORMAT.md` §1) has at most 1 MiB; the models of
+/// A robot model (TOML, `docs/file-formats.md` §1) has at most 1 MiB; the models of
 /// `models/` have about 2 KiB.
 pub const MODEL_FILE: SizeLimit = SizeLimit {
     bytes: 1 << 20,
     what: "a robot model file",
 };
 
-/// A data file (measurements or joint readings, CSV, `FORMAT.md` §2) has at most
+/// A data file (measurements or joint readings, CSV, `docs/file-formats.md` §2) has at most
 /// 1 GiB: some ten million rows, an hour of 1 kHz servo commands three times
 /// over. The whole file is held in memory while it is parsed.
 pub const DATA_FILE: SizeLimit = SizeLimit {

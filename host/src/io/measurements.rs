@@ -1,4 +1,4 @@
-//! Measured poses: the CSV of `FORMAT.md` §2, read against a robot model.
+//! Measured poses: the CSV of `docs/file-formats.md` §2, read against a robot model.
 //!
 //! One row per measured pose, in the order the poses were measured (row order
 //! carries information: the direction from which each joint approached a pose is
@@ -955,7 +955,7 @@ fn joint_index(name: &str) -> Option<usize> {
     Some(digits.parse::<usize>().unwrap_or(usize::MAX))
 }
 
-/// Parses the text of a measurement file (`FORMAT.md` §2) against `model`.
+/// Parses the text of a measurement file (`docs/file-formats.md` §2) against `model`.
 ///
 /// `file` names the file in error messages. Never panics, whatever the text.
 pub fn parse_measurements(

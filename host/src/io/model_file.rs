@@ -1,4 +1,4 @@
-//! The robot model file: TOML of `FORMAT.md` §1, read into an SI [`Robot`].
+//! The robot model file: TOML of `docs/file-formats.md` §1, read into an SI [`Robot`].
 //!
 //! A model file gives the nominal kinematics of one serial manipulator as its maker
 //! specifies it: `name`, `description`, `convention` (`"dh"`: `A_m = Rot_z(θ)
@@ -114,7 +114,7 @@ const JOINT_TYPES: [(&str, JointType); 2] = [
 type Value<'i> = Spanned<DeValue<'i>>;
 type Key<'i> = Spanned<DeString<'i>>;
 
-/// Parses the text of a model file (`FORMAT.md` §1) into a [`RobotModel`] in SI.
+/// Parses the text of a model file (`docs/file-formats.md` §1) into a [`RobotModel`] in SI.
 ///
 /// `file` names the file in error messages and becomes [`RobotModel::source`].
 /// Never panics, whatever the text.

@@ -245,7 +245,7 @@ fn identify_refuses_data_of_another_robot_naming_the_place() {
     assert!(!dir.path().join("p.cal").exists());
 }
 
-/// `armcal simulate` writes a FORMAT.md file that the readers accept: pure
+/// `armcal simulate` writes a measurement CSV (docs/file-formats.md §2) that the readers accept: pure
 /// geometry is explained by the geometric fit down to the noise (variance factor
 /// near 1), a hidden joint compliance is not (the residual stays well above it).
 #[test]
@@ -315,7 +315,7 @@ fn simulate_writes_data_that_identify_reads() {
 }
 
 /// `armcal diagnose` on a session with a hidden joint compliance: the JSON of
-/// INTERFACE.md names it on joint 2 with its parameter, the held-out error drops
+/// docs/file-formats.md §6 names it on joint 2 with its parameter, the held-out error drops
 /// to the noise, the noise estimate is the simulated 20 µm, and the calibration
 /// it writes carries the effect: `predict` with it reproduces the measurements to
 /// the noise, and `compensate` applies it.

@@ -13,7 +13,7 @@ use crate::calibration::identify::full::Observation;
 /// A candidate extension of the geometric model.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Candidate {
-    /// The effect name of `INTERFACE.md`.
+    /// The effect name of `docs/file-formats.md` §6.
     pub name: &'static str,
     /// Its joints, 0-based.
     pub joints: Vec<usize>,

@@ -1007,7 +1007,7 @@ impl Diagnosis {
         (held, moved)
     }
 
-    /// The JSON of `INTERFACE.md` (`noise_estimate_mm`, `holdout`, `effects`,
+    /// The JSON of `docs/file-formats.md` §6 (`noise_estimate_mm`, `holdout`, `effects`,
     /// `outlier_rows`), plus the chosen model, every model's held-out error, the
     /// noise of each channel, the prior's role and every candidate's
     /// first-round gain.

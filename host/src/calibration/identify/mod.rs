@@ -6,7 +6,7 @@
 //! | [`paper`] | `--params paper`: the 3M position-independent model and the Iterative Regression Algorithm of Mirman & Gupta (1992), as the paper gives them |
 //!
 //! This module turns either result into the report of `armcal identify`: the
-//! JSON of `INTERFACE.md`, a human summary, and the [`Calibration`] the
+//! JSON of `docs/file-formats.md` §6, a human summary, and the [`Calibration`] the
 //! controller loads. Values are SI inside; the report converts every length and
 //! angle to the model file's units (`mm`-suffixed fields excepted).
 
@@ -407,7 +407,7 @@ fn in_units(units: &Units, param: Param, si: f64) -> f64 {
 }
 
 impl Identification {
-    /// The JSON of `INTERFACE.md`, values in the model's units.
+    /// The JSON of `docs/file-formats.md` §6, values in the model's units.
     pub fn to_json(&self, units: &Units) -> serde_json::Value {
         let parameters: Vec<serde_json::Value> = self
             .parameters

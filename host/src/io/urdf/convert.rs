@@ -55,7 +55,7 @@
 //! moving joint of the chain (fixed children, and branches off the chain with
 //! their own joints at zero). The centre of mass is the mass-weighted mean of
 //! their `<inertial><origin xyz>`, expressed in MDH frame `k` (the link's own
-//! D-H frame of `FORMAT.md` §1). Links with no `<inertial>` count as massless;
+//! D-H frame of `docs/file-formats.md` §1). Links with no `<inertial>` count as massless;
 //! a link without any has no mass properties.
 //!
 //! Limits: `revolute` and `prismatic` joints keep their `<limit lower upper>`
