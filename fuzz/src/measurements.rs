@@ -21,7 +21,7 @@
 //! finite positive length and uncertainty.
 
 use armcal::input_error::{InputError, ends_line};
-use armcal::io::constraints::MIN_PLANE_TOUCHES;
+use armcal::session::constraints::MIN_PLANE_TOUCHES;
 use armcal::measurements::{Contact, Measurements, parse_joints, parse_measurements};
 
 /// The harness; see [the module](self). Returns whether both readers

@@ -1,6 +1,6 @@
 //! # armcal: the robot calibrator (library part of the `armcal` binary)
 //!
-//! The library is in three layers, in the order data flows through a session;
+//! The library is in four layers, in the order data flows through a session;
 //! a newcomer looking for a verb's science starts in [`calibration`], for a file
 //! format in [`io`]. The command line is in the binary: `host/src/main.rs` (the flags)
 //! and `host/src/verbs.rs` (one function per verb).
@@ -14,12 +14,19 @@
 //! | --- | --- |
 //! | [`io::input_error`] | [`InputError`](io::input_error::InputError): a refused file, `file:line:column: message` |
 //! | [`io::model_file`] | the robot model TOML (§1) into an SI [`armcal_shared::Robot`], with the file's [`Units`](io::model_file::Units) |
-//! | [`io::measurements`] | the measurement CSV (§2), read against a model, into SI [`Observation`](io::measurements::Observation)s; joint readings alone into [`JointRow`](io::measurements::JointRow)s |
+//! | [`io::measurements`] | the measurement CSV (§2), read against a model, into the SI [`Observation`](session::measurements::Observation)s of a [`Measurements`](session::measurements::Measurements); joint readings alone into [`JointRows`](session::joints::JointRows) |
 //! | [`io::arrays`] | measurements and joint readings given as arrays (the Python package's numpy input), checked as the CSV reader checks its file |
 //! | [`io::builtin`] | the models of `models/` and the real data sets of `data/`, built into the binary |
 //! | [`io::urdf`] | URDF chains in (modified D-H with Hayati's tilt, exact) and calibrations out (`armcal export`) |
 //! | [`io::ur`] | Universal Robots' controller calibration (D-H deltas, `ur_calibration` YAML), in and out |
 //! | [`io::output`] | a run's result files: all or none, never over an input, never replacing a device |
+//!
+//! ## [`session`]: what a calibration is made from
+//!
+//! The measured rows, joint rows, constraints, configurations, channels and
+//! the prior, with the checks that rows can carry a calibration
+//! ([`session`]'s table). [`io`] parses into them and imports nothing of
+//! [`calibration`]; [`calibration`] reads them.
 //!
 //! ## [`calibration`]: the science
 //!
@@ -28,7 +35,7 @@
 //! | [`calibration::check`] | `armcal check`: what was read, and the error of the nominal model against the data |
 //! | [`calibration::identify`] | `armcal identify`: the paper's iterative regression and the full model, report and calibration |
 //! | [`calibration::diagnose`] | `armcal diagnose`: the model chosen on held-out poses (geometry, prior, effects), never worse than nominal; blunders; held-out gain |
-//! | [`calibration::replicates`] | repeated configurations: distinct poses for every data-sufficiency rule, the instrument noise the repeats show, the lack-of-fit test |
+//! | [`calibration::replicates`] | repeated configurations (the partition itself is [`session::configurations`]): the instrument noise the repeats show, the lack-of-fit test |
 //! | [`calibration::report`] | the self-contained HTML page of `armcal diagnose --html` (inline SVG) |
 //! | [`calibration::sweep`] | `armcal sweep`: detection and false-positive rates of the diagnosis over many simulated sessions |
 //! | [`calibration::stats`] | Fisher's F distribution and its quantiles, for the diagnosis' tests |
@@ -57,6 +64,7 @@
 pub mod apply;
 pub mod calibration;
 pub mod io;
+pub mod session;
 
 pub use apply::{compensate, export, link, predict, ranges};
 pub use calibration::{

@@ -253,7 +253,7 @@ impl Measurements {
     #[getter]
     fn contacts(&self) -> Vec<Option<(&'static str, String)>> {
         let c = &self.data.constraints;
-        let name = |named: &[armcal::io::constraints::Named], k: usize| {
+        let name = |named: &[armcal::session::constraints::Named], k: usize| {
             named.get(k).map_or_else(String::new, |n| n.name.clone())
         };
         self.data

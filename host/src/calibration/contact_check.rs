@@ -2,7 +2,7 @@
 //! without a tracker: the figures a user can trust with no coordinate measured.
 //!
 //! For each unknown fixed point of a constraint session (see
-//! [`crate::io::constraints`]) the model's tool points of the rows naming it
+//! [`crate::session::constraints`]) the model's tool points of the rows naming it
 //! should coincide: their *spread* is the RMS distance of those predicted
 //! points to their mean (m). For each unknown plane, the predicted points of
 //! its touches should lie on one plane: their *flatness* is their RMS distance

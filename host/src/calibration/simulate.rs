@@ -409,7 +409,7 @@ pub fn parse_effect(spec: &str, dof: usize) -> Result<armcal_shared::effects::Ef
 }
 
 /// A simulated session without a tracker: a ball on the flange put into
-/// sockets at unknown fixed points (see [`crate::io::constraints`]).
+/// sockets at unknown fixed points (see [`crate::session::constraints`]).
 #[derive(Clone, Debug)]
 pub struct SocketSession {
     /// One row per contact, `contact` naming its socket; `position` is 0.

@@ -6,7 +6,7 @@
 
 pub mod arrays;
 pub mod builtin;
-pub mod constraints;
+
 pub mod input_error;
 pub mod measurements;
 pub mod model_file;

@@ -34,10 +34,10 @@ use nalgebra::Vector3;
 use toml::Spanned;
 use toml::de::{DeString, DeTable, DeValue};
 
-use crate::calibration::identify::prior::Prior;
 use crate::io::builtin;
 use crate::io::input_error::{InputError, MODEL_FILE, read_text};
 use crate::io::urdf::{self, ChainSpec};
+use crate::session::prior::Prior;
 
 /// A robot model as read from a model file: its identity, its units and the
 /// nominal robot in SI.

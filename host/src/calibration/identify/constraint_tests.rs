@@ -10,10 +10,10 @@ use nalgebra::{Point3, Vector3};
 
 use super::full::{FullFit, FullOptions, Status, full_params, identify_constrained};
 use crate::calibration::simulate::{self, SocketSession};
-use crate::io::constraints::{
+use crate::io::model_file::load_model;
+use crate::session::constraints::{
     Constraints, DEFAULT_DISTANCE_STD, Distance, FixedPoint, TouchedPlane,
 };
-use crate::io::model_file::load_model;
 
 /// The true robot (nominal with random ±1 mm / ±1 mrad errors in every
 /// parameter these data can separate: the base, which they cannot see, and the

@@ -301,9 +301,9 @@ pub fn effect_parameter_name(effect: &Effect<f64>, component: usize) -> String {
     }
 }
 
-pub use crate::io::constraints::Constraints;
 use crate::io::measurements::Contact;
 pub use crate::io::measurements::Observation;
+pub use crate::session::constraints::Constraints;
 
 /// Settings of the full identification.
 #[derive(Clone, Copy, Debug)]
@@ -685,7 +685,7 @@ pub fn identify_from(
 }
 
 /// [`identify_from`] for a session whose rows may sit at unknown fixed points
-/// tied by known distances (`constraints`, see [`crate::io::constraints`])
+/// tied by known distances (`constraints`, see [`crate::session::constraints`])
 /// instead of measuring coordinates: each point's three coordinates are
 /// unknowns of the same fit (first in the order of preference), each distance
 /// one more row weighted by its stated uncertainty. The base is then not

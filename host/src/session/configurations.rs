@@ -1,0 +1,306 @@
+//! Configurations: the distinct poses of a session. Two rows are one
+//! configuration when they are held to the same contact, every joint reads
+//! the same within the encoder's resolution, each joint approached from the
+//! same side and the temperature and payload agree. A repeat adds no
+//! geometry: every data-sufficiency rule counts configurations. The repeats'
+//! spread about their configuration's mean is the pure error, which
+//! [`crate::calibration::replicates`] tests the model's lack of fit against.
+//!
+//! Units: SI (m, rad, °C, kg).
+
+use armcal_shared::{JointType, Robot};
+use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
+
+use crate::session::measurements::{Contact, Observation};
+
+/// Two readings of a revolute joint closer than this (rad) are one reading:
+/// a 17-bit encoder's count is 4.8·10⁻⁵ rad, a 20-bit one's 6·10⁻⁶ rad.
+pub const REVOLUTE_RESOLUTION: f64 = 2e-5;
+
+/// Two readings of a prismatic joint closer than this (m) are one reading.
+pub const PRISMATIC_RESOLUTION: f64 = 1e-6;
+
+/// Two temperatures closer than this (°C) are one.
+pub const TEMPERATURE_RESOLUTION: f64 = 0.1;
+
+/// Two payloads closer than this (kg) are one.
+pub const PAYLOAD_RESOLUTION: f64 = 1e-3;
+
+/// Whether two rows approached every joint from the same side, as far as
+/// both are known (a session's first row, and a joint not yet moved, has no
+/// approach: 0, or none at all).
+fn same_approach(a: &[i8], b: &[i8]) -> bool {
+    a.iter().zip(b).all(|(x, y)| *x == 0 || *y == 0 || x == y)
+}
+
+/// Repeats whose positions spread by less than this (m per axis) are copies
+/// of one reading: no instrument reads the same point to a nanometre twice.
+pub const IDENTICAL: f64 = 1e-9;
+
+/// The configurations of a session: which rows repeat which.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Configurations {
+    /// Each configuration's rows, in order, the configurations in order of
+    /// their first row.
+    pub rows: Vec<Vec<usize>>,
+}
+
+/// When two rows are one configuration, for a robot's joint types.
+struct Sameness {
+    /// Each joint's resolution: rad, or m for a prismatic joint.
+    resolution: Vec<f64>,
+}
+
+impl Sameness {
+    fn of(robot: &Robot<f64>) -> Self {
+        Self {
+            resolution: robot
+                .links
+                .iter()
+                .map(|l| match l.joint {
+                    JointType::Revolute => REVOLUTE_RESOLUTION,
+                    JointType::Prismatic => PRISMATIC_RESOLUTION,
+                })
+                .collect(),
+        }
+    }
+
+    /// Whether `a` and `b` are one configuration (see the module header).
+    fn same(&self, a: &Observation, b: &Observation) -> bool {
+        let close = |x: Option<f64>, y: Option<f64>, tol: f64| match (x, y) {
+            (Some(x), Some(y)) => (x - y).abs() <= tol,
+            (None, None) => true,
+            _ => false,
+        };
+        a.contact == b.contact
+            && a.q.len() == b.q.len()
+            && a.q
+                .iter()
+                .zip(&b.q)
+                .zip(&self.resolution)
+                .all(|((x, y), r)| (x - y).abs() <= *r)
+            && same_approach(&a.context.approach, &b.context.approach)
+            && close(
+                a.context.temperature,
+                b.context.temperature,
+                TEMPERATURE_RESOLUTION,
+            )
+            && close(a.context.payload, b.context.payload, PAYLOAD_RESOLUTION)
+    }
+}
+
+/// Whether the distinct configurations of `data` give at least `needed`
+/// equations (`equations` of each configuration's first row). Rows are taken
+/// in order and kept when they repeat none kept before, until the kept ones
+/// give enough: a session of distinct poses is decided on its first few rows,
+/// one of few configurations read many times in one pass over few kept rows
+/// (never a partition of 10⁶ rows, as [`Configurations::of`] makes).
+pub fn distinct_equations_reach(
+    robot: &Robot<f64>,
+    data: &[Observation],
+    needed: usize,
+    equations: impl Fn(&Observation) -> usize,
+) -> bool {
+    let sameness = Sameness::of(robot);
+    let mut kept: Vec<&Observation> = Vec::new();
+    let mut total = 0;
+    for o in data {
+        if total >= needed {
+            break;
+        }
+        if !kept.iter().any(|k| sameness.same(k, o)) {
+            total += equations(o);
+            kept.push(o);
+        }
+    }
+    total >= needed
+}
+
+impl Configurations {
+    /// The configurations of `data` for `robot`'s joint types.
+    pub fn of(robot: &Robot<f64>, data: &[Observation]) -> Self {
+        let sameness = Sameness::of(robot);
+        let resolution = &sameness.resolution;
+        let same = |a: &Observation, b: &Observation| sameness.same(a, b);
+        // Rows sorted by the joint that varies most; a repeat lies within the
+        // resolution of it there, so each row is compared with its
+        // neighbours in that order only.
+        let spread = |j: usize| {
+            let (lo, hi) = data
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), o| {
+                    (a.min(o.q[j]), b.max(o.q[j]))
+                });
+            hi - lo
+        };
+        let dof = data.first().map_or(0, |o| o.q.len());
+        let key = (0..dof).max_by(|&a, &b| spread(a).total_cmp(&spread(b)));
+        let mut order: Vec<usize> = (0..data.len()).collect();
+        if let Some(j) = key {
+            order.sort_by(|&a, &b| data[a].q[j].total_cmp(&data[b].q[j]));
+        }
+        // Union of each row with every earlier-sorted row within reach.
+        let mut parent: Vec<usize> = (0..data.len()).collect();
+        fn root(parent: &mut [usize], mut i: usize) -> usize {
+            while parent[i] != i {
+                parent[i] = parent[parent[i]];
+                i = parent[i];
+            }
+            i
+        }
+        for (s, &i) in order.iter().enumerate() {
+            for &k in order[..s].iter().rev() {
+                if let Some(j) = key
+                    && data[i].q[j] - data[k].q[j] > resolution[j]
+                {
+                    break;
+                }
+                if same(&data[i], &data[k]) {
+                    let (a, b) = (root(&mut parent, i), root(&mut parent, k));
+                    parent[a.max(b)] = a.min(b);
+                }
+            }
+        }
+        let mut number = vec![usize::MAX; data.len()];
+        let mut rows: Vec<Vec<usize>> = Vec::new();
+        for i in 0..data.len() {
+            let r = root(&mut parent, i);
+            if number[r] == usize::MAX {
+                number[r] = rows.len();
+                rows.push(Vec::new());
+            }
+            rows[number[r]].push(i);
+        }
+        Self { rows }
+    }
+
+    /// These configurations less those holding any of the `rows` (sorted).
+    pub fn without(&self, rows: &[usize]) -> Self {
+        Self {
+            rows: self
+                .rows
+                .iter()
+                .filter(|c| c.iter().all(|i| rows.binary_search(i).is_err()))
+                .cloned()
+                .collect(),
+        }
+    }
+
+    /// How many distinct configurations.
+    pub fn count(&self) -> usize {
+        self.rows.len()
+    }
+
+    /// Whether some configuration was measured more than once.
+    pub fn repeated(&self) -> bool {
+        self.rows.iter().any(|r| r.len() > 1)
+    }
+
+    /// Whether some configuration of measured positions (rows of `data`) was
+    /// measured more than once.
+    pub fn measured_repeats(&self, data: &[Observation]) -> bool {
+        self.rows
+            .iter()
+            .any(|r| r.len() > 1 && data[r[0]].contact == Contact::Measured)
+    }
+
+    /// One observation per configuration: the mean of its rows' joints,
+    /// context, position and orientation (the rotation nearest the mean of
+    /// the rotation matrices), held to the same contact.
+    pub fn means(&self, data: &[Observation]) -> Vec<Observation> {
+        self.rows
+            .iter()
+            .map(|rows| {
+                let n = rows.len() as f64;
+                let mut mean = data[rows[0]].clone();
+                if rows.len() == 1 {
+                    return mean;
+                }
+                for (j, q) in mean.q.iter_mut().enumerate() {
+                    *q = rows.iter().map(|&i| data[i].q[j]).sum::<f64>() / n;
+                }
+                mean.position = nalgebra::Point3::from(
+                    rows.iter()
+                        .map(|&i| data[i].position.coords)
+                        .sum::<Vector3<f64>>()
+                        / n,
+                );
+                let average = |f: fn(&Observation) -> Option<f64>| {
+                    rows.iter()
+                        .map(|&i| f(&data[i]))
+                        .sum::<Option<f64>>()
+                        .map(|s| s / n)
+                };
+                mean.context.temperature = average(|o| o.context.temperature);
+                mean.context.payload = average(|o| o.context.payload);
+                if let Some(rotations) = rows
+                    .iter()
+                    .map(|&i| {
+                        data[i]
+                            .orientation
+                            .map(|q| q.to_rotation_matrix().into_inner())
+                    })
+                    .sum::<Option<Matrix3<f64>>>()
+                {
+                    let r = Rotation3::from_matrix(&(rotations / n));
+                    mean.orientation = Some(UnitQuaternion::from_rotation_matrix(&r));
+                }
+                mean
+            })
+            .collect()
+    }
+
+    /// The pure error of the measured positions: their spread about their
+    /// configuration's mean; `None` when no measured configuration repeats,
+    /// or when the repeats are identical (within [`IDENTICAL`]: rows copied,
+    /// not measured again).
+    pub fn pure_error(&self, data: &[Observation]) -> Option<PureError> {
+        let (mut sum, mut dof, mut repeated) = (0.0, 0usize, 0usize);
+        for rows in &self.rows {
+            if rows.len() < 2 || data[rows[0]].contact != Contact::Measured {
+                continue;
+            }
+            let mean = rows
+                .iter()
+                .map(|&i| data[i].position.coords)
+                .sum::<Vector3<f64>>()
+                / rows.len() as f64;
+            sum += rows
+                .iter()
+                .map(|&i| (data[i].position.coords - mean).norm_squared())
+                .sum::<f64>();
+            dof += 3 * (rows.len() - 1);
+            repeated += 1;
+        }
+        // Rows copied rather than measured again spread by rounding alone:
+        // they show no instrument.
+        (dof > 0 && (sum / dof as f64).sqrt() > IDENTICAL).then(|| PureError {
+            sigma: (sum / dof as f64).sqrt(),
+            dof,
+            repeated,
+        })
+    }
+
+    /// `mean_g(1 / n_g)` over the measured configurations: the share of the
+    /// pure-error variance a configuration's mean keeps, on average.
+    pub fn mean_inverse_count(&self, data: &[Observation]) -> f64 {
+        let measured: Vec<usize> = self
+            .rows
+            .iter()
+            .filter(|r| data[r[0]].contact == Contact::Measured)
+            .map(Vec::len)
+            .collect();
+        measured.iter().map(|&n| 1.0 / n as f64).sum::<f64>() / measured.len().max(1) as f64
+    }
+}
+
+/// The instrument noise the repeats show.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PureError {
+    /// One standard deviation per axis, m.
+    pub sigma: f64,
+    /// Its degrees of freedom, `3 Σ (n_g − 1)`.
+    pub dof: usize,
+    /// How many configurations were measured more than once.
+    pub repeated: usize,
+}

@@ -1,0 +1,507 @@
+//! The measured rows of a session, in SI: each pose's joint readings, what
+//! its tool point is held to (a measured position, an unknown fixed point or
+//! plane), its orientation and context; the session's constraints; and the
+//! checks that the rows can carry a calibration of a model (`require_*`):
+//! enough distinct configurations, points that can be measurements of the
+//! model, a fit that reaches them. [`crate::io::measurements`] reads the CSV
+//! of `docs/file-formats.md` §2 into them, [`crate::io::arrays`] arrays.
+
+use armcal_shared::effects::{Approach, Context};
+use armcal_shared::ranges::Ranges;
+use armcal_shared::{JointType, Robot};
+use nalgebra::{Point3, UnitQuaternion};
+
+use crate::io::input_error::InputError;
+use crate::io::model_file::RobotModel;
+use crate::session::channel::Channel;
+use crate::session::configurations::{Configurations, distinct_equations_reach};
+use crate::session::constraints::{Constraints, merge_named};
+
+/// The temperatures (°C) a working robot may be measured at: below it a `temp`
+/// is refused as a unit or a typo (−273.15 °C, a value in K or °F).
+pub const TEMPERATURE_RANGE: [f64; 2] = [-50.0, 150.0];
+
+/// The payloads (kg) a robot may carry: none is negative, and the heaviest
+/// industrial arms carry about 2.3 t.
+pub const PAYLOAD_RANGE: [f64; 2] = [0.0, 5000.0];
+
+/// How far from 1 the norm of a measured quaternion may be; within it the
+/// quaternion is normalised, beyond it the file is refused.
+pub const QUATERNION_NORM_TOLERANCE: f64 = 1e-3;
+
+/// One measured pose, SI: the joint readings, what the instrument saw, and
+/// what non-geometric effects depend on at it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Observation {
+    /// Joint readings: rad for a revolute joint, m for a prismatic one.
+    pub q: Vec<f64>,
+    /// Measured position of the tool point in the measurement frame, m.
+    pub position: Point3<f64>,
+    /// Measured orientation of the tool frame, if the row has one (normalised).
+    pub orientation: Option<UnitQuaternion<f64>>,
+    /// The row's temperature (`temp`, °C) and payload (`load`, kg), and the
+    /// direction each joint approached the pose from (the sign of its last
+    /// change in row order, held while the joint holds:
+    /// [`Approach`]).
+    pub context: Context<f64>,
+    /// What the row's tool point is held to: its measured `position`, or
+    /// (a row of a constraint file, `position` not measured and 0) an unknown
+    /// fixed point or plane.
+    pub contact: Contact,
+}
+
+/// The ranges of `poses` (SI: each joint, the temperature and the payload
+/// where the rows give them), recorded in a calibration identified from them.
+pub fn ranges<'a>(poses: impl IntoIterator<Item = &'a Observation>) -> Ranges<f64> {
+    Ranges::of(
+        poses
+            .into_iter()
+            .map(|o| (&o.q[..], o.context.temperature, o.context.payload)),
+    )
+}
+
+/// What a pose's tool point is held to.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Contact {
+    /// The position measured on the row.
+    #[default]
+    Measured,
+    /// The unknown fixed point it sits at: an index into
+    /// [`Measurements::constraints`]' points.
+    Point(usize),
+    /// The unknown plane it touches: an index into
+    /// [`Measurements::constraints`]' planes.
+    Plane(usize),
+}
+
+impl Observation {
+    /// The pose of one row, in the order of the rows: joints `q` (SI), the
+    /// measured point (m) and orientation, the row's temperature (°C) and
+    /// payload (kg); `approach` carries the joints' approach directions from
+    /// row to row.
+    pub fn of_row(
+        q: Vec<f64>,
+        position: Point3<f64>,
+        orientation: Option<UnitQuaternion<f64>>,
+        (temperature, payload): (Option<f64>, Option<f64>),
+        approach: &mut Approach,
+    ) -> Self {
+        let context = Context {
+            temperature,
+            payload,
+            approach: approach.next(&q),
+        };
+        Self {
+            q,
+            position,
+            orientation,
+            context,
+            contact: Contact::Measured,
+        }
+    }
+
+    /// The unknown fixed point the tool point sits at, if it does.
+    pub fn fixed_point(&self) -> Option<usize> {
+        match self.contact {
+            Contact::Point(k) => Some(k),
+            _ => None,
+        }
+    }
+
+    /// The unknown plane the tool point touches, if it does.
+    pub fn on_plane(&self) -> Option<usize> {
+        match self.contact {
+            Contact::Plane(k) => Some(k),
+            _ => None,
+        }
+    }
+
+    /// The noise channel of the rows that locate its tool point: a measured
+    /// position, or the kind of its contact.
+    pub fn channel(&self) -> Channel {
+        match self.contact {
+            Contact::Measured => Channel::Position,
+            Contact::Point(_) => Channel::Point,
+            Contact::Plane(_) => Channel::Plane,
+        }
+    }
+
+    /// The scalar equations this pose gives an identification: its position
+    /// rows and its orientation rows.
+    pub fn equations(&self) -> usize {
+        self.position_rows() + self.orientation_rows()
+    }
+
+    /// The rows that locate its tool point: 3, or 1 for a touch of a plane
+    /// (its distance along the normal).
+    pub fn position_rows(&self) -> usize {
+        if self.on_plane().is_some() { 1 } else { 3 }
+    }
+
+    /// Its orientation rows: 3 when measured (a touch of a plane has none).
+    pub fn orientation_rows(&self) -> usize {
+        if self.orientation.is_some() && self.on_plane().is_none() {
+            3
+        } else {
+            0
+        }
+    }
+}
+
+/// A measurement file read against a model.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Measurements {
+    /// The file as named by the user (or the label of a built-in set).
+    pub file: String,
+    /// The poses, in file order.
+    pub poses: Vec<Observation>,
+    /// The 1-based line of each pose's row in the file (for messages and
+    /// `outlier_rows`).
+    pub lines: Vec<usize>,
+    /// The time of each measurement (`t`, s), where the row gives it.
+    pub times: Vec<Option<f64>>,
+    /// The header names of the columns used, in file order.
+    pub columns_used: Vec<String>,
+    /// The header names of the columns kept out of the computation, in file order.
+    pub columns_ignored: Vec<String>,
+    /// Things the user should know that do not stop the computation.
+    pub warnings: Vec<String>,
+    /// The unknown fixed points and known distances of a constraint file
+    /// (empty for measured coordinates; see [`crate::session::constraints`]).
+    pub constraints: Constraints,
+}
+
+impl Measurements {
+    /// Whether the rows carry constraints (unknown fixed points) instead of coordinates.
+    pub fn is_constrained(&self) -> bool {
+        !self.constraints.is_empty()
+    }
+
+    /// The number of poses.
+    pub fn len(&self) -> usize {
+        self.poses.len()
+    }
+
+    /// The sessions `parts` as one, in order: their poses, their lines (each
+    /// its own file's), and their constraints, a point named in two parts
+    /// being one point. The file is named by the parts' files joined with `+`.
+    pub fn merged(parts: &[&Measurements]) -> Measurements {
+        let mut out = Measurements {
+            file: parts
+                .iter()
+                .map(|p| p.file.as_str())
+                .collect::<Vec<_>>()
+                .join("+"),
+            poses: Vec::new(),
+            lines: Vec::new(),
+            times: Vec::new(),
+            columns_used: parts
+                .first()
+                .map(|p| p.columns_used.clone())
+                .unwrap_or_default(),
+            columns_ignored: Vec::new(),
+            warnings: Vec::new(),
+            constraints: Constraints::default(),
+        };
+        for part in parts {
+            // Each point and plane of this part: its index in the merged constraints.
+            let index = merge_named(&mut out.constraints.points, &part.constraints.points);
+            let planes = merge_named(&mut out.constraints.planes, &part.constraints.planes);
+            for pose in &part.poses {
+                let mut pose = pose.clone();
+                pose.contact = match pose.contact {
+                    Contact::Point(k) => Contact::Point(index[k]),
+                    Contact::Plane(k) => Contact::Plane(planes[k]),
+                    Contact::Measured => Contact::Measured,
+                };
+                out.poses.push(pose);
+            }
+            out.lines.extend_from_slice(&part.lines);
+            out.times.extend_from_slice(&part.times);
+            out.warnings.extend(part.warnings.iter().cloned());
+            for d in &part.constraints.distances {
+                let mut d = d.clone();
+                d.points = d.points.map(|k| index[k]);
+                out.constraints.distances.push(d);
+            }
+        }
+        out
+    }
+
+    /// Whether there are no poses (never the case for a parsed file).
+    pub fn is_empty(&self) -> bool {
+        self.poses.is_empty()
+    }
+
+    /// Whether every pose has a measured orientation.
+    pub fn has_orientation(&self) -> bool {
+        !self.poses.is_empty() && self.poses.iter().all(|p| p.orientation.is_some())
+    }
+
+    /// The number of scalar equations the poses give: 3 per pose, 6 per pose with
+    /// orientation.
+    pub fn equations(&self) -> usize {
+        self.poses.iter().map(Observation::equations).sum::<usize>() + self.constraints.equations()
+    }
+
+    /// The unknowns of a fit of `unknowns` robot parameters to these rows: a
+    /// constraint session has no base (6 fewer) and three coordinates per
+    /// fixed point or plane.
+    fn unknowns(&self, unknowns: usize) -> usize {
+        if self.is_constrained() {
+            (unknowns + 3 * (self.constraints.points.len() + self.constraints.planes.len()))
+                .saturating_sub(6)
+        } else {
+            unknowns
+        }
+    }
+
+    /// Refuses the file if its distinct configurations (a configuration measured
+    /// again adds no geometry: [`Configurations`]) give fewer equations than
+    /// `unknowns` of `robot`.
+    ///
+    /// The error is placed at the last data line, column 1, and says how many poses
+    /// and equations there are, how many unknowns, and how many poses are needed.
+    pub fn require_poses(&self, robot: &Robot<f64>, unknowns: usize) -> Result<(), InputError> {
+        let needed = self
+            .unknowns(unknowns)
+            .saturating_sub(self.constraints.equations());
+        if distinct_equations_reach(robot, &self.poses, needed, Observation::equations) {
+            return Ok(());
+        }
+        // Too few: the rows' count or the configurations', said as it is.
+        let configurations = Configurations::of(robot, &self.poses);
+        if configurations.repeated() {
+            let equations = configurations
+                .rows
+                .iter()
+                .map(|rows| self.poses[rows[0]].equations())
+                .sum::<usize>()
+                + self.constraints.equations();
+            let distinct = configurations.count();
+            let line = self.lines.last().copied().unwrap_or(1);
+            let unknowns = self.unknowns(unknowns);
+            if equations < unknowns && self.equations() >= unknowns {
+                return Err(InputError::new(
+                    &self.file,
+                    line,
+                    1,
+                    format!(
+                        "{} in {} (joints equal within the encoder's resolution: a repeat adds no \
+                         geometry) give {equations} equations, fewer than the {unknowns} unknowns; \
+                         measure more distinct poses",
+                        plural(self.poses.len(), "row"),
+                        plural(distinct, "distinct configuration"),
+                    ),
+                ));
+            }
+        }
+        self.require_equations(unknowns)
+    }
+
+    /// Refuses the file if its rows give fewer equations than `unknowns`.
+    fn require_equations(&self, unknowns: usize) -> Result<(), InputError> {
+        let unknowns = self.unknowns(unknowns);
+        let equations = self.equations();
+        if equations >= unknowns {
+            return Ok(());
+        }
+        let line = self.lines.last().copied().unwrap_or(1);
+        if self.is_constrained() {
+            return Err(InputError::new(
+                &self.file,
+                line,
+                1,
+                format!(
+                    "fewer equations than unknowns: {} and {} give {equations} (3 per row at a \
+                     point, 1 per touch of a plane, 1 per distance), fewer than the {unknowns} \
+                     unknowns (the arm's less the base's 6, and 3 per point or plane); at least \
+                     {} more are needed",
+                    plural(self.poses.len(), "row"),
+                    plural(self.constraints.distances.len(), "distance"),
+                    unknowns - equations
+                ),
+            ));
+        }
+        let per_pose = if self.has_orientation() { 6 } else { 3 };
+        let needed = unknowns.div_ceil(per_pose);
+        Err(InputError::new(
+            &self.file,
+            line,
+            1,
+            format!(
+                "fewer poses than unknowns: {} give{} {equations} equations ({per_pose} per pose), \
+                 fewer than the {unknowns} unknowns; at least {needed} poses are needed",
+                plural(self.poses.len(), "pose"),
+                if self.poses.len() == 1 { "s" } else { "" }
+            ),
+        ))
+    }
+}
+
+/// How far (in units of the robot's reach, [`reach`]) a measured point may lie
+/// from the median of the points. Two points the robot reaches are at most two
+/// reaches apart, and the coordinate-wise median lies within their bounding box,
+/// so a point farther than `2√3` reaches from it cannot be; the margin covers
+/// a tool point the model places only roughly.
+pub const SPREAD_LIMIT: f64 = 4.0;
+
+/// The largest RMS position residual (as a share of the robot's [`reach`]) a
+/// geometric calibration may leave and still be written: a working arm's
+/// calibration leaves well under a millimetre per metre of reach, a camera's
+/// a few; 2 % is tens of millimetres, only reached when the model cannot be
+/// the robot that was measured.
+pub const FIT_LIMIT: f64 = 0.02;
+
+/// The farthest the tool point can be from the first joint's frame: the sum of
+/// every link's lengths (`|s|`, `|a|`), each prismatic joint's largest
+/// reading in `readings` and the tool's offset, m.
+pub fn reach<'q>(robot: &Robot<f64>, readings: impl Iterator<Item = &'q [f64]>) -> f64 {
+    let mut stroke = vec![0.0_f64; robot.dof()];
+    for q in readings {
+        for (s, v) in stroke.iter_mut().zip(q) {
+            *s = s.max(v.abs());
+        }
+    }
+    robot
+        .links
+        .iter()
+        .zip(&stroke)
+        .map(|(l, &q)| {
+            l.s.abs()
+                + l.a.abs()
+                + match l.joint {
+                    JointType::Prismatic => q,
+                    JointType::Revolute => 0.0,
+                }
+        })
+        .sum::<f64>()
+        + robot.tool.xyz.norm()
+}
+
+impl Measurements {
+    /// Refuses data that cannot be measurements of `robot`'s tool point: a
+    /// position column with the same value on every row (a degenerate column: no
+    /// instrument sees a moving arm so), or a point farther from the median of the
+    /// points than [`SPREAD_LIMIT`] times the robot's [`reach`] (a typo, or the
+    /// model and the data in different length units). The error names the line.
+    pub fn require_plausible(&self, model: &RobotModel) -> Result<(), InputError> {
+        let (robot, units) = (&model.robot, &model.units);
+        let unit = units.length.name();
+        let length = |x: f64| units.length_from_si(x);
+        let Some(first) = self.poses.first() else {
+            return Ok(());
+        };
+        if self.is_constrained() {
+            // No coordinate is measured.
+            return Ok(());
+        }
+        let moved = self.poses.iter().any(|p| p.q != first.q);
+        for (c, name) in POSITION.iter().enumerate() {
+            if moved
+                && self
+                    .poses
+                    .iter()
+                    .all(|p| p.position[c] == first.position[c])
+            {
+                return Err(InputError::new(
+                    &self.file,
+                    self.lines.first().copied().unwrap_or(0),
+                    1,
+                    format!(
+                        "column '{name}' reads {} {unit} on every row while the joints move: \
+                         no instrument measures a moving tool point so; check the export",
+                        length(first.position[c])
+                    ),
+                ));
+            }
+        }
+        let reach = reach(robot, self.poses.iter().map(|p| p.q.as_slice()));
+        let median = |c: usize| {
+            let mut v: Vec<f64> = self.poses.iter().map(|p| p.position[c]).collect();
+            let half = v.len() / 2;
+            *v.select_nth_unstable_by(half, f64::total_cmp).1
+        };
+        let centre = Point3::new(median(0), median(1), median(2));
+        // Scaled, so that a coordinate of 1e300 does not overflow its square.
+        let distance = |p: &Observation| {
+            let v = p.position - centre;
+            let m = v.amax();
+            if m > 0.0 { m * (v / m).norm() } else { 0.0 }
+        };
+        // A figure as an engineer writes it: 1e30 as 1e30, not 31 digits.
+        let show = |x: f64| {
+            let x = length(x);
+            if x != 0.0 && !(1e-4..1e6).contains(&x.abs()) {
+                format!("{x:e}")
+            } else {
+                format!("{x}")
+            }
+        };
+        if let Some((far, line)) = self
+            .poses
+            .iter()
+            .zip(&self.lines)
+            .find(|(p, _)| distance(p) > SPREAD_LIMIT * reach.max(1e-3))
+        {
+            let d = distance(far);
+            return Err(InputError::new(
+                &self.file,
+                *line,
+                1,
+                format!(
+                    "the point ({}, {}, {}) {unit} lies {} {unit} from the median of the \
+                     points, but the robot reaches at most {:.4} {unit} from its base: a typo, \
+                     or the data and the model in different length units?",
+                    show(far.position.x),
+                    show(far.position.y),
+                    show(far.position.z),
+                    show(d),
+                    length(reach)
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Refuses to let a calibration be written from a fit that still misses the
+    /// points by more than [`FIT_LIMIT`] of the robot's reach (`position_rms`,
+    /// m): such data do not carry a calibration of this model.
+    pub fn require_fit_supported(
+        &self,
+        model: &RobotModel,
+        position_rms: f64,
+    ) -> Result<(), InputError> {
+        let reach = reach(&model.robot, self.poses.iter().map(|p| p.q.as_slice()));
+        if position_rms.is_finite() && position_rms <= FIT_LIMIT * reach {
+            return Ok(());
+        }
+        let u = &model.units;
+        Err(InputError::new(
+            &self.file,
+            0,
+            0,
+            format!(
+                "the fitted model still misses the measured points by {:.4} {unit} RMS, {:.0} % \
+                 of the robot's reach ({:.4} {unit}): these data do not support a calibration of \
+                 this model (joint order, joint units, the tool point?); nothing is written",
+                u.length_from_si(position_rms),
+                100.0 * position_rms / reach,
+                u.length_from_si(reach),
+                unit = u.length.name()
+            ),
+        ))
+    }
+}
+
+/// The position columns, x, y, z.
+pub(crate) const POSITION: [&str; 3] = ["x", "y", "z"];
+
+/// `1 row`, `2 rows`.
+pub(crate) fn plural(n: usize, noun: &str) -> String {
+    if n == 1 {
+        format!("{n} {noun}")
+    } else {
+        format!("{n} {noun}s")
+    }
+}
