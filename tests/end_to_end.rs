@@ -995,7 +995,7 @@ mod diagnosis {
             Some(&("joint_compliance", vec![1])),
             "{names:?}"
         );
-        let (_, geometric, extended) = d.holdout;
+        let (geometric, extended) = (d.holdout.geometric, d.holdout.extended);
         assert!(
             extended.rms < geometric.rms,
             "{extended:?} vs {geometric:?}"
@@ -1220,7 +1220,7 @@ mod diagnosis_random {
             let truth =
                 cross_validate(nominal, &structure, &extra, &session.observations, &options)
                     .unwrap();
-            let extended = d.holdout.2;
+            let extended = d.holdout.extended;
             assert!(
                 extended.rms <= 2.0 * truth.rms,
                 "{name} {hidden}: extended {:e} m vs true structure {:e} m",

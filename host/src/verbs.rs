@@ -314,13 +314,17 @@ pub(crate) fn sweep(
         });
     });
     progress.finish();
-    let ((det, strong), (fp, pure), secs) = armcal::sweep::rates(&results);
+    let r = armcal::sweep::rates(&results);
     println!(
-        "{} cases: detected {det} of {strong} hidden effects with signal ≥ 5× ({:.0}%); false positives {fp} of {pure} pure-geometry cases ({:.0}%); {:.2} s per diagnosis",
+        "{} cases: detected {} of {} hidden effects with signal ≥ 5× ({:.0}%); false positives {} of {} pure-geometry cases ({:.0}%); {:.2} s per diagnosis",
         results.len(),
-        100.0 * det as f64 / strong.max(1) as f64,
-        100.0 * fp as f64 / pure.max(1) as f64,
-        secs
+        r.detected,
+        r.strong,
+        100.0 * r.detected as f64 / r.strong.max(1) as f64,
+        r.false_positives,
+        r.pure,
+        100.0 * r.false_positives as f64 / r.pure.max(1) as f64,
+        r.seconds
     );
     for c in results
         .iter()

@@ -341,7 +341,8 @@ impl Demo {
         let mut out = String::new();
         let mm = |x: f64| x * 1e3;
         let d = &self.diagnosis;
-        let (nominal, geometric, extended) = d.holdout;
+        let (nominal, geometric, extended) =
+            (d.holdout.nominal, d.holdout.geometric, d.holdout.extended);
         let noise_limit = self.options.fit.position_noise * 3f64.sqrt();
         let mut line = |text: String| {
             out.push_str(&text);

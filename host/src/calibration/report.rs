@@ -306,8 +306,9 @@ pub fn html(
         );
     }
     let _ = write!(s, "</table><p>");
-    for (what, used, shown, source, unit) in d.noise_rows(&model.units) {
-        let (used, shown) = (significant(used), significant(shown));
+    for n in d.noise_rows(&model.units) {
+        let (what, unit, source) = (n.what, &n.unit, n.source_name());
+        let (used, shown) = (significant(n.used), significant(n.shown));
         let _ = write!(
             s,
             "Noise of the {what}s: <b>{used} {unit}</b> per axis ({source}; the residuals show {shown} {unit}). "

@@ -213,7 +213,7 @@ pub fn sweep(
             robot: name,
             hidden,
             joints,
-            signal: d.holdout.1.rms / (20e-6 * 3f64.sqrt()),
+            signal: d.holdout.geometric.rms / (20e-6 * 3f64.sqrt()),
             found: d
                 .findings
                 .first()
@@ -227,20 +227,34 @@ pub fn sweep(
     out
 }
 
-/// The rates of a sweep: `(detected, cases with an effect and signal ≥ 5×)`,
-/// `(false positives, pure-geometry cases)`, and the mean seconds per diagnosis.
-pub fn rates(cases: &[Case]) -> ((usize, usize), (usize, usize), f64) {
+/// The rates of a sweep ([`rates`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rates {
+    /// Hidden effects named, of the cases with an effect and signal ≥ 5×.
+    pub detected: usize,
+    /// The cases with an effect and signal ≥ 5×.
+    pub strong: usize,
+    /// Pure-geometry cases in which an effect was named.
+    pub false_positives: usize,
+    /// The pure-geometry cases.
+    pub pure: usize,
+    /// The mean seconds per diagnosis.
+    pub seconds: f64,
+}
+
+/// The detection and false-positive rates of `cases`, and the mean time of a
+/// diagnosis.
+pub fn rates(cases: &[Case]) -> Rates {
     let strong: Vec<&Case> = cases
         .iter()
         .filter(|c| c.hidden.is_some() && c.signal >= 5.0)
         .collect();
-    let detected = strong.iter().filter(|c| c.detected()).count();
     let pure: Vec<&Case> = cases.iter().filter(|c| c.hidden.is_none()).collect();
-    let false_positive = pure.iter().filter(|c| c.named > 0).count();
-    let seconds = cases.iter().map(|c| c.seconds).sum::<f64>() / cases.len().max(1) as f64;
-    (
-        (detected, strong.len()),
-        (false_positive, pure.len()),
-        seconds,
-    )
+    Rates {
+        detected: strong.iter().filter(|c| c.detected()).count(),
+        strong: strong.len(),
+        false_positives: pure.iter().filter(|c| c.named > 0).count(),
+        pure: pure.len(),
+        seconds: cases.iter().map(|c| c.seconds).sum::<f64>() / cases.len().max(1) as f64,
+    }
 }

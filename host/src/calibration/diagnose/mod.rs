@@ -252,6 +252,18 @@ pub enum Choice {
     },
 }
 
+/// The held-out statistics of the three models a diagnosis compares.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HeldOutModels {
+    /// The nominal model, nothing fitted.
+    pub nominal: HeldOut,
+    /// The chosen geometric calibration (the nominal model when chosen).
+    pub geometric: HeldOut,
+    /// The extended calibration: the geometry and the effects chosen (the
+    /// calibration written).
+    pub extended: HeldOut,
+}
+
 /// What `armcal diagnose` found.
 #[derive(Clone, Debug)]
 pub struct Diagnosis {
@@ -267,7 +279,7 @@ pub struct Diagnosis {
     pub reference: FullFit,
     /// Held-out statistics of the nominal model, the chosen geometric
     /// calibration and the extended one.
-    pub holdout: (HeldOut, HeldOut, HeldOut),
+    pub holdout: HeldOutModels,
     /// Every geometric model scored, nominal first.
     pub models: Vec<ModelScore>,
     /// The estimated measurement noise of the rows that locate the tool point
@@ -834,7 +846,11 @@ fn diagnose_once(
         fit: current_fit,
         geometric,
         reference,
-        holdout: (nominal_holdout, geometric_holdout, current),
+        holdout: HeldOutModels {
+            nominal: nominal_holdout,
+            geometric: geometric_holdout,
+            extended: current,
+        },
         models,
         noise,
         blunders,
@@ -973,18 +989,18 @@ impl Diagnosis {
     pub fn noise_rows(
         &self,
         units: &armcal_shared::units::Units,
-    ) -> Vec<(&'static str, f64, f64, &'static str, String)> {
+    ) -> Vec<crate::calibration::identify::NoiseRow> {
         crate::calibration::identify::noise_rows(&self.geometric.noise, units)
     }
 
     /// The held-out statistics of the nominal model, the geometric and the
     /// extended calibration, labelled for reports.
     pub fn holdout_rows(&self) -> [(&'static str, HeldOut); 3] {
-        let (n, g, e) = self.holdout;
+        let h = self.holdout;
         [
-            ("nominal model", n),
-            ("geometric calibration", g),
-            ("extended calibration", e),
+            ("nominal model", h.nominal),
+            ("geometric calibration", h.geometric),
+            ("extended calibration", h.extended),
         ]
     }
 
@@ -1020,7 +1036,11 @@ impl Diagnosis {
         use serde_json::json;
         let mm = |x: f64| x * 1e3;
         let line = |i: usize| lines.get(i).copied().unwrap_or(0);
-        let (nominal, geometric, extended) = self.holdout;
+        let HeldOutModels {
+            nominal,
+            geometric,
+            extended,
+        } = self.holdout;
         let units = &model.units;
         // The effects' values as the calibration written holds them.
         let written = self.calibration(&model.robot, false, *units);
@@ -1167,9 +1187,10 @@ impl Diagnosis {
         let mut out = String::new();
         let mm = |x: f64| x * 1e3;
         let line = |i: usize| lines.get(i).copied().unwrap_or(0);
-        for (what, used, shown, source, unit) in self.noise_rows(units) {
-            let (used, shown) = (significant(used), significant(shown));
-            let _ = match source {
+        for n in self.noise_rows(units) {
+            let (what, unit) = (n.what, &n.unit);
+            let (used, shown) = (significant(n.used), significant(n.shown));
+            let _ = match n.source_name() {
                 "stated" => writeln!(
                     out,
                     "{what} noise {used} {unit} per axis (stated); the residuals show {shown} {unit}"
@@ -1320,7 +1341,7 @@ impl Diagnosis {
             let _ = writeln!(
                 out,
                 "a format that cannot carry the effects (`armcal export --format urdf`, `ur-deltas`, `ur-calibration`) gets the geometric calibration fitted without them: {:.4} mm held-out",
-                mm(self.holdout.1.rms)
+                mm(self.holdout.geometric.rms)
             );
         }
         let mut tried = self.tried.clone();
@@ -1360,7 +1381,7 @@ impl Diagnosis {
     ) -> Calibration {
         let mut cal = Calibration::nominal(nominal.clone(), orientation, units);
         cal.ranges = Some(self.ranges.clone());
-        let (_, geometric_held, held) = self.holdout;
+        let (geometric_held, held) = (self.holdout.geometric, self.holdout.extended);
         cal.held_out = Some(held.rms);
         if self.choice == Choice::Nominal {
             return cal;

@@ -410,7 +410,7 @@ fn diagnose_names_a_compliance_hidden_in_a_socket_session() {
         (estimate - compliance).abs() < 4.0 * std,
         "compliance {estimate:e} ± {std:e} rad/(N·m), truly {compliance:e}"
     );
-    let (_, geometric_held, extended_held) = d.holdout;
+    let (geometric_held, extended_held) = (d.holdout.geometric, d.holdout.extended);
     eprintln!(
         "{}: compliance {estimate:.4e} ± {std:.1e} rad/(N·m); held-out RMS {:.4} mm \
          geometric, {:.4} mm with it",
@@ -496,7 +496,7 @@ fn a_session_visiting_its_sockets_in_turn_locates_each_in_every_fold() {
         "{}",
         d.chosen_label()
     );
-    let (nominal_held, _, chosen_held) = d.holdout;
+    let (nominal_held, chosen_held) = (d.holdout.nominal, d.holdout.extended);
     assert!(
         chosen_held.rms < nominal_held.rms / 2.0,
         "{nominal_held:?} {chosen_held:?}"

@@ -350,35 +350,52 @@ pub fn identify(
     })
 }
 
+/// One channel's noise as the reports show it, in the model's units.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NoiseRow {
+    /// The channel's name (`position`, `point contact`, … `distance`).
+    pub what: &'static str,
+    /// The noise the rows were weighed by.
+    pub used: f64,
+    /// The noise the residuals show.
+    pub shown: f64,
+    /// Stated or estimated.
+    pub source: noise::NoiseSource,
+    /// The unit of both (the model's length unit, its angle unit for
+    /// orientations).
+    pub unit: String,
+}
+
+impl NoiseRow {
+    /// `stated` or `estimated`, as the reports say it.
+    pub fn source_name(&self) -> &'static str {
+        match self.source {
+            noise::NoiseSource::Stated => "stated",
+            noise::NoiseSource::Estimated => "estimated",
+        }
+    }
+}
+
 /// The noise of each channel the data have ([`noise::NoiseEstimate::rows`]),
-/// in the model's units, for reports: (what, used, shown by the residuals,
-/// source, unit).
-pub fn noise_rows(
-    noise: &noise::NoiseEstimate,
-    units: &Units,
-) -> Vec<(&'static str, f64, f64, &'static str, String)> {
+/// in the model's units, for reports.
+pub fn noise_rows(noise: &noise::NoiseEstimate, units: &Units) -> Vec<NoiseRow> {
     noise
         .rows()
         .into_iter()
         .map(|(channel, n)| {
-            let source = match n.source {
-                noise::NoiseSource::Stated => "stated",
-                noise::NoiseSource::Estimated => "estimated",
-            };
-            let what = channel.map_or("distance", noise::Channel::name);
             let (in_units, unit): (fn(&Units, f64) -> f64, String) =
                 if channel == Some(noise::Channel::Orientation) {
                     (Units::angle_from_si, units.angle.to_string())
                 } else {
                     (Units::length_from_si, units.length.to_string())
                 };
-            (
-                what,
-                in_units(units, n.used),
-                in_units(units, n.shown),
-                source,
+            NoiseRow {
+                what: channel.map_or("distance", noise::Channel::name),
+                used: in_units(units, n.used),
+                shown: in_units(units, n.shown),
+                source: n.source,
                 unit,
-            )
+            }
         })
         .collect()
 }
@@ -388,10 +405,10 @@ pub fn noise_rows(
 pub fn noise_json(noise: &noise::NoiseEstimate, units: &Units) -> serde_json::Value {
     noise_rows(noise, units)
         .into_iter()
-        .map(|(what, used, shown, source, unit)| {
+        .map(|n| {
             json!({
-                "channel": what, "used": used, "shown_by_residuals": shown,
-                "source": source, "unit": unit,
+                "channel": n.what, "used": n.used, "shown_by_residuals": n.shown,
+                "source": n.source_name(), "unit": n.unit,
             })
         })
         .collect()
@@ -605,19 +622,25 @@ impl Identification {
                 fit.condition_number, fit.observability, fit.variance_factor
             );
             let redundancies = fit.noise.rows().into_iter().map(|(_, n)| n.redundancy);
-            for ((what, used, shown, source, unit), r) in
-                noise_rows(&fit.noise, u).into_iter().zip(redundancies)
-            {
-                let _ = match source {
-                    "stated" if r < 1.0 => writeln!(
+            for (n, r) in noise_rows(&fit.noise, u).into_iter().zip(redundancies) {
+                let NoiseRow {
+                    what,
+                    used,
+                    shown,
+                    ref unit,
+                    ..
+                } = n;
+                let stated = n.source == noise::NoiseSource::Stated;
+                let _ = match stated {
+                    true if r < 1.0 => writeln!(
                         out,
                         "{what} noise {used:.3e} {unit} (stated); too few rows beyond the unknowns (redundancy {r:.2}) to check it"
                     ),
-                    "stated" => writeln!(
+                    true => writeln!(
                         out,
                         "{what} noise {used:.3e} {unit} (stated); the residuals show {shown:.3e} {unit}"
                     ),
-                    _ => writeln!(
+                    false => writeln!(
                         out,
                         "{what} noise {used:.3e} {unit} (estimated from the residuals)"
                     ),
