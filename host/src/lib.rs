@@ -21,6 +21,11 @@
 //! | [`io::ur`] | Universal Robots' controller calibration (D-H deltas, `ur_calibration` YAML), in and out |
 //! | [`io::output`] | a run's result files: all or none, never over an input, never replacing a device |
 //!
+//! ## [`commands`]: what a verb is asked
+//!
+//! Each verb's argument rules, written once for the command line and the
+//! Python package, its refusals naming the argument as each front end does.
+//!
 //! ## [`session`]: what a calibration is made from
 //!
 //! The measured rows, joint rows, constraints, configurations, channels and
@@ -63,6 +68,7 @@
 
 pub mod apply;
 pub mod calibration;
+pub mod commands;
 pub mod io;
 pub mod session;
 

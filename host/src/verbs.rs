@@ -3,6 +3,7 @@
 //! are in `main.rs`.
 
 use super::*;
+use armcal::commands::{self, Front};
 
 /// `armcal check`.
 pub(crate) fn check(model: ModelArgs, data: String) -> anyhow::Result<()> {
@@ -30,31 +31,17 @@ pub(crate) fn holdout(
     };
     let sessions = data.iter().map(load).collect::<anyhow::Result<Vec<_>>>()?;
     let training = train.iter().map(load).collect::<anyhow::Result<Vec<_>>>()?;
-    contact_check::require_distinct(&sessions.iter().chain(&training).collect::<Vec<_>>())?;
-    if training.is_empty() && sessions.len() < 2 {
-        return Err(InputError::argument(
-            "--data",
-            "give two or more sessions to leave out in turn, or the training sessions with --train",
-        )
-        .into());
-    }
     let reference_model = match &reference {
         Some(path) => Some(model_file::load_model_with(path, &chain)?),
         None => None,
     };
-    if let Some(r) = &reference_model
-        && r.robot.dof() != model.robot.dof()
-    {
-        return Err(InputError::argument(
-            "--reference",
-            format!(
-                "{} joints, the model has {}",
-                r.robot.dof(),
-                model.robot.dof()
-            ),
-        )
-        .into());
-    }
+    commands::holdout_sessions(
+        Front::CommandLine,
+        &model,
+        &sessions,
+        &training,
+        reference_model.as_ref(),
+    )?;
     let options = weights.options(&model)?;
     let reference_robot = reference_model.as_ref().map(|r| &r.robot);
     let rows = contact_check::held_out(
@@ -218,20 +205,7 @@ pub(crate) fn diagnose(
     outputs.check()?;
     let (model, data) = load_session(&model, &data)?;
     warn(&data.warnings);
-    let folds = match folds {
-        None => DEFAULT_FOLDS.min(data.len()),
-        Some(k) if k <= data.len() => k,
-        Some(k) => {
-            return Err(InputError::argument(
-                "--folds",
-                format!(
-                    "{k}: from 2 to the number of poses ({}: leave-one-out)",
-                    data.len()
-                ),
-            )
-            .into());
-        }
-    };
+    let folds = commands::folds(Front::CommandLine, folds, data.len())?;
     let options = armcal::diagnose::DiagnoseOptions {
         folds,
         fit: weights.options(&model)?,

@@ -6,6 +6,7 @@ use armcal::check::independent_parameter_count;
 use armcal::diagnose::DiagnoseOptions;
 use armcal::identify::StatedScales;
 use armcal::identify::full::FullOptions;
+use armcal::commands::{self, Front};
 use armcal::identify::prior_scale::PriorScale;
 use armcal::identify::{self, ParamSet};
 use armcal::model_file::RobotModel;
@@ -264,18 +265,8 @@ pub fn diagnose(
     };
     let fit = options(py, m, scales)?;
     let (data, arrays) = session(py, model, data)?;
-    let n = data.data.len();
-    let folds = match folds {
-        None => DiagnoseOptions::default().folds.min(n),
-        Some(k) if (2..=n).contains(&k) => k,
-        Some(k) => {
-            return Err(errors::argument(
-                py,
-                "folds",
-                format!("{k}: from 2 to the number of poses ({n}: leave-one-out)"),
-            ));
-        }
-    };
+    let folds = commands::folds(Front::Python, folds, data.data.len())
+        .map_err(|e| errors::input(py, &e, false))?;
     let options = DiagnoseOptions {
         folds,
         fit,

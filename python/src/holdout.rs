@@ -9,8 +9,9 @@
 //! Both in the model's length unit, in the model's base frame, which they do
 //! not depend on.
 
+use armcal::commands::{self, Front};
 use armcal::contact_check::{self, ContactCheck, Selection};
-use armcal::diagnose::DiagnoseOptions;
+use armcal::diagnose::cross_validation::DEFAULT_FOLDS;
 use armcal::identify::StatedScales;
 use armcal::measurements;
 use pyo3::prelude::*;
@@ -64,7 +65,7 @@ pub fn holdout<'py>(
     prior_angle: Option<f64>,
 ) -> PyResult<Vec<Bound<'py, PyAny>>> {
     let m = &model.inner;
-    let folds = DiagnoseOptions::default().folds;
+    let folds = DEFAULT_FOLDS;
     let selection = match select {
         "stated" => Selection::Stated,
         "prior" => Selection::Prior { folds },
@@ -86,19 +87,6 @@ pub fn holdout<'py>(
         prior_angle,
     };
     let options = options(py, m, scales)?;
-    if let Some(r) = reference
-        && r.inner.robot.dof() != m.robot.dof()
-    {
-        return Err(errors::argument(
-            py,
-            "reference",
-            format!(
-                "{} joints, the model has {}",
-                r.inner.robot.dof(),
-                m.robot.dof()
-            ),
-        ));
-    }
     let load = |argument: &str, list: &[Bound<'py, PyAny>]| {
         list.iter()
             .map(|d| {
@@ -111,15 +99,14 @@ pub fn holdout<'py>(
     };
     let sessions = load("sessions", &sessions)?;
     let training = load("train", train.as_deref().unwrap_or(&[]))?;
-    contact_check::require_distinct(&sessions.iter().chain(&training).collect::<Vec<_>>())
-        .map_err(|e| errors::input(py, &e, false))?;
-    if training.is_empty() && sessions.len() < 2 {
-        return Err(errors::argument(
-            py,
-            "sessions",
-            "give two or more sessions to leave out in turn, or the training sessions with train=",
-        ));
-    }
+    commands::holdout_sessions(
+        Front::Python,
+        m,
+        &sessions,
+        &training,
+        reference.map(|r| &r.inner),
+    )
+    .map_err(|e| errors::input(py, &e, false))?;
     let reference = reference.map(|r| &r.inner.robot);
     let rows = py
         .detach(|| contact_check::held_out(m, &sessions, &training, reference, &options, selection))

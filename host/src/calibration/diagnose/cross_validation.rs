@@ -152,6 +152,10 @@ fn moving(delta: &[f64]) -> Vec<usize> {
     (0..delta.len()).filter(|&c| delta[c] != 0.0).collect()
 }
 
+/// The folds of a cross-validation unless told otherwise (at most one per
+/// pose): `diagnose`'s, `identify`'s choice of the prior's scale, `holdout`'s.
+pub const DEFAULT_FOLDS: usize = 10;
+
 /// The fewest poses for which candidates are cross-validated on every core
 /// ([`Folds::spread`]). A candidate's cross-validation costs a few
 /// factorisations of its `p × p` system (`p` about 30: tens of µs) and, for

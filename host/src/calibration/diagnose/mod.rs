@@ -100,7 +100,7 @@ pub struct DiagnoseOptions {
 impl Default for DiagnoseOptions {
     fn default() -> Self {
         Self {
-            folds: 10,
+            folds: cross_validation::DEFAULT_FOLDS,
             min_gain: 1.05,
             fit: FullOptions::default(),
         }

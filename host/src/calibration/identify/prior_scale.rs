@@ -41,11 +41,9 @@
 
 use super::full::{Constraints, FoldNormals, FullFit, Observation, fold_normals, unit_scale};
 use super::prior::{PRIOR_FACTORS, Prior};
+pub use crate::calibration::diagnose::cross_validation::DEFAULT_FOLDS;
 use crate::calibration::diagnose::cross_validation::interleaved_folds;
 use nalgebra::{DMatrix, DVector};
-
-/// The folds of the cross-validation unless told otherwise.
-pub const DEFAULT_FOLDS: usize = 10;
 
 /// How the identification sets the prior's scale.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
