@@ -1,0 +1,302 @@
+//! The linearisation about a fit's solution: the stored Jacobian and residual
+//! of every unknown ([`linearize`]) and the normal equations summed fold by
+//! fold ([`fold_normals`]), what the cross-validations of `diagnose` and of
+//! the prior's scale ([`super::super::prior_scale`]) step from.
+
+use super::*;
+
+/// The model at a fit's solution and the unknowns of a linearisation about
+/// it ([`linearize`], [`fold_normals`]): the fit's identified parameters, its
+/// points, planes and effects, then `extra` and `effects`'s parameters.
+pub(super) struct AtFit {
+    pub(super) model: Model,
+    pub(super) unknowns: Vec<Unknown>,
+    pub(super) fitted: usize,
+    pub(super) precision: Vec<f64>,
+    pub(super) offset: Vec<f64>,
+}
+
+impl AtFit {
+    pub(super) fn of(
+        fit: &FullFit,
+        effects: &[Effect<f64>],
+        extra: &[Param],
+        constraints: &Constraints,
+        prior: &Prior,
+    ) -> Self {
+        let mut model = Model::of(fit.calibrated.clone(), fit.fitted_effects());
+        model.constraints = constraints.clone();
+        model.points = fit.points.iter().map(|p| p.position).collect();
+        model.planes = fit
+            .planes
+            .iter()
+            .map(|p| PlaneEstimate::through(&Point3::from(p.normal * p.offset), &p.normal))
+            .collect();
+        let identified = |s: &Status| matches!(s, Status::Identified { .. });
+        let mut unknowns: Vec<Unknown> = Vec::new();
+        let mut offset: Vec<f64> = Vec::new();
+        for p in fit.params.iter().filter(|p| identified(&p.status)) {
+            unknowns.push(Unknown::Param(p.param));
+            offset.push(p.error);
+        }
+        for (point, p) in fit.points.iter().enumerate() {
+            unknowns.extend(
+                (0..3)
+                    .filter(|&a| p.std[a].is_finite())
+                    .map(|axis| Unknown::Point { point, axis }),
+            );
+        }
+        for plane in 0..fit.planes.len() {
+            unknowns.extend((0..3).map(|component| Unknown::Plane { plane, component }));
+        }
+        for (effect, e) in fit.effects.iter().enumerate() {
+            for (component, _) in e.status.iter().enumerate().filter(|(_, s)| identified(s)) {
+                unknowns.push(Unknown::Effect { effect, component });
+            }
+        }
+        let fitted = unknowns.len();
+        unknowns.extend(extra.iter().map(|p| Unknown::Param(*p)));
+        for e in effects {
+            let effect = model.effects.len();
+            model.effects.push(*e);
+            unknowns.extend(
+                (0..e.parameter_count()).map(|component| Unknown::Effect { effect, component }),
+            );
+        }
+        // Only the geometry is off its nominal value: points, planes and effects
+        // have no prior's centre.
+        offset.resize(unknowns.len(), 0.0);
+        let precision = unknowns
+            .iter()
+            .map(|u| match u {
+                Unknown::Param(p) => prior.precision(*p),
+                Unknown::Effect { .. } | Unknown::Point { .. } | Unknown::Plane { .. } => 0.0,
+            })
+            .collect();
+        Self {
+            model,
+            unknowns,
+            fitted,
+            precision,
+            offset,
+        }
+    }
+}
+
+/// The weighted linearisation of a fitted model, extended: the Jacobian columns
+/// of `fit`'s identified unknowns (geometry, the identified coordinates of a
+/// constraint session's points and every parameter of its planes, then its
+/// effects' parameters), then of the `extra` geometric parameters, then of the
+/// parameters of `effects` (at their values, usually zero), all at `fit`'s
+/// solution; and the weighted residual. Rows as in the fit: per pose 3
+/// position rows (divided by the noise of its kind), or 1 for a touch of a
+/// plane, then 3 orientation rows when measured; then one row per known
+/// distance of `constraints` (empty for a session of coordinates), after the
+/// poses in [`Linearization::first_rows`] (a cross-validation trains on them
+/// always). Each column carries its `prior` precision and its current offset
+/// from nominal, so that a solve on any subset of the poses is the MAP step of
+/// the fit. What [`crate::calibration::diagnose`] cross-validates models with,
+/// by one Gauss–Newton step per fold.
+pub fn linearize(
+    fit: &FullFit,
+    effects: &[Effect<f64>],
+    extra: &[Param],
+    data: &[Observation],
+    constraints: &Constraints,
+    prior: &Prior,
+) -> Linearization {
+    let AtFit {
+        model,
+        unknowns,
+        fitted,
+        precision,
+        offset,
+    } = AtFit::of(fit, effects, extra, constraints, prior);
+    let weights = fit.weights();
+    let sys = LinearSystem::build(&model, data, &unknowns, &weights);
+    let distances = DistanceRows::rows(&model, &unknowns);
+    let poses_rows = sys.j.nrows();
+    let (j, r) = if distances.is_empty() {
+        (sys.j, sys.r)
+    } else {
+        let rows = poses_rows + distances.len();
+        let j = Mat::from_fn(rows, unknowns.len(), |i, c| {
+            if i < poses_rows {
+                sys.j[(i, c)]
+            } else {
+                distances[i - poses_rows].0[c]
+            }
+        });
+        let r = Mat::from_fn(rows, 1, |i, _| {
+            if i < poses_rows {
+                sys.r[(i, 0)]
+            } else {
+                distances[i - poses_rows].1
+            }
+        });
+        (j, r)
+    };
+    let mut first_rows = Vec::with_capacity(data.len() + distances.len());
+    let mut row = 0;
+    for obs in data {
+        first_rows.push(row);
+        row += obs.equations();
+    }
+    first_rows.extend(poses_rows..poses_rows + distances.len());
+    Linearization {
+        j,
+        r,
+        first_rows,
+        contacts: data.iter().map(|o| o.contact).collect(),
+        fitted,
+        noise: data
+            .iter()
+            .map(|o| fit.noise_of(o.channel()))
+            .chain(constraints.distances.iter().map(|d| d.std))
+            .collect(),
+        unknowns,
+        precision,
+        offset,
+    }
+}
+
+/// A weighted linearisation ([`linearize`]).
+pub struct Linearization {
+    /// Weighted Jacobian, rows × unknowns.
+    pub j: Mat<f64>,
+    /// Weighted residual, rows × 1.
+    pub r: Mat<f64>,
+    /// The first row of each pose (its 3 position rows; then 3 orientation
+    /// rows if measured), then of each known distance.
+    pub first_rows: Vec<usize>,
+    /// What each pose's tool point is held to, one per pose (its folds follow it:
+    /// [`crate::calibration::diagnose::cross_validation::interleaved_folds`]).
+    pub contacts: Vec<Contact>,
+    /// How many leading columns are the fit's own unknowns.
+    pub fitted: usize,
+    /// The noise the position rows of each pose (the rows of its tool point:
+    /// a measured position or a contact) are divided by, then of each
+    /// distance row: m, in the order of [`Linearization::first_rows`].
+    pub noise: Vec<f64>,
+    /// The unknown of each column.
+    pub unknowns: Vec<Unknown>,
+    /// The prior precision `1/τ²` of each column (0: none).
+    pub precision: Vec<f64>,
+    /// Each column's value less its nominal value (its prior's centre), SI.
+    pub offset: Vec<f64>,
+}
+
+impl Linearization {
+    /// How many of [`Linearization::first_rows`] are poses; the others are
+    /// known distances, which a cross-validation trains on in every fold.
+    pub fn poses(&self) -> usize {
+        self.contacts.len()
+    }
+
+    /// The rows of pose `i`.
+    pub fn rows_of(&self, i: usize) -> std::ops::Range<usize> {
+        self.first_rows[i]
+            ..self
+                .first_rows
+                .get(i + 1)
+                .copied()
+                .unwrap_or(self.j.nrows())
+    }
+}
+
+/// One fold's share of the normal equations about a fit ([`fold_normals`]).
+pub struct FoldNormal {
+    /// `JᵀJ` of the fold's pose rows, every channel, each row divided by its
+    /// noise as in the fit.
+    pub a: DMatrix<f64>,
+    /// `Jᵀr` of the same rows.
+    pub b: DVector<f64>,
+    /// `JᵀJ` of its tool-point rows alone (a measured position or a
+    /// contact; not the orientation), each row in m (multiplied back by its
+    /// noise), so that `‖r − Jδ‖²` of those rows is in m².
+    pub held_a: DMatrix<f64>,
+    /// `Jᵀr` of the same rows, m.
+    pub held_b: DVector<f64>,
+    /// `rᵀr` of the same rows, m².
+    pub held_rtr: f64,
+    /// The fold's poses.
+    pub poses: usize,
+}
+
+/// The normal equations about a fit's solution, summed fold by fold: all a
+/// linearised k-fold cross-validation of the fit's unknowns at another prior
+/// needs, in memory independent of the number of poses (`O(k p²)`).
+pub struct FoldNormals {
+    /// Each fold's.
+    pub folds: Vec<FoldNormal>,
+    /// `JᵀJ` and `Jᵀr` of the known distances (trained on in every fold).
+    pub distances: (DMatrix<f64>, DVector<f64>),
+    /// Each unknown's prior precision `1/τ²` (0: none).
+    pub precision: Vec<f64>,
+    /// Each unknown's value less its nominal value (its prior's centre), SI.
+    pub offset: Vec<f64>,
+}
+
+/// The normal equations of the fit's unknowns (those of [`linearize`]
+/// without effects or extras) at its solution, summed over the poses of each
+/// fold: pose `i` in fold `fold[i]` of `k`. One pass over the poses, however
+/// many folds.
+pub fn fold_normals(
+    fit: &FullFit,
+    data: &[Observation],
+    constraints: &Constraints,
+    prior: &Prior,
+    fold: &[usize],
+    k: usize,
+) -> FoldNormals {
+    let AtFit {
+        model,
+        unknowns,
+        precision,
+        offset,
+        ..
+    } = AtFit::of(fit, &[], &[], constraints, prior);
+    let weights = fit.weights();
+    let p = unknowns.len();
+    let matrix = |m: &Mat<f64>| DMatrix::from_fn(m.nrows(), m.ncols(), |i, j| m[(i, j)]);
+    let vector = |v: &Mat<f64>| DVector::from_fn(v.nrows(), |i, _| v[(i, 0)]);
+    let tool = [Channel::Position, Channel::Point, Channel::Plane];
+    let folds = (0..k)
+        .map(|f| {
+            let poses: Vec<&Observation> = data
+                .iter()
+                .zip(fold)
+                .filter(|&(_, &g)| g == f)
+                .map(|(o, _)| o)
+                .collect();
+            let sums = NormalEquations::accumulate(&model, &poses, &unknowns, &weights);
+            let mut fold = FoldNormal {
+                a: DMatrix::zeros(p, p),
+                b: DVector::zeros(p),
+                held_a: DMatrix::zeros(p, p),
+                held_b: DVector::zeros(p),
+                held_rtr: 0.0,
+                poses: poses.len(),
+            };
+            for c in Channel::ALL {
+                let (a, b) = (matrix(&sums.jtj[c]), vector(&sums.jtr[c]));
+                if tool.contains(&c) {
+                    let s2 = fit.noise_of(c).powi(2);
+                    fold.held_a += &a * s2;
+                    fold.held_b += &b * s2;
+                    fold.held_rtr += sums.rtr[c] * s2;
+                }
+                fold.a += a;
+                fold.b += b;
+            }
+            fold
+        })
+        .collect();
+    let distances = DistanceRows::of(&model, &unknowns);
+    FoldNormals {
+        folds,
+        distances: (matrix(&distances.jtj), vector(&distances.jtr)),
+        precision,
+        offset,
+    }
+}
