@@ -1,12 +1,12 @@
 //! `identify` and `diagnose`, composed as `armcal identify` and `armcal
 //! diagnose` compose them: the same checks of the data, the same options, the
-//! same report (the JSON report (`docs/file-formats.md` §6), as Python dicts), the same refusals.
+//! same report (the JSON of `docs/file-formats.md` §6, as Python dicts), the same refusals.
 
 use armcal::check::independent_parameter_count;
+use armcal::commands::{self, Front};
 use armcal::diagnose::DiagnoseOptions;
 use armcal::identify::StatedScales;
 use armcal::identify::full::FullOptions;
-use armcal::commands::{self, Front};
 use armcal::identify::prior_scale::PriorScale;
 use armcal::identify::{self, ParamSet};
 use armcal::model_file::RobotModel;

@@ -1,0 +1,457 @@
+//! The diagnosis as its reports give it: the summary `armcal diagnose`
+//! prints, the JSON of `--json` (`docs/file-formats.md` §6), and the labels,
+//! noise rows and held-out rows the HTML page (`calibration::report`) shares
+//! with them. Nothing here computes; it reads a [`Diagnosis`].
+
+use super::*;
+
+/// `x` to four significant digits, in fixed notation (`0.02000` mm, `0.0001081` m).
+pub(crate) fn significant(x: f64) -> String {
+    let decimals = if x.is_normal() {
+        (3 - x.abs().log10().floor() as i32).max(0) as usize
+    } else {
+        4
+    };
+    format!("{x:.decimals$}")
+}
+
+/// `a2, theta3`, or `none`: parameters as reports list them.
+pub fn parameter_list(params: &[Param]) -> String {
+    if params.is_empty() {
+        "none".to_string()
+    } else {
+        params
+            .iter()
+            .map(|p| p.to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}
+
+/// A parameter of a found effect in the model's units: angles (gear amplitudes,
+/// half the lost motion of a revolute joint, a compliance's rad per N·m) in the
+/// angle unit, lengths in the length unit, ratios as they are.
+fn effect_value(
+    robot: &Robot<f64>,
+    effect: &Effect<f64>,
+    units: &armcal_shared::units::Units,
+    v: f64,
+) -> f64 {
+    let revolute = effect
+        .joint()
+        .is_some_and(|j| robot.links[j].joint == JointType::Revolute);
+    match effect {
+        Effect::ThermalExpansion { .. } | Effect::EncoderScale { .. } => v,
+        _ if revolute => units.angle_from_si(v),
+        _ => units.length_from_si(v),
+    }
+}
+
+impl Diagnosis {
+    /// The model chosen, as reports name it: `nominal`, or the geometric model
+    /// with its prior and the effects.
+    pub fn chosen_label(&self) -> String {
+        match self.choice {
+            Choice::Nominal => "nominal (nothing beats it held-out)".into(),
+            Choice::Calibrated {
+                geometry,
+                prior_factor,
+                ..
+            } => {
+                let mut s = if geometry == Geometry::Registration {
+                    "registration (base and tool)".to_string()
+                } else {
+                    format!("{}, prior ×{prior_factor}", geometry.name())
+                };
+                for f in &self.findings {
+                    s.push_str(&format!(
+                        " + {} (joints {})",
+                        f.candidate.name,
+                        f.candidate.joints_label()
+                    ));
+                }
+                s
+            }
+        }
+    }
+
+    /// The noise of each channel, in the model's units, for reports: (what,
+    /// used, shown by the residuals, source, unit).
+    pub fn noise_rows(
+        &self,
+        units: &armcal_shared::units::Units,
+    ) -> Vec<crate::calibration::identify::NoiseRow> {
+        crate::calibration::identify::noise_rows(&self.geometric.noise, units)
+    }
+
+    /// The held-out statistics of the nominal model, the geometric and the
+    /// extended calibration, labelled for reports.
+    pub fn holdout_rows(&self) -> [(&'static str, HeldOut); 3] {
+        let h = self.holdout;
+        [
+            ("nominal model", h.nominal),
+            ("geometric calibration", h.geometric),
+            ("extended calibration", h.extended),
+        ]
+    }
+
+    /// The D-H parameters the prior holds (data share below one half) and those
+    /// the data moved (at least one half), in the final fit.
+    pub fn prior_role(&self) -> (Vec<Param>, Vec<Param>) {
+        let (mut held, mut moved) = (Vec::new(), Vec::new());
+        for p in &self.fit.params {
+            if matches!(p.param, Param::Base(_) | Param::Tool(_))
+                || !matches!(p.status, Status::Identified { .. })
+            {
+                continue;
+            }
+            if p.data_share < 0.5 {
+                held.push(p.param);
+            } else {
+                moved.push(p.param);
+            }
+        }
+        (held, moved)
+    }
+
+    /// The JSON of `docs/file-formats.md` §6 (`noise_estimate_mm`, `holdout`, `effects`,
+    /// `outlier_rows`), plus the chosen model, every model's held-out error, the
+    /// noise of each channel, the prior's role and every candidate's
+    /// first-round gain.
+    pub fn to_json(
+        &self,
+        model: &crate::io::model_file::RobotModel,
+        lines: &[usize],
+        options: &DiagnoseOptions,
+    ) -> serde_json::Value {
+        use serde_json::json;
+        let mm = |x: f64| x * 1e3;
+        let line = |i: usize| lines.get(i).copied().unwrap_or(0);
+        let HeldOutModels {
+            nominal,
+            geometric,
+            extended,
+        } = self.holdout;
+        let units = &model.units;
+        // The effects' values as the calibration written holds them.
+        let written = self.calibration(&model.robot, false, *units);
+        let effects: Vec<serde_json::Value> = self
+            .findings
+            .iter()
+            .map(|f| {
+                let mut parameters = serde_json::Map::new();
+                if let Some(e) = written.effects.iter().find(|e| f.candidate.is(e)) {
+                    for i in 0..e.parameter_count() {
+                        let v = e.parameter(i).unwrap_or(0.0);
+                        parameters.insert(
+                            crate::calibration::identify::full::effect_parameter_name(e, i),
+                            json!(effect_value(&model.robot, e, units, v)),
+                        );
+                    }
+                }
+                for p in &f.candidate.extra {
+                    let error = written
+                        .errors
+                        .iter()
+                        .find(|r| r.param == *p)
+                        .map_or(0.0, |r| r.error);
+                    parameters.insert(p.to_string(), json!(units.angle_from_si(error)));
+                }
+                json!({
+                    "name": f.candidate.name,
+                    "joints": f.candidate.joints.iter().map(|j| j + 1).collect::<Vec<_>>(),
+                    "parameters": parameters,
+                    "gain": f.gain,
+                    "evidence": format!(
+                        "held-out RMS {:.1}% lower with it ({}-fold); F = {:.1} against the {:.1} of a 1% family-wise test",
+                        100.0 * (1.0 - 1.0 / f.gain), options.folds, f.f_test.0, f.f_test.1
+                    ),
+                })
+            })
+            .collect();
+        let (held, moved) = self.prior_role();
+        let names = |v: &[Param]| v.iter().map(|p| p.to_string()).collect::<Vec<_>>();
+        let (prior, factor) = match self.choice {
+            Choice::Calibrated {
+                prior,
+                prior_factor,
+                ..
+            } => (prior, prior_factor),
+            Choice::Nominal => (options.fit.prior, 1.0),
+        };
+        json!({
+            "noise_estimate_mm": mm(self.noise),
+            "noise": crate::calibration::identify::noise_json(&self.geometric.noise, units),
+            "chosen": {
+                "model": match self.choice {
+                    Choice::Nominal => "nominal",
+                    Choice::Calibrated { geometry, .. } => geometry.name(),
+                },
+                "label": self.chosen_label(),
+                "prior_factor": factor,
+                "prior": {"length": units.length_from_si(prior.length), "angle": units.angle_from_si(prior.angle)},
+                "calibration_changes_nothing": self.choice == Choice::Nominal,
+            },
+            "models": self.models.iter().map(|m| json!({
+                "model": m.label(),
+                "parameters": m.parameters,
+                "rms_mm": mm(m.held.rms), "mean_mm": mm(m.held.mean), "max_mm": mm(m.held.max),
+            })).collect::<Vec<_>>(),
+            "prior_role": {
+                "held_by_prior": names(&held),
+                "moved_by_data": names(&moved),
+                "data_share": self.fit.params.iter()
+                    .filter(|p| matches!(p.status, Status::Identified { .. }))
+                    .map(|p| json!({"name": p.param.to_string(), "data_share": p.data_share}))
+                    .collect::<Vec<_>>(),
+            },
+            "holdout": {
+                "method": format!("{}-fold", options.folds),
+                "nominal_rms_mm": mm(nominal.rms),
+                "geometric_rms_mm": mm(geometric.rms),
+                "extended_rms_mm": mm(extended.rms),
+                "nominal_mean_mm": mm(nominal.mean), "nominal_max_mm": mm(nominal.max),
+                "geometric_mean_mm": mm(geometric.mean), "geometric_max_mm": mm(geometric.max),
+                "extended_mean_mm": mm(extended.mean), "extended_max_mm": mm(extended.max),
+            },
+            "effects": effects,
+            "written": {
+                "held_out_rms_mm": written.held_out.map(mm),
+                "geometric_fallback": written.geometric.as_ref().map(|g| json!({
+                    "held_out_rms_mm": g.held_out.map(mm),
+                    "parameters": g.errors.len(),
+                })),
+            },
+            "replicates": self.replicates.map(|r| json!({
+                "rows": r.rows,
+                "configurations": r.configurations,
+                "copies": r.copies,
+                "pure_error_mm": r.lack_of_fit.map(|l| mm(l.pure.sigma)),
+                "pure_error_dof": r.lack_of_fit.map(|l| l.pure.dof),
+                "repeated_configurations": r.lack_of_fit.map(|l| l.pure.repeated),
+                "residual_at_means_mm": r.lack_of_fit.map(|l| mm(l.shown)),
+                "expected_at_means_mm": r.lack_of_fit.map(|l| mm(l.expected)),
+                "lack_of_fit_f": r.lack_of_fit.map(|l| l.f),
+                "lack_of_fit_threshold": r.lack_of_fit.map(|l| l.threshold),
+                "lack_of_fit_p": r.lack_of_fit.map(|l| l.p),
+                "lack_of_fit": r.lack_of_fit.map(|l| l.significant()),
+            })),
+            "fitted": self.fitted.map(|h| json!({
+                "rms_mm": mm(h.rms), "mean_mm": mm(h.mean), "max_mm": mm(h.max),
+            })),
+            "outlier_rows": self.blunders.iter().map(|&i| line(i)).collect::<Vec<_>>(),
+            "suspect_rows": self.suspects.iter().map(|b| json!({
+                "row": line(b.pose), "f": b.f, "threshold": b.threshold,
+                "others_held_out_rms_mm_with": mm(b.held_with),
+                "others_held_out_rms_mm_without": mm(b.held_without),
+                "set_aside": b.set_aside,
+            })).collect::<Vec<_>>(),
+            "candidates": self.tried.iter().map(|(c, g)| json!({
+                "name": c.name,
+                "joints": c.joints.iter().map(|j| j + 1).collect::<Vec<_>>(),
+                "gain": g,
+            })).collect::<Vec<_>>(),
+            "unsettled": self.unsettled.as_ref().map(|u| json!({
+                "name": u.candidate.name,
+                "joints": u.candidate.joints.iter().map(|j| j + 1).collect::<Vec<_>>(),
+                "gain": u.gain, "f": u.f_test.0, "threshold": u.f_test.1,
+                "shortfall": match u.shortfall {
+                    Shortfall::Significance { .. } => "significance",
+                    Shortfall::Gain { .. } => "gain",
+                },
+                "poses_needed": match u.shortfall {
+                    Shortfall::Significance { poses_needed } => Some(poses_needed),
+                    Shortfall::Gain { .. } => None,
+                },
+            })),
+        })
+    }
+
+    /// The human summary.
+    pub fn summary(
+        &self,
+        lines: &[usize],
+        options: &DiagnoseOptions,
+        units: &armcal_shared::units::Units,
+    ) -> String {
+        use std::fmt::Write as _;
+        let mut out = String::new();
+        let mm = |x: f64| x * 1e3;
+        let line = |i: usize| lines.get(i).copied().unwrap_or(0);
+        for n in self.noise_rows(units) {
+            let (what, unit) = (n.what, &n.unit);
+            let (used, shown) = (significant(n.used), significant(n.shown));
+            let _ = match n.source_name() {
+                "stated" => writeln!(
+                    out,
+                    "{what} noise {used} {unit} per axis (stated); the residuals show {shown} {unit}"
+                ),
+                _ => writeln!(
+                    out,
+                    "{what} noise {used} {unit} per axis (estimated from the residuals)"
+                ),
+            };
+        }
+        if let Some(r) = &self.replicates {
+            let _ = writeln!(
+                out,
+                "{} rows in {} distinct configurations (joints equal within the encoder's resolution): every fold, test and count is of configurations, each the mean of its repeats",
+                r.rows, r.configurations
+            );
+            if r.copies {
+                let _ = writeln!(
+                    out,
+                    "the repeated positions are identical (copies of one reading, not readings of one pose): they show no instrument noise"
+                );
+            }
+            if let Some(l) = &r.lack_of_fit {
+                let _ = writeln!(
+                    out,
+                    "instrument noise from the repeats of {} configurations: {} mm per axis ({} degrees of freedom, model-free); the model's residuals at the means show {} mm where the instrument alone would leave {} mm: F {:.2} {} {:.2} (1%), {}",
+                    l.pure.repeated,
+                    significant(mm(l.pure.sigma)),
+                    l.pure.dof,
+                    significant(mm(l.shown)),
+                    significant(mm(l.expected)),
+                    l.f,
+                    if l.significant() { ">" } else { "<" },
+                    l.threshold,
+                    if l.significant() {
+                        "lack of fit: the model leaves more than the instrument's noise (an effect not modelled, or the robot's own repeatability)"
+                    } else {
+                        "no lack of fit"
+                    }
+                );
+            }
+        }
+        for b in &self.suspects {
+            let _ = writeln!(
+                out,
+                "data line {}: deleted residual F = {:.1} above the 1% threshold {:.1}; held-out RMS of the other poses {:.4} mm with it, {:.4} mm without: {}",
+                line(b.pose),
+                b.f,
+                b.threshold,
+                mm(b.held_with),
+                mm(b.held_without),
+                if b.set_aside { "set aside" } else { "kept" }
+            );
+        }
+        let _ = writeln!(
+            out,
+            "\nheld-out position error of each model ({}-fold), mm:",
+            options.folds
+        );
+        let _ = writeln!(
+            out,
+            "  {:<28} {:>6} {:>9} {:>9} {:>9}",
+            "model", "params", "rms", "mean", "max"
+        );
+        for m in &self.models {
+            let _ = writeln!(
+                out,
+                "  {:<28} {:>6} {:>9.4} {:>9.4} {:>9.4}",
+                m.label(),
+                m.parameters,
+                mm(m.held.rms),
+                mm(m.held.mean),
+                mm(m.held.max)
+            );
+        }
+        let _ = writeln!(out, "chosen: {}", self.chosen_label());
+        if self.choice == Choice::Nominal {
+            let _ = writeln!(
+                out,
+                "no calibrated model predicts poses it was not fitted to better than the nominal model: the calibration written changes nothing; measure more, and more varied, poses"
+            );
+        } else {
+            let (held, moved) = self.prior_role();
+            let _ = writeln!(out, "moved by the data: {}", parameter_list(&moved));
+            let _ = writeln!(
+                out,
+                "held near nominal by the prior: {}",
+                parameter_list(&held)
+            );
+        }
+        if self.findings.is_empty() {
+            let _ = writeln!(out, "nothing beyond geometry survives the test");
+        }
+        for f in &self.findings {
+            let _ = writeln!(
+                out,
+                "found {} (joints {}): held-out gain ×{:.2}, F {:.1} > {:.1} (1% family-wise)",
+                f.candidate.name,
+                f.candidate.joints_label(),
+                f.gain,
+                f.f_test.0,
+                f.f_test.1
+            );
+        }
+        if let Some(u) = &self.unsettled {
+            let (name, joints, gain, (f, t)) = (
+                &u.candidate.name,
+                u.candidate.joints_label(),
+                u.gain,
+                u.f_test,
+            );
+            let _ = match u.shortfall {
+                Shortfall::Significance { poses_needed } => writeln!(
+                    out,
+                    "not settled: {name} (joints {joints}) gains ×{gain:.2} held-out but F {f:.1} < {t:.1}; about {poses_needed} poses would settle it",
+                ),
+                Shortfall::Gain { min_gain } => writeln!(
+                    out,
+                    "not worth modelling: {name} (joints {joints}) passes the test (F {f:.1} > {t:.1}) but gains only ×{gain:.2} held-out (×{min_gain:.2} asked); more poses would not make it larger",
+                ),
+            };
+        }
+        let _ = writeln!(
+            out,
+            "\nheld-out position error ({}-fold), mm:   rms      mean     max",
+            options.folds
+        );
+        for (label, h) in self.holdout_rows() {
+            let _ = writeln!(
+                out,
+                "  {label:<24} {:>8.4} {:>8.4} {:>8.4}",
+                mm(h.rms),
+                mm(h.mean),
+                mm(h.max)
+            );
+        }
+        if let Some(h) = self.fitted {
+            let _ = writeln!(
+                out,
+                "  {:<24} {:>8.4} {:>8.4} {:>8.4}  (the calibration written, at the poses it was fitted to: `armcal predict` gives these)",
+                "fitted, in-sample",
+                mm(h.rms),
+                mm(h.mean),
+                mm(h.max)
+            );
+        }
+        if !self.fit.effects.is_empty() && self.choice != Choice::Nominal {
+            let _ = writeln!(
+                out,
+                "a format that cannot carry the effects (`armcal export --format urdf`, `ur-deltas`, `ur-calibration`) gets the geometric calibration fitted without them: {:.4} mm held-out",
+                mm(self.holdout.geometric.rms)
+            );
+        }
+        let mut tried = self.tried.clone();
+        tried.sort_by(|a, b| b.1.total_cmp(&a.1));
+        if !tried.is_empty() {
+            let _ = writeln!(
+                out,
+                "\nstrongest candidates (held-out gain on the geometric model):"
+            );
+        }
+        for (c, gain) in tried.iter().take(6) {
+            let _ = writeln!(
+                out,
+                "  {:<20} joints {:<6} ×{:.3}",
+                c.name,
+                c.joints_label(),
+                gain
+            );
+        }
+        out
+    }
+}
