@@ -39,6 +39,12 @@ impl Prior {
         angle: f64::INFINITY,
     };
 
+    /// Whether it holds any parameter: a finite length or angle scale (not
+    /// [`Prior::NONE`], least squares).
+    pub fn has_scale(&self) -> bool {
+        self.length.is_finite() || self.angle.is_finite()
+    }
+
     /// This prior with both scales multiplied by `factor`.
     pub fn scaled(self, factor: f64) -> Self {
         Self {

@@ -235,8 +235,7 @@ pub fn identify(
             };
             let mut fit = fit_at(1.0)?;
             // A prior without a finite scale (least squares) has none to choose.
-            let scalable = options.prior.length.is_finite() || options.prior.angle.is_finite();
-            if let (PriorScale::Chosen { folds }, true) = (scale, scalable) {
+            if let (PriorScale::Chosen { folds }, true) = (scale, options.prior.has_scale()) {
                 let choice = prior_scale::choose(
                     &fit,
                     observations(data),

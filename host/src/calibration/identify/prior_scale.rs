@@ -199,14 +199,10 @@ fn held_out(sums: &FoldNormals, factor: f64) -> Option<f64> {
         .iter()
         .map(|q| q / (factor * factor))
         .collect();
-    let (mut a, mut b) = sums.distances.clone();
-    for fold in &sums.folds {
-        a += &fold.a;
-        b += &fold.b;
-    }
+    let (a, b) = &sums.all;
     let (mut squares, mut poses) = (0.0, 0);
     for fold in &sums.folds {
-        let a = &a - &fold.a;
+        let a = a - &fold.a;
         let rhs = DVector::from_fn(p, |i, _| b[i] - fold.b[i] - precision[i] * sums.offset[i]);
         // Scaled to a unit diagonal, for the conditioning of the factorisation.
         let scale: Vec<f64> = (0..p)

@@ -188,7 +188,7 @@ impl Identification {
     fn prior_line(&self, u: &Units) -> Option<String> {
         self.full.as_ref()?;
         let p = &self.stated_prior;
-        if !(p.length.is_finite() || p.angle.is_finite()) {
+        if !p.has_scale() {
             return Some("prior: none (least squares)".into());
         }
         let factor = self.prior.as_ref().map_or(1.0, PriorChoice::factor);

@@ -229,8 +229,9 @@ pub struct FoldNormal {
 pub struct FoldNormals {
     /// Each fold's.
     pub folds: Vec<FoldNormal>,
-    /// `JᵀJ` and `Jᵀr` of the known distances (trained on in every fold).
-    pub distances: (DMatrix<f64>, DVector<f64>),
+    /// `JᵀJ` and `Jᵀr` of every row: each fold's poses and the known
+    /// distances (trained on in every fold).
+    pub all: (DMatrix<f64>, DVector<f64>),
     /// Each unknown's prior precision `1/τ²` (0: none).
     pub precision: Vec<f64>,
     /// Each unknown's value less its nominal value (its prior's centre), SI.
@@ -261,7 +262,7 @@ pub fn fold_normals(
     let matrix = |m: &Mat<f64>| DMatrix::from_fn(m.nrows(), m.ncols(), |i, j| m[(i, j)]);
     let vector = |v: &Mat<f64>| DVector::from_fn(v.nrows(), |i, _| v[(i, 0)]);
     let tool = [Channel::Position, Channel::Point, Channel::Plane];
-    let folds = (0..k)
+    let folds: Vec<FoldNormal> = (0..k)
         .map(|f| {
             let poses: Vec<&Observation> = data
                 .iter()
@@ -293,9 +294,14 @@ pub fn fold_normals(
         })
         .collect();
     let distances = DistanceRows::of(&model, &unknowns);
+    let mut all = (matrix(&distances.jtj), vector(&distances.jtr));
+    for fold in &folds {
+        all.0 += &fold.a;
+        all.1 += &fold.b;
+    }
     FoldNormals {
         folds,
-        distances: (matrix(&distances.jtj), vector(&distances.jtr)),
+        all,
         precision,
         offset,
     }
