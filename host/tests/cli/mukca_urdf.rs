@@ -226,3 +226,71 @@ fn default_identify_and_diagnose_urdfs_are_level_with_mukca_held_out() {
         }
     }
 }
+
+/// The figure `export` prints of an `identify` calibration is the one
+/// `identify` measured: the held-out RMS of the prior's scale it chose, by
+/// its cross-validation (the JSON's `prior.held_out` at `prior.factor`),
+/// written into the file and read back, to the four digits printed.
+#[test]
+fn export_prints_the_held_out_error_identify_measured() {
+    let m = mukca();
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let nominal = m.join("original/urdf/panda.urdf");
+    let front = m.join("panda_7/front.csv");
+    let (nominal, front) = (nominal.to_str().unwrap(), front.to_str().unwrap());
+    run(
+        d,
+        &[
+            "identify",
+            "--model",
+            nominal,
+            "--tip-link",
+            "ball_link",
+            "--data",
+            front,
+            "--out",
+            "i.cal",
+            "--json",
+            "i.json",
+        ],
+    );
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("i.json")).unwrap()).unwrap();
+    let factor = report["prior"]["factor"].as_f64().unwrap();
+    let measured = report["prior"]["held_out"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|s| s["factor"].as_f64() == Some(factor))
+        .and_then(|s| s["rms_mm"].as_f64())
+        .expect("the chosen factor's score");
+    let out = armcal(
+        &[
+            "export",
+            "--format",
+            "urdf",
+            "--calibration",
+            "i.cal",
+            "--model",
+            nominal,
+            "--tip-link",
+            "ball_link",
+            "--out",
+            "i.urdf",
+        ],
+        d,
+    );
+    assert_success(&out);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let printed: f64 = stderr
+        .split('(')
+        .nth(1)
+        .and_then(|s| s.split(" mm)").next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("{stderr}"));
+    assert!(
+        (printed - measured).abs() <= 0.5e-4 * measured.max(1.0),
+        "{stderr} against {measured} mm"
+    );
+}
