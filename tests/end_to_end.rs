@@ -7,7 +7,7 @@
 mod builtin_models {
     //! The shipped models, read by the host's parser, run by the shared kinematics.
 
-    use armcal::model_file::load_model;
+    use armcal::io::model_file::load_model;
 
     #[allow(clippy::approx_constant)] // Table 1 positions as printed.
     mod reference {
@@ -45,7 +45,7 @@ mod builtin_models {
     /// Every shipped model runs in the controller's f32 and agrees with f64.
     #[test]
     fn every_builtin_model_runs_in_f32() {
-        for name in armcal::builtin::MODEL_NAMES {
+        for name in armcal::io::builtin::MODEL_NAMES {
             let model = load_model(name).unwrap();
             let q = vec![0.3; model.robot.dof()];
             let q32 = vec![0.3f32; model.robot.dof()];
@@ -75,9 +75,9 @@ mod bundled_data {
     //! figure the data set's README gives, computed there by independent code
     //! when the data were converted.
 
-    use armcal::check::nominal_error;
-    use armcal::measurements::load_measurements;
-    use armcal::model_file::load_model;
+    use armcal::calibration::check::nominal_error;
+    use armcal::io::measurements::load_measurements;
+    use armcal::io::model_file::load_model;
 
     /// `(data set, rms mm, mean mm, max mm)` as printed in each README, to 0.1 mm.
     const README_FIGURES: [(&str, f64, Option<f64>, f64); 3] = [
@@ -140,8 +140,8 @@ mod bundled_data {
 mod identification {
     //! `--params full` recovers errors built into a simulated robot.
 
-    use armcal::identify::full::{FullOptions, Status, full_params, identify_full};
-    use armcal::model_file::{load_model, parse_model};
+    use armcal::calibration::identify::full::{FullOptions, Status, full_params, identify_full};
+    use armcal::io::model_file::{load_model, parse_model};
     use armcal_shared::{FrameAxis, Param, Robot};
     use armcal_tests::{measure, random_configurations, rng, with_random_errors};
 
@@ -286,8 +286,8 @@ mod identification_noise {
     //! With measurement noise the estimates scatter about the truth exactly as
     //! their standard errors say.
 
-    use armcal::identify::full::{FullOptions, Status, full_params, identify_full};
-    use armcal::model_file::load_model;
+    use armcal::calibration::identify::full::{FullOptions, Status, full_params, identify_full};
+    use armcal::io::model_file::load_model;
     use armcal_shared::{Param, Robot};
     use armcal_tests::{measure, random_configurations, rng, with_random_errors};
 
@@ -455,8 +455,8 @@ mod compensation {
     //! Closed loop on the host: a simulated true robot, a calibration identified
     //! from its noisy measurements, and the compensation the controller runs.
 
-    use armcal::identify::full::{FullOptions, Status, full_params, identify_full};
-    use armcal::model_file::load_model;
+    use armcal::calibration::identify::full::{FullOptions, Status, full_params, identify_full};
+    use armcal::io::model_file::load_model;
     use armcal_shared::calibration::ParamError;
     use armcal_shared::compensation::{Compensator, Conditions, Fault, Limits};
     use armcal_shared::units::Units;
@@ -589,10 +589,10 @@ mod compensation_of_effects {
     //! makes of it (geometry and the effects it finds); a smooth motion
     //! compensated tick by tick in its conditions, as the controller does.
 
-    use armcal::diagnose::{DiagnoseOptions, diagnose};
-    use armcal::identify::full::FullOptions;
-    use armcal::model_file::load_model;
-    use armcal::simulate::{Scenario, simulate};
+    use armcal::calibration::diagnose::{DiagnoseOptions, diagnose};
+    use armcal::calibration::identify::full::FullOptions;
+    use armcal::calibration::simulate::{Scenario, simulate};
+    use armcal::io::model_file::load_model;
     use armcal_shared::compensation::{Compensator, Conditions, Limits, Pacing, Stream};
     use armcal_shared::effects::{Approach, Context, Effect, EffectModel};
     use armcal_shared::units::Units;
@@ -717,15 +717,15 @@ mod extended_fit {
     //! The geometry refitted together with a hidden effect's parameters recovers
     //! the effect and brings the residual down to the noise.
 
-    use armcal::identify::full::{
+    use armcal::calibration::identify::full::{
         FullFit, FullOptions, Observation, Status, identify_full, identify_with_effects,
     };
-    use armcal::identify::observations;
-    use armcal::measurements::parse_measurements;
-    use armcal::model_file::load_model;
-    use armcal::simulate::{
+    use armcal::calibration::identify::observations;
+    use armcal::calibration::simulate::{
         Scenario, one_joint_at_a_time, random_configurations, simulate, simulate_visiting,
     };
+    use armcal::io::measurements::parse_measurements;
+    use armcal::io::model_file::load_model;
     use armcal_shared::Param;
     use armcal_shared::effects::Effect;
 
@@ -962,10 +962,10 @@ mod extended_fit {
 mod diagnosis {
     //! Hide an effect in simulated data and require the diagnosis to find it.
 
-    use armcal::diagnose::{DiagnoseOptions, diagnose};
-    use armcal::model_file::load_model;
-    use armcal::simulate::{Scenario, simulate};
-    use armcal::sweep::tracker_diagnosis;
+    use armcal::calibration::diagnose::{DiagnoseOptions, diagnose};
+    use armcal::calibration::simulate::{Scenario, simulate};
+    use armcal::calibration::sweep::tracker_diagnosis;
+    use armcal::io::model_file::load_model;
     use armcal_shared::effects::Effect;
 
     /// 5-fold, σ = 20 µm: the simulated tracker's noise.
@@ -1084,7 +1084,7 @@ mod diagnosis {
     /// raise the gain), but that it gains too little.
     #[test]
     fn a_real_effect_too_small_to_matter_is_called_so() {
-        use armcal::diagnose::Shortfall;
+        use armcal::calibration::diagnose::Shortfall;
         let nominal = load_model("ur10e").unwrap().robot;
         let mut scenario = Scenario::tracker(1000, 7);
         scenario.effects = vec![Effect::JointCompliance {
@@ -1140,11 +1140,11 @@ mod diagnosis_random {
     //! a UR arm, a mm/deg industrial arm), random joint, a magnitude leaving 5–20×
     //! the noise after a geometric fit, a random seed.
 
-    use armcal::diagnose::{cross_validate, diagnose};
-    use armcal::identify::full::identify_full;
-    use armcal::model_file::load_model;
-    use armcal::simulate::{rng, simulate};
-    use armcal::sweep::{hidden_case, tracker_diagnosis};
+    use armcal::calibration::diagnose::{cross_validate, diagnose};
+    use armcal::calibration::identify::full::identify_full;
+    use armcal::calibration::simulate::{rng, simulate};
+    use armcal::calibration::sweep::{hidden_case, tracker_diagnosis};
+    use armcal::io::model_file::load_model;
     use armcal_shared::effects::Effect;
     use armcal_shared::{Param, Robot};
     use rand::RngExt;
@@ -1237,9 +1237,9 @@ mod blunders {
     //! them raise the mean square of the residuals tenfold, under which each
     //! would pass the others' test.
 
-    use armcal::diagnose::{DiagnoseOptions, diagnose};
-    use armcal::model_file::load_model;
-    use armcal::simulate::{Scenario, simulate};
+    use armcal::calibration::diagnose::{DiagnoseOptions, diagnose};
+    use armcal::calibration::simulate::{Scenario, simulate};
+    use armcal::io::model_file::load_model;
     use armcal_shared::effects::Effect;
     use armcal_shared::units::Units;
     use nalgebra::Vector3;
@@ -1322,9 +1322,9 @@ mod replicates {
     //! Poses measured again: the repeats' spread is the instrument noise, and
     //! the model's residuals at the configurations' means are tested against it.
 
-    use armcal::diagnose::{DiagnoseOptions, diagnose};
-    use armcal::identify::full::full_params;
-    use armcal::model_file::load_model;
+    use armcal::calibration::diagnose::{DiagnoseOptions, diagnose};
+    use armcal::calibration::identify::full::full_params;
+    use armcal::io::model_file::load_model;
     use armcal_tests::{measure, random_configurations, rng, with_random_errors};
 
     /// 40 poses of a UR10e (±1 mm / ±1 mrad) each read five times, every

@@ -12,10 +12,10 @@
 //! - Variance components recover each channel's noise: within 20 % on 300
 //!   poses (the estimate's own scatter is `1/√(2r)` ≈ 4 % at r ≈ 300 rows).
 
-use armcal::diagnose::{Choice, DiagnoseOptions, diagnose};
-use armcal::identify::full::{FullOptions, identify_full};
-use armcal::model_file::load_model;
-use armcal::simulate::{Scenario, simulate};
+use armcal::calibration::diagnose::{Choice, DiagnoseOptions, diagnose};
+use armcal::calibration::identify::full::{FullOptions, identify_full};
+use armcal::calibration::simulate::{Scenario, simulate};
+use armcal::io::model_file::load_model;
 use armcal_shared::Robot;
 use armcal_shared::units::Units;
 use armcal_tests::{random_configurations, rng};

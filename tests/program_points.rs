@@ -21,12 +21,13 @@
 //! still separates a calibration that works from one that does not: the
 //! uncompensated robot misses by millimetres.
 
-use armcal::compensate::compensate;
-use armcal::diagnose::{DiagnoseOptions, diagnose};
-use armcal::identify::full::FullOptions;
-use armcal::measurements::JointRows;
-use armcal::model_file::{RobotModel, load_model, parse_model};
-use armcal::simulate::{Scenario, parse_effect, simulate};
+use armcal::apply::compensate::compensate;
+use armcal::apply::ranges::RowNames;
+use armcal::calibration::diagnose::{DiagnoseOptions, diagnose};
+use armcal::calibration::identify::full::FullOptions;
+use armcal::calibration::simulate::{Scenario, parse_effect, simulate};
+use armcal::io::measurements::JointRows;
+use armcal::io::model_file::{RobotModel, load_model, parse_model};
 use armcal_shared::compensation::{Pacing, TargetFrame};
 use armcal_shared::effects::{Approach, Context, EffectModel};
 use armcal_shared::{Calibration, Robot};
@@ -194,8 +195,8 @@ fn program_points(
     }
     let rows = JointRows::commands("program.csv", &commands, Some(TEMPERATURE), Some(PAYLOAD));
     let result = compensate(&cal, &rows, Pacing::Program);
-    for w in result.warnings("program.csv") {
-        eprintln!("{w}");
+    for w in result.warnings() {
+        eprintln!("{}", w.text("program.csv", RowNames::FileLines));
     }
     let sent: Vec<Vec<f64>> = result.rows.iter().map(|(_, c)| c.q.to_vec()).collect();
     let before = rms_miss(&truth, nominal, &commands, &commands);

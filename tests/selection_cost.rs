@@ -2,10 +2,10 @@
 //! budget of the optimised build, checked with
 //! `cargo test --release -p armcal-tests --test selection_cost`.
 
-use armcal::diagnose::{DiagnoseOptions, diagnose};
-use armcal::identify::full::{FullOptions, identify_full};
-use armcal::model_file::load_model;
-use armcal::simulate::{Scenario, simulate};
+use armcal::calibration::diagnose::{DiagnoseOptions, diagnose};
+use armcal::calibration::identify::full::{FullOptions, identify_full};
+use armcal::calibration::simulate::{Scenario, simulate};
+use armcal::io::model_file::load_model;
 
 /// The whole selection (reference fit, blunder test, 17 geometric models, every
 /// effect candidate, the refits) on 120 tracker poses of a PUMA with a hidden

@@ -13,7 +13,7 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::sync::OnceLock;
 
-use armcal::model_file::{RobotModel, parse_model};
+use armcal::io::model_file::{RobotModel, parse_model};
 use armcal_shared::Calibration;
 
 pub mod calibration;
@@ -114,7 +114,7 @@ pub fn models() -> &'static [RobotModel] {
         ]
         .iter()
         .map(|name| {
-            let (text, file) = armcal::builtin::builtin_model(name).expect("a built-in model");
+            let (text, file) = armcal::io::builtin::builtin_model(name).expect("a built-in model");
             parse_model(text, file).expect("the built-in model reads")
         })
         .collect();
@@ -130,7 +130,7 @@ pub fn models() -> &'static [RobotModel] {
 pub fn calibration_of(name: &str, orientation: bool, effects: bool) -> Calibration {
     use armcal_shared::effects::one_of_each;
     use armcal_shared::{FrameAxis, Param, ParamError};
-    let (text, file) = armcal::builtin::builtin_model(name).expect("a built-in model");
+    let (text, file) = armcal::io::builtin::builtin_model(name).expect("a built-in model");
     let model = parse_model(text, file).expect("the built-in model reads");
     let mut cal = Calibration::nominal(model.robot, orientation, model.units);
     for (param, error) in [

@@ -39,7 +39,7 @@ pub fn seeds(target: &str) -> Vec<Seed> {
 
 /// The header, comments and first `rows` data rows of a built-in data set.
 fn head(name: &str, rows: usize) -> String {
-    let (text, _) = armcal::builtin::builtin_data(name).expect("a built-in data set");
+    let (text, _) = armcal::io::builtin::builtin_data(name).expect("a built-in data set");
     let mut out = String::new();
     let mut data = 0;
     let mut header = false;
@@ -103,7 +103,7 @@ fn measurements() -> Vec<Seed> {
 }
 
 fn models() -> Vec<Seed> {
-    let mut seeds: Vec<Seed> = armcal::builtin::MODELS
+    let mut seeds: Vec<Seed> = armcal::io::builtin::MODELS
         .iter()
         .map(|m| (format!("seed-{}", m.name), m.text.as_bytes().to_vec()))
         .collect();

@@ -7,10 +7,10 @@
 //!
 //! Run: `cargo bench -p armcal --bench diagnose`.
 
-use armcal::diagnose::{DiagnoseOptions, diagnose};
-use armcal::identify::full::FullOptions;
-use armcal::model_file::load_model;
-use armcal::simulate::{Scenario, simulate};
+use armcal::calibration::diagnose::{DiagnoseOptions, diagnose};
+use armcal::calibration::identify::full::FullOptions;
+use armcal::calibration::simulate::{Scenario, simulate};
+use armcal::io::model_file::load_model;
 use armcal_shared::effects::Effect;
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 

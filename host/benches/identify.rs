@@ -6,9 +6,9 @@
 //! Run: `cargo bench -p armcal --bench identify` (single-threaded: faer is built
 //! without rayon).
 
-use armcal::identify::full::{FullOptions, identify_full};
-use armcal::model_file::load_model;
-use armcal::simulate::{measure, random_configurations, rng, with_random_errors};
+use armcal::calibration::identify::full::{FullOptions, identify_full};
+use armcal::calibration::simulate::{measure, random_configurations, rng, with_random_errors};
+use armcal::io::model_file::load_model;
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 
 fn full(c: &mut Criterion) {

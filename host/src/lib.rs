@@ -1,9 +1,12 @@
 //! # armcal: the robot calibrator (library part of the `armcal` binary)
 //!
-//! The library is in four layers, in the order data flows through a session;
+//! The library is in five layers, in the order data flows through a session;
 //! a newcomer looking for a verb's science starts in [`calibration`], for a file
-//! format in [`io`]. The command line is in the binary: `host/src/main.rs` (the flags)
-//! and `host/src/verbs.rs` (one function per verb).
+//! format in [`io`], for what a verb is asked in [`commands`]. The command line
+//! is in the binary: `host/src/cli.rs` (the flags, turned into the requests of
+//! [`commands`]), `host/src/verbs.rs` (one function per verb: inputs read,
+//! request run, outcome printed and written) and `host/src/terminal.rs` (what
+//! they print and write with).
 //!
 //! ## [`io`]: files in and out
 //!
@@ -23,8 +26,11 @@
 //!
 //! ## [`commands`]: what a verb is asked
 //!
-//! Each verb's argument rules, written once for the command line and the
-//! Python package, its refusals naming the argument as each front end does.
+//! Each verb's checked `Request` and its `run`, returning the outcome as
+//! typed values (the calibration, the report, why it is not written), for the
+//! command line and the Python package alike: every argument rule written
+//! once, its refusals naming the argument as each front end does, and the one
+//! rule of which errors refuse the input (exit status 2) and which fail.
 //!
 //! ## [`session`]: what a calibration is made from
 //!
@@ -58,9 +64,9 @@
 //! | [`apply::export`] | what `armcal export` writes of a calibration with effects into a format that cannot carry them (the geometry refitted without them), and its expected held-out error |
 //! | [`apply::link`] | `armcal stream`: the serial link to the controller (TCP or serial port), calibration load and command stream |
 //!
-//! Every module is also re-exported at the crate root under its old name
-//! (`armcal::measurements`, `armcal::identify`, …), the paths the Python package,
-//! the fuzz targets and the tests use.
+//! The Python package, the fuzz targets, the benchmarks and the tests reach
+//! every module through its layer (`armcal::io::measurements`,
+//! `armcal::calibration::identify`, …), as the binary does.
 //!
 //! Units: inside the program everything is SI (m, rad, kg), as in `armcal-shared`;
 //! the model file's `length_unit` and `angle_unit` apply to the model and to its
@@ -71,13 +77,6 @@ pub mod calibration;
 pub mod commands;
 pub mod io;
 pub mod session;
-
-pub use apply::{compensate, export, link, predict, ranges};
-pub use calibration::{
-    acceptance, check, contact_check, demo, diagnose, identify, replicates, report, reproduce,
-    simulate, stats, sweep,
-};
-pub use io::{arrays, builtin, input_error, measurements, model_file, output, ur, urdf};
 
 #[cfg(test)]
 mod test_support;

@@ -1,60 +1,69 @@
 //! One function per verb of `armcal`: what `main.rs`'s `run` calls with the
-//! verb's parsed flags. The flags themselves, and the helpers the verbs share,
-//! are in `main.rs`.
+//! verb's flags (`cli.rs`). A verb plans its outputs, reads its inputs, runs
+//! its request of `armcal::commands` (or the library's computation, for the
+//! verbs without one), and prints and writes the outcome (`terminal.rs`).
 
-use super::*;
-use armcal::commands::{self, Front};
+use armcal::apply::compensate::RowWarning;
+use armcal::apply::ranges::RowNames;
+use armcal::apply::{compensate, link, predict, ranges};
+use armcal::calibration::identify::paper::PaperOptions;
+use armcal::calibration::{check, contact_check, reproduce};
+use armcal::commands::{diagnose as diagnose_cmd, holdout as holdout_cmd};
+use armcal::commands::{identify as identify_cmd, simulate as simulate_cmd};
+use armcal::io::input_error::{InputError, MODEL_FILE, read_text};
+use armcal::io::{builtin, measurements, model_file, output, urdf};
+use armcal_shared::Calibration;
+use armcal_shared::compensation::Pacing;
+use armcal_shared::link::Request;
+
+use crate::cli::{
+    CheckArgs, CompensateArgs, DemoArgs, DiagnoseArgs, ExportArgs, ExportFormat, HoldoutArgs,
+    IdentifyArgs, PredictArgs, SimulateArgs, StreamArgs, SweepArgs,
+};
+use crate::terminal::{
+    CLI, Progress, accept, finish, finish_csv, joints_outputs, load_session, warn,
+};
 
 /// `armcal check`.
-pub(crate) fn check(model: ModelArgs, data: String) -> anyhow::Result<()> {
-    let (model, data) = load_session(&model, &data)?;
+pub(crate) fn check(args: CheckArgs) -> anyhow::Result<()> {
+    let (model, data) = load_session(&args.model, &args.data)?;
     print!("{}", check::report(&model, &data));
     Ok(())
 }
 
 /// `armcal holdout`.
-pub(crate) fn holdout(
-    model: ModelArgs,
-    data: Vec<String>,
-    train: Vec<String>,
-    reference: Option<String>,
-    weights: Weights,
-    selection: contact_check::Selection,
-) -> anyhow::Result<()> {
-    let chain = model.chain.spec();
-    let model = model.load()?;
+pub(crate) fn holdout(args: HoldoutArgs) -> anyhow::Result<()> {
+    let chain = args.model.chain.spec();
+    let model = args.model.load()?;
     let load = |file: &String| -> anyhow::Result<measurements::Measurements> {
         let d = measurements::load_measurements(file, &model)?;
         contact_check::require_session(&d)?;
         warn(&d.warnings);
         Ok(d)
     };
-    let sessions = data.iter().map(load).collect::<anyhow::Result<Vec<_>>>()?;
-    let training = train.iter().map(load).collect::<anyhow::Result<Vec<_>>>()?;
-    let reference_model = match &reference {
+    let sessions = args
+        .data
+        .iter()
+        .map(load)
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let training = args
+        .train
+        .iter()
+        .map(load)
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let reference = match &args.reference {
         Some(path) => Some(model_file::load_model_with(path, &chain)?),
         None => None,
     };
-    commands::holdout_sessions(
-        Front::CommandLine,
-        &model,
-        &sessions,
-        &training,
-        reference_model.as_ref(),
-    )?;
-    let options = weights.options(&model)?;
-    let reference_robot = reference_model.as_ref().map(|r| &r.robot);
-    let rows = contact_check::held_out(
-        &model,
-        &sessions,
-        &training,
-        reference_robot,
-        &options,
-        selection,
-    )?;
+    let given = holdout_cmd::Sessions {
+        held_out: &sessions,
+        training: &training,
+        reference: reference.as_ref(),
+    };
+    let rows = holdout_cmd::run(CLI, &model, given, &args.request())?;
     print!(
         "{}",
-        contact_check::holdout_table(&rows, reference.as_deref().map(|_| "reference"))
+        contact_check::holdout_table(&rows, reference.as_ref().map(|_| "reference"))
     );
     Ok(())
 }
@@ -71,43 +80,23 @@ pub(crate) fn reproduce_mirman_gupta() -> anyhow::Result<()> {
 }
 
 /// `armcal identify`.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn identify(
-    model: ModelArgs,
-    data: String,
-    params: Params,
-    out: Option<PathBuf>,
-    json: Option<PathBuf>,
-    weights: Weights,
-    prior_scale: PriorScale,
-    targets: Targets,
-    write_failed: bool,
-) -> anyhow::Result<()> {
+pub(crate) fn identify(args: IdentifyArgs) -> anyhow::Result<()> {
     let mut outputs = output::Outputs::new()
-        .model_input(&model.model)
-        .data_input(&data)
-        .output("--out", out.as_deref())
-        .output("--json", json.as_deref());
+        .model_input(&args.model.model)
+        .data_input(&args.data)
+        .output("--out", args.out.as_deref())
+        .output("--json", args.json.as_deref());
     outputs.check()?;
-    let (model, data) = load_session(&model, &data)?;
+    let (model, data) = load_session(&args.model, &args.data)?;
     warn(&data.warnings);
-    let options = weights.options(&model)?;
-    let set = match params {
-        Params::Full => ParamSet::Full,
-        Params::Paper => ParamSet::Paper,
-    };
-    let mut result = identify::identify(&model, &data, set, &options, prior_scale)?;
-    data.require_fit_supported(&model, result.position_rms)?;
-    accept(
-        result.refusal(&model, &data, "--write-failed"),
-        write_failed,
-    )?;
-    result.calibration.targets = targets.into();
+    let identified = identify_cmd::run(CLI, &model, &data, &args.request())?;
+    accept(identified.failed, args.write_failed)?;
+    let result = identified.result;
     // Everything is computed and encoded before the first byte is written.
-    if out.is_some() {
+    if args.out.is_some() {
         outputs.set("--out", result.calibration.to_bytes()?);
     }
-    if json.is_some() {
+    if args.json.is_some() {
         let text = serde_json::to_string_pretty(&result.to_json(&model.units))?;
         outputs.set("--json", text.into_bytes());
     }
@@ -116,66 +105,31 @@ pub(crate) fn identify(
 }
 
 /// `armcal simulate`.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn simulate(
-    model: ModelArgs,
-    poses: usize,
-    effects: Vec<String>,
-    tilts: Vec<args::Tilt>,
-    noise: Option<f64>,
-    orientation_noise: Option<f64>,
-    seed: u64,
-    out: PathBuf,
-    truth: Option<PathBuf>,
-) -> anyhow::Result<()> {
+pub(crate) fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
     let mut outputs = output::Outputs::new()
-        .model_input(&model.model)
-        .output("--out", Some(&out))
-        .output("--truth", truth.as_deref());
+        .model_input(&args.model.model)
+        .output("--out", Some(&args.out))
+        .output("--truth", args.truth.as_deref());
     outputs.check()?;
-    let model = model.load()?;
+    let model = args.model.load()?;
     let u = model.units;
-    let dof = model.robot.dof();
-    let mut scenario = simulate::Scenario::tracker(poses, seed);
-    if let Some(n) = noise {
-        scenario.position_noise = u.length_to_si(n);
-    }
-    if let Some(n) = orientation_noise {
-        scenario.orientation_noise = Some(u.angle_to_si(n));
-    }
-    for spec in &effects {
-        scenario.effects.push(
-            simulate::parse_effect(spec, dof).map_err(|e| InputError::argument("--effect", e))?,
-        );
-    }
-    for tilt in &tilts {
-        if tilt.joint > dof {
-            return Err(InputError::argument(
-                "--tilt",
-                format!(
-                    "{}:{}: the joint must be from 1 to {dof}",
-                    tilt.joint, tilt.beta
-                ),
-            )
-            .into());
-        }
-        scenario.tilts.push((tilt.joint - 1, tilt.beta));
-    }
-    let session = simulate::simulate(&model.robot, &scenario)?;
+    let session = simulate_cmd::run(CLI, &model, &args.request())?;
     let description = format!(
-        "armcal simulate --model {} --poses {poses} --seed {seed}{}{}",
+        "armcal simulate --model {} --poses {} --seed {}{}{}",
         model.name,
-        effects
+        args.poses,
+        args.seed,
+        args.effects
             .iter()
             .map(|e| format!(" --effect {e}"))
             .collect::<String>(),
-        tilts
+        args.tilts
             .iter()
             .map(|t| format!(" --tilt {}:{}", t.joint, t.beta))
             .collect::<String>()
     );
     outputs.set("--out", session.to_csv(&u, &description).into_bytes());
-    if truth.is_some() {
+    if args.truth.is_some() {
         let json = serde_json::to_string_pretty(&session.truth_json(&model.robot, &u))?;
         outputs.set("--truth", json.into_bytes());
     }
@@ -184,34 +138,16 @@ pub(crate) fn simulate(
 }
 
 /// `armcal diagnose`.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn diagnose(
-    model: ModelArgs,
-    data: String,
-    out: Option<PathBuf>,
-    json: Option<PathBuf>,
-    html: Option<PathBuf>,
-    weights: Weights,
-    folds: Option<usize>,
-    targets: Targets,
-    write_failed: bool,
-) -> anyhow::Result<()> {
+pub(crate) fn diagnose(args: DiagnoseArgs) -> anyhow::Result<()> {
     let mut outputs = output::Outputs::new()
-        .model_input(&model.model)
-        .data_input(&data)
-        .output("--out", out.as_deref())
-        .output("--json", json.as_deref())
-        .output("--html", html.as_deref());
+        .model_input(&args.model.model)
+        .data_input(&args.data)
+        .output("--out", args.out.as_deref())
+        .output("--json", args.json.as_deref())
+        .output("--html", args.html.as_deref());
     outputs.check()?;
-    let (model, data) = load_session(&model, &data)?;
+    let (model, data) = load_session(&args.model, &args.data)?;
     warn(&data.warnings);
-    let folds = commands::folds(Front::CommandLine, folds, data.len())?;
-    let options = armcal::diagnose::DiagnoseOptions {
-        folds,
-        fit: weights.options(&model)?,
-        ..Default::default()
-    };
-    let observations = identify::observations(&data);
     // A progress bar on a terminal: every candidate is cross-validated.
     let progress = Progress::on_stderr();
     let mut bar = |round: usize, i: usize, n: usize| {
@@ -224,31 +160,32 @@ pub(crate) fn diagnose(
             )
         });
     };
-    let diagnosis = armcal::diagnose::diagnose_with_progress(
-        &model.robot,
-        observations,
-        &data.constraints,
-        &options,
-        &mut bar,
-    )?;
+    let diagnosed = diagnose_cmd::run(CLI, &model, &data, &args.request(), &mut bar);
     progress.finish();
-    data.require_fit_supported(&model, diagnosis.reference.position_rms)?;
-    accept(
-        armcal::acceptance::diagnosis_refusal(&model, &data, &diagnosis, "--write-failed"),
-        write_failed,
-    )?;
+    let diagnose_cmd::Diagnosed {
+        diagnosis,
+        options,
+        calibration,
+        failed,
+    } = diagnosed?;
+    accept(failed, args.write_failed)?;
     let lines = &data.lines;
-    if out.is_some() {
-        let mut cal = diagnosis.calibration(&model.robot, data.has_orientation(), model.units);
-        cal.targets = targets.into();
-        outputs.set("--out", cal.to_bytes()?);
+    if args.out.is_some() {
+        outputs.set("--out", calibration.to_bytes()?);
     }
-    if json.is_some() {
+    if args.json.is_some() {
         let text = serde_json::to_string_pretty(&diagnosis.to_json(&model, lines, &options))?;
         outputs.set("--json", text.into_bytes());
     }
-    if html.is_some() {
-        let page = armcal::report::html(&model, &data.file, &diagnosis, observations, &options);
+    if args.html.is_some() {
+        let observations = armcal::calibration::identify::observations(&data);
+        let page = armcal::calibration::report::html(
+            &model,
+            &data.file,
+            &diagnosis,
+            observations,
+            &options,
+        );
         outputs.set("--html", page.into_bytes());
     }
     finish(outputs, || diagnosis.summary(lines, &options, &model.units))?;
@@ -256,10 +193,11 @@ pub(crate) fn diagnose(
 }
 
 /// `armcal demo`.
-pub(crate) fn demo(seed: u64, html: PathBuf) -> anyhow::Result<()> {
+pub(crate) fn demo(args: DemoArgs) -> anyhow::Result<()> {
+    let DemoArgs { seed, html } = args;
     let mut outputs = output::Outputs::new().output("--html", Some(&html));
     outputs.check()?;
-    let demo = armcal::demo::demo(seed)?;
+    let demo = armcal::calibration::demo::demo(seed)?;
     outputs.set("--html", demo.html().into_bytes());
     outputs.commit()?;
     print!("{}", demo.summary(&html.display().to_string()));
@@ -267,16 +205,17 @@ pub(crate) fn demo(seed: u64, html: PathBuf) -> anyhow::Result<()> {
 }
 
 /// `armcal sweep`.
-pub(crate) fn sweep(
-    cases: usize,
-    seed: u64,
-    poses: usize,
-    json: Option<PathBuf>,
-) -> anyhow::Result<()> {
+pub(crate) fn sweep(args: SweepArgs) -> anyhow::Result<()> {
+    let SweepArgs {
+        cases,
+        seed,
+        poses,
+        json,
+    } = args;
     let mut outputs = output::Outputs::new().output("--json", json.as_deref());
     outputs.check()?;
     let progress = Progress::on_stderr();
-    let results = armcal::sweep::sweep(cases, seed, poses, |i, c| {
+    let results = armcal::calibration::sweep::sweep(cases, seed, poses, |i, c| {
         progress.show(|| {
             format!(
                 "case {}/{cases}: {} {:?} → {:?}      ",
@@ -288,7 +227,7 @@ pub(crate) fn sweep(
         });
     });
     progress.finish();
-    let r = armcal::sweep::rates(&results);
+    let r = armcal::calibration::sweep::rates(&results);
     println!(
         "{} cases: detected {} of {} hidden effects with signal ≥ 5× ({:.0}%); false positives {} of {} pure-geometry cases ({:.0}%); {:.2} s per diagnosis",
         results.len(),
@@ -326,19 +265,29 @@ pub(crate) fn sweep(
 
 /// The warnings of a joints file used with `cal`: the reader's, the rows
 /// outside the ranges the calibration was identified on ([`ranges::check`]),
-/// then `rows_reported` (what the computation said of single rows).
-fn warn_rows(cal: &Calibration, rows: &measurements::JointRows, rows_reported: &[String]) {
-    let outside = ranges::check(cal, rows, ranges::RowNames::FileLines);
-    warn(rows.warnings.iter().chain(&outside).chain(rows_reported));
+/// then `rows_reported` (what the computation said of the rows of `joints`).
+fn warn_rows(
+    cal: &Calibration,
+    rows: &measurements::JointRows,
+    joints: &str,
+    rows_reported: &[RowWarning],
+) {
+    let outside = ranges::check(cal, rows, RowNames::FileLines);
+    let reported: Vec<String> = rows_reported
+        .iter()
+        .map(|w| w.text(joints, RowNames::FileLines))
+        .collect();
+    warn(rows.warnings.iter().chain(&outside).chain(&reported));
 }
 
 /// `armcal compensate`.
-pub(crate) fn compensate(
-    calibration: String,
-    joints: String,
-    out: Option<PathBuf>,
-    servo: bool,
-) -> anyhow::Result<()> {
+pub(crate) fn compensate(args: CompensateArgs) -> anyhow::Result<()> {
+    let CompensateArgs {
+        calibration,
+        joints,
+        out,
+        servo,
+    } = args;
     let outputs = joints_outputs(&calibration, &joints, &out)?;
     let cal = predict::load_calibration(&calibration)?;
     let rows = measurements::load_joints(&joints, &cal.nominal, &cal.units)?;
@@ -349,24 +298,25 @@ pub(crate) fn compensate(
     };
     let result = compensate::compensate(&cal, &rows, pacing);
     let csv = result.to_csv(&cal, &calibration);
-    warn_rows(&cal, &rows, &result.warnings(&joints));
+    warn_rows(&cal, &rows, &joints, &result.warnings());
     finish_csv(outputs, csv)?;
     Ok(())
 }
 
 /// `armcal predict`.
-pub(crate) fn predict(
-    calibration: String,
-    joints: String,
-    out: Option<PathBuf>,
-) -> anyhow::Result<()> {
+pub(crate) fn predict(args: PredictArgs) -> anyhow::Result<()> {
+    let PredictArgs {
+        calibration,
+        joints,
+        out,
+    } = args;
     let outputs = joints_outputs(&calibration, &joints, &out)?;
     let cal = predict::load_calibration(&calibration)?;
     let rows = measurements::load_joints(&joints, &cal.nominal, &cal.units)?;
     let mut predictions = predict::predict(&cal, &rows)?;
     predictions.calibration_file = Some(calibration);
     let csv = predictions.to_csv(&cal.units);
-    warn_rows(&cal, &rows, &[]);
+    warn_rows(&cal, &rows, &joints, &[]);
     finish_csv(outputs, csv)?;
     Ok(())
 }
@@ -378,14 +328,15 @@ pub(crate) fn reproduce_kirchner() -> anyhow::Result<()> {
 }
 
 /// `armcal stream`.
-pub(crate) fn stream(
-    calibration: String,
-    joints: String,
-    tcp: Option<String>,
-    serial: Option<String>,
-    out: Option<PathBuf>,
-    halt: bool,
-) -> anyhow::Result<()> {
+pub(crate) fn stream(args: StreamArgs) -> anyhow::Result<()> {
+    let StreamArgs {
+        calibration,
+        joints,
+        tcp,
+        serial,
+        out,
+        halt,
+    } = args;
     let outputs = joints_outputs(&calibration, &joints, &out)?;
     let bytes = predict::read_calibration(&calibration)?;
     // Read locally first, so that a bad joints file is refused before the
@@ -437,19 +388,21 @@ pub(crate) fn stream(
         session.status(Request::Halt)?;
     }
     let csv = streamed.to_csv(&cal, &calibration, &name);
-    warn_rows(&cal, &rows, &streamed.warnings(&joints));
+    warn_rows(&cal, &rows, &joints, &streamed.warnings());
     eprintln!("armcal: {}", streamed.summary());
     finish_csv(outputs, csv)?;
     Ok(())
 }
 
 /// `armcal export --format urdf`.
-pub(crate) fn export_urdf(
-    calibration: String,
-    model: Option<String>,
-    chain: ChainArgs,
-    out: Option<PathBuf>,
-) -> anyhow::Result<()> {
+pub(crate) fn export_urdf(args: ExportArgs) -> anyhow::Result<()> {
+    let ExportArgs {
+        calibration,
+        model,
+        chain,
+        out,
+        ..
+    } = args;
     let mut outputs = output::Outputs::new().input("--calibration", &calibration);
     if let Some(m) = &model {
         outputs = outputs.input("--model", m);
@@ -460,7 +413,7 @@ pub(crate) fn export_urdf(
     let loaded = predict::load_calibration(&calibration)?;
     // The geometry refitted without the effects a URDF cannot carry, when the
     // calibration has one.
-    let held = armcal::export::geometry_only(&loaded, "a URDF");
+    let held = armcal::apply::export::geometry_only(&loaded, "a URDF");
     let cal = &held.calibration;
     let exported = match &model {
         Some(m) => {
@@ -491,13 +444,14 @@ pub(crate) fn export_urdf(
 }
 
 /// `armcal export --format ur-deltas|ur-calibration`.
-pub(crate) fn export_ur(
-    calibration: String,
-    model: Option<String>,
-    chain: ChainArgs,
-    format: ExportFormat,
-    out: Option<PathBuf>,
-) -> anyhow::Result<()> {
+pub(crate) fn export_ur(args: ExportArgs) -> anyhow::Result<()> {
+    let ExportArgs {
+        calibration,
+        model,
+        chain,
+        format,
+        out,
+    } = args;
     let Some(m) = model else {
         return Err(InputError::argument(
             "--model",
@@ -511,7 +465,7 @@ pub(crate) fn export_ur(
         .output("--out", out.as_deref());
     outputs.check()?;
     let nominal = model_file::load_model_with(&m, &chain.spec())?;
-    if !armcal::ur::is_ur_model(&nominal) {
+    if !armcal::io::ur::is_ur_model(&nominal) {
         return Err(InputError::argument(
             "--model",
             format!("--format ur-deltas and ur-calibration: {m} is not a Universal Robots model (named `ur` and a digit, standard D-H, six revolute joints)"),
@@ -519,7 +473,7 @@ pub(crate) fn export_ur(
         .into());
     }
     let loaded = predict::load_calibration(&calibration)?;
-    let held = armcal::export::geometry_only(
+    let held = armcal::apply::export::geometry_only(
         &loaded,
         match format {
             ExportFormat::UrDeltas => "a UR deltas file",
@@ -528,7 +482,7 @@ pub(crate) fn export_ur(
     );
     let cal = &held.calibration;
     let robot = cal.calibrated();
-    if robot.dof() != armcal::ur::JOINTS
+    if robot.dof() != armcal::io::ur::JOINTS
         || robot
             .links
             .iter()
@@ -540,12 +494,12 @@ pub(crate) fn export_ur(
         )
         .into());
     }
-    armcal::ur::require_same_type(&cal.nominal, &nominal, &calibration)?;
-    let exported = armcal::ur::export_deltas(&robot, &nominal.robot);
+    armcal::io::ur::require_same_type(&cal.nominal, &nominal, &calibration)?;
+    let exported = armcal::io::ur::export_deltas(&robot, &nominal.robot);
     let text = if matches!(format, ExportFormat::UrDeltas) {
-        armcal::ur::deltas_yaml(&exported, &calibration)
+        armcal::io::ur::deltas_yaml(&exported, &calibration)
     } else {
-        armcal::ur::ur_calibration_yaml(&exported, &calibration)
+        armcal::io::ur::ur_calibration_yaml(&exported, &calibration)
     };
     note(&held);
     finish_csv(outputs, text)?;
@@ -554,7 +508,7 @@ pub(crate) fn export_ur(
 
 /// The note of an export that cannot carry effects on standard error: a
 /// warning when it leaves them out with the geometry fitted with them.
-fn note(held: &armcal::export::GeometryExport) {
+fn note(held: &armcal::apply::export::GeometryExport) {
     if let Some(note) = &held.note {
         if held.warning {
             warn([note]);

@@ -3,10 +3,11 @@
 
 use std::ffi::CString;
 
-use armcal::arrays::{self, Conditions};
-use armcal::measurements::JointRows;
-use armcal::ranges::{self, RowNames};
-use armcal::{compensate as comp, input_error, predict as pred};
+use armcal::apply::ranges::{self, RowNames};
+use armcal::apply::{compensate as comp, predict as pred};
+use armcal::io::arrays::{self, Conditions};
+use armcal::io::input_error;
+use armcal::io::measurements::JointRows;
 use armcal_shared::compensation::Pacing;
 use armcal_shared::{Calibration as Cal, TargetFrame};
 use pyo3::exceptions::PyUserWarning;
@@ -189,19 +190,10 @@ impl Calibration {
         let cal = &self.cal;
         warn_all(py, ranges::check(cal, &rows, RowNames::ArrayRows))?;
         let result = py.detach(|| comp::compensate(cal, &rows, pacing));
-        let mut messages = Vec::new();
-        for warning in result.warnings(arrays::JOINTS) {
-            // `joints:LINE: what`, the row named as numpy indexes it.
-            let row = warning
-                .strip_prefix(arrays::JOINTS)
-                .and_then(|w| w.strip_prefix(':'))
-                .and_then(|w| w.split_once(": "))
-                .and_then(|(line, what)| Some((line.parse::<usize>().ok()?.checked_sub(1)?, what)));
-            messages.push(match row {
-                Some((row, what)) => format!("{} row {row}: {what}", arrays::JOINTS),
-                None => warning,
-            });
-        }
+        let messages = result
+            .warnings()
+            .into_iter()
+            .map(|w| w.text(arrays::JOINTS, RowNames::ArrayRows));
         warn_all(py, messages)?;
         let out: Vec<Vec<f64>> = result
             .rows

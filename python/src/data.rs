@@ -1,12 +1,13 @@
 //! Measurements: a CSV file (`docs/file-formats.md` §2) or built-in data set, numpy
 //! arrays, or a simulated session.
 
-use armcal::arrays::{self, Conditions, PoseArrays};
-use armcal::measurements::{self, Contact};
-use armcal::simulate as sim;
+use armcal::commands::simulate as simulate_cmd;
+use armcal::io::arrays::{self, Conditions, PoseArrays};
+use armcal::io::measurements::{self, Contact};
 use pyo3::prelude::*;
 
 use crate::errors::{self, ArrayLike, Owned};
+use crate::fit::PYTHON;
 use crate::model::{Model, joints_in_units, pose_values};
 
 /// Measured poses read against a model. Rows are in measurement order; values
@@ -15,7 +16,7 @@ use crate::model::{Model, joints_in_units, pose_values};
 pub struct Measurements {
     pub(crate) data: measurements::Measurements,
     /// The model the data were read against.
-    pub(crate) model: armcal::model_file::RobotModel,
+    pub(crate) model: armcal::io::model_file::RobotModel,
     /// Whether the rows came from arrays (rows numbered from 0) rather than a
     /// file (rows named by their line).
     pub(crate) arrays: bool,
@@ -55,7 +56,10 @@ pub fn parse_measurements(
 /// (kg) with `N` values each. Refused as a file is, naming the row (from 0).
 #[pyfunction(name = "measurements")]
 #[pyo3(signature = (model, q, xyz, quat = None, t = None, temp = None, load = None))]
-#[allow(clippy::too_many_arguments)]
+#[expect(
+    clippy::too_many_arguments,
+    reason = "a parameter per Python keyword argument, as the signature above lists them"
+)]
 pub fn from_arrays<'py>(
     py: Python<'py>,
     model: &Model,
@@ -102,7 +106,10 @@ pub fn from_arrays<'py>(
 /// Returns the measurements (rows numbered from 0) and the truth as a dict.
 #[pyfunction]
 #[pyo3(signature = (model, poses = 200, seed = 1, noise = None, orientation_noise = None, effects = Vec::new(), tilts = Vec::new()))]
-#[allow(clippy::too_many_arguments)]
+#[expect(
+    clippy::too_many_arguments,
+    reason = "a parameter per Python keyword argument, as the signature above lists them"
+)]
 pub fn simulate<'py>(
     py: Python<'py>,
     model: &Model,
@@ -115,48 +122,17 @@ pub fn simulate<'py>(
 ) -> PyResult<(Measurements, Bound<'py, PyAny>)> {
     let m = &model.inner;
     let u = m.units;
-    let dof = m.dof();
-    if poses == 0 {
-        return Err(errors::argument(py, "poses", "0: at least 1"));
-    }
-    let non_negative = |name: &str, v: f64| {
-        if v.is_finite() && v >= 0.0 {
-            Ok(v)
-        } else {
-            Err(errors::argument(
-                py,
-                name,
-                format!("{v}: must be a non-negative number"),
-            ))
-        }
+    let request = simulate_cmd::Request {
+        poses,
+        seed,
+        noise,
+        orientation_noise,
+        effects,
+        tilts,
     };
-    let mut scenario = sim::Scenario::tracker(poses, seed);
-    if let Some(n) = noise {
-        scenario.position_noise = u.length_to_si(non_negative("noise", n)?);
-    }
-    if let Some(n) = orientation_noise {
-        scenario.orientation_noise = Some(u.angle_to_si(non_negative("orientation_noise", n)?));
-    }
-    for spec in &effects {
-        let effect =
-            sim::parse_effect(spec, dof).map_err(|e| errors::argument(py, "effects", e))?;
-        scenario.effects.push(effect);
-    }
-    for &(j, beta) in &tilts {
-        if !((1..=dof).contains(&j) && beta.is_finite()) {
-            return Err(errors::argument(
-                py,
-                "tilts",
-                format!(
-                    "({j}, {beta}): expected (joint, beta) with a joint from 1 to {dof} and β in rad"
-                ),
-            ));
-        }
-        scenario.tilts.push((j - 1, beta));
-    }
     let session = py
-        .detach(|| sim::simulate(&m.robot, &scenario))
-        .map_err(errors::failure)?;
+        .detach(|| simulate_cmd::run(PYTHON, m, &request))
+        .map_err(|e| errors::command(py, e, false))?;
     let n = session.observations.len();
     let data = measurements::Measurements {
         file: arrays::DATA.to_owned(),

@@ -1,7 +1,8 @@
 //! The exceptions, and conversions between numpy arrays and the library's rows.
 
-use armcal::arrays;
-use armcal::input_error;
+use armcal::commands;
+use armcal::io::arrays;
+use armcal::io::input_error;
 use numpy::ndarray::Array2;
 use numpy::{AllowTypeChange, IntoPyArray, PyArray2, PyArrayLikeDyn};
 use pyo3::prelude::*;
@@ -55,6 +56,18 @@ fn refusal(
     match set() {
         Ok(()) => err,
         Err(e) => e,
+    }
+}
+
+/// A verb's error (`armcal::commands`) as the command line classes it
+/// ([`commands::is_refusal`]): a refused input is an `armcal.InputError`
+/// (naming the array row of data read from arrays, with `arrays`), anything
+/// else an `armcal.ArmcalError`.
+pub fn command(py: Python<'_>, e: anyhow::Error, arrays: bool) -> PyErr {
+    match e.downcast_ref::<input_error::InputError>() {
+        Some(place) => input(py, place, arrays),
+        None if commands::is_refusal(&e) => refused(py, e),
+        None => failure(e),
     }
 }
 

@@ -2,15 +2,10 @@
 //! diagnose` compose them: the same checks of the data, the same options, the
 //! same report (the JSON of `docs/file-formats.md` §6, as Python dicts), the same refusals.
 
-use armcal::check::independent_parameter_count;
-use armcal::commands::{self, Front};
-use armcal::diagnose::DiagnoseOptions;
-use armcal::identify::StatedScales;
-use armcal::identify::full::FullOptions;
-use armcal::identify::prior_scale::PriorScale;
-use armcal::identify::{self, ParamSet};
-use armcal::model_file::RobotModel;
-use armcal::{acceptance, diagnose as diag, input_error, report};
+use armcal::calibration::identify::prior_scale::PriorScale;
+use armcal::calibration::identify::{ParamSet, StatedScales};
+use armcal::calibration::report;
+use armcal::commands::{self, Front, diagnose as diagnose_cmd, identify as identify_cmd};
 use armcal_shared::TargetFrame;
 use pyo3::prelude::*;
 
@@ -18,6 +13,10 @@ use crate::calibration::Calibration;
 use crate::data::Measurements;
 use crate::errors;
 use crate::model::Model;
+
+/// The Python package's front end, as the command layer names its
+/// arguments.
+pub(crate) const PYTHON: Front = Front::Python;
 
 /// What `identify` and `diagnose` give: the report of `--json` as a dict
 /// (`report`), the human summary the command prints (`summary`) and the
@@ -53,17 +52,9 @@ fn session(
     model: &Model,
     data: &Bound<'_, PyAny>,
 ) -> PyResult<(Measurements, bool)> {
-    let m = &model.inner;
     let data = measurements_of(py, model, data, "data")?;
-    let checks = || -> Result<(), input_error::InputError> {
-        let d = &data.data;
-        d.require_poses(
-            &m.robot,
-            independent_parameter_count(&m.robot, d.has_orientation()),
-        )?;
-        d.require_plausible(m)
-    };
-    checks().map_err(|e| errors::input(py, &e, data.arrays))?;
+    commands::require_session(&model.inner, &data.data)
+        .map_err(|e| errors::input(py, &e, data.arrays))?;
     let arrays = data.arrays;
     Ok((data, arrays))
 }
@@ -107,22 +98,6 @@ pub(crate) fn measurements_of(
     }
 }
 
-/// The fit's options: the model's prior, and the stated noise and prior
-/// scales (model units) when given, as `--position-noise`, `--prior-length`…
-pub(crate) fn options(
-    py: Python<'_>,
-    model: &RobotModel,
-    scales: StatedScales,
-) -> PyResult<FullOptions> {
-    scales.options(model).map_err(|e| {
-        let name = e.flag.trim_start_matches("--").replace('-', "_");
-        errors::argument(py, &name, format!("{}: must be a positive number", e.value))
-    })
-}
-
-/// The keyword that writes a failed calibration anyway, as named in its reason.
-const WRITE_FAILED: &str = "write_failed=True";
-
 /// `world` or `base`: the frame the compensation's targets are given in.
 fn targets(py: Python<'_>, targets: &str) -> PyResult<TargetFrame> {
     match targets {
@@ -147,7 +122,10 @@ fn targets(py: Python<'_>, targets: &str) -> PyResult<TargetFrame> {
 /// `targets`: `world` or `base`.
 #[pyfunction(name = "identify")]
 #[pyo3(signature = (model, data, params = "full", *, position_noise = None, orientation_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None, prior_scale = "chosen", targets = "world"))]
-#[allow(clippy::too_many_arguments)]
+#[expect(
+    clippy::too_many_arguments,
+    reason = "a parameter per Python keyword argument, as the signature above lists them"
+)]
 pub fn identify_py(
     py: Python<'_>,
     model: &Model,
@@ -162,7 +140,7 @@ pub fn identify_py(
     prior_scale: &str,
     targets: &str,
 ) -> PyResult<Py<Identification>> {
-    let scale = match prior_scale {
+    let prior_scale = match prior_scale {
         "chosen" => PriorScale::default(),
         "stated" => PriorScale::Stated,
         other => {
@@ -173,7 +151,7 @@ pub fn identify_py(
             ));
         }
     };
-    let set = match params {
+    let params = match params {
         "full" => ParamSet::Full,
         "paper" => ParamSet::Paper,
         other => {
@@ -184,33 +162,30 @@ pub fn identify_py(
             ));
         }
     };
-    let frame = self::targets(py, targets)?;
-    let m = &model.inner;
-    let scales = StatedScales {
-        position_noise,
-        orientation_noise,
-        point_noise,
-        plane_noise,
-        prior_length,
-        prior_angle,
+    let request = identify_cmd::Request {
+        params,
+        scales: StatedScales {
+            position_noise,
+            orientation_noise,
+            point_noise,
+            plane_noise,
+            prior_length,
+            prior_angle,
+        },
+        prior_scale,
+        targets: self::targets(py, targets)?,
     };
-    let options = options(py, m, scales)?;
+    let m = &model.inner;
     let (data, arrays) = session(py, model, data)?;
-    let mut result = py
-        .detach(|| identify::identify(m, &data.data, set, &options, scale))
-        .map_err(|e| identify_error(py, e))?;
-    data.data
-        .require_fit_supported(m, result.position_rms)
-        .map_err(|e| errors::input(py, &e, arrays))?;
-    result.calibration.targets = frame;
-    let failed = result
-        .refusal(m, &data.data, WRITE_FAILED)
-        .map(|f| f.to_string());
+    let identified = py
+        .detach(|| identify_cmd::run(PYTHON, m, &data.data, &request))
+        .map_err(|e| errors::command(py, e, arrays))?;
+    let result = identified.result;
     let outcome = Outcome {
         report: result.to_json(&m.units),
         summary: result.summary(m, &data.data),
         calibration: result.calibration.clone(),
-        failed,
+        failed: identified.failed.map(|f| f.to_string()),
     };
     let identification = Identification {
         position_rms: m.units.length_from_si(result.position_rms),
@@ -222,16 +197,6 @@ pub fn identify_py(
     )
 }
 
-/// An identification's failure: a refusal of the data is an `InputError`, as
-/// the command line's exit status 2 says; a calibration that cannot be
-/// encoded is an `ArmcalError`.
-pub(crate) fn identify_error(py: Python<'_>, e: identify::IdentifyError) -> PyErr {
-    match e {
-        identify::IdentifyError::Calibration(_) => errors::failure(e),
-        e => errors::refused(py, e),
-    }
-}
-
 /// Fits the geometry, analyses the residuals, names what geometry misses,
 /// extends the model and measures the gain on held-out poses, as `armcal
 /// diagnose` does, for measured coordinates and for a session without a
@@ -239,7 +204,10 @@ pub(crate) fn identify_error(py: Python<'_>, e: identify::IdentifyError) -> PyEr
 /// pose with fewer poses). Other options as `identify`.
 #[pyfunction]
 #[pyo3(signature = (model, data, *, folds = None, position_noise = None, orientation_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None, targets = "world"))]
-#[allow(clippy::too_many_arguments)]
+#[expect(
+    clippy::too_many_arguments,
+    reason = "a parameter per Python keyword argument, as the signature above lists them"
+)]
 pub fn diagnose(
     py: Python<'_>,
     model: &Model,
@@ -253,45 +221,38 @@ pub fn diagnose(
     prior_angle: Option<f64>,
     targets: &str,
 ) -> PyResult<Py<Diagnosis>> {
-    let frame = self::targets(py, targets)?;
-    let m = &model.inner;
-    let scales = StatedScales {
-        position_noise,
-        orientation_noise,
-        point_noise,
-        plane_noise,
-        prior_length,
-        prior_angle,
-    };
-    let fit = options(py, m, scales)?;
-    let (data, arrays) = session(py, model, data)?;
-    let folds = commands::folds(Front::Python, folds, data.data.len())
-        .map_err(|e| errors::input(py, &e, false))?;
-    let options = DiagnoseOptions {
+    let request = diagnose_cmd::Request {
         folds,
-        fit,
-        ..Default::default()
+        scales: StatedScales {
+            position_noise,
+            orientation_noise,
+            point_noise,
+            plane_noise,
+            prior_length,
+            prior_angle,
+        },
+        targets: self::targets(py, targets)?,
     };
-    let observations = identify::observations(&data.data);
-    let diagnosis = py
-        .detach(|| diag::diagnose_session(&m.robot, observations, &data.data.constraints, &options))
-        .map_err(|e| errors::refused(py, e))?;
-    data.data
-        .require_fit_supported(m, diagnosis.reference.position_rms)
-        .map_err(|e| errors::input(py, &e, arrays))?;
+    let m = &model.inner;
+    let (data, arrays) = session(py, model, data)?;
+    let diagnose_cmd::Diagnosed {
+        diagnosis,
+        options,
+        calibration,
+        failed,
+    } = py
+        .detach(|| diagnose_cmd::run(PYTHON, m, &data.data, &request, &mut |_, _, _| {}))
+        .map_err(|e| errors::command(py, e, arrays))?;
     // Arrays name their rows from 0, files by line.
     let from = usize::from(arrays);
     let lines: Vec<usize> = data.data.lines.iter().map(|line| line - from).collect();
-    let mut calibration = diagnosis.calibration(&m.robot, data.data.has_orientation(), m.units);
-    calibration.targets = frame;
-    let failed = acceptance::diagnosis_refusal(m, &data.data, &diagnosis, WRITE_FAILED)
-        .map(|f| f.to_string());
     let outcome = Outcome {
         report: diagnosis.to_json(m, &lines, &options),
         summary: diagnosis.summary(&lines, &options, &m.units),
         calibration,
-        failed,
+        failed: failed.map(|f| f.to_string()),
     };
+    let observations = armcal::calibration::identify::observations(&data.data);
     let html = report::html(m, &data.data.file, &diagnosis, observations, &options);
     Py::new(
         py,

@@ -1,5 +1,5 @@
 //! `holdout`: sessions without a tracker, each left out in turn, as `armcal
-//! holdout` composes it (`armcal::contact_check`).
+//! holdout` composes it (`armcal::calibration::contact_check`).
 //!
 //! A session without a tracker measures no coordinate, so a calibration is
 //! judged on one it was not fitted to by what needs none: the *spread* of the
@@ -9,16 +9,15 @@
 //! Both in the model's length unit, in the model's base frame, which they do
 //! not depend on.
 
-use armcal::commands::{self, Front};
-use armcal::contact_check::{self, ContactCheck, Selection};
-use armcal::diagnose::cross_validation::DEFAULT_FOLDS;
-use armcal::identify::StatedScales;
-use armcal::measurements;
+use armcal::calibration::contact_check::{self, ContactCheck};
+use armcal::calibration::identify::StatedScales;
+use armcal::commands::holdout::{Calibrate, Request, Sessions, run};
+use armcal::io::measurements;
 use pyo3::prelude::*;
 use serde_json::json;
 
 use crate::errors;
-use crate::fit::{identify_error, measurements_of, options};
+use crate::fit::{PYTHON, measurements_of};
 use crate::model::Model;
 
 /// Leaves each of `sessions` (Measurements, or paths, of sessions without a
@@ -50,7 +49,10 @@ use crate::model::Model;
 /// model's unit.
 #[pyfunction]
 #[pyo3(signature = (model, sessions, *, train = None, reference = None, select = "prior", position_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None))]
-#[allow(clippy::too_many_arguments)]
+#[expect(
+    clippy::too_many_arguments,
+    reason = "a parameter per Python keyword argument, as the signature above lists them"
+)]
 pub fn holdout<'py>(
     py: Python<'py>,
     model: &Model,
@@ -65,11 +67,10 @@ pub fn holdout<'py>(
     prior_angle: Option<f64>,
 ) -> PyResult<Vec<Bound<'py, PyAny>>> {
     let m = &model.inner;
-    let folds = DEFAULT_FOLDS;
-    let selection = match select {
-        "stated" => Selection::Stated,
-        "prior" => Selection::Prior { folds },
-        "diagnose" => Selection::Diagnosis { folds },
+    let calibrate = match select {
+        "stated" => Calibrate::Stated,
+        "prior" => Calibrate::Prior,
+        "diagnose" => Calibrate::Diagnosis,
         other => {
             return Err(errors::argument(
                 py,
@@ -78,15 +79,17 @@ pub fn holdout<'py>(
             ));
         }
     };
-    let scales = StatedScales {
-        position_noise,
-        orientation_noise: None,
-        point_noise,
-        plane_noise,
-        prior_length,
-        prior_angle,
+    let request = Request {
+        calibrate,
+        scales: StatedScales {
+            position_noise,
+            orientation_noise: None,
+            point_noise,
+            plane_noise,
+            prior_length,
+            prior_angle,
+        },
     };
-    let options = options(py, m, scales)?;
     let load = |argument: &str, list: &[Bound<'py, PyAny>]| {
         list.iter()
             .map(|d| {
@@ -99,18 +102,14 @@ pub fn holdout<'py>(
     };
     let sessions = load("sessions", &sessions)?;
     let training = load("train", train.as_deref().unwrap_or(&[]))?;
-    commands::holdout_sessions(
-        Front::Python,
-        m,
-        &sessions,
-        &training,
-        reference.map(|r| &r.inner),
-    )
-    .map_err(|e| errors::input(py, &e, false))?;
-    let reference = reference.map(|r| &r.inner.robot);
+    let given = Sessions {
+        held_out: &sessions,
+        training: &training,
+        reference: reference.map(|r| &r.inner),
+    };
     let rows = py
-        .detach(|| contact_check::held_out(m, &sessions, &training, reference, &options, selection))
-        .map_err(|e| identify_error(py, e))?;
+        .detach(|| run(PYTHON, m, given, &request))
+        .map_err(|e| errors::command(py, e, false))?;
     let length = |v: f64| m.units.length_from_si(v);
     let check = |c: &ContactCheck| {
         json!({

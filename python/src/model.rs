@@ -1,7 +1,7 @@
 //! Robot models: a TOML file (`docs/file-formats.md` §1), any other format
-//! `armcal::model_file::load_model` reads, or the name of a built-in model.
+//! `armcal::io::model_file::load_model` reads, or the name of a built-in model.
 
-use armcal::{builtin, model_file, urdf};
+use armcal::io::{builtin, model_file, urdf};
 use armcal_shared::{JointType, Robot, units::Units};
 use nalgebra::{IsometryMatrix3, UnitQuaternion};
 use pyo3::prelude::*;
@@ -122,7 +122,7 @@ impl Model {
         orientation: bool,
     ) -> PyResult<Bound<'py, PyAny>> {
         let q = Owned::rows(py, "q", &q)?;
-        let rows = armcal::arrays::joints(
+        let rows = armcal::io::arrays::joints(
             &self.inner.robot,
             &self.inner.units,
             &q.table(),

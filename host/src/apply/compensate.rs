@@ -32,7 +32,7 @@
 //! named; at or below it the pose is reached and only the search for the least
 //! correction (the joints left free by the task) ran out of iterations, so the
 //! commands are good but may not be the command's own least change: such rows
-//! are counted once ([`unsettled`]).
+//! are counted once ([`RowWarning::Unsettled`]).
 
 use core::fmt::Write as _;
 
@@ -40,6 +40,7 @@ use armcal_shared::compensation::{Compensator, Correction, Fault, Limits, Pacing
 use armcal_shared::{Calibration, JointType};
 
 use crate::apply::predict::row_conditions;
+use crate::apply::ranges::RowNames;
 use crate::io::measurements::JointRows;
 
 /// A CSV of joint commands `q1..qM` (SI in, the calibration's model units out,
@@ -95,18 +96,65 @@ pub fn missed(residual: f64) -> String {
     )
 }
 
-/// The one warning for `count` of `rows` rows flagged [`Fault::NotConverged`]
-/// whose pose is reached (residual within the tolerance) but whose search for
-/// the least correction did not settle in its iterations; `None` for none.
-pub fn unsettled(commands_file: &str, count: usize, rows: usize) -> Option<String> {
-    (count > 0).then(|| {
-        format!(
-            "{commands_file}: {count} of {rows} rows reach their pose, but the search for the \
-             least joint change did not settle in its iterations (near a singularity, or a \
-             servo tick's few): their commands reach the pose and may differ from the least \
-             correction"
-        )
-    })
+/// What a compensation says of its rows, for the user: a row whose
+/// correction was bounded, missed its pose or could not be computed, and one
+/// count of the rows whose pose is reached but whose search for the least
+/// correction did not settle.
+#[derive(Clone, Debug, PartialEq)]
+pub enum RowWarning {
+    /// One row: its line (a file's line, or an array's row from 1) and what
+    /// happened to it.
+    Row {
+        /// The row's line.
+        line: usize,
+        /// What happened.
+        what: String,
+    },
+    /// `count` of `rows` rows flagged [`Fault::NotConverged`] reach their
+    /// pose (residual within the tolerance), but their search for the least
+    /// correction did not settle in its iterations.
+    Unsettled {
+        /// Rows that did not settle.
+        count: usize,
+        /// Rows in all.
+        rows: usize,
+    },
+}
+
+impl RowWarning {
+    /// The warning of the commands `commands` (a file, or the array the
+    /// Python package names) with its rows named as `names` says.
+    pub fn text(&self, commands: &str, names: RowNames) -> String {
+        match (self, names) {
+            (Self::Row { line, what }, RowNames::FileLines) => format!("{commands}:{line}: {what}"),
+            (Self::Row { line, what }, RowNames::ArrayRows) => {
+                format!("{commands} row {}: {what}", line - 1)
+            }
+            (Self::Unsettled { count, rows }, _) => format!(
+                "{commands}: {count} of {rows} rows reach their pose, but the search for the \
+                 least joint change did not settle in its iterations (near a singularity, or a \
+                 servo tick's few): their commands reach the pose and may differ from the least \
+                 correction"
+            ),
+        }
+    }
+
+    /// The warnings of rows `(line, what)`, and of `settling` of `rows` rows
+    /// that did not settle (none when none).
+    pub fn of_rows(
+        named: impl Iterator<Item = (usize, String)>,
+        settling: usize,
+        rows: usize,
+    ) -> Vec<Self> {
+        let mut out: Vec<Self> = named.map(|(line, what)| Self::Row { line, what }).collect();
+        if settling > 0 {
+            out.push(Self::Unsettled {
+                count: settling,
+                rows,
+            });
+        }
+        out
+    }
 }
 
 /// Compensates every row of `commands` in order, with `pacing`.
@@ -140,12 +188,12 @@ impl Compensated {
         )
     }
 
-    /// One line per row that reported something, for standard error, and one
-    /// line counting the rows whose pose is reached but whose least correction
-    /// did not settle ([`unsettled`]).
-    pub fn warnings(&self, commands_file: &str) -> Vec<String> {
+    /// What the compensation says of its rows ([`RowWarning`]): each row
+    /// that reported something, in order, then the count of the rows that
+    /// did not settle.
+    pub fn warnings(&self) -> Vec<RowWarning> {
         let mut settling = 0;
-        let mut out: Vec<String> = self
+        let named: Vec<(usize, String)> = self
             .rows
             .iter()
             .filter_map(|(line, c)| {
@@ -164,10 +212,9 @@ impl Compensated {
                     }
                     f => format!("{f:?}"),
                 };
-                Some(format!("{commands_file}:{line}: {what}"))
+                Some((*line, what))
             })
             .collect();
-        out.extend(unsettled(commands_file, settling, self.rows.len()));
-        out
+        RowWarning::of_rows(named.into_iter(), settling, self.rows.len())
     }
 }

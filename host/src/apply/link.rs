@@ -366,14 +366,15 @@ impl Streamed {
         )
     }
 
-    /// One line per row whose status was not `Corrected`, for standard error,
-    /// and one line counting the rows whose pose is reached but whose least
-    /// correction did not settle ([`compensate::unsettled`], told apart by the
-    /// residual against the controller's tolerance).
-    pub fn warnings(&self, commands_file: &str) -> Vec<String> {
+    /// What the controller said of the rows ([`compensate::RowWarning`]):
+    /// each row whose status was not `Corrected`, in order, then the count
+    /// of the rows whose pose is reached but whose least correction did not
+    /// settle (told apart by the residual against the controller's
+    /// tolerance).
+    pub fn warnings(&self) -> Vec<compensate::RowWarning> {
         let tolerance = f64::from(Limits::<f32>::default().tolerance);
         let mut settling = 0;
-        let mut out: Vec<String> = self
+        let named: Vec<(usize, String)> = self
             .rows
             .iter()
             .filter(|(_, c)| !c.status.is_corrected())
@@ -392,15 +393,10 @@ impl Streamed {
                     TickStatus::Limited => "correction bounded (size or change per tick)".into(),
                     TickStatus::Corrected => String::new(),
                 };
-                Some(format!("{commands_file}:{line}: {what}"))
+                Some((*line, what))
             })
             .collect();
-        out.extend(compensate::unsettled(
-            commands_file,
-            settling,
-            self.rows.len(),
-        ));
-        out
+        compensate::RowWarning::of_rows(named.into_iter(), settling, self.rows.len())
     }
 
     /// What the controller says of the ranges: the ticks outside and which

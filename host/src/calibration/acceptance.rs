@@ -132,7 +132,7 @@ pub struct Ending {
     pub converged: bool,
     /// The share of the weighted sum of squares the last iteration removed,
     /// `Some(None)` when no step lowered it
-    /// ([`crate::identify::full::FullFit::last_decrease`]); `None` when the
+    /// ([`crate::calibration::identify::full::FullFit::last_decrease`]); `None` when the
     /// method does not say (`--params paper`).
     pub last_decrease: Option<Option<f64>>,
 }

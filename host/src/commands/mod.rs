@@ -9,10 +9,27 @@
 //! [`Argument`]). A refusal is an [`InputError`] of that argument: exit status
 //! 2 on the command line, `armcal.InputError` in Python.
 //!
-//! Built verb by verb: `diagnose`'s folds ([`folds`]) and `holdout`'s
-//! sessions ([`holdout_sessions`]) so far.
+//! One module a verb that computes, each with its `Request` (what was asked,
+//! in the model's units as the user states them) and its `run`, which checks
+//! the request against the model and the data, computes, and returns the
+//! outcome as typed values (a calibration, a report, what refuses it to be
+//! written): [`identify`], [`diagnose`], [`holdout`], [`simulate`]. Turning
+//! an outcome into text, files and warnings is the front end's. The rules
+//! every verb shares are here: a session's checks ([`require_session`]), the
+//! fit's stated scales ([`fit_options`]), the folds ([`folds`]), and which
+//! errors refuse the input (exit status 2) rather than fail
+//! ([`is_refusal`]).
 
+pub mod diagnose;
+pub mod holdout;
+pub mod identify;
+pub mod simulate;
+
+use crate::calibration::check::independent_parameter_count;
 use crate::calibration::diagnose::cross_validation::DEFAULT_FOLDS;
+use crate::calibration::identify::full::{FullError, FullOptions};
+use crate::calibration::identify::paper::PaperError;
+use crate::calibration::identify::{IdentifyError, StatedScales};
 use crate::io::input_error::InputError;
 use crate::io::model_file::RobotModel;
 use crate::session::measurements::Measurements;
@@ -26,6 +43,25 @@ pub enum Front {
     Python,
 }
 
+impl Front {
+    /// How a reason tells the user to write a failed calibration anyway.
+    pub fn write_failed(self) -> &'static str {
+        match self {
+            Self::CommandLine => "--write-failed",
+            Self::Python => "write_failed=True",
+        }
+    }
+
+    /// The name in this front end of a flag of the command line
+    /// (`--position-noise` is the keyword `position_noise`).
+    pub fn flag(self, flag: &'static str) -> String {
+        match self {
+            Self::CommandLine => flag.to_owned(),
+            Self::Python => flag.trim_start_matches("--").replace('-', "_"),
+        }
+    }
+}
+
 /// An argument a rule of this layer checks.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Argument {
@@ -37,6 +73,16 @@ pub enum Argument {
     Reference,
     /// The folds of a cross-validation.
     Folds,
+    /// The poses `simulate` measures.
+    Poses,
+    /// The position noise `simulate` draws.
+    Noise,
+    /// The orientation noise `simulate` draws.
+    OrientationNoise,
+    /// The hidden effects `simulate` builds in.
+    Effects,
+    /// The hidden tilts `simulate` builds in.
+    Tilts,
 }
 
 impl Argument {
@@ -51,6 +97,16 @@ impl Argument {
             (Self::Reference, Front::Python) => "reference",
             (Self::Folds, Front::CommandLine) => "--folds",
             (Self::Folds, Front::Python) => "folds",
+            (Self::Poses, Front::CommandLine) => "--poses",
+            (Self::Poses, Front::Python) => "poses",
+            (Self::Noise, Front::CommandLine) => "--noise",
+            (Self::Noise, Front::Python) => "noise",
+            (Self::OrientationNoise, Front::CommandLine) => "--orientation-noise",
+            (Self::OrientationNoise, Front::Python) => "orientation_noise",
+            (Self::Effects, Front::CommandLine) => "--effect",
+            (Self::Effects, Front::Python) => "effects",
+            (Self::Tilts, Front::CommandLine) => "--tilt",
+            (Self::Tilts, Front::Python) => "tilts",
         }
     }
 
@@ -82,42 +138,45 @@ pub fn folds(front: Front, requested: Option<usize>, poses: usize) -> Result<usi
     }
 }
 
-/// `holdout`'s sessions, each read and checked as a session without a
-/// tracker: two or more to leave out in turn unless training sessions are
-/// given, none given twice among both, and a reference model (when given) of
-/// as many joints as `model`.
-pub fn holdout_sessions(
+/// The checks of a session of measured poses before any fit: enough
+/// equations for the model's independent parameters
+/// ([`Measurements::require_poses`]), and rows that can be measurements of
+/// this robot ([`Measurements::require_plausible`]).
+pub fn require_session(model: &RobotModel, data: &Measurements) -> Result<(), InputError> {
+    data.require_poses(
+        &model.robot,
+        independent_parameter_count(&model.robot, data.has_orientation()),
+    )?;
+    data.require_plausible(model)
+}
+
+/// The fit's options from the model's prior and the `scales` stated (model
+/// units), refused when one is not a positive number, named as `front`
+/// names it.
+pub fn fit_options(
     front: Front,
     model: &RobotModel,
-    sessions: &[Measurements],
-    training: &[Measurements],
-    reference: Option<&RobotModel>,
-) -> Result<(), InputError> {
-    crate::calibration::contact_check::require_distinct(
-        &sessions.iter().chain(training).collect::<Vec<_>>(),
-    )?;
-    if training.is_empty() && sessions.len() < 2 {
-        return Err(Argument::Sessions.refused(
-            front,
-            format!(
-                "give two or more sessions to leave out in turn, or the training sessions with {}",
-                Argument::Training.given(front)
-            ),
-        ));
-    }
-    if let Some(r) = reference
-        && r.robot.dof() != model.robot.dof()
-    {
-        return Err(Argument::Reference.refused(
-            front,
-            format!(
-                "{} joints, the model has {}",
-                r.robot.dof(),
-                model.robot.dof()
-            ),
-        ));
-    }
-    Ok(())
+    scales: &StatedScales,
+) -> Result<FullOptions, InputError> {
+    scales.options(model).map_err(|e| {
+        InputError::argument(
+            front.flag(e.flag),
+            format!("{}: must be a positive number", e.value),
+        )
+    })
+}
+
+/// Whether `err` refuses what the user gave (a file, an argument, data that
+/// cannot carry the computation): exit status 2 on the command line,
+/// `armcal.InputError` in Python. Anything else is a failure of the program
+/// or the machine.
+pub fn is_refusal(err: &anyhow::Error) -> bool {
+    err.downcast_ref::<InputError>().is_some()
+        || err.downcast_ref::<FullError>().is_some()
+        || err.downcast_ref::<PaperError>().is_some()
+        || err
+            .downcast_ref::<IdentifyError>()
+            .is_some_and(|e| !matches!(e, IdentifyError::Calibration(_)))
 }
 
 #[cfg(test)]
@@ -142,5 +201,7 @@ mod tests {
         }
         assert_eq!(Argument::Folds.name(Front::CommandLine), "--folds");
         assert_eq!(Argument::Training.given(Front::Python), "train=");
+        assert_eq!(Front::Python.flag("--prior-length"), "prior_length");
+        assert_eq!(Front::CommandLine.flag("--prior-length"), "--prior-length");
     }
 }

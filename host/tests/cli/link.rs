@@ -11,7 +11,7 @@ use std::net::TcpListener;
 use std::thread::JoinHandle;
 
 use crate::armcal;
-use armcal::model_file::load_model;
+use armcal::io::model_file::load_model;
 use armcal_shared::link::{
     self, Command, Device, FrameBuffer, MAX_FRAME, Request, Response, StatusReport,
 };

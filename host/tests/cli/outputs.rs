@@ -16,8 +16,8 @@ const SET: &str = "figaroh-ur10e-camera";
 /// and a calibration `cal.bin` identified from them.
 fn session() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
-    let (model, _) = armcal::builtin::builtin_model(SET).unwrap();
-    let (data, _) = armcal::builtin::builtin_data(SET).unwrap();
+    let (model, _) = armcal::io::builtin::builtin_model(SET).unwrap();
+    let (data, _) = armcal::io::builtin::builtin_data(SET).unwrap();
     std::fs::write(dir.path().join("m.toml"), model).unwrap();
     std::fs::write(dir.path().join("d.csv"), data).unwrap();
     std::fs::write(

@@ -168,7 +168,7 @@ fn crc32(bytes: &[u8]) -> u32 {
 #[test]
 fn a_version_3_calibration_still_predicts_with_one_note() {
     let dir = tempfile::tempdir().unwrap();
-    let model = armcal::model_file::load_model("ur10e").unwrap();
+    let model = armcal::io::model_file::load_model("ur10e").unwrap();
     let cal = Calibration::nominal(model.robot, false, model.units);
     let v5 = cal.to_bytes().unwrap();
     let payload = u32::from_le_bytes(v5[20..24].try_into().unwrap()) as usize;

@@ -12,8 +12,8 @@
 
 use std::path::{Path, PathBuf};
 
-use armcal::model_file::{RobotModel, load_model};
-use armcal::ur;
+use armcal::io::model_file::{RobotModel, load_model};
+use armcal::io::ur;
 use armcal_shared::Robot;
 use nalgebra::Matrix4;
 use saphyr::{LoadableYamlNode, Yaml};
@@ -291,9 +291,10 @@ fn ur_factory_identify_then_export_deltas() {
     for j in ur::UR_DESCRIPTION_JOINTS {
         assert!(doc[j]["yaw"].as_floating_point().is_some(), "{written}");
     }
-    let cal = armcal::predict::load_calibration(dir.path().join("fit.cal").to_str().unwrap())
-        .unwrap()
-        .calibrated();
+    let cal =
+        armcal::apply::predict::load_calibration(dir.path().join("fit.cal").to_str().unwrap())
+            .unwrap()
+            .calibrated();
     let nominal = load_model("ur10e").unwrap();
     let back =
         ur::load_factory(&nominal, dir.path().join("deltas.yaml").to_str().unwrap()).unwrap();

@@ -12,8 +12,8 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-use armcal::model_file::load_model_with;
-use armcal::urdf::ChainSpec;
+use armcal::io::model_file::load_model_with;
+use armcal::io::urdf::ChainSpec;
 use armcal_shared::{Param, Robot};
 use nalgebra::{IsometryMatrix3, Point3, Rotation3, Translation3, Unit, Vector3};
 
@@ -110,7 +110,11 @@ fn reference_fk(joints: &HashMap<String, RefJoint>, base: &str, tip: &str, q: &[
 /// 200 reproducible random configurations within the joint limits, as
 /// `armcal simulate` draws them.
 fn configurations(robot: &Robot<f64>) -> Vec<Vec<f64>> {
-    armcal::simulate::random_configurations(robot, 200, &mut armcal::simulate::rng(7))
+    armcal::calibration::simulate::random_configurations(
+        robot,
+        200,
+        &mut armcal::calibration::simulate::rng(7),
+    )
 }
 
 /// The largest distance between `a` and `b` (positions) and of their
@@ -416,7 +420,8 @@ fn round_trip(file: &str, base: &str, tip: &str, point: [f64; 3], poses: &str) {
     let truth: serde_json::Value =
         serde_json::from_slice(&std::fs::read(d.join("t.json")).unwrap()).unwrap();
     let true_robot = with_errors(&nominal.robot, &truth["errors"]);
-    let cal = armcal::predict::load_calibration(d.join("cal.bin").to_str().unwrap()).unwrap();
+    let cal =
+        armcal::apply::predict::load_calibration(d.join("cal.bin").to_str().unwrap()).unwrap();
     let calibrated = cal.calibrated();
     let (mut recovered, mut nominal_error) = (0.0f64, 0.0f64);
     for q in configurations(&nominal.robot) {
@@ -621,7 +626,8 @@ fn export_of_a_diagnosis_with_an_effect_holds_the_geometry_refitted_without_it()
 
     // The URDF's forward kinematics: the fallback's, not the geometry fitted
     // with the effect.
-    let cal = armcal::predict::load_calibration(d.join("arm.cal").to_str().unwrap()).unwrap();
+    let cal =
+        armcal::apply::predict::load_calibration(d.join("arm.cal").to_str().unwrap()).unwrap();
     let geometric = cal.geometric_only().expect("a fallback").calibrated();
     let fitted_with = cal.calibrated();
     let text = std::fs::read_to_string(d.join("arm.urdf")).unwrap();

@@ -1,0 +1,590 @@
+//! The command line's flags: clap's description of every verb, and the
+//! checked request of `armcal::commands` each verb's flags make. Nothing here
+//! reads a file; the value parsers are in `args.rs`.
+
+use std::path::PathBuf;
+
+use armcal::calibration::identify::prior_scale::PriorScale;
+use armcal::calibration::identify::{ParamSet, StatedScales};
+use armcal::commands::{diagnose, holdout, identify, simulate};
+use armcal::io::input_error::InputError;
+use armcal::io::model_file::{self, RobotModel};
+use armcal::io::urdf::ChainSpec;
+use armcal_shared::TargetFrame;
+use clap::{Parser, Subcommand};
+
+use crate::args;
+
+/// armcal makes serial robot arms accurate: it identifies the errors of their
+/// Denavit-Hartenberg model from measured poses and writes the calibration the
+/// motion controller applies.
+#[derive(Parser, Debug)]
+#[command(name = "armcal", version, about, long_about = None)]
+pub(crate) struct Cli {
+    #[command(subcommand)]
+    pub(crate) command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub(crate) enum Command {
+    /// Print what was read from a robot model and a measurement file, and the
+    /// error of the nominal model against the measurements.
+    Check(CheckArgs),
+    /// Identify the geometric parameter errors from measured poses, say which
+    /// parameters the data cannot separate, and write the calibration.
+    Identify(IdentifyArgs),
+    /// Where the calibrated robot puts its tool point (and how it turns its tool
+    /// frame, when the calibration has orientation) for each row of joint
+    /// readings: a CSV with x,y,z (and qw,qx,qy,qz) in the model's units, rows in
+    /// the order of the joints file.
+    Predict(PredictArgs),
+    /// For each row of joint commands computed by the nominal model, the commands
+    /// that make the calibrated robot reach the pose the nominal model intended.
+    Compensate(CompensateArgs),
+    /// Simulate a measurement session: a true robot (nominal + random geometric,
+    /// base and tool errors + hidden effects) measured with noise; writes the
+    /// measurements (docs/file-formats.md §2) and, with --truth, what was built in.
+    Simulate(SimulateArgs),
+    /// Load a calibration into the controller over its serial link, stream joint
+    /// commands through it row by row and write the corrected commands it
+    /// returns (model units, like `compensate`); report its faults and deadline
+    /// misses. A calibration the controller refuses is named with its reason
+    /// (exit status 2).
+    #[command(group = clap::ArgGroup::new("port").required(true).multiple(false))]
+    Stream(StreamArgs),
+    /// Fit the geometry, show what it gets wrong, name the cause, extend the model
+    /// and measure the gain on held-out poses.
+    Diagnose(DiagnoseArgs),
+    /// Measure the diagnosis: hide a random effect (or none) in many simulated
+    /// sessions and count how often it is named.
+    Sweep(SweepArgs),
+    /// The whole of armcal on a simulated robot, no files needed: the Table 1 PUMA
+    /// with random geometric errors and one hidden effect drawn from the seed,
+    /// measured by a simulated laser tracker, diagnosed (what the geometric model
+    /// gets wrong, and the named cause), 50 random targets compensated and checked
+    /// on the true robot; writes the HTML report and prints the gain.
+    Demo(DemoArgs),
+    /// Write a calibration as a URDF: into the URDF its model was read from
+    /// (only the origins of the chain's moving joints change), or generated from
+    /// the calibrated model; with two links added, `armcal_measured_point` (the
+    /// calibrated measured point) and `armcal_measurement_frame` (the
+    /// calibration's measurement frame). Effects other than geometry are left
+    /// out, with a warning.
+    Export(ExportArgs),
+    /// Sessions without a tracker (a `point` column: unknown fixed points and
+    /// known distances; docs/file-formats.md): leave each --data session out
+    /// in turn, identify on the others (or on --train), and print for the one
+    /// left out the spread of the predicted points at each fixed point and the
+    /// error of each known distance, for the nominal model, --reference and
+    /// the calibration.
+    Holdout(HoldoutArgs),
+    /// List the built-in robot models and data sets.
+    Models,
+    /// Rebuild the worked examples of a seed paper and print them as the paper does.
+    Reproduce(ReproduceArgs),
+}
+
+/// The flags of `armcal check`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct CheckArgs {
+    #[command(flatten)]
+    pub(crate) model: ModelArgs,
+    /// Measurements: a CSV file (docs/file-formats.md §2) or the name of a built-in data set.
+    #[arg(long, value_name = "D.csv|NAME")]
+    pub(crate) data: String,
+}
+
+/// The flags of `armcal identify`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct IdentifyArgs {
+    #[command(flatten)]
+    pub(crate) model: ModelArgs,
+    /// Measurements: a CSV file (docs/file-formats.md §2) or the name of a built-in data set.
+    #[arg(long, value_name = "D.csv|NAME")]
+    pub(crate) data: String,
+    /// `full`: every identifiable parameter, base and tool included; `paper`: the
+    /// 3M model and iterative regression of Mirman & Gupta (needs full poses).
+    #[arg(long, value_enum, default_value = "full")]
+    pub(crate) params: Params,
+    /// Write the calibration (postcard bytes the firmware loads) here.
+    #[arg(long, value_name = "CAL")]
+    pub(crate) out: Option<PathBuf>,
+    /// Write the report as JSON here.
+    #[arg(long, value_name = "R.json")]
+    pub(crate) json: Option<PathBuf>,
+    #[command(flatten)]
+    pub(crate) weights: Weights,
+    /// `chosen`: the stated prior (--prior-length, --prior-angle, the model
+    /// file's `[prior]`, else 1 mm, 1 mrad) times the factor of 0.1, 0.3, 1,
+    /// 3 or 10 that predicts held-out poses best (10-fold cross-validation
+    /// of the rows, as `diagnose` chooses it; shown in the summary);
+    /// `stated`: the stated prior as it is.
+    #[arg(long, value_enum, default_value = "chosen")]
+    pub(crate) prior_scale: PriorScaleArg,
+    /// The frame the compensation's targets will be given in: `world` (the
+    /// measurement frame of these data: the identified base is compensated)
+    /// or `base` (the robot's own base frame: the identified base, the
+    /// registration of the instrument, is not). Stored in the calibration.
+    #[arg(long, value_enum, default_value = "world")]
+    pub(crate) targets: Targets,
+    /// Write the calibration (and the reports) even when the fit did not
+    /// converge or fits its own data worse than the nominal model (the
+    /// reason is printed as a warning); otherwise such a fit exits with
+    /// status 1 and writes nothing.
+    #[arg(long)]
+    pub(crate) write_failed: bool,
+}
+
+/// The flags of `armcal predict`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct PredictArgs {
+    /// The calibration file written by `armcal identify --out`.
+    #[arg(long, value_name = "CAL")]
+    pub(crate) calibration: String,
+    /// Joint readings: a CSV with q1..qM in the model's units (docs/file-formats.md §2;
+    /// x, y, z and the quaternion of a measurement file are not read).
+    #[arg(long, value_name = "J.csv")]
+    pub(crate) joints: String,
+    /// Write the predictions here (otherwise they are printed).
+    #[arg(long, value_name = "P.csv")]
+    pub(crate) out: Option<PathBuf>,
+}
+
+/// The flags of `armcal compensate`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct CompensateArgs {
+    /// The calibration file written by `armcal identify --out`.
+    #[arg(long, value_name = "CAL")]
+    pub(crate) calibration: String,
+    /// Joint commands: a CSV with q1..qM in the model's units, rows in the order sent.
+    #[arg(long, value_name = "J.csv")]
+    pub(crate) joints: String,
+    /// Write the corrected commands here (otherwise they are printed).
+    #[arg(long, value_name = "C.csv")]
+    pub(crate) out: Option<PathBuf>,
+    /// Run the rows as consecutive servo ticks, as `armcal stream` and the
+    /// controller do (warm starts, the per-tick change bound). Without it
+    /// each row is a robot program's target point, solved alone to
+    /// convergence (the row order still gives the approach directions).
+    #[arg(long)]
+    pub(crate) servo: bool,
+}
+
+/// The flags of `armcal simulate`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct SimulateArgs {
+    #[command(flatten)]
+    pub(crate) model: ModelArgs,
+    /// Poses to measure.
+    #[arg(long, default_value_t = 200, value_parser = args::at_least(1, "pose"))]
+    pub(crate) poses: usize,
+    /// A hidden effect, `NAME[:JOINT[:VALUE]]` (joint from 1, value in SI units);
+    /// repeat for several. Names: joint_compliance, gear_transmission, backlash,
+    /// thermal_expansion, encoder_scale.
+    #[arg(long = "effect", value_name = "NAME[:JOINT[:VALUE]]")]
+    pub(crate) effects: Vec<String>,
+    /// A hidden Hayati tilt `JOINT:BETA` (rad) between nominally parallel axes.
+    #[arg(long = "tilt", value_name = "JOINT:BETA", value_parser = args::tilt)]
+    pub(crate) tilts: Vec<args::Tilt>,
+    /// Position noise, one standard deviation per axis, model length unit
+    /// (default 20 µm).
+    #[arg(long, value_name = "LENGTH", value_parser = args::non_negative)]
+    pub(crate) noise: Option<f64>,
+    /// Also measure orientations, with this noise (model angle unit).
+    #[arg(long, value_name = "ANGLE", value_parser = args::non_negative)]
+    pub(crate) orientation_noise: Option<f64>,
+    /// Seed of every random draw.
+    #[arg(long, default_value_t = 1)]
+    pub(crate) seed: u64,
+    /// Write the measurements here.
+    #[arg(long, value_name = "D.csv")]
+    pub(crate) out: PathBuf,
+    /// Write what was built in (errors and effects) here, as JSON.
+    #[arg(long, value_name = "T.json")]
+    pub(crate) truth: Option<PathBuf>,
+}
+
+/// The flags of `armcal stream`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct StreamArgs {
+    /// The calibration file written by `armcal identify --out`, sent as it is.
+    #[arg(long, value_name = "CAL")]
+    pub(crate) calibration: String,
+    /// Joint commands: a CSV with q1..qM in the model's units (and optionally
+    /// temp, load), rows in the order sent.
+    #[arg(long, value_name = "J.csv")]
+    pub(crate) joints: String,
+    /// The controller's link over TCP (a serial-to-network bridge, or QEMU's
+    /// `-serial tcp:…`).
+    #[arg(long, value_name = "HOST:PORT", group = "port")]
+    pub(crate) tcp: Option<String>,
+    /// The controller's serial port (115200 baud, 8N1).
+    #[arg(long, value_name = "PATH", group = "port")]
+    pub(crate) serial: Option<String>,
+    /// Write the corrected commands here (otherwise they are printed).
+    #[arg(long, value_name = "C.csv")]
+    pub(crate) out: Option<PathBuf>,
+    /// After the stream, ask the controller to halt (under QEMU this ends the
+    /// emulation; a real controller waits for a reset).
+    #[arg(long)]
+    pub(crate) halt: bool,
+}
+
+/// The flags of `armcal diagnose`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct DiagnoseArgs {
+    #[command(flatten)]
+    pub(crate) model: ModelArgs,
+    /// Measurements: a CSV file or the name of a built-in data set.
+    #[arg(long, value_name = "D.csv|NAME")]
+    pub(crate) data: String,
+    /// Write the extended calibration (geometry and effects) here.
+    #[arg(long, value_name = "CAL")]
+    pub(crate) out: Option<PathBuf>,
+    /// Write the report as JSON here.
+    #[arg(long, value_name = "R.json")]
+    pub(crate) json: Option<PathBuf>,
+    /// Write a self-contained HTML page (inline SVG plots) here.
+    #[arg(long, value_name = "R.html")]
+    pub(crate) html: Option<PathBuf>,
+    #[command(flatten)]
+    pub(crate) weights: Weights,
+    /// Folds of the cross-validation, from 2 to the number of poses
+    /// (default: 10, or one per pose with fewer poses).
+    #[arg(long, value_parser = args::at_least(2, "folds"))]
+    pub(crate) folds: Option<usize>,
+    /// The frame the compensation's targets will be given in: `world` (the
+    /// measurement frame of these data: the identified base is compensated)
+    /// or `base` (the robot's own base frame: the identified base, the
+    /// registration of the instrument, is not). Stored in the calibration.
+    #[arg(long, value_enum, default_value = "world")]
+    pub(crate) targets: Targets,
+    /// Write the calibration (and the reports) even when the fit did not
+    /// converge or fits its own data worse than the nominal model (the
+    /// reason is printed as a warning); otherwise such a fit exits with
+    /// status 1 and writes nothing.
+    #[arg(long)]
+    pub(crate) write_failed: bool,
+}
+
+/// The flags of `armcal sweep`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct SweepArgs {
+    /// Cases to run.
+    #[arg(long, default_value_t = 100)]
+    pub(crate) cases: usize,
+    /// Seed of every draw.
+    #[arg(long, default_value_t = 1)]
+    pub(crate) seed: u64,
+    /// Tracker positions per simulated session (at least 20).
+    #[arg(long, default_value_t = 300, value_parser = args::at_least(20, "positions per session"))]
+    pub(crate) poses: usize,
+    /// Write every case as JSON here.
+    #[arg(long, value_name = "R.json")]
+    pub(crate) json: Option<PathBuf>,
+}
+
+/// The flags of `armcal demo`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct DemoArgs {
+    /// Seed of every draw (the default is fixed, so the demo repeats; any other
+    /// seed draws other geometric errors and another effect).
+    #[arg(long, default_value_t = 1)]
+    pub(crate) seed: u64,
+    /// Write the HTML report here.
+    #[arg(long, value_name = "R.html", default_value = "armcal-demo.html")]
+    pub(crate) html: PathBuf,
+}
+
+/// The flags of `armcal export`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct ExportArgs {
+    /// The calibration file written by `armcal identify --out` or `armcal diagnose --out`.
+    #[arg(long, value_name = "CAL")]
+    pub(crate) calibration: String,
+    /// `--format urdf`: the URDF the calibration's model was read from (with
+    /// the same --base-link, --tip-link and --tip-point); without it, a URDF
+    /// is generated from the calibrated model. `--format ur-deltas` and
+    /// `ur-calibration`: the Universal Robots model (ur5e, ur10, ur10e) whose
+    /// nominal the deltas are against (required).
+    #[arg(long, value_name = "M.urdf|NAME")]
+    pub(crate) model: Option<String>,
+    #[command(flatten)]
+    pub(crate) chain: ChainArgs,
+    /// The format to write.
+    #[arg(long, value_enum)]
+    pub(crate) format: ExportFormat,
+    /// Write it here (otherwise it is printed).
+    #[arg(long, value_name = "OUT.urdf")]
+    pub(crate) out: Option<PathBuf>,
+}
+
+/// The flags of `armcal holdout`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct HoldoutArgs {
+    #[command(flatten)]
+    pub(crate) model: ModelArgs,
+    /// Constraint sessions to hold out, each in turn (CSV with a `point` column).
+    #[arg(long, value_name = "D.csv", required = true, num_args = 1..)]
+    pub(crate) data: Vec<String>,
+    /// Identify once on these sessions instead, and check every --data session.
+    #[arg(long, value_name = "T.csv", num_args = 1..)]
+    pub(crate) train: Vec<String>,
+    /// Another model of the same chain to check on the same rows (read with
+    /// the same --base-link, --tip-link and --tip-point): another tool's
+    /// calibration, for instance.
+    #[arg(long, value_name = "R.urdf|R.toml")]
+    pub(crate) reference: Option<String>,
+    #[command(flatten)]
+    pub(crate) weights: Weights,
+    /// The prior's scale the training sessions are identified at, as
+    /// `armcal identify --prior-scale` (shown beside the figures).
+    #[arg(
+        long,
+        value_enum,
+        default_value = "chosen",
+        conflicts_with = "diagnose"
+    )]
+    pub(crate) prior_scale: PriorScaleArg,
+    /// Calibrate the training sessions as `armcal diagnose` does: blunders
+    /// set aside, the geometric model and the prior's scale chosen by
+    /// 10-fold cross-validation of their rows, the effects the data name
+    /// (the choice shown beside the figures, its effects in the prediction).
+    #[arg(long)]
+    pub(crate) diagnose: bool,
+}
+
+/// The flags of `armcal reproduce`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct ReproduceArgs {
+    /// Which paper.
+    #[arg(value_enum)]
+    pub(crate) paper: Paper,
+}
+
+/// The robot model and, for a URDF, which chain of it to read.
+#[derive(clap::Args, Debug)]
+pub(crate) struct ModelArgs {
+    /// Robot model: a TOML file (docs/file-formats.md §1), a URDF (`*.urdf`, or text
+    /// starting with `<`; docs/urdf.md) or the name of a built-in model.
+    #[arg(long, value_name = "M.toml|M.urdf|NAME")]
+    pub(crate) model: String,
+    #[command(flatten)]
+    pub(crate) chain: ChainArgs,
+    /// Universal Robots model: the controller's factory calibration (YAML with
+    /// `delta_theta`, `delta_a`, `delta_d`, `delta_alpha`; docs/ur.md), added to
+    /// the nominal D-H and read as the robot's nominal model.
+    #[arg(long, value_name = "CAL.yaml")]
+    pub(crate) factory_calibration: Option<String>,
+}
+
+impl ModelArgs {
+    /// The model these flags name.
+    pub(crate) fn load(&self) -> Result<RobotModel, InputError> {
+        let model = model_file::load_model_with(&self.model, &self.chain.spec())?;
+        match &self.factory_calibration {
+            None => Ok(model),
+            Some(file) => armcal::io::ur::load_factory(&model, file),
+        }
+    }
+}
+
+/// Which chain of a URDF model is the arm, and where on it the measured point is.
+#[derive(clap::Args, Debug)]
+pub(crate) struct ChainArgs {
+    /// URDF model: the link the chain starts from, whose frame is the robot's
+    /// base (default: the root link).
+    #[arg(long, value_name = "LINK")]
+    pub(crate) base_link: Option<String>,
+    /// URDF model: the link the chain ends at, which carries the measured point
+    /// (default: followed down from the base while one branch holds the moving
+    /// joints).
+    #[arg(long, value_name = "LINK")]
+    pub(crate) tip_link: Option<String>,
+    /// URDF model: the measured point in the tip link's frame, `x,y,z` in m
+    /// (default: the tip link's origin).
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = args::tip_point)]
+    pub(crate) tip_point: Option<nalgebra::Vector3<f64>>,
+}
+
+impl ChainArgs {
+    /// The chain these flags name.
+    pub(crate) fn spec(&self) -> ChainSpec {
+        ChainSpec {
+            base_link: self.base_link.clone(),
+            tip_link: self.tip_link.clone(),
+            tip_point: self.tip_point,
+        }
+    }
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub(crate) enum ExportFormat {
+    /// URDF (ROS robot description).
+    Urdf,
+    /// Universal Robots factory calibration: D-H deltas against the UR model
+    /// given with --model (docs/ur.md).
+    UrDeltas,
+    /// Universal Robots: ur_calibration's URDF-correction YAML (joint origins
+    /// for ur_description; docs/ur.md).
+    UrCalibration,
+}
+
+/// The noise and the prior: what weighs the rows and the parameters.
+#[derive(clap::Args, Debug)]
+pub(crate) struct Weights {
+    /// Position noise of the measurements, one standard deviation per axis, in
+    /// the model's length unit (default: estimated from the residuals); also
+    /// the noise of the contacts of a session without a tracker whose kind
+    /// has none stated.
+    #[arg(long, value_name = "LENGTH", value_parser = args::positive)]
+    pub(crate) position_noise: Option<f64>,
+    /// Orientation noise, one standard deviation per axis, in the model's angle
+    /// unit (default: estimated from the residuals).
+    #[arg(long, value_name = "ANGLE", value_parser = args::positive)]
+    pub(crate) orientation_noise: Option<f64>,
+    /// Noise of a tool point at an unknown fixed point (`point` column), per
+    /// axis, model length unit (default: `--position-noise`, else estimated
+    /// from the residuals of those rows alone).
+    #[arg(long, value_name = "LENGTH", value_parser = args::positive)]
+    pub(crate) point_noise: Option<f64>,
+    /// Noise of a tool point on an unknown plane (`plane` column), along its
+    /// normal, model length unit (default: `--position-noise`, else estimated
+    /// from the residuals of those rows alone).
+    #[arg(long, value_name = "LENGTH", value_parser = args::positive)]
+    pub(crate) plane_noise: Option<f64>,
+    /// Prior scale of a D-H length error (s, a), one standard deviation, model
+    /// length unit (default: the model file's `[prior]`, else 1 mm).
+    #[arg(long, value_name = "LENGTH", value_parser = args::positive)]
+    pub(crate) prior_length: Option<f64>,
+    /// Prior scale of a D-H angle error (θ, α), model angle unit (default: the
+    /// model file's `[prior]`, else 1 mrad).
+    #[arg(long, value_name = "ANGLE", value_parser = args::positive)]
+    pub(crate) prior_angle: Option<f64>,
+}
+
+impl Weights {
+    /// The scales these flags state (model units).
+    pub(crate) fn scales(&self) -> StatedScales {
+        StatedScales {
+            position_noise: self.position_noise,
+            orientation_noise: self.orientation_noise,
+            point_noise: self.point_noise,
+            plane_noise: self.plane_noise,
+            prior_length: self.prior_length,
+            prior_angle: self.prior_angle,
+        }
+    }
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub(crate) enum PriorScaleArg {
+    /// The stated scale times the factor that predicts held-out poses best.
+    Chosen,
+    /// The stated scale.
+    Stated,
+}
+
+impl From<PriorScaleArg> for PriorScale {
+    fn from(a: PriorScaleArg) -> Self {
+        match a {
+            PriorScaleArg::Chosen => PriorScale::default(),
+            PriorScaleArg::Stated => PriorScale::Stated,
+        }
+    }
+}
+
+impl From<Params> for ParamSet {
+    fn from(p: Params) -> Self {
+        match p {
+            Params::Full => ParamSet::Full,
+            Params::Paper => ParamSet::Paper,
+        }
+    }
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub(crate) enum Params {
+    /// Every identifiable geometric parameter, base and tool included.
+    Full,
+    /// The 3M position-independent model of Mirman & Gupta.
+    Paper,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub(crate) enum Targets {
+    /// The world (measurement) frame.
+    World,
+    /// The robot's own base frame.
+    Base,
+}
+
+impl From<Targets> for TargetFrame {
+    fn from(t: Targets) -> Self {
+        match t {
+            Targets::World => TargetFrame::World,
+            Targets::Base => TargetFrame::Base,
+        }
+    }
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub(crate) enum Paper {
+    /// Mirman & Gupta (1992): Tables 2 and 3, the iterative regression on the Table 1 PUMA.
+    MirmanGupta,
+    /// Kirchner, Gurumoorthy & Prinz (1985): the second-order expansion (eq. 2.22)
+    /// and the series inversion of section 3 beside the iterative regression.
+    Kirchner,
+}
+
+impl IdentifyArgs {
+    /// What these flags ask of `identify`.
+    pub(crate) fn request(&self) -> identify::Request {
+        identify::Request {
+            params: self.params.into(),
+            scales: self.weights.scales(),
+            prior_scale: self.prior_scale.into(),
+            targets: self.targets.into(),
+        }
+    }
+}
+
+impl DiagnoseArgs {
+    /// What these flags ask of `diagnose`.
+    pub(crate) fn request(&self) -> diagnose::Request {
+        diagnose::Request {
+            folds: self.folds,
+            scales: self.weights.scales(),
+            targets: self.targets.into(),
+        }
+    }
+}
+
+impl HoldoutArgs {
+    /// What these flags ask of `holdout`.
+    pub(crate) fn request(&self) -> holdout::Request {
+        let calibrate = match (self.prior_scale, self.diagnose) {
+            (_, true) => holdout::Calibrate::Diagnosis,
+            (PriorScaleArg::Chosen, false) => holdout::Calibrate::Prior,
+            (PriorScaleArg::Stated, false) => holdout::Calibrate::Stated,
+        };
+        holdout::Request {
+            calibrate,
+            scales: self.weights.scales(),
+        }
+    }
+}
+
+impl SimulateArgs {
+    /// What these flags ask of `simulate`.
+    pub(crate) fn request(&self) -> simulate::Request {
+        simulate::Request {
+            poses: self.poses,
+            seed: self.seed,
+            noise: self.noise,
+            orientation_noise: self.orientation_noise,
+            effects: self.effects.clone(),
+            tilts: self.tilts.iter().map(|t| (t.joint, t.beta)).collect(),
+        }
+    }
+}

@@ -1,0 +1,80 @@
+//! `diagnose`: the geometry fitted, what it misses named, the model extended
+//! and the gain measured held out, as [`crate::calibration::diagnose`]
+//! computes it, checked and judged the same way whichever front end asks.
+//!
+//! Scales are in the model's units as the user states them; the calibration
+//! is SI (docs/file-formats.md §5).
+
+use armcal_shared::{Calibration, TargetFrame};
+
+use super::{Front, fit_options, folds};
+use crate::calibration::acceptance::{FailedCalibration, diagnosis_refusal};
+use crate::calibration::diagnose::{DiagnoseOptions, Diagnosis, diagnose_with_progress};
+use crate::calibration::identify::{self, StatedScales};
+use crate::io::model_file::RobotModel;
+use crate::session::measurements::Measurements;
+
+/// What `diagnose` is asked.
+#[derive(Clone, Copy, Debug)]
+pub struct Request {
+    /// Folds of the cross-validation; `None` for the default
+    /// ([`super::folds`]).
+    pub folds: Option<usize>,
+    /// The noise and prior scales stated (model units).
+    pub scales: StatedScales,
+    /// The frame the compensation's targets will be given in.
+    pub targets: TargetFrame,
+}
+
+/// What `diagnose` found.
+#[derive(Debug)]
+pub struct Diagnosed {
+    /// The diagnosis: the fits, the effects named, the held-out figures.
+    pub diagnosis: Diagnosis,
+    /// The settings it ran with (the folds chosen, the fit's options).
+    pub options: DiagnoseOptions,
+    /// What `--out` writes: the model chosen, with the request's target
+    /// frame.
+    pub calibration: Calibration,
+    /// Why the calibration is not written unless asked (its final fit did
+    /// not converge, or it fits its data worse than the nominal model).
+    pub failed: Option<FailedCalibration>,
+}
+
+/// Diagnoses `model` on `data` (a session [`super::require_session`]
+/// accepted), calling `progress(round, candidate, candidates)` before each
+/// effect candidate is scored: refused when the folds or a scale are out of
+/// range, when the fit cannot be made, or when the fitted model cannot be of
+/// these measurements ([`Measurements::require_fit_supported`]).
+pub fn run(
+    front: Front,
+    model: &RobotModel,
+    data: &Measurements,
+    request: &Request,
+    progress: &mut dyn FnMut(usize, usize, usize),
+) -> anyhow::Result<Diagnosed> {
+    let folds = folds(front, request.folds, data.len())?;
+    let options = DiagnoseOptions {
+        folds,
+        fit: fit_options(front, model, &request.scales)?,
+        ..Default::default()
+    };
+    let observations = identify::observations(data);
+    let diagnosis = diagnose_with_progress(
+        &model.robot,
+        observations,
+        &data.constraints,
+        &options,
+        progress,
+    )?;
+    data.require_fit_supported(model, diagnosis.reference.position_rms)?;
+    let failed = diagnosis_refusal(model, data, &diagnosis, front.write_failed());
+    let mut calibration = diagnosis.calibration(&model.robot, data.has_orientation(), model.units);
+    calibration.targets = request.targets;
+    Ok(Diagnosed {
+        diagnosis,
+        options,
+        calibration,
+        failed,
+    })
+}

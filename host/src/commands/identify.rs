@@ -1,0 +1,58 @@
+//! `identify`: the geometric errors of a model from one session, as
+//! [`crate::calibration::identify`] computes them, checked and judged the same
+//! way whichever front end asks.
+//!
+//! Scales are in the model's units as the user states them; the calibration
+//! is SI (docs/file-formats.md §5).
+
+use armcal_shared::TargetFrame;
+
+use super::{Front, fit_options};
+use crate::calibration::acceptance::FailedCalibration;
+use crate::calibration::identify::prior_scale::PriorScale;
+use crate::calibration::identify::{self, Identification, ParamSet, StatedScales};
+use crate::io::model_file::RobotModel;
+use crate::session::measurements::Measurements;
+
+/// What `identify` is asked.
+#[derive(Clone, Copy, Debug)]
+pub struct Request {
+    /// The parameters identified.
+    pub params: ParamSet,
+    /// The noise and prior scales stated (model units).
+    pub scales: StatedScales,
+    /// The prior's scale: stated, or chosen by cross-validation.
+    pub prior_scale: PriorScale,
+    /// The frame the compensation's targets will be given in.
+    pub targets: TargetFrame,
+}
+
+/// What `identify` found.
+#[derive(Debug)]
+pub struct Identified {
+    /// The fit, its report and its calibration (with the request's target
+    /// frame).
+    pub result: Identification,
+    /// Why the calibration is not written unless asked (the fit did not
+    /// converge, or it fits its data worse than the nominal model).
+    pub failed: Option<FailedCalibration>,
+}
+
+/// Identifies `model` from `data` (a session [`super::require_session`]
+/// accepted): refused when a scale is not positive, when the fit cannot be
+/// made, or when the fitted model cannot be of these measurements
+/// ([`Measurements::require_fit_supported`]).
+pub fn run(
+    front: Front,
+    model: &RobotModel,
+    data: &Measurements,
+    request: &Request,
+) -> anyhow::Result<Identified> {
+    let options = fit_options(front, model, &request.scales)?;
+    let mut result =
+        identify::identify(model, data, request.params, &options, request.prior_scale)?;
+    data.require_fit_supported(model, result.position_rms)?;
+    let failed = result.refusal(model, data, front.write_failed());
+    result.calibration.targets = request.targets;
+    Ok(Identified { result, failed })
+}

@@ -1,0 +1,88 @@
+//! `simulate`: a measurement session of a true robot (the nominal model with
+//! random errors and the hidden effects and tilts asked), as
+//! [`crate::calibration::simulate`] draws it, with the request checked the
+//! same way whichever front end asks.
+//!
+//! Noises are in the model's units as the user states them; effect values
+//! and tilts in SI (rad, m), as `NAME[:JOINT[:VALUE]]` and `JOINT:BETA` say.
+
+use super::{Argument, Front};
+use crate::calibration::simulate::{self, Scenario, Session};
+use crate::io::input_error::InputError;
+use crate::io::model_file::RobotModel;
+
+/// What `simulate` is asked.
+#[derive(Clone, Debug)]
+pub struct Request {
+    /// Poses measured (at least 1).
+    pub poses: usize,
+    /// Seed of every draw.
+    pub seed: u64,
+    /// Position noise per axis (model length unit, zero or more); `None`
+    /// for the tracker's default.
+    pub noise: Option<f64>,
+    /// Orientation noise per axis (model angle unit); `None` measures no
+    /// orientation.
+    pub orientation_noise: Option<f64>,
+    /// Hidden effects, `NAME[:JOINT[:VALUE]]` (joint from 1).
+    pub effects: Vec<String>,
+    /// Hidden Hayati tilts `(joint from 1, β rad)`.
+    pub tilts: Vec<(usize, f64)>,
+}
+
+impl Request {
+    /// The scenario this request draws on `model`: refused when a value is
+    /// out of range or an effect or tilt does not name a joint of it.
+    pub fn scenario(&self, front: Front, model: &RobotModel) -> Result<Scenario, InputError> {
+        let u = model.units;
+        let dof = model.robot.dof();
+        if self.poses == 0 {
+            return Err(Argument::Poses.refused(front, "0: at least 1"));
+        }
+        let non_negative = |argument: Argument, v: f64| {
+            if v.is_finite() && v >= 0.0 {
+                Ok(v)
+            } else {
+                Err(argument.refused(front, format!("{v}: must be a non-negative number")))
+            }
+        };
+        let mut scenario = Scenario::tracker(self.poses, self.seed);
+        if let Some(n) = self.noise {
+            scenario.position_noise = u.length_to_si(non_negative(Argument::Noise, n)?);
+        }
+        if let Some(n) = self.orientation_noise {
+            let n = non_negative(Argument::OrientationNoise, n)?;
+            scenario.orientation_noise = Some(u.angle_to_si(n));
+        }
+        for spec in &self.effects {
+            let effect = simulate::parse_effect(spec, dof)
+                .map_err(|e| Argument::Effects.refused(front, e))?;
+            scenario.effects.push(effect);
+        }
+        for &(joint, beta) in &self.tilts {
+            if !((1..=dof).contains(&joint) && beta.is_finite()) {
+                let value = match front {
+                    Front::CommandLine => format!("{joint}:{beta}"),
+                    Front::Python => format!("({joint}, {beta})"),
+                };
+                let finite = if beta.is_finite() {
+                    ""
+                } else {
+                    " and β a finite number of rad"
+                };
+                return Err(Argument::Tilts.refused(
+                    front,
+                    format!("{value}: the joint must be from 1 to {dof}{finite}"),
+                ));
+            }
+            scenario.tilts.push((joint - 1, beta));
+        }
+        Ok(scenario)
+    }
+}
+
+/// Simulates the session `request` asks of `model`.
+pub fn run(front: Front, model: &RobotModel, request: &Request) -> anyhow::Result<Session> {
+    let scenario = request.scenario(front, model)?;
+    Ok(simulate::simulate(&model.robot, &scenario)?)
+}
