@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use armcal::calibration::identify::prior_scale::PriorScale;
 use armcal::calibration::identify::{ParamSet, StatedScales};
-use armcal::commands::{diagnose, holdout, identify, simulate};
+use armcal::commands::{diagnose, export, holdout, identify, simulate};
 use armcal::io::input_error::InputError;
 use armcal::io::model_file::{self, RobotModel};
 use armcal::io::urdf::ChainSpec;
@@ -571,6 +571,21 @@ impl HoldoutArgs {
         holdout::Request {
             calibrate,
             scales: self.weights.scales(),
+        }
+    }
+}
+
+impl ExportArgs {
+    /// What these flags ask of `export`.
+    pub(crate) fn request(&self) -> export::Request {
+        export::Request {
+            format: match self.format {
+                ExportFormat::Urdf => export::Format::Urdf,
+                ExportFormat::UrDeltas => export::Format::UrDeltas,
+                ExportFormat::UrCalibration => export::Format::UrCalibration,
+            },
+            model: self.model.clone(),
+            chain: self.chain.spec(),
         }
     }
 }

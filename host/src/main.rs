@@ -19,7 +19,7 @@ mod cli;
 mod terminal;
 mod verbs;
 
-use cli::{Cli, Command, ExportFormat, Paper};
+use cli::{Cli, Command, Paper};
 
 fn main() -> ExitCode {
     // An interrupt (Ctrl-C, SIGTERM) ends the run as it would, but leaves no
@@ -66,10 +66,7 @@ fn run(command: Command) -> anyhow::Result<()> {
         Command::Compensate(a) => verbs::compensate(a),
         Command::Predict(a) => verbs::predict(a),
         Command::Stream(a) => verbs::stream(a),
-        Command::Export(a) => match a.format {
-            ExportFormat::Urdf => verbs::export_urdf(a),
-            ExportFormat::UrDeltas | ExportFormat::UrCalibration => verbs::export_ur(a),
-        },
+        Command::Export(a) => verbs::export(a),
         Command::Models => verbs::models(),
     }
 }

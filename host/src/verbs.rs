@@ -8,17 +8,17 @@ use armcal::apply::ranges::RowNames;
 use armcal::apply::{compensate, link, predict, ranges};
 use armcal::calibration::identify::paper::PaperOptions;
 use armcal::calibration::{check, contact_check, reproduce};
-use armcal::commands::{diagnose as diagnose_cmd, holdout as holdout_cmd};
+use armcal::commands::{diagnose as diagnose_cmd, export as export_cmd, holdout as holdout_cmd};
 use armcal::commands::{identify as identify_cmd, simulate as simulate_cmd};
-use armcal::io::input_error::{InputError, MODEL_FILE, read_text};
-use armcal::io::{builtin, measurements, model_file, output, urdf};
+use armcal::io::input_error::InputError;
+use armcal::io::{builtin, measurements, model_file, output};
 use armcal_shared::Calibration;
 use armcal_shared::compensation::Pacing;
 use armcal_shared::link::Request;
 
 use crate::cli::{
-    CheckArgs, CompensateArgs, DemoArgs, DiagnoseArgs, ExportArgs, ExportFormat, HoldoutArgs,
-    IdentifyArgs, PredictArgs, SimulateArgs, StreamArgs, SweepArgs,
+    CheckArgs, CompensateArgs, DemoArgs, DiagnoseArgs, ExportArgs, HoldoutArgs, IdentifyArgs,
+    PredictArgs, SimulateArgs, StreamArgs, SweepArgs,
 };
 use crate::terminal::{
     CLI, Progress, accept, finish, finish_csv, joints_outputs, load_session, warn,
@@ -394,121 +394,18 @@ pub(crate) fn stream(args: StreamArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// `armcal export --format urdf`.
-pub(crate) fn export_urdf(args: ExportArgs) -> anyhow::Result<()> {
-    let ExportArgs {
-        calibration,
-        model,
-        chain,
-        out,
-        ..
-    } = args;
-    let mut outputs = output::Outputs::new().input("--calibration", &calibration);
-    if let Some(m) = &model {
+/// `armcal export`.
+pub(crate) fn export(args: ExportArgs) -> anyhow::Result<()> {
+    let request = args.request();
+    request.check(CLI)?;
+    let mut outputs = output::Outputs::new().input("--calibration", &args.calibration);
+    if let Some(m) = &request.model {
         outputs = outputs.input("--model", m);
     }
-    let outputs = outputs.output("--out", out.as_deref());
+    let outputs = outputs.output("--out", args.out.as_deref());
     outputs.check()?;
-    let spec = chain.spec();
-    let loaded = predict::load_calibration(&calibration)?;
-    // The geometry refitted without the effects a URDF cannot carry, when the
-    // calibration has one.
-    let held = armcal::apply::export::geometry_only(&loaded, "a URDF");
-    let cal = &held.calibration;
-    let exported = match &model {
-        Some(m) => {
-            let text = read_text(m, MODEL_FILE)?;
-            if !urdf::is_urdf(m, &text) {
-                return Err(InputError::argument(
-                    "--model",
-                    format!("{m} is not a URDF: export writes into the URDF the model was read from; leave out --model to generate a URDF from the calibration"),
-                )
-                .into());
-            }
-            let (parsed, converted) = model_file::urdf_chain(&text, m, &spec)?;
-            urdf::export::into_urdf(cal, &parsed, &converted)?
-        }
-        None if !spec.is_default() => {
-            return Err(InputError::argument(
-                "--model",
-                "--base-link, --tip-link and --tip-point name a chain of the URDF given with --model: give it",
-            )
-            .into());
-        }
-        None => urdf::export::generate(cal, &calibration),
-    };
-    note(&held);
-    warn(&exported.warnings);
-    finish_csv(outputs, exported.text)?;
-    Ok(())
-}
-
-/// `armcal export --format ur-deltas|ur-calibration`.
-pub(crate) fn export_ur(args: ExportArgs) -> anyhow::Result<()> {
-    let ExportArgs {
-        calibration,
-        model,
-        chain,
-        format,
-        out,
-    } = args;
-    let Some(m) = model else {
-        return Err(InputError::argument(
-            "--model",
-            "--format ur-deltas and ur-calibration: give the UR model (ur5e, ur10, ur10e; the deltas are against its nominal)",
-        )
-        .into());
-    };
-    let outputs = output::Outputs::new()
-        .input("--calibration", &calibration)
-        .input("--model", &m)
-        .output("--out", out.as_deref());
-    outputs.check()?;
-    let nominal = model_file::load_model_with(&m, &chain.spec())?;
-    if !armcal::io::ur::is_ur_model(&nominal) {
-        return Err(InputError::argument(
-            "--model",
-            format!("--format ur-deltas and ur-calibration: {m} is not a Universal Robots model (named `ur` and a digit, standard D-H, six revolute joints)"),
-        )
-        .into());
-    }
-    let loaded = predict::load_calibration(&calibration)?;
-    let held = armcal::apply::export::geometry_only(
-        &loaded,
-        match format {
-            ExportFormat::UrDeltas => "a UR deltas file",
-            _ => "a ur_calibration file",
-        },
-    );
-    let cal = &held.calibration;
-    let robot = cal.calibrated();
-    if robot.dof() != armcal::io::ur::JOINTS
-        || robot
-            .links
-            .iter()
-            .any(|l| l.joint != armcal_shared::JointType::Revolute)
-    {
-        return Err(InputError::argument(
-            "--calibration",
-            format!("--format ur-deltas and ur-calibration: {calibration} is not of a six-joint revolute arm"),
-        )
-        .into());
-    }
-    armcal::io::ur::require_same_type(&cal.nominal, &nominal, &calibration)?;
-    let exported = armcal::io::ur::export_deltas(&robot, &nominal.robot);
-    let text = if matches!(format, ExportFormat::UrDeltas) {
-        armcal::io::ur::deltas_yaml(&exported, &calibration)
-    } else {
-        armcal::io::ur::ur_calibration_yaml(&exported, &calibration)
-    };
-    note(&held);
-    finish_csv(outputs, text)?;
-    Ok(())
-}
-
-/// The note of an export that cannot carry effects on standard error: a
-/// warning when it leaves them out with the geometry fitted with them.
-fn note(held: &armcal::apply::export::GeometryExport) {
+    let exported = export_cmd::run(CLI, &args.calibration, &request)?;
+    let held = &exported.held;
     if let Some(note) = &held.note {
         if held.warning {
             warn([note]);
@@ -516,6 +413,9 @@ fn note(held: &armcal::apply::export::GeometryExport) {
             eprintln!("armcal: {note}");
         }
     }
+    warn(&exported.warnings);
+    finish_csv(outputs, exported.text)?;
+    Ok(())
 }
 
 /// `armcal models`.

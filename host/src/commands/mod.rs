@@ -13,7 +13,8 @@
 //! in the model's units as the user states them) and its `run`, which checks
 //! the request against the model and the data, computes, and returns the
 //! outcome as typed values (a calibration, a report, what refuses it to be
-//! written): [`identify`], [`diagnose`], [`holdout`], [`simulate`]. Turning
+//! written): [`identify`], [`diagnose`], [`holdout`], [`simulate`],
+//! [`export`]. Turning
 //! an outcome into text, files and warnings is the front end's. The rules
 //! every verb shares are here: a session's checks ([`require_session`]), the
 //! fit's stated scales ([`fit_options`]), the folds ([`folds`]), and which
@@ -21,6 +22,7 @@
 //! ([`is_refusal`]).
 
 pub mod diagnose;
+pub mod export;
 pub mod holdout;
 pub mod identify;
 pub mod simulate;
@@ -83,6 +85,10 @@ pub enum Argument {
     Effects,
     /// The hidden tilts `simulate` builds in.
     Tilts,
+    /// The model a calibration is exported against or into.
+    Model,
+    /// The calibration file exported.
+    Calibration,
 }
 
 impl Argument {
@@ -107,6 +113,10 @@ impl Argument {
             (Self::Effects, Front::Python) => "effects",
             (Self::Tilts, Front::CommandLine) => "--tilt",
             (Self::Tilts, Front::Python) => "tilts",
+            (Self::Model, Front::CommandLine) => "--model",
+            (Self::Model, Front::Python) => "model",
+            (Self::Calibration, Front::CommandLine) => "--calibration",
+            (Self::Calibration, Front::Python) => "calibration",
         }
     }
 
@@ -203,5 +213,69 @@ mod tests {
         assert_eq!(Argument::Training.given(Front::Python), "train=");
         assert_eq!(Front::Python.flag("--prior-length"), "prior_length");
         assert_eq!(Front::CommandLine.flag("--prior-length"), "--prior-length");
+    }
+
+    /// A stated scale that is not positive is refused before any fit, named
+    /// as each front end names it; a positive one is converted to SI with
+    /// the model's units (the PUMA 560 model is in inches: 0.1 in = 2.54 mm).
+    #[test]
+    fn a_stated_scale_is_checked_once_and_named_by_each_front_end() {
+        let model = crate::io::model_file::load_model("puma560").unwrap();
+        let bad = StatedScales {
+            prior_length: Some(-1.0),
+            ..Default::default()
+        };
+        for (front, name) in [
+            (Front::CommandLine, "--prior-length"),
+            (Front::Python, "prior_length"),
+        ] {
+            let e = fit_options(front, &model, &bad).unwrap_err();
+            assert_eq!(e.file, name);
+            assert!(
+                e.to_string().contains("-1: must be a positive number"),
+                "{e}"
+            );
+        }
+        let good = StatedScales {
+            prior_length: Some(0.1),
+            ..Default::default()
+        };
+        let options = fit_options(Front::Python, &model, &good).unwrap();
+        assert!((options.prior.length - 2.54e-3).abs() < 1e-15);
+    }
+
+    /// `export`'s rules on what it must be given, before anything is read: a
+    /// UR format needs its UR model; a URDF chain is named only with its
+    /// URDF.
+    #[test]
+    fn export_names_the_model_it_needs() {
+        use crate::io::urdf::ChainSpec;
+        let ur = export::Request {
+            format: export::Format::UrDeltas,
+            model: None,
+            chain: ChainSpec::default(),
+        };
+        let e = ur.check(Front::CommandLine).unwrap_err();
+        assert_eq!(e.file, "--model");
+        let chain = export::Request {
+            format: export::Format::Urdf,
+            model: None,
+            chain: ChainSpec {
+                tip_link: Some("ball_link".into()),
+                ..ChainSpec::default()
+            },
+        };
+        assert!(
+            chain
+                .check(Front::CommandLine)
+                .unwrap_err()
+                .to_string()
+                .contains("give it")
+        );
+        let generated = export::Request {
+            chain: ChainSpec::default(),
+            ..chain
+        };
+        generated.check(Front::CommandLine).unwrap();
     }
 }

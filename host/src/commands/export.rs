@@ -1,0 +1,169 @@
+//! `export`: a calibration written in a format another tool reads — a URDF
+//! (into the URDF its model was read from, or generated), Universal Robots'
+//! D-H deltas or `ur_calibration`'s YAML — with the geometry refitted without
+//! the effects the format cannot carry ([`crate::apply::export`]).
+//!
+//! Lengths on file in m, angles in rad, as each format defines them
+//! (docs/urdf.md, docs/ur.md).
+
+use armcal_shared::JointType;
+
+use super::{Argument, Front};
+use crate::apply::export::{GeometryExport, geometry_only};
+use crate::apply::predict::load_calibration;
+use crate::io::input_error::{InputError, MODEL_FILE, read_text};
+use crate::io::model_file::{load_model_with, urdf_chain};
+use crate::io::ur;
+use crate::io::urdf::{self, ChainSpec};
+
+/// The format written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    /// URDF (ROS robot description).
+    Urdf,
+    /// Universal Robots factory calibration: D-H deltas against the UR model.
+    UrDeltas,
+    /// Universal Robots: `ur_calibration`'s URDF-correction YAML.
+    UrCalibration,
+}
+
+impl Format {
+    /// What the format is called in a note: `a URDF`, …
+    fn called(self) -> &'static str {
+        match self {
+            Self::Urdf => "a URDF",
+            Self::UrDeltas => "a UR deltas file",
+            Self::UrCalibration => "a ur_calibration file",
+        }
+    }
+}
+
+/// What `export` is asked.
+#[derive(Clone, Debug)]
+pub struct Request {
+    /// The format written.
+    pub format: Format,
+    /// A URDF: the URDF the calibration's model was read from (written
+    /// into), or `None` to generate one; Universal Robots: the UR model the
+    /// deltas are against (required).
+    pub model: Option<String>,
+    /// The chain of a URDF model.
+    pub chain: ChainSpec,
+}
+
+/// What `export` writes.
+#[derive(Clone, Debug)]
+pub struct Exported {
+    /// The text of the file.
+    pub text: String,
+    /// The calibration written and what it is expected to deliver (its
+    /// note, for the user).
+    pub held: GeometryExport,
+    /// What the format's writer says of the export.
+    pub warnings: Vec<String>,
+}
+
+impl Request {
+    /// The model this request needs, before anything is read: a UR format
+    /// names its UR model, a chain is named only with the URDF it is of.
+    pub fn check(&self, front: Front) -> Result<(), InputError> {
+        match (self.format, &self.model) {
+            (Format::UrDeltas | Format::UrCalibration, None) => Err(Argument::Model.refused(
+                front,
+                "--format ur-deltas and ur-calibration: give the UR model (ur5e, ur10, ur10e; the deltas are against its nominal)",
+            )),
+            (Format::Urdf, None) if !self.chain.is_default() => Err(Argument::Model.refused(
+                front,
+                "--base-link, --tip-link and --tip-point name a chain of the URDF given with --model: give it",
+            )),
+            _ => Ok(()),
+        }
+    }
+}
+
+/// Exports the calibration file `calibration` as `request` asks.
+pub fn run(front: Front, calibration: &str, request: &Request) -> anyhow::Result<Exported> {
+    request.check(front)?;
+    match (request.format, &request.model) {
+        (Format::Urdf, model) => urdf_export(front, calibration, model.as_deref(), request),
+        (format, Some(model)) => ur_export(front, calibration, model, format, &request.chain),
+        (_, None) => unreachable!("checked: a UR format names its model"),
+    }
+}
+
+/// A URDF: written into `model`, or generated.
+fn urdf_export(
+    front: Front,
+    calibration: &str,
+    model: Option<&str>,
+    request: &Request,
+) -> anyhow::Result<Exported> {
+    let loaded = load_calibration(calibration)?;
+    // The geometry refitted without the effects a URDF cannot carry, when the
+    // calibration has one.
+    let held = geometry_only(&loaded, Format::Urdf.called());
+    let cal = &held.calibration;
+    let exported = match model {
+        Some(m) => {
+            let text = read_text(m, MODEL_FILE)?;
+            if !urdf::is_urdf(m, &text) {
+                return Err(Argument::Model
+                    .refused(
+                        front,
+                        format!("{m} is not a URDF: export writes into the URDF the model was read from; leave out --model to generate a URDF from the calibration"),
+                    )
+                    .into());
+            }
+            let (parsed, converted) = urdf_chain(&text, m, &request.chain)?;
+            urdf::export::into_urdf(cal, &parsed, &converted)?
+        }
+        None => urdf::export::generate(cal, calibration),
+    };
+    Ok(Exported {
+        text: exported.text,
+        held,
+        warnings: exported.warnings,
+    })
+}
+
+/// Universal Robots' deltas against the UR model `model`, in `format`.
+fn ur_export(
+    front: Front,
+    calibration: &str,
+    model: &str,
+    format: Format,
+    chain: &ChainSpec,
+) -> anyhow::Result<Exported> {
+    let nominal = load_model_with(model, chain)?;
+    if !ur::is_ur_model(&nominal) {
+        return Err(Argument::Model
+            .refused(
+                front,
+                format!("--format ur-deltas and ur-calibration: {model} is not a Universal Robots model (named `ur` and a digit, standard D-H, six revolute joints)"),
+            )
+            .into());
+    }
+    let loaded = load_calibration(calibration)?;
+    let held = geometry_only(&loaded, format.called());
+    let cal = &held.calibration;
+    let robot = cal.calibrated();
+    if robot.dof() != ur::JOINTS || robot.links.iter().any(|l| l.joint != JointType::Revolute) {
+        return Err(Argument::Calibration
+            .refused(
+                front,
+                format!("--format ur-deltas and ur-calibration: {calibration} is not of a six-joint revolute arm"),
+            )
+            .into());
+    }
+    ur::require_same_type(&cal.nominal, &nominal, calibration)?;
+    let deltas = ur::export_deltas(&robot, &nominal.robot);
+    let text = match format {
+        Format::UrDeltas => ur::deltas_yaml(&deltas, calibration),
+        _ => ur::ur_calibration_yaml(&deltas, calibration),
+    };
+    Ok(Exported {
+        text,
+        held,
+        warnings: Vec::new(),
+    })
+}
