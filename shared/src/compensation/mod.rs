@@ -101,7 +101,7 @@ pub mod stream;
 
 pub use crate::calibration::TargetFrame;
 use factors::Factors;
-use inversion::Slopes;
+use inversion::{Inverted, Slopes};
 use newton::Steps;
 use start::Start;
 pub use stream::{Pacing, Stream};
@@ -653,13 +653,12 @@ impl<T: Real> Compensator<T> {
                 approach,
                 payload,
                 chain,
-            ) {
-                None => return Err(Fault::NonFinite),
-                Some(false) => {}
-                Some(true) => {
+            )? {
+                Inverted::Reached => {}
+                Inverted::Held => {
                     // Held within a lost motion: where the joints really go.
                     self.reached(q, &tau[..n], approach, &mut reached[..n]);
-                    if geometry.chain(&reached[..n], false, false, chain).is_err() {
+                    if geometry.chain(&reached[..n], Parts::Frame, chain).is_err() {
                         return Err(Fault::JointCount);
                     }
                     residual2 = self.residual(&target, &chain.end).1;
@@ -734,19 +733,27 @@ pub(crate) struct Geometry<'a, T: Real> {
     pub angles: &'a Angles<T>,
 }
 
+/// What a chain of the calibrated [`Geometry`] computes besides the measured
+/// frame. The gravity torques need the joint lines as well as the centres of
+/// mass, so there is no chain with the centres alone.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Parts {
+    /// The measured frame alone: a residual.
+    Frame,
+    /// With each joint's axis line: a step's Jacobian.
+    Lines,
+    /// With the joint lines and each link's centre of mass: a step's Jacobian
+    /// and the gravity torques.
+    LinesAndCentres,
+}
+
 impl<T: Real> Geometry<'_, T> {
-    /// The chain at joint positions `p` into `chain`, with the joint lines if
-    /// `lines` and the centres of mass (for the gravity torques) if `centres`.
-    pub fn chain(
-        &self,
-        p: &[T],
-        lines: bool,
-        centres: bool,
-        chain: &mut ServoChain<T>,
-    ) -> Result<(), Fault> {
+    /// The chain at joint positions `p` into `chain`, with the `parts` besides
+    /// the measured frame.
+    pub fn chain(&self, p: &[T], parts: Parts, chain: &mut ServoChain<T>) -> Result<(), Fault> {
         let wanted = Wanted {
-            lines,
-            centres,
+            lines: parts != Parts::Frame,
+            centres: parts == Parts::LinesAndCentres,
             rotation: self.rotation,
         };
         self.model

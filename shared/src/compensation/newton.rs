@@ -27,7 +27,7 @@ use nalgebra::IsometryMatrix3;
 use super::factors::{Factors, Freshness, apply};
 use super::start::Start;
 use super::step_bound::Bounded;
-use super::{Compensator, Fault, Geometry, Joints, Tick};
+use super::{Compensator, Fault, Geometry, Joints, Parts, Tick};
 use crate::servo_chain::ServoChain;
 use crate::{JointType, MAX_JOINTS, Real};
 
@@ -129,7 +129,12 @@ impl<T: Real> Compensator<T> {
     ) -> Result<Solved<T>, Fault> {
         let n = self.dof();
         let needs_torque = self.compliant != 0;
-        geometry.chain(&tick.x[..n], true, needs_torque, &mut tick.chain)?;
+        let parts = if needs_torque {
+            Parts::LinesAndCentres
+        } else {
+            Parts::Lines
+        };
+        geometry.chain(&tick.x[..n], parts, &mut tick.chain)?;
         if needs_torque {
             self.torques(&tick.chain, payload, &mut tick.tau[..n]);
         } else {
@@ -250,7 +255,7 @@ impl<T: Real> Compensator<T> {
                         settled: true,
                     });
                 }
-                geometry.chain(point.current(), true, false, chain)?;
+                geometry.chain(point.current(), Parts::Lines, chain)?;
                 residual = self.residual(target, &chain.end);
                 predicted = false;
                 continue;
@@ -317,7 +322,7 @@ impl<T: Real> Compensator<T> {
                 for ((t, b), d) in trial.iter_mut().zip(base).zip(step.iter()) {
                     *t = *b + *d;
                 }
-                geometry.chain(trial, true, false, chain)?;
+                geometry.chain(trial, Parts::Lines, chain)?;
                 let candidate = self.residual(target, &chain.end);
                 if acceptable(candidate.1, residual.1) {
                     *residual = candidate;
