@@ -45,7 +45,7 @@
 //! motion at the joint's lever and the correction is flagged
 //! [`Fault::NotConverged`] with that residual.
 
-use super::{Compensator, Fault, Geometry, Parts, larger};
+use super::{Compensator, Fault, Parts, Problem, larger};
 use crate::effects::{JointEffect, Masses, approach_sign, direction, sign_value};
 use crate::servo_chain::ServoChain;
 use crate::{JointType, Real, Robot};
@@ -65,23 +65,22 @@ pub(crate) enum Inverted {
 }
 
 impl<T: Real> Compensator<T> {
-    /// The commands `q` with `q + Δq(q) = p` (see the module header), from the
-    /// start in `q`, whose gravity torques `tau` are (zero without a
-    /// compliance; on return, those of the last evaluation): whether a joint
-    /// was held within its lost motion ([`Inverted`]), or
-    /// [`Fault::NonFinite`] if a value was not finite. `chain` is a work
-    /// buffer.
-    #[allow(clippy::too_many_arguments)]
+    /// The commands `q` with `q + Δq(q) = p` for `problem`'s geometry and
+    /// payload (see the module header), from the start in `q`, whose gravity
+    /// torques `tau` are (zero without a compliance; on return, those of the
+    /// last evaluation): whether a joint was held within its lost motion
+    /// ([`Inverted`]), or [`Fault::NonFinite`] if a value was not finite.
+    /// `chain` is a work buffer.
     pub(crate) fn invert(
         &self,
-        geometry: &Geometry<'_, T>,
+        problem: &Problem<'_, T>,
         q: &mut [T],
         p: &[T],
         tau: &mut [T],
         approach: Approach<'_, T>,
-        payload: T,
         chain: &mut ServoChain<T>,
     ) -> Result<Inverted, Fault> {
+        let (geometry, payload) = (problem.geometry, problem.payload);
         let tolerance = self.limits.tolerance / self.limits.length_scale;
         let mut inverted = Inverted::Reached;
         let needs_torque = self.compliant != 0;

@@ -615,14 +615,19 @@ impl<T: Real> Compensator<T> {
             rotation: self.task == Task::Pose,
             angles,
         };
-        let payload = conditions.payload.unwrap_or(T::zero());
+        let problem = Problem {
+            geometry: &geometry,
+            target: &target,
+            q_cmd,
+            payload: conditions.payload.unwrap_or(T::zero()),
+        };
         // 1. The joint positions that reach the target: warm, and cold if the
         // warm search does not converge (or its least correction does not settle).
         let tolerance2 = self.limits.tolerance * self.limits.tolerance;
         let mut start = self.start(q_cmd, previous, start, rate, tick);
         let mut iterations = 0;
         let solved = loop {
-            let solved = self.search(&geometry, &target, q_cmd, payload, start, factors, tick)?;
+            let solved = self.search(&problem, start, factors, tick)?;
             iterations += solved.iterations;
             if (solved.residual2 <= tolerance2 && solved.settled) || start == Start::Cold {
                 break solved;
@@ -645,15 +650,7 @@ impl<T: Real> Compensator<T> {
         let q = &mut x[..n];
         if self.corrects_joints {
             let approach = previous.map(|prev| (&prev.sent[..n], &prev.approach[..n]));
-            match self.invert(
-                &geometry,
-                q,
-                &p[..n],
-                &mut tau[..n],
-                approach,
-                payload,
-                chain,
-            )? {
+            match self.invert(&problem, q, &p[..n], &mut tau[..n], approach, chain)? {
                 Inverted::Reached => {}
                 Inverted::Held => {
                     // Held within a lost motion: where the joints really go.
@@ -731,6 +728,18 @@ pub(crate) struct Geometry<'a, T: Real> {
     pub factor: T,
     pub rotation: bool,
     pub angles: &'a Angles<T>,
+}
+
+/// One tick's problem: the calibrated geometry at the tick's temperature, the
+/// pose to reach (the nominal model's at the commands), the nominal commands
+/// `q_cmd` (rad or m) and the payload (kg, zero when none is given). The
+/// search ([`Compensator::search`]) and the inversion
+/// ([`Compensator::invert`]) read it.
+pub(crate) struct Problem<'a, T: Real> {
+    pub geometry: &'a Geometry<'a, T>,
+    pub target: &'a IsometryMatrix3<T>,
+    pub q_cmd: &'a [T],
+    pub payload: T,
 }
 
 /// What a chain of the calibrated [`Geometry`] computes besides the measured
