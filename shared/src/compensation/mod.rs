@@ -733,7 +733,7 @@ pub(crate) struct Geometry<'a, T: Real> {
 /// One tick's problem: the calibrated geometry at the tick's temperature, the
 /// pose to reach (the nominal model's at the commands), the nominal commands
 /// `q_cmd` (rad or m) and the payload (kg, zero when none is given). The
-/// search ([`Compensator::search`]) and the inversion
+/// search ([`Compensator::search`], its line search) and the inversion
 /// ([`Compensator::invert`]) read it.
 pub(crate) struct Problem<'a, T: Real> {
     pub geometry: &'a Geometry<'a, T>,

@@ -22,12 +22,10 @@
 //! (`J⁺ (rhs + J c) − c`, `c` the correction at the point of linearisation):
 //! the least correction that reaches the target, from whichever start.
 
-use nalgebra::IsometryMatrix3;
-
 use super::factors::{Factors, Freshness, apply};
 use super::start::Start;
 use super::step_bound::Bounded;
-use super::{Compensator, Fault, Geometry, Joints, Parts, Problem, Tick};
+use super::{Compensator, Fault, Joints, Parts, Problem, Tick};
 use crate::servo_chain::ServoChain;
 use crate::{JointType, MAX_JOINTS, Real};
 
@@ -105,6 +103,13 @@ struct Linearisation<'a, T: Real> {
     jac: &'a [[T; 6]],
     factors: &'a Factors<T>,
     reach: T,
+}
+
+/// The line search's candidates: the second-order and the first-order step,
+/// tried in that order and halved in place, and the trial point's buffer.
+struct Candidates<'s, T: Real> {
+    steps: [&'s mut [T]; 2],
+    trial: &'s mut [T],
 }
 
 /// What a search found: in `p` of the [`Tick`].
@@ -272,13 +277,14 @@ impl<T: Real> Compensator<T> {
                     .ok_or(Fault::NonFinite)?;
             }
             self.trust(first);
-            let search = [&mut *second, &mut *first];
+            let candidates = Candidates {
+                steps: [&mut *second, &mut *first],
+                trial: &mut *trial,
+            };
             let improved = self.line_search(
-                geometry,
-                target,
+                problem,
                 &mut point,
-                search,
-                trial,
+                candidates,
                 chain,
                 &mut residual,
                 settling,
@@ -303,19 +309,18 @@ impl<T: Real> Compensator<T> {
     /// halved up to three times. Returns the step taken, if any; `residual`
     /// is then the new point's. Out of line: it runs only where the step's
     /// bound fails, and the warm tick's code stays small.
-    #[allow(clippy::too_many_arguments)]
     #[inline(never)]
     fn line_search<'s>(
         &self,
-        geometry: &Geometry<'_, T>,
-        target: &IsometryMatrix3<T>,
+        problem: &Problem<'_, T>,
         point: &mut Point<'_, T>,
-        steps: [&'s mut [T]; 2],
-        trial: &mut [T],
+        candidates: Candidates<'s, T>,
         chain: &mut ServoChain<T>,
         residual: &mut ([T; 6], T),
         settling: bool,
     ) -> Result<Option<&'s [T]>, Fault> {
+        let Candidates { steps, trial } = candidates;
+        let (geometry, target) = (problem.geometry, problem.target);
         let tolerance2 = self.limits.tolerance * self.limits.tolerance;
         let acceptable =
             |candidate: T, current: T| candidate < current || (settling && candidate <= tolerance2);
