@@ -62,6 +62,15 @@ use crate::ranges::Ranges;
 use crate::units::Units;
 use crate::{MAX_JOINTS, Param, Robot};
 
+#[cfg(test)]
+pub(crate) mod fixtures;
+mod magnitudes;
+
+pub use magnitudes::{
+    MAX_COMPLIANCE, MAX_EFFECT_ANGLE, MAX_ERROR_ANGLE, MAX_ERROR_LENGTH, MAX_EXPANSION,
+    MAX_REFERENCE_TEMPERATURE, MAX_SCALE_ERROR, MagnitudeError,
+};
+
 /// The first eight bytes of every calibration file.
 pub const MAGIC: [u8; 8] = *b"\x89ARMCAL\n";
 

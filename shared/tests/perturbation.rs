@@ -160,17 +160,25 @@ fn sizes(e: &Matrix4<f64>, point: &Vector3<f64>) -> (f64, f64) {
     )
 }
 
-/// Checks `ρ = 2ᵐ r(ε/2)/r(ε) ≈ 1` with the tolerance of the module header.
-#[allow(clippy::too_many_arguments)]
-fn check_ratio(
-    what: &str,
-    m: i32,
-    (r, r_half): (f64, f64),
+/// The sizes that bound the ratio of a truncation's residuals (module header,
+/// "Ratio"), in orientation or in the point: `τ = |E_m|` and `f = |E_{m+1}|` at
+/// ε, `h = H_{m+2}` and the rounding `δ`.
+struct RatioBounds {
     tau: f64,
     f: f64,
     h: f64,
     delta: f64,
+}
+
+/// Checks `ρ = 2ᵐ r(ε/2)/r(ε) ≈ 1` for the residuals `(r(ε), r(ε/2))` with the
+/// tolerance of the module header.
+fn check_ratio(
+    what: &str,
+    m: i32,
+    (r, r_half): (f64, f64),
+    bounds: RatioBounds,
 ) -> Result<(), TestCaseError> {
+    let RatioBounds { tau, f, h, delta } = bounds;
     let two_m = 2f64.powi(m);
     let tol = (1.5 * f + 1.25 * h + (two_m + 1.0) * delta) / (tau - f - h - delta);
     prop_assert!(
@@ -245,8 +253,10 @@ proptest! {
             let name = ["first-order", "second-order"][order];
             let (tau, f) = (sizes(&terms[m as usize], &point.coords), sizes(&terms[m as usize + 1], &point.coords));
             let h = bound(m + 2);
-            check_ratio(&format!("{name} orientation"), m, (full[order].0, half[order].0), tau.0, f.0, h.0, delta.0)?;
-            check_ratio(&format!("{name} point"), m, (full[order].1, half[order].1), tau.1, f.1, h.1, delta.1)?;
+            let orientation = RatioBounds { tau: tau.0, f: f.0, h: h.0, delta: delta.0 };
+            let in_point = RatioBounds { tau: tau.1, f: f.1, h: h.1, delta: delta.1 };
+            check_ratio(&format!("{name} orientation"), m, (full[order].0, half[order].0), orientation)?;
+            check_ratio(&format!("{name} point"), m, (full[order].1, half[order].1), in_point)?;
         }
     }
 

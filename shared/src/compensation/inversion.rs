@@ -43,9 +43,9 @@
 //! `q_prev_j` and keeps its flank (`σ_j` unchanged); at a standstill that
 //! reaches the target, within a reversal the pose is missed by at most the lost
 //! motion at the joint's lever and the correction is flagged
-//! [`Fault::NotConverged`](super::Fault::NotConverged) with that residual.
+//! [`Fault::NotConverged`] with that residual.
 
-use super::{Compensator, Geometry, larger};
+use super::{Compensator, Fault, Parts, Problem, larger};
 use crate::effects::{JointEffect, Masses, approach_sign, direction, sign_value};
 use crate::servo_chain::ServoChain;
 use crate::{JointType, Real, Robot};
@@ -54,34 +54,45 @@ use crate::{JointType, Real, Robot};
 /// each joint's approach direction after them (−1, 0 or +1).
 pub(crate) type Approach<'a, T> = Option<(&'a [T], &'a [i8])>;
 
+/// How [`Compensator::invert`] left the commands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Inverted {
+    /// Every joint goes to its position `p` (to the tolerance).
+    Reached,
+    /// A joint is held within its lost motion: the joints go elsewhere
+    /// ([`Compensator::reached`] tells where).
+    Held,
+}
+
 impl<T: Real> Compensator<T> {
-    /// The commands `q` with `q + Δq(q) = p` (see the module header), from the
-    /// start in `q`, whose gravity torques `tau` are (zero without a
-    /// compliance; on return, those of the last evaluation). `None` if a value
-    /// was not finite; `Some(true)` when a joint was held within its lost
-    /// motion ([`Self::reached`] tells where the joints go); `Some(false)`
-    /// otherwise. `chain` is a work buffer.
-    #[allow(clippy::too_many_arguments)]
+    /// The commands `q` with `q + Δq(q) = p` for `problem`'s geometry and
+    /// payload (see the module header), from the start in `q`, whose gravity
+    /// torques `tau` are (zero without a compliance; on return, those of the
+    /// last evaluation): whether a joint was held within its lost motion
+    /// ([`Inverted`]), or [`Fault::NonFinite`] if a value was not finite.
+    /// `chain` is a work buffer.
     pub(crate) fn invert(
         &self,
-        geometry: &Geometry<'_, T>,
+        problem: &Problem<'_, T>,
         q: &mut [T],
         p: &[T],
         tau: &mut [T],
         approach: Approach<'_, T>,
-        payload: T,
         chain: &mut ServoChain<T>,
-    ) -> Option<bool> {
+    ) -> Result<Inverted, Fault> {
+        let (geometry, payload) = (problem.geometry, problem.payload);
         let tolerance = self.limits.tolerance / self.limits.length_scale;
-        let mut held = false;
+        let mut inverted = Inverted::Reached;
         let needs_torque = self.compliant != 0;
         for iteration in 0..self.limits.max_iterations.max(1) {
             if needs_torque && iteration > 0 {
-                geometry.chain(q, true, true, chain).ok()?;
+                geometry
+                    .chain(q, Parts::LinesAndCentres, chain)
+                    .map_err(|_| Fault::NonFinite)?;
                 self.torques(chain, payload, tau);
             }
             let mut change = T::zero();
-            held = false;
+            inverted = Inverted::Reached;
             let joints = self.joints.iter().zip(q.iter_mut()).zip(p).zip(&*tau);
             for (m, (((joint, qm), pm), tm)) in joints.enumerate() {
                 let e = &joint.effect;
@@ -99,14 +110,14 @@ impl<T: Real> Compensator<T> {
                     } else {
                         // Within the lost motion: held on its flank.
                         next = sent[m];
-                        held = true;
+                        inverted = Inverted::Held;
                     }
                 }
                 change = larger(change, (next - *qm).abs());
                 *qm = next;
             }
             if !change.is_finite() {
-                return None;
+                return Err(Fault::NonFinite);
             }
             if change <= tolerance {
                 break;
@@ -118,7 +129,7 @@ impl<T: Real> Compensator<T> {
                 break;
             }
         }
-        Some(held)
+        Ok(inverted)
     }
 
     /// Where the joints really go at commands `q` with gravity torques `tau`:

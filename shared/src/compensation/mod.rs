@@ -101,7 +101,7 @@ pub mod stream;
 
 pub use crate::calibration::TargetFrame;
 use factors::Factors;
-use inversion::Slopes;
+use inversion::{Inverted, Slopes};
 use newton::Steps;
 use start::Start;
 pub use stream::{Pacing, Stream};
@@ -615,14 +615,19 @@ impl<T: Real> Compensator<T> {
             rotation: self.task == Task::Pose,
             angles,
         };
-        let payload = conditions.payload.unwrap_or(T::zero());
+        let problem = Problem {
+            geometry: &geometry,
+            target: &target,
+            q_cmd,
+            payload: conditions.payload.unwrap_or(T::zero()),
+        };
         // 1. The joint positions that reach the target: warm, and cold if the
         // warm search does not converge (or its least correction does not settle).
         let tolerance2 = self.limits.tolerance * self.limits.tolerance;
         let mut start = self.start(q_cmd, previous, start, rate, tick);
         let mut iterations = 0;
         let solved = loop {
-            let solved = self.search(&geometry, &target, q_cmd, payload, start, factors, tick)?;
+            let solved = self.search(&problem, start, factors, tick)?;
             iterations += solved.iterations;
             if (solved.residual2 <= tolerance2 && solved.settled) || start == Start::Cold {
                 break solved;
@@ -645,21 +650,12 @@ impl<T: Real> Compensator<T> {
         let q = &mut x[..n];
         if self.corrects_joints {
             let approach = previous.map(|prev| (&prev.sent[..n], &prev.approach[..n]));
-            match self.invert(
-                &geometry,
-                q,
-                &p[..n],
-                &mut tau[..n],
-                approach,
-                payload,
-                chain,
-            ) {
-                None => return Err(Fault::NonFinite),
-                Some(false) => {}
-                Some(true) => {
+            match self.invert(&problem, q, &p[..n], &mut tau[..n], approach, chain)? {
+                Inverted::Reached => {}
+                Inverted::Held => {
                     // Held within a lost motion: where the joints really go.
                     self.reached(q, &tau[..n], approach, &mut reached[..n]);
-                    if geometry.chain(&reached[..n], false, false, chain).is_err() {
+                    if geometry.chain(&reached[..n], Parts::Frame, chain).is_err() {
                         return Err(Fault::JointCount);
                     }
                     residual2 = self.residual(&target, &chain.end).1;
@@ -734,19 +730,39 @@ pub(crate) struct Geometry<'a, T: Real> {
     pub angles: &'a Angles<T>,
 }
 
+/// One tick's problem: the calibrated geometry at the tick's temperature, the
+/// pose to reach (the nominal model's at the commands), the nominal commands
+/// `q_cmd` (rad or m) and the payload (kg, zero when none is given). The
+/// search ([`Compensator::search`], its line search) and the inversion
+/// ([`Compensator::invert`]) read it.
+pub(crate) struct Problem<'a, T: Real> {
+    pub geometry: &'a Geometry<'a, T>,
+    pub target: &'a IsometryMatrix3<T>,
+    pub q_cmd: &'a [T],
+    pub payload: T,
+}
+
+/// What a chain of the calibrated [`Geometry`] computes besides the measured
+/// frame. The gravity torques need the joint lines as well as the centres of
+/// mass, so there is no chain with the centres alone.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Parts {
+    /// The measured frame alone: a residual.
+    Frame,
+    /// With each joint's axis line: a step's Jacobian.
+    Lines,
+    /// With the joint lines and each link's centre of mass: a step's Jacobian
+    /// and the gravity torques.
+    LinesAndCentres,
+}
+
 impl<T: Real> Geometry<'_, T> {
-    /// The chain at joint positions `p` into `chain`, with the joint lines if
-    /// `lines` and the centres of mass (for the gravity torques) if `centres`.
-    pub fn chain(
-        &self,
-        p: &[T],
-        lines: bool,
-        centres: bool,
-        chain: &mut ServoChain<T>,
-    ) -> Result<(), Fault> {
+    /// The chain at joint positions `p` into `chain`, with the `parts` besides
+    /// the measured frame.
+    pub fn chain(&self, p: &[T], parts: Parts, chain: &mut ServoChain<T>) -> Result<(), Fault> {
         let wanted = Wanted {
-            lines,
-            centres,
+            lines: parts != Parts::Frame,
+            centres: parts == Parts::LinesAndCentres,
             rotation: self.rotation,
         };
         self.model

@@ -22,12 +22,10 @@
 //! (`J⁺ (rhs + J c) − c`, `c` the correction at the point of linearisation):
 //! the least correction that reaches the target, from whichever start.
 
-use nalgebra::IsometryMatrix3;
-
 use super::factors::{Factors, Freshness, apply};
 use super::start::Start;
 use super::step_bound::Bounded;
-use super::{Compensator, Fault, Geometry, Joints, Tick};
+use super::{Compensator, Fault, Joints, Parts, Problem, Tick};
 use crate::servo_chain::ServoChain;
 use crate::{JointType, MAX_JOINTS, Real};
 
@@ -97,6 +95,23 @@ impl<T: Real> Point<'_, T> {
     }
 }
 
+/// The linearisation at the search's point: the chain there (for its joint
+/// lines), the columns of `J`, the factors of the step's system and `reach`,
+/// the bound on the levers (m) that [`Compensator::jacobian`] returns.
+struct Linearisation<'a, T: Real> {
+    chain: &'a ServoChain<T>,
+    jac: &'a [[T; 6]],
+    factors: &'a Factors<T>,
+    reach: T,
+}
+
+/// The line search's candidates: the second-order and the first-order step,
+/// tried in that order and halved in place, and the trial point's buffer.
+struct Candidates<'s, T: Real> {
+    steps: [&'s mut [T]; 2],
+    trial: &'s mut [T],
+}
+
 /// What a search found: in `p` of the [`Tick`].
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Solved<T: Real> {
@@ -112,30 +127,33 @@ pub(crate) struct Solved<T: Real> {
 }
 
 impl<T: Real> Compensator<T> {
-    /// One search from the start in `tick.x` (written by [`Self::start`]):
-    /// the chain there serves the geometric step (joint lines, measured frame)
-    /// and the gravity torques of the inversion (centres of mass, into
-    /// `tick.tau`); the joint positions found go into `tick.p`.
-    #[allow(clippy::too_many_arguments)]
+    /// One search for `problem` from the start in `tick.x` (written by
+    /// [`Self::start`]): the chain there serves the geometric step (joint
+    /// lines, measured frame) and the gravity torques of the inversion
+    /// (centres of mass, into `tick.tau`); the joint positions found go into
+    /// `tick.p`.
     pub(crate) fn search(
         &self,
-        geometry: &Geometry<'_, T>,
-        target: &IsometryMatrix3<T>,
-        q_cmd: &[T],
-        payload: T,
+        problem: &Problem<'_, T>,
         start: Start,
         factors: &mut Factors<T>,
         tick: &mut Tick<T>,
     ) -> Result<Solved<T>, Fault> {
         let n = self.dof();
         let needs_torque = self.compliant != 0;
-        geometry.chain(&tick.x[..n], true, needs_torque, &mut tick.chain)?;
+        let parts = if needs_torque {
+            Parts::LinesAndCentres
+        } else {
+            Parts::Lines
+        };
+        let (geometry, payload) = (problem.geometry, problem.payload);
+        geometry.chain(&tick.x[..n], parts, &mut tick.chain)?;
         if needs_torque {
             self.torques(&tick.chain, payload, &mut tick.tau[..n]);
         } else {
             tick.tau[..n].iter_mut().for_each(|t| *t = T::zero());
         }
-        let solved = self.solve(geometry, target, q_cmd, start, factors, tick);
+        let solved = self.solve(problem, start, factors, tick);
         // Factors of a search that converged serve the next tick.
         factors.freshness = match &solved {
             Ok(s) if s.residual2 <= self.limits.tolerance * self.limits.tolerance => {
@@ -150,14 +168,13 @@ impl<T: Real> Compensator<T> {
     /// `tick.chain` (see the module header).
     fn solve(
         &self,
-        geometry: &Geometry<'_, T>,
-        target: &IsometryMatrix3<T>,
-        q_cmd: &[T],
+        problem: &Problem<'_, T>,
         start: Start,
         factors: &mut Factors<T>,
         tick: &mut Tick<T>,
     ) -> Result<Solved<T>, Fault> {
         let n = self.dof();
+        let (geometry, target, q_cmd) = (problem.geometry, problem.target, problem.q_cmd);
         let Tick {
             chain, x, p, steps, ..
         } = tick;
@@ -216,17 +233,13 @@ impl<T: Real> Compensator<T> {
                     r = self.predicted(chain, jac, y.map(|y| lambda2 * y), first);
                 }
                 let c = self.offset(&mut offset[..n], &point, q_cmd, Some(first));
-                match self.step(
+                let at = Linearisation {
                     chain,
                     jac,
                     factors,
-                    &residual.0,
-                    first,
-                    &r,
-                    c,
-                    second,
                     reach,
-                ) {
+                };
+                match self.step(&at, &residual.0, first, &r, c, second) {
                     Some(Bounded {
                         bound: Some(bound),
                         whole: true,
@@ -250,7 +263,7 @@ impl<T: Real> Compensator<T> {
                         settled: true,
                     });
                 }
-                geometry.chain(point.current(), true, false, chain)?;
+                geometry.chain(point.current(), Parts::Lines, chain)?;
                 residual = self.residual(target, &chain.end);
                 predicted = false;
                 continue;
@@ -264,13 +277,14 @@ impl<T: Real> Compensator<T> {
                     .ok_or(Fault::NonFinite)?;
             }
             self.trust(first);
-            let search = [&mut *second, &mut *first];
+            let candidates = Candidates {
+                steps: [&mut *second, &mut *first],
+                trial: &mut *trial,
+            };
             let improved = self.line_search(
-                geometry,
-                target,
+                problem,
                 &mut point,
-                search,
-                trial,
+                candidates,
                 chain,
                 &mut residual,
                 settling,
@@ -295,19 +309,18 @@ impl<T: Real> Compensator<T> {
     /// halved up to three times. Returns the step taken, if any; `residual`
     /// is then the new point's. Out of line: it runs only where the step's
     /// bound fails, and the warm tick's code stays small.
-    #[allow(clippy::too_many_arguments)]
     #[inline(never)]
     fn line_search<'s>(
         &self,
-        geometry: &Geometry<'_, T>,
-        target: &IsometryMatrix3<T>,
+        problem: &Problem<'_, T>,
         point: &mut Point<'_, T>,
-        steps: [&'s mut [T]; 2],
-        trial: &mut [T],
+        candidates: Candidates<'s, T>,
         chain: &mut ServoChain<T>,
         residual: &mut ([T; 6], T),
         settling: bool,
     ) -> Result<Option<&'s [T]>, Fault> {
+        let Candidates { steps, trial } = candidates;
+        let (geometry, target) = (problem.geometry, problem.target);
         let tolerance2 = self.limits.tolerance * self.limits.tolerance;
         let acceptable =
             |candidate: T, current: T| candidate < current || (settling && candidate <= tolerance2);
@@ -317,7 +330,7 @@ impl<T: Real> Compensator<T> {
                 for ((t, b), d) in trial.iter_mut().zip(base).zip(step.iter()) {
                     *t = *b + *d;
                 }
-                geometry.chain(trial, true, false, chain)?;
+                geometry.chain(trial, Parts::Lines, chain)?;
                 let candidate = self.residual(target, &chain.end);
                 if acceptable(candidate.1, residual.1) {
                     *residual = candidate;
@@ -398,24 +411,27 @@ impl<T: Real> Compensator<T> {
         }
     }
 
-    /// The second-order step from the predictor `first = δ₀` into `second`:
-    /// `δ = δ₀ + J⁺ r` ([`Self::pseudo_solve`] with the correction `c` at the
-    /// predicted point), its bound with `|ℓ|₁` as the linear share (`λ² y` for
-    /// fresh factors, measured for stale ones), the step scaled into its trust
-    /// region; `None` if not finite.
-    #[allow(clippy::too_many_arguments)]
+    /// The second-order step from the predictor `first = δ₀` into `second`,
+    /// linearised `at` the search's point with the residual `e` there and `r`
+    /// at the predicted point: `δ = δ₀ + J⁺ r` ([`Self::pseudo_solve`] with
+    /// the correction `c` at the predicted point), its bound with `|ℓ|₁` as the
+    /// linear share (`λ² y` for fresh factors, measured for stale ones), the
+    /// step scaled into its trust region; `None` if not finite.
     fn step(
         &self,
-        chain: &ServoChain<T>,
-        jac: &[[T; 6]],
-        factors: &Factors<T>,
+        at: &Linearisation<'_, T>,
         e: &[T; 6],
         first: &[T],
         r: &[T; 6],
         c: Option<&[T]>,
         second: &mut [T],
-        reach: T,
     ) -> Option<Bounded<T>> {
+        let Linearisation {
+            chain,
+            jac,
+            factors,
+            reach,
+        } = *at;
         let y = self.pseudo_solve(jac, factors, r, c, second)?;
         let linear = match factors.freshness {
             Freshness::Fresh => self.damping2() * y.iter().fold(T::zero(), |s, v| s + v.abs()),
