@@ -11,11 +11,11 @@ use armcal_shared::ranges::Ranges;
 use armcal_shared::{JointType, Robot};
 use nalgebra::{Point3, UnitQuaternion};
 
-use crate::io::input_error::InputError;
-use crate::io::model_file::RobotModel;
 use crate::session::channel::Channel;
 use crate::session::configurations::{Configurations, distinct_equations_reach};
 use crate::session::constraints::{Constraints, merge_named};
+use crate::session::input_error::InputError;
+use crate::session::model::RobotModel;
 
 /// The temperatures (°C) a working robot may be measured at: below it a `temp`
 /// is refused as a unit or a typo (−273.15 °C, a value in K or °F).
