@@ -4,7 +4,7 @@
 //!
 //! Every input file is read through [`read_bounded`] with the limit of its kind
 //! ([`MODEL_FILE`]: 1 MiB, [`DATA_FILE`]: 1 GiB; a calibration's 5 KiB in
-//! [`predict`](crate::apply::predict::CALIBRATION_FILE)): at most the limit and one
+//! [`calibration_file`](crate::io::calibration_file::CALIBRATION_FILE)): at most the limit and one
 //! byte is read, and a larger file is refused naming the limit.
 
 pub use crate::session::input_error::{InputError, ends_line, line_col};
