@@ -3,7 +3,7 @@
 //! `com` m).
 
 use armcal_shared::units::Units;
-use armcal_shared::{Link, LinkMass, MAX_JOINTS};
+use armcal_shared::{JointType, Link, LinkMass, MAX_JOINTS};
 use nalgebra::Vector3;
 use toml::de::{DeTable, DeValue};
 
@@ -128,10 +128,34 @@ impl ModelReader<'_> {
             &ctx,
         )?;
 
-        let limits = match t.get("limits") {
+        let limits = self.limits(t, joint, units, &ctx)?;
+        let mass = self.mass(t, units, &ctx)?;
+
+        let (theta, s) = (units.angle_to_si(theta), units.length_to_si(s));
+        let mut link = Link::new(
+            joint,
+            theta,
+            s,
+            units.length_to_si(a),
+            units.angle_to_si(alpha),
+        );
+        link.limits = limits;
+        link.mass = mass;
+        Ok(link)
+    }
+
+    /// `limits` of the joint table `t` (joint units on file), SI; `None` when absent.
+    fn limits(
+        &self,
+        t: &DeTable<'_>,
+        joint: JointType,
+        units: Units,
+        ctx: &str,
+    ) -> Result<Option<[f64; 2]>, InputError> {
+        match t.get("limits") {
             Some(v) => {
                 let [lo, hi] =
-                    self.numbers::<2>(v, "limits", &ctx, "[lower, upper] in joint units")?;
+                    self.numbers::<2>(v, "limits", ctx, "[lower, upper] in joint units")?;
                 if lo > hi {
                     return Err(self.err(
                         v.span(),
@@ -150,13 +174,26 @@ impl ModelReader<'_> {
                         ),
                     ));
                 }
-                Some([units.joint_to_si(joint, lo), units.joint_to_si(joint, hi)])
+                Ok(Some([
+                    units.joint_to_si(joint, lo),
+                    units.joint_to_si(joint, hi),
+                ]))
             }
-            None => None,
-        };
+            None => Ok(None),
+        }
+    }
+
+    /// `mass` (kg) and `com` (file length unit, SI here) of the joint table
+    /// `t`; `None` when it gives no mass.
+    fn mass(
+        &self,
+        t: &DeTable<'_>,
+        units: Units,
+        ctx: &str,
+    ) -> Result<Option<LinkMass<f64>>, InputError> {
         let mass = match t.get("mass") {
             Some(v) => {
-                let m = self.number(v, "mass", &ctx)?;
+                let m = self.number(v, "mass", ctx)?;
                 if m < 0.0 {
                     return Err(self.err(v.span(), format!("{ctx}`mass` = {m} kg is negative")));
                 }
@@ -166,7 +203,7 @@ impl ModelReader<'_> {
         };
         let com = match t.get_key_value("com") {
             Some((k, v)) => {
-                let c = self.numbers::<3>(v, "com", &ctx, "[x, y, z] in the link frame")?;
+                let c = self.numbers::<3>(v, "com", ctx, "[x, y, z] in the link frame")?;
                 if mass.is_none() {
                     return Err(self.err(
                         k.span(),
@@ -179,17 +216,6 @@ impl ModelReader<'_> {
             }
             None => Vector3::zeros(),
         };
-
-        let (theta, s) = (units.angle_to_si(theta), units.length_to_si(s));
-        let mut link = Link::new(
-            joint,
-            theta,
-            s,
-            units.length_to_si(a),
-            units.angle_to_si(alpha),
-        );
-        link.limits = limits;
-        link.mass = mass.map(|mass| LinkMass { mass, com });
-        Ok(link)
+        Ok(mass.map(|mass| LinkMass { mass, com }))
     }
 }
