@@ -4,12 +4,12 @@
 //! it is read (rows by [`record`](super::record), distance lines here).
 
 use super::schema::{
-    Columns, DistanceLine, Item, Kind, LimitTally, Place, QUAT, Role, Schema, case_hint,
-    ignored_warning, joint_index, role_of,
+    Columns, Item, Kind, LimitTally, Place, QUAT, Role, Schema, case_hint, ignored_warning,
+    joint_index, role_of,
 };
 use super::source::{Source, Stop};
 use crate::io::input_error::{DATA_FILE, InputError, SizeLimit};
-use crate::session::constraints::DEFAULT_DISTANCE_STD;
+use crate::session::constraints::{DEFAULT_DISTANCE_STD, DistanceLine};
 use crate::session::measurements::POSITION;
 
 /// Reads the records of a data file one at a time and says where each is.

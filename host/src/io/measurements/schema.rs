@@ -1,13 +1,14 @@
 //! The shape of a data file: which file is read ([`Kind`]) against what
 //! ([`Schema`]), the role of each header name ([`Role`]), what a data line is
 //! as read ([`Item`]: a [`Record`] in SI — rad or m per joint, m, s, °C, kg —
-//! or a [`DistanceLine`], m), the columns used and ignored ([`Columns`]), and
+//! or a [`DistanceLine`](crate::session::constraints::DistanceLine), m), the columns used and ignored ([`Columns`]), and
 //! the warnings about them and about readings outside the joints' limits.
 
 use armcal_shared::Robot;
 use armcal_shared::units::Units;
 use nalgebra::UnitQuaternion;
 
+use crate::session::constraints::DistanceLine;
 use crate::session::measurements::POSITION;
 
 /// Which file is read: the columns it needs and those it reads.
@@ -84,18 +85,6 @@ pub(super) struct Record {
 /// The line and character column of a cell. A cell after a quoted field that
 /// spans lines is on a later line than its record's first.
 pub(super) type Place = (usize, usize);
-
-/// A distance line of a constraint file, as read (see [`crate::session::constraints`]).
-pub(super) struct DistanceLine {
-    pub(super) line: usize,
-    /// The two point names and the place of each.
-    pub(super) points: [(String, Place); 2],
-    /// Length and standard uncertainty, m.
-    pub(super) length: f64,
-    pub(super) std: f64,
-    /// The place of the length's cell.
-    pub(super) length_at: Place,
-}
 
 /// What a data line of a file is.
 pub(super) enum Item {
