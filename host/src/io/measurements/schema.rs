@@ -1,7 +1,7 @@
 //! The shape of a data file: which file is read ([`Kind`]) against what
 //! ([`Schema`]), the role of each header name ([`Role`]), what a data line is
 //! as read ([`Item`]: a [`Record`] in SI — rad or m per joint, m, s, °C, kg —
-//! or a [`DistanceLine`](crate::session::constraints::DistanceLine), m), the columns used and ignored ([`Columns`]), and
+//! or a [`DistanceLine`], m), the columns used and ignored ([`Columns`]), and
 //! the warnings about them and about readings outside the joints' limits.
 
 use armcal_shared::Robot;
@@ -62,7 +62,9 @@ impl Schema<'_> {
     }
 }
 
-/// One data row as read, in SI, before it becomes a [`Pose`] or a [`JointRow`]
+/// One data row as read, in SI, before it becomes an
+/// [`Observation`](crate::session::measurements::Observation) or a
+/// [`JointRow`](crate::session::joints::JointRow)
 /// (a joints file leaves `position` at 0 and `orientation` empty).
 pub(super) struct Record {
     pub(super) line: usize,

@@ -1,4 +1,4 @@
-//! The robot model file: TOML of `docs/file-formats.md` §1, read into an SI [`Robot`].
+//! The robot model file: TOML of `docs/file-formats.md` §1, read into an SI [`Robot`](armcal_shared::Robot).
 //!
 //! A model file gives the nominal kinematics of one serial manipulator as its maker
 //! specifies it: `name`, `description`, `convention` (`"dh"`: `A_m = Rot_z(θ)
@@ -11,7 +11,7 @@
 //!
 //! Units: every length and angle of the file is in the file's declared units,
 //! and so are the joint readings of its data files. [`parse_model`] converts them
-//! to SI (m, rad) for [`Robot`], and keeps the [`Units`] so that readings and
+//! to SI (m, rad) for [`Robot`](armcal_shared::Robot), and keeps the [`Units`] so that readings and
 //! results can be converted back. Exceptions, as in the format: `mass` is kg and
 //! `gravity` is m/s² whatever `length_unit` says; `limits` are in joint units
 //! (the angle unit for a revolute joint, the length unit for a prismatic one).
@@ -22,7 +22,7 @@
 //! values of the wrong type, unknown `convention`/unit/joint `type` (with the
 //! accepted values), non-finite numbers, arrays of the wrong length, inverted
 //! `limits` or limits that leave no motion, a negative `mass`, `com` without `mass`, both `s` and `d`, more than
-//! [`MAX_JOINTS`] joints. Missing keys of a table are reported at its header
+//! [`MAX_JOINTS`](armcal_shared::MAX_JOINTS) joints. Missing keys of a table are reported at its header
 //! (`[[joint]]`), missing top-level keys at line 1, column 1. The parser walks the
 //! spanned document of `toml::de::DeTable`, so that every value keeps its place.
 //!
