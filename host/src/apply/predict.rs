@@ -29,11 +29,12 @@
 use core::fmt::Write as _;
 
 use armcal_shared::Calibration;
-use armcal_shared::calibration::{MAX_FILE_LEN, model_hash};
+use armcal_shared::calibration::model_hash;
 use armcal_shared::units::Units;
 use nalgebra::{Point3, UnitQuaternion};
 
-use crate::io::input_error::{InputError, SizeLimit, read_bounded};
+pub use crate::io::calibration_file::{CALIBRATION_FILE, load_calibration, read_calibration};
+use crate::io::input_error::InputError;
 use armcal_shared::compensation::Conditions;
 use armcal_shared::effects::{Approach, Context};
 
@@ -66,32 +67,6 @@ pub struct Predictions {
     pub orientation: bool,
     /// One prediction per row of the joints file, in its order.
     pub rows: Vec<Prediction>,
-}
-
-/// The bytes of the calibration file at `path`, not decoded.
-///
-/// A calibration has at most [`MAX_FILE_LEN`] (5 KiB) bytes: at most that and
-/// one byte more is read, and a larger file is refused naming the limit (so a
-/// large CSV or `/dev/zero` given by mistake is refused at once). A file that
-/// cannot be read is an [`InputError`] at line 0 naming the file.
-pub fn read_calibration(path: &str) -> Result<Vec<u8>, InputError> {
-    read_bounded(path, CALIBRATION_FILE)
-}
-
-/// The size limit of a calibration file: [`MAX_FILE_LEN`] bytes.
-pub const CALIBRATION_FILE: SizeLimit = SizeLimit {
-    bytes: MAX_FILE_LEN as u64,
-    what: "a calibration file",
-};
-
-/// Reads ([`read_calibration`]) and fully validates the calibration file at `path`.
-///
-/// A file that cannot be read, that is larger than a calibration can be, or that
-/// [`Calibration::decode`] refuses, is an [`InputError`] at line 0 naming the
-/// file and the reason (`cal.bin: calibration damaged: CRC ...`).
-pub fn load_calibration(path: &str) -> Result<Calibration, InputError> {
-    let bytes = read_calibration(path)?;
-    Calibration::decode(&bytes).map_err(|e| InputError::new(path, 0, 0, e.to_string()))
 }
 
 /// The conditions of a row that effects depend on: its `temp` (°C) and `load`
@@ -349,26 +324,6 @@ mod tests {
         rows.rows[0].q.pop();
         let e = predict(&cal, &rows).unwrap_err();
         assert_eq!((e.file.as_str(), e.line), ("j.csv", 2), "{e}");
-    }
-
-    /// A calibration file that cannot be used is refused at line 0, with the
-    /// reason of the decoder; a good one reads back.
-    #[test]
-    fn load_calibration_names_the_file_and_the_reason() {
-        let model = load_model("puma560").unwrap();
-        let cal = Calibration::nominal(model.robot, true, model.units);
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("cal.bin");
-        let p = path.to_str().unwrap();
-        let bytes = cal.to_bytes().unwrap();
-        std::fs::write(&path, &bytes).unwrap();
-        assert_eq!(load_calibration(p).unwrap(), cal);
-        std::fs::write(&path, &bytes[..bytes.len() - 1]).unwrap();
-        let e = load_calibration(p).unwrap_err();
-        assert_eq!((e.file.as_str(), e.line), (p, 0));
-        assert!(e.to_string().starts_with(&format!("{p}: truncated")), "{e}");
-        let e = load_calibration("/nonexistent/cal.bin").unwrap_err();
-        assert!(e.message.contains("cannot read"), "{e}");
     }
 
     /// `-0` is written `0`; other numbers read back bit for bit; a file name with

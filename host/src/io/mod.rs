@@ -6,7 +6,7 @@
 
 pub mod arrays;
 pub mod builtin;
-
+pub mod calibration_file;
 pub mod input_error;
 pub mod measurements;
 pub mod model_file;

@@ -30,6 +30,22 @@ pub const DEFAULT_DISTANCE_STD: f64 = 1e-5;
 /// Words that start a line of their own kind, not point names.
 pub const RESERVED: [&str; 1] = ["distance"];
 
+/// A distance line of a constraint file, as read: the names of its two
+/// points, before they are found among the points the rows name.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DistanceLine {
+    /// The line of the file.
+    pub line: usize,
+    /// The two point names and the place (line, character column) of each.
+    pub points: [(String, (usize, usize)); 2],
+    /// The length, m.
+    pub length: f64,
+    /// Its standard uncertainty, m.
+    pub std: f64,
+    /// The place of the length's cell.
+    pub length_at: (usize, usize),
+}
+
 /// An unknown fixed point or plane named in the file.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Named {

@@ -3,19 +3,21 @@
 //! plane), its orientation and context; the session's constraints; and the
 //! checks that the rows can carry a calibration of a model (`require_*`):
 //! enough distinct configurations, points that can be measurements of the
-//! model, a fit that reaches them. [`crate::io::measurements`] reads the CSV
+//! model, known distances the nominal model does not contradict, a fit that
+//! reaches them. [`crate::io::measurements`] reads the CSV
 //! of `docs/file-formats.md` §2 into them, [`crate::io::arrays`] arrays.
 
 use armcal_shared::effects::{Approach, Context};
 use armcal_shared::ranges::Ranges;
+use armcal_shared::units::Units;
 use armcal_shared::{JointType, Robot};
 use nalgebra::{Point3, UnitQuaternion};
 
-use crate::io::input_error::InputError;
-use crate::io::model_file::RobotModel;
 use crate::session::channel::Channel;
 use crate::session::configurations::{Configurations, distinct_equations_reach};
-use crate::session::constraints::{Constraints, merge_named};
+use crate::session::constraints::{Constraints, DistanceLine, merge_named};
+use crate::session::input_error::InputError;
+use crate::session::model::RobotModel;
 
 /// The temperatures (°C) a working robot may be measured at: below it a `temp`
 /// is refused as a unit or a typo (−273.15 °C, a value in K or °F).
@@ -504,4 +506,83 @@ pub(crate) fn plural(n: usize, noun: &str) -> String {
     } else {
         format!("{n} {noun}s")
     }
+}
+
+/// The mean nominal tool point (m, base frame) of the rows of `poses` held
+/// to each of `points` fixed points; `None` for a point no row the model
+/// can place names.
+pub fn nominal_point_means(
+    robot: &Robot<f64>,
+    poses: &[Observation],
+    points: usize,
+) -> Vec<Option<Point3<f64>>> {
+    let kinematics = robot.prepare();
+    let mut sums = vec![(nalgebra::Vector3::zeros(), 0usize); points];
+    for p in poses {
+        if let (Contact::Point(k), Ok(t)) = (p.contact, kinematics.forward(&p.q))
+            && let Some((sum, n)) = sums.get_mut(k)
+        {
+            *sum += t.translation.vector;
+            *n += 1;
+        }
+    }
+    sums.into_iter()
+        .map(|(sum, n)| (n > 0).then(|| Point3::from(sum / n as f64)))
+        .collect()
+}
+
+/// Refuses the distance line `d` when the nominal model puts its two points
+/// `nominal` m apart and the stated length contradicts it by far more than
+/// a geometric error could: more than a factor of 2 apart and by more than
+/// twice [`FIT_LIMIT`] of the robot's `reach` (each point's nominal tool
+/// point may miss by that much and the data still carry a calibration). A
+/// length unit other than the model's gives a factor of 25.4 or more (mm,
+/// in, m): the message names the unit that fits, if one does.
+pub fn require_plausible_distance(
+    file: &str,
+    d: &DistanceLine,
+    nominal: f64,
+    reach: f64,
+    units: &Units,
+) -> Result<(), InputError> {
+    let (stated, apart) = (d.length, (d.length - nominal).abs());
+    let within_factor = |x: f64| x <= 2.0 * nominal && nominal <= 2.0 * x;
+    if within_factor(stated) || apart <= 2.0 * FIT_LIMIT * reach {
+        return Ok(());
+    }
+    let unit = units.length;
+    let value = units.length_from_si(stated);
+    // The unit the written number fits the nominal distance in, if any.
+    let hint = armcal_shared::units::LengthUnit::ALL
+        .into_iter()
+        .filter(|&u| u != unit)
+        .find(|&u| {
+            let as_u = Units {
+                length: u,
+                ..*units
+            }
+            .length_to_si(value);
+            within_factor(as_u)
+        })
+        .map_or_else(
+            || "a typo, or the two points' names swapped with others?".to_owned(),
+            |u| match u {
+                armcal_shared::units::LengthUnit::In => "is the distance in inches?".to_owned(),
+                u => format!("is the distance in {}?", u.name()),
+            },
+        );
+    Err(InputError::new(
+        file,
+        d.length_at.0,
+        d.length_at.1,
+        format!(
+            "distance: {value} {} stated between '{}' and '{}', the nominal model puts them {:.4} \
+             {} apart: {hint}",
+            unit.name(),
+            d.points[0].0,
+            d.points[1].0,
+            units.length_from_si(nominal),
+            unit.name()
+        ),
+    ))
 }
