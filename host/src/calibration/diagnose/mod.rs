@@ -60,7 +60,7 @@ use armcal_shared::calibration::MAX_PARAMS;
 use armcal_shared::effects::{Effect, EffectModel};
 use armcal_shared::ranges::Ranges;
 use armcal_shared::units::Units;
-use armcal_shared::{Calibration, GeometricCalibration, JointType, Param, ParamError, Robot};
+use armcal_shared::{Calibration, GeometricCalibration, Param, ParamError, Robot};
 use nalgebra::Vector3;
 
 use crate::calibration::identify::full::{

@@ -3,7 +3,12 @@
 //! noise rows and held-out rows the HTML page (`calibration::report`) shares
 //! with them. Nothing here computes; it reads a [`Diagnosis`].
 
-use super::*;
+use armcal_shared::effects::Effect;
+use armcal_shared::{JointType, Param, Robot};
+
+use super::{Choice, DiagnoseOptions, Diagnosis, HeldOut, HeldOutModels, Shortfall};
+use crate::calibration::identify::full::Status;
+use crate::calibration::identify::prior::Geometry;
 
 /// `x` to four significant digits, in fixed notation (`0.02000` mm, `0.0001081` m).
 pub(crate) fn significant(x: f64) -> String {

@@ -26,18 +26,14 @@ pub use summary::{NoiseRow, noise_json, noise_rows};
 #[cfg(test)]
 mod constraint_tests;
 
-use std::fmt::Write as _;
-
 use armcal_shared::calibration::ParamError;
 use armcal_shared::{Calibration, Param, Robot};
-use serde_json::json;
 
-use crate::calibration::diagnose::significant;
 use crate::io::measurements::Measurements;
-use crate::io::model_file::{RobotModel, Units};
+use crate::io::model_file::RobotModel;
 use full::{FullFit, FullOptions, Observation, Status};
 use paper::{PaperOptions, PaperPose};
-use prior::{PRIOR_FACTORS, Prior};
+use prior::Prior;
 use prior_scale::{PriorChoice, PriorScale};
 
 /// Which model to identify.

@@ -4,7 +4,17 @@
 //! `diagnose`'s reports share. Nothing here computes; it reads an
 //! [`Identification`].
 
-use super::*;
+use std::fmt::Write as _;
+
+use armcal_shared::Param;
+use serde_json::json;
+
+use super::prior::PRIOR_FACTORS;
+use super::prior_scale::{self, PriorChoice};
+use super::{Identification, noise};
+use crate::calibration::diagnose::significant;
+use crate::io::measurements::Measurements;
+use crate::io::model_file::{RobotModel, Units};
 
 /// One channel's noise as the reports show it, in the model's units.
 #[derive(Clone, Debug, PartialEq)]

@@ -74,16 +74,11 @@
 //! | `solve` | the solution: Levenberg–Marquardt with the prior |
 //! | `linearization` | the linearisation about a solution, stored or summed per fold, for the cross-validations |
 
-use armcal_shared::effects::{Effect, EffectModel, gravity_torques, joint_param};
-use armcal_shared::jacobian::at_point;
-use armcal_shared::{FrameAxis, JointType, Param, Robot, Twist, rotation_error};
-use faer::linalg::matmul::{self, triangular, triangular::BlockStructure};
+use armcal_shared::effects::Effect;
+use armcal_shared::{FrameAxis, JointType, Param, Robot, rotation_error};
 use faer::linalg::solvers::{DenseSolveCore, Solve};
-use faer::{Accum, Mat, Par, Side};
-use nalgebra::{DMatrix, DVector, IsometryMatrix3, Matrix3, Point3, Rotation3, Vector3};
-
-use crate::calibration::parallel;
-use std::borrow::Borrow;
+use faer::{Mat, Side};
+use nalgebra::{Matrix3, Point3, Rotation3, Vector3};
 
 use super::noise::{Channel, Noise, NoiseEstimate, NoiseSource, PerChannel, Weights};
 use super::prior::{Geometry, PRIOR_FACTORS, Prior};
@@ -97,7 +92,7 @@ mod solve;
 
 use fit::{Fit, Unknowns, check_inputs};
 pub use linearization::{FoldNormal, FoldNormals, Linearization, fold_normals, linearize};
-use rows::*;
+use rows::NormalEquations;
 pub(crate) use solve::{unit_diagonal_scale, unit_scale};
 
 /// One unknown of the fit: a geometric parameter, or parameter `component` of
@@ -322,7 +317,6 @@ pub fn effect_parameter_name(effect: &Effect<f64>, component: usize) -> String {
     }
 }
 
-use crate::io::measurements::Contact;
 pub use crate::io::measurements::Observation;
 pub use crate::session::constraints::Constraints;
 

@@ -5,7 +5,19 @@
 //! in blocks of poses on every core, and the rows of the known distances.
 //! See the parent module's "Residuals and weights".
 
-use super::*;
+use std::borrow::Borrow;
+
+use armcal_shared::effects::{Effect, EffectModel, gravity_torques, joint_param};
+use armcal_shared::jacobian::at_point;
+use armcal_shared::{Param, Twist, rotation_error};
+use faer::linalg::matmul::{self, triangular, triangular::BlockStructure};
+use faer::{Accum, Mat, Par};
+use nalgebra::{Point3, Vector3};
+
+use super::solve::unit_diagonal_scale;
+use super::{Model, Observation, Unknown, rms_pair};
+use crate::calibration::identify::noise::{Channel, PerChannel, Weights};
+use crate::calibration::parallel;
 
 /// The weighted Jacobian and residual of one linearisation, stored whole (rows ×
 /// unknowns): what [`linearize`] hands the diagnosis, which solves on subsets of
