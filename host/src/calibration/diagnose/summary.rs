@@ -279,10 +279,19 @@ impl Diagnosis {
         options: &DiagnoseOptions,
         units: &armcal_shared::units::Units,
     ) -> String {
-        use std::fmt::Write as _;
         let mut out = String::new();
+        self.write_noise(&mut out, units);
+        self.write_suspects(&mut out, lines);
+        self.write_models(&mut out, options);
+        self.write_holdout(&mut out, options);
+        self.write_tried(&mut out);
+        out
+    }
+
+    /// The noise of each channel and the repeated configurations.
+    fn write_noise(&self, out: &mut String, units: &armcal_shared::units::Units) {
+        use std::fmt::Write as _;
         let mm = |x: f64| x * 1e3;
-        let line = |i: usize| lines.get(i).copied().unwrap_or(0);
         for n in self.noise_rows(units) {
             let (what, unit) = (n.what, &n.unit);
             let (used, shown) = (significant(n.used), significant(n.shown));
@@ -329,6 +338,13 @@ impl Diagnosis {
                 );
             }
         }
+    }
+
+    /// Each pose the screen flagged (`lines`: the data line of each pose).
+    fn write_suspects(&self, out: &mut String, lines: &[usize]) {
+        use std::fmt::Write as _;
+        let mm = |x: f64| x * 1e3;
+        let line = |i: usize| lines.get(i).copied().unwrap_or(0);
         for b in &self.suspects {
             let _ = writeln!(
                 out,
@@ -341,6 +357,13 @@ impl Diagnosis {
                 if b.set_aside { "set aside" } else { "kept" }
             );
         }
+    }
+
+    /// Every geometric model's held-out error, the choice, the prior's role,
+    /// the effects found and the one not settled.
+    fn write_models(&self, out: &mut String, options: &DiagnoseOptions) {
+        use std::fmt::Write as _;
+        let mm = |x: f64| x * 1e3;
         let _ = writeln!(
             out,
             "\nheld-out position error of each model ({}-fold), mm:",
@@ -409,6 +432,13 @@ impl Diagnosis {
                 ),
             };
         }
+    }
+
+    /// The held-out error of the nominal, geometric and extended models, the
+    /// fitted one, and what a format without the effects gets.
+    fn write_holdout(&self, out: &mut String, options: &DiagnoseOptions) {
+        use std::fmt::Write as _;
+        let mm = |x: f64| x * 1e3;
         let _ = writeln!(
             out,
             "\nheld-out position error ({}-fold), mm:   rms      mean     max",
@@ -440,6 +470,11 @@ impl Diagnosis {
                 mm(self.holdout.geometric.rms)
             );
         }
+    }
+
+    /// The strongest candidates of the first round.
+    fn write_tried(&self, out: &mut String) {
+        use std::fmt::Write as _;
         let mut tried = self.tried.clone();
         tried.sort_by(|a, b| b.1.total_cmp(&a.1));
         if !tried.is_empty() {
@@ -457,6 +492,5 @@ impl Diagnosis {
                 gain
             );
         }
-        out
     }
 }
