@@ -132,11 +132,6 @@ impl Diagnosis {
         use serde_json::json;
         let mm = |x: f64| x * 1e3;
         let line = |i: usize| lines.get(i).copied().unwrap_or(0);
-        let HeldOutModels {
-            nominal,
-            geometric,
-            extended,
-        } = self.holdout;
         let units = &model.units;
         // The effects' values as the calibration written holds them.
         let written = self.calibration(&model.robot, false, *units);
@@ -210,15 +205,7 @@ impl Diagnosis {
                     .map(|p| json!({"name": p.param.to_string(), "data_share": p.data_share}))
                     .collect::<Vec<_>>(),
             },
-            "holdout": {
-                "method": format!("{}-fold", options.folds),
-                "nominal_rms_mm": mm(nominal.rms),
-                "geometric_rms_mm": mm(geometric.rms),
-                "extended_rms_mm": mm(extended.rms),
-                "nominal_mean_mm": mm(nominal.mean), "nominal_max_mm": mm(nominal.max),
-                "geometric_mean_mm": mm(geometric.mean), "geometric_max_mm": mm(geometric.max),
-                "extended_mean_mm": mm(extended.mean), "extended_max_mm": mm(extended.max),
-            },
+            "holdout": self.holdout_json(options),
             "effects": effects,
             "written": {
                 "held_out_rms_mm": written.held_out.map(mm),
@@ -227,20 +214,7 @@ impl Diagnosis {
                     "parameters": g.errors.len(),
                 })),
             },
-            "replicates": self.replicates.map(|r| json!({
-                "rows": r.rows,
-                "configurations": r.configurations,
-                "copies": r.copies,
-                "pure_error_mm": r.lack_of_fit.map(|l| mm(l.pure.sigma)),
-                "pure_error_dof": r.lack_of_fit.map(|l| l.pure.dof),
-                "repeated_configurations": r.lack_of_fit.map(|l| l.pure.repeated),
-                "residual_at_means_mm": r.lack_of_fit.map(|l| mm(l.shown)),
-                "expected_at_means_mm": r.lack_of_fit.map(|l| mm(l.expected)),
-                "lack_of_fit_f": r.lack_of_fit.map(|l| l.f),
-                "lack_of_fit_threshold": r.lack_of_fit.map(|l| l.threshold),
-                "lack_of_fit_p": r.lack_of_fit.map(|l| l.p),
-                "lack_of_fit": r.lack_of_fit.map(|l| l.significant()),
-            })),
+            "replicates": self.replicates_json(),
             "fitted": self.fitted.map(|h| json!({
                 "rms_mm": mm(h.rms), "mean_mm": mm(h.mean), "max_mm": mm(h.max),
             })),
@@ -256,7 +230,57 @@ impl Diagnosis {
                 "joints": c.joints.iter().map(|j| j + 1).collect::<Vec<_>>(),
                 "gain": g,
             })).collect::<Vec<_>>(),
-            "unsettled": self.unsettled.as_ref().map(|u| json!({
+            "unsettled": self.unsettled_json(),
+        })
+    }
+
+    /// The JSON's `holdout`: the held-out errors of the three models, mm.
+    fn holdout_json(&self, options: &DiagnoseOptions) -> serde_json::Value {
+        use serde_json::json;
+        let mm = |x: f64| x * 1e3;
+        let HeldOutModels {
+            nominal,
+            geometric,
+            extended,
+        } = self.holdout;
+        json!({
+            "method": format!("{}-fold", options.folds),
+            "nominal_rms_mm": mm(nominal.rms),
+            "geometric_rms_mm": mm(geometric.rms),
+            "extended_rms_mm": mm(extended.rms),
+            "nominal_mean_mm": mm(nominal.mean), "nominal_max_mm": mm(nominal.max),
+            "geometric_mean_mm": mm(geometric.mean), "geometric_max_mm": mm(geometric.max),
+            "extended_mean_mm": mm(extended.mean), "extended_max_mm": mm(extended.max),
+        })
+    }
+
+    /// The JSON's `replicates`: the repeated configurations and the lack-of-fit test.
+    fn replicates_json(&self) -> Option<serde_json::Value> {
+        use serde_json::json;
+        let mm = |x: f64| x * 1e3;
+        self.replicates.map(|r| {
+            json!({
+                "rows": r.rows,
+                "configurations": r.configurations,
+                "copies": r.copies,
+                "pure_error_mm": r.lack_of_fit.map(|l| mm(l.pure.sigma)),
+                "pure_error_dof": r.lack_of_fit.map(|l| l.pure.dof),
+                "repeated_configurations": r.lack_of_fit.map(|l| l.pure.repeated),
+                "residual_at_means_mm": r.lack_of_fit.map(|l| mm(l.shown)),
+                "expected_at_means_mm": r.lack_of_fit.map(|l| mm(l.expected)),
+                "lack_of_fit_f": r.lack_of_fit.map(|l| l.f),
+                "lack_of_fit_threshold": r.lack_of_fit.map(|l| l.threshold),
+                "lack_of_fit_p": r.lack_of_fit.map(|l| l.p),
+                "lack_of_fit": r.lack_of_fit.map(|l| l.significant()),
+            })
+        })
+    }
+
+    /// The JSON's `unsettled`: the candidate the search stopped on.
+    fn unsettled_json(&self) -> Option<serde_json::Value> {
+        use serde_json::json;
+        self.unsettled.as_ref().map(|u| {
+            json!({
                 "name": u.candidate.name,
                 "joints": u.candidate.joints.iter().map(|j| j + 1).collect::<Vec<_>>(),
                 "gain": u.gain, "f": u.f_test.0, "threshold": u.f_test.1,
@@ -268,7 +292,7 @@ impl Diagnosis {
                     Shortfall::Significance { poses_needed } => Some(poses_needed),
                     Shortfall::Gain { .. } => None,
                 },
-            })),
+            })
         })
     }
 
