@@ -4,7 +4,7 @@
 //! with them. Nothing here computes; it reads a [`Diagnosis`].
 
 use armcal_shared::effects::Effect;
-use armcal_shared::{JointType, Param, Robot};
+use armcal_shared::{Calibration, JointType, Param, Robot};
 
 use super::{Choice, DiagnoseOptions, Diagnosis, HeldOut, HeldOutModels, Shortfall};
 use crate::calibration::identify::full::Status;
@@ -135,40 +135,7 @@ impl Diagnosis {
         let units = &model.units;
         // The effects' values as the calibration written holds them.
         let written = self.calibration(&model.robot, false, *units);
-        let effects: Vec<serde_json::Value> = self
-            .findings
-            .iter()
-            .map(|f| {
-                let mut parameters = serde_json::Map::new();
-                if let Some(e) = written.effects.iter().find(|e| f.candidate.is(e)) {
-                    for i in 0..e.parameter_count() {
-                        let v = e.parameter(i).unwrap_or(0.0);
-                        parameters.insert(
-                            crate::calibration::identify::full::effect_parameter_name(e, i),
-                            json!(effect_value(&model.robot, e, units, v)),
-                        );
-                    }
-                }
-                for p in &f.candidate.extra {
-                    let error = written
-                        .errors
-                        .iter()
-                        .find(|r| r.param == *p)
-                        .map_or(0.0, |r| r.error);
-                    parameters.insert(p.to_string(), json!(units.angle_from_si(error)));
-                }
-                json!({
-                    "name": f.candidate.name,
-                    "joints": f.candidate.joints.iter().map(|j| j + 1).collect::<Vec<_>>(),
-                    "parameters": parameters,
-                    "gain": f.gain,
-                    "evidence": format!(
-                        "held-out RMS {:.1}% lower with it ({}-fold); F = {:.1} against the {:.1} of a 1% family-wise test",
-                        100.0 * (1.0 - 1.0 / f.gain), options.folds, f.f_test.0, f.f_test.1
-                    ),
-                })
-            })
-            .collect();
+        let effects = self.effects_json(model, &written, options);
         let (held, moved) = self.prior_role();
         let names = |v: &[Param]| v.iter().map(|p| p.to_string()).collect::<Vec<_>>();
         let (prior, factor) = match self.choice {
@@ -232,6 +199,52 @@ impl Diagnosis {
             })).collect::<Vec<_>>(),
             "unsettled": self.unsettled_json(),
         })
+    }
+
+    /// The JSON's `effects`: each effect found, its parameters as the
+    /// calibration `written` holds them (in the model's units), its evidence.
+    fn effects_json(
+        &self,
+        model: &crate::io::model_file::RobotModel,
+        written: &Calibration,
+        options: &DiagnoseOptions,
+    ) -> Vec<serde_json::Value> {
+        use serde_json::json;
+        let units = &model.units;
+        self
+            .findings
+            .iter()
+            .map(|f| {
+                let mut parameters = serde_json::Map::new();
+                if let Some(e) = written.effects.iter().find(|e| f.candidate.is(e)) {
+                    for i in 0..e.parameter_count() {
+                        let v = e.parameter(i).unwrap_or(0.0);
+                        parameters.insert(
+                            crate::calibration::identify::full::effect_parameter_name(e, i),
+                            json!(effect_value(&model.robot, e, units, v)),
+                        );
+                    }
+                }
+                for p in &f.candidate.extra {
+                    let error = written
+                        .errors
+                        .iter()
+                        .find(|r| r.param == *p)
+                        .map_or(0.0, |r| r.error);
+                    parameters.insert(p.to_string(), json!(units.angle_from_si(error)));
+                }
+                json!({
+                    "name": f.candidate.name,
+                    "joints": f.candidate.joints.iter().map(|j| j + 1).collect::<Vec<_>>(),
+                    "parameters": parameters,
+                    "gain": f.gain,
+                    "evidence": format!(
+                        "held-out RMS {:.1}% lower with it ({}-fold); F = {:.1} against the {:.1} of a 1% family-wise test",
+                        100.0 * (1.0 - 1.0 / f.gain), options.folds, f.f_test.0, f.f_test.1
+                    ),
+                })
+            })
+            .collect()
     }
 
     /// The JSON's `holdout`: the held-out errors of the three models, mm.
