@@ -78,9 +78,22 @@ pub fn nominal_error(model: &RobotModel, data: &Measurements) -> NominalError {
 
 /// The human summary that `armcal check` prints.
 pub fn report(model: &RobotModel, data: &Measurements) -> String {
+    let mut out = String::new();
+    write_model(&mut out, model);
+    let full_pose = data.poses.iter().all(|p| p.orientation.is_some());
+    write_data(&mut out, model, data, full_pose);
+    if data.is_constrained() {
+        write_constraint_check(&mut out, model, data);
+    } else {
+        write_nominal_error(&mut out, model, data, full_pose);
+    }
+    out
+}
+
+/// The model: its name, convention and units, the D-H table, base and tool.
+fn write_model(out: &mut String, model: &RobotModel) {
     let u = &model.units;
     let robot = &model.robot;
-    let mut out = String::new();
     let _ = writeln!(out, "model   {} ({})", model.name, model.source);
     if !model.description.is_empty() {
         let _ = writeln!(out, "        {}", model.description);
@@ -142,8 +155,12 @@ pub fn report(model: &RobotModel, data: &Measurements) -> String {
             fmt_num(u.angle_from_si(frame.rpy.z)),
         );
     }
+}
 
-    let full_pose = data.poses.iter().all(|p| p.orientation.is_some());
+/// The data: the file, the poses and what they measure, the columns, the
+/// units, the warnings.
+fn write_data(out: &mut String, model: &RobotModel, data: &Measurements, full_pose: bool) {
+    let u = &model.units;
     let _ = writeln!(out, "\ndata    {}", data.file);
     let _ = writeln!(
         out,
@@ -184,48 +201,57 @@ pub fn report(model: &RobotModel, data: &Measurements) -> String {
     for w in &data.warnings {
         let _ = writeln!(out, "        warning: {w}");
     }
+}
 
-    if data.is_constrained() {
-        // No coordinate to compare with: how well the nominal model keeps the
-        // rows of each point together and the known distances.
-        let c = crate::calibration::contact_check::contact_check(
-            &crate::calibration::contact_check::geometric(robot),
-            data,
-        );
+/// A session without coordinates: how well the nominal model keeps the rows
+/// of each point together and the known distances.
+fn write_constraint_check(out: &mut String, model: &RobotModel, data: &Measurements) {
+    let robot = &model.robot;
+    // No coordinate to compare with: how well the nominal model keeps the
+    // rows of each point together and the known distances.
+    let c = crate::calibration::contact_check::contact_check(
+        &crate::calibration::contact_check::geometric(robot),
+        data,
+    );
+    let _ = writeln!(
+        out,
+        "\nnominal model against the constraints ({} points, {} planes, {} distances)",
+        data.constraints.points.len(),
+        data.constraints.planes.len(),
+        data.constraints.distances.len()
+    );
+    let points = c.points.iter().map(|p| {
+        let what = "rows, spread (RMS distance to their mean)";
+        ("point", &p.name, p.rows, what, p.spread)
+    });
+    let planes = c.planes.iter().map(|p| {
+        let what = "touches, flatness (RMS distance to their least-squares plane)";
+        ("plane", &p.name, p.rows, what, p.flatness)
+    });
+    for (kind, name, rows, what, figure) in points.chain(planes) {
         let _ = writeln!(
             out,
-            "\nnominal model against the constraints ({} points, {} planes, {} distances)",
-            data.constraints.points.len(),
-            data.constraints.planes.len(),
-            data.constraints.distances.len()
+            "        {kind} {name:<12} {rows} {what} {:.3} mm",
+            figure * 1e3
         );
-        let points = c.points.iter().map(|p| {
-            let what = "rows, spread (RMS distance to their mean)";
-            ("point", &p.name, p.rows, what, p.spread)
-        });
-        let planes = c.planes.iter().map(|p| {
-            let what = "touches, flatness (RMS distance to their least-squares plane)";
-            ("plane", &p.name, p.rows, what, p.flatness)
-        });
-        for (kind, name, rows, what, figure) in points.chain(planes) {
-            let _ = writeln!(
-                out,
-                "        {kind} {name:<12} {rows} {what} {:.3} mm",
-                figure * 1e3
-            );
-        }
-        for d in &c.distances {
-            let _ = writeln!(
-                out,
-                "        distance {} – {}: stated {:.3} mm, predicted minus stated {:+.3} mm",
-                d.points[0],
-                d.points[1],
-                d.stated * 1e3,
-                d.error * 1e3
-            );
-        }
-        return out;
     }
+    for d in &c.distances {
+        let _ = writeln!(
+            out,
+            "        distance {} – {}: stated {:.3} mm, predicted minus stated {:+.3} mm",
+            d.points[0],
+            d.points[1],
+            d.stated * 1e3,
+            d.error * 1e3
+        );
+    }
+}
+
+/// The nominal model's position (and orientation) error against the data,
+/// and the count of independent parameters a full calibration identifies.
+fn write_nominal_error(out: &mut String, model: &RobotModel, data: &Measurements, full_pose: bool) {
+    let u = &model.units;
+    let robot = &model.robot;
     let e = nominal_error(model, data);
     let mm = |x: f64| x * 1e3;
     let _ = writeln!(out, "\nnominal model against the data");
@@ -255,7 +281,6 @@ pub fn report(model: &RobotModel, data: &Measurements) -> String {
         "        a full geometric calibration identifies {unknowns} independent parameters (4R + 2P + {})",
         if full_pose { 6 } else { 3 }
     );
-    out
 }
 
 /// A number with up to 6 significant decimals, without trailing zeros.

@@ -35,7 +35,10 @@
 
 use crate::calibration::stats::f_cdf;
 
-pub use crate::session::configurations::*;
+pub use crate::session::configurations::{
+    Configurations, PAYLOAD_RESOLUTION, PRISMATIC_RESOLUTION, PureError, REVOLUTE_RESOLUTION,
+    TEMPERATURE_RESOLUTION,
+};
 
 /// The lack-of-fit test of a model fitted to the configurations' means.
 #[derive(Clone, Copy, Debug, PartialEq)]

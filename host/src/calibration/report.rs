@@ -280,14 +280,29 @@ pub fn html(
     options: &DiagnoseOptions,
 ) -> String {
     let mut s = String::new();
+    html_head(&mut s, model, data_file, d, data.len());
+    html_models(&mut s, model, d);
+    html_findings(&mut s, model, d, data);
+    html_holdout(&mut s, d, options);
+    html_parameters(&mut s, model, d);
+    s
+}
+
+/// The page's head, title and first paragraph: model, data, poses, noise.
+fn html_head(s: &mut String, model: &RobotModel, data_file: &str, d: &Diagnosis, poses: usize) {
     let mm = |x: f64| x * 1e3;
     let _ = write!(
         s,
         "<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>armcal diagnose: {name}</title><style>body{{font-family:sans-serif;max-width:1200px;margin:2em auto;color:#222}}table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}}th{{background:#f4f4f4}}td:first-child,th:first-child{{text-align:left}}.plots{{display:flex;flex-wrap:wrap;gap:12px}}</style></head><body><h1>armcal diagnose</h1><p>Model <b>{name}</b>, data <b>{data_file}</b>: {n} poses. Noise estimated from the data: <b>{noise:.4} mm</b> per axis.</p>",
         name = model.name,
-        n = data.len(),
+        n = poses,
         noise = mm(d.noise),
     );
+}
+
+/// The model chosen, every model's held-out error, the noises, the prior's role.
+fn html_models(s: &mut String, model: &RobotModel, d: &Diagnosis) {
+    let mm = |x: f64| x * 1e3;
     // The chosen model, every model's held-out error, the noises, the prior.
     let _ = write!(
         s,
@@ -322,6 +337,11 @@ pub fn html(
         list(&moved),
         list(&held)
     );
+}
+
+/// What the geometric model gets wrong: the findings, the plots, the
+/// residual panels.
+fn html_findings(s: &mut String, model: &RobotModel, d: &Diagnosis, data: &[Observation]) {
     let _ = write!(s, "<h2>What the geometric model gets wrong</h2>");
     if d.findings.is_empty() {
         let _ = write!(
@@ -352,6 +372,11 @@ pub fn html(
     for p in panels(model, d, data) {
         s.push_str(&svg(&p, 380.0, 220.0));
     }
+}
+
+/// The held-out gain table, the fitted figures, blunders and repeated configurations.
+fn html_holdout(s: &mut String, d: &Diagnosis, options: &DiagnoseOptions) {
+    let mm = |x: f64| x * 1e3;
     let _ = write!(
         s,
         "</div><h2>Gain on held-out poses ({}-fold)</h2><table><tr><th>model</th><th>RMS [mm]</th><th>mean [mm]</th><th>max [mm]</th></tr>",
@@ -408,6 +433,10 @@ pub fn html(
         }
         let _ = write!(s, "</p>");
     }
+}
+
+/// The parameters of the extended calibration, its effects, and the page's end.
+fn html_parameters(s: &mut String, model: &RobotModel, d: &Diagnosis) {
     let _ = write!(
         s,
         "<h2>Parameters of the extended calibration</h2><table><tr><th>parameter</th><th>nominal</th><th>error</th><th>std</th><th>status</th></tr>"
@@ -448,5 +477,4 @@ pub fn html(
         }
     }
     let _ = writeln!(s, "</table><p>Written by armcal.</p></body></html>");
-    s
 }

@@ -60,7 +60,7 @@ use armcal_shared::calibration::MAX_PARAMS;
 use armcal_shared::effects::{Effect, EffectModel};
 use armcal_shared::ranges::Ranges;
 use armcal_shared::units::Units;
-use armcal_shared::{Calibration, GeometricCalibration, JointType, Param, ParamError, Robot};
+use armcal_shared::{Calibration, GeometricCalibration, Param, ParamError, Robot};
 use nalgebra::Vector3;
 
 use crate::calibration::identify::full::{
@@ -505,7 +505,9 @@ fn late_blunders(
         .collect()
 }
 
-/// One pass of the diagnosis (see the module header).
+/// One pass of the diagnosis (see the module header): the reference fit and
+/// its blunders, the geometric model, the effects, the geometry again with
+/// them, and the choice, never worse than nominal.
 fn diagnose_once(
     nominal: &Robot<f64>,
     data: &[Observation],
@@ -513,158 +515,523 @@ fn diagnose_once(
     options: &DiagnoseOptions,
     progress: &mut dyn FnMut(usize, usize, usize),
 ) -> Result<Diagnosis, FullError> {
-    // Every fit of the session, from the nominal model or from `start`.
-    let fit = |start: Option<&Robot<f64>>,
-               effects: &[Effect<f64>],
-               extra: &[Param],
-               data: &[Observation],
-               options: &FullOptions| {
-        identify_constrained(nominal, start, effects, extra, data, constraints, options)
+    let pass = Pass {
+        nominal,
+        constraints,
+        options,
     };
-    let prior = options.fit.prior;
-    let reference_options = FullOptions {
-        geometry: Geometry::Full,
-        ..options.fit
-    };
-    // 1–2. The reference fit, and blunders.
-    let subset =
-        |kept: &[usize]| -> Vec<Observation> { kept.iter().map(|&i| data[i].clone()).collect() };
-    let mut reference = fit(None, &[], &[], data, &reference_options)?;
-    // Every later fit starts from the noise the reference shows (an estimated
-    // noise then settles in a round or two; a stated one stays as stated).
-    let reference_options = reference_options.at_noise_of(&reference);
-    // The screen (see `blunders`): the suspects at the robust scale of every
-    // pose, then again about the fit without them.
-    let n = data.len();
-    let most = n / 10;
-    let mut excluded = vec![false; n];
-    let all_lin = linearize(&reference, &[], &[], data, constraints, &prior);
-    let deleted = blunders::deleted_residuals(&all_lin, &excluded);
-    let scale = blunders::scale(deleted.as_ref(), reference.redundancy);
-    let mut flagged = deleted
-        .as_ref()
-        .map(|d| blunders::suspects(d, &excluded, scale, reference.redundancy))
-        .unwrap_or_default();
-    let refits = match scale {
-        Scale::Robust(_) => blunders::REFITS,
-        Scale::Fitted => 0,
-    };
-    // The fit without the suspects, and its linearisation at every pose.
-    let mut screen: Option<(FullFit, Linearization)> = None;
-    for _ in 0..refits {
-        flagged.truncate(most);
-        let mut next = vec![false; n];
-        for s in &flagged {
-            next[s.pose] = true;
-        }
-        if next == excluded {
-            break;
-        }
-        let kept: Vec<usize> = (0..n).filter(|&i| !next[i]).collect();
-        // From the reference, which lies near. Leaving them out can leave a
-        // fixed point too few rows: keep them then.
-        let start = Some(&reference.calibrated);
-        let Ok(f) = fit(start, &[], &[], &subset(&kept), &reference_options) else {
-            flagged.clear();
-            break;
-        };
-        excluded = next;
-        let lin = linearize(&f, &[], &[], data, constraints, &prior);
-        flagged = blunders::deleted_residuals(&lin, &excluded)
-            .map(|d| blunders::suspects(&d, &excluded, Scale::Fitted, f.redundancy))
-            .unwrap_or_default();
-        screen = Some((f, lin));
+    let screen = pass.screen(data)?;
+    let mut geo = pass.geometric_model(&screen)?;
+    let mut search = Search::from(&geo, candidates(nominal, &screen.clean));
+    if geo.best.geometry.is_some() {
+        while search.round(&pass, &geo, &screen.clean, progress) {}
     }
-    // Each suspect judged by the poses no test flagged, with it in every
-    // training set and without it, the other suspects left out of both.
-    flagged.truncate(most);
-    let screen_lin = screen.as_ref().map_or(&all_lin, |(_, lin)| lin);
-    let suspects = blunders::judge(screen_lin, options.folds, &flagged, geometry::LEVEL);
-    let blunders: Vec<usize> = suspects
-        .iter()
-        .filter(|b| b.set_aside)
-        .map(|b| b.pose)
-        .collect();
-    let kept: Vec<usize> = (0..n).filter(|i| !blunders.contains(i)).collect();
-    let clean = subset(&kept);
-    let set_aside: Vec<bool> = (0..n).map(|i| blunders.contains(&i)).collect();
-    let lin = match screen {
-        // The reference as fitted to every pose.
-        _ if blunders.is_empty() => all_lin,
-        Some((f, _)) if set_aside == excluded => {
-            reference = f;
-            linearize(&reference, &[], &[], &clean, constraints, &prior)
-        }
-        screen => {
-            let start = screen
-                .as_ref()
-                .map_or(&reference.calibrated, |(f, _)| &f.calibrated);
-            reference = fit(Some(start), &[], &[], &clean, &reference_options)?;
-            linearize(&reference, &[], &[], &clean, constraints, &prior)
-        }
-    };
-    // The noise the reference shows without its blunders.
-    let fit_options = options.fit.at_noise_of(&reference);
+    pass.geometry_again(&screen, &mut geo, &mut search);
+    Ok(pass.conclude(screen, geo, search))
+}
 
-    // 3. The geometric model.
-    let nominal_errors = nominal_errors(nominal, &clean, options.folds);
-    let mut models = geometry::score(nominal, &lin, options.folds, &nominal_errors);
-    let best = geometry::best(&models).clone();
-    let nominal_holdout = models[0].held;
-    let mut geometry = best.geometry.unwrap_or(Geometry::Full);
-    // The nominal model's factor is 1: the stated prior.
-    let mut prior_factor = best.prior_factor;
-    let geo_prior = prior.scaled(prior_factor);
-    let geo_options = FullOptions {
-        geometry,
-        prior: geo_prior,
-        ..fit_options
-    };
-    let geometric = if geo_options.geometry == Geometry::Full && prior_factor == 1.0 {
-        reference.clone()
-    } else {
-        fit(Some(&reference.calibrated), &[], &[], &clean, &geo_options)?
-    };
-    // The held-out figures of the step to it from the reference, which the
-    // refit reaches to second order.
-    let geometric_holdout = best.held;
-    let effect_options = geo_options.at_noise_of(&geometric).stated();
+/// What every stage of one pass reads: the nominal model, the constraints
+/// and the options.
+struct Pass<'a> {
+    nominal: &'a Robot<f64>,
+    constraints: &'a Constraints,
+    options: &'a DiagnoseOptions,
+}
 
-    // 4. The effects.
-    let all = candidates(nominal, &clean);
-    let mut chosen: Vec<Finding> = Vec::new();
-    let mut tried = Vec::new();
-    let mut unsettled = None;
-    let mut extra: Vec<Param> = Vec::new();
-    let mut current = geometric_holdout;
-    let mut current_fit = geometric.clone();
-    // Candidates whose refit could not identify them: the linearised step
-    // scored them, but the calibration would hold them at zero.
-    let mut unidentified: Vec<Candidate> = Vec::new();
-    while best.geometry.is_some() {
-        let remaining: Vec<&Candidate> = all
+/// Stages 1–2: the reference fit to the poses the screen kept, the poses it
+/// flagged and those it set aside.
+struct Screen {
+    /// The reference fit (every D-H parameter, the stated prior), without the blunders.
+    reference: FullFit,
+    /// Every pose the screen flagged, with the held-out judgement.
+    suspects: Vec<Blunder>,
+    /// The indices of the poses set aside.
+    blunders: Vec<usize>,
+    /// The poses kept.
+    clean: Vec<Observation>,
+    /// The reference's linearisation at the poses kept.
+    lin: Linearization,
+}
+
+/// The screen's suspects before they are judged.
+struct Suspects {
+    /// The poses flagged, at most a tenth of them.
+    flagged: Vec<blunders::Suspect>,
+    /// The fit without the poses left out and its linearisation at every
+    /// pose (`None`: no refit was made).
+    screen: Option<(FullFit, Linearization)>,
+    /// The poses the last refit left out.
+    excluded: Vec<bool>,
+}
+
+/// Stage 3: the geometric model chosen held-out, and its fit.
+struct Geometric {
+    /// Every geometric model scored, nominal first.
+    models: Vec<ModelScore>,
+    /// The best of them.
+    best: ModelScore,
+    /// The nominal model's held-out figures.
+    nominal_holdout: HeldOut,
+    /// The geometry chosen (the full one when nominal wins).
+    geometry: Geometry,
+    /// The factor on the stated prior chosen.
+    prior_factor: f64,
+    /// The prior at that factor.
+    prior: Prior,
+    /// The fit of the chosen geometry.
+    fit: FullFit,
+    /// Its held-out figures (of the step to it from the reference).
+    holdout: HeldOut,
+    /// The options of the effects' fits: the noise the geometric fit shows, stated.
+    effect_options: FullOptions,
+    /// The nominal model's position errors per fold.
+    nominal_errors: Vec<f64>,
+}
+
+/// Stage 4's state: the effects chosen so far and the fit with them.
+struct Search {
+    chosen: Vec<Finding>,
+    /// Every candidate scored in the first round, with its gain.
+    tried: Vec<(Candidate, f64)>,
+    unsettled: Option<Unsettled>,
+    /// The extra geometric parameters of the chosen candidates.
+    extra: Vec<Param>,
+    /// The held-out figures of the current model.
+    current: HeldOut,
+    /// The fit of the current model.
+    current_fit: FullFit,
+    /// Candidates whose refit could not identify them: the linearised step
+    /// scored them, but the calibration would hold them at zero.
+    unidentified: Vec<Candidate>,
+    /// Every candidate.
+    all: Vec<Candidate>,
+}
+
+/// A candidate cross-validated in a round: its own columns' held-out gain
+/// over the current model, its F statistic and threshold, its held-out figures.
+#[derive(Clone)]
+struct Scored {
+    candidate: Candidate,
+    gain: f64,
+    f: f64,
+    held: HeldOut,
+    threshold: f64,
+}
+
+impl Pass<'_> {
+    /// Every fit of the session, from the nominal model or from `start`.
+    fn fit(
+        &self,
+        start: Option<&Robot<f64>>,
+        effects: &[Effect<f64>],
+        extra: &[Param],
+        data: &[Observation],
+        options: &FullOptions,
+    ) -> Result<FullFit, FullError> {
+        identify_constrained(
+            self.nominal,
+            start,
+            effects,
+            extra,
+            data,
+            self.constraints,
+            options,
+        )
+    }
+
+    /// The options of the reference fit: every D-H parameter.
+    fn reference_options(&self) -> FullOptions {
+        FullOptions {
+            geometry: Geometry::Full,
+            ..self.options.fit
+        }
+    }
+
+    /// Stages 1–2: the reference fit, and blunders.
+    fn screen(&self, data: &[Observation]) -> Result<Screen, FullError> {
+        let prior = self.options.fit.prior;
+        let constraints = self.constraints;
+        let subset = |kept: &[usize]| -> Vec<Observation> {
+            kept.iter().map(|&i| data[i].clone()).collect()
+        };
+        let mut reference = self.fit(None, &[], &[], data, &self.reference_options())?;
+        // Every later fit starts from the noise the reference shows (an estimated
+        // noise then settles in a round or two; a stated one stays as stated).
+        let reference_options = self.reference_options().at_noise_of(&reference);
+        let n = data.len();
+        let all_lin = linearize(&reference, &[], &[], data, constraints, &prior);
+        let Suspects {
+            flagged,
+            screen,
+            excluded,
+        } = self.screen_suspects(data, &reference, &reference_options, &all_lin);
+        // Each suspect judged by the poses no test flagged, with it in every
+        // training set and without it, the other suspects left out of both.
+        let screen_lin = screen.as_ref().map_or(&all_lin, |(_, lin)| lin);
+        let suspects = blunders::judge(screen_lin, self.options.folds, &flagged, geometry::LEVEL);
+        let blunders: Vec<usize> = suspects
             .iter()
-            .filter(|c| !chosen.iter().any(|f| f.candidate == **c) && !unidentified.contains(c))
+            .filter(|b| b.set_aside)
+            .map(|b| b.pose)
+            .collect();
+        let kept: Vec<usize> = (0..n).filter(|i| !blunders.contains(i)).collect();
+        let clean = subset(&kept);
+        let set_aside: Vec<bool> = (0..n).map(|i| blunders.contains(&i)).collect();
+        let lin = match screen {
+            // The reference as fitted to every pose.
+            _ if blunders.is_empty() => all_lin,
+            Some((f, _)) if set_aside == excluded => {
+                reference = f;
+                linearize(&reference, &[], &[], &clean, constraints, &prior)
+            }
+            screen => {
+                let start = screen
+                    .as_ref()
+                    .map_or(&reference.calibrated, |(f, _)| &f.calibrated);
+                reference = self.fit(Some(start), &[], &[], &clean, &reference_options)?;
+                linearize(&reference, &[], &[], &clean, constraints, &prior)
+            }
+        };
+        Ok(Screen {
+            reference,
+            suspects,
+            blunders,
+            clean,
+            lin,
+        })
+    }
+
+    /// The screen (see `blunders`): the suspects at the robust scale of every
+    /// pose, then again about the fit without them. The suspects (at most a
+    /// tenth of the poses), the fit without them and its linearisation at
+    /// every pose, and the poses it left out.
+    fn screen_suspects(
+        &self,
+        data: &[Observation],
+        reference: &FullFit,
+        reference_options: &FullOptions,
+        all_lin: &Linearization,
+    ) -> Suspects {
+        let prior = self.options.fit.prior;
+        let n = data.len();
+        let most = n / 10;
+        let mut excluded = vec![false; n];
+        let deleted = blunders::deleted_residuals(all_lin, &excluded);
+        let scale = blunders::scale(deleted.as_ref(), reference.redundancy);
+        let mut flagged = deleted
+            .as_ref()
+            .map(|d| blunders::suspects(d, &excluded, scale, reference.redundancy))
+            .unwrap_or_default();
+        let refits = match scale {
+            Scale::Robust(_) => blunders::REFITS,
+            Scale::Fitted => 0,
+        };
+        // The fit without the suspects, and its linearisation at every pose.
+        let mut screen: Option<(FullFit, Linearization)> = None;
+        for _ in 0..refits {
+            flagged.truncate(most);
+            let mut next = vec![false; n];
+            for s in &flagged {
+                next[s.pose] = true;
+            }
+            if next == excluded {
+                break;
+            }
+            let kept: Vec<Observation> = (0..n)
+                .filter(|&i| !next[i])
+                .map(|i| data[i].clone())
+                .collect();
+            // From the reference, which lies near. Leaving them out can leave a
+            // fixed point too few rows: keep them then.
+            let start = Some(&reference.calibrated);
+            let Ok(f) = self.fit(start, &[], &[], &kept, reference_options) else {
+                flagged.clear();
+                break;
+            };
+            excluded = next;
+            let lin = linearize(&f, &[], &[], data, self.constraints, &prior);
+            flagged = blunders::deleted_residuals(&lin, &excluded)
+                .map(|d| blunders::suspects(&d, &excluded, Scale::Fitted, f.redundancy))
+                .unwrap_or_default();
+            screen = Some((f, lin));
+        }
+        flagged.truncate(most);
+        Suspects {
+            flagged,
+            screen,
+            excluded,
+        }
+    }
+
+    /// Stage 3: the geometric model.
+    fn geometric_model(&self, screen: &Screen) -> Result<Geometric, FullError> {
+        let (options, reference, clean) = (self.options, &screen.reference, &screen.clean);
+        // The noise the reference shows without its blunders.
+        let fit_options = options.fit.at_noise_of(reference);
+        let nominal_errors = nominal_errors(self.nominal, clean, options.folds);
+        let models = geometry::score(self.nominal, &screen.lin, options.folds, &nominal_errors);
+        let best = geometry::best(&models).clone();
+        let nominal_holdout = models[0].held;
+        let geometry = best.geometry.unwrap_or(Geometry::Full);
+        // The nominal model's factor is 1: the stated prior.
+        let prior_factor = best.prior_factor;
+        let geo_prior = options.fit.prior.scaled(prior_factor);
+        let geo_options = FullOptions {
+            geometry,
+            prior: geo_prior,
+            ..fit_options
+        };
+        let geometric = if geo_options.geometry == Geometry::Full && prior_factor == 1.0 {
+            reference.clone()
+        } else {
+            self.fit(Some(&reference.calibrated), &[], &[], clean, &geo_options)?
+        };
+        // The held-out figures of the step to it from the reference, which the
+        // refit reaches to second order.
+        let holdout = best.held;
+        let effect_options = geo_options.at_noise_of(&geometric).stated();
+        Ok(Geometric {
+            models,
+            best,
+            nominal_holdout,
+            geometry,
+            prior_factor,
+            prior: geo_prior,
+            fit: geometric,
+            holdout,
+            effect_options,
+            nominal_errors,
+        })
+    }
+
+    /// The geometry again, with the effects found: an effect's residual may
+    /// have made a simpler geometry, or a stronger prior, look better than it is.
+    /// Its refit is kept only where it stays within the linearisation's reach:
+    /// a refit whose in-sample error rises by more than `REFIT_SLACK` has
+    /// settled elsewhere than the step scored, and the held-out figure would
+    /// not describe it.
+    fn geometry_again(&self, screen: &Screen, geo: &mut Geometric, search: &mut Search) {
+        if search.chosen.is_empty() {
+            return;
+        }
+        let (reference, clean, prior) = (&screen.reference, &screen.clean, self.options.fit.prior);
+        let identified = |fit: &FullFit, p: Param| {
+            fit.params
+                .iter()
+                .any(|r| r.param == p && matches!(r.status, Status::Identified { .. }))
+        };
+        let missing: Vec<Param> = reference
+            .params
+            .iter()
+            .map(|r| r.param)
+            .filter(|&p| identified(reference, p) && !identified(&search.current_fit, p))
+            .collect();
+        let lin = linearize(
+            &search.current_fit,
+            &[],
+            &missing,
+            clean,
+            self.constraints,
+            &prior,
+        );
+        let rescored = geometry::score(self.nominal, &lin, self.options.folds, &geo.nominal_errors);
+        let again = geometry::best(&rescored).clone();
+        if let Some(g) = again.geometry
+            && (g, again.prior_factor) != (geo.geometry, geo.prior_factor)
+        {
+            let options = FullOptions {
+                geometry: g,
+                prior: prior.scaled(again.prior_factor),
+                ..geo.effect_options
+            };
+            let effects = search.current_fit.fitted_effects();
+            // Only if it predicts better held-out (the step to it, which the
+            // refit reaches to second order).
+            if again.held.rms < search.current.rms
+                && let Ok(refit) = self.fit(
+                    Some(&search.current_fit.calibrated),
+                    &effects,
+                    &search.extra,
+                    clean,
+                    &options,
+                )
+                && search
+                    .chosen
+                    .iter()
+                    .all(|f| identifies(&refit, &f.candidate))
+                && refit.position_rms <= REFIT_SLACK * search.current_fit.position_rms
+            {
+                (geo.geometry, geo.prior_factor) = (g, again.prior_factor);
+                search.current = again.held;
+                search.current_fit = refit;
+                geo.models = rescored;
+            }
+        }
+    }
+
+    /// Stage 5: never worse than nominal; the diagnosis.
+    fn conclude(&self, screen: Screen, geo: Geometric, search: Search) -> Diagnosis {
+        let prior = self.options.fit.prior;
+        let nominal_holdout = geo.nominal_holdout;
+        let choice = if geo.best.geometry.is_some() && search.current.rms < nominal_holdout.rms {
+            Choice::Calibrated {
+                geometry: geo.geometry,
+                prior: prior.scaled(geo.prior_factor),
+                prior_factor: geo.prior_factor,
+            }
+        } else {
+            Choice::Nominal
+        };
+        let (geometric_holdout, current) = match choice {
+            Choice::Nominal => (nominal_holdout, nominal_holdout),
+            Choice::Calibrated { .. } => (geo.holdout, search.current),
+        };
+        let noise = search.current_fit.noise.tool_point().shown;
+        let mut d = Diagnosis {
+            choice,
+            findings: search.chosen,
+            fit: search.current_fit,
+            geometric: geo.fit,
+            reference: screen.reference,
+            holdout: HeldOutModels {
+                nominal: nominal_holdout,
+                geometric: geometric_holdout,
+                extended: current,
+            },
+            models: geo.models,
+            noise,
+            blunders: screen.blunders,
+            suspects: screen.suspects,
+            tried: search.tried,
+            unsettled: search.unsettled,
+            fitted: None,
+            replicates: None,
+            ranges: crate::io::measurements::ranges(&screen.clean),
+        };
+        d.fitted = d.fitted_at(self.nominal, &screen.clean);
+        d
+    }
+}
+
+impl Search {
+    /// The search's start: the geometric model, no effect, `all` the candidates.
+    fn from(geo: &Geometric, all: Vec<Candidate>) -> Self {
+        Self {
+            chosen: Vec::new(),
+            tried: Vec::new(),
+            unsettled: None,
+            extra: Vec::new(),
+            current: geo.holdout,
+            current_fit: geo.fit.clone(),
+            unidentified: Vec::new(),
+            all,
+        }
+    }
+
+    /// Stage 4, one round of the effects: every remaining candidate scored, the best
+    /// that passes both tests refitted and chosen. Whether to go on.
+    fn round(
+        &mut self,
+        pass: &Pass,
+        geo: &Geometric,
+        clean: &[Observation],
+        progress: &mut dyn FnMut(usize, usize, usize),
+    ) -> bool {
+        let options = pass.options;
+        let remaining: Vec<&Candidate> = self
+            .all
+            .iter()
+            .filter(|c| {
+                !self.chosen.iter().any(|f| f.candidate == **c) && !self.unidentified.contains(c)
+            })
             .collect();
         if remaining.is_empty() {
-            break;
+            return false;
         }
+        let Some(scored) = self.score(pass, &remaining, &geo.prior, clean, progress) else {
+            return false;
+        };
+        if self.chosen.is_empty() {
+            self.tried = scored
+                .iter()
+                .map(|s| (s.candidate.clone(), s.gain))
+                .collect();
+        }
+        let passing = scored
+            .iter()
+            .filter(|s| s.gain >= options.min_gain && s.f > s.threshold)
+            .min_by(|a, b| a.held.rms.total_cmp(&b.held.rms));
+        let Some(Scored {
+            candidate: c,
+            f,
+            held,
+            threshold: t,
+            ..
+        }) = passing.cloned()
+        else {
+            self.unsettled = unsettled(&scored, options, clean.len());
+            return false;
+        };
+        // The effects found so far from their fitted values, the new one from zero.
+        let mut e = self.current_fit.fitted_effects();
+        let mut x = self.extra.clone();
+        e.extend(c.effect);
+        x.extend(c.extra.iter().copied());
+        // At the noise the geometric model shows: the weights stay those the
+        // candidates were scored with.
+        let start = Some(&self.current_fit.calibrated);
+        let Ok(refit) = pass.fit(start, &e, &x, clean, &geo.effect_options) else {
+            return false;
+        };
+        // What is reported found is what the calibration holds: a candidate
+        // whose parameters the refit holds fixed is not chosen.
+        if !identifies(&refit, &c) {
+            self.unidentified.push(c);
+            return true;
+        }
+        // Its held-out figures are those of the step from the current fit,
+        // which the refit reaches to second order; the next round scores the
+        // refit itself.
+        let gain = self.current.rms / held.rms.max(f64::MIN_POSITIVE);
+        self.extra = x;
+        self.chosen.push(Finding {
+            candidate: c,
+            gain,
+            f_test: (f, t),
+        });
+        self.current = held;
+        self.current_fit = refit;
+        true
+    }
+
+    /// The remaining candidates scored about the current fit: each
+    /// separable one's F statistic from its fit to all poses, and the
+    /// held-out figures of the strongest by the test and of every one that
+    /// passes it. `None` when the current model cannot be cross-validated.
+    fn score(
+        &self,
+        pass: &Pass,
+        remaining: &[&Candidate],
+        prior: &Prior,
+        clean: &[Observation],
+        progress: &mut dyn FnMut(usize, usize, usize),
+    ) -> Option<Vec<Scored>> {
+        let options = pass.options;
         // One linearisation with every remaining candidate's columns.
-        let lin = linearize_candidates(&current_fit, &remaining, &clean, constraints, &geo_prior);
+        let lin =
+            linearize_candidates(&self.current_fit, remaining, clean, pass.constraints, prior);
         let folds = Folds::interleaved(&lin, options.folds);
         let base_subset = Subset {
             columns: (0..lin.fitted).collect(),
             precision_factor: 1.0,
         };
-        let Some(base) = folds.evaluate(&base_subset) else {
-            break;
-        };
+        let base = folds.evaluate(&base_subset)?;
         // Each candidate adds its own columns to the fitted ones, whose
         // factors it shares.
         let own: Vec<(&Candidate, Vec<usize>)> = remaining
             .iter()
             .copied()
-            .zip(own_columns(&remaining, lin.fitted))
+            .zip(own_columns(remaining, lin.fitted))
             .collect();
         let extensions = folds.extensions(&base_subset);
         // Every separable candidate's F statistic from its fit to all poses
@@ -678,198 +1045,93 @@ fn diagnose_once(
         });
         let mut tests = Vec::new();
         for (n, ((c, own), objective)) in own.into_iter().zip(objectives).enumerate() {
-            progress(chosen.len() + 1, n + 1, remaining.len());
+            progress(self.chosen.len() + 1, n + 1, remaining.len());
             let Some(objective) = objective else {
                 continue;
             };
             let parameters = c.parameter_count() as f64;
-            let dof = (current_fit.redundancy - parameters).max(1.0);
+            let dof = (self.current_fit.redundancy - parameters).max(1.0);
             let f = ((base.objective - objective) / parameters)
                 / (objective / dof).max(f64::MIN_POSITIVE);
             tests.push((c.clone(), own, f, dof));
         }
-        let m = tests.len().max(1) as f64;
-        // The same for every candidate of as many parameters (its `dof` too).
-        let mut thresholds = std::collections::BTreeMap::new();
-        // The held-out gain of the strongest by the test (and of every one that
-        // passes it): no other can be chosen.
-        let mut tests: Vec<_> = tests
-            .into_iter()
-            .map(|(c, own, f, dof)| {
-                let k = c.parameter_count();
-                let t = *thresholds
-                    .entry(k)
-                    .or_insert_with(|| f_quantile(1.0 - ALPHA / m, k as f64, dof));
-                (c, own, f, t)
-            })
-            .collect();
-        tests.sort_by(|a, b| (b.2 / b.3).total_cmp(&(a.2 / a.3)));
-        let validated: Vec<_> = tests
-            .into_iter()
-            .enumerate()
-            .take_while(|(i, (_, _, f, t))| *i < CROSS_VALIDATED || f > t)
-            .map(|(_, test)| test)
-            .collect();
+        let validated = strongest(tests);
         let evaluations = parallel::map_if(folds.spread(), &validated, |(_, own, _, _)| {
             extensions.evaluate(own)
         });
         let mut scored = Vec::new();
-        for ((c, _, f, t), e) in validated.into_iter().zip(evaluations) {
+        for ((candidate, _, f, threshold), e) in validated.into_iter().zip(evaluations) {
             let Some(e) = e else {
                 continue;
             };
             let gain = base.held.rms / e.held.rms.max(f64::MIN_POSITIVE);
-            scored.push((c, gain, f, e.held, t));
+            scored.push(Scored {
+                candidate,
+                gain,
+                f,
+                held: e.held,
+                threshold,
+            });
         }
-        if chosen.is_empty() {
-            tried = scored.iter().map(|s| (s.0.clone(), s.1)).collect();
-        }
-        let passing = scored
-            .iter()
-            .filter(|(_, gain, f, _, t)| *gain >= options.min_gain && f > t)
-            .min_by(|a, b| a.3.rms.total_cmp(&b.3.rms));
-        let Some((c, _, f, held, t)) = passing.cloned() else {
-            // The candidate the data came closest to settling.
-            unsettled = scored
-                .iter()
-                .filter(|(_, gain, f, _, _)| *gain > 1.0 && *f > 0.0)
-                .max_by(|a, b| a.1.total_cmp(&b.1))
-                .map(|(c, gain, f, _, t)| Unsettled {
-                    candidate: c.clone(),
-                    gain: *gain,
-                    f_test: (*f, *t),
-                    shortfall: if f > t {
-                        Shortfall::Gain {
-                            min_gain: options.min_gain,
-                        }
-                    } else {
-                        Shortfall::Significance {
-                            poses_needed: (clean.len() as f64 * t / f).ceil() as usize,
-                        }
-                    },
-                });
-            break;
-        };
-        // The effects found so far from their fitted values, the new one from zero.
-        let mut e = current_fit.fitted_effects();
-        let mut x = extra.clone();
-        e.extend(c.effect);
-        x.extend(c.extra.iter().copied());
-        // At the noise the geometric model shows: the weights stay those the
-        // candidates were scored with.
-        let start = Some(&current_fit.calibrated);
-        let Ok(refit) = fit(start, &e, &x, &clean, &effect_options) else {
-            break;
-        };
-        // What is reported found is what the calibration holds: a candidate
-        // whose parameters the refit holds fixed is not chosen.
-        if !identifies(&refit, &c) {
-            unidentified.push(c);
-            continue;
-        }
-        // Its held-out figures are those of the step from the current fit,
-        // which the refit reaches to second order; the next round scores the
-        // refit itself.
-        let gain = current.rms / held.rms.max(f64::MIN_POSITIVE);
-        extra = x;
-        chosen.push(Finding {
-            candidate: c,
-            gain,
-            f_test: (f, t),
-        });
-        current = held;
-        current_fit = refit;
+        Some(scored)
     }
+}
 
-    // The geometry again, with the effects found: an effect's residual may
-    // have made a simpler geometry, or a stronger prior, look better than it is.
-    // Its refit is kept only where it stays within the linearisation's reach:
-    // a refit whose in-sample error rises by more than `REFIT_SLACK` has
-    // settled elsewhere than the step scored, and the held-out figure would
-    // not describe it.
-    if !chosen.is_empty() {
-        let identified = |fit: &FullFit, p: Param| {
-            fit.params
-                .iter()
-                .any(|r| r.param == p && matches!(r.status, Status::Identified { .. }))
-        };
-        let missing: Vec<Param> = reference
-            .params
-            .iter()
-            .map(|r| r.param)
-            .filter(|&p| identified(&reference, p) && !identified(&current_fit, p))
-            .collect();
-        let lin = linearize(&current_fit, &[], &missing, &clean, constraints, &prior);
-        let rescored = geometry::score(nominal, &lin, options.folds, &nominal_errors);
-        let again = geometry::best(&rescored).clone();
-        if let Some(g) = again.geometry
-            && (g, again.prior_factor) != (geometry, prior_factor)
-        {
-            let options = FullOptions {
-                geometry: g,
-                prior: prior.scaled(again.prior_factor),
-                ..effect_options
-            };
-            let effects = current_fit.fitted_effects();
-            // Only if it predicts better held-out (the step to it, which the
-            // refit reaches to second order).
-            if again.held.rms < current.rms
-                && let Ok(refit) = fit(
-                    Some(&current_fit.calibrated),
-                    &effects,
-                    &extra,
-                    &clean,
-                    &options,
-                )
-                && chosen.iter().all(|f| identifies(&refit, &f.candidate))
-                && refit.position_rms <= REFIT_SLACK * current_fit.position_rms
-            {
-                (geometry, prior_factor) = (g, again.prior_factor);
-                current = again.held;
-                current_fit = refit;
-                models = rescored;
+/// The candidates to cross-validate of `tests` (candidate, own columns, F
+/// statistic, degrees of freedom): each with its family-wise threshold in
+/// place of its degrees of freedom, strongest by the test first, the
+/// [`CROSS_VALIDATED`] strongest and every one that passes.
+fn strongest(
+    tests: Vec<(Candidate, Vec<usize>, f64, f64)>,
+) -> Vec<(Candidate, Vec<usize>, f64, f64)> {
+    let m = tests.len().max(1) as f64;
+    // The same for every candidate of as many parameters (its `dof` too).
+    let mut thresholds = std::collections::BTreeMap::new();
+    // The held-out gain of the strongest by the test (and of every one that
+    // passes it): no other can be chosen.
+    let mut tests: Vec<_> = tests
+        .into_iter()
+        .map(|(c, own, f, dof)| {
+            let k = c.parameter_count();
+            let t = *thresholds
+                .entry(k)
+                .or_insert_with(|| f_quantile(1.0 - ALPHA / m, k as f64, dof));
+            (c, own, f, t)
+        })
+        .collect();
+    tests.sort_by(|a, b| (b.2 / b.3).total_cmp(&(a.2 / a.3)));
+    tests
+        .into_iter()
+        .enumerate()
+        .take_while(|(i, (_, _, f, t))| *i < CROSS_VALIDATED || f > t)
+        .map(|(_, test)| test)
+        .collect()
+}
+
+/// The candidate the data came closest to settling when none passed, and
+/// what it fell short of (`poses` kept).
+fn unsettled(scored: &[Scored], options: &DiagnoseOptions, poses: usize) -> Option<Unsettled> {
+    scored
+        .iter()
+        .filter(|s| s.gain > 1.0 && s.f > 0.0)
+        .max_by(|a, b| a.gain.total_cmp(&b.gain))
+        .map(|s| {
+            let (f, t) = (s.f, s.threshold);
+            Unsettled {
+                candidate: s.candidate.clone(),
+                gain: s.gain,
+                f_test: (f, t),
+                shortfall: if f > t {
+                    Shortfall::Gain {
+                        min_gain: options.min_gain,
+                    }
+                } else {
+                    Shortfall::Significance {
+                        poses_needed: (poses as f64 * t / f).ceil() as usize,
+                    }
+                },
             }
-        }
-    }
-
-    // 5. Never worse than nominal.
-    let choice = if best.geometry.is_some() && current.rms < nominal_holdout.rms {
-        Choice::Calibrated {
-            geometry,
-            prior: prior.scaled(prior_factor),
-            prior_factor,
-        }
-    } else {
-        Choice::Nominal
-    };
-    let (geometric_holdout, current) = match choice {
-        Choice::Nominal => (nominal_holdout, nominal_holdout),
-        Choice::Calibrated { .. } => (geometric_holdout, current),
-    };
-    let noise = current_fit.noise.tool_point().shown;
-    let mut d = Diagnosis {
-        choice,
-        findings: chosen,
-        fit: current_fit,
-        geometric,
-        reference,
-        holdout: HeldOutModels {
-            nominal: nominal_holdout,
-            geometric: geometric_holdout,
-            extended: current,
-        },
-        models,
-        noise,
-        blunders,
-        suspects,
-        tried,
-        unsettled,
-        fitted: None,
-        replicates: None,
-        ranges: crate::io::measurements::ranges(&clean),
-    };
-    d.fitted = d.fitted_at(nominal, &clean);
-    Ok(d)
+        })
 }
 
 /// The errors `fit` identified (not held fixed, not zero), as a calibration

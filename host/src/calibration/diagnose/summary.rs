@@ -3,7 +3,12 @@
 //! noise rows and held-out rows the HTML page (`calibration::report`) shares
 //! with them. Nothing here computes; it reads a [`Diagnosis`].
 
-use super::*;
+use armcal_shared::effects::Effect;
+use armcal_shared::{Calibration, JointType, Param, Robot};
+
+use super::{Choice, DiagnoseOptions, Diagnosis, HeldOut, HeldOutModels, Shortfall};
+use crate::calibration::identify::full::Status;
+use crate::calibration::identify::prior::Geometry;
 
 /// `x` to four significant digits, in fixed notation (`0.02000` mm, `0.0001081` m).
 pub(crate) fn significant(x: f64) -> String {
@@ -127,48 +132,10 @@ impl Diagnosis {
         use serde_json::json;
         let mm = |x: f64| x * 1e3;
         let line = |i: usize| lines.get(i).copied().unwrap_or(0);
-        let HeldOutModels {
-            nominal,
-            geometric,
-            extended,
-        } = self.holdout;
         let units = &model.units;
         // The effects' values as the calibration written holds them.
         let written = self.calibration(&model.robot, false, *units);
-        let effects: Vec<serde_json::Value> = self
-            .findings
-            .iter()
-            .map(|f| {
-                let mut parameters = serde_json::Map::new();
-                if let Some(e) = written.effects.iter().find(|e| f.candidate.is(e)) {
-                    for i in 0..e.parameter_count() {
-                        let v = e.parameter(i).unwrap_or(0.0);
-                        parameters.insert(
-                            crate::calibration::identify::full::effect_parameter_name(e, i),
-                            json!(effect_value(&model.robot, e, units, v)),
-                        );
-                    }
-                }
-                for p in &f.candidate.extra {
-                    let error = written
-                        .errors
-                        .iter()
-                        .find(|r| r.param == *p)
-                        .map_or(0.0, |r| r.error);
-                    parameters.insert(p.to_string(), json!(units.angle_from_si(error)));
-                }
-                json!({
-                    "name": f.candidate.name,
-                    "joints": f.candidate.joints.iter().map(|j| j + 1).collect::<Vec<_>>(),
-                    "parameters": parameters,
-                    "gain": f.gain,
-                    "evidence": format!(
-                        "held-out RMS {:.1}% lower with it ({}-fold); F = {:.1} against the {:.1} of a 1% family-wise test",
-                        100.0 * (1.0 - 1.0 / f.gain), options.folds, f.f_test.0, f.f_test.1
-                    ),
-                })
-            })
-            .collect();
+        let effects = self.effects_json(model, &written, options);
         let (held, moved) = self.prior_role();
         let names = |v: &[Param]| v.iter().map(|p| p.to_string()).collect::<Vec<_>>();
         let (prior, factor) = match self.choice {
@@ -205,15 +172,7 @@ impl Diagnosis {
                     .map(|p| json!({"name": p.param.to_string(), "data_share": p.data_share}))
                     .collect::<Vec<_>>(),
             },
-            "holdout": {
-                "method": format!("{}-fold", options.folds),
-                "nominal_rms_mm": mm(nominal.rms),
-                "geometric_rms_mm": mm(geometric.rms),
-                "extended_rms_mm": mm(extended.rms),
-                "nominal_mean_mm": mm(nominal.mean), "nominal_max_mm": mm(nominal.max),
-                "geometric_mean_mm": mm(geometric.mean), "geometric_max_mm": mm(geometric.max),
-                "extended_mean_mm": mm(extended.mean), "extended_max_mm": mm(extended.max),
-            },
+            "holdout": self.holdout_json(options),
             "effects": effects,
             "written": {
                 "held_out_rms_mm": written.held_out.map(mm),
@@ -222,20 +181,7 @@ impl Diagnosis {
                     "parameters": g.errors.len(),
                 })),
             },
-            "replicates": self.replicates.map(|r| json!({
-                "rows": r.rows,
-                "configurations": r.configurations,
-                "copies": r.copies,
-                "pure_error_mm": r.lack_of_fit.map(|l| mm(l.pure.sigma)),
-                "pure_error_dof": r.lack_of_fit.map(|l| l.pure.dof),
-                "repeated_configurations": r.lack_of_fit.map(|l| l.pure.repeated),
-                "residual_at_means_mm": r.lack_of_fit.map(|l| mm(l.shown)),
-                "expected_at_means_mm": r.lack_of_fit.map(|l| mm(l.expected)),
-                "lack_of_fit_f": r.lack_of_fit.map(|l| l.f),
-                "lack_of_fit_threshold": r.lack_of_fit.map(|l| l.threshold),
-                "lack_of_fit_p": r.lack_of_fit.map(|l| l.p),
-                "lack_of_fit": r.lack_of_fit.map(|l| l.significant()),
-            })),
+            "replicates": self.replicates_json(),
             "fitted": self.fitted.map(|h| json!({
                 "rms_mm": mm(h.rms), "mean_mm": mm(h.mean), "max_mm": mm(h.max),
             })),
@@ -251,7 +197,103 @@ impl Diagnosis {
                 "joints": c.joints.iter().map(|j| j + 1).collect::<Vec<_>>(),
                 "gain": g,
             })).collect::<Vec<_>>(),
-            "unsettled": self.unsettled.as_ref().map(|u| json!({
+            "unsettled": self.unsettled_json(),
+        })
+    }
+
+    /// The JSON's `effects`: each effect found, its parameters as the
+    /// calibration `written` holds them (in the model's units), its evidence.
+    fn effects_json(
+        &self,
+        model: &crate::io::model_file::RobotModel,
+        written: &Calibration,
+        options: &DiagnoseOptions,
+    ) -> Vec<serde_json::Value> {
+        use serde_json::json;
+        let units = &model.units;
+        self
+            .findings
+            .iter()
+            .map(|f| {
+                let mut parameters = serde_json::Map::new();
+                if let Some(e) = written.effects.iter().find(|e| f.candidate.is(e)) {
+                    for i in 0..e.parameter_count() {
+                        let v = e.parameter(i).unwrap_or(0.0);
+                        parameters.insert(
+                            crate::calibration::identify::full::effect_parameter_name(e, i),
+                            json!(effect_value(&model.robot, e, units, v)),
+                        );
+                    }
+                }
+                for p in &f.candidate.extra {
+                    let error = written
+                        .errors
+                        .iter()
+                        .find(|r| r.param == *p)
+                        .map_or(0.0, |r| r.error);
+                    parameters.insert(p.to_string(), json!(units.angle_from_si(error)));
+                }
+                json!({
+                    "name": f.candidate.name,
+                    "joints": f.candidate.joints.iter().map(|j| j + 1).collect::<Vec<_>>(),
+                    "parameters": parameters,
+                    "gain": f.gain,
+                    "evidence": format!(
+                        "held-out RMS {:.1}% lower with it ({}-fold); F = {:.1} against the {:.1} of a 1% family-wise test",
+                        100.0 * (1.0 - 1.0 / f.gain), options.folds, f.f_test.0, f.f_test.1
+                    ),
+                })
+            })
+            .collect()
+    }
+
+    /// The JSON's `holdout`: the held-out errors of the three models, mm.
+    fn holdout_json(&self, options: &DiagnoseOptions) -> serde_json::Value {
+        use serde_json::json;
+        let mm = |x: f64| x * 1e3;
+        let HeldOutModels {
+            nominal,
+            geometric,
+            extended,
+        } = self.holdout;
+        json!({
+            "method": format!("{}-fold", options.folds),
+            "nominal_rms_mm": mm(nominal.rms),
+            "geometric_rms_mm": mm(geometric.rms),
+            "extended_rms_mm": mm(extended.rms),
+            "nominal_mean_mm": mm(nominal.mean), "nominal_max_mm": mm(nominal.max),
+            "geometric_mean_mm": mm(geometric.mean), "geometric_max_mm": mm(geometric.max),
+            "extended_mean_mm": mm(extended.mean), "extended_max_mm": mm(extended.max),
+        })
+    }
+
+    /// The JSON's `replicates`: the repeated configurations and the lack-of-fit test.
+    fn replicates_json(&self) -> Option<serde_json::Value> {
+        use serde_json::json;
+        let mm = |x: f64| x * 1e3;
+        self.replicates.map(|r| {
+            json!({
+                "rows": r.rows,
+                "configurations": r.configurations,
+                "copies": r.copies,
+                "pure_error_mm": r.lack_of_fit.map(|l| mm(l.pure.sigma)),
+                "pure_error_dof": r.lack_of_fit.map(|l| l.pure.dof),
+                "repeated_configurations": r.lack_of_fit.map(|l| l.pure.repeated),
+                "residual_at_means_mm": r.lack_of_fit.map(|l| mm(l.shown)),
+                "expected_at_means_mm": r.lack_of_fit.map(|l| mm(l.expected)),
+                "lack_of_fit_f": r.lack_of_fit.map(|l| l.f),
+                "lack_of_fit_threshold": r.lack_of_fit.map(|l| l.threshold),
+                "lack_of_fit_p": r.lack_of_fit.map(|l| l.p),
+                "lack_of_fit": r.lack_of_fit.map(|l| l.significant()),
+            })
+        })
+    }
+
+    /// The JSON's `unsettled`: the candidate the search stopped on.
+    fn unsettled_json(&self) -> Option<serde_json::Value> {
+        use serde_json::json;
+        self.unsettled.as_ref().map(|u| {
+            json!({
                 "name": u.candidate.name,
                 "joints": u.candidate.joints.iter().map(|j| j + 1).collect::<Vec<_>>(),
                 "gain": u.gain, "f": u.f_test.0, "threshold": u.f_test.1,
@@ -263,7 +305,7 @@ impl Diagnosis {
                     Shortfall::Significance { poses_needed } => Some(poses_needed),
                     Shortfall::Gain { .. } => None,
                 },
-            })),
+            })
         })
     }
 
@@ -274,10 +316,19 @@ impl Diagnosis {
         options: &DiagnoseOptions,
         units: &armcal_shared::units::Units,
     ) -> String {
-        use std::fmt::Write as _;
         let mut out = String::new();
+        self.write_noise(&mut out, units);
+        self.write_suspects(&mut out, lines);
+        self.write_models(&mut out, options);
+        self.write_holdout(&mut out, options);
+        self.write_tried(&mut out);
+        out
+    }
+
+    /// The noise of each channel and the repeated configurations.
+    fn write_noise(&self, out: &mut String, units: &armcal_shared::units::Units) {
+        use std::fmt::Write as _;
         let mm = |x: f64| x * 1e3;
-        let line = |i: usize| lines.get(i).copied().unwrap_or(0);
         for n in self.noise_rows(units) {
             let (what, unit) = (n.what, &n.unit);
             let (used, shown) = (significant(n.used), significant(n.shown));
@@ -324,6 +375,13 @@ impl Diagnosis {
                 );
             }
         }
+    }
+
+    /// Each pose the screen flagged (`lines`: the data line of each pose).
+    fn write_suspects(&self, out: &mut String, lines: &[usize]) {
+        use std::fmt::Write as _;
+        let mm = |x: f64| x * 1e3;
+        let line = |i: usize| lines.get(i).copied().unwrap_or(0);
         for b in &self.suspects {
             let _ = writeln!(
                 out,
@@ -336,6 +394,13 @@ impl Diagnosis {
                 if b.set_aside { "set aside" } else { "kept" }
             );
         }
+    }
+
+    /// Every geometric model's held-out error, the choice, the prior's role,
+    /// the effects found and the one not settled.
+    fn write_models(&self, out: &mut String, options: &DiagnoseOptions) {
+        use std::fmt::Write as _;
+        let mm = |x: f64| x * 1e3;
         let _ = writeln!(
             out,
             "\nheld-out position error of each model ({}-fold), mm:",
@@ -404,6 +469,13 @@ impl Diagnosis {
                 ),
             };
         }
+    }
+
+    /// The held-out error of the nominal, geometric and extended models, the
+    /// fitted one, and what a format without the effects gets.
+    fn write_holdout(&self, out: &mut String, options: &DiagnoseOptions) {
+        use std::fmt::Write as _;
+        let mm = |x: f64| x * 1e3;
         let _ = writeln!(
             out,
             "\nheld-out position error ({}-fold), mm:   rms      mean     max",
@@ -435,6 +507,11 @@ impl Diagnosis {
                 mm(self.holdout.geometric.rms)
             );
         }
+    }
+
+    /// The strongest candidates of the first round.
+    fn write_tried(&self, out: &mut String) {
+        use std::fmt::Write as _;
         let mut tried = self.tried.clone();
         tried.sort_by(|a, b| b.1.total_cmp(&a.1));
         if !tried.is_empty() {
@@ -452,6 +529,5 @@ impl Diagnosis {
                 gain
             );
         }
-        out
     }
 }

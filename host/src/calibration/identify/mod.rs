@@ -26,18 +26,14 @@ pub use summary::{NoiseRow, noise_json, noise_rows};
 #[cfg(test)]
 mod constraint_tests;
 
-use std::fmt::Write as _;
-
 use armcal_shared::calibration::ParamError;
 use armcal_shared::{Calibration, Param, Robot};
-use serde_json::json;
 
-use crate::calibration::diagnose::significant;
 use crate::io::measurements::Measurements;
-use crate::io::model_file::{RobotModel, Units};
+use crate::io::model_file::RobotModel;
 use full::{FullFit, FullOptions, Observation, Status};
 use paper::{PaperOptions, PaperPose};
-use prior::{PRIOR_FACTORS, Prior};
+use prior::Prior;
 use prior_scale::{PriorChoice, PriorScale};
 
 /// Which model to identify.
@@ -214,110 +210,16 @@ pub fn identify(
 ) -> Result<Identification, IdentifyError> {
     let nominal = &model.robot;
     let orientation = data.poses.iter().any(|p| p.orientation.is_some());
-    let mut prior = None;
-    let (iterations, converged, parameters, calibrated, fit) = match set {
-        ParamSet::Full => {
-            // The model's own tilts (a URDF's parallel axes) beside its D-H parameters.
-            let tilts: Vec<Param> = model.tilted.iter().map(|&k| Param::Beta(k)).collect();
-            let fit_at = |factor: f64| {
-                full::identify_constrained(
-                    nominal,
-                    None,
-                    &[],
-                    &tilts,
-                    observations(data),
-                    &data.constraints,
-                    &FullOptions {
-                        prior: options.prior.scaled(factor),
-                        ..*options
-                    },
-                )
-            };
-            let mut fit = fit_at(1.0)?;
-            // A prior without a finite scale (least squares) has none to choose.
-            if let (PriorScale::Chosen { folds }, true) = (scale, options.prior.has_scale()) {
-                let choice = prior_scale::choose(
-                    &fit,
-                    observations(data),
-                    &data.constraints,
-                    &options.prior,
-                    folds,
-                );
-                if choice.factor() != 1.0 {
-                    fit = fit_at(choice.factor())?;
-                }
-                prior = Some(choice);
-            }
-            let rows: Vec<ParamRow> = fit
-                .params
-                .iter()
-                .map(|p| ParamRow {
-                    param: p.param,
-                    nominal: p.nominal,
-                    error: p.error,
-                    std: match &p.status {
-                        Status::Identified { std } => Some(*std),
-                        Status::Fixed { .. } => None,
-                    },
-                    fixed: match &p.status {
-                        Status::Identified { .. } => None,
-                        Status::Fixed { reason } => Some(reason.clone()),
-                    },
-                })
-                .collect();
-            (
-                fit.iterations,
-                fit.converged,
-                rows,
-                fit.calibrated.clone(),
-                Some(fit),
-            )
-        }
-        ParamSet::Paper => {
-            let mut poses = Vec::with_capacity(data.poses.len());
-            for p in &data.poses {
-                let Some(q) = p.orientation else {
-                    return Err(IdentifyError::PaperNeedsPoses {
-                        file: data.file.clone(),
-                    });
-                };
-                poses.push(PaperPose {
-                    q: p.q.clone(),
-                    actual: nalgebra::IsometryMatrix3::from_parts(
-                        p.position.coords.into(),
-                        q.to_rotation_matrix(),
-                    ),
-                    joint_errors: None,
-                });
-            }
-            let fit = paper::identify_paper(nominal, &poses, &PaperOptions::default())?;
-            let last = fit.iterations.last();
-            let rows = fit
-                .params
-                .iter()
-                .zip(&fit.errors)
-                .map(|(&param, &error)| {
-                    let dependent =
-                        last.and_then(|it| it.dependent.iter().find(|(held, _, _)| *held == param));
-                    ParamRow {
-                        param,
-                        nominal: nominal.param(param).unwrap_or(0.0),
-                        error,
-                        std: None,
-                        fixed: dependent.map(|(_, beside, r)| {
-                            format!("not separable from {beside} (r = {r:.9})")
-                        }),
-                    }
-                })
-                .collect();
-            let mut calibrated = nominal.clone();
-            for (p, e) in fit.params.iter().zip(&fit.errors) {
-                if let Some(v) = calibrated.param_mut(*p) {
-                    *v += e;
-                }
-            }
-            (fit.iterations.len(), fit.converged, rows, calibrated, None)
-        }
+    let Fitted {
+        iterations,
+        converged,
+        parameters,
+        calibrated,
+        fit,
+        prior,
+    } = match set {
+        ParamSet::Full => fit_full(model, data, options, scale)?,
+        ParamSet::Paper => fit_paper(model, data)?,
     };
     let (position_rms, orientation_rms) = match &fit {
         // The fit's last linearisation is at the solution: its sums of squares
@@ -353,6 +255,144 @@ pub fn identify(
         stated_prior: options.prior,
         prior,
         calibration,
+    })
+}
+
+/// What either parameter set's fit gives the identification.
+struct Fitted {
+    /// Iterations of the fit.
+    iterations: usize,
+    /// Whether it converged.
+    converged: bool,
+    /// Each parameter's row of the report.
+    parameters: Vec<ParamRow>,
+    /// The calibrated model.
+    calibrated: Robot<f64>,
+    /// The full fit (`--params full`).
+    fit: Option<FullFit>,
+    /// The prior's scale chosen by cross-validation, when asked.
+    prior: Option<PriorChoice>,
+}
+
+/// `--params full`: the fit at the stated prior, then at the factor chosen
+/// held-out when `scale` asks for one and it differs.
+fn fit_full(
+    model: &RobotModel,
+    data: &Measurements,
+    options: &FullOptions,
+    scale: PriorScale,
+) -> Result<Fitted, IdentifyError> {
+    let nominal = &model.robot;
+    let mut prior = None;
+    // The model's own tilts (a URDF's parallel axes) beside its D-H parameters.
+    let tilts: Vec<Param> = model.tilted.iter().map(|&k| Param::Beta(k)).collect();
+    let fit_at = |factor: f64| {
+        full::identify_constrained(
+            nominal,
+            None,
+            &[],
+            &tilts,
+            observations(data),
+            &data.constraints,
+            &FullOptions {
+                prior: options.prior.scaled(factor),
+                ..*options
+            },
+        )
+    };
+    let mut fit = fit_at(1.0)?;
+    // A prior without a finite scale (least squares) has none to choose.
+    if let (PriorScale::Chosen { folds }, true) = (scale, options.prior.has_scale()) {
+        let choice = prior_scale::choose(
+            &fit,
+            observations(data),
+            &data.constraints,
+            &options.prior,
+            folds,
+        );
+        if choice.factor() != 1.0 {
+            fit = fit_at(choice.factor())?;
+        }
+        prior = Some(choice);
+    }
+    let rows: Vec<ParamRow> = fit
+        .params
+        .iter()
+        .map(|p| ParamRow {
+            param: p.param,
+            nominal: p.nominal,
+            error: p.error,
+            std: match &p.status {
+                Status::Identified { std } => Some(*std),
+                Status::Fixed { .. } => None,
+            },
+            fixed: match &p.status {
+                Status::Identified { .. } => None,
+                Status::Fixed { reason } => Some(reason.clone()),
+            },
+        })
+        .collect();
+    Ok(Fitted {
+        iterations: fit.iterations,
+        converged: fit.converged,
+        parameters: rows,
+        calibrated: fit.calibrated.clone(),
+        fit: Some(fit),
+        prior,
+    })
+}
+
+/// `--params paper`: Mirman & Gupta's regression on full poses.
+fn fit_paper(model: &RobotModel, data: &Measurements) -> Result<Fitted, IdentifyError> {
+    let nominal = &model.robot;
+    let mut poses = Vec::with_capacity(data.poses.len());
+    for p in &data.poses {
+        let Some(q) = p.orientation else {
+            return Err(IdentifyError::PaperNeedsPoses {
+                file: data.file.clone(),
+            });
+        };
+        poses.push(PaperPose {
+            q: p.q.clone(),
+            actual: nalgebra::IsometryMatrix3::from_parts(
+                p.position.coords.into(),
+                q.to_rotation_matrix(),
+            ),
+            joint_errors: None,
+        });
+    }
+    let fit = paper::identify_paper(nominal, &poses, &PaperOptions::default())?;
+    let last = fit.iterations.last();
+    let rows = fit
+        .params
+        .iter()
+        .zip(&fit.errors)
+        .map(|(&param, &error)| {
+            let dependent =
+                last.and_then(|it| it.dependent.iter().find(|(held, _, _)| *held == param));
+            ParamRow {
+                param,
+                nominal: nominal.param(param).unwrap_or(0.0),
+                error,
+                std: None,
+                fixed: dependent
+                    .map(|(_, beside, r)| format!("not separable from {beside} (r = {r:.9})")),
+            }
+        })
+        .collect();
+    let mut calibrated = nominal.clone();
+    for (p, e) in fit.params.iter().zip(&fit.errors) {
+        if let Some(v) = calibrated.param_mut(*p) {
+            *v += e;
+        }
+    }
+    Ok(Fitted {
+        iterations: fit.iterations.len(),
+        converged: fit.converged,
+        parameters: rows,
+        calibrated,
+        fit: None,
+        prior: None,
     })
 }
 

@@ -4,7 +4,17 @@
 //! `diagnose`'s reports share. Nothing here computes; it reads an
 //! [`Identification`].
 
-use super::*;
+use std::fmt::Write as _;
+
+use armcal_shared::Param;
+use serde_json::json;
+
+use super::prior::PRIOR_FACTORS;
+use super::prior_scale::{self, PriorChoice};
+use super::{Identification, noise};
+use crate::calibration::diagnose::significant;
+use crate::io::measurements::Measurements;
+use crate::io::model_file::{RobotModel, Units};
 
 /// One channel's noise as the reports show it, in the model's units.
 #[derive(Clone, Debug, PartialEq)]
@@ -271,6 +281,15 @@ impl Identification {
                 String::new()
             }
         );
+        self.write_fit_statistics(&mut out, u);
+        self.write_parameters(&mut out, u);
+        self.write_constraints(&mut out, u, data);
+        self.write_correlations(&mut out);
+        out
+    }
+
+    /// The full fit's condition number, observability and variance factor, and each channel's noise.
+    fn write_fit_statistics(&self, out: &mut String, u: &Units) {
         if let Some(fit) = &self.full {
             let _ = writeln!(
                 out,
@@ -303,6 +322,10 @@ impl Identification {
                 };
             }
         }
+    }
+
+    /// The prior's line and the table of the parameters.
+    fn write_parameters(&self, out: &mut String, u: &Units) {
         if let Some(line) = self.prior_line(u) {
             let _ = writeln!(out, "{line}");
         }
@@ -332,6 +355,10 @@ impl Identification {
                     .map_or("identified".to_string(), |why| format!("fixed: {why}")),
             );
         }
+    }
+
+    /// A constraint session's estimated points and planes and its distances' residuals.
+    fn write_constraints(&self, out: &mut String, u: &Units, data: &Measurements) {
         if let Some(fit) = self
             .full
             .as_ref()
@@ -393,12 +420,15 @@ impl Identification {
                 );
             }
         }
+    }
+
+    /// The strongest correlations of the estimates.
+    fn write_correlations(&self, out: &mut String) {
         if let Some(fit) = self.full.as_ref().filter(|f| !f.correlations.is_empty()) {
             let _ = writeln!(out, "\nstrongest correlations:");
             for (a, b, r) in &fit.correlations {
                 let _ = writeln!(out, "  {a:<9} {b:<9} {r:+.4}");
             }
         }
-        out
     }
 }

@@ -3,7 +3,10 @@
 //! tool of a session without a tracker. See the parent module's "Initial
 //! estimate".
 
-use super::*;
+use armcal_shared::{Robot, rotation_error};
+use nalgebra::{IsometryMatrix3, Matrix3, Point3, Rotation3, Vector3};
+
+use super::{Model, Observation, PlaneEstimate};
 
 /// The most poses the closed-form estimate of base and tool reads: evenly
 /// spaced over a longer session. A start for the fit, which then reads every

@@ -3,7 +3,16 @@
 //! fold ([`fold_normals`]), what the cross-validations of `diagnose` and of
 //! the prior's scale ([`super::super::prior_scale`]) step from.
 
-use super::*;
+use armcal_shared::Param;
+use armcal_shared::effects::Effect;
+use faer::Mat;
+use nalgebra::{DMatrix, DVector, Point3};
+
+use super::rows::{DistanceRows, LinearSystem, NormalEquations};
+use super::{Constraints, FullFit, Model, Observation, PlaneEstimate, Status, Unknown};
+use crate::calibration::identify::noise::Channel;
+use crate::calibration::identify::prior::Prior;
+use crate::io::measurements::Contact;
 
 /// The model at a fit's solution and the unknowns of a linearisation about
 /// it ([`linearize`], [`fold_normals`]): the fit's identified parameters, its

@@ -66,40 +66,33 @@
 //! ## Where each part is
 //! | module | part |
 //! | --- | --- |
-//! | this one | the unknowns, the options and the result ([`FullFit`]), the fit itself ([`identify_constrained`]: the noise rounds, the selection, the statistics) |
+//! | this one | the unknowns, the options and the result ([`FullFit`]), the posterior and the prior's reach |
+//! | `fit` | the fit itself ([`identify_constrained`]): the unknowns of one fit, its state through the noise rounds and selections, the statistics and the result |
 //! | `rows` | residuals and weights: each pose's rows, the normal equations per channel |
 //! | `initial` | the initial estimate of base, tool, points and planes |
 //! | `selection` | identifiability: what the data separate, and why the others are held |
 //! | `solve` | the solution: Levenberg–Marquardt with the prior |
 //! | `linearization` | the linearisation about a solution, stored or summed per fold, for the cross-validations |
 
-use armcal_shared::effects::{Effect, EffectModel, gravity_torques, joint_param};
-use armcal_shared::jacobian::at_point;
-use armcal_shared::{FrameAxis, JointType, Param, Robot, Twist, rotation_error};
-use faer::linalg::matmul::{self, triangular, triangular::BlockStructure};
+use armcal_shared::effects::Effect;
+use armcal_shared::{FrameAxis, JointType, Param, Robot, rotation_error};
 use faer::linalg::solvers::{DenseSolveCore, Solve};
-use faer::{Accum, Mat, Par, Side};
-use nalgebra::{DMatrix, DVector, IsometryMatrix3, Matrix3, Point3, Rotation3, Vector3};
+use faer::{Mat, Side};
+use nalgebra::{Matrix3, Point3, Rotation3, Vector3};
 
-use crate::calibration::parallel;
-use std::borrow::Borrow;
-
-use super::noise::{
-    Channel, ChannelNoise, Noise, NoiseEstimate, NoiseSource, PerChannel, SETTLED, Weights,
-};
+use super::noise::{Channel, Noise, NoiseEstimate, NoiseSource, PerChannel, Weights};
 use super::prior::{Geometry, PRIOR_FACTORS, Prior};
 
+mod fit;
 mod initial;
 mod linearization;
 mod rows;
 mod selection;
 mod solve;
 
-use initial::*;
+use fit::{Fit, Unknowns, check_inputs};
 pub use linearization::{FoldNormal, FoldNormals, Linearization, fold_normals, linearize};
-use rows::*;
-use selection::*;
-use solve::*;
+use rows::NormalEquations;
 pub(crate) use solve::{unit_diagonal_scale, unit_scale};
 
 /// One unknown of the fit: a geometric parameter, or parameter `component` of
@@ -324,7 +317,6 @@ pub fn effect_parameter_name(effect: &Effect<f64>, component: usize) -> String {
     }
 }
 
-use crate::io::measurements::Contact;
 pub use crate::io::measurements::Observation;
 pub use crate::session::constraints::Constraints;
 
@@ -723,417 +715,10 @@ pub fn identify_constrained(
     constraints: &Constraints,
     options: &FullOptions,
 ) -> Result<FullFit, FullError> {
-    let constrained = !constraints.is_empty();
-    if let Some(i) = data.iter().position(|o| {
-        o.fixed_point()
-            .is_some_and(|k| k >= constraints.points.len())
-            || o.on_plane().is_some_and(|k| k >= constraints.planes.len())
-    }) {
-        return Err(FullError::ConstraintsMissing { pose: i + 1 });
-    }
-    if let Some(joint) = effects
-        .iter()
-        .filter_map(|e| e.joint())
-        .find(|j| *j >= nominal.dof())
-    {
-        return Err(FullError::EffectJoint { joint: joint + 1 });
-    }
-    for (i, obs) in data.iter().enumerate() {
-        if obs.q.len() != nominal.dof() {
-            return Err(FullError::JointCount {
-                pose: i + 1,
-                expected: nominal.dof(),
-                got: obs.q.len(),
-            });
-        }
-    }
-    let orientation = data.iter().any(|o| o.orientation.is_some());
-    // Every parameter of the full model and the extra tilts; the chosen geometry
-    // frees some of the model's, the others are held at nominal.
-    let all: Vec<Param> = full_params(nominal, orientation)
-        .into_iter()
-        .chain(extra.iter().copied())
-        .collect();
-    // Without a measured coordinate the base frame is arbitrary: the fixed
-    // points are found in whatever frame the base sets.
-    let base_unobservable = |p: &Param| constrained && matches!(p, Param::Base(_));
-    let frees = |p: &Param| {
-        (options.geometry.frees(nominal, *p) || extra.contains(p)) && !base_unobservable(p)
-    };
-    let held_by_model: Vec<(Unknown, String)> = all
-        .iter()
-        .filter(|p| !frees(p))
-        .map(|p| {
-            let reason = if base_unobservable(p) {
-                "not observable: the data measure no coordinate (only unknown fixed points \
-                 and distances between them), so the base frame is arbitrary; held at nominal"
-                    .to_owned()
-            } else {
-                format!(
-                    "held at nominal: the {} model does not free it",
-                    options.geometry.name()
-                )
-            };
-            (Unknown::Param(*p), reason)
-        })
-        .collect();
-    let point_unknowns = (0..constraints.points.len())
-        .flat_map(|point| (0..3).map(move |axis| Unknown::Point { point, axis }))
-        .chain(
-            (0..constraints.planes.len())
-                .flat_map(|plane| (0..3).map(move |component| Unknown::Plane { plane, component })),
-        );
-    let mut params: Vec<Unknown> = point_unknowns
-        .chain(all.iter().filter(|p| frees(p)).map(|p| Unknown::Param(*p)))
-        .collect();
-    for (effect, e) in effects.iter().enumerate() {
-        params.extend(
-            (0..e.parameter_count()).map(|component| Unknown::Effect { effect, component }),
-        );
-    }
-    // However the columns happen to fall, fewer equations than the model's
-    // independent parameters (Everett, Driels & Mooring) cannot determine it.
-    let equations = LinearSystem::rows(data) + constraints.equations();
-    let mut unknowns =
-        independent_parameter_count(nominal, data.iter().all(|o| o.orientation.is_some()));
-    if constrained {
-        // No base (6), three coordinates per point.
-        unknowns = (unknowns + 3 * constraints.points.len() + 3 * constraints.planes.len())
-            .saturating_sub(6);
-    }
-    if equations < unknowns {
-        return Err(FullError::TooFewEquations {
-            equations,
-            unknowns,
-        });
-    }
-
-    let mut robot = Model::of(start.unwrap_or(nominal).clone(), effects.to_vec());
-    if constrained {
-        robot.constraints = constraints.clone();
-        robot.points = vec![Point3::origin(); constraints.points.len()];
-        robot.planes = vec![
-            PlaneEstimate::through(&Point3::origin(), &Vector3::z());
-            constraints.planes.len()
-        ];
-        initial_points_tool(
-            &mut robot,
-            data,
-            options.initial_estimate && start.is_none(),
-        );
-    } else if options.initial_estimate && start.is_none() {
-        initial_base_tool(&mut robot.robot, data);
-    }
-    // What this model does not free is nominal, whatever the start.
-    for (u, _) in &held_by_model {
-        if let (Unknown::Param(p), Some(v)) = (u, robot.get_mut(*u))
-            && let Some(n) = nominal.param(*p)
-        {
-            *v = n;
-        }
-    }
-
-    // Identifiability at the initial estimate; the fit; then, for an estimated
-    // noise, the variance components and the fit again with their weights until
-    // they settle. A stated noise is kept, but when the fit shows it
-    // significantly larger the selection is made again with the noise the
-    // residuals show.
-    // The channels the data have rows in: each of those whose noise is not
-    // stated is estimated.
-    let present = PerChannel::from_fn(|c| match c {
-        Channel::Position => true,
-        Channel::Orientation => orientation,
-        Channel::Point => data.iter().any(|o| o.fixed_point().is_some()),
-        Channel::Plane => data.iter().any(|o| o.on_plane().is_some()),
-    });
-    let estimate =
-        present.map(|c, &present| present && options.noise(c).source == NoiseSource::Estimated);
-    let start = robot.clone();
-    let mut noise = PerChannel::from_fn(|c| options.noise(c).sigma);
-    let mut noise_scale = 1.0;
-    let mut iterations = 0;
-    let (mut free_params, mut fixed, mut converged, mut sys, mut prior, mut post);
-    let mut last_decrease;
-    let mut round = 0;
-    loop {
-        round += 1;
-        let weights = Weights::of(&noise);
-        let system = NormalEquations::accumulate(&robot, data, &params, &weights);
-        let (free, f) = if constrained {
-            constrained_subset(&params, &robot, data, options, noise_scale, &weights)
-        } else {
-            separable_subset(&system, &params, &robot, data, options, noise_scale)
-        };
-        fixed = f;
-        if equations < free.len() && options.prior == Prior::NONE {
-            return Err(FullError::TooFewEquations {
-                equations,
-                unknowns: free.len(),
-            });
-        }
-        free_params = free.iter().map(|&k| params[k]).collect::<Vec<Unknown>>();
-        // Parameters held fixed keep their nominal value (base and tool: their
-        // closed-form estimate).
-        let mut moved = false;
-        for (p, _) in &fixed {
-            let keep = match *p {
-                Unknown::Param(Param::Base(_) | Param::Tool(_)) => start.get(*p),
-                Unknown::Param(q) => nominal.param(q),
-                Unknown::Effect { .. } | Unknown::Point { .. } | Unknown::Plane { .. } => {
-                    start.get(*p)
-                }
-            };
-            if let (Some(v), Some(slot)) = (keep, robot.get_mut(*p)) {
-                moved |= *slot != v;
-                *slot = v;
-            }
-        }
-        // The linearisation of every parameter serves the first iteration unless a
-        // held parameter was just moved back.
-        let first = if moved {
-            NormalEquations::accumulate(&robot, data, &free_params, &weights)
-        } else {
-            system.select_columns(&free)
-        };
-        prior = prior_terms(&free_params, nominal, &options.prior);
-        // The fit of the free parameters at `weights` from the linearisation `first`.
-        let solve = |robot: &mut Model, weights: &Weights, first| {
-            levenberg_marquardt(robot, data, &free_params, weights, options, first, &prior)
-        };
-        let run;
-        (run, converged, last_decrease, sys) = solve(&mut robot, &weights, first)?;
-        iterations += run;
-        post = Posterior::at(&sys, &prior);
-        if estimate.0.contains(&true) {
-            // The free parameters stay; each round reweighs the rows of the
-            // solution's linearisation and iterates from there.
-            loop {
-                let next = noise.map(|c, &sigma| {
-                    if estimate[c] {
-                        ChannelNoise::update(sigma, post.omega[c], post.redundancy[c])
-                    } else {
-                        sigma
-                    }
-                });
-                let settled = Channel::ALL
-                    .iter()
-                    .all(|&c| (next[c] / noise[c] - 1.0).abs() < SETTLED);
-                if settled || round >= MAX_NOISE_ROUNDS {
-                    break;
-                }
-                round += 1;
-                let before = Weights::of(&noise);
-                noise = next;
-                let weights = Weights::of(&noise);
-                let first = sys.reweighted(&before, &weights);
-                let run;
-                (run, converged, last_decrease, sys) = solve(&mut robot, &weights, first)?;
-                iterations += run;
-                post = Posterior::at(&sys, &prior);
-            }
-            break;
-        }
-        let variance_factor = post.variance_factor();
-        // Select again only if the noise is significantly larger than stated: the
-        // variance factor of correctly stated noise scatters about 1 with a
-        // standard deviation of √(2/dof).
-        let significant = 1.0 + 3.0 * (2.0 / post.redundancy().max(1.0)).sqrt();
-        let new_scale = variance_factor.sqrt();
-        if variance_factor <= significant * noise_scale * noise_scale {
-            break;
-        }
-        let (free_again, _) = if constrained {
-            constrained_subset(&params, &robot, data, options, new_scale, &weights)
-        } else {
-            let system = NormalEquations::accumulate(&robot, data, &params, &weights);
-            separable_subset(&system, &params, &robot, data, options, new_scale)
-        };
-        noise_scale = new_scale;
-        if free_again.iter().map(|&k| params[k]).collect::<Vec<_>>() == free_params {
-            break;
-        }
-    }
-
-    // Statistics at the solution (the last linearisation is at the solution).
-    let (g, _, scale) = sys.scaled_normal_equations();
-    let variance_factor = post.variance_factor();
-    let eig = g.self_adjoint_eigenvalues(Side::Lower).unwrap_or_default();
-    let (smin, smax) = (
-        eig.first().copied().unwrap_or(0.0).max(0.0).sqrt(),
-        eig.last().copied().unwrap_or(0.0).max(0.0).sqrt(),
-    );
-    let condition_number = if smin > 0.0 {
-        smax / smin
-    } else {
-        f64::INFINITY
-    };
-    let observability = {
-        let p = eig.len().max(1) as f64;
-        let log_sum: f64 = eig
-            .iter()
-            .map(|l| 0.5 * l.max(f64::MIN_POSITIVE).ln())
-            .sum();
-        (log_sum / p).exp() / (equations.max(1) as f64).sqrt()
-    };
-    let prior_reach = prior_reach(&g, &scale, &robot, &free_params, &prior, equations);
-    let mut correlations = Vec::new();
-    let mut std_of = vec![f64::NAN; free_params.len()];
-    if let Some(c) = &post.cov {
-        for k in 0..free_params.len() {
-            std_of[k] = (variance_factor * c[(k, k)]).sqrt() * scale[k];
-            for l in 0..k {
-                let rho = c[(k, l)] / (c[(k, k)] * c[(l, l)]).sqrt();
-                correlations.push((robot.name(free_params[l]), robot.name(free_params[k]), rho));
-            }
-        }
-    }
-    correlations.sort_by(|a, b| b.2.abs().total_cmp(&a.2.abs()));
-    correlations.truncate(5);
-
-    let (position_rms, orientation_rms) = sys.residual_rms(&Weights::of(&noise));
-    let channel = |c: Channel| ChannelNoise {
-        source: options.noise(c).source,
-        used: noise[c],
-        shown: ChannelNoise::update(noise[c], post.omega[c], post.redundancy[c]),
-        rows: post.rows[c],
-        redundancy: post.redundancy[c],
-    };
-    let distance = (!constraints.distances.is_empty()).then(|| {
-        let n = constraints.distances.len();
-        let used = (constraints
-            .distances
-            .iter()
-            .map(|d| d.std * d.std)
-            .sum::<f64>()
-            / n as f64)
-            .sqrt();
-        let (omega, redundancy) = post.distances;
-        ChannelNoise {
-            source: NoiseSource::Stated,
-            used,
-            shown: ChannelNoise::update(used, omega, redundancy),
-            rows: n,
-            redundancy,
-        }
-    });
-    let noise_estimate = NoiseEstimate {
-        position: channel(Channel::Position),
-        orientation: orientation.then(|| channel(Channel::Orientation)),
-        point: present[Channel::Point].then(|| channel(Channel::Point)),
-        plane: present[Channel::Plane].then(|| channel(Channel::Plane)),
-        distance,
-    };
-    let mut fixed_reason = fixed
-        .into_iter()
-        .chain(held_by_model)
-        .collect::<std::collections::HashMap<_, _>>();
-    let mut status_of = |u: Unknown| match free_params.iter().position(|p| *p == u) {
-        Some(k) => (Status::Identified { std: std_of[k] }, post.share[k]),
-        None => {
-            let mut reason = fixed_reason
-                .remove(&u)
-                .unwrap_or_else(|| "not separable".into());
-            // The error shown is then the registration's, not a fitted one.
-            if let Unknown::Param(p @ (Param::Base(_) | Param::Tool(_))) = u
-                && start.get(u) != nominal.param(p)
-            {
-                reason.push_str("; held at its closed-form estimate from the data, not at nominal");
-            }
-            (Status::Fixed { reason }, 0.0)
-        }
-    };
-    let effect_fits: Vec<EffectFit> = robot
-        .effects
-        .iter()
-        .enumerate()
-        .map(|(effect, e)| EffectFit {
-            effect: *e,
-            status: (0..e.parameter_count())
-                .map(|component| status_of(Unknown::Effect { effect, component }).0)
-                .collect(),
-        })
-        .collect();
-    let results = all
-        .iter()
-        .map(|&param| {
-            let nominal_value = nominal.param(param).unwrap_or(0.0);
-            let mut error = robot.robot.param(param).unwrap_or(0.0) - nominal_value;
-            if param.is_angle() {
-                error = wrap_angle(error);
-            }
-            let (status, data_share) = status_of(Unknown::Param(param));
-            ParamResult {
-                param,
-                nominal: nominal_value,
-                error,
-                status,
-                data_share,
-            }
-        })
-        .collect();
-    if !sys.cost().is_finite() {
-        return Err(FullError::NonFinite);
-    }
-    let points = robot
-        .constraints
-        .points
-        .iter()
-        .zip(&robot.points)
-        .enumerate()
-        .map(|(point, (named, position))| PointFit {
-            name: named.name.clone(),
-            position: *position,
-            std: Vector3::from_fn(|axis, _| {
-                free_params
-                    .iter()
-                    .position(|u| *u == Unknown::Point { point, axis })
-                    .map_or(f64::NAN, |k| std_of[k])
-            }),
-        })
-        .collect();
-    let distance_residuals = robot
-        .constraints
-        .distances
-        .iter()
-        .map(|d| {
-            let [a, b] = d
-                .points
-                .map(|k| robot.points.get(k).copied().unwrap_or_else(Point3::origin));
-            (a - b).norm() - d.length
-        })
-        .collect();
-    let planes = robot
-        .constraints
-        .planes
-        .iter()
-        .zip(&robot.planes)
-        .map(|(named, p)| PlaneFit {
-            name: named.name.clone(),
-            normal: p.normal(),
-            offset: p.offset,
-        })
-        .collect();
-    Ok(FullFit {
-        points,
-        planes,
-        distance_residuals,
-        params: results,
-        calibrated: robot.robot,
-        effects: effect_fits,
-        iterations,
-        converged,
-        last_decrease,
-        position_rms,
-        orientation_rms,
-        condition_number,
-        observability,
-        variance_factor,
-        correlations,
-        equations,
-        redundancy: post.redundancy(),
-        noise: noise_estimate,
-        prior_reach,
-    })
+    check_inputs(nominal, effects, data, constraints)?;
+    let unknowns = Unknowns::of(nominal, effects, extra, data, constraints, options)?;
+    let model = unknowns.initial_model(nominal, start, effects, data, constraints, options);
+    Fit::new(nominal, data, constraints, options, unknowns, model).run()
 }
 
 /// How much another scale of the prior could change the fit's held-out

@@ -5,7 +5,19 @@
 //! in blocks of poses on every core, and the rows of the known distances.
 //! See the parent module's "Residuals and weights".
 
-use super::*;
+use std::borrow::Borrow;
+
+use armcal_shared::effects::{Effect, EffectModel, gravity_torques, joint_param};
+use armcal_shared::jacobian::at_point;
+use armcal_shared::{Chain, Param, Prepared, Robot, Twist, rotation_error};
+use faer::linalg::matmul::{self, triangular, triangular::BlockStructure};
+use faer::{Accum, Mat, Par};
+use nalgebra::{Point3, Vector3};
+
+use super::solve::unit_diagonal_scale;
+use super::{Model, Observation, PlaneEstimate, Unknown, rms_pair};
+use crate::calibration::identify::noise::{Channel, PerChannel, Weights};
+use crate::calibration::parallel;
 
 /// The weighted Jacobian and residual of one linearisation, stored whole (rows ×
 /// unknowns): what [`linearize`] hands the diagnosis, which solves on subsets of
@@ -125,162 +137,279 @@ pub(super) fn for_each_pose_rows<O: Borrow<Observation>>(
         channel: Channel::Position,
     };
     let base_columns = chain.base_columns();
-    let effects = (!model.effects.is_empty())
-        .then(|| EffectModel::new(robot.clone(), &model.effects).ok())
-        .flatten();
-    let thermal = model.effects.iter().find_map(|e| match e {
-        Effect::ThermalExpansion {
-            coefficient,
-            reference,
-        } => Some((*coefficient, *reference)),
-        _ => None,
-    });
-    let needs_torque = model
-        .effects
-        .iter()
-        .any(|e| matches!(e, Effect::JointCompliance { .. }));
+    let effects = PoseEffects::of(model);
     let mut q_eff: Vec<f64> = Vec::new();
     for obs in data {
         let obs: &Observation = obs.borrow();
         // Joint counts were checked on entry.
+        let Some(at) = effects.place(robot, &kinematics, obs, &mut q_eff, &mut chain) else {
+            continue;
+        };
+        let columns = PoseColumns {
+            model,
+            obs,
+            chain: &chain,
+            base_columns: &base_columns,
+            tool_columns: chain.tool_columns(),
+            at: &at,
+        };
+        let p = chain.point();
+        let dp = model.target(obs) - p;
+        // The tool point's rows are weighed by the noise of their kind.
+        let channel = obs.channel();
+        let pose = PoseGeometry {
+            p,
+            orientation: obs
+                .orientation
+                .map(|q| rotation_error(&q.to_rotation_matrix(), &chain.end.rotation)),
+            // A touch of a plane: one row, the distance along the normal.
+            touched: obs
+                .on_plane()
+                .and_then(|k| model.planes.get(k).map(|pl| (k, pl, pl.normal()))),
+            wp: weights[channel],
+            wr,
+        };
+        for (k, &u) in params.iter().enumerate() {
+            match u {
+                Unknown::Plane { plane, component } => {
+                    rows.set_plane_column(k, plane, component, &pose);
+                }
+                Unknown::Point { point, axis } => {
+                    // The row's target moves with its own point: −1 on the axis.
+                    rows.set_point_column(k, obs.fixed_point() == Some(point), axis, pose.wp);
+                }
+                Unknown::Param(_) | Unknown::Effect { .. } => {
+                    rows.set_column(k, &columns.column(u), &pose);
+                }
+            }
+        }
+        rows.set_residual(&dp, channel, &pose);
+        emit(&rows);
+    }
+}
+
+/// The effects as the rows of every pose need them: the effect model, the
+/// thermal expansion's coefficient and reference temperature, and whether a
+/// compliance asks for the gravity torques.
+struct PoseEffects {
+    effects: Option<EffectModel<f64>>,
+    thermal: Option<(f64, f64)>,
+    needs_torque: bool,
+}
+
+/// Where one pose is evaluated: its temperature's offset from the reference
+/// (°C, 0 without thermal expansion), the lengths' factor there, and the
+/// gravity torques (N m; empty unless a compliance needs them).
+struct PoseState {
+    delta_t: f64,
+    length_scale: f64,
+    tau: Vec<f64>,
+}
+
+impl PoseEffects {
+    fn of(model: &Model) -> Self {
+        let robot = &model.robot;
+        let effects = (!model.effects.is_empty())
+            .then(|| EffectModel::new(robot.clone(), &model.effects).ok())
+            .flatten();
+        let thermal = model.effects.iter().find_map(|e| match e {
+            Effect::ThermalExpansion {
+                coefficient,
+                reference,
+            } => Some((*coefficient, *reference)),
+            _ => None,
+        });
+        let needs_torque = model
+            .effects
+            .iter()
+            .any(|e| matches!(e, Effect::JointCompliance { .. }));
+        Self {
+            effects,
+            thermal,
+            needs_torque,
+        }
+    }
+
+    /// Sets `chain` to pose `obs` of `robot` at its temperature and the joint values the
+    /// effects give (`q_eff`, reused); `None` if its kinematics fail.
+    fn place(
+        &self,
+        robot: &Robot<f64>,
+        kinematics: &Prepared<f64>,
+        obs: &Observation,
+        q_eff: &mut Vec<f64>,
+        chain: &mut Chain<f64>,
+    ) -> Option<PoseState> {
         let ctx = &obs.context;
-        let delta_t = match (thermal, ctx.temperature) {
+        let delta_t = match (self.thermal, ctx.temperature) {
             (Some((_, reference)), Some(t)) => t - reference,
             _ => 0.0,
         };
         // The lengths at the pose's temperature: the chain of
         // `EffectModel::robot_at`, without preparing a model per pose.
-        let length_scale = match (&effects, delta_t != 0.0) {
+        let length_scale = match (&self.effects, delta_t != 0.0) {
             (Some(em), true) => em.length_factor(ctx.temperature),
             _ => 1.0,
         };
         let mut tau: Vec<f64> = Vec::new();
         q_eff.clear();
-        match &effects {
+        match &self.effects {
             Some(em) => {
-                if needs_torque
+                if self.needs_torque
                     && kinematics
-                        .chain_scaled_into(&obs.q, length_scale, &mut chain)
+                        .chain_scaled_into(&obs.q, length_scale, chain)
                         .is_ok()
                 {
-                    tau = gravity_torques(robot, &chain, ctx.payload.unwrap_or(0.0)).to_vec();
+                    tau = gravity_torques(robot, chain, ctx.payload.unwrap_or(0.0)).to_vec();
                 }
                 q_eff.extend_from_slice(&em.joint_values_at(&obs.q, &tau, ctx));
             }
             None => q_eff.extend_from_slice(&obs.q),
         }
-        if kinematics
-            .chain_scaled_into(&q_eff, length_scale, &mut chain)
-            .is_err()
-        {
-            continue;
+        kinematics
+            .chain_scaled_into(q_eff, length_scale, chain)
+            .ok()?;
+        Some(PoseState {
+            delta_t,
+            length_scale,
+            tau,
+        })
+    }
+}
+
+/// The columns of one pose's geometric and effect unknowns, as twists.
+struct PoseColumns<'a> {
+    model: &'a Model,
+    obs: &'a Observation,
+    chain: &'a Chain<f64>,
+    base_columns: &'a [Twist<f64>; 6],
+    tool_columns: [Twist<f64>; 6],
+    at: &'a PoseState,
+}
+
+impl PoseColumns<'_> {
+    /// The column of `u`, a parameter or an effect's parameter.
+    #[inline]
+    fn column(&self, u: Unknown) -> Twist<f64> {
+        let (chain, robot, length_scale) = (self.chain, &self.model.robot, self.at.length_scale);
+        match u {
+            Unknown::Param(Param::Base(ax)) => self.base_columns[ax.index()],
+            Unknown::Param(Param::Tool(ax)) => self.tool_columns[ax.index()],
+            Unknown::Param(pm @ (Param::A(_) | Param::S(_))) => chain.column(pm) * length_scale,
+            Unknown::Param(pm) => chain.column(pm),
+            Unknown::Effect { effect, component } => {
+                let e = &self.model.effects[effect];
+                match e.joint() {
+                    Some(jt) => {
+                        let sens = e.joint_sensitivity(
+                            component,
+                            self.obs.q[jt],
+                            self.at.tau.get(jt).copied().unwrap_or(0.0),
+                            &self.obs.context,
+                        );
+                        chain.column(joint_param(robot, jt)) * sens
+                    }
+                    // Thermal expansion: every length, scaled by ΔT.
+                    None => {
+                        (0..robot.dof())
+                            .map(|i| {
+                                let l = &robot.links[i];
+                                chain.column(Param::A(i)) * l.a + chain.column(Param::S(i)) * l.s
+                            })
+                            .fold(Twist::zeros(), |acc, c| acc + c)
+                            * self.at.delta_t
+                    }
+                }
+            }
+            // Points and planes have no twist: their rows are written directly.
+            Unknown::Point { .. } | Unknown::Plane { .. } => Twist::zeros(),
         }
-        let tool_columns = chain.tool_columns();
-        let p = chain.point();
-        let dp = model.target(obs) - p;
-        let orientation = obs
-            .orientation
-            .map(|q| rotation_error(&q.to_rotation_matrix(), &chain.end.rotation));
-        // A touch of a plane: one row, the distance along the normal.
-        let touched = obs
-            .on_plane()
-            .and_then(|k| model.planes.get(k).map(|pl| (k, pl, pl.normal())));
-        // The tool point's rows are weighed by the noise of their kind.
-        let channel = obs.channel();
-        let wp = weights[channel];
-        for (k, &u) in params.iter().enumerate() {
-            let col: Twist<f64> = match u {
-                Unknown::Param(Param::Base(ax)) => base_columns[ax.index()],
-                Unknown::Param(Param::Tool(ax)) => tool_columns[ax.index()],
-                Unknown::Param(pm @ (Param::A(_) | Param::S(_))) => chain.column(pm) * length_scale,
-                Unknown::Param(pm) => chain.column(pm),
-                Unknown::Effect { effect, component } => {
-                    let e = &model.effects[effect];
-                    match e.joint() {
-                        Some(jt) => {
-                            let sens = e.joint_sensitivity(
-                                component,
-                                obs.q[jt],
-                                tau.get(jt).copied().unwrap_or(0.0),
-                                ctx,
-                            );
-                            chain.column(joint_param(robot, jt)) * sens
-                        }
-                        // Thermal expansion: every length, scaled by ΔT.
-                        None => {
-                            (0..robot.dof())
-                                .map(|i| {
-                                    let l = &robot.links[i];
-                                    chain.column(Param::A(i)) * l.a
-                                        + chain.column(Param::S(i)) * l.s
-                                })
-                                .fold(Twist::zeros(), |acc, c| acc + c)
-                                * delta_t
-                        }
-                    }
-                }
-                Unknown::Plane { plane, component } => {
-                    let n = params.len();
-                    for i in 0..6 {
-                        rows.j[i * n + k] = 0.0;
-                    }
-                    if let Some((own, pl, _)) = touched
-                        && own == plane
-                    {
-                        // The plane's side of the row: `offset`, against the model's `n · p`.
-                        rows.j[k] = wp
-                            * match component {
-                                0 | 1 => pl.normal_derivative(component).dot(&p.coords),
-                                _ => -1.0,
-                            };
-                    }
-                    continue;
-                }
-                Unknown::Point { point, axis } => {
-                    // The row's target moves with its own point: −1 on the axis.
-                    let n = params.len();
-                    let own = obs.fixed_point() == Some(point);
-                    for i in 0..6 {
-                        rows.j[i * n + k] = if own && i == axis { -wp } else { 0.0 };
-                    }
-                    continue;
-                }
-            };
-            let v = at_point(&col, &p);
-            let n = params.len();
-            if let Some((_, _, normal)) = touched {
-                rows.j[k] = normal.dot(&Vector3::new(v[0], v[1], v[2])) * wp;
-                for i in 1..6 {
-                    rows.j[i * n + k] = 0.0;
-                }
-                continue;
+    }
+}
+
+/// What one pose's rows read besides the columns: the tool point (base
+/// frame, m), the orientation error (rad), the plane touched (its index, its
+/// estimate, its normal), and the weights of the position and orientation rows.
+struct PoseGeometry<'a> {
+    p: Point3<f64>,
+    orientation: Option<Vector3<f64>>,
+    touched: Option<(usize, &'a PlaneEstimate, Vector3<f64>)>,
+    wp: f64,
+    wr: f64,
+}
+
+impl PoseRows {
+    /// Column `k` for the twist `col` of a parameter or effect: the position
+    /// rows `v = col at p` (or its component along a touched plane's
+    /// normal), the orientation rows the rotation part.
+    fn set_column(&mut self, k: usize, col: &Twist<f64>, pose: &PoseGeometry) {
+        let (n, wp, wr) = (self.params, pose.wp, pose.wr);
+        let v = at_point(col, &pose.p);
+        if let Some((_, _, normal)) = pose.touched {
+            self.j[k] = normal.dot(&Vector3::new(v[0], v[1], v[2])) * wp;
+            for i in 1..6 {
+                self.j[i * n + k] = 0.0;
             }
-            for i in 0..3 {
-                rows.j[i * n + k] = v[i] * wp;
-            }
-            if orientation.is_some() {
-                for i in 0..3 {
-                    rows.j[(3 + i) * n + k] = col[i] * wr;
-                }
-            }
+            return;
         }
         for i in 0..3 {
-            rows.r[i] = dp[i] * wp;
+            self.j[i * n + k] = v[i] * wp;
         }
-        rows.position_rows = 3;
-        rows.channel = channel;
-        if let Some((_, pl, normal)) = touched {
-            rows.r = [0.0; 6];
-            rows.r[0] = (pl.offset - normal.dot(&p.coords)) * wp;
-            rows.position_rows = 1;
-        }
-        rows.orientation = orientation.is_some() && touched.is_none();
-        if let Some(e) = orientation {
+        if pose.orientation.is_some() {
             for i in 0..3 {
-                rows.r[3 + i] = e[i] * wr;
+                self.j[(3 + i) * n + k] = col[i] * wr;
             }
         }
-        emit(&rows);
+    }
+
+    /// Column `k` for component `component` of plane `plane`: nonzero only
+    /// in the row of a touch of that plane.
+    fn set_plane_column(&mut self, k: usize, plane: usize, component: usize, pose: &PoseGeometry) {
+        let n = self.params;
+        for i in 0..6 {
+            self.j[i * n + k] = 0.0;
+        }
+        if let Some((own, pl, _)) = pose.touched
+            && own == plane
+        {
+            // The plane's side of the row: `offset`, against the model's `n · p`.
+            self.j[k] = pose.wp
+                * match component {
+                    0 | 1 => pl.normal_derivative(component).dot(&pose.p.coords),
+                    _ => -1.0,
+                };
+        }
+    }
+
+    /// Column `k` for coordinate `axis` of a fixed point: `−wp` on the axis
+    /// when the pose sits at that point (`own`), else zero.
+    fn set_point_column(&mut self, k: usize, own: bool, axis: usize, wp: f64) {
+        let n = self.params;
+        for i in 0..6 {
+            self.j[i * n + k] = if own && i == axis { -wp } else { 0.0 };
+        }
+    }
+
+    /// The residual rows: the position residual `dp` (or the distance from a
+    /// touched plane), then the orientation residual when measured.
+    fn set_residual(&mut self, dp: &Vector3<f64>, channel: Channel, pose: &PoseGeometry) {
+        let wp = pose.wp;
+        for i in 0..3 {
+            self.r[i] = dp[i] * wp;
+        }
+        self.position_rows = 3;
+        self.channel = channel;
+        if let Some((_, pl, normal)) = pose.touched {
+            self.r = [0.0; 6];
+            self.r[0] = (pl.offset - normal.dot(&pose.p.coords)) * wp;
+            self.position_rows = 1;
+        }
+        self.orientation = pose.orientation.is_some() && pose.touched.is_none();
+        if let Some(e) = pose.orientation {
+            for i in 0..3 {
+                self.r[3 + i] = e[i] * pose.wr;
+            }
+        }
     }
 }
 

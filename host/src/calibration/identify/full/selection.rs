@@ -3,7 +3,14 @@
 //! base to tip), which a standard error too large holds, and the reason each
 //! held one is given. See the parent module's "Identifiability".
 
-use super::*;
+use armcal_shared::{FrameAxis, Param, Robot};
+use faer::linalg::solvers::Solve;
+use faer::{Mat, Side};
+use nalgebra::Vector3;
+
+use super::rows::NormalEquations;
+use super::{FullOptions, Model, Observation, Unknown};
+use crate::calibration::identify::noise::Weights;
 
 /// The rank-revealing Cholesky of the scaled normal matrix in the order of
 /// preference: the indices of the separable parameters, and the others with the

@@ -2,7 +2,12 @@
 //! unit diagonal, with the prior's terms, stopping on the predicted decrease;
 //! the parameter update. See the parent module's "Solution".
 
-use super::*;
+use faer::linalg::solvers::Solve;
+use faer::{Mat, Side};
+
+use super::rows::NormalEquations;
+use super::{FullError, FullOptions, Model, Observation, Unknown, prior_cost};
+use crate::calibration::identify::noise::Weights;
 
 /// The damping Levenberg–Marquardt starts from, on the normal equations
 /// scaled to a unit diagonal: Nielsen's `τ = 1e-6` for a start near the

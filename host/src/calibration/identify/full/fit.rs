@@ -1,0 +1,736 @@
+//! The fit itself, as [`super::identify_constrained`] runs it: the unknowns of
+//! one fit ([`Unknowns`]: what the model frees, what it holds and why, the
+//! equation count), the start, then the fit's state ([`Fit`]: the model, the
+//! noise of each channel, the counters) stepped through its rounds —
+//! selection, Levenberg–Marquardt, the variance components or the reselection
+//! at a stated noise the residuals show larger — and the report of the
+//! solution (standard errors, condition number, observability O1 of Borm &
+//! Menq, correlations, each parameter's status). SI units throughout (m, rad);
+//! rows in units of their noise. See the parent module's "Identifiability",
+//! "Solution" and "Report".
+
+use std::collections::HashMap;
+
+use armcal_shared::effects::Effect;
+use armcal_shared::{Param, Robot};
+use faer::Side;
+use nalgebra::{Point3, Vector3};
+
+use super::super::noise::{
+    Channel, ChannelNoise, NoiseEstimate, NoiseSource, PerChannel, SETTLED, Weights,
+};
+use super::super::prior::Prior;
+use super::initial::{initial_base_tool, initial_points_tool};
+use super::rows::{LinearSystem, NormalEquations};
+use super::selection::{constrained_subset, separable_subset};
+use super::solve::{levenberg_marquardt, wrap_angle};
+use super::{
+    Constraints, EffectFit, FullError, FullFit, FullOptions, MAX_NOISE_ROUNDS, Model, Observation,
+    ParamResult, PlaneEstimate, PlaneFit, PointFit, Posterior, Status, Unknown, full_params,
+    independent_parameter_count, prior_reach, prior_terms,
+};
+
+/// Refuses data the fit cannot read: rows at points or planes the
+/// constraints do not name, effects on joints the model lacks, poses with
+/// another joint count.
+pub(super) fn check_inputs(
+    nominal: &Robot<f64>,
+    effects: &[Effect<f64>],
+    data: &[Observation],
+    constraints: &Constraints,
+) -> Result<(), FullError> {
+    if let Some(i) = data.iter().position(|o| {
+        o.fixed_point()
+            .is_some_and(|k| k >= constraints.points.len())
+            || o.on_plane().is_some_and(|k| k >= constraints.planes.len())
+    }) {
+        return Err(FullError::ConstraintsMissing { pose: i + 1 });
+    }
+    if let Some(joint) = effects
+        .iter()
+        .filter_map(|e| e.joint())
+        .find(|j| *j >= nominal.dof())
+    {
+        return Err(FullError::EffectJoint { joint: joint + 1 });
+    }
+    for (i, obs) in data.iter().enumerate() {
+        if obs.q.len() != nominal.dof() {
+            return Err(FullError::JointCount {
+                pose: i + 1,
+                expected: nominal.dof(),
+                got: obs.q.len(),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The unknowns of one fit: the parameters reported, those the model holds
+/// and why, those it frees (in the order of preference), and the equations.
+pub(super) struct Unknowns {
+    /// Every parameter of the full model and the extra tilts, in the report's order.
+    all: Vec<Param>,
+    /// The parameters the chosen geometry (or a session without coordinates)
+    /// holds at nominal, with the reason.
+    held_by_model: Vec<(Unknown, String)>,
+    /// The unknowns the model frees: points and planes, parameters, effects.
+    params: Vec<Unknown>,
+    /// Equations: the rows and the known distances.
+    equations: usize,
+    /// Whether any row measures an orientation.
+    orientation: bool,
+    /// Whether the rows sit at unknown points or planes (`constraints` not empty).
+    constrained: bool,
+}
+
+impl Unknowns {
+    /// The unknowns of the fit of `nominal` with `effects` and the `extra`
+    /// parameters to `data`; too few equations for the model's independent
+    /// parameters (Everett, Driels & Mooring) is an error.
+    pub(super) fn of(
+        nominal: &Robot<f64>,
+        effects: &[Effect<f64>],
+        extra: &[Param],
+        data: &[Observation],
+        constraints: &Constraints,
+        options: &FullOptions,
+    ) -> Result<Self, FullError> {
+        let constrained = !constraints.is_empty();
+        let orientation = data.iter().any(|o| o.orientation.is_some());
+        // Every parameter of the full model and the extra tilts; the chosen geometry
+        // frees some of the model's, the others are held at nominal.
+        let all: Vec<Param> = full_params(nominal, orientation)
+            .into_iter()
+            .chain(extra.iter().copied())
+            .collect();
+        // Without a measured coordinate the base frame is arbitrary: the fixed
+        // points are found in whatever frame the base sets.
+        let base_unobservable = |p: &Param| constrained && matches!(p, Param::Base(_));
+        let frees = |p: &Param| {
+            (options.geometry.frees(nominal, *p) || extra.contains(p)) && !base_unobservable(p)
+        };
+        let held_by_model: Vec<(Unknown, String)> = all
+            .iter()
+            .filter(|p| !frees(p))
+            .map(|p| {
+                let reason = if base_unobservable(p) {
+                    "not observable: the data measure no coordinate (only unknown fixed points \
+                     and distances between them), so the base frame is arbitrary; held at nominal"
+                        .to_owned()
+                } else {
+                    format!(
+                        "held at nominal: the {} model does not free it",
+                        options.geometry.name()
+                    )
+                };
+                (Unknown::Param(*p), reason)
+            })
+            .collect();
+        let point_unknowns = (0..constraints.points.len())
+            .flat_map(|point| (0..3).map(move |axis| Unknown::Point { point, axis }))
+            .chain((0..constraints.planes.len()).flat_map(|plane| {
+                (0..3).map(move |component| Unknown::Plane { plane, component })
+            }));
+        let mut params: Vec<Unknown> = point_unknowns
+            .chain(all.iter().filter(|p| frees(p)).map(|p| Unknown::Param(*p)))
+            .collect();
+        for (effect, e) in effects.iter().enumerate() {
+            params.extend(
+                (0..e.parameter_count()).map(|component| Unknown::Effect { effect, component }),
+            );
+        }
+        // However the columns happen to fall, fewer equations than the model's
+        // independent parameters (Everett, Driels & Mooring) cannot determine it.
+        let equations = LinearSystem::rows(data) + constraints.equations();
+        let mut unknowns =
+            independent_parameter_count(nominal, data.iter().all(|o| o.orientation.is_some()));
+        if constrained {
+            // No base (6), three coordinates per point.
+            unknowns = (unknowns + 3 * constraints.points.len() + 3 * constraints.planes.len())
+                .saturating_sub(6);
+        }
+        if equations < unknowns {
+            return Err(FullError::TooFewEquations {
+                equations,
+                unknowns,
+            });
+        }
+        Ok(Self {
+            all,
+            held_by_model,
+            params,
+            equations,
+            orientation,
+            constrained,
+        })
+    }
+
+    /// The model the fit starts from: `start` (else `nominal`) with `effects`,
+    /// for a constraint session the points, planes and tool estimated from
+    /// the rows, else the closed-form base and tool unless a start is given;
+    /// what the model holds is nominal.
+    pub(super) fn initial_model(
+        &self,
+        nominal: &Robot<f64>,
+        start: Option<&Robot<f64>>,
+        effects: &[Effect<f64>],
+        data: &[Observation],
+        constraints: &Constraints,
+        options: &FullOptions,
+    ) -> Model {
+        let mut robot = Model::of(start.unwrap_or(nominal).clone(), effects.to_vec());
+        if self.constrained {
+            robot.constraints = constraints.clone();
+            robot.points = vec![Point3::origin(); constraints.points.len()];
+            robot.planes = vec![
+                PlaneEstimate::through(&Point3::origin(), &Vector3::z());
+                constraints.planes.len()
+            ];
+            initial_points_tool(
+                &mut robot,
+                data,
+                options.initial_estimate && start.is_none(),
+            );
+        } else if options.initial_estimate && start.is_none() {
+            initial_base_tool(&mut robot.robot, data);
+        }
+        // What this model does not free is nominal, whatever the start.
+        for (u, _) in &self.held_by_model {
+            if let (Unknown::Param(p), Some(v)) = (u, robot.get_mut(*u))
+                && let Some(n) = nominal.param(*p)
+            {
+                *v = n;
+            }
+        }
+        robot
+    }
+}
+
+/// The state of the fit across its rounds: identifiability at the initial
+/// estimate; the fit; then, for an estimated noise, the variance components
+/// and the fit again with their weights until they settle. A stated noise is
+/// kept, but when the fit shows it significantly larger the selection is
+/// made again with the noise the residuals show.
+pub(super) struct Fit<'a> {
+    nominal: &'a Robot<f64>,
+    data: &'a [Observation],
+    constraints: &'a Constraints,
+    options: &'a FullOptions,
+    unknowns: Unknowns,
+    /// The initial estimate: where the held base, tool, effects, points and
+    /// planes stay.
+    start: Model,
+    /// The current estimate.
+    robot: Model,
+    /// The channels the data have rows in.
+    present: PerChannel<bool>,
+    /// The channels whose noise is estimated (present and not stated).
+    estimate: PerChannel<bool>,
+    /// The noise each channel's rows are divided by, m or rad.
+    noise: PerChannel<f64>,
+    /// The factor of the stated noise the selection assumes (1, or the root of
+    /// the variance factor once the fit showed it significantly larger).
+    noise_scale: f64,
+    /// Levenberg–Marquardt iterations, all rounds.
+    iterations: usize,
+    /// Rounds: selections and reweightings.
+    round: usize,
+}
+
+/// A round's solution: the free unknowns and the held ones (with why), how
+/// Levenberg–Marquardt ended, the linearisation at the solution, the prior
+/// of the free unknowns and the posterior.
+struct Solution {
+    free_params: Vec<Unknown>,
+    fixed: Vec<(Unknown, String)>,
+    converged: bool,
+    last_decrease: Option<f64>,
+    sys: NormalEquations,
+    prior: Vec<(f64, f64)>,
+    post: Posterior,
+}
+
+/// The statistics at the solution.
+struct Statistics {
+    variance_factor: f64,
+    condition_number: f64,
+    observability: f64,
+    prior_reach: f64,
+    correlations: Vec<(String, String, f64)>,
+    /// The standard error of each free unknown (NaN without a covariance).
+    std_of: Vec<f64>,
+}
+
+impl<'a> Fit<'a> {
+    /// The fit of `unknowns` to `data` from `robot`, at the options' noise.
+    pub(super) fn new(
+        nominal: &'a Robot<f64>,
+        data: &'a [Observation],
+        constraints: &'a Constraints,
+        options: &'a FullOptions,
+        unknowns: Unknowns,
+        robot: Model,
+    ) -> Self {
+        // The channels the data have rows in: each of those whose noise is not
+        // stated is estimated.
+        let orientation = unknowns.orientation;
+        let present = PerChannel::from_fn(|c| match c {
+            Channel::Position => true,
+            Channel::Orientation => orientation,
+            Channel::Point => data.iter().any(|o| o.fixed_point().is_some()),
+            Channel::Plane => data.iter().any(|o| o.on_plane().is_some()),
+        });
+        let estimate =
+            present.map(|c, &present| present && options.noise(c).source == NoiseSource::Estimated);
+        Self {
+            nominal,
+            data,
+            constraints,
+            options,
+            unknowns,
+            start: robot.clone(),
+            robot,
+            present,
+            estimate,
+            noise: PerChannel::from_fn(|c| options.noise(c).sigma),
+            noise_scale: 1.0,
+            iterations: 0,
+            round: 0,
+        }
+    }
+
+    /// Runs the rounds and reports the solution.
+    pub(super) fn run(mut self) -> Result<FullFit, FullError> {
+        let solution = self.rounds()?;
+        self.result(solution)
+    }
+
+    /// Selection and fit until the noise settles (estimated) or the
+    /// selection stands (stated).
+    fn rounds(&mut self) -> Result<Solution, FullError> {
+        loop {
+            self.round += 1;
+            let weights = Weights::of(&self.noise);
+            let mut solution = self.select_and_solve(&weights)?;
+            if self.estimate.0.contains(&true) {
+                self.settle_noise(&mut solution)?;
+                return Ok(solution);
+            }
+            if !self.select_again(&solution, &weights) {
+                return Ok(solution);
+            }
+        }
+    }
+
+    /// The separable unknowns (indices into the unknowns) at `noise_scale`
+    /// and the others with why; `system`, when given, is the linearisation of
+    /// every unknown at the current estimate.
+    fn separable(
+        &self,
+        system: Option<&NormalEquations>,
+        noise_scale: f64,
+        weights: &Weights,
+    ) -> (Vec<usize>, Vec<(Unknown, String)>) {
+        let (params, robot, data, options) =
+            (&self.unknowns.params, &self.robot, self.data, self.options);
+        if self.unknowns.constrained {
+            return constrained_subset(params, robot, data, options, noise_scale, weights);
+        }
+        let accumulated;
+        let system = match system {
+            Some(system) => system,
+            None => {
+                accumulated = NormalEquations::accumulate(robot, data, params, weights);
+                &accumulated
+            }
+        };
+        separable_subset(system, params, robot, data, options, noise_scale)
+    }
+
+    /// One round's selection at `weights`, the held unknowns put back, and
+    /// the fit of the free ones.
+    fn select_and_solve(&mut self, weights: &Weights) -> Result<Solution, FullError> {
+        let system =
+            NormalEquations::accumulate(&self.robot, self.data, &self.unknowns.params, weights);
+        let (free, fixed) = self.separable(Some(&system), self.noise_scale, weights);
+        let equations = self.unknowns.equations;
+        if equations < free.len() && self.options.prior == Prior::NONE {
+            return Err(FullError::TooFewEquations {
+                equations,
+                unknowns: free.len(),
+            });
+        }
+        let free_params = free
+            .iter()
+            .map(|&k| self.unknowns.params[k])
+            .collect::<Vec<Unknown>>();
+        let moved = self.hold(&fixed);
+        // The linearisation of every parameter serves the first iteration unless a
+        // held parameter was just moved back.
+        let first = if moved {
+            NormalEquations::accumulate(&self.robot, self.data, &free_params, weights)
+        } else {
+            system.select_columns(&free)
+        };
+        let prior = prior_terms(&free_params, self.nominal, &self.options.prior);
+        let (converged, last_decrease, sys) = self.solve(&free_params, &prior, weights, first)?;
+        let post = Posterior::at(&sys, &prior);
+        Ok(Solution {
+            free_params,
+            fixed,
+            converged,
+            last_decrease,
+            sys,
+            prior,
+            post,
+        })
+    }
+
+    /// Parameters held fixed keep their nominal value (base and tool: their
+    /// closed-form estimate; effects, points, planes: the start's). Whether
+    /// any moved.
+    fn hold(&mut self, fixed: &[(Unknown, String)]) -> bool {
+        let mut moved = false;
+        for (p, _) in fixed {
+            let keep = match *p {
+                Unknown::Param(Param::Base(_) | Param::Tool(_)) => self.start.get(*p),
+                Unknown::Param(q) => self.nominal.param(q),
+                Unknown::Effect { .. } | Unknown::Point { .. } | Unknown::Plane { .. } => {
+                    self.start.get(*p)
+                }
+            };
+            if let (Some(v), Some(slot)) = (keep, self.robot.get_mut(*p)) {
+                moved |= *slot != v;
+                *slot = v;
+            }
+        }
+        moved
+    }
+
+    /// The fit of `free_params` at `weights` from the linearisation `first`:
+    /// convergence, the last decrease and the linearisation at the solution.
+    fn solve(
+        &mut self,
+        free_params: &[Unknown],
+        prior: &[(f64, f64)],
+        weights: &Weights,
+        first: NormalEquations,
+    ) -> Result<(bool, Option<f64>, NormalEquations), FullError> {
+        let (run, converged, last_decrease, sys) = levenberg_marquardt(
+            &mut self.robot,
+            self.data,
+            free_params,
+            weights,
+            self.options,
+            first,
+            prior,
+        )?;
+        self.iterations += run;
+        Ok((converged, last_decrease, sys))
+    }
+
+    /// The variance components: the free parameters stay; each round
+    /// reweighs the rows of the solution's linearisation and iterates from
+    /// there, until the noise settles.
+    fn settle_noise(&mut self, s: &mut Solution) -> Result<(), FullError> {
+        loop {
+            let next = self.noise.map(|c, &sigma| {
+                if self.estimate[c] {
+                    ChannelNoise::update(sigma, s.post.omega[c], s.post.redundancy[c])
+                } else {
+                    sigma
+                }
+            });
+            let settled = Channel::ALL
+                .iter()
+                .all(|&c| (next[c] / self.noise[c] - 1.0).abs() < SETTLED);
+            if settled || self.round >= MAX_NOISE_ROUNDS {
+                return Ok(());
+            }
+            self.round += 1;
+            let before = Weights::of(&self.noise);
+            self.noise = next;
+            let weights = Weights::of(&self.noise);
+            let first = s.sys.reweighted(&before, &weights);
+            (s.converged, s.last_decrease, s.sys) =
+                self.solve(&s.free_params, &s.prior, &weights, first)?;
+            s.post = Posterior::at(&s.sys, &s.prior);
+        }
+    }
+
+    /// Whether a stated noise needs another round: the fit shows it
+    /// significantly larger than the selection assumed and the selection at
+    /// the noise shown frees other unknowns (the noise scale is then that noise's).
+    fn select_again(&mut self, s: &Solution, weights: &Weights) -> bool {
+        let variance_factor = s.post.variance_factor();
+        // Select again only if the noise is significantly larger than stated: the
+        // variance factor of correctly stated noise scatters about 1 with a
+        // standard deviation of √(2/dof).
+        let significant = 1.0 + 3.0 * (2.0 / s.post.redundancy().max(1.0)).sqrt();
+        let new_scale = variance_factor.sqrt();
+        if variance_factor <= significant * self.noise_scale * self.noise_scale {
+            return false;
+        }
+        let (free_again, _) = self.separable(None, new_scale, weights);
+        self.noise_scale = new_scale;
+        free_again
+            .iter()
+            .map(|&k| self.unknowns.params[k])
+            .collect::<Vec<_>>()
+            != s.free_params
+    }
+
+    /// Statistics at the solution (the last linearisation is at the solution).
+    fn statistics(&self, s: &Solution) -> Statistics {
+        let (g, _, scale) = s.sys.scaled_normal_equations();
+        let variance_factor = s.post.variance_factor();
+        let equations = self.unknowns.equations;
+        let eig = g.self_adjoint_eigenvalues(Side::Lower).unwrap_or_default();
+        let (smin, smax) = (
+            eig.first().copied().unwrap_or(0.0).max(0.0).sqrt(),
+            eig.last().copied().unwrap_or(0.0).max(0.0).sqrt(),
+        );
+        let condition_number = if smin > 0.0 {
+            smax / smin
+        } else {
+            f64::INFINITY
+        };
+        let observability = {
+            let p = eig.len().max(1) as f64;
+            let log_sum: f64 = eig
+                .iter()
+                .map(|l| 0.5 * l.max(f64::MIN_POSITIVE).ln())
+                .sum();
+            (log_sum / p).exp() / (equations.max(1) as f64).sqrt()
+        };
+        let free_params = &s.free_params;
+        let prior_reach = prior_reach(&g, &scale, &self.robot, free_params, &s.prior, equations);
+        let mut correlations = Vec::new();
+        let mut std_of = vec![f64::NAN; free_params.len()];
+        if let Some(c) = &s.post.cov {
+            for k in 0..free_params.len() {
+                std_of[k] = (variance_factor * c[(k, k)]).sqrt() * scale[k];
+                for l in 0..k {
+                    let rho = c[(k, l)] / (c[(k, k)] * c[(l, l)]).sqrt();
+                    correlations.push((
+                        self.robot.name(free_params[l]),
+                        self.robot.name(free_params[k]),
+                        rho,
+                    ));
+                }
+            }
+        }
+        correlations.sort_by(|a, b| b.2.abs().total_cmp(&a.2.abs()));
+        correlations.truncate(5);
+        Statistics {
+            variance_factor,
+            condition_number,
+            observability,
+            prior_reach,
+            correlations,
+            std_of,
+        }
+    }
+
+    /// The noise of each channel: used, and shown by the residuals; the
+    /// known distances' at their stated uncertainties.
+    fn noise_estimate(&self, s: &Solution) -> NoiseEstimate {
+        let (noise, post, constraints) = (&self.noise, &s.post, self.constraints);
+        let channel = |c: Channel| ChannelNoise {
+            source: self.options.noise(c).source,
+            used: noise[c],
+            shown: ChannelNoise::update(noise[c], post.omega[c], post.redundancy[c]),
+            rows: post.rows[c],
+            redundancy: post.redundancy[c],
+        };
+        let distance = (!constraints.distances.is_empty()).then(|| {
+            let n = constraints.distances.len();
+            let used = (constraints
+                .distances
+                .iter()
+                .map(|d| d.std * d.std)
+                .sum::<f64>()
+                / n as f64)
+                .sqrt();
+            let (omega, redundancy) = post.distances;
+            ChannelNoise {
+                source: NoiseSource::Stated,
+                used,
+                shown: ChannelNoise::update(used, omega, redundancy),
+                rows: n,
+                redundancy,
+            }
+        });
+        NoiseEstimate {
+            position: channel(Channel::Position),
+            orientation: self
+                .unknowns
+                .orientation
+                .then(|| channel(Channel::Orientation)),
+            point: self.present[Channel::Point].then(|| channel(Channel::Point)),
+            plane: self.present[Channel::Plane].then(|| channel(Channel::Plane)),
+            distance,
+        }
+    }
+
+    /// Each parameter's and each effect's result: identified with its
+    /// standard error and data share, or held with the reason (`reasons`).
+    fn statuses(
+        &self,
+        free_params: &[Unknown],
+        share: &[f64],
+        std_of: &[f64],
+        mut reasons: HashMap<Unknown, String>,
+    ) -> (Vec<ParamResult>, Vec<EffectFit>) {
+        let (nominal, robot, start) = (self.nominal, &self.robot, &self.start);
+        let mut status_of = |u: Unknown| match free_params.iter().position(|p| *p == u) {
+            Some(k) => (Status::Identified { std: std_of[k] }, share[k]),
+            None => {
+                let mut reason = reasons.remove(&u).unwrap_or_else(|| "not separable".into());
+                // The error shown is then the registration's, not a fitted one.
+                if let Unknown::Param(p @ (Param::Base(_) | Param::Tool(_))) = u
+                    && start.get(u) != nominal.param(p)
+                {
+                    reason.push_str(
+                        "; held at its closed-form estimate from the data, not at nominal",
+                    );
+                }
+                (Status::Fixed { reason }, 0.0)
+            }
+        };
+        let effect_fits: Vec<EffectFit> = robot
+            .effects
+            .iter()
+            .enumerate()
+            .map(|(effect, e)| EffectFit {
+                effect: *e,
+                status: (0..e.parameter_count())
+                    .map(|component| status_of(Unknown::Effect { effect, component }).0)
+                    .collect(),
+            })
+            .collect();
+        let results = self
+            .unknowns
+            .all
+            .iter()
+            .map(|&param| {
+                let nominal_value = nominal.param(param).unwrap_or(0.0);
+                let mut error = robot.robot.param(param).unwrap_or(0.0) - nominal_value;
+                if param.is_angle() {
+                    error = wrap_angle(error);
+                }
+                let (status, data_share) = status_of(Unknown::Param(param));
+                ParamResult {
+                    param,
+                    nominal: nominal_value,
+                    error,
+                    status,
+                    data_share,
+                }
+            })
+            .collect();
+        (results, effect_fits)
+    }
+
+    /// The estimated points (with the standard error of each coordinate),
+    /// the estimated planes, and the known distances' residuals, m.
+    fn constraint_fits(&self, s: &Solution, std_of: &[f64]) -> ConstraintFits {
+        let robot = &self.robot;
+        let points = robot
+            .constraints
+            .points
+            .iter()
+            .zip(&robot.points)
+            .enumerate()
+            .map(|(point, (named, position))| PointFit {
+                name: named.name.clone(),
+                position: *position,
+                std: Vector3::from_fn(|axis, _| {
+                    s.free_params
+                        .iter()
+                        .position(|u| *u == Unknown::Point { point, axis })
+                        .map_or(f64::NAN, |k| std_of[k])
+                }),
+            })
+            .collect();
+        let distance_residuals = robot
+            .constraints
+            .distances
+            .iter()
+            .map(|d| {
+                let [a, b] = d
+                    .points
+                    .map(|k| robot.points.get(k).copied().unwrap_or_else(Point3::origin));
+                (a - b).norm() - d.length
+            })
+            .collect();
+        let planes = robot
+            .constraints
+            .planes
+            .iter()
+            .zip(&robot.planes)
+            .map(|(named, p)| PlaneFit {
+                name: named.name.clone(),
+                normal: p.normal(),
+                offset: p.offset,
+            })
+            .collect();
+        ConstraintFits {
+            points,
+            planes,
+            distance_residuals,
+        }
+    }
+
+    /// The result at solution `s`.
+    fn result(mut self, s: Solution) -> Result<FullFit, FullError> {
+        let stats = self.statistics(&s);
+        let (position_rms, orientation_rms) = s.sys.residual_rms(&Weights::of(&self.noise));
+        let noise = self.noise_estimate(&s);
+        let held_by_model = std::mem::take(&mut self.unknowns.held_by_model);
+        let reasons = s
+            .fixed
+            .iter()
+            .cloned()
+            .chain(held_by_model)
+            .collect::<HashMap<_, _>>();
+        let (params, effects) =
+            self.statuses(&s.free_params, &s.post.share, &stats.std_of, reasons);
+        if !s.sys.cost().is_finite() {
+            return Err(FullError::NonFinite);
+        }
+        let ConstraintFits {
+            points,
+            planes,
+            distance_residuals,
+        } = self.constraint_fits(&s, &stats.std_of);
+        Ok(FullFit {
+            points,
+            planes,
+            distance_residuals,
+            params,
+            calibrated: self.robot.robot,
+            effects,
+            iterations: self.iterations,
+            converged: s.converged,
+            last_decrease: s.last_decrease,
+            position_rms,
+            orientation_rms,
+            condition_number: stats.condition_number,
+            observability: stats.observability,
+            variance_factor: stats.variance_factor,
+            correlations: stats.correlations,
+            equations: self.unknowns.equations,
+            redundancy: s.post.redundancy(),
+            noise,
+            prior_reach: stats.prior_reach,
+        })
+    }
+}
+
+/// What a constraint session estimates besides the robot.
+struct ConstraintFits {
+    points: Vec<PointFit>,
+    planes: Vec<PlaneFit>,
+    distance_residuals: Vec<f64>,
+}
