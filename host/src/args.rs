@@ -50,6 +50,23 @@ pub(crate) fn tip_point(text: &str) -> Result<Vector3<f64>, String> {
     }
 }
 
+/// `--tool X,Y,Z[,RX,RY,RZ]`: the working tool in the flange frame, three or
+/// six finite numbers (model units; roll, pitch, yaw 0 when not given).
+pub(crate) fn tool_frame(text: &str) -> Result<[f64; 6], String> {
+    let parts: Vec<Option<f64>> = text
+        .split(',')
+        .map(|p| p.trim().parse::<f64>().ok().filter(|x| x.is_finite()))
+        .collect();
+    match parts.as_slice() {
+        [Some(x), Some(y), Some(z)] => Ok([*x, *y, *z, 0.0, 0.0, 0.0]),
+        [Some(x), Some(y), Some(z), Some(r), Some(p), Some(w)] => Ok([*x, *y, *z, *r, *p, *w]),
+        _ => Err(
+            "expected x,y,z or x,y,z,roll,pitch,yaw: three or six finite numbers in the model's units"
+                .into(),
+        ),
+    }
+}
+
 /// `--tilt JOINT:BETA`: a hidden Hayati tilt β (rad) at joint `JOINT` (from 1).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Tilt {
@@ -96,6 +113,14 @@ mod tests {
         assert_eq!(tip_point(" 0, 0.1 ,-0.2"), Ok(Vector3::new(0.0, 0.1, -0.2)));
         for bad in ["0,0", "0,0,0,0", "0,nan,0", "a,b,c"] {
             assert!(tip_point(bad).is_err(), "{bad}");
+        }
+        assert_eq!(tool_frame("0,0,0.25"), Ok([0.0, 0.0, 0.25, 0.0, 0.0, 0.0]));
+        assert_eq!(
+            tool_frame("1,2,3,0.1,-0.2,0.3"),
+            Ok([1.0, 2.0, 3.0, 0.1, -0.2, 0.3])
+        );
+        for bad in ["0,0", "0,0,0,0", "0,0,0,0,0", "0,nan,0", "0,0,0,0,0,inf"] {
+            assert!(tool_frame(bad).is_err(), "{bad}");
         }
         let t = tilt("3:0.001").unwrap();
         assert_eq!((t.joint, t.beta), (3, 0.001));

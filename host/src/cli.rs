@@ -6,6 +6,7 @@ use std::path::PathBuf;
 
 use armcal::calibration::identify::prior_scale::PriorScale;
 use armcal::calibration::identify::{ParamSet, StatedScales};
+use armcal::commands::tool::Tool;
 use armcal::commands::{diagnose, export, holdout, identify, simulate};
 use armcal::io::input_error::InputError;
 use armcal::io::model_file::{self, RobotModel};
@@ -148,6 +149,10 @@ pub(crate) struct PredictArgs {
     /// Write the predictions here (otherwise they are printed).
     #[arg(long, value_name = "P.csv")]
     pub(crate) out: Option<PathBuf>,
+    #[command(flatten)]
+    pub(crate) tool: ToolArgs,
+    #[command(flatten)]
+    pub(crate) tool_model: ToolModelArgs,
 }
 
 /// The flags of `armcal compensate`.
@@ -168,6 +173,10 @@ pub(crate) struct CompensateArgs {
     /// convergence (the row order still gives the approach directions).
     #[arg(long)]
     pub(crate) servo: bool,
+    #[command(flatten)]
+    pub(crate) tool: ToolArgs,
+    #[command(flatten)]
+    pub(crate) tool_model: ToolModelArgs,
 }
 
 /// The flags of `armcal simulate`.
@@ -228,6 +237,10 @@ pub(crate) struct StreamArgs {
     /// emulation; a real controller waits for a reset).
     #[arg(long)]
     pub(crate) halt: bool,
+    #[command(flatten)]
+    pub(crate) tool: ToolArgs,
+    #[command(flatten)]
+    pub(crate) tool_model: ToolModelArgs,
 }
 
 /// The flags of `armcal diagnose`.
@@ -317,6 +330,8 @@ pub(crate) struct ExportArgs {
     /// Write it here (otherwise it is printed).
     #[arg(long, value_name = "OUT.urdf")]
     pub(crate) out: Option<PathBuf>,
+    #[command(flatten)]
+    pub(crate) tool: ToolArgs,
 }
 
 /// The flags of `armcal holdout`.
@@ -386,6 +401,60 @@ impl ModelArgs {
             None => Ok(model),
             Some(file) => armcal::io::ur::load_factory(&model, file),
         }
+    }
+}
+
+/// The working tool that replaces the measured one (`armcal::commands::tool`).
+#[derive(clap::Args, Debug)]
+pub(crate) struct ToolArgs {
+    /// The working tool in the flange frame (the last link's frame, as the
+    /// model file's [tool]), model units: it replaces the tool the
+    /// calibration was measured with, whose identified offset is reported
+    /// and not applied (docs/file-formats.md §4).
+    #[arg(long, value_name = "X,Y,Z[,RX,RY,RZ]", allow_hyphen_values = true, value_parser = args::tool_frame, conflicts_with = "tool_link")]
+    pub(crate) tool: Option<[f64; 6]>,
+    /// The working tool as a link of the URDF given with --model (the one
+    /// the calibration's model was read from, with its --base-link), carried
+    /// by the last joint.
+    #[arg(long, value_name = "LINK", requires = "model")]
+    pub(crate) tool_link: Option<String>,
+}
+
+impl ToolArgs {
+    /// The working tool these flags name, with the URDF and base link of a
+    /// `--tool-link`.
+    pub(crate) fn tool(&self, model: Option<&str>, base_link: Option<&str>) -> Option<Tool> {
+        match (&self.tool, &self.tool_link, model) {
+            (Some(t), _, _) => Some(Tool::Frame {
+                xyz: [t[0], t[1], t[2]],
+                rpy: [t[3], t[4], t[5]],
+            }),
+            (None, Some(link), Some(model)) => Some(Tool::Link {
+                model: model.to_owned(),
+                base_link: base_link.map(str::to_owned),
+                link: link.clone(),
+            }),
+            _ => None,
+        }
+    }
+}
+
+/// The URDF a `--tool-link` is a link of.
+#[derive(clap::Args, Debug)]
+pub(crate) struct ToolModelArgs {
+    /// --tool-link: the URDF the calibration's model was read from.
+    #[arg(long, value_name = "M.urdf", requires = "tool_link")]
+    pub(crate) model: Option<String>,
+    /// --tool-link: the link the chain starts from, as the calibration's
+    /// model was read with (default: the root link).
+    #[arg(long, value_name = "LINK", requires = "tool_link")]
+    pub(crate) base_link: Option<String>,
+}
+
+impl ToolModelArgs {
+    /// The working tool `tool` names with this URDF.
+    pub(crate) fn tool(&self, tool: &ToolArgs) -> Option<Tool> {
+        tool.tool(self.model.as_deref(), self.base_link.as_deref())
     }
 }
 
@@ -586,6 +655,9 @@ impl ExportArgs {
             },
             model: self.model.clone(),
             chain: self.chain.spec(),
+            tool: self
+                .tool
+                .tool(self.model.as_deref(), self.chain.base_link.as_deref()),
         }
     }
 }

@@ -8,6 +8,7 @@ use armcal::apply::ranges::RowNames;
 use armcal::apply::{compensate, link, predict, ranges};
 use armcal::calibration::identify::paper::PaperOptions;
 use armcal::calibration::{check, contact_check, reproduce};
+use armcal::commands::tool::Tool;
 use armcal::commands::{diagnose as diagnose_cmd, export as export_cmd, holdout as holdout_cmd};
 use armcal::commands::{identify as identify_cmd, simulate as simulate_cmd};
 use armcal::io::input_error::InputError;
@@ -280,6 +281,17 @@ fn warn_rows(
     warn(rows.warnings.iter().chain(&outside).chain(&reported));
 }
 
+/// `cal` with the working tool `tool` names, its note printed; `cal` as it
+/// is without one.
+fn with_tool(cal: Calibration, tool: Option<Tool>) -> anyhow::Result<Calibration> {
+    let Some(tool) = tool else {
+        return Ok(cal);
+    };
+    let change = tool.apply(CLI, &cal)?;
+    eprintln!("armcal: {}", change.note());
+    Ok(change.calibration)
+}
+
 /// `armcal compensate`.
 pub(crate) fn compensate(args: CompensateArgs) -> anyhow::Result<()> {
     let CompensateArgs {
@@ -287,9 +299,14 @@ pub(crate) fn compensate(args: CompensateArgs) -> anyhow::Result<()> {
         joints,
         out,
         servo,
+        tool,
+        tool_model,
     } = args;
     let outputs = joints_outputs(&calibration, &joints, &out)?;
-    let cal = predict::load_calibration(&calibration)?;
+    let cal = with_tool(
+        predict::load_calibration(&calibration)?,
+        tool_model.tool(&tool),
+    )?;
     let rows = measurements::load_joints(&joints, &cal.nominal, &cal.units)?;
     let pacing = if servo {
         Pacing::Servo
@@ -309,9 +326,14 @@ pub(crate) fn predict(args: PredictArgs) -> anyhow::Result<()> {
         calibration,
         joints,
         out,
+        tool,
+        tool_model,
     } = args;
     let outputs = joints_outputs(&calibration, &joints, &out)?;
-    let cal = predict::load_calibration(&calibration)?;
+    let cal = with_tool(
+        predict::load_calibration(&calibration)?,
+        tool_model.tool(&tool),
+    )?;
     let rows = measurements::load_joints(&joints, &cal.nominal, &cal.units)?;
     let mut predictions = predict::predict(&cal, &rows)?;
     predictions.calibration_file = Some(calibration);
@@ -336,13 +358,23 @@ pub(crate) fn stream(args: StreamArgs) -> anyhow::Result<()> {
         serial,
         out,
         halt,
+        tool,
+        tool_model,
     } = args;
     let outputs = joints_outputs(&calibration, &joints, &out)?;
-    let bytes = predict::read_calibration(&calibration)?;
+    let mut bytes = predict::read_calibration(&calibration)?;
     // Read locally first, so that a bad joints file is refused before the
     // controller is touched; a calibration this armcal refuses is still
-    // sent, and the controller says why it refuses it too.
-    let local = Calibration::decode(&bytes);
+    // sent, and the controller says why it refuses it too. With a working
+    // tool, the calibration sent is the one with that tool: this armcal
+    // must read it.
+    let mut local = Calibration::decode(&bytes);
+    if let Some(tool) = tool_model.tool(&tool) {
+        let cal = predict::load_calibration(&calibration)?;
+        let cal = with_tool(cal, Some(tool))?;
+        bytes = cal.to_bytes()?;
+        local = Ok(cal);
+    }
     let rows = match &local {
         Ok(cal) => Some(measurements::load_joints(
             &joints,
@@ -405,6 +437,9 @@ pub(crate) fn export(args: ExportArgs) -> anyhow::Result<()> {
     let outputs = outputs.output("--out", args.out.as_deref());
     outputs.check()?;
     let exported = export_cmd::run(CLI, &args.calibration, &request)?;
+    if let Some(change) = &exported.tool {
+        eprintln!("armcal: {}", change.note());
+    }
     let held = &exported.held;
     if let Some(note) = &held.note {
         if held.warning {

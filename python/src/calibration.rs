@@ -5,6 +5,8 @@ use std::ffi::CString;
 
 use armcal::apply::ranges::{self, RowNames};
 use armcal::apply::{compensate as comp, predict as pred};
+use armcal::commands::Front;
+use armcal::commands::tool::Tool;
 use armcal::io::arrays::{self, Conditions};
 use armcal::io::input_error;
 use armcal::io::measurements::JointRows;
@@ -26,11 +28,18 @@ pub struct Calibration {
     /// Why it must not be written (a fit that did not converge, or worse
     /// than the nominal model on its own data), as the command line says it.
     failed: Option<String>,
+    /// With a working tool: what of the measured tool it left, as the
+    /// command line's note says it.
+    tool_note: Option<String>,
 }
 
 impl From<Cal> for Calibration {
     fn from(cal: Cal) -> Self {
-        Self { cal, failed: None }
+        Self {
+            cal,
+            failed: None,
+            tool_note: None,
+        }
     }
 }
 
@@ -38,7 +47,23 @@ impl Calibration {
     /// A calibration that `write` and `to_bytes` refuse with `failed` unless
     /// asked with `write_failed=True`.
     pub(crate) fn failed(cal: Cal, failed: Option<String>) -> Self {
-        Self { cal, failed }
+        Self {
+            cal,
+            failed,
+            tool_note: None,
+        }
+    }
+
+    /// This calibration with the working tool `tool` (`armcal::commands::tool`).
+    fn working_with(&self, py: Python<'_>, tool: &Tool) -> PyResult<Self> {
+        let change = tool
+            .apply(Front::Python, &self.cal)
+            .map_err(|e| errors::input(py, &e, false))?;
+        Ok(Self {
+            tool_note: Some(change.note()),
+            cal: change.calibration,
+            failed: self.failed.clone(),
+        })
     }
 
     /// Its bytes, refused as the command line refuses to write a failed fit.
@@ -121,6 +146,57 @@ impl Calibration {
 
     fn __bytes__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyBytes>> {
         self.to_bytes(py, false)
+    }
+
+    /// This calibration working with another tool than the one it was
+    /// measured with (an SMR, a ball): `xyz` and optionally `rpy` (roll,
+    /// pitch, yaw) of the working tool in the flange frame (the last link's
+    /// frame, as the model file's `[tool]`), model units. It keeps what the
+    /// data separate from the measured tool; the measured tool's identified
+    /// offset is not applied to the working tool (`tool_note` says what was
+    /// left and what one measured tool cannot separate), as `armcal
+    /// compensate --tool`. Its `predict`, `compensate`, `write` and
+    /// `to_bytes` are the working tool's; `held_out` is None (it was the
+    /// measured tool's).
+    #[pyo3(signature = (xyz, rpy = None))]
+    fn with_tool(&self, py: Python<'_>, xyz: [f64; 3], rpy: Option<[f64; 3]>) -> PyResult<Self> {
+        let rpy = rpy.unwrap_or([0.0; 3]);
+        if xyz.iter().chain(&rpy).any(|v| !v.is_finite()) {
+            return Err(errors::argument(
+                py,
+                "xyz",
+                "the working tool's xyz and rpy must be finite",
+            ));
+        }
+        self.working_with(py, &Tool::Frame { xyz, rpy })
+    }
+
+    /// `with_tool` for the working tool `tool_link`, a link of the URDF
+    /// `model` the calibration's model was read from (from the same
+    /// `base_link`), carried by the last joint; as `armcal compensate
+    /// --tool-link`.
+    #[pyo3(signature = (model, tool_link, *, base_link = None))]
+    fn with_tool_link(
+        &self,
+        py: Python<'_>,
+        model: &str,
+        tool_link: &str,
+        base_link: Option<String>,
+    ) -> PyResult<Self> {
+        let tool = Tool::Link {
+            model: model.to_owned(),
+            base_link,
+            link: tool_link.to_owned(),
+        };
+        self.working_with(py, &tool)
+    }
+
+    /// With a working tool (`with_tool`, `with_tool_link`): the working tool,
+    /// the measured tool's offset left out and what one measured tool cannot
+    /// separate from its mount; None otherwise.
+    #[getter]
+    fn tool_note(&self) -> Option<&str> {
+        self.tool_note.as_deref()
     }
 
     /// Why this calibration is not written (its fit did not converge, or it

@@ -18,20 +18,30 @@ pub struct Model {
 /// Loads a robot model: a built-in one (`builtin_models()`) or the file at
 /// `name_or_path`, as `armcal --model` does; of a URDF, the chain from
 /// `base_link` (default: its root) to `tip_link` (default: found walking down
-/// from the base), as `--base-link` and `--tip-link`. Raises `InputError` naming the file, line
-/// and column of what is wrong.
+/// from the base), as `--base-link` and `--tip-link`, with the measured
+/// point at `tip_point` (`x, y, z` in m in the tip link's frame; default its
+/// origin), as `--tip-point`. Raises `InputError` naming the file, line and
+/// column of what is wrong.
 #[pyfunction]
-#[pyo3(signature = (name_or_path, *, base_link = None, tip_link = None))]
+#[pyo3(signature = (name_or_path, *, base_link = None, tip_link = None, tip_point = None))]
 pub fn load_model(
     py: Python<'_>,
     name_or_path: &str,
     base_link: Option<String>,
     tip_link: Option<String>,
+    tip_point: Option<[f64; 3]>,
 ) -> PyResult<Model> {
+    if tip_point.is_some_and(|p| p.iter().any(|v| !v.is_finite())) {
+        return Err(errors::argument(
+            py,
+            "tip_point",
+            "x, y, z must be finite numbers in m",
+        ));
+    }
     let spec = urdf::ChainSpec {
         base_link,
         tip_link,
-        tip_point: None,
+        tip_point: tip_point.map(nalgebra::Vector3::from),
     };
     model_file::load_model_with(name_or_path, &spec)
         .map(|inner| Model { inner })

@@ -419,3 +419,38 @@ def test_sessions_without_a_tracker_are_held_out_as_the_command_line():
         armcal.holdout(model, [sessions[0], sessions[0]])
     with pytest.raises(armcal.InputError, match="the same session as"):
         armcal.holdout(model, sessions[1:], train=[armcal.load_measurements(sessions[1], model)])
+
+
+def test_a_working_tool_replaces_the_measured_ball_as_the_command_line():
+    """MUKCA's panda_6 calibrated with its ball, used with the hand's TCP:
+
+        armcal compensate --calibration CAL --joints left.csv \\
+          --tool-link panda_hand_tcp --model data/mukca-ball-socket/original/urdf/panda.urdf
+
+    `with_tool_link` gives the calibration that command uses (the ball's
+    identified offset left out, the held-out figure of the ball gone),
+    `with_tool` the same tool as a frame in the flange frame; its commands do
+    not depend on where the ball was nominally mounted."""
+    urdf = str(MUKCA / "original" / "urdf" / "panda.urdf")
+    model = armcal.load_model(urdf, tip_link="ball_link")
+    data = armcal.load_measurements(str(MUKCA / "panda_6" / "front.csv"), model)
+    ball = armcal.identify(model, data).calibration
+    hand = ball.with_tool_link(urdf, "panda_hand_tcp")
+    assert ball.tool_note is None
+    assert "tool.x, tool.y, tool.z" in hand.tool_note and "is not applied" in hand.tool_note
+    assert not any(name.startswith("tool.") for name in hand.errors)
+    assert hand.held_out is None
+    q = armcal.load_measurements(str(MUKCA / "panda_6" / "left.csv"), model).q
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # rows outside the identified ranges
+        by_link = hand.compensate(q)
+        by_frame = ball.with_tool([0.0, 0.0, 0.2104]).compensate(q)
+        moved = armcal.load_model(urdf, tip_link="ball_link", tip_point=[0.008, -0.006, 0.004])
+        moved_ball = armcal.identify(moved, armcal.load_measurements(str(MUKCA / "panda_6" / "front.csv"), moved))
+        from_moved = moved_ball.calibration.with_tool_link(urdf, "panda_hand_tcp").compensate(q)
+    np.testing.assert_allclose(by_link, by_frame, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(by_link, from_moved, rtol=0, atol=1e-9)
+    with pytest.raises(armcal.InputError, match="tool_link: panda_link5 of .* hangs on 5 moving joints"):
+        ball.with_tool_link(urdf, "panda_link5")
+    with pytest.raises(armcal.InputError, match="xyz"):
+        ball.with_tool([0.0, float("nan"), 0.1])

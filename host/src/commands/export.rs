@@ -6,11 +6,13 @@
 //! Lengths on file in m, angles in rad, as each format defines them
 //! (docs/urdf.md, docs/ur.md).
 
-use armcal_shared::JointType;
+use armcal_shared::{Calibration, JointType};
 
+use super::tool::Tool;
 use super::{Argument, Front};
 use crate::apply::export::{GeometryExport, geometry_only};
 use crate::apply::predict::load_calibration;
+use crate::apply::working_tool::ToolChange;
 use crate::io::input_error::{InputError, MODEL_FILE, read_text};
 use crate::io::model_file::{load_model_with, urdf_chain};
 use crate::io::ur;
@@ -49,6 +51,9 @@ pub struct Request {
     pub model: Option<String>,
     /// The chain of a URDF model.
     pub chain: ChainSpec,
+    /// The working tool that replaces the measured one, if any: the
+    /// measured tool's offset is then not written.
+    pub tool: Option<Tool>,
 }
 
 /// What `export` writes.
@@ -61,6 +66,9 @@ pub struct Exported {
     pub held: GeometryExport,
     /// What the format's writer says of the export.
     pub warnings: Vec<String>,
+    /// The working tool's change of the calibration, when one was given
+    /// (its note, for the user).
+    pub tool: Option<ToolChange>,
 }
 
 impl Request {
@@ -86,9 +94,26 @@ pub fn run(front: Front, calibration: &str, request: &Request) -> anyhow::Result
     request.check(front)?;
     match (request.format, &request.model) {
         (Format::Urdf, model) => urdf_export(front, calibration, model.as_deref(), request),
-        (format, Some(model)) => ur_export(front, calibration, model, format, &request.chain),
+        (format, Some(model)) => ur_export(front, calibration, model, format, request),
         (_, None) => unreachable!("checked: a UR format names its model"),
     }
+}
+
+/// The calibration file `calibration` with the request's working tool, if
+/// any, and that tool's change.
+fn load_with_tool(
+    front: Front,
+    calibration: &str,
+    request: &Request,
+) -> anyhow::Result<(Calibration, Option<ToolChange>)> {
+    let loaded = load_calibration(calibration)?;
+    Ok(match &request.tool {
+        None => (loaded, None),
+        Some(tool) => {
+            let change = tool.apply(front, &loaded)?;
+            (change.calibration.clone(), Some(change))
+        }
+    })
 }
 
 /// A URDF: written into `model`, or generated.
@@ -98,7 +123,7 @@ fn urdf_export(
     model: Option<&str>,
     request: &Request,
 ) -> anyhow::Result<Exported> {
-    let loaded = load_calibration(calibration)?;
+    let (loaded, tool) = load_with_tool(front, calibration, request)?;
     // The geometry refitted without the effects a URDF cannot carry, when the
     // calibration has one.
     let held = geometry_only(&loaded, Format::Urdf.called());
@@ -114,7 +139,11 @@ fn urdf_export(
                     )
                     .into());
             }
-            let (parsed, converted) = urdf_chain(&text, m, &request.chain)?;
+            let (parsed, mut converted) = urdf_chain(&text, m, &request.chain)?;
+            if tool.is_some() {
+                // The chain is the calibration's whatever tool it works with.
+                converted.robot.tool = cal.nominal.tool;
+            }
             urdf::export::into_urdf(cal, &parsed, &converted)?
         }
         None => urdf::export::generate(cal, calibration),
@@ -123,6 +152,7 @@ fn urdf_export(
         text: exported.text,
         held,
         warnings: exported.warnings,
+        tool,
     })
 }
 
@@ -132,9 +162,9 @@ fn ur_export(
     calibration: &str,
     model: &str,
     format: Format,
-    chain: &ChainSpec,
+    request: &Request,
 ) -> anyhow::Result<Exported> {
-    let nominal = load_model_with(model, chain)?;
+    let nominal = load_model_with(model, &request.chain)?;
     if !ur::is_ur_model(&nominal) {
         return Err(Argument::Model
             .refused(
@@ -143,7 +173,7 @@ fn ur_export(
             )
             .into());
     }
-    let loaded = load_calibration(calibration)?;
+    let (loaded, tool) = load_with_tool(front, calibration, request)?;
     let held = geometry_only(&loaded, format.called());
     let cal = &held.calibration;
     let robot = cal.calibrated();
@@ -165,5 +195,6 @@ fn ur_export(
         text,
         held,
         warnings: Vec::new(),
+        tool,
     })
 }

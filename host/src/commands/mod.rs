@@ -14,7 +14,8 @@
 //! the request against the model and the data, computes, and returns the
 //! outcome as typed values (a calibration, a report, what refuses it to be
 //! written): [`identify`], [`diagnose`], [`holdout`], [`simulate`],
-//! [`export`]. Turning
+//! [`export`]; the working tool a front end names is checked by [`tool`].
+//! Turning
 //! an outcome into text, files and warnings is the front end's. The rules
 //! every verb shares are here: a session's checks ([`require_session`]), the
 //! fit's stated scales ([`fit_options`]), the folds ([`folds`]), and which
@@ -26,6 +27,7 @@ pub mod export;
 pub mod holdout;
 pub mod identify;
 pub mod simulate;
+pub mod tool;
 
 use crate::calibration::check::independent_parameter_count;
 use crate::calibration::diagnose::cross_validation::DEFAULT_FOLDS;
@@ -254,6 +256,7 @@ mod tests {
             format: export::Format::UrDeltas,
             model: None,
             chain: ChainSpec::default(),
+            tool: None,
         };
         let e = ur.check(Front::CommandLine).unwrap_err();
         assert_eq!(e.file, "--model");
@@ -264,6 +267,7 @@ mod tests {
                 tip_link: Some("ball_link".into()),
                 ..ChainSpec::default()
             },
+            tool: None,
         };
         assert!(
             chain

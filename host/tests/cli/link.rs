@@ -134,6 +134,36 @@ fn stream_and_halt(dir: &std::path::Path, address: &str) -> std::process::Output
     )
 }
 
+/// What the firmware's code returns for `rows` after loading `file`.
+fn replay(file: &[u8], rows: &[[f64; 6]]) -> Vec<Vec<f64>> {
+    let mut device = Device::new(168_000);
+    for (i, chunk) in file.chunks(link::CHUNK_LEN).enumerate() {
+        device.handle(
+            &Request::CalibrationChunk {
+                total: file.len() as u16,
+                offset: (i * link::CHUNK_LEN) as u16,
+                bytes: chunk.iter().copied().collect(),
+            },
+            &mut (),
+        );
+    }
+    assert!(device.is_calibrated());
+    rows.iter()
+        .enumerate()
+        .map(|(seq, q)| {
+            let request = Request::Command(Command {
+                seq: seq as u32,
+                q: q.iter().map(|&v| v as f32).collect(),
+                context: None,
+            });
+            let Response::Corrected(want) = device.handle(&request, &mut ()) else {
+                panic!("not a correction");
+            };
+            want.q.iter().map(|&v| f64::from(v)).collect()
+        })
+        .collect()
+}
+
 #[test]
 fn streams_every_row_through_the_controller() {
     let dir = tempfile::tempdir().unwrap();
@@ -157,31 +187,7 @@ fn streams_every_row_through_the_controller() {
 
     // Exactly what the firmware's code computes from the same calibration.
     let got = read_commands(&dir.path().join("c.csv"));
-    let mut replay = Device::new(168_000);
-    let file = cal.to_bytes().unwrap();
-    for (i, chunk) in file.chunks(link::CHUNK_LEN).enumerate() {
-        replay.handle(
-            &Request::CalibrationChunk {
-                total: file.len() as u16,
-                offset: (i * link::CHUNK_LEN) as u16,
-                bytes: chunk.iter().copied().collect(),
-            },
-            &mut (),
-        );
-    }
-    assert!(replay.is_calibrated());
-    for (seq, (q, row)) in rows.iter().zip(&got).enumerate() {
-        let request = Request::Command(Command {
-            seq: seq as u32,
-            q: q.iter().map(|&v| v as f32).collect(),
-            context: None,
-        });
-        let Response::Corrected(want) = replay.handle(&request, &mut ()) else {
-            panic!("not a correction");
-        };
-        let want: Vec<f64> = want.q.iter().map(|&v| f64::from(v)).collect();
-        assert_eq!(row, &want, "row {seq}");
-    }
+    assert_eq!(got, replay(&cal.to_bytes().unwrap(), &rows));
 
     // And where armcal compensate's f64 servo ticks put the calibrated tool
     // point, within 2 µm (f32 rounding of a 1.3 m arm: a few tenths of a
@@ -208,6 +214,60 @@ fn streams_every_row_through_the_controller() {
         let d = (pa - pb).norm();
         assert!(d < 2e-6, "row {i}: {d:e} m apart");
     }
+}
+
+/// With `--tool`, the controller is loaded with the calibration working
+/// with that tool: the measured tool's offset (and the flange parameter
+/// rigid with it) is not in what it computes.
+#[test]
+fn streams_with_a_working_tool() {
+    use armcal::apply::working_tool::WorkingTool;
+    use armcal_shared::{Frame, FrameAxis};
+    let dir = tempfile::tempdir().unwrap();
+    let mut cal = calibration();
+    for (param, error) in [
+        (Param::Tool(FrameAxis::X), 3e-3),
+        (Param::Tool(FrameAxis::Z), -2e-3),
+        (Param::Theta(5), 2e-3),
+    ] {
+        cal.errors.push(ParamError { param, error }).unwrap();
+    }
+    std::fs::write(dir.path().join("cal.bin"), cal.to_bytes().unwrap()).unwrap();
+    let rows = trajectory(10);
+    write_joints(&dir.path().join("j.csv"), &rows);
+    let (address, thread) = controller(0);
+    let out = armcal(
+        &[
+            "stream",
+            "--calibration",
+            "cal.bin",
+            "--joints",
+            "j.csv",
+            "--tcp",
+            &address,
+            "--out",
+            "c.csv",
+            "--halt",
+            "--tool",
+            "0,0,0.25",
+        ],
+        dir.path(),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("tool.x, tool.z, theta6; 0.0036 m of position) is not applied"),
+        "{stderr}"
+    );
+    assert_eq!(thread.join().unwrap().loads, 1);
+    let frame = Frame {
+        xyz: nalgebra::Vector3::new(0.0, 0.0, 0.25),
+        rpy: nalgebra::Vector3::zeros(),
+    };
+    let working = WorkingTool { frame }.apply(&cal).calibration;
+    let got = read_commands(&dir.path().join("c.csv"));
+    assert_eq!(got, replay(&working.to_bytes().unwrap(), &rows));
+    assert_ne!(got, replay(&cal.to_bytes().unwrap(), &rows));
 }
 
 #[test]

@@ -17,6 +17,7 @@ mod refusals;
 mod replicates;
 mod ur;
 mod urdf;
+mod working_tool;
 mod written;
 
 /// Runs `armcal` with `args` in `dir`.
