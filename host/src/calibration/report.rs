@@ -353,13 +353,17 @@ fn html_findings(s: &mut String, model: &RobotModel, d: &Diagnosis, data: &[Obse
     for f in &d.findings {
         let _ = write!(
             s,
-            "<li><b>{}</b> (joints {}): held-out RMS ×{:.2} better; F = {:.1} above the {:.1} of a 1 % family-wise test</li>",
+            "<li><b>{}</b> (joints {}): held-out RMS ×{:.2} better; F = {:.1} above the {:.1} of a 1 % family-wise test",
             f.candidate.name,
             f.candidate.joints_label(),
             f.gain,
             f.f_test.0,
             f.f_test.1
         );
+        for a in &f.alike {
+            let _ = write!(s, "<br>{}", html_escape(&a.sentence(&f.candidate)));
+        }
+        s.push_str("</li>");
     }
     let _ = write!(s, "</ul><div class=\"plots\">");
     for p in plots(model, d, data) {

@@ -294,6 +294,12 @@ impl<'a> Folds<'a> {
         }
     }
 
+    /// The normal equations `(JᵀJ, Jᵀr)` of every pose but those left out
+    /// ([`Role::Out`]), over every column, without the prior.
+    pub fn normal_equations(&self) -> &(DMatrix<f64>, DVector<f64>) {
+        &self.all
+    }
+
     /// Whether candidates are worth cross-validating on every core: at least
     /// [`SPREAD_POSES`] poses.
     pub fn spread(&self) -> bool {

@@ -47,6 +47,7 @@
 //!
 //! Units: SI inside; `_mm` fields in millimetres.
 
+pub mod alike;
 pub mod blunders;
 pub mod candidates;
 pub mod cross_validation;
@@ -73,6 +74,7 @@ use crate::calibration::replicates::{Configurations, LackOfFit};
 use crate::calibration::stats::f_quantile;
 use crate::io::measurements::Contact;
 use crate::session::constraints::{Constraints, MIN_PLANE_TOUCHES};
+use alike::Alike;
 pub use blunders::Blunder;
 use blunders::Scale;
 pub use candidates::{Candidate, candidates, own_columns};
@@ -209,6 +211,9 @@ pub struct Finding {
     pub gain: f64,
     /// The F statistic of the drop of the sum of squares, and its family-wise threshold.
     pub f_test: (f64, f64),
+    /// The other candidates that reproduce what the data show of it
+    /// ([`alike`](mod@alike)): causes these data cannot tell from it.
+    pub alike: Vec<Alike>,
 }
 
 /// A candidate that gained held-out but was not chosen, and why.
@@ -616,6 +621,8 @@ struct Scored {
     f: f64,
     held: HeldOut,
     threshold: f64,
+    /// For a candidate that passes, the others that reproduce it.
+    alike: Vec<Alike>,
 }
 
 impl Pass<'_> {
@@ -966,6 +973,7 @@ impl Search {
             f,
             held,
             threshold: t,
+            alike,
             ..
         }) = passing.cloned()
         else {
@@ -998,6 +1006,7 @@ impl Search {
             candidate: c,
             gain,
             f_test: (f, t),
+            alike,
         });
         self.current = held;
         self.current_fit = refit;
@@ -1043,8 +1052,15 @@ impl Search {
                 None
             }
         });
+        let columns = alike::Columns {
+            normal: folds.normal_equations(),
+            precision: &lin.precision,
+            fitted: lin.fitted,
+        };
+        let others: Vec<(&Candidate, &[usize])> =
+            own.iter().map(|(c, cols)| (*c, cols.as_slice())).collect();
         let mut tests = Vec::new();
-        for (n, ((c, own), objective)) in own.into_iter().zip(objectives).enumerate() {
+        for (n, ((c, own), objective)) in own.iter().cloned().zip(objectives).enumerate() {
             progress(self.chosen.len() + 1, n + 1, remaining.len());
             let Some(objective) = objective else {
                 continue;
@@ -1060,17 +1076,29 @@ impl Search {
             extensions.evaluate(own)
         });
         let mut scored = Vec::new();
-        for ((candidate, _, f, threshold), e) in validated.into_iter().zip(evaluations) {
+        for ((candidate, own, f, threshold), e) in validated.into_iter().zip(evaluations) {
             let Some(e) = e else {
                 continue;
             };
             let gain = base.held.rms / e.held.rms.max(f64::MIN_POSITIVE);
+            let passes = gain >= options.min_gain && f > threshold;
+            let alike = if passes {
+                let others: Vec<(&Candidate, &[usize])> = others
+                    .iter()
+                    .filter(|(c, _)| **c != candidate)
+                    .copied()
+                    .collect();
+                alike::alike(&columns, &own, &others)
+            } else {
+                Vec::new()
+            };
             scored.push(Scored {
                 candidate,
                 gain,
                 f,
                 held: e.held,
                 threshold,
+                alike,
             });
         }
         Some(scored)

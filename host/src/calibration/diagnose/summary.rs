@@ -233,11 +233,24 @@ impl Diagnosis {
                         .map_or(0.0, |r| r.error);
                     parameters.insert(p.to_string(), json!(units.angle_from_si(error)));
                 }
+                let alike: Vec<serde_json::Value> = f
+                    .alike
+                    .iter()
+                    .map(|a| {
+                        json!({
+                            "name": a.candidate.name,
+                            "joints": a.candidate.joints.iter().map(|j| j + 1).collect::<Vec<_>>(),
+                            "unexplained_sigma": a.unexplained,
+                            "separated_by": a.separated_by(&f.candidate),
+                        })
+                    })
+                    .collect();
                 json!({
                     "name": f.candidate.name,
                     "joints": f.candidate.joints.iter().map(|j| j + 1).collect::<Vec<_>>(),
                     "parameters": parameters,
                     "gain": f.gain,
+                    "alike": alike,
                     "evidence": format!(
                         "held-out RMS {:.1}% lower with it ({}-fold); F = {:.1} against the {:.1} of a 1% family-wise test",
                         100.0 * (1.0 - 1.0 / f.gain), options.folds, f.f_test.0, f.f_test.1
@@ -450,6 +463,9 @@ impl Diagnosis {
                 f.f_test.0,
                 f.f_test.1
             );
+            for a in &f.alike {
+                let _ = writeln!(out, "  {}", a.sentence(&f.candidate));
+            }
         }
         if let Some(u) = &self.unsettled {
             let (name, joints, gain, (f, t)) = (
