@@ -117,21 +117,29 @@ fn read_commands(path: &std::path::Path) -> Vec<Vec<f64>> {
 /// Runs `armcal stream` in `dir` with `cal.bin` and `j.csv` against the
 /// controller at `address`, writing `c.csv`, and halts it.
 fn stream_and_halt(dir: &std::path::Path, address: &str) -> std::process::Output {
-    armcal(
-        &[
-            "stream",
-            "--calibration",
-            "cal.bin",
-            "--joints",
-            "j.csv",
-            "--tcp",
-            address,
-            "--out",
-            "c.csv",
-            "--halt",
-        ],
-        dir,
-    )
+    stream_and_halt_with(dir, address, &[])
+}
+
+/// [`stream_and_halt`] with the flags `extra` too.
+fn stream_and_halt_with(
+    dir: &std::path::Path,
+    address: &str,
+    extra: &[&str],
+) -> std::process::Output {
+    let mut args = vec![
+        "stream",
+        "--calibration",
+        "cal.bin",
+        "--joints",
+        "j.csv",
+        "--tcp",
+        address,
+        "--out",
+        "c.csv",
+        "--halt",
+    ];
+    args.extend(extra);
+    armcal(&args, dir)
 }
 
 /// What the firmware's code returns for `rows` after loading `file`.
@@ -236,23 +244,7 @@ fn streams_with_a_working_tool() {
     let rows = trajectory(10);
     write_joints(&dir.path().join("j.csv"), &rows);
     let (address, thread) = controller(0);
-    let out = armcal(
-        &[
-            "stream",
-            "--calibration",
-            "cal.bin",
-            "--joints",
-            "j.csv",
-            "--tcp",
-            &address,
-            "--out",
-            "c.csv",
-            "--halt",
-            "--tool",
-            "0,0,0.25",
-        ],
-        dir.path(),
-    );
+    let out = stream_and_halt_with(dir.path(), &address, &["--tool", "0,0,0.25"]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
     assert!(

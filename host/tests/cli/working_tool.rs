@@ -194,9 +194,8 @@ fn export_writes_the_working_tool() {
     let d = dir.path();
     identify(d, "0,0,0", "ball.cal");
     let u = urdf();
-    let plain = succeeds(
-        d,
-        &[
+    let export = |extra: &[&str]| {
+        let mut args = vec![
             "export",
             "--calibration",
             "ball.cal",
@@ -206,24 +205,12 @@ fn export_writes_the_working_tool() {
             &u,
             "--tip-link",
             "ball_link",
-        ],
-    );
-    let hand = succeeds(
-        d,
-        &[
-            "export",
-            "--calibration",
-            "ball.cal",
-            "--format",
-            "urdf",
-            "--model",
-            &u,
-            "--tip-link",
-            "ball_link",
-            "--tool-link",
-            "panda_hand_tcp",
-        ],
-    );
+        ];
+        args.extend(extra);
+        succeeds(d, &args)
+    };
+    let plain = export(&[]);
+    let hand = export(&["--tool-link", "panda_hand_tcp"]);
     let (plain, hand) = (
         String::from_utf8_lossy(&plain.stdout),
         String::from_utf8_lossy(&hand.stdout),
