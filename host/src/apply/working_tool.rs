@@ -34,9 +34,11 @@
 //! separate them.
 //!
 //! A measured point on the last joint's axis (an SMR centred on the flange)
-//! does not move when that joint turns: the axis' direction is then known
-//! only through the joints before it, and a working tool further out or off
-//! the axis inherits that. The note says so below [`NEAR_AXIS`].
+//! does not move when that joint turns: from positions alone the axis'
+//! direction is then known only through the joints before it, and a working
+//! tool further out or off the axis inherits that. The note says so below
+//! [`NEAR_AXIS`] (not for a calibration from full poses: the orientations
+//! show the last joint's turn).
 //!
 //! The expected held-out error of the file is the measured tool's; with
 //! another tool it is unknown, and the calibration's `held_out` is cleared.
@@ -108,7 +110,8 @@ pub struct ToolChange {
     /// The parameters rigid with the measured tool ([`flange_params`]).
     pub confounded: Vec<Param>,
     /// The nominal measured point's distance from a revolute last joint's
-    /// axis, m ([`distance_from_last_axis`]).
+    /// axis, m ([`distance_from_last_axis`]), for a calibration from
+    /// positions alone.
     pub measured_from_axis: Option<f64>,
 }
 
@@ -142,7 +145,12 @@ impl WorkingTool {
             tool: *self,
             measured_offset,
             confounded,
-            measured_from_axis: distance_from_last_axis(&cal.nominal),
+            // Orientations measure the last axis' turn whatever the point.
+            measured_from_axis: if cal.orientation {
+                None
+            } else {
+                distance_from_last_axis(&cal.nominal)
+            },
         }
     }
 }
@@ -300,7 +308,8 @@ mod tests {
 
     /// The distance from the last axis is the tool point's lever about it:
     /// an SMR 60 mm off the flange axis of a standard D-H wrist is 60 mm
-    /// from it, one on the axis 0, and the note names the latter.
+    /// from it, one on the axis 0, and the note names the latter for a
+    /// calibration from positions alone.
     #[test]
     fn a_measured_point_on_the_last_axis_is_named() {
         let mut robot = puma560();
@@ -315,9 +324,13 @@ mod tests {
         let on = distance_from_last_axis(&robot).unwrap();
         assert!(on < 1e-6, "{on}");
         let frame = Frame::identity();
-        let cal = Calibration::nominal(robot, false, Units::SI);
+        let cal = Calibration::nominal(robot.clone(), false, Units::SI);
         let note = WorkingTool { frame }.apply(&cal).note();
         assert!(note.contains("from the last joint's axis"), "{note}");
+        // Full poses show the last joint's turn through the orientations.
+        let full = Calibration::nominal(robot, true, Units::SI);
+        let note = WorkingTool { frame }.apply(&full).note();
+        assert!(!note.contains("from the last joint's axis"), "{note}");
     }
 
     /// The parameters said to be rigid with the tool are: changing one moves
