@@ -134,6 +134,10 @@ pub(crate) struct IdentifyArgs {
     /// status 1 and writes nothing.
     #[arg(long)]
     pub(crate) write_failed: bool,
+    /// Print nothing on success (the summary is printed otherwise, whatever
+    /// files are written).
+    #[arg(long)]
+    pub(crate) quiet: bool,
 }
 
 /// The flags of `armcal predict`.
@@ -278,6 +282,10 @@ pub(crate) struct DiagnoseArgs {
     /// status 1 and writes nothing.
     #[arg(long)]
     pub(crate) write_failed: bool,
+    /// Print nothing on success (the summary is printed otherwise, whatever
+    /// files are written).
+    #[arg(long)]
+    pub(crate) quiet: bool,
 }
 
 /// The flags of `armcal sweep`.

@@ -84,12 +84,17 @@ pub(crate) fn accept(refusal: Option<FailedCalibration>, write_failed: bool) -> 
 }
 
 /// Writes the requested outputs (every one prepared before the first byte is
-/// written), or prints the human summary when none was asked for.
-pub(crate) fn finish(outputs: Outputs, summary: impl FnOnce() -> String) -> anyhow::Result<()> {
-    if outputs.is_empty() {
+/// written), then prints the human summary unless `quiet`.
+pub(crate) fn finish(
+    outputs: Outputs,
+    quiet: bool,
+    summary: impl FnOnce() -> String,
+) -> anyhow::Result<()> {
+    outputs.commit()?;
+    if !quiet {
         print!("{}", summary());
     }
-    outputs.commit()
+    Ok(())
 }
 
 /// The checked `--out` of a verb that reads a calibration and a joints file.

@@ -101,7 +101,7 @@ pub(crate) fn identify(args: IdentifyArgs) -> anyhow::Result<()> {
         let text = serde_json::to_string_pretty(&result.to_json(&model.units))?;
         outputs.set("--json", text.into_bytes());
     }
-    finish(outputs, || result.summary(&model, &data))?;
+    finish(outputs, args.quiet, || result.summary(&model, &data))?;
     Ok(())
 }
 
@@ -189,7 +189,9 @@ pub(crate) fn diagnose(args: DiagnoseArgs) -> anyhow::Result<()> {
         );
         outputs.set("--html", page.into_bytes());
     }
-    finish(outputs, || diagnosis.summary(lines, &options, &model.units))?;
+    finish(outputs, args.quiet, || {
+        diagnosis.summary(lines, &options, &model.units)
+    })?;
     Ok(())
 }
 

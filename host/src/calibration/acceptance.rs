@@ -159,6 +159,24 @@ pub struct Judged<'a> {
     pub residual: Option<Residual>,
 }
 
+/// The nominal model's and the calibration's residuals on the same rows.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Judgement {
+    /// The nominal model's.
+    pub nominal: Residual,
+    /// The calibration's (the model its file holds).
+    pub calibrated: Residual,
+}
+
+/// The judgement of a calibration, and why it must not be written, if so.
+#[derive(Debug)]
+pub struct Verdict {
+    /// Both models' residuals on the rows judged.
+    pub judgement: Judgement,
+    /// Why it must not be written, or `None`.
+    pub refusal: Option<FailedCalibration>,
+}
+
 /// The nominal `robot` and the `calibrated` model on `data` (its rows but
 /// `set_aside`): `None` when the fit that `ending` describes converged and
 /// the calibration fits the rows no worse than the nominal model, else why
@@ -172,10 +190,44 @@ pub fn refusal(
     units: &Units,
     flag: &'static str,
 ) -> Option<FailedCalibration> {
+    verdict(robot, calibrated, data, set_aside, ending, units, flag).refusal
+}
+
+/// [`refusal`], with the residuals it judged by.
+pub fn verdict(
+    robot: &Robot<f64>,
+    calibrated: Judged<'_>,
+    data: &Measurements,
+    set_aside: &[usize],
+    ending: Ending,
+    units: &Units,
+    flag: &'static str,
+) -> Verdict {
     let nominal = residual(&geometric(robot), data, set_aside);
     let ours = calibrated
         .residual
         .unwrap_or_else(|| residual(calibrated.model, data, set_aside));
+    let judgement = Judgement {
+        nominal,
+        calibrated: ours,
+    };
+    Verdict {
+        judgement,
+        refusal: refused(judgement, data, ending, units, flag),
+    }
+}
+
+/// Why a calibration of `judgement` must not be written, if so.
+fn refused(
+    Judgement {
+        nominal,
+        calibrated: ours,
+    }: Judgement,
+    data: &Measurements,
+    ending: Ending,
+    units: &Units,
+    flag: &'static str,
+) -> Option<FailedCalibration> {
     let worse = ours.position > nominal.position
         && match (ours.orientation, nominal.orientation) {
             (Some(a), Some(b)) => a > b,

@@ -52,7 +52,9 @@ pub fn run(
     let mut result =
         identify::identify(model, data, request.params, &options, request.prior_scale)?;
     data.require_fit_supported(model, result.position_rms)?;
-    let failed = result.refusal(model, data, front.write_failed());
+    let verdict = result.verdict(model, data, front.write_failed());
+    result.judgement = Some(verdict.judgement);
+    let failed = verdict.refusal;
     result.calibration.targets = request.targets;
     Ok(Identified { result, failed })
 }

@@ -1,6 +1,8 @@
 //! `armcal check` and `armcal identify`.
 
-use crate::{armcal, assert_success, files_in};
+use std::path::Path;
+
+use crate::{armcal, assert_success, files_in, succeeds};
 
 #[test]
 fn check_on_builtin_model_and_data_prints_the_summary() {
@@ -113,9 +115,13 @@ fn identify_writes_the_interface_json_and_a_calibration_the_firmware_format_read
         dir.path(),
     );
     assert_success(&out);
+    // The summary is printed whatever files are written, with the nominal
+    // model's error beside the calibration's.
+    let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
-        out.stdout.is_empty(),
-        "with --out/--json nothing is printed"
+        stdout.starts_with("identify --params full: ur10e_d435")
+            && stdout.contains("position RMS on these rows: nominal "),
+        "{stdout}"
     );
     let json: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.path().join("report.json")).unwrap()).unwrap();
@@ -550,4 +556,85 @@ fn identify_refuses_to_write_a_fit_that_did_not_converge() {
         serde_json::from_slice(&std::fs::read(dir.path().join("nc.json")).unwrap()).unwrap();
     assert_eq!(report["converged"], false);
     assert!(dir.path().join("nc.cal").exists());
+}
+
+/// The summary's calibrated figure is what the file written delivers: the
+/// position RMS of `armcal predict` with it on the same rows, to the six
+/// decimals printed; `--quiet` prints nothing and writes the same file.
+#[test]
+fn identify_prints_what_its_file_delivers_and_quiet_prints_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let data = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../data/figaroh-ur10e-camera/measurements.csv")
+        .display()
+        .to_string();
+    let identify = |extra: &[&str]| {
+        let mut args = vec![
+            "identify",
+            "--model",
+            "figaroh-ur10e-camera",
+            "--data",
+            &data,
+        ];
+        args.extend(extra);
+        succeeds(d, &args)
+    };
+    let out = identify(&["--out", "a.cal"]);
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("position RMS on these rows"))
+        .unwrap();
+    let printed: f64 = line
+        .split("→ calibrated ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .unwrap()
+        .parse()
+        .unwrap();
+    succeeds(
+        d,
+        &[
+            "predict",
+            "--calibration",
+            "a.cal",
+            "--joints",
+            &data,
+            "--out",
+            "p.csv",
+        ],
+    );
+    let rows = |path: &Path| -> Vec<Vec<f64>> {
+        let text = std::fs::read_to_string(path).unwrap();
+        let mut lines = text.lines().filter(|l| !l.starts_with('#'));
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let at: Vec<usize> = ["x", "y", "z"]
+            .iter()
+            .map(|c| header.iter().position(|h| h == c).unwrap())
+            .collect();
+        lines
+            .map(|l| {
+                let cells: Vec<&str> = l.split(',').collect();
+                at.iter().map(|&i| cells[i].parse().unwrap()).collect()
+            })
+            .collect()
+    };
+    let (predicted, measured) = (rows(&d.join("p.csv")), rows(Path::new(&data)));
+    let sum: f64 = predicted
+        .iter()
+        .zip(&measured)
+        .map(|(p, m)| (0..3).map(|k| (p[k] - m[k]).powi(2)).sum::<f64>())
+        .sum();
+    let delivered = (sum / predicted.len() as f64).sqrt();
+    assert!(
+        (delivered - printed).abs() <= 5e-7,
+        "printed {printed} m, predict gives {delivered} m"
+    );
+    let quiet = identify(&["--out", "b.cal", "--quiet"]);
+    assert!(quiet.stdout.is_empty());
+    assert_eq!(
+        std::fs::read(d.join("a.cal")).unwrap(),
+        std::fs::read(d.join("b.cal")).unwrap()
+    );
 }

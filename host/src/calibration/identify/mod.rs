@@ -29,6 +29,7 @@ mod constraint_tests;
 use armcal_shared::calibration::ParamError;
 use armcal_shared::{Calibration, Param, Robot};
 
+use crate::calibration::acceptance::Judgement;
 use crate::io::measurements::Measurements;
 use crate::io::model_file::RobotModel;
 use full::{FullFit, FullOptions, Observation, Status};
@@ -163,6 +164,9 @@ pub struct Identification {
     pub prior: Option<PriorChoice>,
     /// The calibration to write.
     pub calibration: Calibration,
+    /// The nominal model's and the calibration's residuals on the rows,
+    /// once judged ([`Identification::verdict`]).
+    pub judgement: Option<Judgement>,
 }
 
 /// Why an identification could not be made.
@@ -255,6 +259,7 @@ pub fn identify(
         stated_prior: options.prior,
         prior,
         calibration,
+        judgement: None,
     })
 }
 
@@ -412,7 +417,17 @@ impl Identification {
         data: &Measurements,
         flag: &'static str,
     ) -> Option<crate::calibration::acceptance::FailedCalibration> {
-        use crate::calibration::acceptance::{Ending, Judged, Residual, refusal};
+        self.verdict(model, data, flag).refusal
+    }
+
+    /// [`Identification::refusal`], with the residuals it judged by.
+    pub fn verdict(
+        &self,
+        model: &RobotModel,
+        data: &Measurements,
+        flag: &'static str,
+    ) -> crate::calibration::acceptance::Verdict {
+        use crate::calibration::acceptance::{Ending, Judged, Residual, verdict};
         use crate::calibration::contact_check::geometric;
         let ending = Ending {
             iterations: self.iterations,
@@ -432,7 +447,7 @@ impl Identification {
             position: self.position_rms,
             orientation: data.has_orientation().then_some(self.orientation_rms),
         });
-        refusal(
+        verdict(
             &model.robot,
             Judged {
                 model: &geometric(&self.calibrated()),

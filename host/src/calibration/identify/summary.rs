@@ -281,11 +281,49 @@ impl Identification {
                 String::new()
             }
         );
+        self.write_judgement(&mut out, u, data);
         self.write_fit_statistics(&mut out, u);
         self.write_parameters(&mut out, u);
         self.write_constraints(&mut out, u, data);
         self.write_correlations(&mut out);
         out
+    }
+
+    /// The nominal model's residual on the rows beside the calibration's
+    /// (what `armcal predict` gives with the file written), when judged.
+    fn write_judgement(&self, out: &mut String, u: &Units, data: &Measurements) {
+        let Some(j) = &self.judgement else {
+            return;
+        };
+        let what = if data.is_constrained() {
+            "contact spread about the fitted points and planes"
+        } else {
+            "position RMS"
+        };
+        let length = |x: f64| {
+            format!(
+                "{:.6} {} ({:.4} mm)",
+                u.length_from_si(x),
+                u.length,
+                x * 1e3
+            )
+        };
+        let _ = write!(
+            out,
+            "{what} on these rows: nominal {} → calibrated {}",
+            length(j.nominal.position),
+            length(j.calibrated.position)
+        );
+        if let (Some(n), Some(c)) = (j.nominal.orientation, j.calibrated.orientation) {
+            let _ = write!(
+                out,
+                "; orientation nominal {:.6} → calibrated {:.6} {}",
+                u.angle_from_si(n),
+                u.angle_from_si(c),
+                u.angle
+            );
+        }
+        let _ = writeln!(out, " (the calibration written: `armcal predict` gives it)");
     }
 
     /// The full fit's condition number, observability and variance factor, and each channel's noise.
