@@ -206,6 +206,11 @@ pub(crate) struct SimulateArgs {
     /// Also measure orientations, with this noise (model angle unit).
     #[arg(long, value_name = "ANGLE", value_parser = args::non_negative)]
     pub(crate) orientation_noise: Option<f64>,
+    /// Also write the joint torques the robot reports (tau1..tauM: its
+    /// drives' torques, minus the true gravity torques), with this noise
+    /// (N·m, N for a prismatic joint).
+    #[arg(long, value_name = "N·m", value_parser = args::non_negative)]
+    pub(crate) torque_noise: Option<f64>,
     /// Seed of every random draw.
     #[arg(long, default_value_t = 1)]
     pub(crate) seed: u64,
@@ -678,6 +683,7 @@ impl SimulateArgs {
             seed: self.seed,
             noise: self.noise,
             orientation_noise: self.orientation_noise,
+            torque_noise: self.torque_noise,
             effects: self.effects.clone(),
             tilts: self.tilts.iter().map(|t| (t.joint, t.beta)).collect(),
         }

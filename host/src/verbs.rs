@@ -92,7 +92,7 @@ pub(crate) fn identify(args: IdentifyArgs) -> anyhow::Result<()> {
     warn(&data.warnings);
     let identified = identify_cmd::run(CLI, &model, &data, &args.request())?;
     accept(identified.failed, args.write_failed)?;
-    let result = identified.result;
+    let (model, result) = (identified.model, identified.result);
     // Everything is computed and encoded before the first byte is written.
     if args.out.is_some() {
         outputs.set("--out", result.calibration.to_bytes()?);
@@ -164,6 +164,8 @@ pub(crate) fn diagnose(args: DiagnoseArgs) -> anyhow::Result<()> {
     let diagnosed = diagnose_cmd::run(CLI, &model, &data, &args.request(), &mut bar);
     progress.finish();
     let diagnose_cmd::Diagnosed {
+        model,
+        gravity,
         diagnosis,
         options,
         calibration,
@@ -175,7 +177,8 @@ pub(crate) fn diagnose(args: DiagnoseArgs) -> anyhow::Result<()> {
         outputs.set("--out", calibration.to_bytes()?);
     }
     if args.json.is_some() {
-        let text = serde_json::to_string_pretty(&diagnosis.to_json(&model, lines, &options))?;
+        let report = diagnose_cmd::json(gravity.as_ref(), &diagnosis, &model, lines, &options);
+        let text = serde_json::to_string_pretty(&report)?;
         outputs.set("--json", text.into_bytes());
     }
     if args.html.is_some() {
@@ -190,7 +193,7 @@ pub(crate) fn diagnose(args: DiagnoseArgs) -> anyhow::Result<()> {
         outputs.set("--html", page.into_bytes());
     }
     finish(outputs, args.quiet, || {
-        diagnosis.summary(lines, &options, &model.units)
+        diagnose_cmd::summary(gravity.as_ref(), &diagnosis, lines, &options, &model.units)
     })?;
     Ok(())
 }

@@ -102,10 +102,11 @@ pub fn from_arrays<'py>(
 /// true robot (nominal plus random geometric errors of ±1 mm and ±1 mrad,
 /// hidden `effects` `"NAME[:JOINT[:VALUE]]"`, Hayati `tilts` `(joint, beta)`)
 /// measured at `poses` random configurations with `noise` (model length unit,
-/// default 20 µm) and, with `orientation_noise` (model angle unit), orientations.
+/// default 20 µm) and, with `orientation_noise` (model angle unit), orientations;
+/// with `torque_noise` (N·m), the joint torques the robot reports (`tau`).
 /// Returns the measurements (rows numbered from 0) and the truth as a dict.
 #[pyfunction]
-#[pyo3(signature = (model, poses = 200, seed = 1, noise = None, orientation_noise = None, effects = Vec::new(), tilts = Vec::new()))]
+#[pyo3(signature = (model, poses = 200, seed = 1, noise = None, orientation_noise = None, effects = Vec::new(), tilts = Vec::new(), torque_noise = None))]
 #[expect(
     clippy::too_many_arguments,
     reason = "a parameter per Python keyword argument, as the signature above lists them"
@@ -119,6 +120,7 @@ pub fn simulate<'py>(
     orientation_noise: Option<f64>,
     effects: Vec<String>,
     tilts: Vec<(usize, f64)>,
+    torque_noise: Option<f64>,
 ) -> PyResult<(Measurements, Bound<'py, PyAny>)> {
     let m = &model.inner;
     let u = m.units;
@@ -127,6 +129,7 @@ pub fn simulate<'py>(
         seed,
         noise,
         orientation_noise,
+        torque_noise,
         effects,
         tilts,
     };
@@ -281,6 +284,21 @@ impl Measurements {
             pose_values(&p.position, p.orientation.as_ref(), &self.model.units).split_off(3)
         });
         errors::to_numpy(py, rows.collect(), 4, false).map(Some)
+    }
+
+    /// The joint torques the robot reported at each pose (`tau1..tauM`,
+    /// N·m, N for a prismatic joint), `(N, M)`; None when the session has
+    /// none.
+    #[getter]
+    fn tau<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let rows: Option<Vec<Vec<f64>>> =
+            self.data.poses.iter().map(|p| p.torque.clone()).collect();
+        match rows {
+            Some(rows) if !rows.is_empty() => {
+                errors::to_numpy(py, rows, self.model.robot.dof(), false).map(Some)
+            }
+            _ => Ok(None),
+        }
     }
 
     /// Time of each pose (s), NaN where not recorded; None when no pose has one.

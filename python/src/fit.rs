@@ -180,7 +180,7 @@ pub fn identify_py(
     let identified = py
         .detach(|| identify_cmd::run(PYTHON, m, &data.data, &request))
         .map_err(|e| errors::command(py, e, arrays))?;
-    let result = identified.result;
+    let (m, result) = (&identified.model, identified.result);
     let outcome = Outcome {
         report: result.to_json(&m.units),
         summary: result.summary(m, &data.data),
@@ -236,6 +236,8 @@ pub fn diagnose(
     let m = &model.inner;
     let (data, arrays) = session(py, model, data)?;
     let diagnose_cmd::Diagnosed {
+        model: fitted,
+        gravity,
         diagnosis,
         options,
         calibration,
@@ -243,12 +245,13 @@ pub fn diagnose(
     } = py
         .detach(|| diagnose_cmd::run(PYTHON, m, &data.data, &request, &mut |_, _, _| {}))
         .map_err(|e| errors::command(py, e, arrays))?;
+    let m = &fitted;
     // Arrays name their rows from 0, files by line.
     let from = usize::from(arrays);
     let lines: Vec<usize> = data.data.lines.iter().map(|line| line - from).collect();
     let outcome = Outcome {
-        report: diagnosis.to_json(m, &lines, &options),
-        summary: diagnosis.summary(&lines, &options, &m.units),
+        report: diagnose_cmd::json(gravity.as_ref(), &diagnosis, m, &lines, &options),
+        summary: diagnose_cmd::summary(gravity.as_ref(), &diagnosis, &lines, &options, &m.units),
         calibration,
         failed: failed.map(|f| f.to_string()),
     };

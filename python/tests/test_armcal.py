@@ -454,3 +454,17 @@ def test_a_working_tool_replaces_the_measured_ball_as_the_command_line():
         ball.with_tool_link(urdf, "panda_link5")
     with pytest.raises(armcal.InputError, match="xyz"):
         ball.with_tool([0.0, float("nan"), 0.1])
+
+
+def test_measured_torques_drive_the_compliance_as_the_command_line():
+    """A UR10e reporting its joint torques (`simulate(..., torque_noise=)`,
+    the `tau` columns of a measurement file): `tau` gives them back, and
+    diagnose fits the arm's masses to them, says so first in its summary,
+    and names the compliance of joint 2."""
+    model = armcal.load_model("ur10e")
+    data, truth = armcal.simulate(model, poses=120, seed=31, effects=["joint_compliance:2:2e-6"], torque_noise=0.05)
+    assert data.tau.shape == (120, 6)
+    result = armcal.diagnose(model, data)
+    assert result.summary.startswith("gravity torques from the measured joint torques (tau1..tau6, 120 poses)")
+    effect = [e for e in result.report["effects"] if e["name"] == "joint_compliance"]
+    assert effect and effect[0]["joints"] == [2]

@@ -192,11 +192,25 @@ fn write_data(out: &mut String, model: &RobotModel, data: &Measurements, full_po
         u.angle,
         u.length,
         u.length,
-        [("t", "s"), ("temp", "°C"), ("load", "kg")]
-            .iter()
-            .filter(|(c, _)| data.columns_used.iter().any(|used| used == c))
-            .map(|(c, unit)| format!(", {c} in {unit}"))
-            .collect::<String>()
+        [
+            ("t", "s"),
+            ("temp", "°C"),
+            ("load", "kg"),
+            ("tau1", "N·m (N for a prismatic joint)")
+        ]
+        .iter()
+        .filter(|(c, _)| data.columns_used.iter().any(|used| used == c))
+        .map(|(c, unit)| match *c {
+            "tau1" => format!(
+                ", tau1..tau{} in {unit}",
+                data.columns_used
+                    .iter()
+                    .filter(|u| u.starts_with("tau"))
+                    .count()
+            ),
+            _ => format!(", {c} in {unit}"),
+        })
+        .collect::<String>()
     );
     for w in &data.warnings {
         let _ = writeln!(out, "        warning: {w}");

@@ -8,6 +8,7 @@ pub mod check;
 pub mod contact_check;
 pub mod demo;
 pub mod diagnose;
+pub mod gravity;
 pub mod identify;
 pub mod parallel;
 pub mod replicates;

@@ -119,6 +119,7 @@ pub fn measure(
                 position,
                 orientation,
                 context: Default::default(),
+                torque: None,
                 contact: Contact::Measured,
             }
         })
@@ -165,6 +166,10 @@ pub struct Scenario {
     pub temperature: (f64, f64),
     /// Payloads the poses are measured with, kg (cycled in blocks).
     pub payloads: Vec<f64>,
+    /// The joint torques the robot reports, when it does: the noise of each
+    /// (N·m, N for a prismatic joint, per joint). Each pose's `tau` is its
+    /// drives' torque, minus the true gravity torque with the payload.
+    pub torque_noise: Option<f64>,
     /// Seed of every draw.
     pub seed: u64,
 }
@@ -182,6 +187,7 @@ impl Scenario {
             tilts: Vec::new(),
             temperature: (20.0, 30.0),
             payloads: vec![0.0, 5.0],
+            torque_noise: None,
             seed,
         }
     }
@@ -251,6 +257,19 @@ pub fn simulate_visiting(
             approach: approach.next(qi),
         };
         let frame = model.forward(qi, &ctx)?;
+        let torque = match scenario.torque_noise {
+            None => None,
+            Some(s) => {
+                let chain = session.truth.chain(qi)?;
+                let gravity = armcal_shared::effects::gravity_torques(&session.truth, &chain, load);
+                Some(
+                    gravity
+                        .iter()
+                        .map(|g| -g + s * normal.sample(&mut r))
+                        .collect(),
+                )
+            }
+        };
         let mut draw3 = |s: f64| Vector3::from_fn(|_, _| s * normal.sample(&mut r));
         let position = Point3::from(frame.translation.vector + draw3(scenario.position_noise));
         let orientation = scenario.orientation_noise.map(|s| {
@@ -262,6 +281,7 @@ pub fn simulate_visiting(
             position,
             orientation,
             context: ctx,
+            torque,
             contact: Contact::Measured,
         });
         session.t.push(10.0 * i as f64);
@@ -279,10 +299,13 @@ impl Session {
         let orientation = self.observations.iter().any(|o| o.orientation.is_some());
         let mut out = String::new();
         let _ = writeln!(out, "# {description}");
+        let torques = self.observations.iter().any(|o| o.torque.is_some());
         let _ = writeln!(
             out,
-            "# lengths in {}, angles in {}; t in s, temp in °C, load in kg",
-            units.length, units.angle
+            "# lengths in {}, angles in {}; t in s, temp in °C, load in kg{}",
+            units.length,
+            units.angle,
+            if torques { ", tau in N·m (N)" } else { "" }
         );
         let mut header: Vec<String> = (1..=joints.len()).map(|m| format!("q{m}")).collect();
         header.extend(["x", "y", "z"].map(String::from));
@@ -290,6 +313,9 @@ impl Session {
             header.extend(["qw", "qx", "qy", "qz"].map(String::from));
         }
         header.extend(["t", "temp", "load"].map(String::from));
+        if torques {
+            header.extend((1..=joints.len()).map(|m| format!("tau{m}")));
+        }
         let _ = writeln!(out, "{}", header.join(","));
         for (i, obs) in self.observations.iter().enumerate() {
             let mut row: Vec<String> = obs
@@ -313,6 +339,16 @@ impl Session {
                 row.extend([q.w, q.i, q.j, q.k].map(|v| format!("{v}")));
             }
             row.extend([self.t[i], self.temp[i], self.load[i]].map(|v| format!("{v}")));
+            if torques {
+                let none = vec![0.0; joints.len()];
+                row.extend(
+                    obs.torque
+                        .as_ref()
+                        .unwrap_or(&none)
+                        .iter()
+                        .map(|v| format!("{v}")),
+                );
+            }
             let _ = writeln!(out, "{}", row.join(","));
         }
         out
@@ -448,6 +484,7 @@ pub fn socket_session(
                     position: Point3::origin(),
                     orientation: None,
                     context: Default::default(),
+                    torque: None,
                     contact: Contact::Point(k),
                 });
                 found += 1;
@@ -503,6 +540,7 @@ pub fn plane_touches(
                 position: Point3::origin(),
                 orientation: None,
                 context: Default::default(),
+                torque: None,
                 contact: Contact::Plane(plane),
             });
         }

@@ -5,11 +5,13 @@
 //! Scales are in the model's units as the user states them; the calibration
 //! is SI (docs/file-formats.md §5).
 
+use armcal_shared::units::Units;
 use armcal_shared::{Calibration, TargetFrame};
 
 use super::{Front, fit_options, folds};
 use crate::calibration::acceptance::{FailedCalibration, diagnosis_refusal};
 use crate::calibration::diagnose::{DiagnoseOptions, Diagnosis, diagnose_with_progress};
+use crate::calibration::gravity::{GravityFit, with_measured_gravity};
 use crate::calibration::identify::{self, StatedScales};
 use crate::io::model_file::RobotModel;
 use crate::session::measurements::Measurements;
@@ -29,6 +31,12 @@ pub struct Request {
 /// What `diagnose` found.
 #[derive(Debug)]
 pub struct Diagnosed {
+    /// The model diagnosed: the one asked with, its masses fitted to the
+    /// joint torques the session measured, if it did
+    /// ([`crate::calibration::gravity`]); what the reports read.
+    pub model: RobotModel,
+    /// The masses' fit to the measured torques, if the session has them.
+    pub gravity: Option<GravityFit>,
     /// The diagnosis: the fits, the effects named, the held-out figures.
     pub diagnosis: Diagnosis,
     /// The settings it ran with (the folds chosen, the fit's options).
@@ -53,6 +61,8 @@ pub fn run(
     request: &Request,
     progress: &mut dyn FnMut(usize, usize, usize),
 ) -> anyhow::Result<Diagnosed> {
+    let (fitted, gravity) = with_measured_gravity(model, data);
+    let model = &fitted;
     let folds = folds(front, request.folds, data.len())?;
     let options = DiagnoseOptions {
         folds,
@@ -72,9 +82,40 @@ pub fn run(
     let mut calibration = diagnosis.calibration(&model.robot, data.has_orientation(), model.units);
     calibration.targets = request.targets;
     Ok(Diagnosed {
+        model: fitted.clone(),
+        gravity,
         diagnosis,
         options,
         calibration,
         failed,
     })
+}
+
+/// The summary of a diagnosis: the masses' fit to the measured torques, if
+/// any, then the diagnosis' own (`lines`: each pose's line or row).
+pub fn summary(
+    gravity: Option<&GravityFit>,
+    diagnosis: &Diagnosis,
+    lines: &[usize],
+    options: &DiagnoseOptions,
+    units: &Units,
+) -> String {
+    let head = gravity.map(|g| format!("{}\n", g.summary()));
+    head.unwrap_or_default() + &diagnosis.summary(lines, options, units)
+}
+
+/// The JSON report of a diagnosis: the diagnosis' own, with `gravity`, the
+/// masses' fit to the measured torques, when the session has them.
+pub fn json(
+    gravity: Option<&GravityFit>,
+    diagnosis: &Diagnosis,
+    model: &RobotModel,
+    lines: &[usize],
+    options: &DiagnoseOptions,
+) -> serde_json::Value {
+    let mut report = diagnosis.to_json(model, lines, options);
+    if let Some(g) = gravity {
+        report["gravity"] = g.to_json();
+    }
+    report
 }

@@ -9,6 +9,7 @@ use armcal_shared::TargetFrame;
 
 use super::{Front, fit_options};
 use crate::calibration::acceptance::FailedCalibration;
+use crate::calibration::gravity::with_measured_gravity;
 use crate::calibration::identify::prior_scale::PriorScale;
 use crate::calibration::identify::{self, Identification, ParamSet, StatedScales};
 use crate::io::model_file::RobotModel;
@@ -30,6 +31,10 @@ pub struct Request {
 /// What `identify` found.
 #[derive(Debug)]
 pub struct Identified {
+    /// The model identified: the one asked with, its masses fitted to the
+    /// joint torques the session measured, if it did
+    /// ([`crate::calibration::gravity`]); what the reports read.
+    pub model: RobotModel,
     /// The fit, its report and its calibration (with the request's target
     /// frame).
     pub result: Identification,
@@ -48,6 +53,8 @@ pub fn run(
     data: &Measurements,
     request: &Request,
 ) -> anyhow::Result<Identified> {
+    let (fitted, gravity) = with_measured_gravity(model, data);
+    let model = &fitted;
     let options = fit_options(front, model, &request.scales)?;
     let mut result =
         identify::identify(model, data, request.params, &options, request.prior_scale)?;
@@ -56,5 +63,10 @@ pub fn run(
     result.judgement = Some(verdict.judgement);
     let failed = verdict.refusal;
     result.calibration.targets = request.targets;
-    Ok(Identified { result, failed })
+    result.gravity = gravity;
+    Ok(Identified {
+        model: fitted.clone(),
+        result,
+        failed,
+    })
 }

@@ -83,6 +83,8 @@ pub enum Argument {
     Noise,
     /// The orientation noise `simulate` draws.
     OrientationNoise,
+    /// The noise of the joint torques `simulate` reports.
+    TorqueNoise,
     /// The hidden effects `simulate` builds in.
     Effects,
     /// The hidden tilts `simulate` builds in.
@@ -111,6 +113,8 @@ impl Argument {
             (Self::Noise, Front::Python) => "noise",
             (Self::OrientationNoise, Front::CommandLine) => "--orientation-noise",
             (Self::OrientationNoise, Front::Python) => "orientation_noise",
+            (Self::TorqueNoise, Front::CommandLine) => "--torque-noise",
+            (Self::TorqueNoise, Front::Python) => "torque_noise",
             (Self::Effects, Front::CommandLine) => "--effect",
             (Self::Effects, Front::Python) => "effects",
             (Self::Tilts, Front::CommandLine) => "--tilt",

@@ -24,6 +24,9 @@ pub struct Request {
     /// Orientation noise per axis (model angle unit); `None` measures no
     /// orientation.
     pub orientation_noise: Option<f64>,
+    /// Noise of the joint torques the robot reports (N·m, N for a prismatic
+    /// joint); `None` reports none.
+    pub torque_noise: Option<f64>,
     /// Hidden effects, `NAME[:JOINT[:VALUE]]` (joint from 1).
     pub effects: Vec<String>,
     /// Hidden Hayati tilts `(joint from 1, β rad)`.
@@ -53,6 +56,9 @@ impl Request {
         if let Some(n) = self.orientation_noise {
             let n = non_negative(Argument::OrientationNoise, n)?;
             scenario.orientation_noise = Some(u.angle_to_si(n));
+        }
+        if let Some(n) = self.torque_noise {
+            scenario.torque_noise = Some(non_negative(Argument::TorqueNoise, n)?);
         }
         for spec in &self.effects {
             let effect = simulate::parse_effect(spec, dof)

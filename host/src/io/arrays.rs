@@ -100,6 +100,7 @@ pub fn measurements(model: &RobotModel, a: &PoseArrays<'_>) -> Result<Measuremen
             Point3::new(xyz[0], xyz[1], xyz[2]).map(|x| model.units.length_to_si(x)),
             orientation,
             (temp.map(|v| v[i]), load.map(|v| v[i])),
+            None,
             &mut approach,
         ));
     }

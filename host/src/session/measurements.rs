@@ -27,6 +27,10 @@ pub const TEMPERATURE_RANGE: [f64; 2] = [-50.0, 150.0];
 /// industrial arms carry about 2.3 t.
 pub const PAYLOAD_RANGE: [f64; 2] = [0.0, 5000.0];
 
+/// The largest joint torque a `tau` cell may hold, N·m (N for a prismatic
+/// joint): the shoulders of the heaviest industrial arms carry under 10⁵ N·m.
+pub const MAX_TORQUE: f64 = 1e5;
+
 /// How far from 1 the norm of a measured quaternion may be; within it the
 /// quaternion is normalised, beyond it the file is refused.
 pub const QUATERNION_NORM_TOLERANCE: f64 = 1e-3;
@@ -46,6 +50,10 @@ pub struct Observation {
     /// change in row order, held while the joint holds:
     /// [`Approach`]).
     pub context: Context<f64>,
+    /// The joints' torques the robot reported at the pose (`tau1..tauM`: the
+    /// torque each joint's drive exerts on its link, N·m, N for a prismatic
+    /// joint), when the session has them.
+    pub torque: Option<Vec<f64>>,
     /// What the row's tool point is held to: its measured `position`, or
     /// (a row of a constraint file, `position` not measured and 0) an unknown
     /// fixed point or plane.
@@ -86,6 +94,7 @@ impl Observation {
         position: Point3<f64>,
         orientation: Option<UnitQuaternion<f64>>,
         (temperature, payload): (Option<f64>, Option<f64>),
+        torque: Option<Vec<f64>>,
         approach: &mut Approach,
     ) -> Self {
         let context = Context {
@@ -98,6 +107,7 @@ impl Observation {
             position,
             orientation,
             context,
+            torque,
             contact: Contact::Measured,
         }
     }

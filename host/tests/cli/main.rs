@@ -15,6 +15,7 @@ mod predict;
 mod ranges;
 mod refusals;
 mod replicates;
+mod torques;
 mod ur;
 mod urdf;
 mod working_tool;

@@ -167,6 +167,9 @@ pub struct Identification {
     /// The nominal model's and the calibration's residuals on the rows,
     /// once judged ([`Identification::verdict`]).
     pub judgement: Option<Judgement>,
+    /// The masses fitted to the session's measured joint torques, when it
+    /// has them ([`crate::calibration::gravity`]).
+    pub gravity: Option<crate::calibration::gravity::GravityFit>,
 }
 
 /// Why an identification could not be made.
@@ -260,6 +263,7 @@ pub fn identify(
         prior,
         calibration,
         judgement: None,
+        gravity: None,
     })
 }
 

@@ -121,6 +121,15 @@ impl Identification {
             },
             "units": {"length": units.length.to_string(), "angle": units.angle.to_string()},
         });
+        if let Some(g) = &self.gravity {
+            out["gravity"] = g.to_json();
+        }
+        if let Some(j) = &self.judgement {
+            out["nominal_residual"] = json!({
+                "position_rms": units.length_from_si(j.nominal.position),
+                "position_rms_mm": j.nominal.position * 1e3,
+            });
+        }
         if let Some(fit) = &self.full {
             out["condition_number"] = json!(fit.condition_number);
             out["observability_index"] = json!(fit.observability);
@@ -282,6 +291,9 @@ impl Identification {
             }
         );
         self.write_judgement(&mut out, u, data);
+        if let Some(g) = &self.gravity {
+            let _ = writeln!(out, "{}", g.summary());
+        }
         self.write_fit_statistics(&mut out, u);
         self.write_parameters(&mut out, u);
         self.write_constraints(&mut out, u, data);

@@ -69,6 +69,7 @@ impl Session {
             Point3::from(r.position),
             r.orientation,
             (r.temp, r.load),
+            r.torque,
             &mut self.approach,
         ));
         self.lines.push(r.line);

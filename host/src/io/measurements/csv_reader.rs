@@ -5,7 +5,7 @@
 
 use super::schema::{
     Columns, Item, Kind, LimitTally, Place, QUAT, Role, Schema, case_hint, ignored_warning,
-    joint_index, role_of,
+    joint_index, role_of, torque_index,
 };
 use super::source::{Source, Stop};
 use crate::io::input_error::{DATA_FILE, InputError, SizeLimit};
@@ -369,6 +369,33 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
                     "missing required column '{name}' (required: {}){}",
                     schema.kind.required(m),
                     case_hint(&names, name)
+                )));
+            }
+        }
+        if schema.kind == Kind::Measurements {
+            for (i, name) in names.iter().enumerate() {
+                if let Some(k) = torque_index(name).filter(|&k| k == 0 || k > m) {
+                    return Err(at(
+                        i,
+                        format!(
+                            "column '{name}': {} (tau1..tau{m}: one torque per joint of the model)",
+                            if k == 0 {
+                                "joints are numbered from 1".to_owned()
+                            } else {
+                                format!("the model has {m} joints")
+                            }
+                        ),
+                    ));
+                }
+            }
+            let missing: Vec<String> = (0..m)
+                .filter(|j| !roles.contains(&Role::Torque(*j)))
+                .map(|j| format!("tau{}", j + 1))
+                .collect();
+            if !missing.is_empty() && missing.len() < m {
+                return Err(header_err(format!(
+                    "missing column '{}': a measured torque for every joint (tau1..tau{m}) or none",
+                    missing[0]
                 )));
             }
         }

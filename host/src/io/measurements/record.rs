@@ -12,7 +12,7 @@ use super::schema::{Place, QUAT, Record, Role, Schema};
 use crate::io::input_error::InputError;
 use crate::session::constraints::RESERVED;
 use crate::session::measurements::{
-    PAYLOAD_RANGE, POSITION, QUATERNION_NORM_TOLERANCE, TEMPERATURE_RANGE, plural,
+    MAX_TORQUE, PAYLOAD_RANGE, POSITION, QUATERNION_NORM_TOLERANCE, TEMPERATURE_RANGE, plural,
 };
 
 impl<R: std::io::Read> CsvReader<'_, R> {
@@ -79,6 +79,8 @@ struct RowReading<'a, 'f, R> {
     t: Option<f64>,
     temp: Option<f64>,
     load: Option<f64>,
+    /// The torque cells, in a file with `tau` columns.
+    torque: Option<Vec<f64>>,
 }
 
 impl<'a, 'f, R: std::io::Read> RowReading<'a, 'f, R> {
@@ -106,6 +108,10 @@ impl<'a, 'f, R: std::io::Read> RowReading<'a, 'f, R> {
             t: None,
             temp: None,
             load: None,
+            torque: roles
+                .iter()
+                .any(|r| matches!(r, Role::Torque(_)))
+                .then(|| vec![0.0; schema.dof()]),
         }
     }
 
@@ -222,6 +228,21 @@ impl<'a, 'f, R: std::io::Read> RowReading<'a, 'f, R> {
                          (accepted: {lo} to {hi} kg; a value in g or lb?)"
                     )
                 })?;
+            }
+            Role::Torque(j) => {
+                let v = self.number(i, name, value)?;
+                if v.abs() > MAX_TORQUE {
+                    return Err(self.at(
+                        i,
+                        format!(
+                            "column '{name}': {v} N·m is more than any arm's joint carries \
+                             (accepted: up to {MAX_TORQUE} in magnitude; a value in N·mm?)"
+                        ),
+                    ));
+                }
+                if let Some(slot) = self.torque.as_mut().and_then(|t| t.get_mut(j)) {
+                    *slot = v;
+                }
             }
             Role::Ignored => {}
         }
@@ -403,6 +424,7 @@ impl<'a, 'f, R: std::io::Read> RowReading<'a, 'f, R> {
             t: self.t,
             temp: self.temp,
             load: self.load,
+            torque: self.torque,
             point: self.point,
             plane: self.plane,
             measured: first_measured,

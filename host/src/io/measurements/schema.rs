@@ -32,7 +32,9 @@ impl Kind {
     /// The columns read, for the warning about the others.
     pub(super) fn used(self, m: usize) -> String {
         match self {
-            Self::Measurements => format!("q1..q{m}, x, y, z, qw, qx, qy, qz, t, temp, load"),
+            Self::Measurements => {
+                format!("q1..q{m}, x, y, z, qw, qx, qy, qz, t, temp, load, tau1..tau{m}")
+            }
             Self::Joints => format!("q1..q{m}, t, temp, load"),
         }
     }
@@ -74,6 +76,9 @@ pub(super) struct Record {
     pub(super) t: Option<f64>,
     pub(super) temp: Option<f64>,
     pub(super) load: Option<f64>,
+    /// The joints' measured torques (`tau1..tauM`, N·m or N), in a file that
+    /// has them.
+    pub(super) torque: Option<Vec<f64>>,
     /// The unknown fixed point the row names (`point` column): its name and the
     /// place of its cell.
     pub(super) point: Option<(String, Place)>,
@@ -120,6 +125,8 @@ pub(super) enum Role {
     T,
     Temp,
     Load,
+    /// A joint's measured torque, 0-based joint index.
+    Torque(usize),
     /// The name of the unknown fixed point the tool point sits at.
     Point,
     /// The name of the unknown plane the tool point touches.
@@ -155,7 +162,15 @@ pub(super) fn role_of(name: &str, kind: Kind) -> Role {
     if let Some(k) = joint_index(name).filter(|&k| k > 0) {
         return Role::Joint(k - 1);
     }
+    if let Some(k) = torque_index(name).filter(|&k| k > 0 && kind == Kind::Measurements) {
+        return Role::Torque(k - 1);
+    }
     Role::Ignored
+}
+
+/// `k` for a column `tau<k>`, as [`joint_index`] reads `q<k>`.
+pub(super) fn torque_index(name: &str) -> Option<usize> {
+    joint_index(&format!("q{}", name.strip_prefix("tau")?))
 }
 
 /// `k` for a column `q<k>` (decimal, no leading zero, `q0` gives 0).

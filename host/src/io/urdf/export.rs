@@ -134,7 +134,14 @@ pub fn into_urdf(
     urdf: &Urdf,
     converted: &Converted,
 ) -> Result<Exported, InputError> {
-    let (ours, theirs) = (model_hash(&converted.robot), model_hash(&cal.nominal));
+    // The masses are not the chain's: a calibration from measured joint
+    // torques carries the masses fitted to them, and the URDF keeps its own
+    // inertials.
+    let mut nominal = cal.nominal.clone();
+    for (l, c) in nominal.links.iter_mut().zip(&converted.robot.links) {
+        l.mass = c.mass;
+    }
+    let (ours, theirs) = (model_hash(&converted.robot), model_hash(&nominal));
     if ours != theirs {
         return Err(InputError::new(
             &urdf.file,
