@@ -123,7 +123,7 @@ pub fn residual(model: &EffectModel<f64>, data: &Measurements, set_aside: &[usiz
 /// far longer than handing a piece to a core.
 const CHUNK: usize = 16_384;
 
-/// How a fit ended: what [`refusal`] reads besides the residuals.
+/// How a fit ended: what [`verdict`] reads besides the residuals.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ending {
     /// Iterations run.
@@ -149,7 +149,7 @@ pub struct FailedCalibration {
     pub flag: &'static str,
 }
 
-/// The calibrated model a [`refusal`] judges, and its [`residual`] when the
+/// The calibrated model a [`verdict`] judges, and its [`residual`] when the
 /// caller has it already (a fit's own RMS, on the same rows, the same way).
 #[derive(Clone, Copy, Debug)]
 pub struct Judged<'a> {
@@ -178,22 +178,10 @@ pub struct Verdict {
 }
 
 /// The nominal `robot` and the `calibrated` model on `data` (its rows but
-/// `set_aside`): `None` when the fit that `ending` describes converged and
-/// the calibration fits the rows no worse than the nominal model, else why
-/// it must not be written; `flag` names the way to write it anyway.
-pub fn refusal(
-    robot: &Robot<f64>,
-    calibrated: Judged<'_>,
-    data: &Measurements,
-    set_aside: &[usize],
-    ending: Ending,
-    units: &Units,
-    flag: &'static str,
-) -> Option<FailedCalibration> {
-    verdict(robot, calibrated, data, set_aside, ending, units, flag).refusal
-}
-
-/// [`refusal`], with the residuals it judged by.
+/// `set_aside`): both residuals, and `None` for the refusal when the fit that
+/// `ending` describes converged and the calibration fits the rows no worse
+/// than the nominal model, else why it must not be written; `flag` names the
+/// way to write it anyway.
 pub fn verdict(
     robot: &Robot<f64>,
     calibrated: Judged<'_>,
@@ -277,7 +265,7 @@ fn refused(
     })
 }
 
-/// [`refusal`] of the calibration `diagnose --out` writes from `diagnosis`
+/// The refusal ([`verdict`]) of the calibration `diagnose --out` writes from `diagnosis`
 /// of `model` on `data`: `None` for the nominal model (nothing beat it
 /// held-out: written as it is); for a calibrated one, its final fit's ending
 /// and its residuals on the rows it was fitted to (blunders set aside).
@@ -296,7 +284,7 @@ pub fn diagnosis_refusal(
         converged: diagnosis.fit.converged,
         last_decrease: Some(diagnosis.fit.last_decrease),
     };
-    refusal(
+    verdict(
         &model.robot,
         Judged {
             model: &cal.model(),
@@ -308,6 +296,7 @@ pub fn diagnosis_refusal(
         &model.units,
         flag,
     )
+    .refusal
 }
 
 #[cfg(test)]
@@ -350,7 +339,7 @@ mod tests {
         let same = geometric(&model.robot);
         let units = &model.units;
         assert!(
-            refusal(
+            verdict(
                 &model.robot,
                 judged(&same),
                 &data,
@@ -359,11 +348,12 @@ mod tests {
                 units,
                 "--f"
             )
+            .refusal
             .is_none()
         );
         let mut off = model.robot.clone();
         off.links[1].a += 0.05;
-        let failed = refusal(
+        let failed = verdict(
             &model.robot,
             judged(&geometric(&off)),
             &data,
@@ -372,6 +362,7 @@ mod tests {
             units,
             "--f",
         )
+        .refusal
         .expect("worse than nominal");
         let text = failed.to_string();
         assert!(text.contains("worse than the nominal model"), "{text}");
@@ -387,7 +378,8 @@ mod tests {
             converged: false,
             last_decrease: Some(None),
         };
-        let text = refusal(&model.robot, judged(&same), &data, &[], stuck, units, "--f")
+        let text = verdict(&model.robot, judged(&same), &data, &[], stuck, units, "--f")
+            .refusal
             .expect("not converged")
             .to_string();
         assert!(

@@ -58,47 +58,34 @@ fn partial_or_impossible_torques_are_refused() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let row = "0.1,0.2,0.3,0.4,0.5,0.6,0.5,0.2,0.3";
-    std::fs::write(
-        d.join("some.csv"),
-        format!("q1,q2,q3,q4,q5,q6,x,y,z,tau1,tau2\n{row},1,2\n"),
-    )
-    .unwrap();
-    refused(
-        d,
-        &[
-            "identify", "--model", "ur10e", "--data", "some.csv", "--out", "c.cal",
-        ],
+    // A file of `header` and one row ending in `torques`, refused with `needles`.
+    let refuses = |file: &str, header: &str, torques: &str, needles: &[&str]| {
+        std::fs::write(d.join(file), format!("{header}\n{row},{torques}\n")).unwrap();
+        refused(
+            d,
+            &[
+                "identify", "--model", "ur10e", "--data", file, "--out", "c.cal",
+            ],
+            needles,
+        );
+    };
+    let six = "q1,q2,q3,q4,q5,q6,x,y,z,tau1,tau2,tau3,tau4,tau5,tau6";
+    refuses(
+        "some.csv",
+        "q1,q2,q3,q4,q5,q6,x,y,z,tau1,tau2",
+        "1,2",
         &["some.csv:1:1", "missing column 'tau3'"],
     );
-    let header = "q1,q2,q3,q4,q5,q6,x,y,z,tau1,tau2,tau3,tau4,tau5,tau6";
-    std::fs::write(
-        d.join("huge.csv"),
-        format!("{header}\n{row},1,2,3e6,4,5,6\n"),
-    )
-    .unwrap();
-    refused(
-        d,
-        &[
-            "identify", "--model", "ur10e", "--data", "huge.csv", "--out", "c.cal",
-        ],
+    refuses(
+        "huge.csv",
+        six,
+        "1,2,3e6,4,5,6",
         &["huge.csv:2:", "column 'tau3'", "N·mm"],
     );
-    std::fs::write(
-        d.join("seven.csv"),
-        format!("{header},tau7\n{row},1,2,3,4,5,6,7\n"),
-    )
-    .unwrap();
-    refused(
-        d,
-        &[
-            "identify",
-            "--model",
-            "ur10e",
-            "--data",
-            "seven.csv",
-            "--out",
-            "c.cal",
-        ],
+    refuses(
+        "seven.csv",
+        &format!("{six},tau7"),
+        "1,2,3,4,5,6,7",
         &["seven.csv:1:", "column 'tau7'", "the model has 6 joints"],
     );
 }

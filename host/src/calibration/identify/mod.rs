@@ -414,17 +414,7 @@ impl Identification {
     /// Why this calibration of `model` from `data` must not be written (it
     /// did not converge, or fits `data` worse than the nominal model:
     /// [`crate::calibration::acceptance`]); `flag` names the way to write it
-    /// anyway. `None` when it may be.
-    pub fn refusal(
-        &self,
-        model: &RobotModel,
-        data: &Measurements,
-        flag: &'static str,
-    ) -> Option<crate::calibration::acceptance::FailedCalibration> {
-        self.verdict(model, data, flag).refusal
-    }
-
-    /// [`Identification::refusal`], with the residuals it judged by.
+    /// anyway. `None` when it may be; with the residuals it judged by.
     pub fn verdict(
         &self,
         model: &RobotModel,
