@@ -53,9 +53,11 @@ pub fn parse_measurements(
 /// Measurements from arrays, in the model's units as in a file: `q` `(N, M)`
 /// joint readings, `xyz` `(N, 3)` measured tool points, optionally `quat`
 /// `(N, 4)` orientations (`qw, qx, qy, qz`), `t` (s), `temp` (°C), `load`
-/// (kg) with `N` values each. Refused as a file is, naming the row (from 0).
+/// (kg) with `N` values each, `tau` `(N, M)` the joint torques the robot
+/// reported (N·m, as a file's `tau1..tauM`). Refused as a file is, naming the
+/// row (from 0).
 #[pyfunction(name = "measurements")]
-#[pyo3(signature = (model, q, xyz, quat = None, t = None, temp = None, load = None))]
+#[pyo3(signature = (model, q, xyz, quat = None, t = None, temp = None, load = None, tau = None))]
 #[expect(
     clippy::too_many_arguments,
     reason = "a parameter per Python keyword argument, as the signature above lists them"
@@ -69,10 +71,12 @@ pub fn from_arrays<'py>(
     t: Option<ArrayLike<'py>>,
     temp: Option<ArrayLike<'py>>,
     load: Option<ArrayLike<'py>>,
+    tau: Option<ArrayLike<'py>>,
 ) -> PyResult<Measurements> {
     let q = Owned::rows(py, "q", &q)?;
     let xyz = Owned::rows(py, "xyz", &xyz)?;
     let quat = quat.map(|a| Owned::rows(py, "quat", &a)).transpose()?;
+    let tau = tau.map(|a| Owned::rows(py, "tau", &a)).transpose()?;
     let column =
         |name: &str, a: Option<ArrayLike<'py>>| a.map(|a| Owned::column(py, name, &a)).transpose();
     let (t, temp, load) = (
@@ -84,6 +88,7 @@ pub fn from_arrays<'py>(
         q: q.table(),
         xyz: xyz.table(),
         quat: quat.as_ref().map(Owned::table),
+        tau: tau.as_ref().map(Owned::table),
         conditions: Conditions {
             t: t.as_deref(),
             temp: temp.as_deref(),

@@ -468,3 +468,20 @@ def test_measured_torques_drive_the_compliance_as_the_command_line():
     assert result.summary.startswith("gravity torques from the measured joint torques (tau1..tau6, 120 poses)")
     effect = [e for e in result.report["effects"] if e["name"] == "joint_compliance"]
     assert effect and effect[0]["joints"] == [2]
+
+
+def test_torques_from_arrays_read_as_from_a_file():
+    """`measurements(model, q, xyz, tau=...)` gives the same torques a file's
+    `tau1..tauM` would, and a torque that is not a number, or one no arm
+    carries, is refused naming its row and column."""
+    model = armcal.load_model("ur10e")
+    data, _ = armcal.simulate(model, poses=40, seed=3, torque_noise=0.05)
+    arrays = armcal.measurements(model, data.q, data.xyz, load=data.load, tau=data.tau)
+    np.testing.assert_array_equal(arrays.tau, data.tau)
+    bad = data.tau.copy()
+    bad[7, 2] = np.nan
+    with pytest.raises(armcal.InputError, match="row 7.*tau3"):
+        armcal.measurements(model, data.q, data.xyz, tau=bad)
+    bad[7, 2] = 3e6
+    with pytest.raises(armcal.InputError, match="tau3.*N·mm"):
+        armcal.measurements(model, data.q, data.xyz, tau=bad)

@@ -21,8 +21,8 @@ use nalgebra::{Point3, Quaternion, UnitQuaternion};
 
 use crate::io::input_error::InputError;
 use crate::io::measurements::{
-    JointRow, JointRows, Measurements, Observation, PAYLOAD_RANGE, QUATERNION_NORM_TOLERANCE,
-    TEMPERATURE_RANGE,
+    JointRow, JointRows, MAX_TORQUE, Measurements, Observation, PAYLOAD_RANGE,
+    QUATERNION_NORM_TOLERANCE, TEMPERATURE_RANGE,
 };
 use crate::io::model_file::RobotModel;
 
@@ -72,6 +72,9 @@ pub struct PoseArrays<'a> {
     pub xyz: Table<'a>,
     /// Measured orientations, `N × 4` (`qw, qx, qy, qz`), if any.
     pub quat: Option<Table<'a>>,
+    /// The joint torques the robot reported, `N × M` (N·m, N for a
+    /// prismatic joint), if any (`tau1..tauM` of a file).
+    pub tau: Option<Table<'a>>,
     /// Time, temperature and payload of each pose.
     pub conditions: Conditions<'a>,
 }
@@ -85,6 +88,9 @@ pub fn measurements(model: &RobotModel, a: &PoseArrays<'_>) -> Result<Measuremen
     if let Some(quat) = &a.quat {
         reader.shape("quat", quat, 4)?;
     }
+    if let Some(tau) = &a.tau {
+        reader.shape("tau", tau, model.dof())?;
+    }
     let (t, temp, load) = reader.conditions(&a.conditions)?;
     let mut poses = Vec::with_capacity(n);
     let mut approach = Approach::new();
@@ -95,12 +101,16 @@ pub fn measurements(model: &RobotModel, a: &PoseArrays<'_>) -> Result<Measuremen
             None => None,
             Some(quat) => Some(reader.quaternion(i, quat.row(i))?),
         };
+        let torque = match &a.tau {
+            None => None,
+            Some(tau) => Some(reader.torques(i, tau.row(i))?.to_vec()),
+        };
         poses.push(Observation::of_row(
             q,
             Point3::new(xyz[0], xyz[1], xyz[2]).map(|x| model.units.length_to_si(x)),
             orientation,
             (temp.map(|v| v[i]), load.map(|v| v[i])),
-            None,
+            torque,
             &mut approach,
         ));
     }
@@ -125,6 +135,9 @@ impl PoseArrays<'_> {
             names.extend(["qw", "qx", "qy", "qz"].map(String::from));
         }
         names.extend(self.conditions.names());
+        if self.tau.is_some() {
+            names.extend((1..=dof).map(|j| format!("tau{j}")));
+        }
         names
     }
 }
@@ -290,6 +303,25 @@ impl Reader<'_> {
         }
     }
 
+    /// Row `i` of the joint torques: finite, and none beyond [`MAX_TORQUE`].
+    fn torques<'v>(&self, i: usize, values: &'v [f64]) -> Result<&'v [f64], InputError> {
+        let names: Vec<String> = (1..=values.len()).map(|k| format!("tau{k}")).collect();
+        let names: Vec<&str> = names.iter().map(String::as_str).collect();
+        let values = self.finite(i, values, &names)?;
+        match values.iter().position(|v| v.abs() > MAX_TORQUE) {
+            None => Ok(values),
+            Some(j) => Err(self.at(
+                i,
+                j,
+                format!(
+                    "column 'tau{}': {} N·m is more than any arm's joint carries (accepted: up to {MAX_TORQUE} in magnitude; a value in N·mm?)",
+                    j + 1,
+                    values[j]
+                ),
+            )),
+        }
+    }
+
     /// Row `i` of the joint readings, SI.
     fn joints(
         &self,
@@ -364,6 +396,7 @@ mod tests {
             q: table(&q, 2),
             xyz: table(&xyz, 3),
             quat: Some(table(&quat, 4)),
+            tau: None,
             conditions: Conditions {
                 temp: Some(&temp),
                 ..Default::default()
@@ -388,6 +421,7 @@ mod tests {
             q: table(&q, 2),
             xyz: table(&xyz, 3),
             quat: None,
+            tau: None,
             conditions: Conditions::default(),
         };
         let e = measurements(&model, &arrays).expect_err("NaN");
@@ -451,6 +485,7 @@ mod tests {
             q: table(&q, 2),
             xyz: table(&xyz, 3),
             quat: None,
+            tau: None,
             conditions: Conditions::default(),
         };
         let e = measurements(&model, &arrays).expect_err("1 row of xyz");

@@ -308,3 +308,23 @@ fn implausible_temperature_and_payload_are_refused() {
         );
     }
 }
+
+/// A file saved with semicolons or tabs between its fields is named as such,
+/// not as a file of no joints.
+#[test]
+fn a_file_with_another_delimiter_is_named_as_such() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, delimiter, called) in [("semi.csv", ";", "semicolons"), ("tab.csv", "\t", "tabs")] {
+        let header = ["q1", "q2", "q3", "q4", "q5", "q6", "x", "y", "z"].join(delimiter);
+        let row = ["0", "0", "0", "0", "0", "0", "1", "1", "1"].join(delimiter);
+        std::fs::write(dir.path().join(name), format!("{header}\n{row}\n")).unwrap();
+        refused(
+            dir.path(),
+            &["check", "--model", "ur5e", "--data", name],
+            &[
+                &format!("{name}:1:1: the header is one field with {called} in it"),
+                "save the file with commas",
+            ],
+        );
+    }
+}

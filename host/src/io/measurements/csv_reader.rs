@@ -347,6 +347,19 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
             }
         }
         let header_err = |message: String| InputError::new(self.file, header.line, 1, message);
+        if let [only] = names.as_slice()
+            && let Some((delimiter, called)) = [(';', "semicolons"), ('\t', "tabs")]
+                .into_iter()
+                .find(|(c, _)| only.contains(*c))
+        {
+            return Err(header_err(format!(
+                "the header is one field with {called} in it ({:?}): armcal reads comma-separated values; save the file with commas",
+                only.split(delimiter)
+                    .take(3)
+                    .collect::<Vec<_>>()
+                    .join(&delimiter.to_string())
+            )));
+        }
         for j in 0..m {
             if !roles.contains(&Role::Joint(j)) {
                 return Err(header_err(format!(
