@@ -297,7 +297,7 @@ pub(crate) struct DiagnoseArgs {
 #[derive(clap::Args, Debug)]
 pub(crate) struct SweepArgs {
     /// Cases to run.
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, default_value_t = 100, value_parser = args::at_least(1, "case"))]
     pub(crate) cases: usize,
     /// Seed of every draw.
     #[arg(long, default_value_t = 1)]

@@ -36,8 +36,10 @@
 
 use core::fmt::Write as _;
 
-use armcal_shared::compensation::{Compensator, Correction, Fault, Limits, Pacing, Stream};
-use armcal_shared::{Calibration, JointType};
+use armcal_shared::compensation::{
+    Compensator, Correction, Fault, Limits, Pacing, Stream, TargetFrame,
+};
+use armcal_shared::{Calibration, JointType, Param};
 
 use crate::apply::predict::row_conditions;
 use crate::apply::ranges::RowNames;
@@ -85,7 +87,17 @@ pub struct Compensated {
     pub rows: Vec<(usize, Correction<f64>)>,
     /// The residual below which a row's pose is reached, m ([`Limits::tolerance`]).
     pub tolerance: f64,
+    /// The calibration's base error, m and rad (the largest of its
+    /// translations and of its rotations), when its targets are in the
+    /// world frame and it is at least [`REGISTRATION`]: the registration of
+    /// the instrument is then compensated too.
+    pub registration: Option<(f64, f64)>,
 }
+
+/// A base error from which the compensation of targets in the world frame
+/// names the registration when rows are bounded: 10 mm or 10 mrad, a camera's
+/// or a tracker's frame rather than a robot's mounting.
+pub const REGISTRATION: (f64, f64) = (0.01, 0.01);
 
 /// The warning of a row flagged [`Fault::NotConverged`] whose `residual` (m)
 /// is above the tolerance: its pose is not reached.
@@ -110,6 +122,18 @@ pub enum RowWarning {
         /// What happened.
         what: String,
     },
+    /// `bounded` of `rows` rows were bounded or missed their pose while the
+    /// calibration's targets are in the world frame and its base (the
+    /// instrument's registration) is `base` (m, rad) from the model's: the
+    /// arm is asked to move by the registration.
+    Registration {
+        /// Rows bounded or missed.
+        bounded: usize,
+        /// Rows in all.
+        rows: usize,
+        /// The largest base translation (m) and rotation (rad).
+        base: (f64, f64),
+    },
     /// `count` of `rows` rows flagged [`Fault::NotConverged`] reach their
     /// pose (residual within the tolerance), but their search for the least
     /// correction did not settle in its iterations.
@@ -130,6 +154,22 @@ impl RowWarning {
             (Self::Row { line, what }, RowNames::ArrayRows) => {
                 format!("{commands} row {}: {what}", line - 1)
             }
+            (
+                Self::Registration {
+                    bounded,
+                    rows,
+                    base: (length, angle),
+                },
+                _,
+            ) => format!(
+                "{commands}: {bounded} of {rows} rows were bounded or missed, and the calibration's \
+                 base (the instrument's registration, {:.1} mm and {:.1} mrad from the model's) is \
+                 compensated because its targets are in the world frame of its measurements: for \
+                 targets in the robot's own base frame, identify or diagnose with --targets base \
+                 (Python: targets=\"base\")",
+                length * 1e3,
+                angle * 1e3
+            ),
             (Self::Unsettled { count, rows }, _) => format!(
                 "{commands}: {count} of {rows} rows reach their pose, but the search for the \
                  least joint change did not settle in its iterations (near a singularity, or a \
@@ -173,7 +213,27 @@ pub fn compensate(cal: &Calibration, commands: &JointRows, pacing: Pacing) -> Co
     Compensated {
         rows,
         tolerance: limits.tolerance,
+        registration: registration(cal),
     }
+}
+
+/// The calibration's base error (largest translation m, rotation rad) when
+/// its targets are in the world frame and it reaches [`REGISTRATION`].
+fn registration(cal: &Calibration) -> Option<(f64, f64)> {
+    if cal.targets != TargetFrame::World {
+        return None;
+    }
+    let (mut length, mut angle) = (0.0_f64, 0.0_f64);
+    for e in &cal.errors {
+        if let Param::Base(ax) = e.param {
+            if ax.is_angle() {
+                angle = angle.max(e.error.abs());
+            } else {
+                length = length.max(e.error.abs());
+            }
+        }
+    }
+    (length >= REGISTRATION.0 || angle >= REGISTRATION.1).then_some((length, angle))
 }
 
 impl Compensated {
@@ -215,6 +275,15 @@ impl Compensated {
                 Some((*line, what))
             })
             .collect();
-        RowWarning::of_rows(named.into_iter(), settling, self.rows.len())
+        let bounded = named.len();
+        let mut warnings = RowWarning::of_rows(named.into_iter(), settling, self.rows.len());
+        if let (Some(base), true) = (self.registration, bounded > 0) {
+            warnings.push(RowWarning::Registration {
+                bounded,
+                rows: self.rows.len(),
+                base,
+            });
+        }
+        warnings
     }
 }

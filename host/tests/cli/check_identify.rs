@@ -638,3 +638,59 @@ fn identify_prints_what_its_file_delivers_and_quiet_prints_nothing() {
         std::fs::read(d.join("b.cal")).unwrap()
     );
 }
+
+/// A camera's calibration (its base 64 mm and 23 mrad from the model's: the
+/// registration of the camera) compensates its own poses' commands with the
+/// targets in the world frame: the bounded rows are named with the way out
+/// (`--targets base`), with which a tenth as many are bounded, by the arm's
+/// own corrections.
+#[test]
+fn bounded_rows_of_a_registration_suggest_targets_in_the_base_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let data = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../data/figaroh-ur10e-camera/measurements.csv")
+        .display()
+        .to_string();
+    let compensate = |targets: &str| {
+        let cal = format!("{targets}.cal");
+        succeeds(
+            d,
+            &[
+                "identify",
+                "--model",
+                "figaroh-ur10e-camera",
+                "--data",
+                &data,
+                "--targets",
+                targets,
+                "--out",
+                &cal,
+                "--quiet",
+            ],
+        );
+        let out = succeeds(
+            d,
+            &[
+                "compensate",
+                "--calibration",
+                &cal,
+                "--joints",
+                &data,
+                "--out",
+                &format!("{targets}.csv"),
+            ],
+        );
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let world = compensate("world");
+    assert!(
+        world.contains("rows were bounded or missed, and the calibration's base")
+            && world.contains("--targets base"),
+        "{world}"
+    );
+    let base = compensate("base");
+    let bounded = |stderr: &str| stderr.matches("correction bounded").count();
+    assert!(!base.contains("the instrument's registration"), "{base}");
+    assert!(bounded(&base) * 5 < bounded(&world), "{base}\n{world}");
+}
