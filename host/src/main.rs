@@ -21,13 +21,34 @@ mod verbs;
 
 use cli::{Cli, Command, Paper};
 
-fn main() -> ExitCode {
-    // An interrupt (Ctrl-C, SIGTERM) ends the run as it would, but leaves no
-    // temporary of the outputs being written (exit status 130).
+/// An interrupt (Ctrl-C, SIGTERM) ends the run as it would, but leaves no
+/// temporary of the outputs being written; the exit status is 128 plus the
+/// signal's number (130 for Ctrl-C, 143 for SIGTERM), as a shell reports it.
+#[cfg(unix)]
+fn on_interrupt() {
+    use signal_hook::consts::{SIGINT, SIGTERM};
+    if let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM]) {
+        std::thread::spawn(move || {
+            if let Some(signal) = signals.forever().next() {
+                armcal::io::output::remove_pending();
+                std::process::exit(128 + signal);
+            }
+        });
+    }
+}
+
+/// An interrupt (Ctrl-C) ends the run as it would, but leaves no temporary of
+/// the outputs being written (exit status 130).
+#[cfg(not(unix))]
+fn on_interrupt() {
     let _ = ctrlc::set_handler(|| {
         armcal::io::output::remove_pending();
         std::process::exit(130);
     });
+}
+
+fn main() -> ExitCode {
+    on_interrupt();
     let cli = Cli::parse();
     match run(cli.command) {
         Ok(()) => ExitCode::SUCCESS,

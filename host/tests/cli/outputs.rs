@@ -393,3 +393,33 @@ fn device(dir: &Path, name: &str, (major, minor): (u32, u32)) -> Option<PathBuf>
         .is_ok_and(|s| s.success());
     made.then_some(node)
 }
+
+/// An interrupt ends a run with the shell's status for its signal (130 for
+/// Ctrl-C's SIGINT, 143 for SIGTERM) and writes none of its outputs.
+#[test]
+fn an_interrupted_run_exits_with_its_signals_status_and_writes_nothing() {
+    for (signal, status) in [("-INT", 130), ("-TERM", 143)] {
+        let dir = tempfile::tempdir().unwrap();
+        let mut child = Command::new(env!("CARGO_BIN_EXE_armcal"))
+            .args(["sweep", "--cases", "100000", "--json", "r.json"])
+            .current_dir(dir.path())
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        // Long enough for the handler to be in place; far from the end.
+        std::thread::sleep(Duration::from_millis(500));
+        let sent = Command::new("kill")
+            .args([signal, &child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(sent.success());
+        let exit = child.wait().unwrap();
+        assert_eq!(exit.code(), Some(status), "{signal}");
+        assert_eq!(
+            snapshot(dir.path()),
+            Vec::new(),
+            "{signal}: something was written"
+        );
+    }
+}
