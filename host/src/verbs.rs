@@ -425,7 +425,7 @@ pub(crate) fn stream(args: StreamArgs) -> anyhow::Result<()> {
         session.status(Request::Halt)?;
     }
     let csv = streamed.to_csv(&cal, &calibration, &name);
-    warn_rows(&cal, &rows, &joints, &streamed.warnings());
+    warn_rows(&cal, &rows, &joints, &streamed.warnings(&cal));
     eprintln!("armcal: {}", streamed.summary());
     finish_csv(outputs, csv)?;
     Ok(())

@@ -179,18 +179,29 @@ impl RowWarning {
         }
     }
 
-    /// The warnings of rows `(line, what)`, and of `settling` of `rows` rows
-    /// that did not settle (none when none).
+    /// The warnings of rows `(line, what)`, of `settling` of `rows` rows
+    /// that did not settle (none when none), and, when rows were named and
+    /// the calibration compensates a `registration` ([`registration`]), of
+    /// that.
     pub fn of_rows(
         named: impl Iterator<Item = (usize, String)>,
         settling: usize,
         rows: usize,
+        registration: Option<(f64, f64)>,
     ) -> Vec<Self> {
         let mut out: Vec<Self> = named.map(|(line, what)| Self::Row { line, what }).collect();
+        let bounded = out.len();
         if settling > 0 {
             out.push(Self::Unsettled {
                 count: settling,
                 rows,
+            });
+        }
+        if let (Some(base), true) = (registration, bounded > 0) {
+            out.push(Self::Registration {
+                bounded,
+                rows,
+                base,
             });
         }
         out
@@ -219,7 +230,7 @@ pub fn compensate(cal: &Calibration, commands: &JointRows, pacing: Pacing) -> Co
 
 /// The calibration's base error (largest translation m, rotation rad) when
 /// its targets are in the world frame and it reaches [`REGISTRATION`].
-fn registration(cal: &Calibration) -> Option<(f64, f64)> {
+pub fn registration(cal: &Calibration) -> Option<(f64, f64)> {
     if cal.targets != TargetFrame::World {
         return None;
     }
@@ -275,15 +286,11 @@ impl Compensated {
                 Some((*line, what))
             })
             .collect();
-        let bounded = named.len();
-        let mut warnings = RowWarning::of_rows(named.into_iter(), settling, self.rows.len());
-        if let (Some(base), true) = (self.registration, bounded > 0) {
-            warnings.push(RowWarning::Registration {
-                bounded,
-                rows: self.rows.len(),
-                base,
-            });
-        }
-        warnings
+        RowWarning::of_rows(
+            named.into_iter(),
+            settling,
+            self.rows.len(),
+            self.registration,
+        )
     }
 }

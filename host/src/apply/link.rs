@@ -370,8 +370,9 @@ impl Streamed {
     /// each row whose status was not `Corrected`, in order, then the count
     /// of the rows whose pose is reached but whose least correction did not
     /// settle (told apart by the residual against the controller's
-    /// tolerance).
-    pub fn warnings(&self) -> Vec<compensate::RowWarning> {
+    /// tolerance), and the registration of `cal` the rows were asked to move
+    /// by, when they were bounded ([`compensate::registration`]).
+    pub fn warnings(&self, cal: &Calibration) -> Vec<compensate::RowWarning> {
         let tolerance = f64::from(Limits::<f32>::default().tolerance);
         let mut settling = 0;
         let named: Vec<(usize, String)> = self
@@ -396,7 +397,12 @@ impl Streamed {
                 Some((*line, what))
             })
             .collect();
-        compensate::RowWarning::of_rows(named.into_iter(), settling, self.rows.len())
+        compensate::RowWarning::of_rows(
+            named.into_iter(),
+            settling,
+            self.rows.len(),
+            compensate::registration(cal),
+        )
     }
 
     /// What the controller says of the ranges: the ticks outside and which
