@@ -22,14 +22,31 @@ pub struct Measurements {
     pub(crate) arrays: bool,
 }
 
+/// `model` as the model of a call that takes it first, or a `TypeError`
+/// that says so when the caller gave the other argument first.
+fn model_first<'a, 'py>(model: &'a Bound<'py, PyAny>, call: &str) -> PyResult<PyRef<'py, Model>> {
+    model.extract::<PyRef<'py, Model>>().map_err(|_| {
+        pyo3::exceptions::PyTypeError::new_err(format!(
+            "{call} takes the model first, as every armcal call does: {call}(model, ...)"
+        ))
+    })
+}
+
 /// Loads measurements: a built-in data set (`builtin_data()`) or the CSV file
 /// at `name_or_path`, read against `model`, as `armcal --data` does.
 #[pyfunction]
 pub fn load_measurements(
     py: Python<'_>,
-    name_or_path: &str,
-    model: &Model,
+    model: &Bound<'_, PyAny>,
+    name_or_path: &Bound<'_, PyAny>,
 ) -> PyResult<Measurements> {
+    let model = model_first(model, "load_measurements")?;
+    read(py, &model, &name_or_path.extract::<String>()?)
+}
+
+/// The measurements `name_or_path` names (a built-in set or a CSV file),
+/// read against `model`.
+pub(crate) fn read(py: Python<'_>, model: &Model, name_or_path: &str) -> PyResult<Measurements> {
     measurements::load_measurements(name_or_path, &model.inner)
         .map(|data| Measurements::from_file(data, model))
         .map_err(|e| errors::input(py, &e, false))
@@ -38,14 +55,17 @@ pub fn load_measurements(
 /// Parses the text of a measurement CSV read against `model`; `file` names it
 /// in error messages.
 #[pyfunction]
-#[pyo3(signature = (text, model, file = "<string>"))]
+#[pyo3(signature = (model, text, file = "<string>"))]
 pub fn parse_measurements(
     py: Python<'_>,
-    text: &str,
-    model: &Model,
+    model: &Bound<'_, PyAny>,
+    text: &Bound<'_, PyAny>,
     file: &str,
 ) -> PyResult<Measurements> {
-    measurements::parse_measurements(text, file, &model.inner)
+    let model = model_first(model, "parse_measurements")?;
+    let model = &*model;
+    let text: String = text.extract()?;
+    measurements::parse_measurements(&text, file, &model.inner)
         .map(|data| Measurements::from_file(data, model))
         .map_err(|e| errors::input(py, &e, false))
 }

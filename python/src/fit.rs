@@ -94,7 +94,7 @@ pub(crate) fn measurements_of(
                 "expected Measurements, or a path or built-in data set name",
             )
         })?;
-        crate::data::load_measurements(py, &name, model)
+        crate::data::read(py, model, &name)
     }
 }
 

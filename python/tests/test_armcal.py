@@ -84,7 +84,7 @@ def test_identify_from_numpy_arrays_gives_the_file_routes_result():
     assert data.rows == list(range(len(q)))
     np.testing.assert_array_equal(data.q, q)
     from_arrays = armcal.identify(model, data)
-    from_file = armcal.identify(model, armcal.load_measurements(str(UR10E_DATA), model))
+    from_file = armcal.identify(model, armcal.load_measurements(model, str(UR10E_DATA)))
     a, f = from_arrays.report, from_file.report
     assert [p["name"] for p in a["parameters"]] == [p["name"] for p in f["parameters"]]
     assert [p["status"] for p in a["parameters"]] == [p["status"] for p in f["parameters"]]
@@ -324,7 +324,7 @@ def test_a_session_without_a_tracker_identifies_as_the_command_line():
     chooses (`armcal diagnose` on the same files: every D-H parameter at ten
     times the stated prior, no effect, no blunder) with its held-out figures."""
     model = armcal.load_model(str(MUKCA / "original" / "urdf" / "panda.urdf"), tip_link="ball_link")
-    data = armcal.load_measurements(str(MUKCA / "panda_6" / "front.csv"), model)
+    data = armcal.load_measurements(model, str(MUKCA / "panda_6" / "front.csv"))
     assert data.is_constrained
     assert {c for c in data.contacts} == {("point", "front.0"), ("point", "front.1")}
     assert data.distances == [("front.0", "front.1", 0.05, 5e-05)]
@@ -418,7 +418,7 @@ def test_sessions_without_a_tracker_are_held_out_as_the_command_line():
     with pytest.raises(armcal.InputError, match=r"the same session as .*front\.csv \(the same file\)"):
         armcal.holdout(model, [sessions[0], sessions[0]])
     with pytest.raises(armcal.InputError, match="the same session as"):
-        armcal.holdout(model, sessions[1:], train=[armcal.load_measurements(sessions[1], model)])
+        armcal.holdout(model, sessions[1:], train=[armcal.load_measurements(model, sessions[1])])
 
 
 def test_a_working_tool_replaces_the_measured_ball_as_the_command_line():
@@ -433,20 +433,20 @@ def test_a_working_tool_replaces_the_measured_ball_as_the_command_line():
     not depend on where the ball was nominally mounted."""
     urdf = str(MUKCA / "original" / "urdf" / "panda.urdf")
     model = armcal.load_model(urdf, tip_link="ball_link")
-    data = armcal.load_measurements(str(MUKCA / "panda_6" / "front.csv"), model)
+    data = armcal.load_measurements(model, str(MUKCA / "panda_6" / "front.csv"))
     ball = armcal.identify(model, data).calibration
     hand = ball.with_tool_link(urdf, "panda_hand_tcp")
     assert ball.tool_note is None
     assert "tool.x, tool.y, tool.z" in hand.tool_note and "is not applied" in hand.tool_note
     assert not any(name.startswith("tool.") for name in hand.errors)
     assert hand.held_out is None
-    q = armcal.load_measurements(str(MUKCA / "panda_6" / "left.csv"), model).q
+    q = armcal.load_measurements(model, str(MUKCA / "panda_6" / "left.csv")).q
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # rows outside the identified ranges
         by_link = hand.compensate(q)
         by_frame = ball.with_tool([0.0, 0.0, 0.2104]).compensate(q)
         moved = armcal.load_model(urdf, tip_link="ball_link", tip_point=[0.008, -0.006, 0.004])
-        moved_ball = armcal.identify(moved, armcal.load_measurements(str(MUKCA / "panda_6" / "front.csv"), moved))
+        moved_ball = armcal.identify(moved, armcal.load_measurements(moved, str(MUKCA / "panda_6" / "front.csv")))
         from_moved = moved_ball.calibration.with_tool_link(urdf, "panda_hand_tcp").compensate(q)
     np.testing.assert_allclose(by_link, by_frame, rtol=0, atol=1e-9)
     np.testing.assert_allclose(by_link, from_moved, rtol=0, atol=1e-9)
@@ -485,3 +485,15 @@ def test_torques_from_arrays_read_as_from_a_file():
     bad[7, 2] = 3e6
     with pytest.raises(armcal.InputError, match="tau3.*N·mm"):
         armcal.measurements(model, data.q, data.xyz, tau=bad)
+
+
+def test_every_call_takes_the_model_first():
+    """`load_measurements(model, path)` and `parse_measurements(model, text)`
+    take the model first, as `identify(model, data)` and `measurements(model,
+    q, xyz)` do; the other order is refused saying so."""
+    model = armcal.load_model("figaroh-ur10e-camera")
+    assert armcal.load_measurements(model, "figaroh-ur10e-camera").q.shape == (23, 6)
+    with pytest.raises(TypeError, match=r"takes the model first.*load_measurements\(model"):
+        armcal.load_measurements("figaroh-ur10e-camera", model)
+    with pytest.raises(TypeError, match="parse_measurements takes the model first"):
+        armcal.parse_measurements("q1\n", model)
