@@ -266,10 +266,9 @@ impl Calibration {
         let cal = &self.cal;
         warn_all(py, ranges::check(cal, &rows, RowNames::ArrayRows))?;
         let result = py.detach(|| comp::compensate(cal, &rows, pacing));
-        let messages = result
-            .warnings()
-            .into_iter()
-            .map(|w| w.text(arrays::JOINTS, RowNames::ArrayRows));
+        // One warning per kind of report, with its rows.
+        let messages =
+            comp::RowWarning::grouped(&result.warnings(), arrays::JOINTS, RowNames::ArrayRows);
         warn_all(py, messages)?;
         let out: Vec<Vec<f64>> = result
             .rows

@@ -94,6 +94,9 @@ pub struct Compensated {
     pub registration: Option<(f64, f64)>,
 }
 
+/// How many rows a grouped warning lists ([`RowWarning::grouped`]).
+pub const LISTED: usize = 10;
+
 /// A base error from which the compensation of targets in the world frame
 /// names the registration when rows are bounded: 10 mm or 10 mrad, a camera's
 /// or a tracker's frame rather than a robot's mounting.
@@ -177,6 +180,48 @@ impl RowWarning {
                  correction"
             ),
         }
+    }
+
+    /// The texts of `warnings` (of the commands `commands`, rows named as
+    /// `names` says) with the rows that report the same thing in one text:
+    /// `{commands} rows 3, 7, 12: what` (the first [`LISTED`] rows, then how
+    /// many more), for a front end that shows each text once.
+    pub fn grouped(warnings: &[Self], commands: &str, names: RowNames) -> Vec<String> {
+        let mut groups: Vec<(&str, Vec<usize>)> = Vec::new();
+        let mut others = Vec::new();
+        for w in warnings {
+            match w {
+                Self::Row { line, what } => match groups.iter_mut().find(|(w, _)| *w == what) {
+                    Some((_, lines)) => lines.push(*line),
+                    None => groups.push((what, vec![*line])),
+                },
+                other => others.push(other.text(commands, names)),
+            }
+        }
+        let row = |line: usize| match names {
+            RowNames::FileLines => line,
+            RowNames::ArrayRows => line - 1,
+        };
+        let noun = match names {
+            RowNames::FileLines => "lines",
+            RowNames::ArrayRows => "rows",
+        };
+        groups
+            .into_iter()
+            .map(|(what, lines)| {
+                let listed: Vec<String> = lines
+                    .iter()
+                    .take(LISTED)
+                    .map(|&l| row(l).to_string())
+                    .collect();
+                let more = match lines.len().saturating_sub(LISTED) {
+                    0 => String::new(),
+                    n => format!(" and {n} more"),
+                };
+                format!("{commands} {noun} {}{more}: {what}", listed.join(", "))
+            })
+            .chain(others)
+            .collect()
     }
 
     /// The warnings of rows `(line, what)`, of `settling` of `rows` rows
