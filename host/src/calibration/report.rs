@@ -18,7 +18,9 @@ use armcal_shared::jacobian::at_point;
 use armcal_shared::{Param, Twist};
 use nalgebra::Vector3;
 
-use crate::calibration::diagnose::{DiagnoseOptions, Diagnosis, residuals, significant};
+use crate::calibration::diagnose::{
+    DiagnoseOptions, Diagnosis, effect_unit, effect_value, residuals, significant,
+};
 use crate::calibration::identify::full::{Observation, Status};
 use crate::io::model_file::RobotModel;
 
@@ -443,15 +445,14 @@ fn html_holdout(s: &mut String, d: &Diagnosis, options: &DiagnoseOptions) {
 fn html_parameters(s: &mut String, model: &RobotModel, d: &Diagnosis) {
     let _ = write!(
         s,
-        "<h2>Parameters of the extended calibration</h2><table><tr><th>parameter</th><th>nominal</th><th>error</th><th>std</th><th>status</th></tr>"
+        "<h2>Parameters of the extended calibration</h2><table><tr><th>parameter</th><th>unit</th><th>nominal</th><th>error</th><th>std</th><th>status</th></tr>"
     );
+    let units = &model.units;
     for p in &d.fit.params {
-        let conv = |v: f64| {
-            if p.param.is_angle() {
-                model.units.angle_from_si(v)
-            } else {
-                model.units.length_from_si(v)
-            }
+        let (conv, unit): (&dyn Fn(f64) -> f64, &str) = if p.param.is_angle() {
+            (&|v| units.angle_from_si(v), units.angle.name())
+        } else {
+            (&|v| units.length_from_si(v), units.length.name())
         };
         let (std, status) = match &p.status {
             Status::Identified { std } => (format!("{:.3e}", conv(*std)), "identified".to_string()),
@@ -459,22 +460,24 @@ fn html_parameters(s: &mut String, model: &RobotModel, d: &Diagnosis) {
         };
         let _ = write!(
             s,
-            "<tr><td>{}</td><td>{:.6}</td><td>{:.4e}</td><td>{std}</td><td style=\"text-align:left\">{status}</td></tr>",
+            "<tr><td>{}</td><td>{unit}</td><td>{:.6}</td><td>{:.4e}</td><td>{std}</td><td style=\"text-align:left\">{status}</td></tr>",
             p.param,
             conv(p.nominal),
             conv(p.error)
         );
     }
     for e in &d.fit.effects {
+        let value = |v: f64| effect_value(&model.robot, &e.effect, units, v);
+        let unit = effect_unit(&model.robot, &e.effect, units);
         for (i, st) in e.status.iter().enumerate() {
-            let v = e.effect.parameter(i).unwrap_or(0.0);
+            let v = value(e.effect.parameter(i).unwrap_or(0.0));
             let std = match st {
-                Status::Identified { std } => format!("{std:.3e}"),
+                Status::Identified { std } => format!("{:.3e}", value(*std)),
                 Status::Fixed { .. } => "–".into(),
             };
             let _ = write!(
                 s,
-                "<tr><td>{}</td><td>0</td><td>{v:.4e}</td><td>{std}</td><td style=\"text-align:left\">{} (SI)</td></tr>",
+                "<tr><td>{}</td><td>{unit}</td><td>0</td><td>{v:.4e}</td><td>{std}</td><td style=\"text-align:left\">{}</td></tr>",
                 crate::calibration::identify::full::effect_parameter_name(&e.effect, i),
                 e.effect.name()
             );

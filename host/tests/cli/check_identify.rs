@@ -436,6 +436,12 @@ fn diagnose_html_is_self_contained_and_renders_in_chromium() {
         );
     }
     assert!(page.contains("gear_transmission"), "the finding is named");
+    // Every value of the parameter table has its unit: the model's for the
+    // geometry, the effect's own in the model's angle unit for a gear.
+    assert!(page.contains("<th>unit</th>"));
+    assert!(page.contains("<tr><td>a2</td><td>m</td>"), "a length in m");
+    assert!(page.contains("<tr><td>alpha2</td><td>rad</td>"), "an angle in rad");
+    assert!(page.contains("<tr><td>g3.sin1</td><td>rad</td>"), "a gear amplitude in rad");
     assert!(
         page.matches("<svg").count() >= 2,
         "a plot per finding and the residual in order"

@@ -55,7 +55,7 @@ pub mod geometry;
 mod summary;
 
 pub use summary::parameter_list;
-pub(crate) use summary::significant;
+pub(crate) use summary::{effect_unit, effect_value, significant};
 
 use armcal_shared::calibration::MAX_PARAMS;
 use armcal_shared::effects::{Effect, EffectModel};

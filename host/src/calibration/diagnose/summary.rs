@@ -36,7 +36,7 @@ pub fn parameter_list(params: &[Param]) -> String {
 /// A parameter of a found effect in the model's units: angles (gear amplitudes,
 /// half the lost motion of a revolute joint, a compliance's rad per N·m) in the
 /// angle unit, lengths in the length unit, ratios as they are.
-fn effect_value(
+pub(crate) fn effect_value(
     robot: &Robot<f64>,
     effect: &Effect<f64>,
     units: &armcal_shared::units::Units,
@@ -49,6 +49,29 @@ fn effect_value(
         Effect::ThermalExpansion { .. } | Effect::EncoderScale { .. } => v,
         _ if revolute => units.angle_from_si(v),
         _ => units.length_from_si(v),
+    }
+}
+
+/// The unit of a parameter of `effect` as [`effect_value`] gives it.
+pub(crate) fn effect_unit(
+    robot: &Robot<f64>,
+    effect: &Effect<f64>,
+    units: &armcal_shared::units::Units,
+) -> String {
+    let revolute = effect
+        .joint()
+        .is_some_and(|j| robot.links[j].joint == JointType::Revolute);
+    let moved = if revolute {
+        units.angle.name()
+    } else {
+        units.length.name()
+    };
+    match effect {
+        Effect::ThermalExpansion { .. } => "1/°C".into(),
+        Effect::EncoderScale { .. } => "1".into(),
+        Effect::JointCompliance { .. } if revolute => format!("{moved}/(N·m)"),
+        Effect::JointCompliance { .. } => format!("{moved}/N"),
+        _ => moved.into(),
     }
 }
 
