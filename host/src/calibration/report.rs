@@ -282,7 +282,7 @@ pub fn html(
     options: &DiagnoseOptions,
 ) -> String {
     let mut s = String::new();
-    html_head(&mut s, model, data_file, d, data.len());
+    html_head(&mut s, model, data_file, data.len());
     html_models(&mut s, model, d);
     html_findings(&mut s, model, d, data);
     html_holdout(&mut s, d, options);
@@ -290,15 +290,13 @@ pub fn html(
     s
 }
 
-/// The page's head, title and first paragraph: model, data, poses, noise.
-fn html_head(s: &mut String, model: &RobotModel, data_file: &str, d: &Diagnosis, poses: usize) {
-    let mm = |x: f64| x * 1e3;
+/// The page's head, title and first paragraph: model, data, poses.
+fn html_head(s: &mut String, model: &RobotModel, data_file: &str, poses: usize) {
     let _ = write!(
         s,
-        "<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>armcal diagnose: {name}</title><style>body{{font-family:sans-serif;max-width:1200px;margin:2em auto;color:#222}}table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}}th{{background:#f4f4f4}}td:first-child,th:first-child{{text-align:left}}.plots{{display:flex;flex-wrap:wrap;gap:12px}}</style></head><body><h1>armcal diagnose</h1><p>Model <b>{name}</b>, data <b>{data_file}</b>: {n} poses. Noise estimated from the data: <b>{noise:.4} mm</b> per axis.</p>",
+        "<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>armcal diagnose: {name}</title><style>body{{font-family:sans-serif;max-width:1200px;margin:2em auto;color:#222}}table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}}th{{background:#f4f4f4}}td:first-child,th:first-child{{text-align:left}}.plots{{display:flex;flex-wrap:wrap;gap:12px}}</style></head><body><h1>armcal diagnose</h1><p>Model <b>{name}</b>, data <b>{data_file}</b>: {n} poses.</p>",
         name = model.name,
         n = poses,
-        noise = mm(d.noise),
     );
 }
 
@@ -323,12 +321,19 @@ fn html_models(s: &mut String, model: &RobotModel, d: &Diagnosis) {
         );
     }
     let _ = write!(s, "</table><p>");
-    for n in d.noise_rows(&model.units) {
+    // One figure per channel, in the model's unit (and mm for a length).
+    let units = &model.units;
+    for n in d.noise_rows(units) {
         let (what, unit, source) = (n.what, &n.unit, n.source_name());
         let (used, shown) = (significant(n.used), significant(n.shown));
+        let in_mm = if *unit == units.length.name() && units.length.name() != "mm" {
+            format!(" ({} mm)", significant(units.length_to_si(n.used) * 1e3))
+        } else {
+            String::new()
+        };
         let _ = write!(
             s,
-            "Noise of the {what}s: <b>{used} {unit}</b> per axis ({source}; the residuals show {shown} {unit}). "
+            "Noise of the {what}s: <b>{used} {unit}</b>{in_mm} per axis ({source}; the geometric calibration's residuals show {shown} {unit}). "
         );
     }
     let (held, moved) = d.prior_role();

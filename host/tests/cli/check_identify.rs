@@ -440,8 +440,20 @@ fn diagnose_html_is_self_contained_and_renders_in_chromium() {
     // geometry, the effect's own in the model's angle unit for a gear.
     assert!(page.contains("<th>unit</th>"));
     assert!(page.contains("<tr><td>a2</td><td>m</td>"), "a length in m");
-    assert!(page.contains("<tr><td>alpha2</td><td>rad</td>"), "an angle in rad");
-    assert!(page.contains("<tr><td>g3.sin1</td><td>rad</td>"), "a gear amplitude in rad");
+    assert!(
+        page.contains("<tr><td>alpha2</td><td>rad</td>"),
+        "an angle in rad"
+    );
+    assert!(
+        page.contains("<tr><td>g3.sin1</td><td>rad</td>"),
+        "a gear amplitude in rad"
+    );
+    // One noise figure for the positions, in the model's unit and in mm.
+    assert_eq!(page.matches("Noise of the positions: <b>").count(), 1);
+    assert!(
+        page.contains(" mm) per axis (estimated;"),
+        "the noise in mm too"
+    );
     assert!(
         page.matches("<svg").count() >= 2,
         "a plot per finding and the residual in order"
