@@ -306,8 +306,9 @@ fn html_models(s: &mut String, model: &RobotModel, d: &Diagnosis) {
     // The chosen model, every model's held-out error, the noises, the prior.
     let _ = write!(
         s,
-        "<h2>The model chosen on held-out poses</h2><p>Chosen: <b>{}</b>.</p><table><tr><th>model</th><th>parameters</th><th>held-out RMS [mm]</th><th>mean [mm]</th><th>max [mm]</th></tr>",
-        html_escape(&d.chosen_label())
+        "<h2>The model chosen on held-out poses</h2><p>Chosen: <b>{}</b>.</p><p>Each geometric model's held-out error{}:</p><table><tr><th>model</th><th>parameters</th><th>held-out RMS [mm]</th><th>mean [mm]</th><th>max [mm]</th></tr>",
+        html_escape(&d.chosen_label()),
+        html_escape(&d.models_scored())
     );
     for m in &d.models {
         let _ = write!(

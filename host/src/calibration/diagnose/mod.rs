@@ -294,6 +294,10 @@ pub struct Diagnosis {
     pub holdout: HeldOutModels,
     /// Every geometric model scored, nominal first.
     pub models: Vec<ModelScore>,
+    /// The effects found were in every model of [`Diagnosis::models`] when
+    /// they were scored (the geometric models scored again with them, whose
+    /// figures are then those of the extended models).
+    pub models_with_effects: bool,
     /// The estimated measurement noise of the rows that locate the tool point
     /// (measured positions, or the contacts of a session without a tracker),
     /// m per axis: what the final model's residuals show.
@@ -573,6 +577,8 @@ struct Suspects {
 struct Geometric {
     /// Every geometric model scored, nominal first.
     models: Vec<ModelScore>,
+    /// Whether `models` were scored with the effects found in them.
+    models_with_effects: bool,
     /// The best of them.
     best: ModelScore,
     /// The nominal model's held-out figures.
@@ -799,6 +805,7 @@ impl Pass<'_> {
         let effect_options = geo_options.at_noise_of(&geometric).stated();
         Ok(Geometric {
             models,
+            models_with_effects: false,
             best,
             nominal_holdout,
             geometry,
@@ -872,6 +879,7 @@ impl Pass<'_> {
                 search.current = again.held;
                 search.current_fit = refit;
                 geo.models = rescored;
+                geo.models_with_effects = true;
             }
         }
     }
@@ -906,6 +914,7 @@ impl Pass<'_> {
                 extended: current,
             },
             models: geo.models,
+            models_with_effects: geo.models_with_effects,
             noise,
             blunders: screen.blunders,
             suspects: screen.suspects,

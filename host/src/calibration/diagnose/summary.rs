@@ -76,6 +76,27 @@ pub(crate) fn effect_unit(
 }
 
 impl Diagnosis {
+    /// What the models' scores include, for a report's heading: empty, or
+    /// the effects found when the geometric models were scored again with
+    /// them.
+    pub fn models_scored(&self) -> String {
+        if !self.models_with_effects || self.findings.is_empty() {
+            return String::new();
+        }
+        let effects: Vec<String> = self
+            .findings
+            .iter()
+            .map(|f| {
+                format!(
+                    "{} (joints {})",
+                    f.candidate.name,
+                    f.candidate.joints_label()
+                )
+            })
+            .collect();
+        format!(", each with the effects found: {}", effects.join(", "))
+    }
+
     /// The model chosen, as reports name it: `nominal`, or the geometric model
     /// with its prior and the effects.
     pub fn chosen_label(&self) -> String {
@@ -187,6 +208,7 @@ impl Diagnosis {
                 "parameters": m.parameters,
                 "rms_mm": mm(m.held.rms), "mean_mm": mm(m.held.mean), "max_mm": mm(m.held.max),
             })).collect::<Vec<_>>(),
+            "models_with_effects": self.models_with_effects && !self.findings.is_empty(),
             "prior_role": {
                 "held_by_prior": names(&held),
                 "moved_by_data": names(&moved),
@@ -439,8 +461,9 @@ impl Diagnosis {
         let mm = |x: f64| x * 1e3;
         let _ = writeln!(
             out,
-            "\nheld-out position error of each model ({}-fold), mm:",
-            options.folds
+            "\nheld-out position error of each model ({}-fold){}, mm:",
+            options.folds,
+            self.models_scored()
         );
         let _ = writeln!(
             out,
