@@ -1,18 +1,20 @@
 #!/usr/bin/env python3
-"""The real-data figures of the README: each converted real set of
-../shared/data/real split as a user validating a calibration would split it
+"""The real-data figures of the README: each real set bundled in data/
+split as a user validating a calibration would split it
 (every third data row held out), `armcal diagnose --out` on the rest, `armcal
 predict` on the held-out joints, and the RMS of the 3-D position error against
 the measured points (mm), beside the nominal model's (`armcal check` on the
 held-out rows). Run from the repository root after `cargo build --release`.
 
-Environment: ARMCAL (the binary), REAL (the folder of the sets), EXTRA (more
-diagnose arguments)."""
+Environment: ARMCAL (the binary), REAL (the folder of the sets, default the
+repository's data/; each set a folder with measurements.csv and its
+model.toml, or a built-in model of its name), 
+EXTRA (more diagnose arguments)."""
 import csv, math, os, subprocess, sys, tempfile, re, time
 
 ARMCAL = os.environ.get("ARMCAL", "target/release/armcal")
-REAL = os.environ.get("REAL", "../shared/data/real")
-SETS = sys.argv[1:] or ["figaroh-tiago-mocap", "rokae-lasertracker", "figaroh-talos-left-arm", "figaroh-ur10e-camera"]
+REAL = os.environ.get("REAL", "data")
+SETS = sys.argv[1:] or ["figaroh-tiago-mocap", "figaroh-talos-left-arm", "figaroh-ur10e-camera"]
 EXTRA = os.environ.get("EXTRA", "").split()
 
 def split(path):
@@ -35,7 +37,11 @@ for name in SETS:
     tr = os.path.join(tmp, "train.csv"); te = os.path.join(tmp, "test.csv")
     open(tr, "w").write("\n".join(comments + [header] + train) + "\n")
     open(te, "w").write("\n".join([header] + test) + "\n")
+    # A set's own model.toml, or the built-in model of its name (data/'s sets).
     model = os.path.join(d, "model.toml")
+    model_text = open(model).read() if os.path.exists(model) else open(os.path.join("models", name + ".toml")).read()
+    if not os.path.exists(model):
+        model = name
     chk = subprocess.run([ARMCAL, "check", "--model", model, "--data", te], capture_output=True, text=True)
     m = re.search(r"= rms ([0-9.]+) mm", chk.stdout)
     nominal = float(m.group(1)) if m else float("nan")
@@ -54,7 +60,7 @@ for name in SETS:
     prows = [l for l in open(pred).read().splitlines() if l and not l.startswith("#")]
     ph = prows[0].split(","); pix = [ph.index(c) for c in "xyz"]
     p = [[float(l.split(",")[i]) for i in pix] for l in prows[1:]]
-    unit = 1000.0 if "length_unit = \"m\"" in open(model).read() else 1.0
+    unit = 1000.0 if "length_unit = \"m\"" in model_text else 1.0
     e = [math.dist(a, b) * unit for a, b in zip(meas, p)]
     rms = math.sqrt(sum(x * x for x in e) / len(e))
     import json
