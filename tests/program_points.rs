@@ -195,7 +195,7 @@ fn program_points(
     }
     let rows = JointRows::commands("program.csv", &commands, Some(TEMPERATURE), Some(PAYLOAD));
     let result = compensate(&cal, &rows, Pacing::Program);
-    for w in result.warnings() {
+    for w in result.warnings(&cal) {
         eprintln!("{}", w.text("program.csv", RowNames::FileLines));
     }
     let sent: Vec<Vec<f64>> = result.rows.iter().map(|(_, c)| c.q.to_vec()).collect();

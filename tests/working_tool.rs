@@ -105,7 +105,7 @@ fn rms_miss(
 ) -> f64 {
     let rows = JointRows::commands("program.csv", commands, None, None);
     let result = compensate(cal, &rows, Pacing::Program);
-    assert!(result.warnings().is_empty());
+    assert!(result.warnings(cal).is_empty());
     let sum: f64 = commands
         .iter()
         .zip(&result.rows)

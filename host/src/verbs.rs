@@ -320,7 +320,7 @@ pub(crate) fn compensate(args: CompensateArgs) -> anyhow::Result<()> {
     };
     let result = compensate::compensate(&cal, &rows, pacing);
     let csv = result.to_csv(&cal, &calibration);
-    warn_rows(&cal, &rows, &joints, &result.warnings());
+    warn_rows(&cal, &rows, &joints, &result.warnings(&cal));
     finish_csv(outputs, csv)?;
     Ok(())
 }
@@ -373,13 +373,16 @@ pub(crate) fn stream(args: StreamArgs) -> anyhow::Result<()> {
     // sent, and the controller says why it refuses it too. With a working
     // tool, the calibration sent is the one with that tool: this armcal
     // must read it.
-    let mut local = Calibration::decode(&bytes);
-    if let Some(tool) = tool_model.tool(&tool) {
-        let cal = predict::load_calibration(&calibration)?;
-        let cal = with_tool(cal, Some(tool))?;
-        bytes = cal.to_bytes()?;
-        local = Ok(cal);
-    }
+    let local = match tool_model.tool(&tool) {
+        None => Calibration::decode(&bytes),
+        Some(tool) => {
+            let cal = Calibration::decode(&bytes)
+                .map_err(|e| InputError::new(&calibration, 0, 0, e.to_string()))?;
+            let cal = with_tool(cal, Some(tool))?;
+            bytes = cal.to_bytes()?;
+            Ok(cal)
+        }
+    };
     let rows = match &local {
         Ok(cal) => Some(measurements::load_joints(
             &joints,

@@ -267,8 +267,12 @@ impl Calibration {
         warn_all(py, ranges::check(cal, &rows, RowNames::ArrayRows))?;
         let result = py.detach(|| comp::compensate(cal, &rows, pacing));
         // One warning per kind of report, with its rows.
-        let messages =
-            comp::RowWarning::grouped(&result.warnings(), arrays::JOINTS, RowNames::ArrayRows);
+        let messages = comp::RowWarning::grouped(
+            &result.warnings(cal),
+            result.rows.len(),
+            arrays::JOINTS,
+            RowNames::ArrayRows,
+        );
         warn_all(py, messages)?;
         let out: Vec<Vec<f64>> = result
             .rows

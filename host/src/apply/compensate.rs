@@ -87,15 +87,7 @@ pub struct Compensated {
     pub rows: Vec<(usize, Correction<f64>)>,
     /// The residual below which a row's pose is reached, m ([`Limits::tolerance`]).
     pub tolerance: f64,
-    /// The calibration's base error, m and rad (the largest of its
-    /// translations and of its rotations), when its targets are in the
-    /// world frame and it is at least [`REGISTRATION`]: the registration of
-    /// the instrument is then compensated too.
-    pub registration: Option<(f64, f64)>,
 }
-
-/// How many rows a grouped warning lists ([`RowWarning::grouped`]).
-pub const LISTED: usize = 10;
 
 /// A base error from which the compensation of targets in the world frame
 /// names the registration when rows are bounded: 10 mm or 10 mrad, a camera's
@@ -182,11 +174,13 @@ impl RowWarning {
         }
     }
 
-    /// The texts of `warnings` (of the commands `commands`, rows named as
-    /// `names` says) with the rows that report the same thing in one text:
-    /// `{commands} rows 3, 7, 12: what` (the first [`LISTED`] rows, then how
-    /// many more), for a front end that shows each text once.
-    pub fn grouped(warnings: &[Self], commands: &str, names: RowNames) -> Vec<String> {
+    /// The texts of `warnings` (of `rows` rows of the commands `commands`,
+    /// rows named as `names` says) with the rows that report the same thing
+    /// in one text:
+    /// `{commands}: what, on 3 of 40 rows (rows 3, 7, 12)` (the rows as the
+    /// range warnings list them: [`RowNames::list`]), for a front end that
+    /// shows each text once.
+    pub fn grouped(warnings: &[Self], rows: usize, commands: &str, names: RowNames) -> Vec<String> {
         let mut groups: Vec<(&str, Vec<usize>)> = Vec::new();
         let mut others = Vec::new();
         for w in warnings {
@@ -198,27 +192,14 @@ impl RowWarning {
                 other => others.push(other.text(commands, names)),
             }
         }
-        let row = |line: usize| match names {
-            RowNames::FileLines => line,
-            RowNames::ArrayRows => line - 1,
-        };
-        let noun = match names {
-            RowNames::FileLines => "lines",
-            RowNames::ArrayRows => "rows",
-        };
         groups
             .into_iter()
             .map(|(what, lines)| {
-                let listed: Vec<String> = lines
-                    .iter()
-                    .take(LISTED)
-                    .map(|&l| row(l).to_string())
-                    .collect();
-                let more = match lines.len().saturating_sub(LISTED) {
-                    0 => String::new(),
-                    n => format!(" and {n} more"),
-                };
-                format!("{commands} {noun} {}{more}: {what}", listed.join(", "))
+                format!(
+                    "{commands}: {what}, on {} of {rows} rows ({})",
+                    lines.len(),
+                    names.list(&lines, lines.len())
+                )
             })
             .chain(others)
             .collect()
@@ -269,7 +250,6 @@ pub fn compensate(cal: &Calibration, commands: &JointRows, pacing: Pacing) -> Co
     Compensated {
         rows,
         tolerance: limits.tolerance,
-        registration: registration(cal),
     }
 }
 
@@ -304,10 +284,11 @@ impl Compensated {
         )
     }
 
-    /// What the compensation says of its rows ([`RowWarning`]): each row
-    /// that reported something, in order, then the count of the rows that
-    /// did not settle.
-    pub fn warnings(&self) -> Vec<RowWarning> {
+    /// What the compensation of `cal` says of its rows ([`RowWarning`]):
+    /// each row that reported something, in order, the count of the rows
+    /// that did not settle, and the registration of `cal` the rows were
+    /// asked to move by, when they were bounded ([`registration`]).
+    pub fn warnings(&self, cal: &Calibration) -> Vec<RowWarning> {
         let mut settling = 0;
         let named: Vec<(usize, String)> = self
             .rows
@@ -335,7 +316,7 @@ impl Compensated {
             named.into_iter(),
             settling,
             self.rows.len(),
-            self.registration,
+            registration(cal),
         )
     }
 }

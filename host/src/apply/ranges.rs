@@ -44,7 +44,7 @@ pub enum RowNames {
 
 impl RowNames {
     /// `lines 4, 7, 9` or `rows 3, 6, 8`, the first [`ROWS_NAMED`] of `lines`.
-    fn list(self, lines: &[usize], total: usize) -> String {
+    pub fn list(self, lines: &[usize], total: usize) -> String {
         let (word, from) = match self {
             Self::FileLines => ("line", 0),
             Self::ArrayRows => ("row", 1),
