@@ -122,42 +122,44 @@ fn prior(robot: &Robot<f64>) -> DVector<f64> {
     x
 }
 
+/// One pose's rows in every unknown (each link's mass and first moment, then
+/// each joint's offset) and its torques as the rows fit them, `−t − known`
+/// (`−t_j = τ_j − b_j`); `None` for a pose without torques.
+fn rows(robot: &Robot<f64>, obs: &Observation) -> Option<(DMatrix<f64>, DVector<f64>)> {
+    let t = obs.torque.as_ref()?;
+    let (a, known) = design(robot, obs)?;
+    let m = robot.dof();
+    let mut full = DMatrix::zeros(m, 5 * m);
+    full.view_mut((0, 0), (m, 4 * m)).copy_from(&a);
+    for j in 0..m {
+        full[(j, 4 * m + j)] = -1.0;
+    }
+    Some((full, DVector::from_fn(m, |j, _| -t[j] - known[j])))
+}
+
 /// The masses of `robot` fitted to the measured torques of `poses` (see
-/// the module header); `None` when no pose has them.
+/// the module header); `None` when no pose has them. Two passes over the
+/// poses, the second for the residuals: nothing kept per pose.
 pub fn fit(robot: &Robot<f64>, poses: &[Observation]) -> Option<GravityFit> {
     let m = robot.dof();
-    let unknowns = 5 * m;
-    let mut normal = DMatrix::<f64>::zeros(unknowns, unknowns);
-    let mut rhs = DVector::<f64>::zeros(unknowns);
-    let mut rows: Vec<(DMatrix<f64>, DVector<f64>)> = Vec::new();
-    for obs in poses {
-        let Some(t) = &obs.torque else { continue };
-        let Some((a, known)) = design(robot, obs) else {
-            continue;
-        };
-        // −t_j = τ_j − b_j: the masses' columns, then −1 for the offset.
-        let mut full = DMatrix::zeros(m, unknowns);
-        full.view_mut((0, 0), (m, 4 * m)).copy_from(&a);
-        for j in 0..m {
-            full[(j, 4 * m + j)] = -1.0;
-        }
-        let y = DVector::from_fn(m, |j, _| -t[j] - known[j]);
+    let mut normal = DMatrix::<f64>::zeros(5 * m, 5 * m);
+    let mut rhs = DVector::<f64>::zeros(5 * m);
+    let mut fitted_poses = 0;
+    for (full, y) in poses.iter().filter_map(|o| rows(robot, o)) {
         normal += full.transpose() * &full;
         rhs += full.transpose() * &y;
-        rows.push((full, y));
+        fitted_poses += 1;
     }
-    if rows.is_empty() {
+    if fitted_poses == 0 {
         return None;
     }
     let x0 = prior(robot);
     let hold = HOLD * normal.diagonal().max().max(f64::MIN_POSITIVE);
-    let mut held = normal.clone();
-    let mut target = rhs.clone();
     for i in 0..4 * m {
-        held[(i, i)] += hold;
-        target[i] += hold * x0[i];
+        normal[(i, i)] += hold;
+        rhs[i] += hold * x0[i];
     }
-    let x = held.cholesky()?.solve(&target);
+    let x = normal.cholesky()?.solve(&rhs);
     let mut fitted = robot.clone();
     for (k, l) in fitted.links.iter_mut().enumerate() {
         let mass = x[4 * k];
@@ -171,12 +173,12 @@ pub fn fit(robot: &Robot<f64>, poses: &[Observation]) -> Option<GravityFit> {
             },
         });
     }
-    let n = rows.len() as f64;
+    let n = fitted_poses as f64;
     let mut residual = vec![0.0; m];
     let mut mean = vec![0.0; m];
     let mut square = vec![0.0; m];
-    for (full, y) in &rows {
-        let r = y - full * &x;
+    for (full, y) in poses.iter().filter_map(|o| rows(robot, o)) {
+        let r = &y - full * &x;
         for j in 0..m {
             residual[j] += r[j] * r[j] / n;
             mean[j] += y[j] / n;
@@ -190,7 +192,7 @@ pub fn fit(robot: &Robot<f64>, poses: &[Observation]) -> Option<GravityFit> {
             .map(|j| (square[j] - mean[j] * mean[j]).max(0.0).sqrt())
             .collect(),
         offset: (0..m).map(|j| x[4 * m + j]).collect(),
-        poses: rows.len(),
+        poses: fitted_poses,
         model_had_masses: robot.links.iter().any(|l| l.mass.is_some()),
     })
 }
