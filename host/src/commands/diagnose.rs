@@ -82,7 +82,7 @@ pub fn run(
     let mut calibration = diagnosis.calibration(&model.robot, data.has_orientation(), model.units);
     calibration.targets = request.targets;
     Ok(Diagnosed {
-        model: fitted.clone(),
+        model: fitted,
         gravity,
         diagnosis,
         options,

@@ -65,7 +65,7 @@ pub fn run(
     result.calibration.targets = request.targets;
     result.gravity = gravity;
     Ok(Identified {
-        model: fitted.clone(),
+        model: fitted,
         result,
         failed,
     })

@@ -576,6 +576,14 @@ fn identify_refuses_to_write_a_fit_that_did_not_converge() {
     assert!(dir.path().join("nc.cal").exists());
 }
 
+/// The bundled FIGAROH UR10e camera set's measurement file, as a path.
+fn camera_measurements() -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../data/figaroh-ur10e-camera/measurements.csv")
+        .display()
+        .to_string()
+}
+
 /// The summary's calibrated figure is what the file written delivers: the
 /// position RMS of `armcal predict` with it on the same rows, to the six
 /// decimals printed; `--quiet` prints nothing and writes the same file.
@@ -583,10 +591,7 @@ fn identify_refuses_to_write_a_fit_that_did_not_converge() {
 fn identify_prints_what_its_file_delivers_and_quiet_prints_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let data = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../data/figaroh-ur10e-camera/measurements.csv")
-        .display()
-        .to_string();
+    let data = camera_measurements();
     let identify = |extra: &[&str]| {
         let mut args = vec![
             "identify",
@@ -666,10 +671,7 @@ fn identify_prints_what_its_file_delivers_and_quiet_prints_nothing() {
 fn bounded_rows_of_a_registration_suggest_targets_in_the_base_frame() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let data = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../data/figaroh-ur10e-camera/measurements.csv")
-        .display()
-        .to_string();
+    let data = camera_measurements();
     let compensate = |targets: &str| {
         let cal = format!("{targets}.cal");
         succeeds(
