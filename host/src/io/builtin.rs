@@ -13,6 +13,8 @@
 //! [`crate::io::measurements::load_measurements`] look a name up here before trying it
 //! as a path.
 
+use crate::io::input_error::InputError;
+
 /// One built-in file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct BuiltinFile {
@@ -95,6 +97,26 @@ pub fn builtin_data(name: &str) -> Option<(&'static str, &'static str)> {
     DATA.iter()
         .find(|d| d.name == name)
         .map(|d| (d.text, d.file))
+}
+
+/// A file that could not be read (`e`, at line 0) named by what the user
+/// gave as a file or a built-in name: the message says it is not a built-in
+/// `what` either (`model`, `data set`) and lists `names`. A refusal inside a
+/// file that was read is left as it is.
+pub fn nor_builtin(
+    what: &'static str,
+    names: &'static [&'static str],
+) -> impl FnOnce(InputError) -> InputError {
+    move |mut e| {
+        if e.line == 0 {
+            e.message = format!(
+                "{} (and it is not a built-in {what}: {})",
+                e.message,
+                names.join(", ")
+            );
+        }
+        e
+    }
 }
 
 #[cfg(test)]

@@ -90,16 +90,8 @@ pub fn load_measurements(
     if let Some((text, label)) = builtin::builtin_data(name_or_path) {
         return parse_measurements(text, label, model);
     }
-    let source = open_bounded(name_or_path, DATA_FILE).map_err(|mut e| {
-        if e.line == 0 {
-            e.message = format!(
-                "{} (and it is not a built-in data set: {})",
-                e.message,
-                builtin::DATA_NAMES.join(", ")
-            );
-        }
-        e
-    })?;
+    let source = open_bounded(name_or_path, DATA_FILE)
+        .map_err(builtin::nor_builtin("data set", &builtin::DATA_NAMES))?;
     read_measurements(
         Source::new(std::io::BufReader::new(source), DATA_FILE),
         name_or_path,

@@ -106,16 +106,8 @@ pub fn load_model_with(name_or_path: &str, spec: &ChainSpec) -> Result<RobotMode
         model.source = format!("built-in {name_or_path}");
         return Ok(model);
     }
-    let text = read_text(name_or_path, MODEL_FILE).map_err(|mut e| {
-        if e.line == 0 {
-            e.message = format!(
-                "{} (and it is not a built-in model: {})",
-                e.message,
-                builtin::MODEL_NAMES.join(", ")
-            );
-        }
-        e
-    })?;
+    let text = read_text(name_or_path, MODEL_FILE)
+        .map_err(builtin::nor_builtin("model", &builtin::MODEL_NAMES))?;
     if urdf::is_urdf(name_or_path, &text) {
         let (urdf, converted) = urdf_chain(&text, name_or_path, spec)?;
         return Ok(urdf_model(&urdf, converted));
