@@ -41,6 +41,7 @@ use armcal::calibration::simulate::Session;
 use armcal::commands::{Front, identify};
 use armcal::io::measurements::{JointRows, parse_measurements};
 use armcal::io::model_file::{RobotModel, load_model};
+use armcal::session::registration::FrameSharing;
 use armcal_shared::compensation::{Pacing, TargetFrame};
 use armcal_shared::{Calibration, Frame, Param, Robot};
 use armcal_tests::{measure, random_configurations, rng, sigma_min, with_random_errors};
@@ -81,6 +82,7 @@ fn identify_session(
         temp: vec![20.0; n],
         load: vec![0.0; n],
         observations: measure(truth, configurations, 20e-6, None, &mut rng(7)),
+        frames: Vec::new(),
     };
     let text = session.to_csv(&model.units, "the SMR session");
     let data = parse_measurements(&text, "smr.csv", model).unwrap();
@@ -89,6 +91,7 @@ fn identify_session(
         scales: StatedScales::default(),
         prior_scale: PriorScale::default(),
         targets: TargetFrame::World,
+        frames: FrameSharing::default(),
     };
     let identified = identify::run(Front::CommandLine, model, &data, &request).unwrap();
     assert!(identified.failed.is_none(), "{:?}", identified.failed);

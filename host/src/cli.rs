@@ -11,6 +11,7 @@ use armcal::commands::{diagnose, export, holdout, identify, simulate};
 use armcal::io::input_error::InputError;
 use armcal::io::model_file::{self, RobotModel};
 use armcal::io::urdf::ChainSpec;
+use armcal::session::registration::{FrameSharing, Sharing};
 use armcal_shared::TargetFrame;
 use clap::{Parser, Subcommand};
 
@@ -90,9 +91,11 @@ pub(crate) enum Command {
 pub(crate) struct CheckArgs {
     #[command(flatten)]
     pub(crate) model: ModelArgs,
-    /// Measurements: a CSV file (docs/file-formats.md §2) or the name of a built-in data set.
-    #[arg(long, value_name = "D.csv|NAME")]
-    pub(crate) data: String,
+    /// Measurements: a CSV file (docs/file-formats.md §2) or the name of a
+    /// built-in data set; several files are several sessions of one robot,
+    /// each in its own measurement frame with its own tool.
+    #[arg(long, value_name = "D.csv|NAME", required = true, num_args = 1..)]
+    pub(crate) data: Vec<String>,
 }
 
 /// The flags of `armcal identify`.
@@ -100,9 +103,13 @@ pub(crate) struct CheckArgs {
 pub(crate) struct IdentifyArgs {
     #[command(flatten)]
     pub(crate) model: ModelArgs,
-    /// Measurements: a CSV file (docs/file-formats.md §2) or the name of a built-in data set.
-    #[arg(long, value_name = "D.csv|NAME")]
-    pub(crate) data: String,
+    /// Measurements: a CSV file (docs/file-formats.md §2) or the name of a
+    /// built-in data set; several files are several sessions of one robot
+    /// (see --same-base, --same-tool).
+    #[arg(long, value_name = "D.csv|NAME", required = true, num_args = 1..)]
+    pub(crate) data: Vec<String>,
+    #[command(flatten)]
+    pub(crate) sessions: SessionArgs,
     /// `full`: every identifiable parameter, base and tool included; `paper`: the
     /// 3M model and iterative regression of Mirman & Gupta (needs full poses).
     #[arg(long, value_enum, default_value = "full")]
@@ -211,10 +218,20 @@ pub(crate) struct SimulateArgs {
     /// (N·m, N for a prismatic joint).
     #[arg(long, value_name = "N·m", value_parser = args::non_negative)]
     pub(crate) torque_noise: Option<f64>,
+    /// The payloads the poses are measured with, kg, in consecutive blocks
+    /// of rows (default 0,5).
+    #[arg(long, value_name = "KG,KG,…", value_delimiter = ',', value_parser = args::non_negative)]
+    pub(crate) payloads: Vec<f64>,
+    /// Measure the poses in this many sessions, in consecutive blocks of
+    /// rows: each after the first with the instrument moved and the measured
+    /// point remounted. Written one file a session, `D-1.csv`, `D-2.csv`, …
+    /// for `--out D.csv`.
+    #[arg(long, default_value_t = 1, value_parser = args::at_least(1, "session"))]
+    pub(crate) sessions: usize,
     /// Seed of every random draw.
     #[arg(long, default_value_t = 1)]
     pub(crate) seed: u64,
-    /// Write the measurements here.
+    /// Write the measurements here (one file a session: see --sessions).
     #[arg(long, value_name = "D.csv")]
     pub(crate) out: PathBuf,
     /// Write what was built in (errors and effects) here, as JSON.
@@ -257,9 +274,12 @@ pub(crate) struct StreamArgs {
 pub(crate) struct DiagnoseArgs {
     #[command(flatten)]
     pub(crate) model: ModelArgs,
-    /// Measurements: a CSV file or the name of a built-in data set.
-    #[arg(long, value_name = "D.csv|NAME")]
-    pub(crate) data: String,
+    /// Measurements: a CSV file or the name of a built-in data set; several
+    /// files are several sessions of one robot (see --same-base, --same-tool).
+    #[arg(long, value_name = "D.csv|NAME", required = true, num_args = 1..)]
+    pub(crate) data: Vec<String>,
+    #[command(flatten)]
+    pub(crate) sessions: SessionArgs,
     /// Write the extended calibration (geometry and effects) here.
     #[arg(long, value_name = "CAL")]
     pub(crate) out: Option<PathBuf>,
@@ -545,6 +565,40 @@ pub(crate) struct Weights {
     pub(crate) prior_angle: Option<f64>,
 }
 
+/// How several sessions (`--data A.csv B.csv …`) share their frames. By
+/// default each session has its own base frame (the instrument's
+/// registration: a tracker moved between sessions) and its own tool (the
+/// measured point: an SMR or marker remounted), so that neither's motion
+/// is taken for the robot's geometry.
+#[derive(clap::Args, Debug, Clone, Copy)]
+pub(crate) struct SessionArgs {
+    /// The sessions share one base frame: the instrument was not moved
+    /// between them.
+    #[arg(long)]
+    pub(crate) same_base: bool,
+    /// The sessions share one tool: the measured point was not remounted
+    /// between them.
+    #[arg(long)]
+    pub(crate) same_tool: bool,
+}
+
+impl SessionArgs {
+    /// The frames these flags share.
+    pub(crate) fn sharing(self) -> FrameSharing {
+        let sharing = |same: bool| {
+            if same {
+                Sharing::Shared
+            } else {
+                Sharing::PerSession
+            }
+        };
+        FrameSharing {
+            base: sharing(self.same_base),
+            tool: sharing(self.same_tool),
+        }
+    }
+}
+
 impl Weights {
     /// The scales these flags state (model units).
     pub(crate) fn scales(&self) -> StatedScales {
@@ -627,6 +681,7 @@ impl IdentifyArgs {
             scales: self.weights.scales(),
             prior_scale: self.prior_scale.into(),
             targets: self.targets.into(),
+            frames: self.sessions.sharing(),
         }
     }
 }
@@ -638,6 +693,7 @@ impl DiagnoseArgs {
             folds: self.folds,
             scales: self.weights.scales(),
             targets: self.targets.into(),
+            frames: self.sessions.sharing(),
         }
     }
 }
@@ -686,6 +742,8 @@ impl SimulateArgs {
             torque_noise: self.torque_noise,
             effects: self.effects.clone(),
             tilts: self.tilts.iter().map(|t| (t.joint, t.beta)).collect(),
+            payloads: self.payloads.clone(),
+            sessions: self.sessions,
         }
     }
 }

@@ -12,16 +12,21 @@ use armcal::io::output::Outputs;
 
 use crate::cli::ModelArgs;
 
-/// The model and the measurements of a session, refused
+/// The model and the measurements of one session or several (one file
+/// each: [`Measurements::sessions`]), refused
 /// ([`commands::require_session`]) if the poses give fewer equations than
 /// the model's independent parameters or if they cannot be measurements of
 /// this robot.
 pub(crate) fn load_session(
     model: &ModelArgs,
-    data: &str,
+    data: &[String],
 ) -> anyhow::Result<(RobotModel, Measurements)> {
     let model = model.load()?;
-    let data = measurements::load_measurements(data, &model)?;
+    let parts = data
+        .iter()
+        .map(|file| measurements::load_measurements(file, &model))
+        .collect::<Result<Vec<_>, _>>()?;
+    let data = Measurements::sessions(parts)?;
     commands::require_session(&model, &data)?;
     Ok((model, data))
 }

@@ -84,7 +84,7 @@ pub(crate) fn reproduce_mirman_gupta() -> anyhow::Result<()> {
 pub(crate) fn identify(args: IdentifyArgs) -> anyhow::Result<()> {
     let mut outputs = output::Outputs::new()
         .model_input(&args.model.model)
-        .data_input(&args.data)
+        .data_inputs(&args.data)
         .output("--out", args.out.as_deref())
         .output("--json", args.json.as_deref());
     outputs.check()?;
@@ -98,7 +98,7 @@ pub(crate) fn identify(args: IdentifyArgs) -> anyhow::Result<()> {
         outputs.set("--out", result.calibration.to_bytes()?);
     }
     if args.json.is_some() {
-        let text = serde_json::to_string_pretty(&result.to_json(&model.units))?;
+        let text = serde_json::to_string_pretty(&result.to_json(&model.units, &data))?;
         outputs.set("--json", text.into_bytes());
     }
     finish(outputs, args.quiet, || result.summary(&model, &data))?;
@@ -107,9 +107,20 @@ pub(crate) fn identify(args: IdentifyArgs) -> anyhow::Result<()> {
 
 /// `armcal simulate`.
 pub(crate) fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
-    let mut outputs = output::Outputs::new()
-        .model_input(&args.model.model)
-        .output("--out", Some(&args.out))
+    // One file a session: `--out` itself for one.
+    let paths: Vec<std::path::PathBuf> = if args.sessions > 1 {
+        (0..args.sessions)
+            .map(|k| simulate_cmd::Request::session_path(&args.out, k))
+            .collect()
+    } else {
+        vec![args.out.clone()]
+    };
+    let mut outputs = paths
+        .iter()
+        .fold(
+            output::Outputs::new().model_input(&args.model.model),
+            |o, path| o.output("--out", Some(path)),
+        )
         .output("--truth", args.truth.as_deref());
     outputs.check()?;
     let model = args.model.load()?;
@@ -128,8 +139,15 @@ pub(crate) fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
             .iter()
             .map(|t| format!(" --tilt {}:{}", t.joint, t.beta))
             .collect::<String>()
-    );
-    outputs.set("--out", session.to_csv(&u, &description).into_bytes());
+    ) + &simulated_sessions(&args);
+    if paths.len() > 1 {
+        for (k, path) in paths.iter().enumerate() {
+            let text = session.session_csv(&u, &format!("{description} (session {})", k + 1), k);
+            outputs.set_path(path, text.into_bytes());
+        }
+    } else {
+        outputs.set("--out", session.to_csv(&u, &description).into_bytes());
+    }
     if args.truth.is_some() {
         let json = serde_json::to_string_pretty(&session.truth_json(&model.robot, &u))?;
         outputs.set("--truth", json.into_bytes());
@@ -138,11 +156,25 @@ pub(crate) fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The flags of several simulated sessions as the files' header gives them:
+/// `--payloads` and `--sessions` when given.
+fn simulated_sessions(args: &SimulateArgs) -> String {
+    let mut out = String::new();
+    if !args.payloads.is_empty() {
+        let kg: Vec<String> = args.payloads.iter().map(f64::to_string).collect();
+        out += &format!(" --payloads {}", kg.join(","));
+    }
+    if args.sessions > 1 {
+        out += &format!(" --sessions {}", args.sessions);
+    }
+    out
+}
+
 /// `armcal diagnose`.
 pub(crate) fn diagnose(args: DiagnoseArgs) -> anyhow::Result<()> {
     let mut outputs = output::Outputs::new()
         .model_input(&args.model.model)
-        .data_input(&args.data)
+        .data_inputs(&args.data)
         .output("--out", args.out.as_deref())
         .output("--json", args.json.as_deref())
         .output("--html", args.html.as_deref());
@@ -177,7 +209,8 @@ pub(crate) fn diagnose(args: DiagnoseArgs) -> anyhow::Result<()> {
         outputs.set("--out", calibration.to_bytes()?);
     }
     if args.json.is_some() {
-        let report = diagnose_cmd::json(gravity.as_ref(), &diagnosis, &model, lines, &options);
+        let report =
+            diagnose_cmd::json(gravity.as_ref(), &diagnosis, &model, &data, lines, &options);
         let text = serde_json::to_string_pretty(&report)?;
         outputs.set("--json", text.into_bytes());
     }
@@ -193,7 +226,14 @@ pub(crate) fn diagnose(args: DiagnoseArgs) -> anyhow::Result<()> {
         outputs.set("--html", page.into_bytes());
     }
     finish(outputs, args.quiet, || {
-        diagnose_cmd::summary(gravity.as_ref(), &diagnosis, lines, &options, &model.units)
+        diagnose_cmd::summary(
+            gravity.as_ref(),
+            &diagnosis,
+            &data,
+            lines,
+            &options,
+            &model.units,
+        )
     })?;
     Ok(())
 }

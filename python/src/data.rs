@@ -171,6 +171,7 @@ pub fn simulate<'py>(
         columns_ignored: Vec::new(),
         warnings: Vec::new(),
         constraints: Default::default(),
+        sessions: Vec::new(),
     };
     let truth = errors::to_python(py, &session.truth_json(&m.robot, &u))?;
     Ok((

@@ -182,7 +182,7 @@ pub fn identify_py(
         .map_err(|e| errors::command(py, e, arrays))?;
     let (m, result) = (&identified.model, identified.result);
     let outcome = Outcome {
-        report: result.to_json(&m.units),
+        report: result.to_json(&m.units, &data.data),
         summary: result.summary(m, &data.data),
         calibration: result.calibration.clone(),
         failed: identified.failed.map(|f| f.to_string()),
@@ -250,8 +250,15 @@ pub fn diagnose(
     let from = usize::from(arrays);
     let lines: Vec<usize> = data.data.lines.iter().map(|line| line - from).collect();
     let outcome = Outcome {
-        report: diagnose_cmd::json(gravity.as_ref(), &diagnosis, m, &lines, &options),
-        summary: diagnose_cmd::summary(gravity.as_ref(), &diagnosis, &lines, &options, &m.units),
+        report: diagnose_cmd::json(gravity.as_ref(), &diagnosis, m, &data.data, &lines, &options),
+        summary: diagnose_cmd::summary(
+            gravity.as_ref(),
+            &diagnosis,
+            &data.data,
+            &lines,
+            &options,
+            &m.units,
+        ),
         calibration,
         failed: failed.map(|f| f.to_string()),
     };

@@ -27,6 +27,7 @@ use armcal_shared::pose_error::rotation_error;
 
 use crate::calibration::contact_check::{contact_check, geometric};
 use crate::calibration::diagnose::{Choice, Diagnosis};
+use crate::calibration::identify::full::{Registrations, session_registrations};
 use crate::calibration::parallel;
 use crate::io::measurements::{Measurements, Observation};
 use crate::io::model_file::{RobotModel, Units};
@@ -41,8 +42,14 @@ pub struct Residual {
 }
 
 /// The residuals of `model` on the rows of `data` not in `set_aside`
-/// (indices into its poses), as the module header says.
-pub fn residual(model: &EffectModel<f64>, data: &Measurements, set_aside: &[usize]) -> Residual {
+/// (indices into its poses), as the module header says; with several
+/// sessions, each row's as its session's `registrations` place the model.
+pub fn residual(
+    model: &EffectModel<f64>,
+    registrations: &Registrations,
+    data: &Measurements,
+    set_aside: &[usize],
+) -> Residual {
     let mut kept = vec![true; data.poses.len()];
     for &i in set_aside {
         if let Some(k) = kept.get_mut(i) {
@@ -86,7 +93,19 @@ pub fn residual(model: &EffectModel<f64>, data: &Measurements, set_aside: &[usiz
     }
     // Sums of squares over fixed chunks of rows, on every core, added in
     // order: the same answer on any number of cores.
-    let prepared = model.effects.is_empty().then(|| model.robot.prepare());
+    let models: Vec<EffectModel<f64>> = registrations
+        .robots(&model.robot)
+        .into_iter()
+        .map(|robot| EffectModel {
+            robot,
+            effects: model.effects.clone(),
+        })
+        .collect();
+    let prepared: Option<Vec<_>> = model
+        .effects
+        .is_empty()
+        .then(|| models.iter().map(|m| m.robot.prepare()).collect());
+    let session = |obs: &Observation| obs.session.min(models.len() - 1);
     let chunks: Vec<(&[Observation], &[bool])> =
         data.poses.chunks(CHUNK).zip(kept.chunks(CHUNK)).collect();
     let sums = parallel::map_if(chunks.len() > 1, &chunks, |(poses, kept)| {
@@ -94,8 +113,8 @@ pub fn residual(model: &EffectModel<f64>, data: &Measurements, set_aside: &[usiz
         for (obs, _) in poses.iter().zip(*kept).filter(|(_, k)| **k) {
             n += 1;
             let t = match &prepared {
-                Some(k) => k.forward(&obs.q).ok(),
-                None => model.forward(&obs.q, &obs.context).ok(),
+                Some(k) => k[session(obs)].forward(&obs.q).ok(),
+                None => models[session(obs)].forward(&obs.q, &obs.context).ok(),
             };
             let Some(t) = t else {
                 // A row the model cannot place counts as far off as it can be.
@@ -155,6 +174,8 @@ pub struct FailedCalibration {
 pub struct Judged<'a> {
     /// The model the calibration file holds.
     pub model: &'a EffectModel<f64>,
+    /// Where the sessions after the first saw it (empty for one session).
+    pub registrations: &'a Registrations,
     /// Its residual on the rows, if known.
     pub residual: Option<Residual>,
 }
@@ -181,7 +202,9 @@ pub struct Verdict {
 /// `set_aside`): both residuals, and `None` for the refusal when the fit that
 /// `ending` describes converged and the calibration fits the rows no worse
 /// than the nominal model, else why it must not be written; `flag` names the
-/// way to write it anyway.
+/// way to write it anyway. With several sessions the nominal model is the
+/// first session's as it is and each later session's own frames registered
+/// to its rows in closed form, as the fit starts.
 pub fn verdict(
     robot: &Robot<f64>,
     calibrated: Judged<'_>,
@@ -191,10 +214,11 @@ pub fn verdict(
     units: &Units,
     flag: &'static str,
 ) -> Verdict {
-    let nominal = residual(&geometric(robot), data, set_aside);
+    let registered = session_registrations(robot, &data.poses, calibrated.registrations);
+    let nominal = residual(&geometric(robot), &registered, data, set_aside);
     let ours = calibrated
         .residual
-        .unwrap_or_else(|| residual(calibrated.model, data, set_aside));
+        .unwrap_or_else(|| residual(calibrated.model, calibrated.registrations, data, set_aside));
     let judgement = Judgement {
         nominal,
         calibrated: ours,
@@ -288,6 +312,7 @@ pub fn diagnosis_refusal(
         &model.robot,
         Judged {
             model: &cal.model(),
+            registrations: &diagnosis.fit.registrations,
             residual: None,
         },
         data,
@@ -306,10 +331,16 @@ mod tests {
     use crate::io::measurements::parse_measurements;
     use crate::io::model_file::load_model;
 
+    /// The registrations of one session: none.
+    static NONE: Registrations = Registrations {
+        sessions: Vec::new(),
+    };
+
     /// `model`, its residual to be computed.
     fn judged(model: &EffectModel<f64>) -> Judged<'_> {
         Judged {
             model,
+            registrations: &NONE,
             residual: None,
         }
     }
@@ -370,8 +401,8 @@ mod tests {
             text.contains("nothing is written (--f writes it anyway)"),
             "{text}"
         );
-        let ours = residual(&geometric(&off), &data, &[]).position;
-        let nominal = residual(&same, &data, &[]).position;
+        let ours = residual(&geometric(&off), &NONE, &data, &[]).position;
+        let nominal = residual(&same, &NONE, &data, &[]).position;
         assert!(ours > 10.0 * nominal, "{ours} {nominal}");
         let stuck = Ending {
             iterations: 2,
@@ -396,7 +427,7 @@ mod tests {
         let (model, data) = session();
         let options = FullOptions::default();
         let fit = identify(&model, &data, ParamSet::Full, &options, Default::default()).unwrap();
-        let computed = residual(&geometric(&fit.calibrated()), &data, &[]).position;
+        let computed = residual(&geometric(&fit.calibrated()), &NONE, &data, &[]).position;
         assert!(
             (computed - fit.position_rms).abs() < 1e-9 * fit.position_rms,
             "{computed} {}",

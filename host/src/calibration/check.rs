@@ -21,6 +21,7 @@ use armcal_shared::JointType;
 pub use crate::calibration::identify::full::independent_parameter_count;
 use nalgebra::UnitQuaternion;
 
+use crate::calibration::identify::full::{FrameSharing, Registrations, session_registrations};
 use crate::io::measurements::Measurements;
 use crate::io::model_file::RobotModel;
 
@@ -37,24 +38,40 @@ pub struct NominalError {
     pub position_max_line: usize,
     /// RMS, mean and max of the orientation error angle, rad, when the data have orientation.
     pub orientation: Option<(f64, f64, f64)>,
+    /// The pose of the largest position error (an index into the poses).
+    pub position_max_pose: usize,
+    /// With several sessions, each session's RMS position error, m.
+    pub sessions: Vec<f64>,
 }
 
-/// The nominal model's errors against the measurements.
+/// The nominal model's errors against the measurements: with several
+/// sessions, the first session's as the model is, each later one's with its
+/// own base and tool registered to its rows in closed form (as a fit starts).
 pub fn nominal_error(model: &RobotModel, data: &Measurements) -> NominalError {
     let n = data.poses.len().max(1) as f64;
-    let (mut sum_sq, mut sum, mut max, mut max_line) = (0.0, 0.0, 0.0f64, 0);
+    let (mut sum_sq, mut sum, mut max, mut max_line, mut max_pose) = (0.0, 0.0, 0.0f64, 0, 0);
     let mut angles = Vec::new();
-    let kinematics = model.robot.prepare();
-    for (pose, &line) in data.poses.iter().zip(&data.lines) {
+    let count = data.session_count();
+    let shape = Registrations::of(&model.robot, count, FrameSharing::default());
+    let kinematics: Vec<_> = session_registrations(&model.robot, &data.poses, &shape)
+        .robots(&model.robot)
+        .iter()
+        .map(|r| r.prepare())
+        .collect();
+    let mut sessions = vec![(0.0, 0usize); count];
+    for (i, (pose, &line)) in data.poses.iter().zip(&data.lines).enumerate() {
         // The joint count was checked when the data were read against the model.
-        let Ok(frame) = kinematics.forward(&pose.q) else {
+        let Ok(frame) = kinematics[pose.session.min(count - 1)].forward(&pose.q) else {
             continue;
         };
         let e = (pose.position.coords - frame.translation.vector).norm();
         sum_sq += e * e;
         sum += e;
+        if let Some(s) = sessions.get_mut(pose.session) {
+            *s = (s.0 + e * e, s.1 + 1);
+        }
         if e > max {
-            (max, max_line) = (e, line);
+            (max, max_line, max_pose) = (e, line, i);
         }
         if let Some(measured) = pose.orientation {
             let nominal = UnitQuaternion::from_rotation_matrix(&frame.rotation);
@@ -73,6 +90,15 @@ pub fn nominal_error(model: &RobotModel, data: &Measurements) -> NominalError {
         position_max: max,
         position_max_line: max_line,
         orientation,
+        position_max_pose: max_pose,
+        sessions: if count > 1 {
+            sessions
+                .iter()
+                .map(|(s, k)| (s / (*k).max(1) as f64).sqrt())
+                .collect()
+        } else {
+            Vec::new()
+        },
     }
 }
 
@@ -162,6 +188,14 @@ fn write_model(out: &mut String, model: &RobotModel) {
 fn write_data(out: &mut String, model: &RobotModel, data: &Measurements, full_pose: bool) {
     let u = &model.units;
     let _ = writeln!(out, "\ndata    {}", data.file);
+    if data.session_count() > 1 {
+        let _ = writeln!(
+            out,
+            "        {} sessions: {}",
+            data.session_count(),
+            data.sessions.join(", ")
+        );
+    }
     let _ = writeln!(
         out,
         "        {} poses, {} ({} equations)",
@@ -271,15 +305,35 @@ fn write_nominal_error(out: &mut String, model: &RobotModel, data: &Measurements
     let _ = writeln!(out, "\nnominal model against the data");
     let _ = writeln!(
         out,
-        "        position error  rms {} {len}  mean {} {len}  max {} {len} (line {})   = rms {:.3} mm, max {:.3} mm",
+        "        position error  rms {} {len}  mean {} {len}  max {} {len} (line {}{})   = rms {:.3} mm, max {:.3} mm",
         fmt_num(u.length_from_si(e.position_rms)),
         fmt_num(u.length_from_si(e.position_mean)),
         fmt_num(u.length_from_si(e.position_max)),
         e.position_max_line,
+        if e.sessions.is_empty() {
+            String::new()
+        } else {
+            format!(" of {}", data.file_of(e.position_max_pose))
+        },
         mm(e.position_rms),
         mm(e.position_max),
         len = u.length,
     );
+    for (k, rms) in e.sessions.iter().enumerate() {
+        let _ = writeln!(
+            out,
+            "        session {} {}: rms {} {}{}",
+            k + 1,
+            data.sessions.get(k).map_or("?", String::as_str),
+            fmt_num(u.length_from_si(*rms)),
+            u.length,
+            if k == 0 {
+                " (the model's base and tool)"
+            } else {
+                " (its own base and tool, registered to its rows)"
+            }
+        );
+    }
     if let Some((rms, mean, max)) = e.orientation {
         let _ = writeln!(
             out,

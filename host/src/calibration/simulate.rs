@@ -7,7 +7,7 @@
 
 use crate::calibration::identify::full::Observation;
 use crate::io::measurements::Contact;
-use armcal_shared::{JointType, Param, Robot};
+use armcal_shared::{Frame, JointType, Param, Robot};
 use nalgebra::{Point3, UnitQuaternion, Vector3};
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
@@ -121,6 +121,7 @@ pub fn measure(
                 context: Default::default(),
                 torque: None,
                 contact: Contact::Measured,
+                session: 0,
             }
         })
         .collect()
@@ -144,6 +145,9 @@ pub struct Session {
     pub load: Vec<f64>,
     /// The measurements.
     pub observations: Vec<Observation>,
+    /// Each session's true base and tool frames, in order (the first the
+    /// truth's own).
+    pub frames: Vec<(Frame<f64>, Frame<f64>)>,
 }
 
 /// What a simulated session is made of.
@@ -172,6 +176,12 @@ pub struct Scenario {
     pub torque_noise: Option<f64>,
     /// Seed of every draw.
     pub seed: u64,
+    /// Sessions the rows are measured in, in consecutive blocks: each after
+    /// the first with the instrument moved (its base frame turned by up to
+    /// ±π about the vertical and ±50 mrad about the others, shifted by up
+    /// to ±1 m) and the measured point remounted (the tool shifted by up to
+    /// ±3 mm and turned by up to ±10 mrad).
+    pub sessions: usize,
 }
 
 impl Scenario {
@@ -189,8 +199,31 @@ impl Scenario {
             payloads: vec![0.0, 5.0],
             torque_noise: None,
             seed,
+            sessions: 1,
         }
     }
+}
+
+/// The frames of `sessions` sessions of `truth` (see [`Scenario::sessions`]):
+/// the first the truth's own, each later one drawn from `seed` (apart from
+/// the rows' draws, so that one session's rows are those of a scenario of
+/// one session).
+fn session_frames(truth: &Robot<f64>, sessions: usize, seed: u64) -> Vec<(Frame<f64>, Frame<f64>)> {
+    let mut r = rng(seed ^ 0x5e55_10a5);
+    let mut uniform = |x: f64| r.random_range(-x..x);
+    let pi = std::f64::consts::PI;
+    (0..sessions.max(1))
+        .map(|k| {
+            let (mut base, mut tool) = (truth.base, truth.tool);
+            if k > 0 {
+                base.xyz += Vector3::new(uniform(1.0), uniform(1.0), uniform(1.0));
+                base.rpy += Vector3::new(uniform(0.05), uniform(0.05), uniform(pi));
+                tool.xyz += Vector3::new(uniform(3e-3), uniform(3e-3), uniform(3e-3));
+                tool.rpy += Vector3::new(uniform(0.01), uniform(0.01), uniform(0.01));
+            }
+            (base, tool)
+        })
+        .collect()
 }
 
 /// Simulates `scenario` on `nominal`. Poses are visited in random order, so that
@@ -231,10 +264,19 @@ pub fn simulate_visiting(
             l.beta = beta;
         }
     }
-    let model = EffectModel::new(truth.clone(), &scenario.effects)?;
+    let frames = session_frames(&truth, scenario.sessions, scenario.seed);
+    let models = frames
+        .iter()
+        .map(|(base, tool)| {
+            let mut seen = truth.clone();
+            (seen.base, seen.tool) = (*base, *tool);
+            EffectModel::new(seen, &scenario.effects)
+        })
+        .collect::<Result<Vec<_>, _>>()?;
     let q = visit(&mut r);
     let n = q.len().max(1);
     let block = n.div_ceil(scenario.payloads.len().max(1));
+    let session_block = n.div_ceil(frames.len());
     let normal = Normal::new(0.0, 1.0).expect("unit normal");
     let mut session = Session {
         truth,
@@ -244,6 +286,7 @@ pub fn simulate_visiting(
         temp: Vec::new(),
         load: Vec::new(),
         observations: Vec::new(),
+        frames: frames.clone(),
     };
     let mut approach = Approach::new();
     for (i, qi) in q.iter().enumerate() {
@@ -256,7 +299,8 @@ pub fn simulate_visiting(
             payload: Some(load),
             approach: approach.next(qi),
         };
-        let frame = model.forward(qi, &ctx)?;
+        let session_of = i / session_block;
+        let frame = models[session_of].forward(qi, &ctx)?;
         let torque = match scenario.torque_noise {
             None => None,
             Some(s) => {
@@ -283,6 +327,7 @@ pub fn simulate_visiting(
             context: ctx,
             torque,
             contact: Contact::Measured,
+            session: session_of,
         });
         session.t.push(10.0 * i as f64);
         session.temp.push(temp);
@@ -294,6 +339,31 @@ pub fn simulate_visiting(
 impl Session {
     /// The measurements as a measurement CSV (`docs/file-formats.md` §2) in `units`, with `t`, `temp`, `load`.
     pub fn to_csv(&self, units: &armcal_shared::units::Units, description: &str) -> String {
+        self.csv_of(units, description, |_| true)
+    }
+
+    /// The number of sessions the rows were measured in.
+    pub fn sessions(&self) -> usize {
+        self.frames.len().max(1)
+    }
+
+    /// Session `k`'s rows (from 0) as a measurement CSV, as [`Session::to_csv`].
+    pub fn session_csv(
+        &self,
+        units: &armcal_shared::units::Units,
+        description: &str,
+        k: usize,
+    ) -> String {
+        self.csv_of(units, description, |o| o.session == k)
+    }
+
+    /// The rows `keep` keeps as a measurement CSV.
+    fn csv_of(
+        &self,
+        units: &armcal_shared::units::Units,
+        description: &str,
+        keep: impl Fn(&Observation) -> bool,
+    ) -> String {
         use std::fmt::Write as _;
         let joints: Vec<JointType> = self.truth.links.iter().map(|l| l.joint).collect();
         let orientation = self.observations.iter().any(|o| o.orientation.is_some());
@@ -318,6 +388,9 @@ impl Session {
         }
         let _ = writeln!(out, "{}", header.join(","));
         for (i, obs) in self.observations.iter().enumerate() {
+            if !keep(obs) {
+                continue;
+            }
             let mut row: Vec<String> = obs
                 .q
                 .iter()
@@ -380,7 +453,21 @@ impl Session {
             .iter()
             .map(|e| serde_json::json!({"name": e.name(), "joint": e.joint().map(|j| j + 1), "si": serde_json::to_value(e).unwrap_or_default()}))
             .collect();
-        serde_json::json!({"errors": errors, "effects": effects, "units": {"length": units.length.to_string(), "angle": units.angle.to_string()}})
+        let mut truth = serde_json::json!({"errors": errors, "effects": effects, "units": {"length": units.length.to_string(), "angle": units.angle.to_string()}});
+        if self.frames.len() > 1 {
+            let frame = |f: &Frame<f64>| {
+                serde_json::json!({
+                    "xyz": f.xyz.iter().map(|x| units.length_from_si(*x)).collect::<Vec<_>>(),
+                    "rpy": f.rpy.iter().map(|x| units.angle_from_si(*x)).collect::<Vec<_>>(),
+                })
+            };
+            truth["sessions"] = self
+                .frames
+                .iter()
+                .map(|(b, t)| serde_json::json!({"base": frame(b), "tool": frame(t)}))
+                .collect();
+        }
+        truth
     }
 }
 
@@ -486,6 +573,7 @@ pub fn socket_session(
                     context: Default::default(),
                     torque: None,
                     contact: Contact::Point(k),
+                    session: 0,
                 });
                 found += 1;
             }
@@ -542,6 +630,7 @@ pub fn plane_touches(
                 context: Default::default(),
                 torque: None,
                 contact: Contact::Plane(plane),
+                session: 0,
             });
         }
     }

@@ -12,9 +12,11 @@ use super::{Front, fit_options, folds};
 use crate::calibration::acceptance::{FailedCalibration, diagnosis_refusal};
 use crate::calibration::diagnose::{DiagnoseOptions, Diagnosis, diagnose_with_progress};
 use crate::calibration::gravity::{GravityFit, with_measured_gravity};
-use crate::calibration::identify::{self, StatedScales};
+use crate::calibration::identify::full::FullOptions;
+use crate::calibration::identify::{self, StatedScales, sessions};
 use crate::io::model_file::RobotModel;
 use crate::session::measurements::Measurements;
+use crate::session::registration::FrameSharing;
 
 /// What `diagnose` is asked.
 #[derive(Clone, Copy, Debug)]
@@ -26,6 +28,8 @@ pub struct Request {
     pub scales: StatedScales,
     /// The frame the compensation's targets will be given in.
     pub targets: TargetFrame,
+    /// With several sessions, which frames are each session's own.
+    pub frames: FrameSharing,
 }
 
 /// What `diagnose` found.
@@ -66,7 +70,10 @@ pub fn run(
     let folds = folds(front, request.folds, data.len())?;
     let options = DiagnoseOptions {
         folds,
-        fit: fit_options(front, model, &request.scales)?,
+        fit: FullOptions {
+            sessions: request.frames,
+            ..fit_options(front, model, &request.scales)?
+        },
         ..Default::default()
     };
     let observations = identify::observations(data);
@@ -91,17 +98,21 @@ pub fn run(
     })
 }
 
-/// The summary of a diagnosis: the masses' fit to the measured torques, if
-/// any, then the diagnosis' own (`lines`: each pose's line or row).
+/// The summary of a diagnosis of `data`: the masses' fit to the measured
+/// torques, if any, each session's figures when there are several, then the
+/// diagnosis' own (`lines`: each pose's line or row).
 pub fn summary(
     gravity: Option<&GravityFit>,
     diagnosis: &Diagnosis,
+    data: &Measurements,
     lines: &[usize],
     options: &DiagnoseOptions,
     units: &Units,
 ) -> String {
     let head = gravity.map(|g| format!("{}\n", g.summary()));
-    head.unwrap_or_default() + &diagnosis.summary(lines, options, units)
+    head.unwrap_or_default()
+        + &sessions::summary(&diagnosis.fit, data, units)
+        + &diagnosis.summary(lines, options, units)
 }
 
 /// The JSON report of a diagnosis: the diagnosis' own, with `gravity`, the
@@ -110,10 +121,14 @@ pub fn json(
     gravity: Option<&GravityFit>,
     diagnosis: &Diagnosis,
     model: &RobotModel,
+    data: &Measurements,
     lines: &[usize],
     options: &DiagnoseOptions,
 ) -> serde_json::Value {
     let mut report = diagnosis.to_json(model, lines, options);
+    if let Some(s) = sessions::json(&diagnosis.fit, data, &model.units) {
+        report["sessions"] = s;
+    }
     if let Some(g) = gravity {
         report["gravity"] = g.to_json();
     }

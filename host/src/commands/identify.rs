@@ -10,10 +10,12 @@ use armcal_shared::TargetFrame;
 use super::{Front, fit_options};
 use crate::calibration::acceptance::FailedCalibration;
 use crate::calibration::gravity::with_measured_gravity;
+use crate::calibration::identify::full::FullOptions;
 use crate::calibration::identify::prior_scale::PriorScale;
 use crate::calibration::identify::{self, Identification, ParamSet, StatedScales};
 use crate::io::model_file::RobotModel;
 use crate::session::measurements::Measurements;
+use crate::session::registration::FrameSharing;
 
 /// What `identify` is asked.
 #[derive(Clone, Copy, Debug)]
@@ -26,6 +28,8 @@ pub struct Request {
     pub prior_scale: PriorScale,
     /// The frame the compensation's targets will be given in.
     pub targets: TargetFrame,
+    /// With several sessions, which frames are each session's own.
+    pub frames: FrameSharing,
 }
 
 /// What `identify` found.
@@ -55,7 +59,10 @@ pub fn run(
 ) -> anyhow::Result<Identified> {
     let (fitted, gravity) = with_measured_gravity(model, data);
     let model = &fitted;
-    let options = fit_options(front, model, &request.scales)?;
+    let options = FullOptions {
+        sessions: request.frames,
+        ..fit_options(front, model, &request.scales)?
+    };
     let mut result =
         identify::identify(model, data, request.params, &options, request.prior_scale)?;
     data.require_fit_supported(model, result.position_rms)?;

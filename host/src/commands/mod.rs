@@ -89,6 +89,10 @@ pub enum Argument {
     Effects,
     /// The hidden tilts `simulate` builds in.
     Tilts,
+    /// The payloads `simulate` measures with.
+    Payloads,
+    /// The sessions `simulate` measures in.
+    SimulatedSessions,
     /// The model a calibration is exported against or into.
     Model,
     /// The calibration file exported.
@@ -119,6 +123,10 @@ impl Argument {
             (Self::Effects, Front::Python) => "effects",
             (Self::Tilts, Front::CommandLine) => "--tilt",
             (Self::Tilts, Front::Python) => "tilts",
+            (Self::Payloads, Front::CommandLine) => "--payloads",
+            (Self::Payloads, Front::Python) => "payloads",
+            (Self::SimulatedSessions, Front::CommandLine) => "--sessions",
+            (Self::SimulatedSessions, Front::Python) => "sessions",
             (Self::Model, Front::CommandLine) => "--model",
             (Self::Model, Front::Python) => "model",
             (Self::Calibration, Front::CommandLine) => "--calibration",

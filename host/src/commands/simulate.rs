@@ -10,6 +10,7 @@ use super::{Argument, Front};
 use crate::calibration::simulate::{self, Scenario, Session};
 use crate::io::input_error::InputError;
 use crate::io::model_file::RobotModel;
+use crate::session::measurements::PAYLOAD_RANGE;
 
 /// What `simulate` is asked.
 #[derive(Clone, Debug)]
@@ -31,6 +32,27 @@ pub struct Request {
     pub effects: Vec<String>,
     /// Hidden Hayati tilts `(joint from 1, β rad)`.
     pub tilts: Vec<(usize, f64)>,
+    /// The payloads of consecutive blocks of rows, kg; empty for the
+    /// tracker's default (0 and 5 kg).
+    pub payloads: Vec<f64>,
+    /// Sessions the rows are measured in (at least 1): see
+    /// [`Scenario::sessions`].
+    pub sessions: usize,
+}
+
+impl Request {
+    /// The file session `k` (from 0) of several is written to, for `--out
+    /// path`: `D-1.csv`, `D-2.csv`, … for `D.csv`.
+    pub fn session_path(path: &std::path::Path, k: usize) -> std::path::PathBuf {
+        let stem = path
+            .file_stem()
+            .map_or_else(Default::default, |s| s.to_string_lossy());
+        let name = match path.extension() {
+            Some(ext) => format!("{stem}-{}.{}", k + 1, ext.to_string_lossy()),
+            None => format!("{stem}-{}", k + 1),
+        };
+        path.with_file_name(name)
+    }
 }
 
 impl Request {
@@ -59,6 +81,20 @@ impl Request {
         }
         if let Some(n) = self.torque_noise {
             scenario.torque_noise = Some(non_negative(Argument::TorqueNoise, n)?);
+        }
+        if self.sessions == 0 {
+            return Err(Argument::SimulatedSessions.refused(front, "0: at least 1"));
+        }
+        scenario.sessions = self.sessions;
+        for &kg in &self.payloads {
+            let [lo, hi] = PAYLOAD_RANGE;
+            if !(lo..=hi).contains(&kg) {
+                return Err(Argument::Payloads
+                    .refused(front, format!("{kg}: a payload from {lo} to {hi} kg")));
+            }
+        }
+        if !self.payloads.is_empty() {
+            scenario.payloads = self.payloads.clone();
         }
         for spec in &self.effects {
             let effect = simulate::parse_effect(spec, dof)

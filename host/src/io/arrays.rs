@@ -123,6 +123,7 @@ pub fn measurements(model: &RobotModel, a: &PoseArrays<'_>) -> Result<Measuremen
         columns_ignored: Vec::new(),
         warnings: Vec::new(),
         constraints: Default::default(),
+        sessions: Vec::new(),
     })
 }
 

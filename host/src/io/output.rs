@@ -122,6 +122,11 @@ impl Outputs {
         }
     }
 
+    /// [`Outputs::data_input`] of every session named.
+    pub fn data_inputs(self, names: &[String]) -> Self {
+        names.iter().fold(self, |out, name| out.data_input(name))
+    }
+
     /// An output `flag` asks for at `path`; `None` (not asked for) is ignored.
     /// Its bytes are given later by [`set`](Self::set).
     pub fn output(mut self, flag: &str, path: Option<&Path>) -> Self {
@@ -150,6 +155,17 @@ impl Outputs {
             .iter_mut()
             .find(|p| p.flag == flag)
             .unwrap_or_else(|| panic!("no output planned under {flag}"));
+        planned.bytes = Some(bytes);
+    }
+
+    /// Gives the bytes of the output planned at `path` (one flag that names
+    /// several files: `simulate --sessions`).
+    pub fn set_path(&mut self, path: &Path, bytes: Vec<u8>) {
+        let planned = self
+            .outputs
+            .iter_mut()
+            .find(|p| p.path == path)
+            .unwrap_or_else(|| panic!("no output planned at {}", path.display()));
         planned.bytes = Some(bytes);
     }
 

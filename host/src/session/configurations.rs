@@ -1,5 +1,6 @@
 //! Configurations: the distinct poses of a session. Two rows are one
-//! configuration when they are held to the same contact, every joint reads
+//! configuration when they were measured in the same session (each has its
+//! own frames) and held to the same contact, every joint reads
 //! the same within the encoder's resolution, each joint approached from the
 //! same side and the temperature and payload agree. A repeat adds no
 //! geometry: every data-sufficiency rule counts configurations. The repeats'
@@ -73,6 +74,7 @@ impl Sameness {
             _ => false,
         };
         a.contact == b.contact
+            && a.session == b.session
             && a.q.len() == b.q.len()
             && a.q
                 .iter()

@@ -58,6 +58,11 @@ pub struct Observation {
     /// (a row of a constraint file, `position` not measured and 0) an unknown
     /// fixed point or plane.
     pub contact: Contact,
+    /// The session the row was measured in: an index into
+    /// [`Measurements::sessions`] (0 for a single session). Each session has
+    /// its own registration unless told it shares one
+    /// ([`crate::session::registration`]).
+    pub session: usize,
 }
 
 /// The ranges of `poses` (SI: each joint, the temperature and the payload
@@ -109,6 +114,7 @@ impl Observation {
             context,
             torque,
             contact: Contact::Measured,
+            session: 0,
         }
     }
 
@@ -181,6 +187,10 @@ pub struct Measurements {
     /// The unknown fixed points and known distances of a constraint file
     /// (empty for measured coordinates; see [`crate::session::constraints`]).
     pub constraints: Constraints,
+    /// The files of several sessions read as one ([`Measurements::sessions`]),
+    /// in order: a pose's `session` indexes them. Empty for one session, the
+    /// `file`.
+    pub sessions: Vec<String>,
 }
 
 impl Measurements {
@@ -214,6 +224,7 @@ impl Measurements {
             columns_ignored: Vec::new(),
             warnings: Vec::new(),
             constraints: Constraints::default(),
+            sessions: Vec::new(),
         };
         for part in parts {
             // Each point and plane of this part: its index in the merged constraints.
@@ -238,6 +249,54 @@ impl Measurements {
             }
         }
         out
+    }
+
+    /// Several sessions of one robot as one calibration's rows, in order:
+    /// their poses, each marked with its session (an index into
+    /// `sessions`, the files), their lines (each its own file's) and times.
+    /// Sessions of contacts are [`Measurements::merged`] instead (a point named
+    /// in two files is one point, and their frames are one). One part is
+    /// returned as it is. Refused: sessions of contacts with sessions of
+    /// measured coordinates.
+    pub fn sessions(parts: Vec<Measurements>) -> Result<Measurements, InputError> {
+        if parts.len() == 1 {
+            return Ok(parts.into_iter().next().expect("one part"));
+        }
+        let contacts = parts.first().is_some_and(Measurements::is_constrained);
+        if let Some(other) = parts.iter().find(|p| p.is_constrained() != contacts) {
+            return Err(InputError::new(
+                &other.file,
+                other.lines.first().copied().unwrap_or(1),
+                1,
+                "a session of contacts (rows at unknown points or planes) and a session of \
+                 measured coordinates cannot be calibrated together: give sessions of one kind",
+            ));
+        }
+        let refs: Vec<&Measurements> = parts.iter().collect();
+        let mut out = Measurements::merged(&refs);
+        let mut pose = 0;
+        for (session, part) in parts.iter().enumerate() {
+            for p in &mut out.poses[pose..pose + part.poses.len()] {
+                p.session = session;
+            }
+            pose += part.poses.len();
+        }
+        out.sessions = parts.iter().map(|p| p.file.clone()).collect();
+        Ok(out)
+    }
+
+    /// The number of sessions the rows were measured in (1 for one file).
+    pub fn session_count(&self) -> usize {
+        self.sessions.len().max(1)
+    }
+
+    /// The file pose `pose` (an index into `poses`) was read from: its
+    /// session's, or `file`.
+    pub fn file_of(&self, pose: usize) -> &str {
+        self.poses
+            .get(pose)
+            .and_then(|p| self.sessions.get(p.session))
+            .map_or(&self.file, String::as_str)
     }
 
     /// Whether there are no poses (never the case for a parsed file).

@@ -18,6 +18,7 @@
 //! | [`configurations`] | the distinct configurations the rows repeat, and the pure error of the repeats |
 //! | [`channel`] | the kinds of measurement row, each with its own noise |
 //! | [`prior`] | the prior scale of the D-H parameter errors |
+//! | [`registration`] | several sessions in one calibration: each session's own base and tool frames |
 //! | [`model`] | the robot model: identity, units, the nominal robot in SI, its prior |
 //! | [`input_error`] | why an input was refused, and where ([`input_error::InputError`]) |
 
@@ -29,6 +30,7 @@ pub mod joints;
 pub mod measurements;
 pub mod model;
 pub mod prior;
+pub mod registration;
 
 #[cfg(test)]
 mod tests {

@@ -76,7 +76,8 @@ pub fn score(
         Unknown::Param(Param::Beta(_))
         | Unknown::Effect { .. }
         | Unknown::Point { .. }
-        | Unknown::Plane { .. } => Some(Geometry::Registration),
+        | Unknown::Plane { .. }
+        | Unknown::Session { .. } => Some(Geometry::Registration),
         Unknown::Param(p) => Geometry::ALL.into_iter().find(|g| g.frees(robot, p)),
     };
     let mut order: Vec<usize> = (0..lin.j.ncols()).filter(|&c| first(c).is_some()).collect();

@@ -66,7 +66,7 @@ use nalgebra::Vector3;
 
 use crate::calibration::identify::full::{
     FullError, FullFit, FullOptions, Linearization, Observation, PlaneEstimate, Status,
-    identify_constrained, linearize,
+    identify_constrained, linearize, session_registrations,
 };
 use crate::calibration::identify::prior::{Geometry, Prior};
 use crate::calibration::parallel;
@@ -123,11 +123,17 @@ impl Default for DiagnoseOptions {
 /// the measured point: the fitted fixed point, or the foot of the tool point
 /// on the fitted plane (a residual along the plane's normal).
 pub fn residuals(fit: &FullFit, data: &[Observation]) -> Vec<Vector3<f64>> {
-    let Ok(model) = EffectModel::new(fit.calibrated.clone(), &fit.fitted_effects()) else {
+    let effects = fit.fitted_effects();
+    // Each session's model: its own frames where it has them.
+    let Ok(models) = (0..fit.registrations.count())
+        .map(|k| EffectModel::new(fit.robot_of(k), &effects))
+        .collect::<Result<Vec<_>, _>>()
+    else {
         return Vec::new();
     };
     data.iter()
         .map(|o| {
+            let model = &models[o.session.min(models.len() - 1)];
             let Ok(t) = model.forward(&o.q, &o.context) else {
                 return Vector3::zeros();
             };
@@ -158,15 +164,16 @@ pub(crate) fn position_errors(fit: &FullFit, data: &[Observation]) -> Vec<f64> {
 /// the nominal tool points of the other folds' rows put there (their mean; the
 /// least-squares plane through them), as the cross-validation of a calibrated
 /// model estimates it. The rows of the same fold stand in where the others
-/// are too few (a point named by one fold's rows only).
-fn nominal_errors(nominal: &Robot<f64>, data: &[Observation], k: usize) -> Vec<f64> {
+/// are too few (a point named by one fold's rows only). With several
+/// sessions, `nominal` is the nominal robot as each session sees it.
+fn nominal_errors(nominal: &[Robot<f64>], data: &[Observation], k: usize) -> Vec<f64> {
     let k = k.clamp(2, data.len().max(2));
     let contacts: Vec<Contact> = data.iter().map(|o| o.contact).collect();
     let fold = cross_validation::interleaved_folds(&contacts, k);
     let tool: Vec<Vector3<f64>> = data
         .iter()
         .map(|o| {
-            nominal
+            nominal[o.session.min(nominal.len() - 1)]
                 .forward(&o.q)
                 .map_or(Vector3::zeros(), |t| t.translation.vector)
         })
@@ -781,7 +788,9 @@ impl Pass<'_> {
         let (options, reference, clean) = (self.options, &screen.reference, &screen.clean);
         // The noise the reference shows without its blunders.
         let fit_options = options.fit.at_noise_of(reference);
-        let nominal_errors = nominal_errors(self.nominal, clean, options.folds);
+        // The nominal model registered to each later session as the fit starts.
+        let registered = session_registrations(self.nominal, clean, &reference.registrations);
+        let nominal_errors = nominal_errors(&registered.robots(self.nominal), clean, options.folds);
         let models = geometry::score(self.nominal, &screen.lin, options.folds, &nominal_errors);
         let best = geometry::best(&models).clone();
         let nominal_holdout = models[0].held;
@@ -1263,10 +1272,22 @@ impl Diagnosis {
     fn fitted_at(&self, nominal: &Robot<f64>, data: &[Observation]) -> Option<HeldOut> {
         let orientation = data.iter().all(|o| o.orientation.is_some());
         let model = self.calibration(nominal, orientation, Units::SI).model();
+        // Each session's rows as its own frames place the written model.
+        let models: Vec<EffectModel<f64>> = self
+            .fit
+            .registrations
+            .robots(&model.robot)
+            .into_iter()
+            .map(|robot| EffectModel {
+                robot,
+                effects: model.effects.clone(),
+            })
+            .collect();
         let errors: Vec<f64> = data
             .iter()
             .filter(|o| o.contact == Contact::Measured)
             .map(|o| {
+                let model = &models[o.session.min(models.len() - 1)];
                 model.forward(&o.q, &o.context).map_or(f64::INFINITY, |t| {
                     (o.position.coords - t.translation.vector).norm()
                 })

@@ -553,9 +553,14 @@ impl Diagnosis {
             );
         }
         if let Some(h) = self.fitted {
+            let gives = if self.fit.sessions.len() > 1 {
+                "each session in its own frames: `armcal predict` gives the first session's"
+            } else {
+                "`armcal predict` gives these"
+            };
             let _ = writeln!(
                 out,
-                "  {:<24} {:>8.4} {:>8.4} {:>8.4}  (the calibration written, at the poses it was fitted to: `armcal predict` gives these)",
+                "  {:<24} {:>8.4} {:>8.4} {:>8.4}  (the calibration written, at the poses it was fitted to: {gives})",
                 "fitted, in-sample",
                 mm(h.rms),
                 mm(h.mean),

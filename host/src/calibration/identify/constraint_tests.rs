@@ -552,6 +552,7 @@ fn a_probed_block_held_out_is_judged_by_its_flatness() {
                 planes,
                 ..Constraints::default()
             },
+            sessions: Vec::new(),
         }
     };
     let sessions = [

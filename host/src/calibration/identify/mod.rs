@@ -7,6 +7,7 @@
 //! | [`prior`] | the prior on the D-H errors and the nested geometric models |
 //! | [`prior_scale`] | the prior's scale chosen on held-out poses (`--prior-scale chosen`, the default) |
 //! | [`noise`] | each channel's noise, estimated from the residuals as variance components |
+//! | [`sessions`] | several sessions in the reports: each session's figures and frames |
 //! | `summary` | the report of `armcal identify`: the JSON of `docs/file-formats.md` §6 and the human summary |
 //!
 //! This module runs either model ([`identify`]) and turns its result into the
@@ -19,6 +20,7 @@ pub mod noise;
 pub mod paper;
 pub mod prior;
 pub mod prior_scale;
+pub mod sessions;
 mod summary;
 
 pub use summary::{NoiseRow, noise_json, noise_rows};
@@ -32,7 +34,7 @@ use armcal_shared::{Calibration, Param, Robot};
 use crate::calibration::acceptance::Judgement;
 use crate::io::measurements::Measurements;
 use crate::io::model_file::RobotModel;
-use full::{FullFit, FullOptions, Observation, Status};
+use full::{FullFit, FullOptions, Observation, Registrations, Status};
 use paper::{PaperOptions, PaperPose};
 use prior::Prior;
 use prior_scale::{PriorChoice, PriorScale};
@@ -445,6 +447,10 @@ impl Identification {
             &model.robot,
             Judged {
                 model: &geometric(&self.calibrated()),
+                registrations: self
+                    .full
+                    .as_ref()
+                    .map_or(&Registrations::default(), |f| &f.registrations),
                 residual,
             },
             data,

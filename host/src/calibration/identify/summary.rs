@@ -90,8 +90,9 @@ fn in_units(units: &Units, param: Param, si: f64) -> f64 {
 }
 
 impl Identification {
-    /// The JSON of `docs/file-formats.md` §6, values in the model's units.
-    pub fn to_json(&self, units: &Units) -> serde_json::Value {
+    /// The JSON of `docs/file-formats.md` §6 of an identification from
+    /// `data`, values in the model's units.
+    pub fn to_json(&self, units: &Units, data: &Measurements) -> serde_json::Value {
         let parameters: Vec<serde_json::Value> = self
             .parameters
             .iter()
@@ -131,6 +132,9 @@ impl Identification {
             });
         }
         if let Some(fit) = &self.full {
+            if let Some(sessions) = super::sessions::json(fit, data, units) {
+                out["sessions"] = sessions;
+            }
             out["condition_number"] = json!(fit.condition_number);
             out["observability_index"] = json!(fit.observability);
             out["variance_factor"] = json!(fit.variance_factor);
@@ -291,6 +295,9 @@ impl Identification {
             }
         );
         self.write_judgement(&mut out, u, data);
+        if let Some(fit) = &self.full {
+            out.push_str(&super::sessions::summary(fit, data, u));
+        }
         if let Some(g) = &self.gravity {
             let _ = writeln!(out, "{}", g.summary());
         }
@@ -335,7 +342,16 @@ impl Identification {
                 u.angle
             );
         }
-        let _ = writeln!(out, " (the calibration written: `armcal predict` gives it)");
+        let several = self.full.as_ref().is_some_and(|f| f.sessions.len() > 1);
+        let _ = writeln!(
+            out,
+            " (the calibration written{}",
+            if several {
+                ", each session in its own frames: `armcal predict` gives the first session's, below)"
+            } else {
+                ": `armcal predict` gives it)"
+            }
+        );
     }
 
     /// The full fit's condition number, observability and variance factor, and each channel's noise.

@@ -212,6 +212,7 @@ impl Session {
             columns_ignored: columns.ignored,
             warnings: columns.warnings,
             constraints,
+            sessions: Vec::new(),
         }
     }
 }

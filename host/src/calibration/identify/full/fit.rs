@@ -20,14 +20,14 @@ use super::super::noise::{
     Channel, ChannelNoise, NoiseEstimate, NoiseSource, PerChannel, SETTLED, Weights,
 };
 use super::super::prior::Prior;
-use super::initial::{initial_base_tool, initial_points_tool};
+use super::initial::{initial_base_tool, initial_points_tool, session_registrations};
 use super::rows::{LinearSystem, NormalEquations};
 use super::selection::{constrained_subset, separable_subset};
 use super::solve::{levenberg_marquardt, wrap_angle};
 use super::{
     Constraints, EffectFit, FullError, FullFit, FullOptions, MAX_NOISE_ROUNDS, Model, Observation,
-    ParamResult, PlaneEstimate, PlaneFit, PointFit, Posterior, Status, Unknown, full_params,
-    independent_parameter_count, prior_reach, prior_terms,
+    ParamResult, PlaneEstimate, PlaneFit, PointFit, Posterior, Registrations, SessionFit, Status,
+    Unknown, full_params, independent_parameter_count, prior_reach, prior_terms,
 };
 
 /// Refuses data the fit cannot read: rows at points or planes the
@@ -81,6 +81,9 @@ pub(super) struct Unknowns {
     orientation: bool,
     /// Whether the rows sit at unknown points or planes (`constraints` not empty).
     constrained: bool,
+    /// The sessions whose frames are their own, each beside the first's
+    /// (1: one session, or sessions that share every frame).
+    sessions: usize,
 }
 
 impl Unknowns {
@@ -131,9 +134,31 @@ impl Unknowns {
             .chain((0..constraints.planes.len()).flat_map(|plane| {
                 (0..3).map(move |component| Unknown::Plane { plane, component })
             }));
-        let mut params: Vec<Unknown> = point_unknowns
-            .chain(all.iter().filter(|p| frees(p)).map(|p| Unknown::Param(*p)))
+        // Sessions of measured coordinates after the first: their own frames,
+        // after the model's (sessions of contacts share theirs).
+        let sessions = if constrained {
+            1
+        } else {
+            data.iter().map(|o| o.session + 1).max().unwrap_or(1)
+        };
+        let is_frame = |p: &&Param| matches!(p, Param::Base(_) | Param::Tool(_));
+        let own_frames: Vec<Param> = all
+            .iter()
+            .filter(|p| is_frame(p) && frees(p) && options.sessions.per_session(**p))
+            .copied()
             .collect();
+        let session_unknowns = (1..sessions).flat_map(|session| {
+            own_frames
+                .iter()
+                .map(move |&param| Unknown::Session { session, param })
+        });
+        let free = all.iter().filter(|p| frees(p));
+        let mut params: Vec<Unknown> = point_unknowns
+            .chain(free.clone().filter(is_frame).map(|p| Unknown::Param(*p)))
+            .chain(session_unknowns)
+            .chain(free.filter(|p| !is_frame(p)).map(|p| Unknown::Param(*p)))
+            .collect();
+        let sessions = if own_frames.is_empty() { 1 } else { sessions };
         for (effect, e) in effects.iter().enumerate() {
             params.extend(
                 (0..e.parameter_count()).map(|component| Unknown::Effect { effect, component }),
@@ -149,6 +174,7 @@ impl Unknowns {
             unknowns = (unknowns + 3 * constraints.points.len() + 3 * constraints.planes.len())
                 .saturating_sub(6);
         }
+        unknowns += (sessions - 1) * own_frames.len();
         if equations < unknowns {
             return Err(FullError::TooFewEquations {
                 equations,
@@ -162,6 +188,7 @@ impl Unknowns {
             equations,
             orientation,
             constrained,
+            sessions,
         })
     }
 
@@ -191,6 +218,8 @@ impl Unknowns {
                 data,
                 options.initial_estimate && start.is_none(),
             );
+        } else if self.sessions > 1 {
+            self.initial_registrations(&mut robot, start.is_none(), data, options);
         } else if options.initial_estimate && start.is_none() {
             initial_base_tool(&mut robot.robot, data);
         }
@@ -203,6 +232,28 @@ impl Unknowns {
             }
         }
         robot
+    }
+
+    /// Each session's own frames in closed form with the start's joints (the
+    /// first session's, the model's, on its own rows and only when
+    /// `model_frames`: a start's frames are kept).
+    fn initial_registrations(
+        &self,
+        model: &mut Model,
+        model_frames: bool,
+        data: &[Observation],
+        options: &FullOptions,
+    ) {
+        let shape = Registrations::of(&model.robot, self.sessions, options.sessions);
+        if !options.initial_estimate {
+            model.registrations = shape;
+            return;
+        }
+        if model_frames {
+            let first: Vec<Observation> = data.iter().filter(|o| o.session == 0).cloned().collect();
+            initial_base_tool(&mut model.robot, &first);
+        }
+        model.registrations = session_registrations(&model.robot, data, &shape);
     }
 }
 
@@ -395,9 +446,10 @@ impl<'a> Fit<'a> {
             let keep = match *p {
                 Unknown::Param(Param::Base(_) | Param::Tool(_)) => self.start.get(*p),
                 Unknown::Param(q) => self.nominal.param(q),
-                Unknown::Effect { .. } | Unknown::Point { .. } | Unknown::Plane { .. } => {
-                    self.start.get(*p)
-                }
+                Unknown::Effect { .. }
+                | Unknown::Point { .. }
+                | Unknown::Plane { .. }
+                | Unknown::Session { .. } => self.start.get(*p),
             };
             if let (Some(v), Some(slot)) = (keep, self.robot.get_mut(*p)) {
                 moved |= *slot != v;
@@ -694,6 +746,7 @@ impl<'a> Fit<'a> {
             .cloned()
             .chain(held_by_model)
             .collect::<HashMap<_, _>>();
+        let reasons_of_sessions = reasons.clone();
         let (params, effects) =
             self.statuses(&s.free_params, &s.post.share, &stats.std_of, reasons);
         if !s.sys.cost().is_finite() {
@@ -704,7 +757,10 @@ impl<'a> Fit<'a> {
             planes,
             distance_residuals,
         } = self.constraint_fits(&s, &stats.std_of);
+        let sessions = self.session_fits(&s, &stats.std_of, &reasons_of_sessions);
         Ok(FullFit {
+            registrations: self.robot.registrations.clone(),
+            sessions,
             points,
             planes,
             distance_residuals,
@@ -725,6 +781,73 @@ impl<'a> Fit<'a> {
             noise,
             prior_reach: stats.prior_reach,
         })
+    }
+}
+
+impl Fit<'_> {
+    /// Each session's figures and own frames at solution `s`, when there are
+    /// several: the RMS of its rows' residuals, and each own frame
+    /// parameter's value and status.
+    fn session_fits(
+        &self,
+        s: &Solution,
+        std_of: &[f64],
+        reasons: &HashMap<Unknown, String>,
+    ) -> Vec<SessionFit> {
+        let count = self.data.iter().map(|o| o.session + 1).max().unwrap_or(1);
+        if count < 2 {
+            return Vec::new();
+        }
+        // Each session's sums of squares: the rows of no unknown, unweighted.
+        let mut sums = vec![(0usize, 0.0, 0.0, 0usize); count];
+        let mut poses = self.data.iter();
+        let ones = Weights::of(&PerChannel::from_fn(|_| 1.0));
+        super::rows::for_each_pose_rows(&self.robot, self.data, &[], &ones, |rows| {
+            let Some(obs) = poses.next() else { return };
+            let sum = &mut sums[obs.session];
+            sum.0 += 1;
+            sum.1 += rows.r[..rows.position_rows]
+                .iter()
+                .map(|x| x * x)
+                .sum::<f64>();
+            if rows.orientation {
+                sum.2 += rows.r[3..6].iter().map(|x| x * x).sum::<f64>();
+                sum.3 += 1;
+            }
+        });
+        let frames: Vec<Param> = self
+            .unknowns
+            .all
+            .iter()
+            .filter(|p| matches!(p, Param::Base(_) | Param::Tool(_)))
+            .copied()
+            .collect();
+        let regs = &self.robot.registrations;
+        sums.iter()
+            .enumerate()
+            .map(|(session, &(n, pos, rot, n_rot))| SessionFit {
+                poses: n,
+                position_rms: (pos / n.max(1) as f64).sqrt(),
+                orientation_rms: (n_rot > 0).then(|| (rot / n_rot as f64).sqrt()),
+                frames: frames
+                    .iter()
+                    .filter_map(|&param| {
+                        let value = regs.param(session, param)?;
+                        let u = Unknown::Session { session, param };
+                        let status = match s.free_params.iter().position(|p| *p == u) {
+                            Some(k) => Status::Identified { std: std_of[k] },
+                            None => Status::Fixed {
+                                reason: reasons
+                                    .get(&u)
+                                    .cloned()
+                                    .unwrap_or_else(|| "not separable".into()),
+                            },
+                        };
+                        Some((param, value, status))
+                    })
+                    .collect(),
+            })
+            .collect()
     }
 }
 

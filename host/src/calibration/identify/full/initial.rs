@@ -6,12 +6,40 @@
 use armcal_shared::{Robot, rotation_error};
 use nalgebra::{IsometryMatrix3, Matrix3, Point3, Rotation3, Vector3};
 
-use super::{Model, Observation, PlaneEstimate};
+use super::{Model, Observation, PlaneEstimate, Registrations};
 
 /// The most poses the closed-form estimate of base and tool reads: evenly
 /// spaced over a longer session. A start for the fit, which then reads every
 /// pose; at this many its own scatter is below a hundredth of the noise.
 pub(super) const START_POSES: usize = 10_000;
+
+/// The own frames of every session after the first of `data` (those
+/// `shape` gives it), each estimated in closed form for `robot` on the
+/// session's rows; the first session's, the model's own, are `robot`'s and
+/// not estimated.
+pub fn session_registrations(
+    robot: &Robot<f64>,
+    data: &[Observation],
+    shape: &Registrations,
+) -> Registrations {
+    let mut out = shape.clone();
+    for (k, own) in out.sessions.iter_mut().enumerate() {
+        let rows: Vec<Observation> = data
+            .iter()
+            .filter(|o| o.session == k + 1)
+            .cloned()
+            .collect();
+        let mut seen = robot.clone();
+        initial_base_tool(&mut seen, &rows);
+        if let Some(base) = own.base.as_mut() {
+            *base = seen.base;
+        }
+        if let Some(tool) = own.tool.as_mut() {
+            *tool = seen.tool;
+        }
+    }
+    out
+}
 
 /// The closed-form estimate of base and tool with the nominal joints (see the
 /// module header), from at most [`START_POSES`] of the poses.

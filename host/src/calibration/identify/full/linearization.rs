@@ -35,6 +35,7 @@ impl AtFit {
     ) -> Self {
         let mut model = Model::of(fit.calibrated.clone(), fit.fitted_effects());
         model.constraints = constraints.clone();
+        model.registrations = fit.registrations.clone();
         model.points = fit.points.iter().map(|p| p.position).collect();
         model.planes = fit
             .planes
@@ -48,6 +49,15 @@ impl AtFit {
             unknowns.push(Unknown::Param(p.param));
             offset.push(p.error);
         }
+        for (session, own) in fit.sessions.iter().enumerate() {
+            for (param, _, _) in own.frames.iter().filter(|f| identified(&f.2)) {
+                unknowns.push(Unknown::Session {
+                    session,
+                    param: *param,
+                });
+            }
+        }
+        offset.resize(unknowns.len(), 0.0);
         for (point, p) in fit.points.iter().enumerate() {
             unknowns.extend(
                 (0..3)
@@ -79,7 +89,10 @@ impl AtFit {
             .iter()
             .map(|u| match u {
                 Unknown::Param(p) => prior.precision(*p),
-                Unknown::Effect { .. } | Unknown::Point { .. } | Unknown::Plane { .. } => 0.0,
+                Unknown::Effect { .. }
+                | Unknown::Point { .. }
+                | Unknown::Plane { .. }
+                | Unknown::Session { .. } => 0.0,
             })
             .collect();
         Self {

@@ -82,6 +82,7 @@ use nalgebra::{Matrix3, Point3, Rotation3, Vector3};
 
 use super::noise::{Channel, Noise, NoiseEstimate, NoiseSource, PerChannel, Weights};
 use super::prior::{Geometry, PRIOR_FACTORS, Prior};
+pub use crate::session::registration::{FrameSharing, Registrations, Sharing};
 
 mod fit;
 mod initial;
@@ -91,6 +92,7 @@ mod selection;
 mod solve;
 
 use fit::{Fit, Unknowns, check_inputs};
+pub use initial::session_registrations;
 pub use linearization::{FoldNormal, FoldNormals, Linearization, fold_normals, linearize};
 use rows::NormalEquations;
 pub(crate) use solve::{unit_diagonal_scale, unit_scale};
@@ -115,6 +117,15 @@ pub enum Unknown {
         point: usize,
         /// 0, 1, 2: x, y, z.
         axis: usize,
+    },
+    /// A parameter of the own base or tool frame of session `session ≥ 1`
+    /// of several ([`crate::session::registration`]): a nuisance unknown
+    /// estimated with the robot.
+    Session {
+        /// The session, 0-based (never 0: the first session's frames are the model's).
+        session: usize,
+        /// `Param::Base(_)` or `Param::Tool(_)`.
+        param: Param,
     },
     /// A parameter of an unknown plane of a constraint session
     /// ([`PlaneEstimate`]): a nuisance unknown estimated with the robot.
@@ -209,10 +220,12 @@ pub struct Model {
     pub planes: Vec<PlaneEstimate>,
     /// The constraints the points come from: their names and the known distances.
     pub constraints: Constraints,
+    /// The own frames of the sessions after the first (empty for one session).
+    pub registrations: Registrations,
 }
 
 impl Model {
-    /// The geometric model `robot` with `effects`, without fixed points.
+    /// The geometric model `robot` with `effects`, without fixed points, of one session.
     fn of(robot: Robot<f64>, effects: Vec<Effect<f64>>) -> Self {
         Self {
             robot,
@@ -220,6 +233,7 @@ impl Model {
             points: Vec::new(),
             planes: Vec::new(),
             constraints: Constraints::default(),
+            registrations: Registrations::default(),
         }
     }
 
@@ -228,6 +242,7 @@ impl Model {
             Unknown::Param(p) => self.robot.param(p),
             Unknown::Effect { effect, component } => self.effects.get(effect)?.parameter(component),
             Unknown::Point { point, axis } => self.points.get(point).map(|p| p[axis]),
+            Unknown::Session { session, param } => self.registrations.param(session, param),
             Unknown::Plane { plane, component } => {
                 self.planes.get(plane).and_then(|p| match component {
                     0 | 1 => Some(p.tilt[component]),
@@ -245,6 +260,7 @@ impl Model {
                 self.effects.get_mut(effect)?.parameter_mut(component)
             }
             Unknown::Point { point, axis } => self.points.get_mut(point).map(|p| &mut p[axis]),
+            Unknown::Session { session, param } => self.registrations.param_mut(session, param),
             Unknown::Plane { plane, component } => {
                 self.planes.get_mut(plane).and_then(|p| match component {
                     0 | 1 => Some(&mut p.tilt[component]),
@@ -282,6 +298,7 @@ impl Model {
                     .map_or("?", |p| p.name.as_str()),
                 ["x", "y", "z"].get(axis).copied().unwrap_or("?")
             ),
+            Unknown::Session { session, param } => format!("session {} {param}", session + 1),
             Unknown::Plane { plane, component } => format!(
                 "plane {}.{}",
                 self.constraints
@@ -352,6 +369,8 @@ pub struct FullOptions {
     pub prior: Prior,
     /// Which parameters are free; the others are held at nominal.
     pub geometry: Geometry,
+    /// With several sessions, which frames are each session's own.
+    pub sessions: FrameSharing,
 }
 
 impl FullOptions {
@@ -440,6 +459,7 @@ impl Default for FullOptions {
             plane_noise: None,
             prior: Prior::default(),
             geometry: Geometry::Full,
+            sessions: FrameSharing::default(),
         }
     }
 }
@@ -527,6 +547,25 @@ pub struct FullFit {
     /// The known distances of a constraint session as the fit leaves them:
     /// the distance between the estimated points less the stated one, m.
     pub distance_residuals: Vec<f64>,
+    /// The own frames of the sessions after the first, as fitted (empty for
+    /// one session): `calibrated` is the first session's.
+    pub registrations: Registrations,
+    /// Each session's figures and own frames, in order (empty for one session).
+    pub sessions: Vec<SessionFit>,
+}
+
+/// One session of several, as the fit leaves it.
+#[derive(Clone, Debug)]
+pub struct SessionFit {
+    /// Its poses.
+    pub poses: usize,
+    /// The RMS of its rows' position residuals (3-D distance), m.
+    pub position_rms: f64,
+    /// The RMS of its rows' orientation angles, rad, when it measures them.
+    pub orientation_rms: Option<f64>,
+    /// Its own frames' parameters (none for the first session, whose frames
+    /// are the model's): the value, SI, and its status.
+    pub frames: Vec<(Param, f64, Status)>,
 }
 
 /// One estimated unknown plane `normal · x = offset` (base frame).
@@ -552,6 +591,11 @@ pub struct PointFit {
 }
 
 impl FullFit {
+    /// The calibrated robot as session `session` sees it: with its own frames.
+    pub fn robot_of(&self, session: usize) -> Robot<f64> {
+        self.registrations.robot(&self.calibrated, session)
+    }
+
     /// The weights of the rows of each channel at the noise the fit used (1
     /// for a channel without rows).
     pub fn weights(&self) -> Weights {
@@ -794,7 +838,10 @@ fn prior_terms(free: &[Unknown], nominal: &Robot<f64>, prior: &Prior) -> Vec<(f6
     free.iter()
         .map(|u| match u {
             Unknown::Param(p) => (prior.precision(*p), nominal.param(*p).unwrap_or(0.0)),
-            Unknown::Effect { .. } | Unknown::Point { .. } | Unknown::Plane { .. } => (0.0, 0.0),
+            Unknown::Effect { .. }
+            | Unknown::Point { .. }
+            | Unknown::Plane { .. }
+            | Unknown::Session { .. } => (0.0, 0.0),
         })
         .collect()
 }

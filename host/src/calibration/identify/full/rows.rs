@@ -123,9 +123,10 @@ pub(super) fn for_each_pose_rows<O: Borrow<Observation>>(
     mut emit: impl FnMut(&PoseRows),
 ) {
     let wr = weights[Channel::Orientation];
-    let robot = &model.robot;
-    let kinematics = robot.prepare();
-    let Some(Ok(mut chain)) = data.first().map(|o| kinematics.chain(&o.borrow().q)) else {
+    // Each session sees the robot through its own base and tool frames.
+    let robots = model.registrations.robots(&model.robot);
+    let kinematics: Vec<Prepared<f64>> = robots.iter().map(Robot::prepare).collect();
+    let Some(Ok(mut chain)) = data.first().map(|o| kinematics[0].chain(&o.borrow().q)) else {
         return;
     };
     let mut rows = PoseRows {
@@ -136,20 +137,35 @@ pub(super) fn for_each_pose_rows<O: Borrow<Observation>>(
         position_rows: 3,
         channel: Channel::Position,
     };
-    let base_columns = chain.base_columns();
+    let q0 = &data[0].borrow().q;
+    let base_columns: Vec<[Twist<f64>; 6]> = kinematics
+        .iter()
+        .map(|k| {
+            k.chain(q0)
+                .map_or([Twist::zeros(); 6], |c| c.base_columns())
+        })
+        .collect();
     let effects = PoseEffects::of(model);
     let mut q_eff: Vec<f64> = Vec::new();
     for obs in data {
         let obs: &Observation = obs.borrow();
+        let session = obs.session.min(robots.len() - 1);
         // Joint counts were checked on entry.
-        let Some(at) = effects.place(robot, &kinematics, obs, &mut q_eff, &mut chain) else {
+        let Some(at) = effects.place(
+            &robots[session],
+            &kinematics[session],
+            obs,
+            &mut q_eff,
+            &mut chain,
+        ) else {
             continue;
         };
         let columns = PoseColumns {
             model,
             obs,
+            session,
             chain: &chain,
-            base_columns: &base_columns,
+            base_columns: &base_columns[session],
             tool_columns: chain.tool_columns(),
             at: &at,
         };
@@ -178,7 +194,7 @@ pub(super) fn for_each_pose_rows<O: Borrow<Observation>>(
                     // The row's target moves with its own point: −1 on the axis.
                     rows.set_point_column(k, obs.fixed_point() == Some(point), axis, pose.wp);
                 }
-                Unknown::Param(_) | Unknown::Effect { .. } => {
+                Unknown::Param(_) | Unknown::Effect { .. } | Unknown::Session { .. } => {
                     rows.set_column(k, &columns.column(u), &pose);
                 }
             }
@@ -281,6 +297,9 @@ impl PoseEffects {
 struct PoseColumns<'a> {
     model: &'a Model,
     obs: &'a Observation,
+    /// The pose's session: its base and tool columns are those of its own
+    /// frames where it has them, the model's where it shares them.
+    session: usize,
     chain: &'a Chain<f64>,
     base_columns: &'a [Twist<f64>; 6],
     tool_columns: [Twist<f64>; 6],
@@ -292,9 +311,28 @@ impl PoseColumns<'_> {
     #[inline]
     fn column(&self, u: Unknown) -> Twist<f64> {
         let (chain, robot, length_scale) = (self.chain, &self.model.robot, self.at.length_scale);
+        let frame = |p: Param| match p {
+            Param::Base(ax) => self.base_columns[ax.index()],
+            Param::Tool(ax) => self.tool_columns[ax.index()],
+            _ => Twist::zeros(),
+        };
+        let own = |p: Param| self.model.registrations.owns(self.session, p);
         match u {
-            Unknown::Param(Param::Base(ax)) => self.base_columns[ax.index()],
-            Unknown::Param(Param::Tool(ax)) => self.tool_columns[ax.index()],
+            // The model's frames move the poses of the sessions that share them.
+            Unknown::Param(p @ (Param::Base(_) | Param::Tool(_))) => {
+                if own(p) {
+                    Twist::zeros()
+                } else {
+                    frame(p)
+                }
+            }
+            Unknown::Session { session, param } => {
+                if session == self.session {
+                    frame(param)
+                } else {
+                    Twist::zeros()
+                }
+            }
             Unknown::Param(pm @ (Param::A(_) | Param::S(_))) => chain.column(pm) * length_scale,
             Unknown::Param(pm) => chain.column(pm),
             Unknown::Effect { effect, component } => {

@@ -58,13 +58,16 @@ pub(super) fn separable_subset(
             // absorb the joint parameters that move the arm as it would.
             Unknown::Param(Param::Base(_)) if !robot.points.is_empty() => (f64::INFINITY, ""),
             Unknown::Param(p) if options.prior.precision(p) > 0.0 => (f64::INFINITY, ""),
-            Unknown::Param(p) if p.is_angle() => (options.max_std_angle, "rad"),
+            Unknown::Param(p) | Unknown::Session { param: p, .. } if p.is_angle() => {
+                (options.max_std_angle, "rad")
+            }
             Unknown::Plane {
                 component: 0 | 1, ..
             } => (options.max_std_angle, "rad"),
-            Unknown::Param(_) | Unknown::Point { .. } | Unknown::Plane { .. } => {
-                (options.max_std_length, "m")
-            }
+            Unknown::Param(_)
+            | Unknown::Point { .. }
+            | Unknown::Plane { .. }
+            | Unknown::Session { .. } => (options.max_std_length, "m"),
             Unknown::Effect { .. } => (f64::INFINITY, ""),
         };
         if d > tol2 && std > limit {
@@ -189,7 +192,10 @@ pub(super) fn dependence_reason(
                 .into(),
         ),
         Unknown::Param(p) => geometry_reason(p, &robot.robot, data),
-        Unknown::Effect { .. } | Unknown::Point { .. } | Unknown::Plane { .. } => None,
+        Unknown::Effect { .. }
+        | Unknown::Point { .. }
+        | Unknown::Plane { .. }
+        | Unknown::Session { .. } => None,
     }
     .or_else(|| {
         names
