@@ -15,6 +15,7 @@ mod predict;
 mod ranges;
 mod refusals;
 mod replicates;
+mod sessions;
 mod torques;
 mod ur;
 mod urdf;

@@ -911,3 +911,35 @@ proptest! {
         }
     }
 }
+
+/// Several files are several sessions of one robot: their rows in order,
+/// each marked with its session and its own file's line, `file_of` naming
+/// the file a row came from. A session of contacts with one of measured
+/// coordinates is refused at the first file of the other kind.
+#[test]
+fn sessions_read_as_one_calibration_and_mixed_kinds_are_refused() {
+    let model = ur5e();
+    let coordinates = |file: &str, rows: usize| {
+        let text = format!("{HEADER6}\n{}", format!("{ROW6}\n").repeat(rows));
+        parse_measurements(&text, file, &model).unwrap()
+    };
+    let data =
+        Measurements::sessions(vec![coordinates("a.csv", 2), coordinates("b.csv", 3)]).unwrap();
+    assert_eq!(data.session_count(), 2);
+    assert_eq!(data.sessions, ["a.csv", "b.csv"]);
+    let sessions: Vec<usize> = data.poses.iter().map(|p| p.session).collect();
+    assert_eq!(sessions, [0, 0, 1, 1, 1]);
+    assert_eq!(data.lines, [2, 3, 2, 3, 4]);
+    assert_eq!(data.file_of(1), "a.csv");
+    assert_eq!(data.file_of(4), "b.csv");
+    let one = Measurements::sessions(vec![coordinates("a.csv", 2)]).unwrap();
+    assert_eq!((one.session_count(), one.file.as_str()), (1, "a.csv"));
+
+    let mut text = String::from("q1,q2,q3,q4,q5,q6,point\n");
+    for k in 0..12 {
+        text.push_str(&format!("0.{k},0.2,0.3,0.4,0.5,0.6,s{}\n", k % 2));
+    }
+    let contacts = parse_measurements(&text, "c.csv", &model).unwrap();
+    let e = Measurements::sessions(vec![coordinates("a.csv", 2), contacts]).unwrap_err();
+    assert_refused_at(&e, "c.csv", 2, 1, &["a session of contacts"]);
+}

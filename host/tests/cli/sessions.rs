@@ -1,0 +1,152 @@
+//! Several sessions in one calibration, as a user runs them: `simulate
+//! --sessions` writes one file a session (the tracker moved and the SMR
+//! remounted between them), `check`, `identify` and `diagnose` read them
+//! together with `--data A.csv B.csv …`, and each session's figure is
+//! reported; the file written holds the first session's registration, and
+//! `armcal predict` with it gives the first session's figure.
+
+use crate::{refused, succeeds};
+
+/// The RMS 3-D distance (model units) between the points of `predicted` and
+/// the measured ones of `measured` (two CSV texts, rows in order).
+fn rms_distance(predicted: &str, measured: &str) -> f64 {
+    let rows = |text: &str| -> Vec<Vec<f64>> {
+        let mut lines = text.lines().filter(|l| !l.starts_with('#'));
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let at: Vec<usize> = ["x", "y", "z"]
+            .iter()
+            .map(|c| header.iter().position(|h| h == c).unwrap())
+            .collect();
+        lines
+            .map(|l| {
+                let cells: Vec<f64> = l.split(',').map(|c| c.parse().unwrap()).collect();
+                at.iter().map(|&i| cells[i]).collect()
+            })
+            .collect()
+    };
+    let (p, m) = (rows(predicted), rows(measured));
+    assert_eq!(p.len(), m.len());
+    let sum: f64 = p
+        .iter()
+        .zip(&m)
+        .map(|(a, b)| (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>())
+        .sum();
+    (sum / p.len() as f64).sqrt()
+}
+
+#[test]
+fn sessions_are_calibrated_together_and_the_file_holds_the_first() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    succeeds(
+        d,
+        &[
+            "simulate",
+            "--model",
+            "ur5e",
+            "--poses",
+            "240",
+            "--sessions",
+            "3",
+            "--out",
+            "s.csv",
+            "--truth",
+            "t.json",
+        ],
+    );
+    let truth: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("t.json")).unwrap()).unwrap();
+    assert_eq!(truth["sessions"].as_array().unwrap().len(), 3);
+    let files = ["s-1.csv", "s-2.csv", "s-3.csv"];
+    let mut args = vec!["check", "--model", "ur5e", "--data"];
+    args.extend(files);
+    let check = String::from_utf8_lossy(&succeeds(d, &args).stdout).into_owned();
+    assert!(
+        check.contains("3 sessions: s-1.csv, s-2.csv, s-3.csv"),
+        "{check}"
+    );
+    assert!(check.contains("session 3 s-3.csv: rms"), "{check}");
+
+    let mut args = vec!["identify", "--model", "ur5e", "--out", "c.cal"];
+    args.extend(["--json", "r.json", "--data"]);
+    args.extend(files);
+    let out = String::from_utf8_lossy(&succeeds(d, &args).stdout).into_owned();
+    assert!(
+        out.contains("3 sessions, each with its own base frame and tool"),
+        "{out}"
+    );
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("r.json")).unwrap()).unwrap();
+    let sessions = report["sessions"].as_array().unwrap();
+    assert_eq!(sessions.len(), 3);
+    assert_eq!(sessions[0]["file"], "s-1.csv");
+    assert_eq!(sessions[0]["written"], true);
+    // Each session in its own frames fits to the simulated noise (20 µm per
+    // axis: 35 µm in 3-D), though the tracker moved by up to a metre.
+    for s in sessions {
+        let rms = s["position_rms_mm"].as_f64().unwrap();
+        assert!(rms < 0.05, "{s}");
+        assert_eq!(s["poses"], 80);
+    }
+    // The figure printed for the first session is what the file delivers.
+    let predicted = succeeds(
+        d,
+        &["predict", "--calibration", "c.cal", "--joints", "s-1.csv"],
+    );
+    let measured = std::fs::read_to_string(d.join("s-1.csv")).unwrap();
+    let delivered = rms_distance(&String::from_utf8_lossy(&predicted.stdout), &measured);
+    let printed = sessions[0]["position_rms"].as_f64().unwrap();
+    assert!(
+        (delivered - printed).abs() < 1e-9 + 1e-6 * printed,
+        "{delivered} {printed}"
+    );
+
+    // Taking the moved tracker's frames as one puts its motion into the
+    // robot, which no geometry of this arm can fit: refused, nothing written.
+    let mut args = vec![
+        "identify",
+        "--model",
+        "ur5e",
+        "--same-base",
+        "--out",
+        "same.cal",
+    ];
+    args.push("--data");
+    args.extend(files);
+    refused(d, &args, &["still misses the measured points"]);
+}
+
+#[test]
+fn diagnose_reports_each_session() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    succeeds(
+        d,
+        &[
+            "simulate",
+            "--model",
+            "ur5e",
+            "--poses",
+            "120",
+            "--sessions",
+            "2",
+            "--out",
+            "s.csv",
+        ],
+    );
+    let out = succeeds(
+        d,
+        &[
+            "diagnose", "--model", "ur5e", "--data", "s-1.csv", "s-2.csv", "--json", "d.json",
+        ],
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("session 2 s-2.csv: 60 poses"), "{stdout}");
+    assert!(
+        stdout.contains("`armcal predict` gives the first session's"),
+        "{stdout}"
+    );
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("d.json")).unwrap()).unwrap();
+    assert_eq!(report["sessions"].as_array().unwrap().len(), 2);
+}
