@@ -195,46 +195,28 @@ pub(crate) fn diagnose(args: DiagnoseArgs) -> anyhow::Result<()> {
     };
     let diagnosed = diagnose_cmd::run(CLI, &model, &data, &args.request(), &mut bar);
     progress.finish();
-    let diagnose_cmd::Diagnosed {
-        model,
-        gravity,
-        diagnosis,
-        options,
-        calibration,
-        failed,
-    } = diagnosed?;
-    accept(failed, args.write_failed)?;
+    let mut diagnosed = diagnosed?;
+    accept(diagnosed.failed.take(), args.write_failed)?;
     let lines = &data.lines;
     if args.out.is_some() {
-        outputs.set("--out", calibration.to_bytes()?);
+        outputs.set("--out", diagnosed.calibration.to_bytes()?);
     }
     if args.json.is_some() {
-        let report =
-            diagnose_cmd::json(gravity.as_ref(), &diagnosis, &model, &data, lines, &options);
-        let text = serde_json::to_string_pretty(&report)?;
+        let text = serde_json::to_string_pretty(&diagnosed.json(&data, lines))?;
         outputs.set("--json", text.into_bytes());
     }
     if args.html.is_some() {
         let observations = armcal::calibration::identify::observations(&data);
         let page = armcal::calibration::report::html(
-            &model,
+            &diagnosed.model,
             &data.file,
-            &diagnosis,
+            &diagnosed.diagnosis,
             observations,
-            &options,
+            &diagnosed.options,
         );
         outputs.set("--html", page.into_bytes());
     }
-    finish(outputs, args.quiet, || {
-        diagnose_cmd::summary(
-            gravity.as_ref(),
-            &diagnosis,
-            &data,
-            lines,
-            &options,
-            &model.units,
-        )
-    })?;
+    finish(outputs, args.quiet, || diagnosed.summary(&data, lines))?;
     Ok(())
 }
 

@@ -235,35 +235,26 @@ pub fn diagnose(
     };
     let m = &model.inner;
     let (data, arrays) = session(py, model, data)?;
-    let diagnose_cmd::Diagnosed {
-        model: fitted,
-        gravity,
-        diagnosis,
-        options,
-        calibration,
-        failed,
-    } = py
+    let mut diagnosed = py
         .detach(|| diagnose_cmd::run(PYTHON, m, &data.data, &request, &mut |_, _, _| {}))
         .map_err(|e| errors::command(py, e, arrays))?;
-    let m = &fitted;
     // Arrays name their rows from 0, files by line.
     let from = usize::from(arrays);
     let lines: Vec<usize> = data.data.lines.iter().map(|line| line - from).collect();
     let outcome = Outcome {
-        report: diagnose_cmd::json(gravity.as_ref(), &diagnosis, m, &data.data, &lines, &options),
-        summary: diagnose_cmd::summary(
-            gravity.as_ref(),
-            &diagnosis,
-            &data.data,
-            &lines,
-            &options,
-            &m.units,
-        ),
-        calibration,
-        failed: failed.map(|f| f.to_string()),
+        report: diagnosed.json(&data.data, &lines),
+        summary: diagnosed.summary(&data.data, &lines),
+        calibration: diagnosed.calibration.clone(),
+        failed: diagnosed.failed.take().map(|f| f.to_string()),
     };
     let observations = armcal::calibration::identify::observations(&data.data);
-    let html = report::html(m, &data.data.file, &diagnosis, observations, &options);
+    let html = report::html(
+        &diagnosed.model,
+        &data.data.file,
+        &diagnosed.diagnosis,
+        observations,
+        &diagnosed.options,
+    );
     Py::new(
         py,
         PyClassInitializer::from(outcome).add_subclass(Diagnosis { html }),

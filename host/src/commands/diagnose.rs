@@ -5,18 +5,22 @@
 //! Scales are in the model's units as the user states them; the calibration
 //! is SI (docs/file-formats.md §5).
 
-use armcal_shared::units::Units;
 use armcal_shared::{Calibration, TargetFrame};
 
 use super::{Front, fit_options, folds};
 use crate::calibration::acceptance::{FailedCalibration, diagnosis_refusal};
+use crate::calibration::diagnose::Choice;
 use crate::calibration::diagnose::{DiagnoseOptions, Diagnosis, diagnose_with_progress};
 use crate::calibration::gravity::{GravityFit, with_measured_gravity};
-use crate::calibration::identify::full::FullOptions;
+use crate::calibration::identify::full::{
+    FullError, FullOptions, Observation, identify_with_effects,
+};
+use crate::calibration::identify::sessions::{SessionHeldOut, held_out_by_session};
 use crate::calibration::identify::{self, StatedScales, sessions};
 use crate::io::model_file::RobotModel;
 use crate::session::measurements::Measurements;
 use crate::session::registration::FrameSharing;
+use armcal_shared::Param;
 
 /// What `diagnose` is asked.
 #[derive(Clone, Copy, Debug)]
@@ -51,6 +55,10 @@ pub struct Diagnosed {
     /// Why the calibration is not written unless asked (its final fit did
     /// not converge, or it fits its data worse than the nominal model).
     pub failed: Option<FailedCalibration>,
+    /// With several sessions, each one left out in turn, the others
+    /// calibrated as the diagnosis chose ([`held_out_by_session`]); empty
+    /// otherwise.
+    pub sessions_held_out: Vec<SessionHeldOut>,
 }
 
 /// Diagnoses `model` on `data` (a session [`super::require_session`]
@@ -88,7 +96,9 @@ pub fn run(
     let failed = diagnosis_refusal(model, data, &diagnosis, front.write_failed());
     let mut calibration = diagnosis.calibration(&model.robot, data.has_orientation(), model.units);
     calibration.targets = request.targets;
+    let sessions_held_out = sessions_held_out(model, observations, &diagnosis, &options)?;
     Ok(Diagnosed {
+        sessions_held_out,
         model: fitted,
         gravity,
         diagnosis,
@@ -98,39 +108,70 @@ pub fn run(
     })
 }
 
-/// The summary of a diagnosis of `data`: the masses' fit to the measured
-/// torques, if any, each session's figures when there are several, then the
-/// diagnosis' own (`lines`: each pose's line or row).
-pub fn summary(
-    gravity: Option<&GravityFit>,
+/// Each session of `data` left out in turn (its blunders set aside), the
+/// others calibrated as `diagnosis` chose: its geometry and prior, its
+/// effects and tilts.
+fn sessions_held_out(
+    model: &RobotModel,
+    data: &[Observation],
     diagnosis: &Diagnosis,
-    data: &Measurements,
-    lines: &[usize],
     options: &DiagnoseOptions,
-    units: &Units,
-) -> String {
-    let head = gravity.map(|g| format!("{}\n", g.summary()));
-    head.unwrap_or_default()
-        + &sessions::summary(&diagnosis.fit, data, units)
-        + &diagnosis.summary(lines, options, units)
+) -> Result<Vec<SessionHeldOut>, FullError> {
+    if diagnosis.fit.sessions.len() < 2 {
+        return Ok(Vec::new());
+    }
+    let kept: Vec<Observation> = (0..data.len())
+        .filter(|i| diagnosis.blunders.binary_search(i).is_err())
+        .map(|i| data[i].clone())
+        .collect();
+    let at = options.fit.at_noise_of(&diagnosis.fit);
+    let effects = diagnosis.fit.fitted_effects();
+    let extra: Vec<Param> = diagnosis
+        .findings
+        .iter()
+        .flat_map(|f| f.candidate.extra.iter().copied())
+        .collect();
+    let calibrate = |rows: &[Observation]| match diagnosis.choice {
+        Choice::Nominal => Ok((model.robot.clone(), Vec::new())),
+        Choice::Calibrated {
+            geometry, prior, ..
+        } => {
+            let chosen = FullOptions {
+                geometry,
+                prior,
+                ..at
+            };
+            identify_with_effects(&model.robot, &effects, &extra, rows, &chosen)
+                .map(|f| (f.calibrated.clone(), f.fitted_effects()))
+        }
+    };
+    held_out_by_session(&kept, &calibrate, options.fit.sessions, &at)
 }
 
-/// The JSON report of a diagnosis: the diagnosis' own, with `gravity`, the
-/// masses' fit to the measured torques, when the session has them.
-pub fn json(
-    gravity: Option<&GravityFit>,
-    diagnosis: &Diagnosis,
-    model: &RobotModel,
-    data: &Measurements,
-    lines: &[usize],
-    options: &DiagnoseOptions,
-) -> serde_json::Value {
-    let mut report = diagnosis.to_json(model, lines, options);
-    if let Some(s) = sessions::json(&diagnosis.fit, data, &model.units) {
-        report["sessions"] = s;
+impl Diagnosed {
+    /// The summary of the diagnosis of `data`: the masses' fit to the
+    /// measured torques, if any, each session's figures when there are
+    /// several, then the diagnosis' own (`lines`: each pose's line or row).
+    pub fn summary(&self, data: &Measurements, lines: &[usize]) -> String {
+        let units = &self.model.units;
+        let head = self.gravity.as_ref().map(|g| format!("{}\n", g.summary()));
+        head.unwrap_or_default()
+            + &sessions::summary(&self.diagnosis.fit, &self.sessions_held_out, data, units)
+            + &self.diagnosis.summary(lines, &self.options, units)
     }
-    if let Some(g) = gravity {
-        report["gravity"] = g.to_json();
+
+    /// The JSON report of the diagnosis of `data`: the diagnosis' own, with
+    /// `gravity`, the masses' fit to the measured torques, when the session
+    /// has them, and `sessions` when there are several.
+    pub fn json(&self, data: &Measurements, lines: &[usize]) -> serde_json::Value {
+        let mut report = self.diagnosis.to_json(&self.model, lines, &self.options);
+        if let Some(g) = &self.gravity {
+            report["gravity"] = g.to_json();
+        }
+        let held_out = &self.sessions_held_out;
+        if let Some(s) = sessions::json(&self.diagnosis.fit, held_out, data, &self.model.units) {
+            report["sessions"] = s;
+        }
+        report
     }
-    report
 }

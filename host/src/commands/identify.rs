@@ -10,12 +10,15 @@ use armcal_shared::TargetFrame;
 use super::{Front, fit_options};
 use crate::calibration::acceptance::FailedCalibration;
 use crate::calibration::gravity::with_measured_gravity;
-use crate::calibration::identify::full::FullOptions;
+use crate::calibration::identify::full::{FullOptions, Observation, identify_with_effects};
 use crate::calibration::identify::prior_scale::PriorScale;
+use crate::calibration::identify::sessions::held_out_by_session;
 use crate::calibration::identify::{self, Identification, ParamSet, StatedScales};
+use crate::io::input_error::InputError;
 use crate::io::model_file::RobotModel;
 use crate::session::measurements::Measurements;
 use crate::session::registration::FrameSharing;
+use armcal_shared::Param;
 
 /// What `identify` is asked.
 #[derive(Clone, Copy, Debug)]
@@ -63,8 +66,31 @@ pub fn run(
         sessions: request.frames,
         ..fit_options(front, model, &request.scales)?
     };
+    if request.params == ParamSet::Paper && data.session_count() > 1 {
+        return Err(InputError::argument(
+            front.flag("--params"),
+            "paper: one session (Mirman & Gupta's regression has one base and one tool); \
+             several sessions are identified by --params full",
+        )
+        .into());
+    }
     let mut result =
         identify::identify(model, data, request.params, &options, request.prior_scale)?;
+    if let Some(fit) = result.full.as_ref().filter(|f| f.sessions.len() > 1) {
+        // Each session left out, the others calibrated at the prior's scale chosen.
+        let factor = result.prior.as_ref().map_or(1.0, |p| p.factor());
+        let at = FullOptions {
+            prior: options.prior.scaled(factor),
+            ..options.at_noise_of(fit)
+        };
+        let tilts: Vec<Param> = model.tilted.iter().map(|&k| Param::Beta(k)).collect();
+        let calibrate = |rows: &[Observation]| {
+            identify_with_effects(&model.robot, &[], &tilts, rows, &at)
+                .map(|f| (f.calibrated, Vec::new()))
+        };
+        result.sessions_held_out =
+            held_out_by_session(&data.poses, &calibrate, request.frames, &at)?;
+    }
     data.require_fit_supported(model, result.position_rms)?;
     let verdict = result.verdict(model, data, front.write_failed());
     result.judgement = Some(verdict.judgement);

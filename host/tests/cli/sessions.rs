@@ -83,9 +83,13 @@ fn sessions_are_calibrated_together_and_the_file_holds_the_first() {
     assert_eq!(sessions[0]["written"], true);
     // Each session in its own frames fits to the simulated noise (20 µm per
     // axis: 35 µm in 3-D), though the tracker moved by up to a metre.
+    // Left out, the others calibrated and its frames registered, a session
+    // is predicted to the noise too: the robot is the same in all.
     for s in sessions {
         let rms = s["position_rms_mm"].as_f64().unwrap();
         assert!(rms < 0.05, "{s}");
+        let left_out = s["held_out_rms_mm"].as_f64().unwrap();
+        assert!(left_out >= rms && left_out < 0.05, "{s}");
         assert_eq!(s["poses"], 80);
     }
     // The figure printed for the first session is what the file delivers.

@@ -172,6 +172,9 @@ pub struct Identification {
     /// The masses fitted to the session's measured joint torques, when it
     /// has them ([`crate::calibration::gravity`]).
     pub gravity: Option<crate::calibration::gravity::GravityFit>,
+    /// With several sessions, each one left out in turn
+    /// ([`sessions::held_out_by_session`]); empty otherwise.
+    pub sessions_held_out: Vec<sessions::SessionHeldOut>,
 }
 
 /// Why an identification could not be made.
@@ -266,6 +269,7 @@ pub fn identify(
         calibration,
         judgement: None,
         gravity: None,
+        sessions_held_out: Vec::new(),
     })
 }
 

@@ -1,21 +1,90 @@
-//! Several sessions in one calibration, as the reports give them: each
-//! session's rows and residual RMS, and where its own frames sit against the
-//! first session's (the base frame's shift and turn, the tool's shift), for
-//! the summary `identify` and `diagnose` print and their JSON. The
-//! calibration file holds the first session's registration
-//! ([`crate::session::registration`]), so `armcal predict` with it gives the
-//! first session's figure; the reports say so. Values in the model's units
-//! (`mm`-suffixed fields excepted). Nothing here computes; it reads a
-//! [`FullFit`].
+//! Several sessions in one calibration: each session left out in turn
+//! ([`held_out_by_session`]), and the sessions as the reports give them —
+//! each session's rows and residual RMS, where its own frames sit against
+//! the first session's (the base frame's shift and turn, the tool's shift)
+//! and its held-out figure, for the summary `identify` and `diagnose` print
+//! and their JSON. The calibration file holds the first session's
+//! registration ([`crate::session::registration`]), so `armcal predict`
+//! with it gives the first session's figure; the reports say so. SI inside;
+//! the reports in the model's units (`mm`-suffixed fields excepted).
+//!
+//! ## Leaving sessions out
+//! A session left out is predicted as a new session of the calibrated robot
+//! would be: the robot calibrated on the other sessions as the command
+//! calibrates, then the left-out session's own frames (those that are each
+//! session's own, [`crate::session::registration::FrameSharing`]) fitted to
+//! its rows with the robot held ([`register_session`]), and its residual
+//! RMS taken. It is what the robot keeps from one session to another: a
+//! session far above the others' figures moved (the robot drifted between
+//! days) or carries what the model does not (a load the others did not).
+//! The registration is fitted to the rows it is judged on, 9 to 12 of them
+//! per session: the figure is the robot's, not the instrument's.
 
 use std::fmt::Write as _;
 
 use armcal_shared::{Frame, FrameAxis, Param};
 use serde_json::json;
 
-use super::full::FullFit;
+use super::full::{FrameSharing, FullError, FullFit, FullOptions, Observation, register_session};
 use crate::io::measurements::Measurements;
 use crate::io::model_file::Units;
+use armcal_shared::Robot;
+use armcal_shared::effects::Effect;
+
+/// One session left out: its residual RMS once its own frames are
+/// registered to the robot calibrated on the others.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SessionHeldOut {
+    /// Position residual RMS (3-D distance), m.
+    pub position_rms: f64,
+    /// Orientation residual RMS, rad, when the session measures orientations.
+    pub orientation_rms: Option<f64>,
+}
+
+/// The robot a command calibrates from rows (the sessions numbered from 0),
+/// with its effects.
+pub type Calibrate<'a> =
+    dyn Fn(&[Observation]) -> Result<(Robot<f64>, Vec<Effect<f64>>), FullError> + 'a;
+
+/// Each session of `data` left out in turn (see the module header): the
+/// robot `calibrate` makes of the others, the left-out session's frames
+/// that `sharing` gives it registered to its rows (with the noise of
+/// `options`). Empty for one session.
+pub fn held_out_by_session(
+    data: &[Observation],
+    calibrate: &Calibrate<'_>,
+    sharing: FrameSharing,
+    options: &FullOptions,
+) -> Result<Vec<SessionHeldOut>, FullError> {
+    let count = data.iter().map(|o| o.session + 1).max().unwrap_or(1);
+    if count < 2 {
+        return Ok(Vec::new());
+    }
+    (0..count)
+        .map(|k| {
+            let training: Vec<Observation> = data
+                .iter()
+                .filter(|o| o.session != k)
+                .map(|o| Observation {
+                    session: o.session - usize::from(o.session > k),
+                    ..o.clone()
+                })
+                .collect();
+            let left_out: Vec<Observation> =
+                data.iter().filter(|o| o.session == k).cloned().collect();
+            let (robot, effects) = calibrate(&training)?;
+            let (_, position, orientation) =
+                register_session(&robot, &effects, &left_out, sharing, options)?;
+            Ok(SessionHeldOut {
+                position_rms: position,
+                orientation_rms: left_out
+                    .iter()
+                    .any(|o| o.orientation.is_some())
+                    .then_some(orientation),
+            })
+        })
+        .collect()
+}
 
 /// A parameter of the base frame and one of the tool: whose they are.
 const BASE: Param = Param::Base(FrameAxis::X);
@@ -31,7 +100,12 @@ fn moved(a: &Frame<f64>, b: &Frame<f64>) -> (f64, f64) {
 /// The summary's lines on the sessions, when `data` has several: which
 /// frames are each session's own, which registration the file holds, and
 /// each session's poses, residual and frames.
-pub fn summary(fit: &FullFit, data: &Measurements, u: &Units) -> String {
+pub fn summary(
+    fit: &FullFit,
+    held_out: &[SessionHeldOut],
+    data: &Measurements,
+    u: &Units,
+) -> String {
     let mut out = String::new();
     if fit.sessions.len() < 2 {
         return out;
@@ -78,6 +152,13 @@ pub fn summary(fit: &FullFit, data: &Measurements, u: &Units) -> String {
                 u.angle
             );
         }
+        if let Some(h) = held_out.get(k) {
+            let _ = write!(
+                out,
+                "; left out {} (the others calibrated, its own frames registered)",
+                length(h.position_rms)
+            );
+        }
         if k > 0 {
             let (a, b) = (fit.robot_of(0), fit.robot_of(k));
             let (shift, turn) = moved(&a.base, &b.base);
@@ -98,7 +179,12 @@ pub fn summary(fit: &FullFit, data: &Measurements, u: &Units) -> String {
 /// The JSON's `sessions`, when `data` has several: each session's file,
 /// poses, residual RMS and own frames (`null` where it shares the first's;
 /// x, y, z in the model's length unit, roll, pitch, yaw in its angle unit).
-pub fn json(fit: &FullFit, data: &Measurements, u: &Units) -> Option<serde_json::Value> {
+pub fn json(
+    fit: &FullFit,
+    held_out: &[SessionHeldOut],
+    data: &Measurements,
+    u: &Units,
+) -> Option<serde_json::Value> {
     if fit.sessions.len() < 2 {
         return None;
     }
@@ -115,8 +201,12 @@ pub fn json(fit: &FullFit, data: &Measurements, u: &Units) -> Option<serde_json:
         .map(|(k, s)| {
             let robot = fit.robot_of(k);
             let own = |p| k == 0 || fit.registrations.owns(k, p);
+            let left_out = held_out.get(k);
             json!({
                 "file": data.sessions.get(k),
+                "held_out_rms": left_out.map(|h| u.length_from_si(h.position_rms)),
+                "held_out_rms_mm": left_out.map(|h| h.position_rms * 1e3),
+                "held_out_orientation_rms": left_out.and_then(|h| h.orientation_rms).map(|o| u.angle_from_si(o)),
                 "poses": s.poses,
                 "position_rms": u.length_from_si(s.position_rms),
                 "position_rms_mm": s.position_rms * 1e3,
@@ -128,4 +218,64 @@ pub fn json(fit: &FullFit, data: &Measurements, u: &Units) -> Option<serde_json:
         })
         .collect();
     Some(json!(sessions))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calibration::identify::full::identify_full;
+    use crate::calibration::simulate::{measure, random_configurations, rng};
+    use crate::io::model_file::load_model;
+
+    /// Each of four sessions of a UR5e (60 positions each, σ = 20 µm, the
+    /// tracker moved between them) left out in turn, predicted by the robot
+    /// the others make; in the last, when `drift`, the upper arm is 0.5 mm
+    /// shorter (it drifted, or was repaired, between days). Figures in mm.
+    fn left_out(drift: bool) -> Vec<f64> {
+        let nominal = load_model("ur5e").unwrap().robot;
+        let mut r = rng(5);
+        let mut rows = Vec::new();
+        for session in 0..4 {
+            let mut truth = nominal.clone();
+            truth.base.xyz.x += 0.4 * session as f64;
+            truth.base.rpy.z += 0.7 * session as f64;
+            if drift && session == 3 {
+                truth.links[1].a -= 0.5e-3;
+            }
+            let q = random_configurations(&nominal, 60, &mut r);
+            rows.extend(
+                measure(&truth, &q, 20e-6, None, &mut r)
+                    .into_iter()
+                    .map(|o| Observation { session, ..o }),
+            );
+        }
+        let options = FullOptions::default();
+        let calibrate = |rows: &[Observation]| {
+            identify_full(&nominal, rows, &options).map(|f| (f.calibrated, Vec::new()))
+        };
+        held_out_by_session(&rows, &calibrate, FrameSharing::default(), &options)
+            .unwrap()
+            .iter()
+            .map(|h| h.position_rms * 1e3)
+            .collect()
+    }
+
+    /// The same robot in every session: each left out is predicted to the
+    /// noise (3-D RMS near σ√3 = 35 µm). A robot that changed in one
+    /// session: that session's figure stands out, far above the noise and
+    /// well above the others' (which the changed session's rows pull too).
+    #[test]
+    fn leaving_sessions_out_shows_a_robot_that_changed_between_them() {
+        let noise = 20e-3 * 3f64.sqrt();
+        let same = left_out(false);
+        eprintln!("the same robot, left out: {same:?} mm");
+        assert!(same.iter().all(|mm| *mm < 1.5 * noise), "{same:?}");
+        let changed = left_out(true);
+        eprintln!("the last session's robot changed, left out: {changed:?} mm");
+        let others = changed[..3].iter().copied().fold(0.0, f64::max);
+        assert!(
+            changed[3] > 5.0 * noise && changed[3] > 1.5 * others,
+            "{changed:?}"
+        );
+    }
 }

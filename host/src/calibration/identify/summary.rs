@@ -132,7 +132,8 @@ impl Identification {
             });
         }
         if let Some(fit) = &self.full {
-            if let Some(sessions) = super::sessions::json(fit, data, units) {
+            if let Some(sessions) = super::sessions::json(fit, &self.sessions_held_out, data, units)
+            {
                 out["sessions"] = sessions;
             }
             out["condition_number"] = json!(fit.condition_number);
@@ -296,7 +297,12 @@ impl Identification {
         );
         self.write_judgement(&mut out, u, data);
         if let Some(fit) = &self.full {
-            out.push_str(&super::sessions::summary(fit, data, u));
+            out.push_str(&super::sessions::summary(
+                fit,
+                &self.sessions_held_out,
+                data,
+                u,
+            ));
         }
         if let Some(g) = &self.gravity {
             let _ = writeln!(out, "{}", g.summary());

@@ -73,6 +73,7 @@
 //! | `selection` | identifiability: what the data separate, and why the others are held |
 //! | `solve` | the solution: Levenberg–Marquardt with the prior |
 //! | `linearization` | the linearisation about a solution, stored or summed per fold, for the cross-validations |
+//! | `register` | a session the robot was not fitted to: its own base and tool fitted with the robot held |
 
 use armcal_shared::effects::Effect;
 use armcal_shared::{FrameAxis, JointType, Param, Robot, rotation_error};
@@ -87,6 +88,7 @@ pub use crate::session::registration::{FrameSharing, Registrations, Sharing};
 mod fit;
 mod initial;
 mod linearization;
+mod register;
 mod rows;
 mod selection;
 mod solve;
@@ -94,6 +96,7 @@ mod solve;
 use fit::{Fit, Unknowns, check_inputs};
 pub use initial::session_registrations;
 pub use linearization::{FoldNormal, FoldNormals, Linearization, fold_normals, linearize};
+pub use register::register_session;
 use rows::NormalEquations;
 pub(crate) use solve::{unit_diagonal_scale, unit_scale};
 

@@ -1,0 +1,74 @@
+//! A session the robot was not fitted to, registered: its own base frame
+//! and tool fitted to its rows with the robot's geometry and effects held
+//! (closed form, then Levenberg–Marquardt on the 6 + 3 — 6 + 6 with
+//! orientations — frame parameters alone). What a new session of a
+//! calibrated robot needs before its rows can be compared with the robot,
+//! and what a cross-validation that leaves whole sessions out predicts a
+//! session with ([`crate::calibration::identify::sessions`]). SI units; the
+//! rows weighed by the options' noise, as the fit weighs them.
+
+use armcal_shared::effects::Effect;
+use armcal_shared::{FrameAxis, Param, Robot};
+
+use super::initial::initial_base_tool;
+use super::rows::NormalEquations;
+use super::solve::levenberg_marquardt;
+use super::{FrameSharing, FullError, FullOptions, Model, Observation, Unknown};
+
+/// A parameter of the base frame and one of the tool: whose they are.
+const BASE: Param = Param::Base(FrameAxis::X);
+const TOOL: Param = Param::Tool(FrameAxis::X);
+use crate::calibration::identify::noise::{PerChannel, Weights};
+
+/// `robot` with `effects`, its base and tool (those `sharing` gives each
+/// session; the others held at `robot`'s) registered to `data` (one
+/// session's rows): the registered robot and the RMS of the rows' position
+/// (m) and orientation (rad) residuals.
+pub fn register_session(
+    robot: &Robot<f64>,
+    effects: &[Effect<f64>],
+    data: &[Observation],
+    sharing: FrameSharing,
+    options: &FullOptions,
+) -> Result<(Robot<f64>, f64, f64), FullError> {
+    let mut seen = robot.clone();
+    initial_base_tool(&mut seen, data);
+    for (shared, start, own) in [
+        (!sharing.per_session(BASE), robot.base, &mut seen.base),
+        (!sharing.per_session(TOOL), robot.tool, &mut seen.tool),
+    ] {
+        if shared {
+            *own = start;
+        }
+    }
+    let one: Vec<Observation> = data
+        .iter()
+        .map(|o| Observation {
+            session: 0,
+            ..o.clone()
+        })
+        .collect();
+    let mut model = Model::of(seen, effects.to_vec());
+    let orientation = one.iter().any(|o| o.orientation.is_some());
+    let tool: &[FrameAxis] = if orientation {
+        &FrameAxis::ALL
+    } else {
+        &[FrameAxis::X, FrameAxis::Y, FrameAxis::Z]
+    };
+    let frames: Vec<Unknown> = FrameAxis::ALL
+        .into_iter()
+        .map(Param::Base)
+        .chain(tool.iter().map(|&a| Param::Tool(a)))
+        .filter(|p| sharing.per_session(*p))
+        .map(Unknown::Param)
+        .collect();
+    let weights = Weights::of(&PerChannel::from_fn(|c| options.noise(c).sigma));
+    let mut sys = NormalEquations::accumulate(&model, &one, &frames, &weights);
+    if !frames.is_empty() {
+        let prior = vec![(0.0, 0.0); frames.len()];
+        (_, _, _, sys) =
+            levenberg_marquardt(&mut model, &one, &frames, &weights, options, sys, &prior)?;
+    }
+    let (position, orientation) = sys.residual_rms(&weights);
+    Ok((model.robot, position, orientation))
+}
