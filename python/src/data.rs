@@ -128,10 +128,14 @@ pub fn from_arrays<'py>(
 /// hidden `effects` `"NAME[:JOINT[:VALUE]]"`, Hayati `tilts` `(joint, beta)`)
 /// measured at `poses` random configurations with `noise` (model length unit,
 /// default 20 µm) and, with `orientation_noise` (model angle unit), orientations;
-/// with `torque_noise` (N·m), the joint torques the robot reports (`tau`).
-/// Returns the measurements (rows numbered from 0) and the truth as a dict.
+/// with `torque_noise` (N·m), the joint torques the robot reports (`tau`);
+/// `payloads` (kg) of consecutive blocks of rows (default 0 and 5); in
+/// `sessions` sessions, each after the first with the instrument moved and
+/// the point remounted (one Measurements holding them all: `identify` and
+/// `diagnose` read its sessions as several files'). Returns the
+/// measurements (rows numbered from 0) and the truth as a dict.
 #[pyfunction]
-#[pyo3(signature = (model, poses = 200, seed = 1, noise = None, orientation_noise = None, effects = Vec::new(), tilts = Vec::new(), torque_noise = None))]
+#[pyo3(signature = (model, poses = 200, seed = 1, noise = None, orientation_noise = None, effects = Vec::new(), tilts = Vec::new(), torque_noise = None, *, payloads = Vec::new(), sessions = 1))]
 #[expect(
     clippy::too_many_arguments,
     reason = "a parameter per Python keyword argument, as the signature above lists them"
@@ -146,6 +150,8 @@ pub fn simulate<'py>(
     effects: Vec<String>,
     tilts: Vec<(usize, f64)>,
     torque_noise: Option<f64>,
+    payloads: Vec<f64>,
+    sessions: usize,
 ) -> PyResult<(Measurements, Bound<'py, PyAny>)> {
     let m = &model.inner;
     let u = m.units;
@@ -157,6 +163,8 @@ pub fn simulate<'py>(
         torque_noise,
         effects,
         tilts,
+        payloads,
+        sessions,
     };
     let session = py
         .detach(|| simulate_cmd::run(PYTHON, m, &request))
@@ -171,7 +179,14 @@ pub fn simulate<'py>(
         columns_ignored: Vec::new(),
         warnings: Vec::new(),
         constraints: Default::default(),
-        sessions: Vec::new(),
+        // Several sessions: named in order (the rows carry their session).
+        sessions: if session.sessions() > 1 {
+            (1..=session.sessions())
+                .map(|k| format!("session {k}"))
+                .collect()
+        } else {
+            Vec::new()
+        },
     };
     let truth = errors::to_python(py, &session.truth_json(&m.robot, &u))?;
     Ok((

@@ -6,6 +6,8 @@ use armcal::calibration::identify::prior_scale::PriorScale;
 use armcal::calibration::identify::{ParamSet, StatedScales};
 use armcal::calibration::report;
 use armcal::commands::{self, Front, diagnose as diagnose_cmd, identify as identify_cmd};
+use armcal::io::measurements;
+use armcal::session::registration::{FrameSharing, Sharing};
 use armcal_shared::TargetFrame;
 use pyo3::prelude::*;
 
@@ -52,11 +54,47 @@ fn session(
     model: &Model,
     data: &Bound<'_, PyAny>,
 ) -> PyResult<(Measurements, bool)> {
-    let data = measurements_of(py, model, data, "data")?;
+    // A list (or tuple) of sessions: several sessions of one calibration.
+    let several = !data.is_instance_of::<pyo3::types::PyString>()
+        && (data.is_instance_of::<pyo3::types::PyList>()
+            || data.is_instance_of::<pyo3::types::PyTuple>());
+    let data = if several {
+        let parts = data
+            .try_iter()?
+            .map(|d| measurements_of(py, model, &d?, "data"))
+            .collect::<PyResult<Vec<Measurements>>>()?;
+        let arrays = parts.iter().any(|p| p.arrays);
+        let joined =
+            measurements::Measurements::sessions(parts.into_iter().map(|p| p.data).collect())
+                .map_err(|e| errors::input(py, &e, arrays))?;
+        Measurements {
+            data: joined,
+            model: model.inner.clone(),
+            arrays,
+        }
+    } else {
+        measurements_of(py, model, data, "data")?
+    };
     commands::require_session(&model.inner, &data.data)
         .map_err(|e| errors::input(py, &e, data.arrays))?;
     let arrays = data.arrays;
     Ok((data, arrays))
+}
+
+/// The frames several sessions share: `same_base`, `same_tool` (each
+/// session its own otherwise, as `--same-base`, `--same-tool` say).
+fn sharing(same_base: bool, same_tool: bool) -> FrameSharing {
+    let sharing = |same: bool| {
+        if same {
+            Sharing::Shared
+        } else {
+            Sharing::PerSession
+        }
+    };
+    FrameSharing {
+        base: sharing(same_base),
+        tool: sharing(same_tool),
+    }
 }
 
 /// The measurements `data` (the argument `argument`): given, read against
@@ -112,7 +150,9 @@ fn targets(py: Python<'_>, targets: &str) -> PyResult<TargetFrame> {
 }
 
 /// Identifies the geometric errors of `model` from `data` (Measurements, or a
-/// CSV path or built-in data set name), as `armcal identify` does. `params`:
+/// CSV path or built-in data set name; a list of them: several sessions of
+/// one robot, each with its own base frame and tool unless `same_base`,
+/// `same_tool`), as `armcal identify` does. `params`:
 /// `full` (every identifiable parameter, base and tool included) or `paper`
 /// (Mirman & Gupta's 3M model; needs orientations). Noise and prior scales in
 /// the model's units (`point_noise`, `plane_noise`: of the contacts of a
@@ -121,7 +161,7 @@ fn targets(py: Python<'_>, targets: &str) -> PyResult<TargetFrame> {
 /// held-out poses best, as `--prior-scale chosen`, the default) or `stated`;
 /// `targets`: `world` or `base`.
 #[pyfunction(name = "identify")]
-#[pyo3(signature = (model, data, params = "full", *, position_noise = None, orientation_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None, prior_scale = "chosen", targets = "world"))]
+#[pyo3(signature = (model, data, params = "full", *, position_noise = None, orientation_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None, prior_scale = "chosen", targets = "world", same_base = false, same_tool = false))]
 #[expect(
     clippy::too_many_arguments,
     reason = "a parameter per Python keyword argument, as the signature above lists them"
@@ -139,6 +179,8 @@ pub fn identify_py(
     prior_angle: Option<f64>,
     prior_scale: &str,
     targets: &str,
+    same_base: bool,
+    same_tool: bool,
 ) -> PyResult<Py<Identification>> {
     let prior_scale = match prior_scale {
         "chosen" => PriorScale::default(),
@@ -174,6 +216,7 @@ pub fn identify_py(
         },
         prior_scale,
         targets: self::targets(py, targets)?,
+        frames: sharing(same_base, same_tool),
     };
     let m = &model.inner;
     let (data, arrays) = session(py, model, data)?;
@@ -203,7 +246,7 @@ pub fn identify_py(
 /// tracker alike. `folds`: of the cross-validation (default 10, or one per
 /// pose with fewer poses). Other options as `identify`.
 #[pyfunction]
-#[pyo3(signature = (model, data, *, folds = None, position_noise = None, orientation_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None, targets = "world"))]
+#[pyo3(signature = (model, data, *, folds = None, position_noise = None, orientation_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None, targets = "world", same_base = false, same_tool = false))]
 #[expect(
     clippy::too_many_arguments,
     reason = "a parameter per Python keyword argument, as the signature above lists them"
@@ -220,6 +263,8 @@ pub fn diagnose(
     prior_length: Option<f64>,
     prior_angle: Option<f64>,
     targets: &str,
+    same_base: bool,
+    same_tool: bool,
 ) -> PyResult<Py<Diagnosis>> {
     let request = diagnose_cmd::Request {
         folds,
@@ -232,6 +277,7 @@ pub fn diagnose(
             prior_angle,
         },
         targets: self::targets(py, targets)?,
+        frames: sharing(same_base, same_tool),
     };
     let m = &model.inner;
     let (data, arrays) = session(py, model, data)?;

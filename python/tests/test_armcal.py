@@ -514,3 +514,40 @@ def test_compensation_warnings_come_one_per_kind_with_their_rows():
     bounded = [t for t in texts if "correction bounded" in t]
     assert len(bounded) == 1 and " of 23 rows (rows 0, 2, 3, 5, 6, …)" in bounded[0], texts
     assert any('targets="base"' in t for t in texts), texts
+
+
+def test_several_sessions_identify_as_the_command_line(tmp_path):
+    """Several sessions of one robot, as `--data A.csv B.csv` reads them: a
+    list of Measurements (or of paths), each with its own base frame and
+    tool (the tracker moved, the SMR remounted: `simulate(sessions=)`); the
+    report gives each session's figures, the first session's the file's, and
+    `same_base=True` on a moved tracker is refused as the command line
+    refuses it."""
+    model = armcal.load_model("ur5e")
+    data, truth = armcal.simulate(model, poses=180, seed=9, sessions=3)
+    assert len(truth["sessions"]) == 3
+    joined = armcal.identify(model, data)
+    sessions = joined.report["sessions"]
+    assert [s["poses"] for s in sessions] == [60, 60, 60]
+    assert [s["written"] for s in sessions] == [True, False, False]
+    for s in sessions:
+        # 20 µm per axis: 35 µm in 3-D, in each session's own frames.
+        assert s["position_rms_mm"] < 0.05
+        assert s["position_rms_mm"] <= s["held_out_rms_mm"] < 0.05
+    assert "3 sessions, each with its own base frame and tool" in joined.summary
+    with pytest.raises(armcal.InputError, match="still misses the measured points"):
+        armcal.identify(model, data, same_base=True)
+    # The same sessions as files, a list of paths.
+    files = []
+    for k in range(3):
+        path = tmp_path / f"s-{k + 1}.csv"
+        rows = [i for i in range(180) if i // 60 == k]
+        header = "q1,q2,q3,q4,q5,q6,x,y,z\n"
+        path.write_text(header + "".join(
+            ",".join(str(v) for v in [*data.q[i], *data.xyz[i]]) + "\n" for i in rows))
+        files.append(str(path))
+    from_files = armcal.identify(model, files)
+    assert [s["file"] for s in from_files.report["sessions"]] == files
+    np.testing.assert_allclose(
+        [s["position_rms_mm"] for s in from_files.report["sessions"]],
+        [s["position_rms_mm"] for s in sessions], rtol=1e-6)
