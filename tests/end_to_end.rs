@@ -1084,7 +1084,7 @@ mod diagnosis {
     /// raise the gain), but that it gains too little.
     #[test]
     fn a_real_effect_too_small_to_matter_is_called_so() {
-        use armcal::calibration::diagnose::Shortfall;
+        use armcal::calibration::diagnose::{RowPlaces, Shortfall};
         let nominal = load_model("ur10e").unwrap().robot;
         let mut scenario = Scenario::tracker(1000, 7);
         scenario.effects = vec![Effect::JointCompliance {
@@ -1107,7 +1107,11 @@ mod diagnosis {
         assert!(u.gain > 1.0 && u.gain < 1.05, "gain {}", u.gain);
         assert_eq!(u.shortfall, Shortfall::Gain { min_gain: 1.05 });
         let lines: Vec<usize> = (2..2 + session.observations.len()).collect();
-        let summary = d.summary(&lines, &options(), &armcal_shared::units::Units::SI);
+        let summary = d.summary(
+            RowPlaces::lines(&lines),
+            &options(),
+            &armcal_shared::units::Units::SI,
+        );
         assert!(
             summary.contains("not worth modelling: joint_compliance (joints 2)"),
             "{summary}"

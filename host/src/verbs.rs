@@ -206,15 +206,7 @@ pub(crate) fn diagnose(args: DiagnoseArgs) -> anyhow::Result<()> {
         outputs.set("--json", text.into_bytes());
     }
     if args.html.is_some() {
-        let observations = armcal::calibration::identify::observations(&data);
-        let page = armcal::calibration::report::html(
-            &diagnosed.model,
-            &data.file,
-            &diagnosed.diagnosis,
-            observations,
-            &diagnosed.options,
-        );
-        outputs.set("--html", page.into_bytes());
+        outputs.set("--html", diagnosed.html(&data).into_bytes());
     }
     finish(outputs, args.quiet, || diagnosed.summary(&data, lines))?;
     Ok(())

@@ -4,7 +4,6 @@
 
 use armcal::calibration::identify::prior_scale::PriorScale;
 use armcal::calibration::identify::{ParamSet, StatedScales};
-use armcal::calibration::report;
 use armcal::commands::{self, Front, diagnose as diagnose_cmd, identify as identify_cmd};
 use armcal::io::measurements;
 use armcal::session::registration::{FrameSharing, Sharing};
@@ -293,14 +292,7 @@ pub fn diagnose(
         calibration: diagnosed.calibration.clone(),
         failed: diagnosed.failed.take().map(|f| f.to_string()),
     };
-    let observations = armcal::calibration::identify::observations(&data.data);
-    let html = report::html(
-        &diagnosed.model,
-        &data.data.file,
-        &diagnosed.diagnosis,
-        observations,
-        &diagnosed.options,
-    );
+    let html = diagnosed.html(&data.data);
     Py::new(
         py,
         PyClassInitializer::from(outcome).add_subclass(Diagnosis { html }),

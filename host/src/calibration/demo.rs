@@ -333,6 +333,7 @@ impl Demo {
             &self.diagnosis,
             &self.session.observations,
             &self.options,
+            "",
         )
     }
 

@@ -278,22 +278,25 @@ fn panels(model: &RobotModel, d: &Diagnosis, data: &[Observation]) -> Vec<Plot> 
 }
 
 /// Text made safe for HTML.
-fn html_escape(t: &str) -> String {
+pub(crate) fn html_escape(t: &str) -> String {
     t.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
 }
 
-/// The whole page.
+/// The whole page; `sessions`: the section on several sessions
+/// ([`crate::calibration::identify::sessions::html`]), empty for one.
 pub fn html(
     model: &RobotModel,
     data_file: &str,
     d: &Diagnosis,
     data: &[Observation],
     options: &DiagnoseOptions,
+    sessions: &str,
 ) -> String {
     let mut s = String::new();
     html_head(&mut s, model, data_file, data.len());
+    s.push_str(sessions);
     html_models(&mut s, model, d);
     html_findings(&mut s, model, d, data);
     html_holdout(&mut s, d, options);

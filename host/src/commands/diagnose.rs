@@ -10,6 +10,7 @@ use armcal_shared::{Calibration, TargetFrame};
 use super::{Front, fit_options, folds};
 use crate::calibration::acceptance::{FailedCalibration, diagnosis_refusal};
 use crate::calibration::diagnose::Choice;
+use crate::calibration::diagnose::RowPlaces;
 use crate::calibration::diagnose::{DiagnoseOptions, Diagnosis, diagnose_with_progress};
 use crate::calibration::gravity::{GravityFit, with_measured_gravity};
 use crate::calibration::identify::full::{
@@ -157,14 +158,38 @@ impl Diagnosed {
         let head = self.gravity.as_ref().map(|g| format!("{}\n", g.summary()));
         head.unwrap_or_default()
             + &sessions::summary(&self.diagnosis.fit, &self.sessions_held_out, data, units)
-            + &self.diagnosis.summary(lines, &self.options, units)
+            + &self
+                .diagnosis
+                .summary(RowPlaces::of(lines, data), &self.options, units)
+    }
+
+    /// The HTML page of the diagnosis of `data` (`--html`).
+    pub fn html(&self, data: &Measurements) -> String {
+        crate::calibration::report::html(
+            &self.model,
+            &data.file,
+            &self.diagnosis,
+            identify::observations(data),
+            &self.options,
+            &sessions::html(&self.diagnosis.fit, &self.sessions_held_out, data),
+        )
     }
 
     /// The JSON report of the diagnosis of `data`: the diagnosis' own, with
     /// `gravity`, the masses' fit to the measured torques, when the session
     /// has them, and `sessions` when there are several.
     pub fn json(&self, data: &Measurements, lines: &[usize]) -> serde_json::Value {
-        let mut report = self.diagnosis.to_json(&self.model, lines, &self.options);
+        let rows = RowPlaces::of(lines, data);
+        let mut report = self.diagnosis.to_json(&self.model, rows, &self.options);
+        if rows.sessions.is_some() {
+            // Each outlier's file: a line is its own file's.
+            report["outlier_files"] = self
+                .diagnosis
+                .blunders
+                .iter()
+                .map(|&i| rows.file(i))
+                .collect();
+        }
         if let Some(g) = &self.gravity {
             report["gravity"] = g.to_json();
         }

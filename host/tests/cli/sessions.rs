@@ -142,6 +142,7 @@ fn diagnose_reports_each_session() {
         d,
         &[
             "diagnose", "--model", "ur5e", "--data", "s-1.csv", "s-2.csv", "--json", "d.json",
+            "--html", "d.html",
         ],
     );
     let stdout = String::from_utf8_lossy(&out.stdout);
@@ -153,4 +154,7 @@ fn diagnose_reports_each_session() {
     let report: serde_json::Value =
         serde_json::from_slice(&std::fs::read(d.join("d.json")).unwrap()).unwrap();
     assert_eq!(report["sessions"].as_array().unwrap().len(), 2);
+    let page = std::fs::read_to_string(d.join("d.html")).unwrap();
+    assert!(page.contains("<h2>Sessions</h2>"), "{page}");
+    assert!(page.contains("<td>2 s-2.csv</td><td>60</td>"), "{page}");
 }

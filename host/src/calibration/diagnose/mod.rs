@@ -53,6 +53,7 @@ pub mod candidates;
 pub mod cross_validation;
 pub mod geometry;
 mod summary;
+pub use summary::RowPlaces;
 
 pub use summary::parameter_list;
 pub(crate) use summary::{effect_unit, effect_value, significant};

@@ -7,8 +7,57 @@ use armcal_shared::effects::Effect;
 use armcal_shared::{Calibration, JointType, Param, Robot};
 
 use super::{Choice, DiagnoseOptions, Diagnosis, HeldOut, HeldOutModels, Shortfall};
-use crate::calibration::identify::full::Status;
+use crate::calibration::identify::full::{Observation, Status};
 use crate::calibration::identify::prior::Geometry;
+use crate::io::measurements::Measurements;
+
+/// How the reports name a pose: its row's line (a file's; an array's row,
+/// from 0) and, with several sessions, its session's file.
+#[derive(Clone, Copy, Debug)]
+pub struct RowPlaces<'a> {
+    /// Each pose's line.
+    pub lines: &'a [usize],
+    /// With several sessions: the poses (their sessions) and each session's file.
+    pub sessions: Option<(&'a [Observation], &'a [String])>,
+}
+
+impl<'a> RowPlaces<'a> {
+    /// The places of the poses of `data`, each at its line in `lines`.
+    pub fn of(lines: &'a [usize], data: &'a Measurements) -> Self {
+        Self {
+            lines,
+            sessions: (data.session_count() > 1).then_some((&data.poses[..], &data.sessions[..])),
+        }
+    }
+
+    /// Poses named by their line alone (one session).
+    pub fn lines(lines: &'a [usize]) -> Self {
+        Self {
+            lines,
+            sessions: None,
+        }
+    }
+
+    /// Pose `i`'s line.
+    pub fn line(&self, i: usize) -> usize {
+        self.lines.get(i).copied().unwrap_or(0)
+    }
+
+    /// Pose `i`'s file, with several sessions.
+    pub fn file(&self, i: usize) -> Option<&'a str> {
+        let (poses, files) = self.sessions?;
+        files.get(poses.get(i)?.session).map(String::as_str)
+    }
+
+    /// Pose `i` as the summary names it: `data line N`, or `FILE line N`
+    /// with several sessions.
+    pub fn label(&self, i: usize) -> String {
+        match self.file(i) {
+            Some(file) => format!("{file} line {}", self.line(i)),
+            None => format!("data line {}", self.line(i)),
+        }
+    }
+}
 
 /// `x` to four significant digits, in fixed notation (`0.02000` mm, `0.0001081` m).
 pub(crate) fn significant(x: f64) -> String {
@@ -170,12 +219,12 @@ impl Diagnosis {
     pub fn to_json(
         &self,
         model: &crate::io::model_file::RobotModel,
-        lines: &[usize],
+        rows: RowPlaces<'_>,
         options: &DiagnoseOptions,
     ) -> serde_json::Value {
         use serde_json::json;
         let mm = |x: f64| x * 1e3;
-        let line = |i: usize| lines.get(i).copied().unwrap_or(0);
+        let line = |i: usize| rows.line(i);
         let units = &model.units;
         // The effects' values as the calibration written holds them.
         let written = self.calibration(&model.robot, false, *units);
@@ -231,12 +280,18 @@ impl Diagnosis {
                 "rms_mm": mm(h.rms), "mean_mm": mm(h.mean), "max_mm": mm(h.max),
             })),
             "outlier_rows": self.blunders.iter().map(|&i| line(i)).collect::<Vec<_>>(),
-            "suspect_rows": self.suspects.iter().map(|b| json!({
-                "row": line(b.pose), "f": b.f, "threshold": b.threshold,
-                "others_held_out_rms_mm_with": mm(b.held_with),
-                "others_held_out_rms_mm_without": mm(b.held_without),
-                "set_aside": b.set_aside,
-            })).collect::<Vec<_>>(),
+            "suspect_rows": self.suspects.iter().map(|b| {
+                let mut row = json!({
+                    "row": line(b.pose), "f": b.f, "threshold": b.threshold,
+                    "others_held_out_rms_mm_with": mm(b.held_with),
+                    "others_held_out_rms_mm_without": mm(b.held_without),
+                    "set_aside": b.set_aside,
+                });
+                if let Some(file) = rows.file(b.pose) {
+                    row["file"] = json!(file);
+                }
+                row
+            }).collect::<Vec<_>>(),
             "candidates": self.tried.iter().map(|(c, g)| json!({
                 "name": c.name,
                 "joints": c.joints.iter().map(|j| j + 1).collect::<Vec<_>>(),
@@ -370,13 +425,13 @@ impl Diagnosis {
     /// The human summary.
     pub fn summary(
         &self,
-        lines: &[usize],
+        rows: RowPlaces<'_>,
         options: &DiagnoseOptions,
         units: &armcal_shared::units::Units,
     ) -> String {
         let mut out = String::new();
         self.write_noise(&mut out, units);
-        self.write_suspects(&mut out, lines);
+        self.write_suspects(&mut out, rows);
         self.write_models(&mut out, options);
         self.write_holdout(&mut out, options);
         self.write_tried(&mut out);
@@ -435,16 +490,15 @@ impl Diagnosis {
         }
     }
 
-    /// Each pose the screen flagged (`lines`: the data line of each pose).
-    fn write_suspects(&self, out: &mut String, lines: &[usize]) {
+    /// Each pose the screen flagged (`rows`: where each pose was read).
+    fn write_suspects(&self, out: &mut String, rows: RowPlaces<'_>) {
         use std::fmt::Write as _;
         let mm = |x: f64| x * 1e3;
-        let line = |i: usize| lines.get(i).copied().unwrap_or(0);
         for b in &self.suspects {
             let _ = writeln!(
                 out,
-                "data line {}: deleted residual F = {:.1} above the 1% threshold {:.1}; held-out RMS of the other poses {:.4} mm with it, {:.4} mm without: {}",
-                line(b.pose),
+                "{}: deleted residual F = {:.1} above the 1% threshold {:.1}; held-out RMS of the other poses {:.4} mm with it, {:.4} mm without: {}",
+                rows.label(b.pose),
                 b.f,
                 b.threshold,
                 mm(b.held_with),
@@ -596,5 +650,30 @@ impl Diagnosis {
                 gain
             );
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::io::measurements::parse_measurements;
+    use crate::io::model_file::load_model;
+
+    /// A pose of one session is named by its line; of several, by its
+    /// file and its line in it (each file numbers its own lines).
+    #[test]
+    fn a_row_is_named_by_its_file_when_there_are_several() {
+        let model = load_model("ur5e").unwrap();
+        let file = |name: &str| {
+            let text = "q1,q2,q3,q4,q5,q6,x,y,z\n0.1,0.2,0.3,0.4,0.5,0.6,0.1,0.2,0.3\n";
+            parse_measurements(text, name, &model).unwrap()
+        };
+        let one = file("a.csv");
+        assert_eq!(RowPlaces::of(&one.lines, &one).label(0), "data line 2");
+        let two = Measurements::sessions(vec![file("a.csv"), file("b.csv")]).unwrap();
+        let rows = RowPlaces::of(&two.lines, &two);
+        assert_eq!(rows.label(0), "a.csv line 2");
+        assert_eq!(rows.label(1), "b.csv line 2");
+        assert_eq!(rows.file(1), Some("b.csv"));
     }
 }

@@ -176,6 +176,50 @@ pub fn summary(
     out
 }
 
+/// The HTML page's section on the sessions, when `data` has several: a
+/// table of each session's file, poses, residual, left-out figure and
+/// frames' shift from the first's; empty for one session.
+pub fn html(fit: &FullFit, held_out: &[SessionHeldOut], data: &Measurements) -> String {
+    use crate::calibration::report::html_escape;
+    let mut s = String::new();
+    if fit.sessions.len() < 2 {
+        return s;
+    }
+    let first = data.sessions.first().map_or("", String::as_str);
+    let _ = write!(
+        s,
+        "<h2>Sessions</h2><p>{} sessions of one robot: one geometry and one set of effects, each session \
+         in its own frames. The calibration written holds the first session's registration \
+         (<b>{}</b>): <code>armcal predict</code> with it gives that session's figure. Left out: the \
+         other sessions calibrated, the session's own frames registered to its rows.</p><table><tr>\
+         <th>session</th><th>poses</th><th>RMS [mm]</th><th>left out [mm]</th><th>base from the \
+         first's [mm, mrad]</th><th>tool from the first's [mm]</th></tr>",
+        fit.sessions.len(),
+        html_escape(first)
+    );
+    let first_robot = fit.robot_of(0);
+    for (k, session) in fit.sessions.iter().enumerate() {
+        let robot = fit.robot_of(k);
+        let (shift, turn) = moved(&first_robot.base, &robot.base);
+        let left_out = held_out
+            .get(k)
+            .map_or("–".into(), |h| format!("{:.4}", h.position_rms * 1e3));
+        let _ = write!(
+            s,
+            "<tr><td>{} {}</td><td>{}</td><td>{:.4}</td><td>{left_out}</td><td>{:.3}, {:.3}</td><td>{:.3}</td></tr>",
+            k + 1,
+            html_escape(data.sessions.get(k).map_or("?", String::as_str)),
+            session.poses,
+            session.position_rms * 1e3,
+            shift * 1e3,
+            turn * 1e3,
+            (robot.tool.xyz - first_robot.tool.xyz).norm() * 1e3
+        );
+    }
+    s.push_str("</table>");
+    s
+}
+
 /// The JSON's `sessions`, when `data` has several: each session's file,
 /// poses, residual RMS and own frames (`null` where it shares the first's;
 /// x, y, z in the model's length unit, roll, pitch, yaw in its angle unit).
