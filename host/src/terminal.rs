@@ -26,7 +26,7 @@ pub(crate) fn load_session(
         .iter()
         .map(|file| measurements::load_measurements(file, &model))
         .collect::<Result<Vec<_>, _>>()?;
-    let data = Measurements::sessions(parts)?;
+    let data = commands::sessions(parts)?;
     commands::require_session(&model, &data)?;
     Ok((model, data))
 }

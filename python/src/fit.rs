@@ -5,7 +5,6 @@
 use armcal::calibration::identify::prior_scale::PriorScale;
 use armcal::calibration::identify::{ParamSet, StatedScales};
 use armcal::commands::{self, Front, diagnose as diagnose_cmd, identify as identify_cmd};
-use armcal::io::measurements;
 use armcal::session::registration::{FrameSharing, Sharing};
 use armcal_shared::TargetFrame;
 use pyo3::prelude::*;
@@ -63,9 +62,8 @@ fn session(
             .map(|d| measurements_of(py, model, &d?, "data"))
             .collect::<PyResult<Vec<Measurements>>>()?;
         let arrays = parts.iter().any(|p| p.arrays);
-        let joined =
-            measurements::Measurements::sessions(parts.into_iter().map(|p| p.data).collect())
-                .map_err(|e| errors::input(py, &e, arrays))?;
+        let joined = commands::sessions(parts.into_iter().map(|p| p.data).collect())
+            .map_err(|e| errors::input(py, &e, arrays))?;
         Measurements {
             data: joined,
             model: model.inner.clone(),

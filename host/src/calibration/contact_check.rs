@@ -315,20 +315,31 @@ pub fn require_session(data: &Measurements) -> Result<(), InputError> {
     ))
 }
 
-/// Refuses a session given twice among `sessions` (the sessions to hold out
-/// and those to train on, together): the same file (paths compared once
-/// canonicalised) or the same rows (the joint readings of every row and the
-/// names of the points and planes they are held to, and the known
-/// distances), naming both. Left out and trained on at once, a session's
-/// held-out figures would be in-sample ones.
-pub fn require_distinct(sessions: &[&Measurements]) -> Result<(), InputError> {
+/// Why a holdout's session is given once ([`require_distinct`]).
+pub const HOLDOUT_TWICE: &str =
+    "a session held out and trained on gives in-sample figures as held-out ones";
+
+/// Why one of several sessions of a calibration is given once
+/// ([`require_distinct`]).
+pub const SESSION_TWICE: &str = "a session given twice counts its rows twice, and its figure \
+     left out is an in-sample one";
+
+/// Refuses a session given twice among `sessions`: the same file (paths
+/// compared once canonicalised) or the same rows (the joint readings and
+/// measured points of every row, the names of the points and planes they
+/// are held to, and the known distances), naming both and saying `why` a
+/// session must be given once (the sessions of a holdout: left out and
+/// trained on at once, its held-out figures would be in-sample ones,
+/// [`HOLDOUT_TWICE`]).
+pub fn require_distinct(sessions: &[&Measurements], why: &str) -> Result<(), InputError> {
     // Only a file on disk has a path (numpy arrays and built-in sets are
     // labels, compared by their rows).
     let path = |m: &Measurements| {
         let p = std::path::Path::new(&m.file);
         p.is_file().then(|| std::fs::canonicalize(p).ok()).flatten()
     };
-    /// Every row as held (readings, point, plane) and every distance.
+    /// Every row as held (readings and measured point, point, plane) and
+    /// every distance.
     #[allow(clippy::type_complexity)]
     fn rows(
         m: &Measurements,
@@ -346,7 +357,8 @@ pub fn require_distinct(sessions: &[&Measurements]) -> Result<(), InputError> {
                     Contact::Plane(k) => (None, c.planes.get(k).map(|n| n.name.as_str())),
                     Contact::Measured => (None, None),
                 };
-                (p.q.iter().map(|v| v.to_bits()).collect(), point, plane)
+                let reading = p.q.iter().chain(p.position.coords.iter());
+                (reading.map(|v| v.to_bits()).collect(), point, plane)
             })
             .collect();
         let distances: Vec<(&str, &str, u64)> = c
@@ -366,7 +378,7 @@ pub fn require_distinct(sessions: &[&Measurements]) -> Result<(), InputError> {
             let how = if path(a).is_some_and(|p| Some(p) == path(b)) {
                 "the same file"
             } else if rows(a) == rows(b) {
-                "the same rows (every joint reading, point, plane and distance)"
+                "the same rows (every joint reading, measured point, point, plane and distance)"
             } else {
                 continue;
             };
@@ -375,8 +387,7 @@ pub fn require_distinct(sessions: &[&Measurements]) -> Result<(), InputError> {
                 0,
                 0,
                 format!(
-                    "the same session as {} ({how}): a session held out and trained on gives \
-                     in-sample figures as held-out ones; give each session once",
+                    "the same session as {} ({how}): {why}; give each session once",
                     a.file
                 ),
             ));

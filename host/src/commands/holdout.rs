@@ -93,7 +93,10 @@ pub fn require_sessions(
         training,
         reference,
     } = sessions;
-    contact_check::require_distinct(&held_out.iter().chain(training).collect::<Vec<_>>())?;
+    contact_check::require_distinct(
+        &held_out.iter().chain(training).collect::<Vec<_>>(),
+        contact_check::HOLDOUT_TWICE,
+    )?;
     if training.is_empty() && held_out.len() < 2 {
         return Err(Argument::Sessions.refused(
             front,

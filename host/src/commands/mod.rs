@@ -17,7 +17,8 @@
 //! [`export`]; the working tool a front end names is checked by [`tool`].
 //! Turning
 //! an outcome into text, files and warnings is the front end's. The rules
-//! every verb shares are here: a session's checks ([`require_session`]), the
+//! every verb shares are here: several sessions read as one ([`sessions`]),
+//! a session's checks ([`require_session`]), the
 //! fit's stated scales ([`fit_options`]), the folds ([`folds`]), and which
 //! errors refuse the input (exit status 2) rather than fail
 //! ([`is_refusal`]).
@@ -172,6 +173,15 @@ pub fn require_session(model: &RobotModel, data: &Measurements) -> Result<(), In
         independent_parameter_count(&model.robot, data.has_orientation()),
     )?;
     data.require_plausible(model)
+}
+
+/// Several sessions of one robot as one calibration's rows
+/// ([`Measurements::sessions`]), refused when one is given twice (the same
+/// file, or the same rows: [`crate::calibration::contact_check::require_distinct`]).
+pub fn sessions(parts: Vec<Measurements>) -> Result<Measurements, InputError> {
+    use crate::calibration::contact_check::{SESSION_TWICE, require_distinct};
+    require_distinct(&parts.iter().collect::<Vec<_>>(), SESSION_TWICE)?;
+    Measurements::sessions(parts)
 }
 
 /// The fit's options from the model's prior and the `scales` stated (model

@@ -118,6 +118,14 @@ fn sessions_are_calibrated_together_and_the_file_holds_the_first() {
     args.push("--data");
     args.extend(files);
     refused(d, &args, &["still misses the measured points"]);
+
+    // A session given twice would count its rows twice: refused, as a copy.
+    std::fs::copy(d.join("s-2.csv"), d.join("copy.csv")).unwrap();
+    for twice in [["s-2.csv", "s-2.csv"], ["s-2.csv", "copy.csv"]] {
+        let mut args = vec!["identify", "--model", "ur5e", "--data", "s-1.csv"];
+        args.extend(twice);
+        refused(d, &args, &["the same session as", "give each session once"]);
+    }
 }
 
 #[test]
