@@ -25,7 +25,9 @@ use std::fmt::Write as _;
 use armcal_shared::{Frame, FrameAxis, Param};
 use serde_json::json;
 
-use super::full::{FrameSharing, FullError, FullFit, FullOptions, Observation, register_session};
+use super::full::{
+    FrameSharing, FullError, FullFit, FullOptions, Observation, Status, register_session,
+};
 use crate::io::measurements::Measurements;
 use crate::io::model_file::Units;
 use armcal_shared::Robot;
@@ -169,6 +171,19 @@ pub fn summary(
                 u.angle_from_si(turn),
                 u.angle,
                 length((b.tool.xyz - a.tool.xyz).norm())
+            );
+        }
+        let held: Vec<String> = s
+            .frames
+            .iter()
+            .filter(|(_, _, status)| matches!(status, Status::Fixed { .. }))
+            .map(|(p, _, _)| p.to_string())
+            .collect();
+        if !held.is_empty() {
+            let _ = write!(
+                out,
+                "; its {} held at their start (its rows do not determine them)",
+                held.join(", ")
             );
         }
         let _ = writeln!(out);
