@@ -11,7 +11,7 @@ use armcal::commands::{diagnose, export, holdout, identify, simulate};
 use armcal::io::input_error::InputError;
 use armcal::io::model_file::{self, RobotModel};
 use armcal::io::urdf::ChainSpec;
-use armcal::session::registration::{FrameSharing, Sharing};
+use armcal::session::registration::FrameSharing;
 use armcal_shared::TargetFrame;
 use clap::{Parser, Subcommand};
 
@@ -585,17 +585,7 @@ pub(crate) struct SessionArgs {
 impl SessionArgs {
     /// The frames these flags share.
     pub(crate) fn sharing(self) -> FrameSharing {
-        let sharing = |same: bool| {
-            if same {
-                Sharing::Shared
-            } else {
-                Sharing::PerSession
-            }
-        };
-        FrameSharing {
-            base: sharing(self.same_base),
-            tool: sharing(self.same_tool),
-        }
+        FrameSharing::stated(self.same_base, self.same_tool)
     }
 }
 

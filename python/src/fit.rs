@@ -5,7 +5,7 @@
 use armcal::calibration::identify::prior_scale::PriorScale;
 use armcal::calibration::identify::{ParamSet, StatedScales};
 use armcal::commands::{self, Front, diagnose as diagnose_cmd, identify as identify_cmd};
-use armcal::session::registration::{FrameSharing, Sharing};
+use armcal::session::registration::FrameSharing;
 use armcal_shared::TargetFrame;
 use pyo3::prelude::*;
 
@@ -76,22 +76,6 @@ fn session(
         .map_err(|e| errors::input(py, &e, data.arrays))?;
     let arrays = data.arrays;
     Ok((data, arrays))
-}
-
-/// The frames several sessions share: `same_base`, `same_tool` (each
-/// session its own otherwise, as `--same-base`, `--same-tool` say).
-fn sharing(same_base: bool, same_tool: bool) -> FrameSharing {
-    let sharing = |same: bool| {
-        if same {
-            Sharing::Shared
-        } else {
-            Sharing::PerSession
-        }
-    };
-    FrameSharing {
-        base: sharing(same_base),
-        tool: sharing(same_tool),
-    }
 }
 
 /// The measurements `data` (the argument `argument`): given, read against
@@ -213,7 +197,7 @@ pub fn identify_py(
         },
         prior_scale,
         targets: self::targets(py, targets)?,
-        frames: sharing(same_base, same_tool),
+        frames: FrameSharing::stated(same_base, same_tool),
     };
     let m = &model.inner;
     let (data, arrays) = session(py, model, data)?;
@@ -274,7 +258,7 @@ pub fn diagnose(
             prior_angle,
         },
         targets: self::targets(py, targets)?,
-        frames: sharing(same_base, same_tool),
+        frames: FrameSharing::stated(same_base, same_tool),
     };
     let m = &model.inner;
     let (data, arrays) = session(py, model, data)?;

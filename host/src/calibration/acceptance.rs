@@ -93,14 +93,7 @@ pub fn residual(
     }
     // Sums of squares over fixed chunks of rows, on every core, added in
     // order: the same answer on any number of cores.
-    let models: Vec<EffectModel<f64>> = registrations
-        .robots(&model.robot)
-        .into_iter()
-        .map(|robot| EffectModel {
-            robot,
-            effects: model.effects.clone(),
-        })
-        .collect();
+    let models = registrations.effect_models(model);
     let prepared: Option<Vec<_>> = model
         .effects
         .is_empty()

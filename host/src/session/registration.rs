@@ -25,6 +25,7 @@
 //! their frames: their points, named across files, are one set found in one
 //! base frame.
 
+use armcal_shared::effects::EffectModel;
 use armcal_shared::{Frame, Param, Robot};
 
 /// Whether a frame is each session's own or one for all.
@@ -48,6 +49,22 @@ pub struct FrameSharing {
 }
 
 impl FrameSharing {
+    /// The sharing the user states: `same_base` (`--same-base`), `same_tool`
+    /// (`--same-tool`); each session's own frame otherwise.
+    pub fn stated(same_base: bool, same_tool: bool) -> Self {
+        let sharing = |same: bool| {
+            if same {
+                Sharing::Shared
+            } else {
+                Sharing::PerSession
+            }
+        };
+        Self {
+            base: sharing(same_base),
+            tool: sharing(same_tool),
+        }
+    }
+
     /// Whether `param` (a base or tool parameter) is each session's own.
     pub fn per_session(&self, param: Param) -> bool {
         match param {
@@ -109,6 +126,17 @@ impl Registrations {
             }
         }
         r
+    }
+
+    /// `model` (a robot with its effects) as every session sees it, in order.
+    pub fn effect_models(&self, model: &EffectModel<f64>) -> Vec<EffectModel<f64>> {
+        self.robots(&model.robot)
+            .into_iter()
+            .map(|robot| EffectModel {
+                robot,
+                effects: model.effects.clone(),
+            })
+            .collect()
     }
 
     /// The robot of every session, in order.

@@ -628,28 +628,7 @@ fn identify_prints_what_its_file_delivers_and_quiet_prints_nothing() {
             "p.csv",
         ],
     );
-    let rows = |path: &Path| -> Vec<Vec<f64>> {
-        let text = std::fs::read_to_string(path).unwrap();
-        let mut lines = text.lines().filter(|l| !l.starts_with('#'));
-        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-        let at: Vec<usize> = ["x", "y", "z"]
-            .iter()
-            .map(|c| header.iter().position(|h| h == c).unwrap())
-            .collect();
-        lines
-            .map(|l| {
-                let cells: Vec<&str> = l.split(',').collect();
-                at.iter().map(|&i| cells[i].parse().unwrap()).collect()
-            })
-            .collect()
-    };
-    let (predicted, measured) = (rows(&d.join("p.csv")), rows(Path::new(&data)));
-    let sum: f64 = predicted
-        .iter()
-        .zip(&measured)
-        .map(|(p, m)| (0..3).map(|k| (p[k] - m[k]).powi(2)).sum::<f64>())
-        .sum();
-    let delivered = (sum / predicted.len() as f64).sqrt();
+    let delivered = crate::rms_distance(&d.join("p.csv"), Path::new(&data));
     assert!(
         (delivered - printed).abs() <= 5e-7,
         "printed {printed} m, predict gives {delivered} m"

@@ -104,3 +104,31 @@ pub fn succeeds(dir: &Path, args: &[&str]) -> Output {
     assert_success(&out);
     out
 }
+
+/// The RMS 3-D distance (model units) between the `x, y, z` of the rows of
+/// two CSV files (predicted and measured points, rows in order).
+pub fn rms_distance(predicted: &Path, measured: &Path) -> f64 {
+    let rows = |path: &Path| -> Vec<Vec<f64>> {
+        let text = std::fs::read_to_string(path).unwrap();
+        let mut lines = text.lines().filter(|l| !l.starts_with('#'));
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let at: Vec<usize> = ["x", "y", "z"]
+            .iter()
+            .map(|c| header.iter().position(|h| h == c).unwrap())
+            .collect();
+        lines
+            .map(|l| {
+                let cells: Vec<&str> = l.split(',').collect();
+                at.iter().map(|&i| cells[i].parse().unwrap()).collect()
+            })
+            .collect()
+    };
+    let (p, m) = (rows(predicted), rows(measured));
+    assert_eq!(p.len(), m.len());
+    let sum: f64 = p
+        .iter()
+        .zip(&m)
+        .map(|(a, b)| (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>())
+        .sum();
+    (sum / p.len() as f64).sqrt()
+}

@@ -5,34 +5,7 @@
 //! reported; the file written holds the first session's registration, and
 //! `armcal predict` with it gives the first session's figure.
 
-use crate::{refused, succeeds};
-
-/// The RMS 3-D distance (model units) between the points of `predicted` and
-/// the measured ones of `measured` (two CSV texts, rows in order).
-fn rms_distance(predicted: &str, measured: &str) -> f64 {
-    let rows = |text: &str| -> Vec<Vec<f64>> {
-        let mut lines = text.lines().filter(|l| !l.starts_with('#'));
-        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-        let at: Vec<usize> = ["x", "y", "z"]
-            .iter()
-            .map(|c| header.iter().position(|h| h == c).unwrap())
-            .collect();
-        lines
-            .map(|l| {
-                let cells: Vec<f64> = l.split(',').map(|c| c.parse().unwrap()).collect();
-                at.iter().map(|&i| cells[i]).collect()
-            })
-            .collect()
-    };
-    let (p, m) = (rows(predicted), rows(measured));
-    assert_eq!(p.len(), m.len());
-    let sum: f64 = p
-        .iter()
-        .zip(&m)
-        .map(|(a, b)| (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>())
-        .sum();
-    (sum / p.len() as f64).sqrt()
-}
+use crate::{refused, rms_distance, succeeds};
 
 #[test]
 fn sessions_are_calibrated_together_and_the_file_holds_the_first() {
@@ -93,12 +66,19 @@ fn sessions_are_calibrated_together_and_the_file_holds_the_first() {
         assert_eq!(s["poses"], 80);
     }
     // The figure printed for the first session is what the file delivers.
-    let predicted = succeeds(
+    succeeds(
         d,
-        &["predict", "--calibration", "c.cal", "--joints", "s-1.csv"],
+        &[
+            "predict",
+            "--calibration",
+            "c.cal",
+            "--joints",
+            "s-1.csv",
+            "--out",
+            "p.csv",
+        ],
     );
-    let measured = std::fs::read_to_string(d.join("s-1.csv")).unwrap();
-    let delivered = rms_distance(&String::from_utf8_lossy(&predicted.stdout), &measured);
+    let delivered = rms_distance(&d.join("p.csv"), &d.join("s-1.csv"));
     let printed = sessions[0]["position_rms"].as_f64().unwrap();
     assert!(
         (delivered - printed).abs() < 1e-9 + 1e-6 * printed,

@@ -1274,16 +1274,7 @@ impl Diagnosis {
         let orientation = data.iter().all(|o| o.orientation.is_some());
         let model = self.calibration(nominal, orientation, Units::SI).model();
         // Each session's rows as its own frames place the written model.
-        let models: Vec<EffectModel<f64>> = self
-            .fit
-            .registrations
-            .robots(&model.robot)
-            .into_iter()
-            .map(|robot| EffectModel {
-                robot,
-                effects: model.effects.clone(),
-            })
-            .collect();
+        let models = self.fit.registrations.effect_models(&model);
         let errors: Vec<f64> = data
             .iter()
             .filter(|o| o.contact == Contact::Measured)

@@ -28,6 +28,7 @@ use serde_json::json;
 use super::full::{
     FrameSharing, FullError, FullFit, FullOptions, Observation, Status, register_session,
 };
+use super::summary::length_and_mm;
 use crate::io::measurements::Measurements;
 use crate::io::model_file::Units;
 use armcal_shared::Robot;
@@ -129,14 +130,7 @@ pub fn summary(
          ({first}): `armcal predict` with it gives that session's figure",
         fit.sessions.len()
     );
-    let length = |x: f64| {
-        format!(
-            "{:.6} {} ({:.4} mm)",
-            u.length_from_si(x),
-            u.length,
-            x * 1e3
-        )
-    };
+    let length = |x: f64| length_and_mm(u, x);
     for (k, s) in fit.sessions.iter().enumerate() {
         let file = data.sessions.get(k).map_or("?", String::as_str);
         let _ = write!(

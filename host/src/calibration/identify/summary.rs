@@ -89,6 +89,16 @@ fn in_units(units: &Units, param: Param, si: f64) -> f64 {
     }
 }
 
+/// A length `x` (m) as the summaries give it: in the model's unit, then in mm.
+pub fn length_and_mm(u: &Units, x: f64) -> String {
+    format!(
+        "{:.6} {} ({:.4} mm)",
+        u.length_from_si(x),
+        u.length,
+        x * 1e3
+    )
+}
+
 impl Identification {
     /// The JSON of `docs/file-formats.md` §6 of an identification from
     /// `data`, values in the model's units.
@@ -325,14 +335,7 @@ impl Identification {
         } else {
             "position RMS"
         };
-        let length = |x: f64| {
-            format!(
-                "{:.6} {} ({:.4} mm)",
-                u.length_from_si(x),
-                u.length,
-                x * 1e3
-            )
-        };
+        let length = |x: f64| length_and_mm(u, x);
         let _ = write!(
             out,
             "{what} on these rows: nominal {} → calibrated {}",
