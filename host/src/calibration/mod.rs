@@ -11,6 +11,7 @@ pub mod diagnose;
 pub mod gravity;
 pub mod identify;
 pub mod parallel;
+pub mod plan;
 pub mod replicates;
 pub mod report;
 pub mod reproduce;

@@ -1,0 +1,201 @@
+//! The I-optimal choice of poses among candidates: the poses whose
+//! calibration predicts the workspace best.
+//!
+//! ## Criterion
+//! With `J_c` the weighted Jacobian rows of candidate `c` (its position rows
+//! divided by the position noise, its orientation rows, when measured, by the
+//! orientation noise; columns every parameter of the full model) a plan `P`
+//! has the information `M = Σ_{c∈P} J_cᵀ J_c + Π`, `Π` the prior's
+//! precision (`identify`'s default: 1 mm, 1 mrad on the D-H errors, none on
+//! the base and tool), and the calibration from it the covariance `M⁻¹`. Its tool point at a target configuration `w`
+//! (position rows `G_w`, m per unit parameter) is then off by `tr(G_w M⁻¹
+//! G_wᵀ)` m² in expectation, and over the targets by `tr(M⁻¹ W)`, `W = mean_w
+//! G_wᵀ G_w`: the I-optimality criterion (Atkinson, Donev & Tobias, *Optimum
+//! Experimental Designs*, 2007, §10.6), the expected held-out error of the
+//! calibration, not the volume of its parameters' confidence region
+//! (D-optimality).
+//!
+//! ## Algorithm
+//! Greedy, then exchange (Fedorov's, one pose at a time). Adding candidate
+//! `c` to `M` lowers the criterion by `tr(S⁻¹ J_c B J_cᵀ)`, `S = I + J_c A
+//! J_cᵀ`, `A = M⁻¹`, `B = A W A` (Sherman–Morrison–Woodbury): one product of
+//! the stacked candidates with `A` and one with `B` per step, then an `r × r`
+//! solve per candidate (`r` = 3 or 6 rows). The plan starts from `Π + εI`
+//! (so that the first poses are those that fill its emptiest directions: the
+//! base and tool have no prior) and takes the best candidate `N` times; each exchange pass then takes each
+//! pose out in turn and puts back the best candidate, until a pass improves
+//! the criterion by less than 1e-6 of it or [`PASSES`] passes. Columns are
+//! scaled to a unit mean square per candidate, so that `ε` means the same
+//! for every unit.
+
+use nalgebra::DMatrix;
+
+use crate::calibration::parallel;
+
+/// Most exchange passes.
+pub const PASSES: usize = 8;
+
+/// The candidates' weighted Jacobian rows, stacked, in scaled columns.
+pub struct Candidates {
+    /// Rows per candidate (3, or 6 with orientations).
+    pub rows: usize,
+    /// All candidates' rows, `rows · n` × parameters.
+    pub j: DMatrix<f64>,
+}
+
+impl Candidates {
+    /// How many candidates there are.
+    pub fn count(&self) -> usize {
+        self.j.nrows() / self.rows.max(1)
+    }
+
+    /// Candidate `c`'s rows.
+    fn block(&self, c: usize) -> nalgebra::DMatrixView<'_, f64> {
+        self.j.rows(c * self.rows, self.rows)
+    }
+
+    /// `Σ_{c∈plan} J_cᵀ J_c`.
+    pub fn information(&self, plan: &[usize]) -> DMatrix<f64> {
+        let p = self.j.ncols();
+        let mut m = DMatrix::zeros(p, p);
+        for &c in plan {
+            let b = self.block(c);
+            m += b.transpose() * b;
+        }
+        m
+    }
+}
+
+/// The criterion `tr(M⁻¹ W)` of information `m`, `None` when `m` is singular.
+pub fn criterion(m: &DMatrix<f64>, w: &DMatrix<f64>) -> Option<f64> {
+    let inverse = m.clone().cholesky()?.inverse();
+    Some((inverse * w).trace())
+}
+
+/// The ridge the greedy start adds to every direction, in units of one
+/// candidate's mean information: a plan of fewer poses than parameters
+/// stays invertible, and its emptiest directions are filled first.
+const RIDGE: f64 = 1e-6;
+
+/// `n` distinct candidates chosen I-optimally for the targets' `w` (see the
+/// module header) with the prior's precision `prior` (a diagonal, in the
+/// candidates' scaled columns), in the order chosen.
+pub fn choose(candidates: &Candidates, w: &DMatrix<f64>, prior: &[f64], n: usize) -> Vec<usize> {
+    let p = candidates.j.ncols();
+    let start = DMatrix::from_fn(p, p, |a, b| {
+        if a == b {
+            prior.get(a).copied().unwrap_or(0.0) + RIDGE
+        } else {
+            0.0
+        }
+    });
+    let mut plan: Vec<usize> = Vec::with_capacity(n);
+    let mut m = start.clone();
+    while plan.len() < n.min(candidates.count()) {
+        let Some(c) = best(candidates, &m, w, &plan, None) else {
+            break;
+        };
+        let b = candidates.block(c);
+        m += b.transpose() * b;
+        plan.push(c);
+    }
+    // Exchange: each pose out in turn, the best candidate back in (the
+    // ridge of the start out of the information).
+    m -= DMatrix::identity(p, p) * RIDGE;
+    let mut current = criterion(&m, w).unwrap_or(f64::INFINITY);
+    for _ in 0..PASSES {
+        let before = current;
+        for i in 0..plan.len() {
+            let out = candidates.block(plan[i]);
+            let without = &m - out.transpose() * out;
+            let Some(c) = best(candidates, &without, w, &plan, Some(i)) else {
+                continue;
+            };
+            let b = candidates.block(c);
+            let with = &without + b.transpose() * b;
+            let Some(value) = criterion(&with, w) else {
+                continue;
+            };
+            if value < current {
+                (plan[i], m, current) = (c, with, value);
+            }
+        }
+        if before - current <= 1e-6 * before {
+            break;
+        }
+    }
+    plan
+}
+
+/// The candidate (not in `plan`, but for its pose `replacing`) whose rows
+/// lower `tr(M⁻¹ W)` most, added to information `m`.
+fn best(
+    candidates: &Candidates,
+    m: &DMatrix<f64>,
+    w: &DMatrix<f64>,
+    plan: &[usize],
+    replacing: Option<usize>,
+) -> Option<usize> {
+    let a = m.clone().cholesky()?.inverse();
+    let b = &a * w * &a;
+    let (ja, jb) = (&candidates.j * &a, &candidates.j * &b);
+    let r = candidates.rows;
+    let taken: std::collections::HashSet<usize> = plan
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| Some(*i) != replacing)
+        .map(|(_, c)| *c)
+        .collect();
+    let indices: Vec<usize> = (0..candidates.count()).collect();
+    let gains = parallel::map(&indices, |&c| {
+        if taken.contains(&c) {
+            return f64::NEG_INFINITY;
+        }
+        let jc = candidates.block(c);
+        let s = DMatrix::identity(r, r) + ja.rows(c * r, r) * jc.transpose();
+        let t = jb.rows(c * r, r) * jc.transpose();
+        match s.cholesky() {
+            Some(ch) => (ch.inverse() * t).trace(),
+            None => f64::NEG_INFINITY,
+        }
+    });
+    gains
+        .iter()
+        .enumerate()
+        .filter(|(_, g)| g.is_finite())
+        .max_by(|x, y| x.1.total_cmp(y.1))
+        .map(|(c, _)| c)
+}
+
+/// The singular values of `j` (its columns scaled to unit norm) and its rows:
+/// what the observability indices read.
+pub fn scaled_singular_values(j: &DMatrix<f64>) -> Vec<f64> {
+    let mut scaled = j.clone();
+    for mut col in scaled.column_iter_mut() {
+        let norm = col.norm();
+        if norm > 0.0 {
+            col /= norm;
+        }
+    }
+    let mut s: Vec<f64> = scaled.singular_values().iter().copied().collect();
+    s.sort_by(|a, b| b.total_cmp(a));
+    s
+}
+
+/// The observability indices O1–O5 of Borm & Menq (1991) and Nahvi &
+/// Hollerbach (1996) from the singular values `s` (largest first) of `n`
+/// rows: O1 `(σ₁⋯σ_p)^{1/p}/√n`, O2 `σ_min/σ_max`, O3 `σ_min`, O4
+/// `σ_min²/σ_max`, O5 `1/Σ 1/σ_i`.
+pub fn observability(s: &[f64], n: usize) -> [f64; 5] {
+    let (Some(&max), Some(&min)) = (s.first(), s.last()) else {
+        return [0.0; 5];
+    };
+    let p = s.len() as f64;
+    let log_sum: f64 = s.iter().map(|x| x.max(f64::MIN_POSITIVE).ln()).sum();
+    let o1 = (log_sum / p).exp() / (n.max(1) as f64).sqrt();
+    let o5 = 1.0
+        / s.iter()
+            .map(|x| 1.0 / x.max(f64::MIN_POSITIVE))
+            .sum::<f64>();
+    [o1, min / max, min, min * min / max, o5]
+}
