@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use armcal::calibration::identify::prior_scale::PriorScale;
 use armcal::calibration::identify::{ParamSet, StatedScales};
 use armcal::commands::tool::Tool;
-use armcal::commands::{diagnose, export, holdout, identify, simulate};
+use armcal::commands::{diagnose, export, holdout, identify, plan, simulate};
 use armcal::io::input_error::InputError;
 use armcal::io::model_file::{self, RobotModel};
 use armcal::io::urdf::ChainSpec;
@@ -80,10 +80,93 @@ pub(crate) enum Command {
     /// error of each known distance, for the nominal model, --reference and
     /// the calibration.
     Holdout(HoldoutArgs),
+    /// Plan the measurement: the joint configurations to measure (a joints
+    /// CSV, in measurement order along a short path) chosen so that the
+    /// calibration from them predicts the workspace best, and the accuracy it
+    /// is predicted to reach, beside as many random poses'.
+    Plan(PlanArgs),
     /// List the built-in robot models and data sets.
     Models,
     /// Rebuild the worked examples of a seed paper and print them as the paper does.
     Reproduce(ReproduceArgs),
+}
+
+/// The flags of `armcal plan`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct PlanArgs {
+    #[command(flatten)]
+    pub(crate) model: ModelArgs,
+    /// Poses to measure.
+    #[arg(long, default_value_t = 30, value_parser = args::at_least(1, "pose"))]
+    pub(crate) poses: usize,
+    /// Write the poses here: a joints CSV (q1..qM, model units), in
+    /// measurement order.
+    #[arg(long, value_name = "P.csv")]
+    pub(crate) out: PathBuf,
+    /// Write the report as JSON here.
+    #[arg(long, value_name = "R.json")]
+    pub(crate) json: Option<PathBuf>,
+    /// Write a self-contained HTML page here: where in the workspace the
+    /// calibration is predicted to miss most.
+    #[arg(long, value_name = "R.html")]
+    pub(crate) html: Option<PathBuf>,
+    /// The instrument measures orientations too (full poses).
+    #[arg(long)]
+    pub(crate) orientation: bool,
+    /// The instrument's position noise, one standard deviation per axis, model
+    /// length unit (default 20 µm).
+    #[arg(long, value_name = "LENGTH", value_parser = args::positive)]
+    pub(crate) noise: Option<f64>,
+    /// The instrument's orientation noise, per axis, model angle unit
+    /// (default 20 µrad).
+    #[arg(long, value_name = "ANGLE", value_parser = args::positive)]
+    pub(crate) orientation_noise: Option<f64>,
+    /// A box the tool point must stay in, measurement frame, model length unit.
+    #[arg(
+        long,
+        value_name = "XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX",
+        value_delimiter = ',',
+        allow_hyphen_values = true
+    )]
+    pub(crate) within: Option<Vec<f64>>,
+    /// A floor the tool point must stay above: its height z, measurement frame,
+    /// model length unit.
+    #[arg(long, value_name = "Z", allow_hyphen_values = true)]
+    pub(crate) above: Option<f64>,
+    /// The share of each joint's range kept off each limit (default 0.05).
+    #[arg(long, value_name = "SHARE")]
+    pub(crate) margin: Option<f64>,
+    /// Choose among these configurations (a joints CSV) instead of random ones
+    /// within the limits.
+    #[arg(long, value_name = "C.csv")]
+    pub(crate) from: Option<String>,
+    /// The configurations the robot will work at (a joints CSV): the plan
+    /// predicts them best (default: random configurations within the limits).
+    #[arg(long, value_name = "T.csv")]
+    pub(crate) targets: Option<String>,
+    /// Random candidates to choose from (default 10000).
+    #[arg(long, value_name = "N")]
+    pub(crate) candidates: Option<usize>,
+    /// Seed of every random draw.
+    #[arg(long, default_value_t = 1)]
+    pub(crate) seed: u64,
+}
+
+impl PlanArgs {
+    /// What these flags ask of `plan`.
+    pub(crate) fn request(&self) -> plan::Request {
+        plan::Request {
+            poses: self.poses,
+            orientation: self.orientation,
+            noise: self.noise,
+            orientation_noise: self.orientation_noise,
+            within: self.within.clone(),
+            above: self.above,
+            margin: self.margin,
+            candidates: self.candidates,
+            seed: self.seed,
+        }
+    }
 }
 
 /// The flags of `armcal check`.

@@ -88,6 +88,7 @@ fn run(command: Command) -> anyhow::Result<()> {
         Command::Predict(a) => verbs::predict(a),
         Command::Stream(a) => verbs::stream(a),
         Command::Export(a) => verbs::export(a),
+        Command::Plan(a) => verbs::plan(a),
         Command::Models => verbs::models(),
     }
 }

@@ -10,7 +10,7 @@ use armcal::calibration::identify::paper::PaperOptions;
 use armcal::calibration::{check, contact_check, reproduce};
 use armcal::commands::tool::Tool;
 use armcal::commands::{diagnose as diagnose_cmd, export as export_cmd, holdout as holdout_cmd};
-use armcal::commands::{identify as identify_cmd, simulate as simulate_cmd};
+use armcal::commands::{identify as identify_cmd, plan as plan_cmd, simulate as simulate_cmd};
 use armcal::io::input_error::InputError;
 use armcal::io::{builtin, measurements, model_file, output};
 use armcal_shared::Calibration;
@@ -19,7 +19,7 @@ use armcal_shared::link::Request;
 
 use crate::cli::{
     CheckArgs, CompensateArgs, DemoArgs, DiagnoseArgs, ExportArgs, HoldoutArgs, IdentifyArgs,
-    PredictArgs, SimulateArgs, StreamArgs, SweepArgs,
+    PlanArgs, PredictArgs, SimulateArgs, StreamArgs, SweepArgs,
 };
 use crate::terminal::{
     CLI, Progress, accept, finish, finish_csv, joints_outputs, load_session, warn,
@@ -103,6 +103,67 @@ pub(crate) fn identify(args: IdentifyArgs) -> anyhow::Result<()> {
     }
     finish(outputs, args.quiet, || result.summary(&model, &data))?;
     Ok(())
+}
+
+/// `armcal plan`.
+pub(crate) fn plan(args: PlanArgs) -> anyhow::Result<()> {
+    let mut outputs = output::Outputs::new()
+        .model_input(&args.model.model)
+        .output("--out", Some(&args.out))
+        .output("--json", args.json.as_deref())
+        .output("--html", args.html.as_deref());
+    for (flag, file) in [("--from", &args.from), ("--targets", &args.targets)] {
+        if let Some(file) = file {
+            outputs = outputs.input(flag, file);
+        }
+    }
+    outputs.check()?;
+    let model = args.model.load()?;
+    let request = args.request();
+    let options = request.options(CLI, &model)?;
+    let joints = |file: &Option<String>| -> anyhow::Result<Option<Vec<Vec<f64>>>> {
+        let Some(file) = file else { return Ok(None) };
+        let rows = measurements::load_joints(file, &model.robot, &model.units)?;
+        warn(&rows.warnings);
+        Ok(Some(rows.rows.into_iter().map(|r| r.q).collect()))
+    };
+    let from = match joints(&args.from)? {
+        Some(rows) => {
+            let (kept, dropped) = plan_cmd::within_limits(&model, rows, options.margin);
+            if dropped > 0 {
+                eprintln!(
+                    "armcal: warning: --from: {dropped} configurations outside the joint limits \
+                     (less the margin {}) left out",
+                    options.margin
+                );
+            }
+            Some(kept)
+        }
+        None => None,
+    };
+    let targets = joints(&args.targets)?;
+    let (plan, options) =
+        plan_cmd::run(CLI, &model, &request, from.as_deref(), targets.as_deref())?;
+    let cal = Calibration::nominal(model.robot.clone(), false, model.units);
+    let comment = format!(
+        "armcal plan --model {} --poses {}: the poses to measure, in this order",
+        model.name, args.poses
+    );
+    outputs.set(
+        "--out",
+        compensate::joints_csv(&comment, &cal, plan.q.iter().cloned()).into_bytes(),
+    );
+    if args.json.is_some() {
+        let text = serde_json::to_string_pretty(&plan.to_json(&options, &model.units))?;
+        outputs.set("--json", text.into_bytes());
+    }
+    if args.html.is_some() {
+        outputs.set(
+            "--html",
+            plan.html(&model.name, &options, &model.units).into_bytes(),
+        );
+    }
+    finish(outputs, false, || plan.summary(&model.name, &options))
 }
 
 /// `armcal simulate`.

@@ -17,4 +17,5 @@ pub mod report;
 pub mod reproduce;
 pub mod simulate;
 pub mod stats;
+pub mod svg;
 pub mod sweep;

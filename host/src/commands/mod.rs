@@ -14,7 +14,7 @@
 //! the request against the model and the data, computes, and returns the
 //! outcome as typed values (a calibration, a report, what refuses it to be
 //! written): [`identify`], [`diagnose`], [`holdout`], [`simulate`],
-//! [`export`]; the working tool a front end names is checked by [`tool`].
+//! [`export`], [`plan`]; the working tool a front end names is checked by [`tool`].
 //! Turning
 //! an outcome into text, files and warnings is the front end's. The rules
 //! every verb shares are here: several sessions read as one ([`sessions`]),
@@ -27,6 +27,7 @@ pub mod diagnose;
 pub mod export;
 pub mod holdout;
 pub mod identify;
+pub mod plan;
 pub mod simulate;
 pub mod tool;
 
@@ -208,6 +209,9 @@ pub fn is_refusal(err: &anyhow::Error) -> bool {
     err.downcast_ref::<InputError>().is_some()
         || err.downcast_ref::<FullError>().is_some()
         || err.downcast_ref::<PaperError>().is_some()
+        || err
+            .downcast_ref::<crate::calibration::plan::PlanError>()
+            .is_some()
         || err
             .downcast_ref::<IdentifyError>()
             .is_some_and(|e| !matches!(e, IdentifyError::Calibration(_)))

@@ -132,6 +132,8 @@ pub struct Prediction {
     pub std: Vec<(Param, f64)>,
     /// The observability indices O1–O5.
     pub observability: [f64; 5],
+    /// The predicted RMS error at each workspace target, m.
+    pub per_target: Vec<f64>,
 }
 
 /// A plan: the poses in measurement order, what they are predicted to give,
@@ -145,8 +147,10 @@ pub struct Plan {
     /// As many random candidates' (`None` when they do not identify every
     /// parameter the plan does, with the ones they miss).
     pub random: Result<Prediction, Vec<Param>>,
+    /// The parameters the plan identifies.
+    pub identified: Vec<Param>,
     /// The parameters no choice of poses identifies, with why (`identify`'s
-    /// reasons).
+    /// reasons): the prior holds them.
     pub held: Vec<(Param, String)>,
     /// The length of the measurement path, joint space (rad, m).
     pub path: f64,
@@ -154,6 +158,10 @@ pub struct Plan {
     pub candidates: usize,
     /// The workspace configurations it was made for.
     pub targets: usize,
+    /// The nominal tool point of each workspace target, measurement frame, m.
+    pub target_points: Vec<Point3<f64>>,
+    /// The nominal tool point of each planned pose, in measurement order.
+    pub points: Vec<Point3<f64>>,
 }
 
 /// Why a plan cannot be made.
@@ -394,7 +402,7 @@ pub fn plan(
     let d = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(scale.clone()));
     let g = jacobian(robot, workspace, &params, None);
     let w = (g.transpose() * &g) / workspace.len().max(1) as f64;
-    let candidates = Candidates { rows, j: &j * &d };
+    let candidates = Candidates::of(rows, &(&j * &d));
     let prior_scaled: Vec<f64> = precision
         .iter()
         .zip(&scale)
@@ -452,11 +460,19 @@ pub fn plan(
         .collect();
     let path = order::path(&poses, &middle);
     let ordered: Vec<Vec<f64>> = path.iter().map(|&i| poses[i].clone()).collect();
+    let tool_point = |q: &Vec<f64>| {
+        kinematics
+            .forward(q)
+            .map_or(Point3::origin(), |t| Point3::from(t.translation.vector))
+    };
     Ok(Plan {
+        target_points: workspace.iter().map(tool_point).collect(),
+        points: ordered.iter().map(tool_point).collect(),
         path: order::length(&poses, &path),
         q: ordered,
         predicted,
         random,
+        identified: free,
         held,
         candidates: kept.len(),
         targets: workspace.len(),
@@ -519,5 +535,6 @@ fn predict(
             .map(|(k, p)| (*p, cov[(k, k)].max(0.0).sqrt()))
             .collect(),
         observability: design::observability(&s, j.nrows()),
+        per_target: per_target.iter().map(|v| v.sqrt()).collect(),
     })
 }

@@ -1,5 +1,8 @@
 //! The plan as its reports give it: the summary `armcal plan` prints, the
-//! JSON of `--json` (`docs/file-formats.md` §7) and the joints file it writes.
+//! JSON of `--json` (`docs/file-formats.md` §7) and the HTML page of
+//! `--html` (the workspace seen from above and from the side, each target
+//! coloured by the predicted error there, the planned poses' tool points on
+//! it).
 //! Lengths in the model's units (`_mm` fields in mm), each parameter's
 //! standard error in its own unit. Nothing here computes; it reads a [`Plan`].
 
@@ -8,10 +11,12 @@ use std::fmt::Write as _;
 use armcal_shared::units::Units;
 use serde_json::json;
 
+use armcal_shared::Param;
+
 use super::{Plan, PlanOptions, Prediction};
 
 /// A parameter's value in the model's unit: length or angle.
-fn in_units(u: &Units, param: armcal_shared::Param, si: f64) -> f64 {
+fn in_units(u: &Units, param: Param, si: f64) -> f64 {
     if param.is_angle() {
         u.angle_from_si(si)
     } else {
@@ -19,8 +24,9 @@ fn in_units(u: &Units, param: armcal_shared::Param, si: f64) -> f64 {
     }
 }
 
-/// One prediction as JSON.
-fn prediction_json(p: &Prediction, u: &Units) -> serde_json::Value {
+/// One prediction as JSON; `identified`: the parameters poses can identify
+/// (the others' standard errors are the prior's).
+fn prediction_json(p: &Prediction, identified: &[Param], u: &Units) -> serde_json::Value {
     json!({
         "predicted_rms_mm": p.rms * 1e3,
         "predicted_max_mm": p.max * 1e3,
@@ -29,6 +35,7 @@ fn prediction_json(p: &Prediction, u: &Units) -> serde_json::Value {
             "name": param.to_string(),
             "std": in_units(u, *param, *s),
             "unit": if param.is_angle() { u.angle.to_string() } else { u.length.to_string() },
+            "identified": identified.contains(param),
         })).collect::<Vec<_>>(),
         "observability": {
             "O1": p.observability[0], "O2": p.observability[1], "O3": p.observability[2],
@@ -40,7 +47,7 @@ fn prediction_json(p: &Prediction, u: &Units) -> serde_json::Value {
 impl Plan {
     /// The JSON of `--json` (`docs/file-formats.md` §7).
     pub fn to_json(&self, options: &PlanOptions, u: &Units) -> serde_json::Value {
-        let mut out = prediction_json(&self.predicted, u);
+        let mut out = prediction_json(&self.predicted, &self.identified, u);
         out["poses"] = json!(self.q.len());
         out["noise_mm"] = json!(options.position_noise * 1e3);
         out["orientation"] = json!(options.orientation);
@@ -48,7 +55,7 @@ impl Plan {
         out["targets"] = json!(self.targets);
         out["path"] = json!(self.path);
         out["random"] = match &self.random {
-            Ok(p) => prediction_json(p, u),
+            Ok(p) => prediction_json(p, &self.identified, u),
             Err(missed) => json!({
                 "identifies": false,
                 "missed": missed.iter().map(ToString::to_string).collect::<Vec<_>>(),
@@ -112,18 +119,101 @@ impl Plan {
         let o = &self.predicted.observability;
         let _ = writeln!(
             out,
-            "observability O1 {:.3e}, O2 {:.3e}, O3 {:.3e}, O4 {:.3e}, O5 {:.3e}; {} parameters identified",
+            "observability O1 {:.3e}, O2 {:.3e}, O3 {:.3e}, O4 {:.3e}, O5 {:.3e}; {} parameters \
+             identified, {} held by the prior:",
             o[0],
             o[1],
             o[2],
             o[3],
             o[4],
-            self.predicted.std.len()
+            self.identified.len(),
+            self.held.len()
         );
         for (p, why) in &self.held {
             let _ = writeln!(out, "  {p}: no plan identifies it: {why}");
         }
         out
+    }
+}
+
+impl Plan {
+    /// The HTML page of `--html`: the summary's figures, then where in the
+    /// workspace the calibration from the plan is predicted to miss most.
+    pub fn html(&self, model_name: &str, options: &PlanOptions, u: &Units) -> String {
+        use crate::calibration::report::html_escape;
+        use crate::calibration::svg::{Point, Scatter, Series};
+        let mm = |x: f64| x * 1e3;
+        let length = |x: f64| u.length_from_si(x);
+        let view = |title: &str, axes: (usize, usize), names: (&str, &str)| {
+            let targets = Series {
+                name: "workspace target".into(),
+                colour: "#1f77b4",
+                radius: 2.2,
+                points: self
+                    .target_points
+                    .iter()
+                    .zip(&self.predicted.per_target)
+                    .map(|(p, e)| Point {
+                        x: length(p[axes.0]),
+                        y: length(p[axes.1]),
+                        value: Some(mm(*e)),
+                    })
+                    .collect(),
+            };
+            let planned = Series {
+                name: "planned pose".into(),
+                colour: "#000000",
+                radius: 4.0,
+                points: self
+                    .points
+                    .iter()
+                    .map(|p| Point {
+                        x: length(p[axes.0]),
+                        y: length(p[axes.1]),
+                        value: None,
+                    })
+                    .collect(),
+            };
+            Scatter {
+                title: title.into(),
+                x_label: format!("{} [{}]", names.0, u.length),
+                y_label: format!("{} [{}]", names.1, u.length),
+                value_label: "predicted error [mm]".into(),
+                series: vec![targets, planned],
+                equal_aspect: true,
+            }
+            .svg(560.0, 460.0)
+        };
+        let mut s = String::new();
+        let _ = write!(
+            s,
+            "<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>armcal plan: {name}</title><style>body{{font-family:sans-serif;max-width:1200px;margin:2em auto;color:#222}}table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}}th{{background:#f4f4f4}}td:first-child,th:first-child{{text-align:left}}.plots{{display:flex;flex-wrap:wrap;gap:12px}}</style></head><body><h1>armcal plan</h1><pre>{summary}</pre>",
+            name = html_escape(model_name),
+            summary = html_escape(&self.summary(model_name, options)),
+        );
+        let _ = write!(
+            s,
+            "<h2>Predicted accuracy</h2><table><tr><th>poses</th><th>calibrated robot, RMS over the workspace [mm]</th><th>at the worst target [mm]</th><th>against new measurements, RMS [mm]</th></tr><tr><td>planned</td><td>{:.4}</td><td>{:.4}</td><td>{:.4}</td></tr>",
+            mm(self.predicted.rms),
+            mm(self.predicted.max),
+            mm(self.predicted.measured_rms)
+        );
+        if let Ok(r) = &self.random {
+            let _ = write!(
+                s,
+                "<tr><td>as many random</td><td>{:.4}</td><td>{:.4}</td><td>{:.4}</td></tr>",
+                mm(r.rms),
+                mm(r.max),
+                mm(r.measured_rms)
+            );
+        }
+        let _ = write!(
+            s,
+            "</table><h2>Where the calibration will miss most</h2><p>Each workspace target's nominal tool point, coloured by the calibrated robot's predicted RMS error there; the planned poses' tool points in black (measurement frame).</p><div class=\"plots\">{}{}</div></body></html>",
+            view("seen from above", (0, 1), ("x", "y")),
+            view("seen from the side", (0, 2), ("x", "z"))
+        );
+        s
     }
 }
 

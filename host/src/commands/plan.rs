@@ -1,0 +1,160 @@
+//! `plan`: the poses to measure and the accuracy they are predicted to give,
+//! as [`crate::calibration::plan`] chooses them, with the request checked
+//! the same way whichever front end asks.
+//!
+//! Lengths and angles are in the model's units as the user states them;
+//! the plan is SI.
+
+use super::Front;
+use crate::calibration::plan::{Plan, PlanOptions, plan};
+use crate::io::input_error::InputError;
+use crate::io::model_file::RobotModel;
+
+/// What `plan` is asked.
+#[derive(Clone, Debug, Default)]
+pub struct Request {
+    /// Poses to measure (at least 1).
+    pub poses: usize,
+    /// Whether orientations are measured too.
+    pub orientation: bool,
+    /// The position noise per axis (model length unit); `None`: 20 µm.
+    pub noise: Option<f64>,
+    /// The orientation noise per axis (model angle unit); `None`: 20 µrad.
+    pub orientation_noise: Option<f64>,
+    /// A box the tool point stays in, `[x_min, y_min, z_min, x_max, y_max,
+    /// z_max]`, measurement frame, model length unit.
+    pub within: Option<Vec<f64>>,
+    /// A floor the tool point stays above (its height z, model length unit).
+    pub above: Option<f64>,
+    /// The share of each joint's range kept off each limit; `None`: 5 %.
+    pub margin: Option<f64>,
+    /// Random candidates drawn when none are given; `None`: 10,000.
+    pub candidates: Option<usize>,
+    /// Seed of every draw.
+    pub seed: u64,
+}
+
+impl Request {
+    /// The options of this request on `model`, SI: refused when a value is
+    /// out of range.
+    pub fn options(&self, front: Front, model: &RobotModel) -> Result<PlanOptions, InputError> {
+        let u = &model.units;
+        let refuse =
+            |flag: &'static str, message: String| InputError::argument(front.flag(flag), message);
+        let positive = |flag: &'static str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(v)
+            } else {
+                Err(refuse(flag, format!("{v}: must be a positive number")))
+            }
+        };
+        if self.poses == 0 {
+            return Err(refuse("--poses", "0: at least 1".into()));
+        }
+        let mut options = PlanOptions {
+            poses: self.poses,
+            orientation: self.orientation,
+            seed: self.seed,
+            ..PlanOptions::default()
+        };
+        options.prior = model.prior;
+        if let Some(n) = self.noise {
+            options.position_noise = u.length_to_si(positive("--noise", n)?);
+        }
+        if let Some(n) = self.orientation_noise {
+            options.orientation_noise = u.angle_to_si(positive("--orientation-noise", n)?);
+        }
+        if let Some(m) = self.margin {
+            if !(0.0..0.5).contains(&m) {
+                return Err(refuse(
+                    "--margin",
+                    format!(
+                        "{m}: the share of each joint's range kept off each limit, from 0 to below 0.5"
+                    ),
+                ));
+            }
+            options.margin = m;
+        }
+        if let Some(c) = self.candidates {
+            if c < self.poses {
+                return Err(refuse(
+                    "--candidates",
+                    format!("{c}: at least the {} poses asked", self.poses),
+                ));
+            }
+            options.candidates = c;
+        }
+        if let Some(b) = &self.within {
+            let ok =
+                b.len() == 6 && b.iter().all(|v| v.is_finite()) && (0..3).all(|k| b[k] < b[k + 3]);
+            if !ok {
+                return Err(refuse(
+                    "--within",
+                    format!(
+                        "{}: six numbers XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX ({}), each minimum below its maximum",
+                        b.iter().map(f64::to_string).collect::<Vec<_>>().join(","),
+                        u.length
+                    ),
+                ));
+            }
+            for k in 0..3 {
+                options.cell.min[k] = u.length_to_si(b[k]);
+                options.cell.max[k] = u.length_to_si(b[k + 3]);
+            }
+        }
+        if let Some(z) = self.above {
+            if !z.is_finite() {
+                return Err(refuse("--above", format!("{z}: must be a number")));
+            }
+            options.cell.min[2] = options.cell.min[2].max(u.length_to_si(z));
+            if options.cell.min[2] >= options.cell.max[2] {
+                return Err(refuse("--above", format!("{z}: above the box's top")));
+            }
+        }
+        Ok(options)
+    }
+}
+
+/// The candidates a user gives (`--from`, SI) that keep within `model`'s
+/// joint limits less the margin: those kept, and how many were dropped.
+pub fn within_limits(
+    model: &RobotModel,
+    rows: Vec<Vec<f64>>,
+    margin: f64,
+) -> (Vec<Vec<f64>>, usize) {
+    let before = rows.len();
+    let kept: Vec<Vec<f64>> = rows
+        .into_iter()
+        .filter(|q| {
+            model
+                .robot
+                .links
+                .iter()
+                .zip(q)
+                .all(|(l, v)| match l.limits {
+                    Some([lo, hi]) => {
+                        let keep = margin * (hi - lo);
+                        lo + keep <= *v && *v <= hi - keep
+                    }
+                    None => true,
+                })
+        })
+        .collect();
+    let dropped = before - kept.len();
+    (kept, dropped)
+}
+
+/// The plan `request` asks of `model`, from the candidates `from` (SI; the
+/// ones within the limits) or random ones, for the workspace `targets` (SI)
+/// or random configurations.
+pub fn run(
+    front: Front,
+    model: &RobotModel,
+    request: &Request,
+    from: Option<&[Vec<f64>]>,
+    targets: Option<&[Vec<f64>]>,
+) -> anyhow::Result<(Plan, PlanOptions)> {
+    let options = request.options(front, model)?;
+    let plan = plan(&model.robot, from, targets, &options)?;
+    Ok((plan, options))
+}
