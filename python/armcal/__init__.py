@@ -36,6 +36,7 @@ from ._native import (
     measurements,
     parse_measurements,
     parse_model,
+    plan,
     simulate,
 )
 
@@ -59,5 +60,6 @@ __all__ = [
     "measurements",
     "parse_measurements",
     "parse_model",
+    "plan",
     "simulate",
 ]

@@ -4,6 +4,7 @@
 //! models ([`model::Model`]), measurements from files or numpy arrays
 //! ([`data::Measurements`]), identification and diagnosis with their reports
 //! ([`fit`]), the held-out check of sessions without a tracker ([`holdout`]),
+//! the plan of a measurement ([`plan`]),
 //! and calibrations that predict and compensate with numpy arrays in
 //! and out ([`calibration::Calibration`]). Every computation is the library's
 //! (`armcal`), composed as the command line composes it; lengths and angles in
@@ -22,6 +23,7 @@ mod errors;
 mod fit;
 mod holdout;
 mod model;
+mod plan;
 
 /// The module `armcal._native`.
 #[pymodule]
@@ -46,6 +48,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fit::identify_py, m)?)?;
     m.add_function(wrap_pyfunction!(fit::diagnose, m)?)?;
     m.add_function(wrap_pyfunction!(holdout::holdout, m)?)?;
+    m.add_function(wrap_pyfunction!(plan::plan, m)?)?;
     m.add_function(wrap_pyfunction!(calibration::load_calibration, m)?)?;
     Ok(())
 }

@@ -551,3 +551,20 @@ def test_several_sessions_identify_as_the_command_line(tmp_path):
     np.testing.assert_allclose(
         [s["position_rms_mm"] for s in from_files.report["sessions"]],
         [s["position_rms_mm"] for s in sessions], rtol=1e-6)
+
+
+def test_plan_returns_the_poses_and_the_report_as_the_command_line():
+    """`plan(model, n)` gives `n` joint configurations (model units, in
+    measurement order) within the joint limits and the box asked, and the
+    report of `armcal plan --json`: the predicted accuracy beside as many
+    random poses', each parameter's standard error, what no plan identifies;
+    a box that is no box is refused naming `within`."""
+    model = armcal.load_model("ur10e")
+    q, report = armcal.plan(model, 24, within=(-2, -2, 0.1, 2, 2, 2), seed=3)
+    assert q.shape == (24, 6)
+    assert report["poses"] == 24
+    assert report["predicted_rms_mm"] < report["random"]["predicted_rms_mm"]
+    assert report["predicted_measured_rms_mm"] > report["predicted_rms_mm"]
+    assert any(h["name"] == "theta1" for h in report["held"])
+    with pytest.raises(armcal.InputError, match="within"):
+        armcal.plan(model, 10, within=(1, 1, 1, 0, 0, 0))

@@ -11,6 +11,7 @@ mod demo;
 mod link;
 mod mukca_urdf;
 mod outputs;
+mod plan;
 mod predict;
 mod ranges;
 mod refusals;

@@ -1,0 +1,112 @@
+//! `armcal plan` as a user runs it: the poses written as a joints file
+//! that `predict` reads, the report's predicted accuracy beside random
+//! poses', the HTML page's maps, candidates and targets from files, and
+//! the refusals (a box that is no box, fewer poses than the parameters
+//! need) with nothing written.
+
+use crate::{refused, succeeds};
+
+#[test]
+fn a_plan_is_a_joints_file_with_its_predicted_accuracy() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = succeeds(
+        d,
+        &[
+            "plan", "--model", "ur10e", "--poses", "24", "--out", "p.csv", "--json", "r.json",
+            "--html", "r.html", "--above", "0.1",
+        ],
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.starts_with("plan: 24 poses of ur10e"), "{stdout}");
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("r.json")).unwrap()).unwrap();
+    assert_eq!(report["poses"], 24);
+    let planned = report["predicted_rms_mm"].as_f64().unwrap();
+    let random = report["random"]["predicted_rms_mm"].as_f64().unwrap();
+    assert!(planned < random, "{planned} {random}");
+    // The joints file is what predict and compensate read: 24 rows, and the
+    // nominal tool point of each above the floor.
+    let model = armcal::io::model_file::load_model("ur10e").unwrap();
+    let text = std::fs::read_to_string(d.join("p.csv")).unwrap();
+    let rows =
+        armcal::io::measurements::parse_joints(&text, "p.csv", &model.robot, &model.units).unwrap();
+    assert_eq!(rows.rows.len(), 24);
+    for r in &rows.rows {
+        assert!(model.robot.forward(&r.q).unwrap().translation.vector.z >= 0.1);
+    }
+    let page = std::fs::read_to_string(d.join("r.html")).unwrap();
+    assert!(
+        page.contains("seen from above") && page.contains("<svg"),
+        "{page}"
+    );
+
+    // Candidates and targets from files: the plan keeps to the candidates.
+    std::fs::write(
+        d.join("c.csv"),
+        format!(
+            "q1,q2,q3,q4,q5,q6\n{}",
+            text.lines().skip(2).collect::<Vec<_>>().join("\n")
+        ),
+    )
+    .unwrap();
+    succeeds(
+        d,
+        &[
+            "plan",
+            "--model",
+            "ur10e",
+            "--poses",
+            "20",
+            "--from",
+            "c.csv",
+            "--targets",
+            "c.csv",
+            "--out",
+            "q.csv",
+        ],
+    );
+    let chosen = std::fs::read_to_string(d.join("q.csv")).unwrap();
+    for line in chosen.lines().skip(2) {
+        assert!(text.contains(line), "{line} is not a candidate");
+    }
+}
+
+#[test]
+fn plans_that_cannot_be_made_are_refused_and_write_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    refused(
+        d,
+        &[
+            "plan",
+            "--model",
+            "ur10e",
+            "--out",
+            "p.csv",
+            "--within",
+            "1,1,1,0,0,0",
+        ],
+        &["--within", "each minimum below its maximum"],
+    );
+    refused(
+        d,
+        &["plan", "--model", "ur10e", "--poses", "3", "--out", "p.csv"],
+        &["3 poses give 9 equations", "at least"],
+    );
+    refused(
+        d,
+        &[
+            "plan",
+            "--model",
+            "ur10e",
+            "--poses",
+            "10",
+            "--out",
+            "p.csv",
+            "--within",
+            "5,5,5,6,6,6",
+        ],
+        &["0 candidate configurations"],
+    );
+}

@@ -1,0 +1,93 @@
+//! `plan`: the poses to measure, as `armcal plan` chooses them
+//! (`armcal::calibration::plan`), with numpy arrays in and out.
+
+use armcal::commands::plan::{Request, run, within_limits};
+use armcal::io::arrays;
+use pyo3::prelude::*;
+
+use crate::errors::{self, ArrayLike, Owned};
+use crate::fit::PYTHON;
+use crate::model::Model;
+
+/// The joint rows of the array `a` (named `name`), SI.
+fn joint_rows(
+    py: Python<'_>,
+    model: &Model,
+    name: &str,
+    a: &ArrayLike<'_>,
+) -> PyResult<Vec<Vec<f64>>> {
+    let m = &model.inner;
+    let table = Owned::rows(py, name, a)?;
+    let rows = arrays::joints(&m.robot, &m.units, &table.table(), &Default::default())
+        .map_err(|e| errors::input(py, &e, true))?;
+    Ok(rows.rows.into_iter().map(|r| r.q).collect())
+}
+
+/// Plans the measurement of `model`, as `armcal plan` does: `poses` joint
+/// configurations chosen so that the calibration from them predicts the
+/// workspace best (`targets`, an `(N, M)` array of the configurations the
+/// robot will work at; random ones within the limits otherwise), among
+/// `candidates` (an `(N, M)` array; random ones within the joint limits less
+/// `margin` otherwise), their tool points within `within` (`(x_min, y_min,
+/// z_min, x_max, y_max, z_max)`) and above `above` (model length unit), for an
+/// instrument of `noise` per axis (and `orientation_noise`, with
+/// `orientation=True`). Returns the poses, an `(poses, M)` array in the
+/// model's units in measurement order, and the report (`--json`'s) as a dict.
+#[pyfunction]
+#[pyo3(signature = (model, poses = 30, *, orientation = false, noise = None, orientation_noise = None, within = None, above = None, margin = None, candidates = None, targets = None, seed = 1))]
+#[expect(
+    clippy::too_many_arguments,
+    reason = "a parameter per Python keyword argument, as the signature above lists them"
+)]
+pub fn plan<'py>(
+    py: Python<'py>,
+    model: &Model,
+    poses: usize,
+    orientation: bool,
+    noise: Option<f64>,
+    orientation_noise: Option<f64>,
+    within: Option<Vec<f64>>,
+    above: Option<f64>,
+    margin: Option<f64>,
+    candidates: Option<ArrayLike<'py>>,
+    targets: Option<ArrayLike<'py>>,
+    seed: u64,
+) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+    let m = &model.inner;
+    let request = Request {
+        poses,
+        orientation,
+        noise,
+        orientation_noise,
+        within,
+        above,
+        margin,
+        candidates: None,
+        seed,
+    };
+    let options = request
+        .options(PYTHON, m)
+        .map_err(|e| errors::input(py, &e, true))?;
+    let from = candidates
+        .map(|a| joint_rows(py, model, "candidates", &a))
+        .transpose()?
+        .map(|rows| within_limits(m, rows, options.margin).0);
+    let targets = targets
+        .map(|a| joint_rows(py, model, "targets", &a))
+        .transpose()?;
+    let (plan, options) = py
+        .detach(|| run(PYTHON, m, &request, from.as_deref(), targets.as_deref()))
+        .map_err(|e| errors::command(py, e, true))?;
+    let joints: Vec<Vec<f64>> = plan
+        .q
+        .iter()
+        .map(|q| {
+            q.iter()
+                .zip(&m.robot.links)
+                .map(|(v, l)| m.units.joint_from_si(l.joint, *v))
+                .collect()
+        })
+        .collect();
+    let report = errors::to_python(py, &plan.to_json(&options, &m.units))?;
+    Ok((errors::to_numpy(py, joints, m.robot.dof(), false)?, report))
+}
