@@ -1,4 +1,5 @@
-//! The calibration itself: identification, diagnosis, simulation and the papers.
+//! The calibration itself: identification, diagnosis, the plan of a
+//! measurement, simulation and the papers.
 //!
 //! These modules work on SI values read by [`crate::io`]; none of them opens a
 //! file of its own (the HTML page of [`report`] is returned as text).

@@ -9,7 +9,7 @@ use std::borrow::Borrow;
 
 use armcal_shared::effects::{Effect, EffectModel, gravity_torques, joint_param};
 use armcal_shared::jacobian::at_point;
-use armcal_shared::{Chain, Param, Prepared, Robot, Twist, rotation_error};
+use armcal_shared::{Chain, FrameAxis, Param, Prepared, Robot, Twist, rotation_error};
 use faer::linalg::matmul::{self, triangular, triangular::BlockStructure};
 use faer::{Accum, Mat, Par};
 use nalgebra::{Point3, Vector3};
@@ -145,6 +145,16 @@ pub(super) fn for_each_pose_rows<O: Borrow<Observation>>(
                 .map_or([Twist::zeros(); 6], |c| c.base_columns())
         })
         .collect();
+    // Which frames each session has of its own (none for one session).
+    let own: Vec<(bool, bool)> = (0..robots.len())
+        .map(|k| {
+            let regs = &model.registrations;
+            (
+                regs.owns(k, Param::Base(FrameAxis::X)),
+                regs.owns(k, Param::Tool(FrameAxis::X)),
+            )
+        })
+        .collect();
     let effects = PoseEffects::of(model);
     let mut q_eff: Vec<f64> = Vec::new();
     for obs in data {
@@ -164,6 +174,7 @@ pub(super) fn for_each_pose_rows<O: Borrow<Observation>>(
             model,
             obs,
             session,
+            own: own[session],
             chain: &chain,
             base_columns: &base_columns[session],
             tool_columns: chain.tool_columns(),
@@ -300,6 +311,8 @@ struct PoseColumns<'a> {
     /// The pose's session: its base and tool columns are those of its own
     /// frames where it has them, the model's where it shares them.
     session: usize,
+    /// Whether the session has its own base frame, its own tool.
+    own: (bool, bool),
     chain: &'a Chain<f64>,
     base_columns: &'a [Twist<f64>; 6],
     tool_columns: [Twist<f64>; 6],
@@ -316,16 +329,11 @@ impl PoseColumns<'_> {
             Param::Tool(ax) => self.tool_columns[ax.index()],
             _ => Twist::zeros(),
         };
-        let own = |p: Param| self.model.registrations.owns(self.session, p);
         match u {
             // The model's frames move the poses of the sessions that share them.
-            Unknown::Param(p @ (Param::Base(_) | Param::Tool(_))) => {
-                if own(p) {
-                    Twist::zeros()
-                } else {
-                    frame(p)
-                }
-            }
+            Unknown::Param(Param::Base(ax)) if !self.own.0 => self.base_columns[ax.index()],
+            Unknown::Param(Param::Tool(ax)) if !self.own.1 => self.tool_columns[ax.index()],
+            Unknown::Param(Param::Base(_) | Param::Tool(_)) => Twist::zeros(),
             Unknown::Session { session, param } => {
                 if session == self.session {
                     frame(param)
