@@ -158,3 +158,40 @@ fn planned_poses_beat_random_ones_on_a_ur10e() {
 fn planned_poses_beat_random_ones_on_a_puma_560() {
     planned_against_random("puma560", 15);
 }
+
+/// A plan for backlash serves it: a UR10e whose joint 2 has lost motion
+/// (the default size of `simulate`'s backlash), measured along a plan of 20
+/// poses each approached from both sides (80 rows), is diagnosed with the
+/// backlash of joint 2.
+#[test]
+fn a_plan_for_backlash_lets_diagnose_name_it() {
+    use armcal::calibration::diagnose::{DiagnoseOptions, diagnose};
+    use armcal::calibration::plan::Visits;
+    use armcal::calibration::simulate::{Scenario, parse_effect, simulate_visiting};
+    let mut model = load_model("ur10e").unwrap();
+    model.robot.tool.xyz = nalgebra::Vector3::from(SMR);
+    let nominal = &model.robot;
+    let options = PlanOptions {
+        poses: 20,
+        visits: Visits::BothSides,
+        ..PlanOptions::default()
+    };
+    let p = plan(nominal, None, None, &options).unwrap();
+    assert_eq!(p.q.len(), 80);
+    let mut scenario = Scenario::tracker(p.q.len(), 5);
+    scenario.effects = vec![parse_effect("backlash:2", nominal.dof()).unwrap()];
+    scenario.temperature = (20.0, 20.0);
+    let session = simulate_visiting(nominal, &scenario, |_| p.q.clone()).unwrap();
+    let d = diagnose(nominal, &session.observations, &DiagnoseOptions::default()).unwrap();
+    let found: Vec<String> = d
+        .findings
+        .iter()
+        .map(|f| format!("{} {}", f.candidate.name, f.candidate.joints_label()))
+        .collect();
+    eprintln!("found {found:?}");
+    assert_eq!(
+        found.first().map(String::as_str),
+        Some("backlash 2"),
+        "{found:?}"
+    );
+}

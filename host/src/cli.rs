@@ -147,6 +147,11 @@ pub(crate) struct PlanArgs {
     /// Random candidates to choose from (default 10000).
     #[arg(long, value_name = "N")]
     pub(crate) candidates: Option<usize>,
+    /// Effects the measurement must serve besides the geometry: `backlash`
+    /// (each pose measured twice, approached from below and from above in
+    /// every joint, a via row before each).
+    #[arg(long, value_name = "NAME", value_delimiter = ',')]
+    pub(crate) effects: Vec<String>,
     /// Seed of every random draw.
     #[arg(long, default_value_t = 1)]
     pub(crate) seed: u64,
@@ -164,6 +169,7 @@ impl PlanArgs {
             above: self.above,
             margin: self.margin,
             candidates: self.candidates,
+            effects: self.effects.clone(),
             seed: self.seed,
         }
     }

@@ -31,10 +31,11 @@ fn joint_rows(
 /// `margin` otherwise), their tool points within `within` (`(x_min, y_min,
 /// z_min, x_max, y_max, z_max)`) and above `above` (model length unit), for an
 /// instrument of `noise` per axis (and `orientation_noise`, with
-/// `orientation=True`). Returns the poses, an `(poses, M)` array in the
+/// `orientation=True`); `effects=["backlash"]` measures each pose approached
+/// from both sides. Returns the poses, an `(poses, M)` array in the
 /// model's units in measurement order, and the report (`--json`'s) as a dict.
 #[pyfunction]
-#[pyo3(signature = (model, poses = 30, *, orientation = false, noise = None, orientation_noise = None, within = None, above = None, margin = None, candidates = None, targets = None, seed = 1))]
+#[pyo3(signature = (model, poses = 30, *, orientation = false, noise = None, orientation_noise = None, within = None, above = None, margin = None, candidates = None, targets = None, effects = Vec::new(), seed = 1))]
 #[expect(
     clippy::too_many_arguments,
     reason = "a parameter per Python keyword argument, as the signature above lists them"
@@ -51,6 +52,7 @@ pub fn plan<'py>(
     margin: Option<f64>,
     candidates: Option<ArrayLike<'py>>,
     targets: Option<ArrayLike<'py>>,
+    effects: Vec<String>,
     seed: u64,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
     let m = &model.inner;
@@ -63,6 +65,7 @@ pub fn plan<'py>(
         above,
         margin,
         candidates: None,
+        effects,
         seed,
     };
     let options = request

@@ -6,7 +6,7 @@
 //! the plan is SI.
 
 use super::Front;
-use crate::calibration::plan::{Plan, PlanOptions, plan};
+use crate::calibration::plan::{Plan, PlanOptions, Visits, plan};
 use crate::io::input_error::InputError;
 use crate::io::model_file::RobotModel;
 
@@ -30,6 +30,9 @@ pub struct Request {
     pub margin: Option<f64>,
     /// Random candidates drawn when none are given; `None`: 10,000.
     pub candidates: Option<usize>,
+    /// The effects the measurement must serve besides the geometry, by name
+    /// (`backlash`: each pose approached from both sides).
+    pub effects: Vec<String>,
     /// Seed of every draw.
     pub seed: u64,
 }
@@ -100,6 +103,20 @@ impl Request {
             for k in 0..3 {
                 options.cell.min[k] = u.length_to_si(b[k]);
                 options.cell.max[k] = u.length_to_si(b[k + 3]);
+            }
+        }
+        for effect in &self.effects {
+            match effect.as_str() {
+                "backlash" => options.visits = Visits::BothSides,
+                other => {
+                    return Err(refuse(
+                        "--effects",
+                        format!(
+                            "{other}: the plans serve `backlash` (each pose approached from both \
+                             sides); the geometry is served always"
+                        ),
+                    ));
+                }
             }
         }
         if let Some(z) = self.above {

@@ -110,3 +110,60 @@ fn plans_that_cannot_be_made_are_refused_and_write_nothing() {
         &["0 candidate configurations"],
     );
 }
+
+/// `--effects backlash`: every planned pose is measured twice, the first
+/// time after a row below it in every joint, the second after a row above
+/// it, so that the approach direction `identify` reads from row order
+/// (docs/file-formats.md §2) is −1 then +1 for each joint.
+#[test]
+fn a_plan_for_backlash_approaches_each_pose_from_both_sides() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    succeeds(
+        d,
+        &[
+            "plan",
+            "--model",
+            "ur10e",
+            "--poses",
+            "12",
+            "--effects",
+            "backlash",
+            "--out",
+            "p.csv",
+            "--json",
+            "r.json",
+        ],
+    );
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("r.json")).unwrap()).unwrap();
+    assert_eq!(
+        (report["poses"].as_u64(), report["rows"].as_u64()),
+        (Some(12), Some(48))
+    );
+    assert_eq!(report["one_sided"], 0);
+    let model = armcal::io::model_file::load_model("ur10e").unwrap();
+    let text = std::fs::read_to_string(d.join("p.csv")).unwrap();
+    let rows = armcal::io::measurements::parse_joints(&text, "p.csv", &model.robot, &model.units)
+        .unwrap()
+        .rows;
+    for pose in rows.chunks(4) {
+        assert_eq!(pose[1].q, pose[3].q);
+        for j in 0..6 {
+            assert!(pose[0].q[j] < pose[1].q[j] && pose[2].q[j] > pose[1].q[j]);
+        }
+    }
+    refused(
+        d,
+        &[
+            "plan",
+            "--model",
+            "ur10e",
+            "--effects",
+            "thermal",
+            "--out",
+            "p.csv",
+        ],
+        &["--effects", "thermal"],
+    );
+}

@@ -95,6 +95,8 @@ pub struct PlanOptions {
     pub cell: Cell,
     /// The prior on the D-H errors `identify` will fit with (the model's).
     pub prior: Prior,
+    /// How each pose is visited: once, or from both sides (for backlash).
+    pub visits: Visits,
     /// Seed of every draw.
     pub seed: u64,
 }
@@ -111,9 +113,22 @@ impl Default for PlanOptions {
             margin: 0.05,
             cell: Cell::ANYWHERE,
             prior: Prior::default(),
+            visits: Visits::Once,
             seed: 1,
         }
     }
+}
+
+/// How the plan visits each pose.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Visits {
+    /// Once, along the path.
+    #[default]
+    Once,
+    /// Twice, approached from below and from above in every joint (a via
+    /// row before each: [`order::both_sides`]), so that a joint's backlash
+    /// shows (`--effects backlash`).
+    BothSides,
 }
 
 /// How well a set of poses would calibrate the robot (see the module header).
@@ -140,8 +155,12 @@ pub struct Prediction {
 /// and the same for as many random poses.
 #[derive(Clone, Debug)]
 pub struct Plan {
-    /// The joint configurations, SI, in measurement order.
+    /// The joint configurations to measure, SI, in measurement order (with
+    /// [`Visits::BothSides`], each pose's four rows).
     pub q: Vec<Vec<f64>>,
+    /// With [`Visits::BothSides`], the poses that could not be approached
+    /// from both sides in every joint (a limit or the cell in the way).
+    pub one_sided: usize,
     /// The plan's predicted accuracy.
     pub predicted: Prediction,
     /// As many random candidates' (`None` when they do not identify every
@@ -217,24 +236,30 @@ fn names(params: &[Param]) -> String {
 /// `margin` of each range (a joint without limits: ±π, or 0 to 0.5 m).
 pub fn within_limits(robot: &Robot<f64>, n: usize, margin: f64, seed: u64) -> Vec<Vec<f64>> {
     let mut r = rng(seed);
-    let pi = std::f64::consts::PI;
     (0..n)
         .map(|_| {
             robot
                 .links
                 .iter()
                 .map(|l| {
-                    let [lo, hi] = l.limits.unwrap_or(match l.joint {
-                        armcal_shared::JointType::Revolute => [-pi, pi],
-                        armcal_shared::JointType::Prismatic => [0.0, 0.5],
-                    });
-                    let keep = margin * (hi - lo);
-                    let (lo, hi) = (lo + keep, hi - keep);
+                    let [lo, hi] = margin_range(l, margin);
                     if lo < hi { r.random_range(lo..hi) } else { lo }
                 })
                 .collect()
         })
         .collect()
+}
+
+/// The range of joint `link` less `margin` of it at each end (a joint
+/// without limits: ±π, or 0 to 0.5 m for a prismatic one).
+pub fn margin_range(link: &armcal_shared::Link<f64>, margin: f64) -> [f64; 2] {
+    let pi = std::f64::consts::PI;
+    let [lo, hi] = link.limits.unwrap_or(match link.joint {
+        armcal_shared::JointType::Revolute => [-pi, pi],
+        armcal_shared::JointType::Prismatic => [0.0, 0.5],
+    });
+    let keep = margin * (hi - lo);
+    [lo + keep, hi - keep]
 }
 
 /// Exact measurements of `robot` at `q` (its tool point, and its
@@ -465,11 +490,33 @@ pub fn plan(
             .forward(q)
             .map_or(Point3::origin(), |t| Point3::from(t.translation.vector))
     };
+    let (rows, one_sided) = match options.visits {
+        Visits::Once => (ordered.clone(), 0),
+        Visits::BothSides => {
+            let limits: Vec<[f64; 2]> = robot
+                .links
+                .iter()
+                .map(|l| margin_range(l, options.margin))
+                .collect();
+            let prismatic: Vec<bool> = robot
+                .links
+                .iter()
+                .map(|l| l.joint == armcal_shared::JointType::Prismatic)
+                .collect();
+            order::both_sides(&ordered, &limits, &prismatic, |q| {
+                kinematics
+                    .forward(q)
+                    .is_ok_and(|t| options.cell.holds(&Point3::from(t.translation.vector)))
+            })
+        }
+    };
+    let all: Vec<usize> = (0..rows.len()).collect();
     Ok(Plan {
         target_points: workspace.iter().map(tool_point).collect(),
         points: ordered.iter().map(tool_point).collect(),
-        path: order::length(&poses, &path),
-        q: ordered,
+        path: order::length(&rows, &all),
+        q: rows,
+        one_sided,
         predicted,
         random,
         identified: free,

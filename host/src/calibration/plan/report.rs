@@ -48,7 +48,10 @@ impl Plan {
     /// The JSON of `--json` (`docs/file-formats.md` §7).
     pub fn to_json(&self, options: &PlanOptions, u: &Units) -> serde_json::Value {
         let mut out = prediction_json(&self.predicted, &self.identified, u);
-        out["poses"] = json!(self.q.len());
+        out["poses"] = json!(self.points.len());
+        out["rows"] = json!(self.q.len());
+        out["both_sides"] = json!(options.visits == super::Visits::BothSides);
+        out["one_sided"] = json!(self.one_sided);
         out["noise_mm"] = json!(options.position_noise * 1e3);
         out["orientation"] = json!(options.orientation);
         out["candidates"] = json!(self.candidates);
@@ -79,7 +82,7 @@ impl Plan {
             out,
             "plan: {} poses of {model_name} ({}), chosen from {} candidates for {} workspace \
              configurations; the measurement path {:.3} (joint space, rad and m)",
-            self.q.len(),
+            self.points.len(),
             if options.orientation {
                 "full poses"
             } else {
@@ -98,7 +101,7 @@ impl Plan {
             mm(self.predicted.rms),
             mm(self.predicted.max),
             mm(self.predicted.measured_rms),
-            self.q.len(),
+            self.points.len(),
             match &self.random {
                 Ok(p) => format!(
                     "{:.4} mm, {:.4} mm ({:.4} mm)",
@@ -116,6 +119,16 @@ impl Plan {
                 ),
             }
         );
+        if options.visits == super::Visits::BothSides {
+            let _ = writeln!(
+                out,
+                "each pose measured approached from below and from above in every joint (for \
+                 backlash): {} rows, a via row before each; {} poses not from both sides (a \
+                 limit or the cell in the way)",
+                self.q.len(),
+                self.one_sided
+            );
+        }
         let o = &self.predicted.observability;
         let _ = writeln!(
             out,
