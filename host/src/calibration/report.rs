@@ -24,72 +24,47 @@ use crate::calibration::diagnose::{
 use crate::calibration::identify::full::{FullFit, Observation, Status};
 use crate::io::model_file::RobotModel;
 
-/// One scatter plot: points `(x, y)` in two series (before, after).
+/// One scatter plot: points `(x, y)` in two series (before: the geometric
+/// calibration's residuals, after: the extended one's), mm.
 struct Plot {
     title: String,
     x_label: String,
+    /// Whether y is a length (its axis from 0) or a signed residual along a
+    /// direction.
+    length: bool,
     before: Vec<(f64, f64)>,
     after: Vec<(f64, f64)>,
 }
 
-/// An SVG scatter plot, `w × h` pixels, with its axes' ranges labelled.
+/// The plot as SVG, `w × h` px, with real axes ([`crate::calibration::svg`]).
 fn svg(plot: &Plot, w: f64, h: f64) -> String {
-    let m = 50.0;
-    let all = plot.before.iter().chain(&plot.after);
-    let (mut x0, mut x1, mut y0, mut y1) = (
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-    );
-    for (x, y) in all {
-        (x0, x1, y0, y1) = (x0.min(*x), x1.max(*x), y0.min(*y), y1.max(*y));
+    use crate::calibration::svg::{Point, Scatter, Series};
+    let series = |name: &str, colour, points: &[(f64, f64)]| Series {
+        name: name.into(),
+        colour,
+        radius: 2.2,
+        points: points
+            .iter()
+            .map(|&(x, y)| Point { x, y, value: None })
+            .collect(),
+    };
+    Scatter {
+        title: plot.title.clone(),
+        x_label: plot.x_label.clone(),
+        y_label: if plot.length {
+            "residual length [mm]".into()
+        } else {
+            "residual along it [mm]".into()
+        },
+        value_label: String::new(),
+        series: vec![
+            series("geometric calibration", "#d62728", &plot.before),
+            series("extended calibration", "#1f77b4", &plot.after),
+        ],
+        equal_aspect: false,
+        y_from_zero: plot.length,
     }
-    // No spread (or no points): a unit range around the value.
-    if x1.partial_cmp(&x0) != Some(std::cmp::Ordering::Greater) {
-        let c = if x0.is_finite() { x0 } else { 0.0 };
-        (x0, x1) = (c - 1.0, c + 1.0);
-    }
-    let ymax = y0.abs().max(y1.abs()).max(1e-9);
-    let ymax = if ymax.is_finite() { ymax } else { 1.0 };
-    let (y0, y1) = (-ymax, ymax);
-    let sx = |x: f64| m + (x - x0) / (x1 - x0) * (w - 2.0 * m);
-    let sy = |y: f64| h - m - (y - y0) / (y1 - y0) * (h - 2.0 * m);
-    let mut s = String::new();
-    let _ = write!(
-        s,
-        r##"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" role="img"><title>{t}</title><rect x="0" y="0" width="{w}" height="{h}" fill="#fff"/><text x="{cx}" y="18" text-anchor="middle" font-size="14">{t}</text><line x1="{m}" y1="{zy}" x2="{xe}" y2="{zy}" stroke="#999"/><line x1="{m}" y1="{m}" x2="{m}" y2="{ye}" stroke="#333"/><line x1="{m}" y1="{ye}" x2="{xe}" y2="{ye}" stroke="#333"/>"##,
-        t = plot.title,
-        cx = w / 2.0,
-        zy = sy(0.0),
-        xe = w - m,
-        ye = h - m,
-    );
-    for (series, colour) in [(&plot.before, "#d62728"), (&plot.after, "#1f77b4")] {
-        for (x, y) in series {
-            let _ = write!(
-                s,
-                r#"<circle cx="{:.1}" cy="{:.1}" r="2.2" fill="{colour}" fill-opacity="0.7"/>"#,
-                sx(*x),
-                sy(*y)
-            );
-        }
-    }
-    let _ = write!(
-        s,
-        r##"<text x="{m}" y="{yl}" font-size="11">{x0:.3}</text><text x="{xe}" y="{yl}" font-size="11" text-anchor="end">{x1:.3}</text><text x="{cx}" y="{xl}" font-size="12" text-anchor="middle">{xlab}</text><text x="4" y="{yt}" font-size="11">{ymax:+.3} mm</text><text x="4" y="{yb}" font-size="11">{ymin:+.3} mm</text><text x="{lx}" y="36" font-size="11" fill="#d62728">● geometric calibration</text><text x="{lx}" y="50" font-size="11" fill="#1f77b4">● extended calibration</text></svg>"##,
-        yl = h - m + 14.0,
-        xe = w - m,
-        cx = w / 2.0,
-        xl = h - 8.0,
-        xlab = plot.x_label,
-        yt = m + 4.0,
-        yb = h - m,
-        ymax = y1,
-        ymin = y0,
-        lx = (w - m - 150.0).max(m),
-    );
-    s
+    .svg(w, h)
 }
 
 /// The fitted robot as each session sees it (its residuals are in its own
@@ -175,6 +150,7 @@ fn plots(model: &RobotModel, d: &Diagnosis, data: &[Observation]) -> Vec<Plot> {
                 f.candidate.joints_label()
             ),
             x_label,
+            length: false,
             before: series(&before),
             after: series(&after),
         });
@@ -188,6 +164,7 @@ fn plots(model: &RobotModel, d: &Diagnosis, data: &[Observation]) -> Vec<Plot> {
     out.push(Plot {
         title: "residual length in measurement order".into(),
         x_label: "row (measurement order)".into(),
+        length: true,
         before: norms(&before),
         after: norms(&after),
     });
@@ -245,6 +222,7 @@ fn panels(model: &RobotModel, d: &Diagnosis, data: &[Observation]) -> Vec<Plot> 
             out.push(Plot {
                 title: format!("along joint {}'s motion", j + 1),
                 x_label: label,
+                length: false,
                 before: series(&before, pick),
                 after: series(&after, pick),
             });
@@ -262,6 +240,7 @@ fn panels(model: &RobotModel, d: &Diagnosis, data: &[Observation]) -> Vec<Plot> 
             (!b.is_empty()).then(|| Plot {
                 title: "residual length".into(),
                 x_label: label.into(),
+                length: true,
                 before: b,
                 after: a,
             })

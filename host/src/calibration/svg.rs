@@ -45,6 +45,8 @@ pub struct Scatter {
     pub series: Vec<Series>,
     /// Whether one unit of x is one unit of y on the page (a map).
     pub equal_aspect: bool,
+    /// Whether y cannot be negative (a length, an RMS): its axis starts at 0.
+    pub y_from_zero: bool,
 }
 
 /// Round tick positions covering `[lo, hi]`: about `n` of them, at 1, 2 or
@@ -77,7 +79,8 @@ fn label(v: f64, step: f64) -> String {
     }
 }
 
-/// The range of `values` padded by 5 % (a unit range around a single value).
+/// The range of `values` padded by 5 % (a unit range around a single value,
+/// or values that differ by rounding alone: a torque of 10⁻¹⁷ N·m is none).
 fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
     let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
         (lo.min(v), hi.max(v))
@@ -85,8 +88,13 @@ fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
     if !(lo.is_finite() && hi.is_finite()) {
         return (0.0, 1.0);
     }
-    if hi <= lo {
-        return (lo - 0.5, hi + 0.5);
+    if hi - lo <= 1e-12 * lo.abs().max(hi.abs()).max(1.0) {
+        let centre = if (0.5 * (lo + hi)).abs() <= 1e-12 {
+            0.0
+        } else {
+            0.5 * (lo + hi)
+        };
+        return (centre - 0.5, centre + 0.5);
     }
     let pad = 0.05 * (hi - lo);
     (lo - pad, hi + pad)
@@ -111,10 +119,17 @@ fn colour(t: f64) -> String {
 impl Scatter {
     /// The plot as an SVG element, `w × h` px.
     pub fn svg(&self, w: f64, h: f64) -> String {
-        let (left, right, top, bottom) = (70.0, 110.0, 34.0, 48.0);
         let points = || self.series.iter().flat_map(|s| s.points.iter());
+        // The legend in a line under the title; the colour scale, if any, on
+        // the right.
+        let scale = points().any(|p| p.value.is_some());
+        let (left, right, top, bottom) = (70.0, if scale { 110.0 } else { 16.0 }, 48.0, 48.0);
         let (mut x0, mut x1) = range(points().map(|p| p.x));
         let (mut y0, mut y1) = range(points().map(|p| p.y));
+        if self.y_from_zero {
+            y0 = 0.0;
+            y1 = y1.max(f64::MIN_POSITIVE);
+        }
         let (pw, ph) = (w - left - right, h - top - bottom);
         if self.equal_aspect {
             // One scale for both: the larger span per pixel wins.
@@ -182,20 +197,20 @@ impl Scatter {
                 );
             }
         }
-        // The legend: each series, and the colour scale with its range.
-        let lx = left + pw + 12.0;
-        for (k, series) in self.series.iter().enumerate() {
-            let y = top + 12.0 + 16.0 * k as f64;
+        // The legend: each series in a line under the title.
+        let mut lx = left;
+        for series in &self.series {
             let _ = write!(
                 s,
-                r#"<circle cx="{lx}" cy="{y}" r="4" fill="{}"/><text x="{}" y="{}" font-size="11">{}</text>"#,
+                r#"<circle cx="{lx}" cy="34" r="4" fill="{}"/><text x="{}" y="38" font-size="11">{}</text>"#,
                 series.colour,
                 lx + 8.0,
-                y + 4.0,
                 series.name
             );
+            lx += 16.0 + 6.5 * series.name.chars().count() as f64;
         }
-        if points().any(|p| p.value.is_some()) {
+        let lx = left + pw + 12.0;
+        if scale {
             let (yb, height) = (top + 60.0, 100.0);
             for i in 0..20 {
                 let t = 1.0 - i as f64 / 19.0;

@@ -191,9 +191,10 @@ impl Plan {
                 title: title.into(),
                 x_label: format!("{} [{}]", names.0, u.length),
                 y_label: format!("{} [{}]", names.1, u.length),
-                value_label: "predicted error [mm]".into(),
+                value_label: "error [mm]".into(),
                 series: vec![targets, planned],
                 equal_aspect: true,
+                y_from_zero: false,
             }
             .svg(560.0, 460.0)
         };
