@@ -117,6 +117,26 @@ pub(crate) fn measurements_of(
     }
 }
 
+/// Runs `work` on a thread of its own while this one, Python's main thread,
+/// keeps handling its signals: Ctrl-C raises `KeyboardInterrupt` within 20
+/// ms, whatever the work's length. The work has no way to stop: it finishes
+/// in the background and its result is dropped.
+pub(crate) fn interruptible<T: Send + 'static>(
+    py: Python<'_>,
+    work: impl FnOnce() -> T + Send + 'static,
+) -> PyResult<T> {
+    let handle = std::thread::spawn(work);
+    loop {
+        if handle.is_finished() {
+            return handle
+                .join()
+                .map_err(|_| errors::failure("the computation stopped on an internal error"));
+        }
+        py.check_signals()?;
+        py.detach(|| std::thread::sleep(std::time::Duration::from_millis(20)));
+    }
+}
+
 /// `world` or `base`: the frame the compensation's targets are given in.
 fn targets(py: Python<'_>, targets: &str) -> PyResult<TargetFrame> {
     match targets {
@@ -199,11 +219,16 @@ pub fn identify_py(
         targets: self::targets(py, targets)?,
         frames: FrameSharing::stated(same_base, same_tool),
     };
-    let m = &model.inner;
     let (data, arrays) = session(py, model, data)?;
-    let identified = py
-        .detach(|| identify_cmd::run(PYTHON, m, &data.data, &request))
+    let (m, rows) = (model.inner.clone(), std::sync::Arc::new(data.data));
+    let shared = rows.clone();
+    let identified = interruptible(py, move || identify_cmd::run(PYTHON, &m, &shared, &request))?
         .map_err(|e| errors::command(py, e, arrays))?;
+    let data = Measurements {
+        data: std::sync::Arc::unwrap_or_clone(rows),
+        model: model.inner.clone(),
+        arrays,
+    };
     let (m, result) = (&identified.model, identified.result);
     let outcome = Outcome {
         report: result.to_json(&m.units, &data.data),
@@ -260,11 +285,18 @@ pub fn diagnose(
         targets: self::targets(py, targets)?,
         frames: FrameSharing::stated(same_base, same_tool),
     };
-    let m = &model.inner;
     let (data, arrays) = session(py, model, data)?;
-    let mut diagnosed = py
-        .detach(|| diagnose_cmd::run(PYTHON, m, &data.data, &request, &mut |_, _, _| {}))
-        .map_err(|e| errors::command(py, e, arrays))?;
+    let (m, rows) = (model.inner.clone(), std::sync::Arc::new(data.data));
+    let shared = rows.clone();
+    let mut diagnosed = interruptible(py, move || {
+        diagnose_cmd::run(PYTHON, &m, &shared, &request, &mut |_, _, _| {})
+    })?
+    .map_err(|e| errors::command(py, e, arrays))?;
+    let data = Measurements {
+        data: std::sync::Arc::unwrap_or_clone(rows),
+        model: model.inner.clone(),
+        arrays,
+    };
     // Arrays name their rows from 0, files by line.
     let from = usize::from(arrays);
     let lines: Vec<usize> = data.data.lines.iter().map(|line| line - from).collect();

@@ -568,3 +568,24 @@ def test_plan_returns_the_poses_and_the_report_as_the_command_line():
     assert any(h["name"] == "theta1" for h in report["held"])
     with pytest.raises(armcal.InputError, match="within"):
         armcal.plan(model, 10, within=(1, 1, 1, 0, 0, 0))
+
+
+def test_ctrl_c_interrupts_a_long_diagnosis_at_once():
+    """Ctrl-C (SIGINT) during a diagnosis of 10⁵ positions (over a second)
+    raises KeyboardInterrupt within a fraction of a second, as Python does
+    for its own long calls; the computation is not waited for."""
+    import os
+    import signal
+    import threading
+    import time
+
+    model = armcal.load_model("puma560")
+    data, _ = armcal.simulate(model, poses=100_000, seed=2)
+    timer = threading.Timer(0.2, lambda: os.kill(os.getpid(), signal.SIGINT))
+    start = time.perf_counter()
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        armcal.diagnose(model, data)
+    elapsed = time.perf_counter() - start
+    timer.join()
+    assert elapsed < 0.8, elapsed
