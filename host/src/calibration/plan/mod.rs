@@ -377,11 +377,7 @@ pub fn plan(
     let kinematics = robot.prepare();
     let kept: Vec<Vec<f64>> = given
         .iter()
-        .filter(|q| {
-            kinematics
-                .forward(q)
-                .is_ok_and(|t| options.cell.holds(&Point3::from(t.translation.vector)))
-        })
+        .filter(|q| in_cell(&kinematics, q, &options.cell))
         .cloned()
         .collect();
     if kept.len() < options.poses {
@@ -409,32 +405,8 @@ pub fn plan(
             &workspace_drawn
         }
     };
-    let noise = Some((
-        options.position_noise,
-        options.orientation.then_some(options.orientation_noise),
-    ));
-    let params = full_params(robot, options.orientation);
-    let precision: Vec<f64> = params.iter().map(|p| options.prior.precision(*p)).collect();
-    let j = jacobian(robot, &kept, &params, noise);
-    // Columns scaled to a unit mean square per candidate.
-    let scale: Vec<f64> = j
-        .column_iter()
-        .map(|c| {
-            let rms = c.norm() / (kept.len() as f64).sqrt();
-            if rms > 0.0 { 1.0 / rms } else { 1.0 }
-        })
-        .collect();
-    let d = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(scale.clone()));
-    let g = jacobian(robot, workspace, &params, None);
-    let w = (g.transpose() * &g) / workspace.len().max(1) as f64;
-    let candidates = Candidates::of(rows, &(&j * &d));
-    let prior_scaled: Vec<f64> = precision
-        .iter()
-        .zip(&scale)
-        .map(|(p, s)| p * s * s)
-        .collect();
-    let chosen = design::choose(&candidates, &(&d * &w * &d), &prior_scaled, options.poses);
-    let poses: Vec<Vec<f64>> = chosen.iter().map(|&c| kept[c].clone()).collect();
+    let criterion = Criterion::of(robot, workspace, options);
+    let poses = criterion.choose(robot, &kept, options);
     let (separated, _) = identifiable(robot, &poses, options);
     let missed: Vec<Param> = free
         .iter()
@@ -447,19 +419,9 @@ pub fn plan(
             missed,
         });
     }
-    let predict = |q: &[Vec<f64>]| {
-        predict(
-            robot,
-            q,
-            &params,
-            &precision,
-            &free,
-            &g,
-            noise,
-            options.position_noise,
-        )
-    };
-    let predicted = predict(&poses).expect("the plan identifies every parameter");
+    let predicted = criterion
+        .predict(robot, &poses, &free, options.position_noise)
+        .expect("the plan identifies every parameter");
     let random_q = within_limits_in_cell(&kept, options.poses, options.seed ^ 0x5eed);
     let (random_free, _) = identifiable(robot, &random_q, options);
     let random_missed: Vec<Param> = free
@@ -468,48 +430,20 @@ pub fn plan(
         .copied()
         .collect();
     let random = if random_missed.is_empty() {
-        predict(&random_q).ok_or(random_missed)
+        criterion
+            .predict(robot, &random_q, &free, options.position_noise)
+            .ok_or(random_missed)
     } else {
         Err(random_missed)
     };
-    // The middle of the joint ranges: where the path starts from.
-    let middle: Vec<f64> = (0..robot.dof())
-        .map(|k| {
-            let (lo, hi) = kept
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), q| {
-                    (lo.min(q[k]), hi.max(q[k]))
-                });
-            0.5 * (lo + hi)
-        })
-        .collect();
-    let path = order::path(&poses, &middle);
+    let path = order::path(&poses, &middle(&kept, robot.dof()));
     let ordered: Vec<Vec<f64>> = path.iter().map(|&i| poses[i].clone()).collect();
     let tool_point = |q: &Vec<f64>| {
         kinematics
             .forward(q)
             .map_or(Point3::origin(), |t| Point3::from(t.translation.vector))
     };
-    let (rows, one_sided) = match options.visits {
-        Visits::Once => (ordered.clone(), 0),
-        Visits::BothSides => {
-            let limits: Vec<[f64; 2]> = robot
-                .links
-                .iter()
-                .map(|l| margin_range(l, options.margin))
-                .collect();
-            let prismatic: Vec<bool> = robot
-                .links
-                .iter()
-                .map(|l| l.joint == armcal_shared::JointType::Prismatic)
-                .collect();
-            order::both_sides(&ordered, &limits, &prismatic, |q| {
-                kinematics
-                    .forward(q)
-                    .is_ok_and(|t| options.cell.holds(&Point3::from(t.translation.vector)))
-            })
-        }
-    };
+    let (rows, one_sided) = measurement_rows(robot, &ordered, options);
     let all: Vec<usize> = (0..rows.len()).collect();
     Ok(Plan {
         target_points: workspace.iter().map(tool_point).collect(),
@@ -526,6 +460,160 @@ pub fn plan(
     })
 }
 
+/// Whether the tool point of `kinematics` at `q` keeps within `cell`.
+fn in_cell(kinematics: &armcal_shared::Prepared<f64>, q: &[f64], cell: &Cell) -> bool {
+    kinematics
+        .forward(q)
+        .is_ok_and(|t| cell.holds(&Point3::from(t.translation.vector)))
+}
+
+/// The middle of the joint ranges of `poses`: where the path starts from.
+fn middle(poses: &[Vec<f64>], dof: usize) -> Vec<f64> {
+    (0..dof)
+        .map(|k| {
+            let (lo, hi) = poses
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), q| {
+                    (lo.min(q[k]), hi.max(q[k]))
+                });
+            0.5 * (lo + hi)
+        })
+        .collect()
+}
+
+/// The rows to measure `ordered` by, as `options` visits them: each once,
+/// or each from both sides ([`order::both_sides`]) with the poses that
+/// could not be.
+fn measurement_rows(
+    robot: &Robot<f64>,
+    ordered: &[Vec<f64>],
+    options: &PlanOptions,
+) -> (Vec<Vec<f64>>, usize) {
+    match options.visits {
+        Visits::Once => (ordered.to_vec(), 0),
+        Visits::BothSides => {
+            let kinematics = robot.prepare();
+            let limits: Vec<[f64; 2]> = robot
+                .links
+                .iter()
+                .map(|l| margin_range(l, options.margin))
+                .collect();
+            let prismatic: Vec<bool> = robot
+                .links
+                .iter()
+                .map(|l| l.joint == armcal_shared::JointType::Prismatic)
+                .collect();
+            order::both_sides(ordered, &limits, &prismatic, |q| {
+                in_cell(&kinematics, q, &options.cell)
+            })
+        }
+    }
+}
+
+/// What the plan minimises and predicts with: every parameter of the full
+/// model, the prior's precision of each, the workspace targets' position
+/// rows, the instrument's noise (see the module header).
+struct Criterion {
+    params: Vec<Param>,
+    precision: Vec<f64>,
+    /// The targets' position rows, unweighted (m per unit parameter).
+    g: DMatrix<f64>,
+    /// The position noise and, when measured, the orientation noise.
+    noise: (f64, Option<f64>),
+}
+
+impl Criterion {
+    /// The criterion of `robot` over the targets `workspace`.
+    fn of(robot: &Robot<f64>, workspace: &[Vec<f64>], options: &PlanOptions) -> Self {
+        let params = full_params(robot, options.orientation);
+        Self {
+            precision: params.iter().map(|p| options.prior.precision(*p)).collect(),
+            g: jacobian(robot, workspace, &params, None),
+            noise: (
+                options.position_noise,
+                options.orientation.then_some(options.orientation_noise),
+            ),
+            params,
+        }
+    }
+
+    /// The poses among `kept` the exchange chooses ([`design::choose`]), in
+    /// the order chosen.
+    fn choose(
+        &self,
+        robot: &Robot<f64>,
+        kept: &[Vec<f64>],
+        options: &PlanOptions,
+    ) -> Vec<Vec<f64>> {
+        let rows = if options.orientation { 6 } else { 3 };
+        let j = jacobian(robot, kept, &self.params, Some(self.noise));
+        // Columns scaled to a unit mean square per candidate.
+        let scale: Vec<f64> = j
+            .column_iter()
+            .map(|c| {
+                let rms = c.norm() / (kept.len() as f64).sqrt();
+                if rms > 0.0 { 1.0 / rms } else { 1.0 }
+            })
+            .collect();
+        let d = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(scale.clone()));
+        let w = (self.g.transpose() * &self.g) / (self.g.nrows() / 3).max(1) as f64;
+        let candidates = Candidates::of(rows, &(&j * &d));
+        let prior: Vec<f64> = self
+            .precision
+            .iter()
+            .zip(&scale)
+            .map(|(p, s)| p * s * s)
+            .collect();
+        design::choose(&candidates, &(&d * &w * &d), &prior, options.poses)
+            .iter()
+            .map(|&c| kept[c].clone())
+            .collect()
+    }
+
+    /// The predicted accuracy of measuring `q` (see the module header), the
+    /// observability of the parameters `free` (those a plan can separate) at
+    /// the position noise `sigma`; `None` when `q` and the prior do not
+    /// determine every parameter.
+    fn predict(
+        &self,
+        robot: &Robot<f64>,
+        q: &[Vec<f64>],
+        free: &[Param],
+        sigma: f64,
+    ) -> Option<Prediction> {
+        let j = jacobian(robot, q, &self.params, Some(self.noise));
+        let mut information = j.transpose() * &j;
+        for (k, p) in self.precision.iter().enumerate() {
+            information[(k, k)] += p;
+        }
+        let cov = information.cholesky()?.inverse();
+        let g = &self.g;
+        let targets = g.nrows() / 3;
+        let per_target: Vec<f64> = (0..targets)
+            .map(|t| {
+                let gt = g.rows(3 * t, 3);
+                (gt * &cov * gt.transpose()).trace().max(0.0)
+            })
+            .collect();
+        let mean = per_target.iter().sum::<f64>() / targets.max(1) as f64;
+        let worst = per_target.iter().copied().fold(0.0, f64::max);
+        let s = design::scaled_singular_values(&jacobian(robot, q, free, Some(self.noise)));
+        Some(Prediction {
+            rms: mean.sqrt(),
+            max: worst.sqrt(),
+            measured_rms: (mean + 3.0 * sigma * sigma).sqrt(),
+            std: self
+                .params
+                .iter()
+                .enumerate()
+                .map(|(k, p)| (*p, cov[(k, k)].max(0.0).sqrt()))
+                .collect(),
+            observability: design::observability(&s, j.nrows()),
+            per_target: per_target.iter().map(|v| v.sqrt()).collect(),
+        })
+    }
+}
+
 /// `n` of the candidates `kept` (already within the limits and the cell),
 /// drawn at random: the random plan a planned one is compared with.
 fn within_limits_in_cell(kept: &[Vec<f64>], n: usize, seed: u64) -> Vec<Vec<f64>> {
@@ -539,51 +627,6 @@ fn within_limits_in_cell(kept: &[Vec<f64>], n: usize, seed: u64) -> Vec<Vec<f64>
         .iter()
         .map(|&i| kept[i].clone())
         .collect()
-}
-
-/// The predicted accuracy of measuring `q` (see the module header) for
-/// `params` with the prior's `precision`, the targets' position rows `g`,
-/// the observability of the parameters `free` (those a plan can separate);
-/// `None` when `q` and the prior do not determine `params`.
-#[allow(clippy::too_many_arguments)]
-fn predict(
-    robot: &Robot<f64>,
-    q: &[Vec<f64>],
-    params: &[Param],
-    precision: &[f64],
-    free: &[Param],
-    g: &DMatrix<f64>,
-    noise: Option<(f64, Option<f64>)>,
-    sigma: f64,
-) -> Option<Prediction> {
-    let j = jacobian(robot, q, params, noise);
-    let mut information = j.transpose() * &j;
-    for (k, p) in precision.iter().enumerate() {
-        information[(k, k)] += p;
-    }
-    let cov = information.cholesky()?.inverse();
-    let targets = g.nrows() / 3;
-    let per_target: Vec<f64> = (0..targets)
-        .map(|t| {
-            let gt = g.rows(3 * t, 3);
-            (gt * &cov * gt.transpose()).trace().max(0.0)
-        })
-        .collect();
-    let mean = per_target.iter().sum::<f64>() / targets.max(1) as f64;
-    let worst = per_target.iter().copied().fold(0.0, f64::max);
-    let s = design::scaled_singular_values(&jacobian(robot, q, free, noise));
-    Some(Prediction {
-        rms: mean.sqrt(),
-        max: worst.sqrt(),
-        measured_rms: (mean + 3.0 * sigma * sigma).sqrt(),
-        std: params
-            .iter()
-            .enumerate()
-            .map(|(k, p)| (*p, cov[(k, k)].max(0.0).sqrt()))
-            .collect(),
-        observability: design::observability(&s, j.nrows()),
-        per_target: per_target.iter().map(|v| v.sqrt()).collect(),
-    })
 }
 
 #[cfg(test)]
