@@ -20,12 +20,17 @@ use crate::cli::ModelArgs;
 pub(crate) fn load_session(
     model: &ModelArgs,
     data: &[String],
+    progress: &Progress,
 ) -> anyhow::Result<(RobotModel, Measurements)> {
     let model = model.load()?;
     let parts = data
         .iter()
-        .map(|file| measurements::load_measurements(file, &model))
+        .map(|file| {
+            progress.set(format!("reading {file}"));
+            measurements::load_measurements(file, &model)
+        })
         .collect::<Result<Vec<_>, _>>()?;
+    progress.set("checking the rows");
     let data = commands::sessions(parts)?;
     commands::require_session(&model, &data)?;
     Ok((model, data))
@@ -34,34 +39,67 @@ pub(crate) fn load_session(
 /// The command line's front end, as the command layer names its arguments.
 pub(crate) const CLI: Front = Front::CommandLine;
 
-/// A one-line progress display on standard error, redrawn in place (`\r`), shown
-/// only when standard error is a terminal: the one progress bar of `diagnose`
-/// and `sweep`.
+/// The progress of a long run on standard error (indicatif), drawn only
+/// when standard error is a terminal: the one factory of every verb's
+/// progress. A stage is a spinner with its message and the time elapsed,
+/// ticking on its own while the work runs; a step of a counted loop a bar.
 pub(crate) struct Progress {
-    tty: bool,
+    bar: indicatif::ProgressBar,
 }
 
 impl Progress {
-    /// A progress line on standard error, silent unless it is a terminal.
-    pub(crate) fn on_stderr() -> Self {
+    /// A spinner with `message`, on standard error when it is a terminal.
+    pub(crate) fn stage(message: impl Into<String>) -> Self {
         use std::io::IsTerminal as _;
-        Self {
-            tty: std::io::stderr().is_terminal(),
-        }
+        let bar = if std::io::stderr().is_terminal() {
+            let bar = indicatif::ProgressBar::new_spinner();
+            bar.set_style(
+                indicatif::ProgressStyle::with_template("{spinner} {msg} [{elapsed}]")
+                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+            );
+            bar.enable_steady_tick(std::time::Duration::from_millis(120));
+            bar
+        } else {
+            indicatif::ProgressBar::hidden()
+        };
+        bar.set_message(message.into());
+        Self { bar }
     }
 
-    /// Redraws the line with `line()` (not called when nothing is shown).
-    pub(crate) fn show(&self, line: impl FnOnce() -> String) {
-        if self.tty {
-            eprint!("\r{}", line());
-        }
+    /// A new stage: `message`.
+    pub(crate) fn set(&self, message: impl Into<String>) {
+        self.bar.set_message(message.into());
     }
 
-    /// Ends the line, so what follows starts on a new one.
+    /// Step `done` of `total` of a counted loop, with `message`: drawn as a bar.
+    pub(crate) fn step(&self, done: usize, total: usize, message: impl Into<String>) {
+        if self.bar.length() != Some(total as u64) {
+            self.bar.set_length(total as u64);
+            self.bar.set_style(
+                indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} [{elapsed}]")
+                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+                    .progress_chars("#>."),
+            );
+        }
+        self.bar.set_position(done as u64);
+        self.bar.set_message(message.into());
+    }
+
+    /// Runs `f` (that prints to standard error) with the line cleared.
+    pub(crate) fn suspend<R>(&self, f: impl FnOnce() -> R) -> R {
+        self.bar.suspend(f)
+    }
+
+    /// Clears the line, so that what follows starts on a clean one.
     pub(crate) fn finish(&self) {
-        if self.tty {
-            eprintln!();
-        }
+        self.bar.finish_and_clear();
+    }
+}
+
+impl Drop for Progress {
+    /// An error returned through a stage clears its line before the message.
+    fn drop(&mut self) {
+        self.bar.finish_and_clear();
     }
 }
 

@@ -27,8 +27,12 @@ use crate::terminal::{
 
 /// `armcal check`.
 pub(crate) fn check(args: CheckArgs) -> anyhow::Result<()> {
-    let (model, data) = load_session(&args.model, &args.data)?;
-    print!("{}", check::report(&model, &data));
+    let progress = Progress::stage("reading");
+    let (model, data) = load_session(&args.model, &args.data, &progress)?;
+    progress.set("the nominal model against the rows");
+    let report = check::report(&model, &data);
+    progress.finish();
+    print!("{report}");
     Ok(())
 }
 
@@ -61,7 +65,9 @@ pub(crate) fn holdout(args: HoldoutArgs) -> anyhow::Result<()> {
         training: &training,
         reference: reference.as_ref(),
     };
+    let progress = Progress::stage("leaving each session out in turn");
     let rows = holdout_cmd::run(CLI, &model, given, &args.request())?;
+    progress.finish();
     print!(
         "{}",
         contact_check::holdout_table(&rows, reference.as_ref().map(|_| "reference"))
@@ -88,9 +94,12 @@ pub(crate) fn identify(args: IdentifyArgs) -> anyhow::Result<()> {
         .output("--out", args.out.as_deref())
         .output("--json", args.json.as_deref());
     outputs.check()?;
-    let (model, data) = load_session(&args.model, &args.data)?;
-    warn(&data.warnings);
+    let progress = Progress::stage("reading");
+    let (model, data) = load_session(&args.model, &args.data, &progress)?;
+    progress.suspend(|| warn(&data.warnings));
+    progress.set(format!("identifying from {} poses", data.len()));
     let identified = identify_cmd::run(CLI, &model, &data, &args.request())?;
+    progress.finish();
     accept(identified.failed, args.write_failed)?;
     let (model, result) = (identified.model, identified.result);
     // Everything is computed and encoded before the first byte is written.
@@ -186,7 +195,9 @@ pub(crate) fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
     outputs.check()?;
     let model = args.model.load()?;
     let u = model.units;
+    let progress = Progress::stage(format!("simulating {} poses", args.poses));
     let session = simulate_cmd::run(CLI, &model, &args.request())?;
+    progress.set("writing");
     let description = format!(
         "armcal simulate --model {} --poses {} --seed {}{}{}",
         model.name,
@@ -240,19 +251,13 @@ pub(crate) fn diagnose(args: DiagnoseArgs) -> anyhow::Result<()> {
         .output("--json", args.json.as_deref())
         .output("--html", args.html.as_deref());
     outputs.check()?;
-    let (model, data) = load_session(&args.model, &args.data)?;
-    warn(&data.warnings);
-    // A progress bar on a terminal: every candidate is cross-validated.
-    let progress = Progress::on_stderr();
+    let progress = Progress::stage("reading");
+    let (model, data) = load_session(&args.model, &args.data, &progress)?;
+    progress.suspend(|| warn(&data.warnings));
+    progress.set(format!("diagnosing {} poses", data.len()));
+    // A bar: every candidate is cross-validated.
     let mut bar = |round: usize, i: usize, n: usize| {
-        progress.show(|| {
-            let filled = 30 * i / n.max(1);
-            format!(
-                "selection round {round}: [{}{}] candidate {i}/{n}",
-                "#".repeat(filled),
-                ".".repeat(30 - filled)
-            )
-        });
+        progress.step(i, n, format!("selection round {round}: candidate"));
     };
     let diagnosed = diagnose_cmd::run(CLI, &model, &data, &args.request(), &mut bar);
     progress.finish();
@@ -295,17 +300,18 @@ pub(crate) fn sweep(args: SweepArgs) -> anyhow::Result<()> {
     } = args;
     let mut outputs = output::Outputs::new().output("--json", json.as_deref());
     outputs.check()?;
-    let progress = Progress::on_stderr();
+    let progress = Progress::stage("sweeping");
     let results = armcal::calibration::sweep::sweep(cases, seed, poses, |i, c| {
-        progress.show(|| {
+        progress.step(
+            i + 1,
+            cases,
             format!(
-                "case {}/{cases}: {} {:?} → {:?}      ",
-                i + 1,
+                "{} {:?} → {:?}",
                 c.robot,
                 c.hidden,
                 c.found.as_ref().map(|f| f.0)
-            )
-        });
+            ),
+        );
     });
     progress.finish();
     let r = armcal::calibration::sweep::rates(&results);
