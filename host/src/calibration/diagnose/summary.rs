@@ -448,13 +448,23 @@ impl Diagnosis {
             let _ = match n.source_name() {
                 "stated" => writeln!(
                     out,
-                    "{what} noise {used} {unit} per axis (stated); the residuals show {shown} {unit}"
+                    "{what} noise {used} {unit} per axis (stated); the geometric calibration's \
+                     residuals show {shown} {unit}"
                 ),
                 _ => writeln!(
                     out,
-                    "{what} noise {used} {unit} per axis (estimated from the residuals)"
+                    "{what} noise {used} {unit} per axis (estimated from the geometric \
+                     calibration's residuals)"
                 ),
             };
+        }
+        // With effects, what the extended calibration's residuals leave.
+        if !self.fit.effects.is_empty() && self.choice != Choice::Nominal {
+            let _ = writeln!(
+                out,
+                "the extended calibration's residuals show {} mm per axis",
+                significant(mm(self.noise))
+            );
         }
         if let Some(r) = &self.replicates {
             let _ = writeln!(
