@@ -5,6 +5,8 @@
 use armcal::calibration::identify::prior_scale::PriorScale;
 use armcal::calibration::identify::{ParamSet, StatedScales};
 use armcal::commands::{self, Front, diagnose as diagnose_cmd, identify as identify_cmd};
+use armcal::io::measurements;
+use armcal::io::model_file::RobotModel;
 use armcal::session::registration::FrameSharing;
 use armcal_shared::TargetFrame;
 use pyo3::prelude::*;
@@ -137,6 +139,20 @@ pub(crate) fn interruptible<T: Send + 'static>(
     }
 }
 
+/// `work` on `model` and the session's `rows` on a thread of its own
+/// ([`interruptible`]); its result and the rows, back.
+fn on_rows<T: Send + 'static>(
+    py: Python<'_>,
+    model: &Model,
+    rows: measurements::Measurements,
+    work: impl FnOnce(&RobotModel, &measurements::Measurements) -> T + Send + 'static,
+) -> PyResult<(T, measurements::Measurements)> {
+    let (m, rows) = (model.inner.clone(), std::sync::Arc::new(rows));
+    let shared = rows.clone();
+    let result = interruptible(py, move || work(&m, &shared))?;
+    Ok((result, std::sync::Arc::unwrap_or_clone(rows)))
+}
+
 /// `world` or `base`: the frame the compensation's targets are given in.
 fn targets(py: Python<'_>, targets: &str) -> PyResult<TargetFrame> {
     match targets {
@@ -220,19 +236,14 @@ pub fn identify_py(
         frames: FrameSharing::stated(same_base, same_tool),
     };
     let (data, arrays) = session(py, model, data)?;
-    let (m, rows) = (model.inner.clone(), std::sync::Arc::new(data.data));
-    let shared = rows.clone();
-    let identified = interruptible(py, move || identify_cmd::run(PYTHON, &m, &shared, &request))?
-        .map_err(|e| errors::command(py, e, arrays))?;
-    let data = Measurements {
-        data: std::sync::Arc::unwrap_or_clone(rows),
-        model: model.inner.clone(),
-        arrays,
-    };
+    let (identified, data) = on_rows(py, model, data.data, move |m, rows| {
+        identify_cmd::run(PYTHON, m, rows, &request)
+    })?;
+    let identified = identified.map_err(|e| errors::command(py, e, arrays))?;
     let (m, result) = (&identified.model, identified.result);
     let outcome = Outcome {
-        report: result.to_json(&m.units, &data.data),
-        summary: result.summary(m, &data.data),
+        report: result.to_json(&m.units, &data),
+        summary: result.summary(m, &data),
         calibration: result.calibration.clone(),
         failed: identified.failed.map(|f| f.to_string()),
     };
@@ -286,27 +297,20 @@ pub fn diagnose(
         frames: FrameSharing::stated(same_base, same_tool),
     };
     let (data, arrays) = session(py, model, data)?;
-    let (m, rows) = (model.inner.clone(), std::sync::Arc::new(data.data));
-    let shared = rows.clone();
-    let mut diagnosed = interruptible(py, move || {
-        diagnose_cmd::run(PYTHON, &m, &shared, &request, &mut |_, _, _| {})
-    })?
-    .map_err(|e| errors::command(py, e, arrays))?;
-    let data = Measurements {
-        data: std::sync::Arc::unwrap_or_clone(rows),
-        model: model.inner.clone(),
-        arrays,
-    };
+    let (diagnosed, data) = on_rows(py, model, data.data, move |m, rows| {
+        diagnose_cmd::run(PYTHON, m, rows, &request, &mut |_, _, _| {})
+    })?;
+    let mut diagnosed = diagnosed.map_err(|e| errors::command(py, e, arrays))?;
     // Arrays name their rows from 0, files by line.
     let from = usize::from(arrays);
-    let lines: Vec<usize> = data.data.lines.iter().map(|line| line - from).collect();
+    let lines: Vec<usize> = data.lines.iter().map(|line| line - from).collect();
     let outcome = Outcome {
-        report: diagnosed.json(&data.data, &lines),
-        summary: diagnosed.summary(&data.data, &lines),
+        report: diagnosed.json(&data, &lines),
+        summary: diagnosed.summary(&data, &lines),
         calibration: diagnosed.calibration.clone(),
         failed: diagnosed.failed.take().map(|f| f.to_string()),
     };
-    let html = diagnosed.html(&data.data);
+    let html = diagnosed.html(&data);
     Py::new(
         py,
         PyClassInitializer::from(outcome).add_subclass(Diagnosis { html }),

@@ -31,6 +31,7 @@ use crate::calibration::identify::full::{Registrations, session_registrations};
 use crate::calibration::parallel;
 use crate::io::measurements::{Measurements, Observation};
 use crate::io::model_file::{RobotModel, Units};
+use crate::session::registration::in_session;
 
 /// RMS residuals of one model on a session's rows.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -98,7 +99,6 @@ pub fn residual(
         .effects
         .is_empty()
         .then(|| models.iter().map(|m| m.robot.prepare()).collect());
-    let session = |obs: &Observation| obs.session.min(models.len() - 1);
     let chunks: Vec<(&[Observation], &[bool])> =
         data.poses.chunks(CHUNK).zip(kept.chunks(CHUNK)).collect();
     let sums = parallel::map_if(chunks.len() > 1, &chunks, |(poses, kept)| {
@@ -106,8 +106,10 @@ pub fn residual(
         for (obs, _) in poses.iter().zip(*kept).filter(|(_, k)| **k) {
             n += 1;
             let t = match &prepared {
-                Some(k) => k[session(obs)].forward(&obs.q).ok(),
-                None => models[session(obs)].forward(&obs.q, &obs.context).ok(),
+                Some(k) => in_session(k, obs.session).forward(&obs.q).ok(),
+                None => in_session(&models, obs.session)
+                    .forward(&obs.q, &obs.context)
+                    .ok(),
             };
             let Some(t) = t else {
                 // A row the model cannot place counts as far off as it can be.

@@ -24,6 +24,7 @@ use nalgebra::UnitQuaternion;
 use crate::calibration::identify::full::{FrameSharing, Registrations, session_registrations};
 use crate::io::measurements::Measurements;
 use crate::io::model_file::RobotModel;
+use crate::session::registration::in_session;
 
 /// Error statistics of the nominal model over all poses.
 #[derive(Clone, Debug, PartialEq)]
@@ -61,7 +62,7 @@ pub fn nominal_error(model: &RobotModel, data: &Measurements) -> NominalError {
     let mut sessions = vec![(0.0, 0usize); count];
     for (i, (pose, &line)) in data.poses.iter().zip(&data.lines).enumerate() {
         // The joint count was checked when the data were read against the model.
-        let Ok(frame) = kinematics[pose.session.min(count - 1)].forward(&pose.q) else {
+        let Ok(frame) = in_session(&kinematics, pose.session).forward(&pose.q) else {
             continue;
         };
         let e = (pose.position.coords - frame.translation.vector).norm();

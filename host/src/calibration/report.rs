@@ -15,14 +15,15 @@ use std::fmt::Write as _;
 
 use armcal_shared::effects::{Effect, gravity_torques, joint_param};
 use armcal_shared::jacobian::at_point;
-use armcal_shared::{Param, Robot, Twist};
+use armcal_shared::{Param, Twist};
 use nalgebra::Vector3;
 
 use crate::calibration::diagnose::{
     DiagnoseOptions, Diagnosis, effect_unit, effect_value, residuals, significant,
 };
-use crate::calibration::identify::full::{FullFit, Observation, Status};
+use crate::calibration::identify::full::{Observation, Status};
 use crate::io::model_file::RobotModel;
+use crate::session::registration::in_session;
 
 /// One scatter plot: points `(x, y)` in two series (before: the geometric
 /// calibration's residuals, after: the extended one's), mm.
@@ -67,25 +68,17 @@ fn svg(plot: &Plot, w: f64, h: f64) -> String {
     .svg(w, h)
 }
 
-/// The fitted robot as each session sees it (its residuals are in its own
-/// measurement frame).
-fn session_robots(fit: &FullFit) -> Vec<Robot<f64>> {
-    (0..fit.registrations.count())
-        .map(|k| fit.robot_of(k))
-        .collect()
-}
-
 /// The plots of the findings (see the module header).
 fn plots(model: &RobotModel, d: &Diagnosis, data: &[Observation]) -> Vec<Plot> {
     let (before, after) = (residuals(&d.geometric, data), residuals(&d.fit, data));
-    let robots = session_robots(&d.geometric);
+    let robots = d.geometric.registrations.robots(&d.geometric.calibrated);
     let mut out = Vec::new();
     for f in &d.findings {
         // The direction the effect moves the tool point at each pose, and its variable.
         let mut dirs = Vec::new();
         let mut xs = Vec::new();
         for (i, o) in data.iter().enumerate() {
-            let robot = &robots[o.session.min(robots.len() - 1)];
+            let robot = in_session(&robots, o.session);
             let Ok(chain) = robot.chain(&o.q) else {
                 continue;
             };
@@ -182,14 +175,14 @@ type Pick = dyn Fn(&PanelRow) -> f64;
 /// section's text in [`html`]).
 fn panels(model: &RobotModel, d: &Diagnosis, data: &[Observation]) -> Vec<Plot> {
     let (before, after) = (residuals(&d.geometric, data), residuals(&d.fit, data));
-    let robots = session_robots(&d.geometric);
+    let robots = d.geometric.registrations.robots(&d.geometric.calibrated);
     let robot = &robots[0];
     let mut out = Vec::new();
     for j in 0..robot.dof() {
         // Direction of joint j's motion at the tool point, and the three variables.
         let mut rows = Vec::new();
         for (i, o) in data.iter().enumerate() {
-            let robot = &robots[o.session.min(robots.len() - 1)];
+            let robot = in_session(&robots, o.session);
             let Ok(chain) = robot.chain(&o.q) else {
                 continue;
             };

@@ -75,6 +75,11 @@ pub fn ranges<'a>(poses: impl IntoIterator<Item = &'a Observation>) -> Ranges<f6
     )
 }
 
+/// The number of sessions `poses` were measured in (1 for none or one).
+pub fn session_count(poses: &[Observation]) -> usize {
+    poses.iter().map(|o| o.session + 1).max().unwrap_or(1)
+}
+
 /// What a pose's tool point is held to.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Contact {

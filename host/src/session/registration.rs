@@ -177,10 +177,21 @@ impl Registrations {
         })
     }
 
-    /// Whether session `session` has its own frame for `param`'s frame.
-    pub fn owns(&self, session: usize, param: Param) -> bool {
-        self.frame(session, param).is_some()
+    /// Whether session `session` has its own base frame, its own tool
+    /// (session 0, whose frames are the model's, neither here).
+    pub fn own_frames(&self, session: usize) -> (bool, bool) {
+        session
+            .checked_sub(1)
+            .and_then(|k| self.sessions.get(k))
+            .map_or((false, false), |r| (r.base.is_some(), r.tool.is_some()))
     }
+}
+
+/// What session `session` sees of `per_session` (one item a session, the
+/// first the model's): its own, or the first's for a session beyond them
+/// (sessions that share every frame are held as one).
+pub fn in_session<T>(per_session: &[T], session: usize) -> &T {
+    &per_session[session.min(per_session.len() - 1)]
 }
 
 /// Where a base or tool parameter lives in its [`Frame`]: `(true, i)` is
@@ -213,8 +224,8 @@ mod tests {
         *regs.param_mut(2, Param::Base(FrameAxis::Y)).unwrap() = 0.5;
         assert!(regs.param_mut(2, Param::Tool(FrameAxis::Y)).is_none());
         assert!(regs.param_mut(0, Param::Base(FrameAxis::Y)).is_none());
-        assert!(regs.owns(1, Param::Base(FrameAxis::X)));
-        assert!(!regs.owns(1, Param::Tool(FrameAxis::X)));
+        assert_eq!(regs.own_frames(1), (true, false));
+        assert_eq!(regs.own_frames(0), (false, false));
         let robots = regs.robots(&robot);
         assert_eq!(robots[0], robot);
         assert_eq!(robots[1], robot);

@@ -75,6 +75,7 @@ use crate::calibration::replicates::{Configurations, LackOfFit};
 use crate::calibration::stats::f_quantile;
 use crate::io::measurements::Contact;
 use crate::session::constraints::{Constraints, MIN_PLANE_TOUCHES};
+use crate::session::registration::in_session;
 use alike::Alike;
 pub use blunders::Blunder;
 use blunders::Scale;
@@ -124,18 +125,14 @@ impl Default for DiagnoseOptions {
 /// the measured point: the fitted fixed point, or the foot of the tool point
 /// on the fitted plane (a residual along the plane's normal).
 pub fn residuals(fit: &FullFit, data: &[Observation]) -> Vec<Vector3<f64>> {
-    let effects = fit.fitted_effects();
-    // Each session's model: its own frames where it has them.
-    let Ok(models) = (0..fit.registrations.count())
-        .map(|k| EffectModel::new(fit.robot_of(k), &effects))
-        .collect::<Result<Vec<_>, _>>()
-    else {
+    let Ok(model) = EffectModel::new(fit.calibrated.clone(), &fit.fitted_effects()) else {
         return Vec::new();
     };
+    // Each session's model: its own frames where it has them.
+    let models = fit.registrations.effect_models(&model);
     data.iter()
         .map(|o| {
-            let model = &models[o.session.min(models.len() - 1)];
-            let Ok(t) = model.forward(&o.q, &o.context) else {
+            let Ok(t) = in_session(&models, o.session).forward(&o.q, &o.context) else {
                 return Vector3::zeros();
             };
             let tool = t.translation.vector;
@@ -174,7 +171,7 @@ fn nominal_errors(nominal: &[Robot<f64>], data: &[Observation], k: usize) -> Vec
     let tool: Vec<Vector3<f64>> = data
         .iter()
         .map(|o| {
-            nominal[o.session.min(nominal.len() - 1)]
+            in_session(nominal, o.session)
                 .forward(&o.q)
                 .map_or(Vector3::zeros(), |t| t.translation.vector)
         })
@@ -1279,10 +1276,11 @@ impl Diagnosis {
             .iter()
             .filter(|o| o.contact == Contact::Measured)
             .map(|o| {
-                let model = &models[o.session.min(models.len() - 1)];
-                model.forward(&o.q, &o.context).map_or(f64::INFINITY, |t| {
-                    (o.position.coords - t.translation.vector).norm()
-                })
+                in_session(&models, o.session)
+                    .forward(&o.q, &o.context)
+                    .map_or(f64::INFINITY, |t| {
+                        (o.position.coords - t.translation.vector).norm()
+                    })
             })
             .collect();
         (!errors.is_empty()).then(|| HeldOut::of(&errors))

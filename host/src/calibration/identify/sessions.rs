@@ -22,7 +22,7 @@
 
 use std::fmt::Write as _;
 
-use armcal_shared::{Frame, FrameAxis, Param};
+use armcal_shared::Frame;
 use serde_json::json;
 
 use super::full::{
@@ -31,6 +31,7 @@ use super::full::{
 use super::summary::length_and_mm;
 use crate::io::measurements::Measurements;
 use crate::io::model_file::Units;
+use crate::session::measurements::session_count;
 use armcal_shared::Robot;
 use armcal_shared::effects::Effect;
 
@@ -59,7 +60,7 @@ pub fn held_out_by_session(
     sharing: FrameSharing,
     options: &FullOptions,
 ) -> Result<Vec<SessionHeldOut>, FullError> {
-    let count = data.iter().map(|o| o.session + 1).max().unwrap_or(1);
+    let count = session_count(data);
     if count < 2 {
         return Ok(Vec::new());
     }
@@ -89,10 +90,6 @@ pub fn held_out_by_session(
         .collect()
 }
 
-/// A parameter of the base frame and one of the tool: whose they are.
-const BASE: Param = Param::Base(FrameAxis::X);
-const TOOL: Param = Param::Tool(FrameAxis::X);
-
 /// How far frame `b` sits from frame `a`: the shift (m) and the turn (rad)
 /// of `a⁻¹ b`.
 fn moved(a: &Frame<f64>, b: &Frame<f64>) -> (f64, f64) {
@@ -113,8 +110,7 @@ pub fn summary(
     if fit.sessions.len() < 2 {
         return out;
     }
-    let own = |p: Param| fit.registrations.owns(1, p);
-    let frames = match (own(BASE), own(TOOL)) {
+    let frames = match fit.registrations.own_frames(1) {
         (true, true) => "each with its own base frame and tool",
         (true, false) => "each with its own base frame, one tool (--same-tool)",
         (false, true) => "one base frame (--same-base), each with its own tool",
@@ -253,7 +249,9 @@ pub fn json(
         .enumerate()
         .map(|(k, s)| {
             let robot = fit.robot_of(k);
-            let own = |p| k == 0 || fit.registrations.owns(k, p);
+            // The first session's frames are the model's: its own.
+            let (base, tool) = fit.registrations.own_frames(k);
+            let (base, tool) = (k == 0 || base, k == 0 || tool);
             let left_out = held_out.get(k);
             json!({
                 "file": data.sessions.get(k),
@@ -264,8 +262,8 @@ pub fn json(
                 "position_rms": u.length_from_si(s.position_rms),
                 "position_rms_mm": s.position_rms * 1e3,
                 "orientation_rms": s.orientation_rms.map(|o| u.angle_from_si(o)),
-                "base": own(BASE).then(|| frame(&robot.base)),
-                "tool": own(TOOL).then(|| frame(&robot.tool)),
+                "base": base.then(|| frame(&robot.base)),
+                "tool": tool.then(|| frame(&robot.tool)),
                 "written": k == 0,
             })
         })

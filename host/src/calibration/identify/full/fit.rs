@@ -29,6 +29,7 @@ use super::{
     ParamResult, PlaneEstimate, PlaneFit, PointFit, Posterior, Registrations, SessionFit, Status,
     Unknown, full_params, independent_parameter_count, prior_reach, prior_terms,
 };
+use crate::session::measurements::session_count;
 
 /// Refuses data the fit cannot read: rows at points or planes the
 /// constraints do not name, effects on joints the model lacks, poses with
@@ -136,11 +137,7 @@ impl Unknowns {
             }));
         // Sessions of measured coordinates after the first: their own frames,
         // after the model's (sessions of contacts share theirs).
-        let sessions = if constrained {
-            1
-        } else {
-            data.iter().map(|o| o.session + 1).max().unwrap_or(1)
-        };
+        let sessions = if constrained { 1 } else { session_count(data) };
         let is_frame = |p: &&Param| matches!(p, Param::Base(_) | Param::Tool(_));
         let own_frames: Vec<Param> = all
             .iter()
@@ -746,7 +743,7 @@ impl<'a> Fit<'a> {
             .cloned()
             .chain(held_by_model)
             .collect::<HashMap<_, _>>();
-        let reasons_of_sessions = reasons.clone();
+        let sessions = self.session_fits(&s, &stats.std_of, &reasons);
         let (params, effects) =
             self.statuses(&s.free_params, &s.post.share, &stats.std_of, reasons);
         if !s.sys.cost().is_finite() {
@@ -757,7 +754,6 @@ impl<'a> Fit<'a> {
             planes,
             distance_residuals,
         } = self.constraint_fits(&s, &stats.std_of);
-        let sessions = self.session_fits(&s, &stats.std_of, &reasons_of_sessions);
         Ok(FullFit {
             registrations: self.robot.registrations.clone(),
             sessions,
@@ -794,7 +790,7 @@ impl Fit<'_> {
         std_of: &[f64],
         reasons: &HashMap<Unknown, String>,
     ) -> Vec<SessionFit> {
-        let count = self.data.iter().map(|o| o.session + 1).max().unwrap_or(1);
+        let count = session_count(self.data);
         if count < 2 {
             return Vec::new();
         }

@@ -13,11 +13,7 @@ use armcal_shared::{FrameAxis, Param, Robot};
 use super::initial::initial_base_tool;
 use super::rows::NormalEquations;
 use super::solve::levenberg_marquardt;
-use super::{FrameSharing, FullError, FullOptions, Model, Observation, Unknown};
-
-/// A parameter of the base frame and one of the tool: whose they are.
-const BASE: Param = Param::Base(FrameAxis::X);
-const TOOL: Param = Param::Tool(FrameAxis::X);
+use super::{FrameSharing, FullError, FullOptions, Model, Observation, Sharing, Unknown};
 use crate::calibration::identify::noise::{PerChannel, Weights};
 
 /// `robot` with `effects`, its base and tool (those `sharing` gives each
@@ -33,23 +29,16 @@ pub fn register_session(
 ) -> Result<(Robot<f64>, f64, f64), FullError> {
     let mut seen = robot.clone();
     initial_base_tool(&mut seen, data);
-    for (shared, start, own) in [
-        (!sharing.per_session(BASE), robot.base, &mut seen.base),
-        (!sharing.per_session(TOOL), robot.tool, &mut seen.tool),
-    ] {
-        if shared {
-            *own = start;
-        }
+    if sharing.base == Sharing::Shared {
+        seen.base = robot.base;
     }
-    let one: Vec<Observation> = data
-        .iter()
-        .map(|o| Observation {
-            session: 0,
-            ..o.clone()
-        })
-        .collect();
+    if sharing.tool == Sharing::Shared {
+        seen.tool = robot.tool;
+    }
+    // A model of one session: every row, whatever its session, is seen
+    // through its frames.
     let mut model = Model::of(seen, effects.to_vec());
-    let orientation = one.iter().any(|o| o.orientation.is_some());
+    let orientation = data.iter().any(|o| o.orientation.is_some());
     let tool: &[FrameAxis] = if orientation {
         &FrameAxis::ALL
     } else {
@@ -63,11 +52,11 @@ pub fn register_session(
         .map(Unknown::Param)
         .collect();
     let weights = Weights::of(&PerChannel::from_fn(|c| options.noise(c).sigma));
-    let mut sys = NormalEquations::accumulate(&model, &one, &frames, &weights);
+    let mut sys = NormalEquations::accumulate(&model, data, &frames, &weights);
     if !frames.is_empty() {
         let prior = vec![(0.0, 0.0); frames.len()];
         (_, _, _, sys) =
-            levenberg_marquardt(&mut model, &one, &frames, &weights, options, sys, &prior)?;
+            levenberg_marquardt(&mut model, data, &frames, &weights, options, sys, &prior)?;
     }
     let (position, orientation) = sys.residual_rms(&weights);
     Ok((model.robot, position, orientation))

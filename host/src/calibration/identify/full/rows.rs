@@ -9,7 +9,7 @@ use std::borrow::Borrow;
 
 use armcal_shared::effects::{Effect, EffectModel, gravity_torques, joint_param};
 use armcal_shared::jacobian::at_point;
-use armcal_shared::{Chain, FrameAxis, Param, Prepared, Robot, Twist, rotation_error};
+use armcal_shared::{Chain, Param, Prepared, Robot, Twist, rotation_error};
 use faer::linalg::matmul::{self, triangular, triangular::BlockStructure};
 use faer::{Accum, Mat, Par};
 use nalgebra::{Point3, Vector3};
@@ -147,13 +147,7 @@ pub(super) fn for_each_pose_rows<O: Borrow<Observation>>(
         .collect();
     // Which frames each session has of its own (none for one session).
     let own: Vec<(bool, bool)> = (0..robots.len())
-        .map(|k| {
-            let regs = &model.registrations;
-            (
-                regs.owns(k, Param::Base(FrameAxis::X)),
-                regs.owns(k, Param::Tool(FrameAxis::X)),
-            )
-        })
+        .map(|k| model.registrations.own_frames(k))
         .collect();
     let effects = PoseEffects::of(model);
     let mut q_eff: Vec<f64> = Vec::new();
