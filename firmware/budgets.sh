@@ -13,6 +13,15 @@
 #   counting the instructions between bench_start and bench_end; the first
 #   BENCH_TICKS spans (src/bench.rs) are the benchmark's. Their median and their
 #   worst tick (the cold first one) are checked.
+# - RAM in all: static RAM plus the stack's high-water mark, of the same boot
+#   of the bench build. The firmware measures the mark itself (src/stack.rs,
+#   cortex-m-rt's paint-stack) and logs it when halted ("stack used N bytes"),
+#   read here from its log decoded by defmt-print (`cargo install
+#   defmt-print`). That boot is the firmware's deepest run: the benchmark
+#   loads its calibration (every effect, the ranges) through the link's own
+#   code, whose deepest path is the calibration's decoding, and runs its
+#   ticks; the link served afterwards (qemu-link-test.sh) takes the same path
+#   from a shallower caller.
 #
 # Without ELFs it builds both: the bench build first, copied to
 # armcal-firmware-bench (both builds write armcal-firmware), then the
@@ -26,6 +35,7 @@ max_median_tick=5000 # instructions, the median tick of the boot benchmark
 max_worst_tick=10000 # instructions, its most expensive tick
 max_flash=65536      # bytes (64 KiB)
 max_static_ram=16384 # bytes (16 KiB)
+max_ram=65536        # bytes (64 KiB), static RAM + the stack's high-water mark
 
 here=$(cd "$(dirname "$0")" && pwd)
 error() {
@@ -91,10 +101,13 @@ symbol() {
 start=$(symbol bench_start)
 end=$(symbol bench_end)
 [[ -n $start && -n $end ]] || error "no bench_start/bench_end symbols in $bench_elf"
-# The same QEMU options as qemu-link-test.sh's counting run.
+# The same QEMU options as qemu-link-test.sh's counting run; the log is kept
+# for the stack's high-water mark.
+command -v defmt-print >/dev/null ||
+    error "defmt-print not installed (cargo install defmt-print): the stack's high-water mark is read from the firmware's log"
 "$here/qemu-run.sh" "$bench_elf" -icount shift=3 \
-    -plugin "$work/insn-count.so,start=$start,end=$end" -d plugin -D "$work/insn-count.log" ||
-    error "the bench build did not boot and halt under QEMU"
+    -plugin "$work/insn-count.so,start=$start,end=$end" -d plugin -D "$work/insn-count.log" |
+    tee "$work/bench.log" || error "the bench build did not boot and halt under QEMU"
 sed -n 's/^insn-count: span [0-9]*: \([0-9]*\)$/\1/p' "$work/insn-count.log" | head -n "$ticks" >"$work/ticks"
 spans=$(wc -l <"$work/ticks")
 ((spans == ticks)) || error "$spans spans counted, not the benchmark's $ticks"
@@ -109,6 +122,14 @@ read -r cold mean median worst worst_at < <(awk '
 echo "$ticks ticks: first (cold) $cold, mean $mean, median $median, worst $worst (tick $worst_at) instructions"
 check "median tick" "$median" "$max_median_tick" instructions
 check "worst tick" "$worst" "$max_worst_tick" instructions
+
+echo "== static RAM and the stack's high-water mark of the same boot ($bench_elf)"
+"$tools/llvm-size" -A "$bench_elf" >"$work/size" || error "llvm-size failed on $bench_elf"
+bench_ram=$(section_sum ".data .bss .uninit")
+stack=$(sed -n 's/.*halt: .*stack used \([0-9]*\) bytes.*/\1/p' "$work/bench.log" | tail -n 1)
+[[ -n $stack ]] || error "no \"stack used N bytes\" in the bench build's halt log"
+echo "static RAM $bench_ram B, stack high-water mark $stack B (the boot benchmark, then the halt)"
+check "static RAM + stack high-water mark" "$((bench_ram + stack))" "$max_ram" B
 
 if ((failed)); then
     echo "budgets.sh: FAILED: over budget" >&2

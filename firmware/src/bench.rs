@@ -20,7 +20,7 @@ use armcal_shared::{
 use cortex_m_semihosting::debug::EXIT_FAILURE;
 use heapless::Vec;
 
-use crate::{Board, TICK_PERIOD_CYCLES, exit, handle};
+use crate::{Board, exit, handle};
 
 /// The boot benchmark's robot: the UR10e's nominal D-H model (the maker's
 /// table, m and rad) with the joint errors armcal identifies from the FIGAROH
@@ -97,22 +97,32 @@ enum Failure {
     Controller,
 }
 
+/// The benchmark's calibration file ([`calibration`] as `armcal identify`
+/// writes it), in `buf`. Not inlined: the calibration (5.9 KB of `f64`) is
+/// off the stack before the file is loaded, where the benchmark's stack is
+/// deepest (the controller decoding the file).
+#[inline(never)]
+fn file(buf: &mut [u8; MAX_FILE_LEN]) -> Result<&[u8], Failure> {
+    let cal = calibration().map_err(|_| Failure::Model)?;
+    let file = cal.encode(buf).map_err(|_| Failure::Controller)?;
+    Ok(file)
+}
+
 /// The boot benchmark: [`BENCH_TICKS`] consecutive 1 kHz ticks of a smooth
 /// motion (about 1 mrad per tick per joint) of the UR10e of [`calibration`] at
 /// 35 °C with 5 kg. They go through the link's own code, [`crate::handle`],
-/// to a controller of their own: its calibration as the file `armcal identify`
-/// writes, in chunks, then one [`Request::Command`] per tick, so that each
-/// correction runs between [`crate::bench_start`] and [`crate::bench_end`] in
-/// the code that serves the link (the production build compiles it the same
-/// way), with the previous tick as sent. Returns the worst residual, m, and
-/// the most iterations. Not inlined: its locals (a calibration, its file and a
-/// controller) are freed before the link is served.
+/// to `device` (the firmware's controller, which `main` then starts afresh for
+/// the link): its calibration as the file `armcal identify` writes, in chunks,
+/// then one [`Request::Command`] per tick, so that each correction runs between
+/// [`crate::bench_start`] and [`crate::bench_end`] in the code that serves the
+/// link (the production build compiles it the same way), with the previous
+/// tick as sent. Returns the worst residual, m, and the most iterations. Not
+/// inlined: its locals (the file and the requests) are freed before the link
+/// is served.
 #[inline(never)]
-fn ticks() -> Result<(f32, u8), Failure> {
-    let cal = calibration().map_err(|_| Failure::Model)?;
-    let mut file = [0u8; MAX_FILE_LEN];
-    let file = cal.encode(&mut file).map_err(|_| Failure::Controller)?;
-    let mut device = Device::new(TICK_PERIOD_CYCLES);
+fn ticks(device: &mut Device) -> Result<(f32, u8), Failure> {
+    let mut buf = [0u8; MAX_FILE_LEN];
+    let file = file(&mut buf)?;
     let mut board = Board;
     let total = u16::try_from(file.len()).map_err(|_| Failure::Controller)?;
     let (mut offset, mut accepted) = (0u16, false);
@@ -123,7 +133,7 @@ fn ticks() -> Result<(f32, u8), Failure> {
             offset,
             bytes,
         };
-        accepted = match handle(&mut device, &request, &mut board) {
+        accepted = match handle(device, &request, &mut board) {
             Response::ChunkReceived { .. } => false,
             Response::CalibrationAccepted { .. } => true,
             _ => return Err(Failure::Controller),
@@ -146,7 +156,7 @@ fn ticks() -> Result<(f32, u8), Failure> {
             .map(|(m, q0)| q0 + 1e-3 * t as f32 * (1.0 + m as f32 / 6.0))
             .collect();
         let request = Request::Command(Command { seq: t, q, context });
-        let Response::Corrected(c) = handle(&mut device, &request, &mut board) else {
+        let Response::Corrected(c) = handle(device, &request, &mut board) else {
             return Err(Failure::Controller);
         };
         if c.status != TickStatus::Corrected {
@@ -161,10 +171,10 @@ fn ticks() -> Result<(f32, u8), Failure> {
     Ok((worst, iterations))
 }
 
-/// Runs the benchmark and logs its result; exits with failure if it could not
-/// run.
-pub fn run() {
-    match ticks() {
+/// Runs the benchmark on `device` and logs its result; exits with failure if
+/// it could not run.
+pub fn run(device: &mut Device) {
+    match ticks(device) {
         Ok((residual, iterations)) => defmt::info!(
             "benchmark: {=u32} corrections of a 6-axis UR10e, worst residual {=f32} m, at most {=u8} iterations",
             BENCH_TICKS,
