@@ -195,3 +195,302 @@ fn a_plan_for_backlash_lets_diagnose_name_it() {
         "{found:?}"
     );
 }
+
+/// A plate of three sockets 100 mm above the base's floor, nominal centres
+/// (m, base frame), and the three distances between them.
+fn plate() -> armcal::io::sockets::Sockets {
+    use armcal::io::sockets::parse_sockets;
+    let text = "point,x,y,z\ns0,0.45,-0.15,0.1\ns1,0.45,0.15,0.1\ns2,0.6,0.0,0.1\n\
+                distance,s0,s1,0.3\ndistance,s0,s2,0.21213203435596426\n\
+                distance,s1,s2,0.21213203435596426\n";
+    parse_sockets(text, "plate.csv", &Default::default()).unwrap()
+}
+
+/// `armcal identify`'s calibrated robot (default options) of `model` from
+/// a session of `truth` seating its ball in the sockets of `plate` (true
+/// centres `centres`) as the rows `q` (the nominal model's configurations at
+/// the nominal centres) and `socket_of` say: each row the configuration near
+/// `q` at which the true robot's ball is at the socket's true centre, the
+/// seating off by a Gaussian of `NOISE` per axis.
+fn calibrate_contacts(
+    model: &RobotModel,
+    truth: &Robot<f64>,
+    (q, socket_of): (&[Vec<f64>], &[usize]),
+    plate: &armcal::io::sockets::Sockets,
+    centres: &[nalgebra::Point3<f64>],
+    seed: u64,
+) -> Robot<f64> {
+    use armcal::calibration::plan::sockets;
+    use armcal::calibration::simulate::reach_point;
+    use rand::RngExt;
+    let mut r = rng(seed);
+    // Box–Muller: a standard normal draw.
+    let mut gauss = || {
+        let (u, v): (f64, f64) = (1.0 - r.random::<f64>(), r.random::<f64>());
+        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+    };
+    let reached: Vec<Vec<f64>> = q
+        .iter()
+        .zip(socket_of)
+        .map(|(q, &k)| {
+            let seat = centres[k] + nalgebra::Vector3::from_fn(|_, _| NOISE * gauss());
+            reach_point(truth, q.clone(), &seat).expect("the true robot reaches its socket")
+        })
+        .collect();
+    let poses = sockets::exact(&reached, socket_of);
+    let n = poses.len();
+    let data = Measurements {
+        file: "plate.csv".into(),
+        poses,
+        lines: (2..2 + n).collect(),
+        times: vec![None; n],
+        columns_used: Vec::new(),
+        columns_ignored: Vec::new(),
+        warnings: Vec::new(),
+        constraints: sockets::constraints(plate, socket_of),
+        sessions: Vec::new(),
+    };
+    let request = identify::Request {
+        params: armcal::calibration::identify::ParamSet::Full,
+        scales: Default::default(),
+        prior_scale: Default::default(),
+        targets: TargetFrame::World,
+        frames: FrameSharing::default(),
+    };
+    let identified = identify::run(Front::CommandLine, model, &data, &request).unwrap();
+    identified.result.calibration.calibrated()
+}
+
+/// The RMS and worst distance (m) between `robot`'s tool points and
+/// `truth`'s at `q` once the best rigid motion has put the first on the
+/// second (Kabsch): a session of contacts fixes the robot in the frame of
+/// its sockets, not the truth's.
+fn held_out_aligned(robot: &Robot<f64>, truth: &Robot<f64>, q: &[Vec<f64>]) -> (f64, f64) {
+    use nalgebra::{Matrix3, Vector3};
+    let a: Vec<Vector3<f64>> = q
+        .iter()
+        .map(|q| robot.forward(q).unwrap().translation.vector)
+        .collect();
+    let b: Vec<Vector3<f64>> = q
+        .iter()
+        .map(|q| truth.forward(q).unwrap().translation.vector)
+        .collect();
+    let n = q.len() as f64;
+    let (ca, cb) = (
+        a.iter().sum::<Vector3<f64>>() / n,
+        b.iter().sum::<Vector3<f64>>() / n,
+    );
+    let h: Matrix3<f64> = a
+        .iter()
+        .zip(&b)
+        .map(|(x, y)| (x - ca) * (y - cb).transpose())
+        .sum();
+    let svd = h.svd(true, true);
+    let (u, v) = (svd.u.unwrap(), svd.v_t.unwrap().transpose());
+    let d = (v * u.transpose()).determinant().signum();
+    let rotation = v * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * u.transpose();
+    let errors: Vec<f64> = a
+        .iter()
+        .zip(&b)
+        .map(|(x, y)| (rotation * (x - ca) + cb - y).norm())
+        .collect();
+    let rms = (errors.iter().map(|e| e * e).sum::<f64>() / n).sqrt();
+    (rms, errors.iter().copied().fold(0.0, f64::max))
+}
+
+/// A socket plan against as many random seatings: a PUMA 560 with a ball
+/// 30 mm off its last axis on a 100 mm stem, every D-H, base and tool
+/// parameter off by up to ±1 mm and ±1 mrad, seats the ball in the three
+/// sockets of a plate (their true centres up to 3 mm from the nominal ones
+/// the plan reached, the distances between them known to 10 µm), each
+/// seating off by 20 µm per axis: 24 poses as `plan --sockets` chose them,
+/// and 24 chosen at random among the same candidates (8 a socket each).
+/// Calibrated by `armcal identify` (its defaults), the robot predicts 200
+/// random held-out configurations in the frame of its sockets: the planned
+/// poses' median RMS and worst error are at most 0.8 of the random ones'.
+/// The plan's predicted RMS is not yet within ±30 % of the error found, as
+/// a tracker plan's is: it overestimates it, never underestimates.
+#[test]
+fn planned_socket_seatings_beat_random_ones() {
+    use armcal::calibration::plan::sockets;
+    use rand::RngExt;
+    let mut model = load_model("puma560").unwrap();
+    model.robot.tool.xyz = nalgebra::Vector3::new(0.03, 0.0, 0.1);
+    let nominal = &model.robot;
+    let plate = plate();
+    let options = PlanOptions {
+        poses: 24,
+        sockets: Some(plate.clone()),
+        candidates: 3_000,
+        ..PlanOptions::default()
+    };
+    let p = plan(nominal, None, None, &options).unwrap();
+    let (pool, pool_socket) = sockets::candidates(nominal, &plate, 3_000, 8, 0.05, 1).unwrap();
+    let params: Vec<Param> = nominal.params().collect();
+    let (mut planned, mut random, mut ratio) = (Vec::new(), Vec::new(), Vec::new());
+    for seed in 1..=9 {
+        let mut r = rng(300 + seed);
+        let (truth, _) = with_random_errors(nominal, &params, 1e-3, 1e-3, &mut r);
+        let centres: Vec<nalgebra::Point3<f64>> = plate
+            .sockets
+            .iter()
+            .map(|s| s.centre + nalgebra::Vector3::from_fn(|_, _| r.random_range(-3e-3..3e-3)))
+            .collect();
+        let mut true_plate = plate.clone();
+        for d in &mut true_plate.distances {
+            d.length = (centres[d.points[0]] - centres[d.points[1]]).norm();
+        }
+        let mut random_rows = (Vec::new(), Vec::new());
+        for k in 0..plate.sockets.len() {
+            let of_k: Vec<usize> = (0..pool.len()).filter(|&c| pool_socket[c] == k).collect();
+            for _ in 0..8 {
+                random_rows
+                    .0
+                    .push(pool[of_k[r.random_range(0..of_k.len())]].clone());
+                random_rows.1.push(k);
+            }
+        }
+        let targets = random_configurations(nominal, 200, &mut r);
+        let from_plan = calibrate_contacts(
+            &model,
+            &truth,
+            (&p.q, &p.socket_of),
+            &true_plate,
+            &centres,
+            seed,
+        );
+        let from_random = calibrate_contacts(
+            &model,
+            &truth,
+            (&random_rows.0, &random_rows.1),
+            &true_plate,
+            &centres,
+            seed,
+        );
+        let planned_error = held_out_aligned(&from_plan, &truth, &targets);
+        let random_error = held_out_aligned(&from_random, &truth, &targets);
+        eprintln!(
+            "puma560 plate robot {seed}: planned {:.4} / {:.4} mm, random {:.4} / {:.4} mm (RMS / \
+             worst); predicted {:.4} mm",
+            planned_error.0 * 1e3,
+            planned_error.1 * 1e3,
+            random_error.0 * 1e3,
+            random_error.1 * 1e3,
+            p.predicted.rms * 1e3,
+        );
+        ratio.push(p.predicted.rms / planned_error.0);
+        planned.push(planned_error);
+        random.push(random_error);
+    }
+    let rms = |v: &[(f64, f64)]| median(v.iter().map(|x| x.0).collect());
+    let worst = |v: &[(f64, f64)]| median(v.iter().map(|x| x.1).collect());
+    eprintln!(
+        "puma560 plate: median RMS planned/random {:.3}, worst {:.3}, predicted/measured {:.3}",
+        rms(&planned) / rms(&random),
+        worst(&planned) / worst(&random),
+        median(ratio.clone())
+    );
+    assert!(
+        rms(&planned) <= 0.8 * rms(&random),
+        "{planned:?} {random:?}"
+    );
+    assert!(
+        worst(&planned) <= 0.8 * worst(&random),
+        "{planned:?} {random:?}"
+    );
+    // The prediction is conservative here: about 1.55 of the error found
+    // (the fit's own standard errors agree with the plan's to its estimated
+    // noise; what makes the held-out error smaller is not found yet).
+    let predicted = median(ratio);
+    assert!(
+        (1.0..=2.0).contains(&predicted),
+        "predicted/found {predicted}"
+    );
+}
+
+/// A plan for compliance serves it: a UR10e whose shoulder and elbow
+/// (joints 2 and 3) bend under the arm's own weight by 2·10⁻⁶ and 3·10⁻⁶
+/// rad/(N·m), every D-H, base and tool parameter off by up to ±1 mm and ±1
+/// mrad, measured by a tracker (20 µm) at 20 poses `plan --effects
+/// compliance` chose and at 20 random ones, 12 robots. The geometry and the
+/// two compliances identified together: the planned poses' RMS error of
+/// each compliance over the robots is below the random poses', and within
+/// a factor of 1.5 of the plan's predicted standard error (12 robots
+/// estimate an RMS to about ±20 %).
+#[test]
+fn a_plan_for_compliance_identifies_it_better_than_random_poses() {
+    use armcal::calibration::identify::full::{FullOptions, identify_with_effects};
+    use armcal::calibration::simulate::{Scenario, parse_effect, simulate_visiting};
+    use armcal_shared::effects::Effect;
+    let mut model = load_model("ur10e").unwrap();
+    model.robot.tool.xyz = nalgebra::Vector3::from(SMR);
+    let nominal = &model.robot;
+    let options = PlanOptions {
+        poses: 20,
+        compliance: true,
+        ..PlanOptions::default()
+    };
+    let p = plan(nominal, None, None, &options).unwrap();
+    let predicted: Vec<f64> = [1, 2]
+        .iter()
+        .map(|j| p.predicted.compliance.iter().find(|c| c.0 == *j).unwrap().1)
+        .collect();
+    let truth = [2e-6, 3e-6];
+    let fitted = |q: &[Vec<f64>], seed: u64| -> Vec<f64> {
+        let mut scenario = Scenario::tracker(q.len(), seed);
+        scenario.effects = vec![
+            parse_effect("joint_compliance:2:2e-6", nominal.dof()).unwrap(),
+            parse_effect("joint_compliance:3:3e-6", nominal.dof()).unwrap(),
+        ];
+        scenario.payloads = vec![0.0];
+        scenario.temperature = (20.0, 20.0);
+        let session = simulate_visiting(nominal, &scenario, |_| q.to_vec()).unwrap();
+        let effects: Vec<Effect<f64>> = [1, 2]
+            .iter()
+            .map(|&joint| Effect::JointCompliance {
+                joint,
+                compliance: 0.0,
+            })
+            .collect();
+        let fit = identify_with_effects(
+            nominal,
+            &effects,
+            &[],
+            &session.observations,
+            &FullOptions::default(),
+        )
+        .unwrap();
+        fit.effects
+            .iter()
+            .map(|e| match e.effect {
+                Effect::JointCompliance { compliance, .. } => compliance,
+                _ => f64::NAN,
+            })
+            .collect()
+    };
+    let (mut planned, mut random) = ([0.0; 2], [0.0; 2]);
+    let robots = 12;
+    for seed in 1..=robots {
+        let random_q = random_configurations(nominal, 20, &mut rng(500 + seed));
+        for (sum, q) in [(&mut planned, &p.q), (&mut random, &random_q)] {
+            for (k, c) in fitted(q, seed).iter().enumerate() {
+                sum[k] += (c - truth[k]).powi(2) / robots as f64;
+            }
+        }
+    }
+    for k in 0..2 {
+        let (planned, random) = (planned[k].sqrt(), random[k].sqrt());
+        eprintln!(
+            "compliance of joint {}: RMS error planned {planned:.3e}, random {random:.3e}, \
+             predicted {:.3e} rad/(N·m)",
+            k + 2,
+            predicted[k]
+        );
+        assert!(planned < random, "{planned} {random}");
+        let ratio = predicted[k] / planned;
+        assert!(
+            (1.0 / 1.5..=1.5).contains(&ratio),
+            "predicted/found {ratio}"
+        );
+    }
+}

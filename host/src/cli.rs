@@ -149,9 +149,16 @@ pub(crate) struct PlanArgs {
     pub(crate) candidates: Option<usize>,
     /// Effects the measurement must serve besides the geometry: `backlash`
     /// (each pose measured twice, approached from below and from above in
-    /// every joint, a via row before each).
+    /// every joint, a via row before each), `compliance` (the joints'
+    /// gravity torques spread, each joint's compliance identified).
     #[arg(long, value_name = "NAME", value_delimiter = ',')]
     pub(crate) effects: Vec<String>,
+    /// A session without a tracker: the sockets a ball on the flange is
+    /// seated in (a CSV `point,x,y,z` of their nominal centres, base frame,
+    /// model length unit, and `distance` lines): the plan says which
+    /// configurations to seat it in each at.
+    #[arg(long, value_name = "S.csv")]
+    pub(crate) sockets: Option<String>,
     /// Seed of every random draw.
     #[arg(long, default_value_t = 1)]
     pub(crate) seed: u64,
@@ -170,6 +177,7 @@ impl PlanArgs {
             margin: self.margin,
             candidates: self.candidates,
             effects: self.effects.clone(),
+            sockets: None,
             seed: self.seed,
         }
     }

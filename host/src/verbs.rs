@@ -121,14 +121,21 @@ pub(crate) fn plan(args: PlanArgs) -> anyhow::Result<()> {
         .output("--out", Some(&args.out))
         .output("--json", args.json.as_deref())
         .output("--html", args.html.as_deref());
-    for (flag, file) in [("--from", &args.from), ("--targets", &args.targets)] {
+    for (flag, file) in [
+        ("--from", &args.from),
+        ("--targets", &args.targets),
+        ("--sockets", &args.sockets),
+    ] {
         if let Some(file) = file {
             outputs = outputs.input(flag, file);
         }
     }
     outputs.check()?;
     let model = args.model.load()?;
-    let request = args.request();
+    let mut request = args.request();
+    if let Some(file) = &args.sockets {
+        request.sockets = Some(armcal::io::sockets::load_sockets(file, &model.units)?);
+    }
     let options = request.options(CLI, &model)?;
     let joints = |file: &Option<String>| -> anyhow::Result<Option<Vec<Vec<f64>>>> {
         let Some(file) = file else { return Ok(None) };
@@ -158,10 +165,7 @@ pub(crate) fn plan(args: PlanArgs) -> anyhow::Result<()> {
         "armcal plan --model {} --poses {}: the poses to measure, in this order",
         model.name, args.poses
     );
-    outputs.set(
-        "--out",
-        compensate::joints_csv(&comment, &cal, plan.q.iter().cloned()).into_bytes(),
-    );
+    outputs.set("--out", plan.csv(&comment, &cal, &options).into_bytes());
     if args.json.is_some() {
         let text = serde_json::to_string_pretty(&plan.to_json(&options, &model.units))?;
         outputs.set("--json", text.into_bytes());

@@ -32,10 +32,13 @@ fn joint_rows(
 /// z_min, x_max, y_max, z_max)`) and above `above` (model length unit), for an
 /// instrument of `noise` per axis (and `orientation_noise`, with
 /// `orientation=True`); `effects=["backlash"]` measures each pose approached
-/// from both sides. Returns the poses, an `(poses, M)` array in the
+/// from both sides, `effects=["compliance"]` spreads the joints' gravity
+/// torques and identifies each compliance; `sockets` (the path of a sockets
+/// file) plans a session seating a ball in them (the report's `socket_of`
+/// names each row's socket). Returns the poses, an `(poses, M)` array in the
 /// model's units in measurement order, and the report (`--json`'s) as a dict.
 #[pyfunction]
-#[pyo3(signature = (model, poses = 30, *, orientation = false, noise = None, orientation_noise = None, within = None, above = None, margin = None, candidates = None, targets = None, effects = Vec::new(), seed = 1))]
+#[pyo3(signature = (model, poses = 30, *, orientation = false, noise = None, orientation_noise = None, within = None, above = None, margin = None, candidates = None, targets = None, effects = Vec::new(), sockets = None, seed = 1))]
 #[expect(
     clippy::too_many_arguments,
     reason = "a parameter per Python keyword argument, as the signature above lists them"
@@ -53,6 +56,7 @@ pub fn plan<'py>(
     candidates: Option<ArrayLike<'py>>,
     targets: Option<ArrayLike<'py>>,
     effects: Vec<String>,
+    sockets: Option<String>,
     seed: u64,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
     let m = &model.inner;
@@ -66,6 +70,10 @@ pub fn plan<'py>(
         margin,
         candidates: None,
         effects,
+        sockets: sockets
+            .map(|path| armcal::io::sockets::load_sockets(&path, &m.units))
+            .transpose()
+            .map_err(|e| errors::input(py, &e, true))?,
         seed,
     };
     let options = request

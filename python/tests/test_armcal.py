@@ -570,6 +570,25 @@ def test_plan_returns_the_poses_and_the_report_as_the_command_line():
         armcal.plan(model, 10, within=(1, 1, 1, 0, 0, 0))
 
 
+def test_plan_for_sockets_and_compliance(tmp_path):
+    """`plan(model, n, sockets=path)` plans a session seating a ball in the
+    sockets of the file, the poses shared among them evenly and the report
+    naming each row's socket; `effects=["compliance"]` gives each joint's
+    compliance its predicted standard error."""
+    plate = tmp_path / "plate.csv"
+    plate.write_text(
+        "point,x,y,z\ns0,0.45,-0.15,0.05\ns1,0.45,0.15,0.05\ns2,0.6,0,0.05\n"
+        "distance,s0,s1,0.3\n"
+    )
+    model = armcal.load_model("ur5e")
+    q, report = armcal.plan(model, 30, sockets=str(plate), candidates=None)
+    assert q.shape == (30, 6)
+    assert sorted(report["socket_of"].count(s) for s in ("s0", "s1", "s2")) == [10, 10, 10]
+    assert report["predicted_rms_mm"] < report["random"]["predicted_rms_mm"]
+    q, report = armcal.plan(armcal.load_model("ur10e"), 30, effects=["compliance"])
+    assert {c["joint"] for c in report["compliance"]} >= {2, 3}
+
+
 def test_ctrl_c_interrupts_a_long_diagnosis_at_once():
     """Ctrl-C (SIGINT) during a diagnosis of 10⁵ positions (over a second)
     raises KeyboardInterrupt within a fraction of a second, as Python does

@@ -9,6 +9,7 @@ use super::Front;
 use crate::calibration::plan::{Plan, PlanOptions, Visits, plan};
 use crate::io::input_error::InputError;
 use crate::io::model_file::RobotModel;
+use crate::io::sockets::Sockets;
 
 /// What `plan` is asked.
 #[derive(Clone, Debug, Default)]
@@ -33,6 +34,9 @@ pub struct Request {
     /// The effects the measurement must serve besides the geometry, by name
     /// (`backlash`: each pose approached from both sides).
     pub effects: Vec<String>,
+    /// For a session without a tracker: the sockets the ball is seated in
+    /// (SI, as read).
+    pub sockets: Option<Sockets>,
     /// Seed of every draw.
     pub seed: u64,
 }
@@ -108,12 +112,14 @@ impl Request {
         for effect in &self.effects {
             match effect.as_str() {
                 "backlash" => options.visits = Visits::BothSides,
+                "compliance" => options.compliance = true,
                 other => {
                     return Err(refuse(
                         "--effects",
                         format!(
                             "{other}: the plans serve `backlash` (each pose approached from both \
-                             sides); the geometry is served always"
+                             sides) and `compliance` (the joints' gravity torques spread); the \
+                             geometry is served always"
                         ),
                     ));
                 }
@@ -127,6 +133,26 @@ impl Request {
             if options.cell.min[2] >= options.cell.max[2] {
                 return Err(refuse("--above", format!("{z}: above the box's top")));
             }
+        }
+        if let Some(plate) = &self.sockets {
+            let clash = [
+                (
+                    self.orientation,
+                    "--orientation: a ball in a socket gives no orientation",
+                ),
+                (
+                    self.within.is_some() || self.above.is_some(),
+                    "--within/--above: the ball's centre is at the sockets",
+                ),
+                (
+                    options.visits == Visits::BothSides,
+                    "--effects backlash: a pose approached from both sides leaves its socket",
+                ),
+            ];
+            if let Some((_, why)) = clash.iter().find(|(c, _)| *c) {
+                return Err(refuse("--sockets", format!("not with {why}")));
+            }
+            options.sockets = Some(plate.clone());
         }
         Ok(options)
     }
@@ -172,6 +198,14 @@ pub fn run(
     targets: Option<&[Vec<f64>]>,
 ) -> anyhow::Result<(Plan, PlanOptions)> {
     let options = request.options(front, model)?;
+    if options.sockets.is_some() && from.is_some() {
+        return Err(InputError::argument(
+            front.flag("--sockets"),
+            "not with --from: a socket plan's candidates are the configurations that reach its \
+             sockets",
+        )
+        .into());
+    }
     let plan = plan(&model.robot, from, targets, &options)?;
     Ok((plan, options))
 }

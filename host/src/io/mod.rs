@@ -11,5 +11,6 @@ pub mod input_error;
 pub mod measurements;
 pub mod model_file;
 pub mod output;
+pub mod sockets;
 pub mod ur;
 pub mod urdf;

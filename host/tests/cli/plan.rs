@@ -167,3 +167,100 @@ fn a_plan_for_backlash_approaches_each_pose_from_both_sides() {
         &["--effects", "thermal"],
     );
 }
+
+/// `--sockets`: a plan for a ball seated in the sockets of a plate is a
+/// session file of docs/file-formats.md §3 — its `point` column names each
+/// row's socket, its distance lines are the plate's — which `check` reads
+/// as it is (the planned joints put the nominal ball at each socket: the
+/// nominal spread at each is nil) and `predict` reads as a joints file; the
+/// poses are shared among the sockets evenly. A sockets file with a bad cell
+/// is refused at it, and a socket plan with orientations, with nothing
+/// written.
+#[test]
+fn a_socket_plan_is_a_session_file_to_measure() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("plate.csv"),
+        "# three sockets, m\npoint,x,y,z\ns0,0.45,-0.15,0.05\ns1,0.45,0.15,0.05\n\
+         s2,0.6,0,0.05\ndistance,s0,s1,0.3\ndistance,s0,s2,0.212132\n",
+    )
+    .unwrap();
+    let out = succeeds(
+        d,
+        &[
+            "plan",
+            "--model",
+            "ur5e",
+            "--poses",
+            "30",
+            "--sockets",
+            "plate.csv",
+            "--out",
+            "p.csv",
+            "--json",
+            "r.json",
+            "--candidates",
+            "3000",
+        ],
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("a ball seated in 3 sockets, 2 known distances"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("poses a socket: s0 10, s1 10, s2 10"),
+        "{stdout}"
+    );
+    let text = std::fs::read_to_string(d.join("p.csv")).unwrap();
+    assert!(
+        text.lines().nth(1) == Some("q1,q2,q3,q4,q5,q6,point"),
+        "{text}"
+    );
+    assert!(text.contains("\ndistance,s0,s1,0.3,"), "{text}");
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("r.json")).unwrap()).unwrap();
+    assert_eq!(report["socket_of"].as_array().unwrap().len(), 30);
+    assert!(
+        report["predicted_rms_mm"].as_f64().unwrap()
+            < report["random"]["predicted_rms_mm"].as_f64().unwrap()
+    );
+    let check = succeeds(d, &["check", "--model", "ur5e", "--data", "p.csv"]);
+    let checked = String::from_utf8_lossy(&check.stdout);
+    assert!(checked.contains("s0"), "{checked}");
+    let model = armcal::io::model_file::load_model("ur5e").unwrap();
+    let rows =
+        armcal::io::measurements::parse_joints(&text, "p.csv", &model.robot, &model.units).unwrap();
+    assert_eq!(rows.rows.len(), 30);
+
+    std::fs::write(d.join("bad.csv"), "point,x,y,z\ns0,450,-150,zz\n").unwrap();
+    refused(
+        d,
+        &[
+            "plan",
+            "--model",
+            "ur5e",
+            "--sockets",
+            "bad.csv",
+            "--out",
+            "q.csv",
+        ],
+        &["bad.csv:2:13", "not a number"],
+    );
+    refused(
+        d,
+        &[
+            "plan",
+            "--model",
+            "ur5e",
+            "--sockets",
+            "plate.csv",
+            "--orientation",
+            "--out",
+            "q.csv",
+        ],
+        &["--sockets", "--orientation"],
+    );
+    assert!(!d.join("q.csv").exists());
+}

@@ -20,7 +20,9 @@
 //! `c` to `M` lowers the criterion by `tr(S⁻¹ J_c B J_cᵀ)`, `S = I + J_c A
 //! J_cᵀ`, `A = M⁻¹`, `B = A W A` (Sherman–Morrison–Woodbury): one product of
 //! the stacked candidates with `A` and one with `B` per step, then an `r × r`
-//! solve per candidate (`r` = 3 or 6 rows). The plan starts from `Π + εI`
+//! solve per candidate (`r` = 3 or 6 rows). A socket plan's poses are each
+//! one socket's (the sockets in turn), and a pose is exchanged only for a
+//! candidate of its socket. The plan starts from `Π + εI`
 //! (so that the first poses are those that fill its emptiest directions: the
 //! base and tool have no prior) and takes the best candidate `N` times; each exchange pass then takes each
 //! pose out in turn and puts back the best candidate, until a pass improves
@@ -92,30 +94,33 @@ pub fn criterion(m: &DMatrix<f64>, w: &DMatrix<f64>) -> Option<f64> {
 /// stays invertible, and its emptiest directions are filled first.
 const RIDGE: f64 = 1e-6;
 
-/// `n` distinct candidates chosen I-optimally for the targets' `w` (see the
-/// module header) with the prior's precision `prior` (a diagonal, in the
-/// candidates' scaled columns), in the order chosen.
-pub fn choose(candidates: &Candidates, w: &DMatrix<f64>, prior: &[f64], n: usize) -> Vec<usize> {
+/// Distinct candidates chosen I-optimally for the targets' `w` (see the
+/// module header) with the prior information `prior` (in the candidates'
+/// scaled columns: the prior's precision, and for a socket plan the known
+/// distances'), one for each of `slots`: each slot takes a candidate of its
+/// group (`group`, each candidate's: a socket plan's sockets; all 0
+/// otherwise), in the order chosen.
+pub fn choose(
+    candidates: &Candidates,
+    w: &DMatrix<f64>,
+    prior: &DMatrix<f64>,
+    slots: &[usize],
+    group: &[usize],
+) -> Vec<usize> {
     let p = candidates.jt.nrows();
-    let start = DMatrix::from_fn(p, p, |a, b| {
-        if a == b {
-            prior.get(a).copied().unwrap_or(0.0) + RIDGE
-        } else {
-            0.0
-        }
-    });
-    let mut plan: Vec<usize> = Vec::with_capacity(n);
+    let start = prior + DMatrix::identity(p, p) * RIDGE;
+    let mut plan: Vec<usize> = Vec::with_capacity(slots.len());
     let mut m = start.clone();
-    while plan.len() < n.min(candidates.count()) {
-        let Some(c) = best(candidates, &m, w, &plan, None) else {
+    for &slot in slots {
+        let Some(c) = best(candidates, &m, w, (&plan, None), (group, slot)) else {
             break;
         };
         let b = candidates.block(c);
         m += b.transpose() * &b;
         plan.push(c);
     }
-    // Exchange: each pose out in turn, the best candidate back in (the
-    // ridge of the start out of the information).
+    // Exchange: each pose out in turn, the best candidate of its group back in
+    // (the ridge of the start out of the information).
     m -= DMatrix::identity(p, p) * RIDGE;
     let mut current = criterion(&m, w).unwrap_or(f64::INFINITY);
     for _ in 0..PASSES {
@@ -123,7 +128,7 @@ pub fn choose(candidates: &Candidates, w: &DMatrix<f64>, prior: &[f64], n: usize
         for i in 0..plan.len() {
             let out = candidates.block(plan[i]);
             let without = &m - out.transpose() * &out;
-            let Some(c) = best(candidates, &without, w, &plan, Some(i)) else {
+            let Some(c) = best(candidates, &without, w, (&plan, Some(i)), (group, slots[i])) else {
                 continue;
             };
             let b = candidates.block(c);
@@ -142,14 +147,15 @@ pub fn choose(candidates: &Candidates, w: &DMatrix<f64>, prior: &[f64], n: usize
     plan
 }
 
-/// The candidate (not in `plan`, but for its pose `replacing`) whose rows
-/// lower `tr(M⁻¹ W)` most, added to information `m`.
+/// The candidate of group `slot` among `group` (not in `plan`, but for its
+/// pose `replacing`) whose rows lower `tr(M⁻¹ W)` most, added to
+/// information `m`.
 fn best(
     candidates: &Candidates,
     m: &DMatrix<f64>,
     w: &DMatrix<f64>,
-    plan: &[usize],
-    replacing: Option<usize>,
+    (plan, replacing): (&[usize], Option<usize>),
+    (group, slot): (&[usize], usize),
 ) -> Option<usize> {
     let a = m.clone().cholesky()?.inverse();
     let b = &a * w * &a;
@@ -174,7 +180,7 @@ fn best(
         range
             .clone()
             .map(|c| {
-                if taken.contains(&c) {
+                if taken.contains(&c) || group[c] != slot {
                     return f64::NEG_INFINITY;
                 }
                 let local = c - range.start;

@@ -14,6 +14,8 @@ use serde_json::json;
 use armcal_shared::Param;
 
 use super::{Plan, PlanOptions, Prediction};
+use crate::apply::compensate;
+use armcal_shared::Calibration;
 
 /// A parameter's value in the model's unit: length or angle.
 fn in_units(u: &Units, param: Param, si: f64) -> f64 {
@@ -54,6 +56,39 @@ impl Plan {
         out["one_sided"] = json!(self.one_sided);
         out["noise_mm"] = json!(options.position_noise * 1e3);
         out["orientation"] = json!(options.orientation);
+        out["compliance"] = json!(
+            self.predicted
+                .compliance
+                .iter()
+                .map(|(joint, std)| json!({"joint": joint + 1, "std": std}))
+                .collect::<Vec<_>>()
+        );
+        out["compliance_held"] = json!(
+            self.compliance_held
+                .iter()
+                .map(|(joint, why)| json!({"joint": joint + 1, "reason": why}))
+                .collect::<Vec<_>>()
+        );
+        if let Some(plate) = &options.sockets {
+            out["sockets"] = json!(
+                plate
+                    .sockets
+                    .iter()
+                    .enumerate()
+                    .map(|(k, s)| json!({
+                        "name": s.name,
+                        "poses": self.socket_of.iter().filter(|&&j| j == k).count(),
+                    }))
+                    .collect::<Vec<_>>()
+            );
+            out["distances"] = json!(plate.distances.len());
+            out["socket_of"] = json!(
+                self.socket_of
+                    .iter()
+                    .map(|&k| plate.sockets[k].name.as_str())
+                    .collect::<Vec<_>>()
+            );
+        }
         out["candidates"] = json!(self.candidates);
         out["targets"] = json!(self.targets);
         out["path"] = json!(self.path);
@@ -78,20 +113,46 @@ impl Plan {
     pub fn summary(&self, model_name: &str, options: &PlanOptions) -> String {
         let mut out = String::new();
         let mm = |x: f64| x * 1e3;
+        let measured = match &options.sockets {
+            Some(plate) => format!(
+                "a ball seated in {} sockets, {} known distances between them",
+                plate.sockets.len(),
+                plate.distances.len()
+            ),
+            None if options.orientation => "full poses".into(),
+            None => "positions".into(),
+        };
         let _ = writeln!(
             out,
-            "plan: {} poses of {model_name} ({}), chosen from {} candidates for {} workspace \
-             configurations; the measurement path {:.3} (joint space, rad and m)",
+            "plan: {} poses of {model_name} ({measured}), chosen from {} candidates for {} \
+             workspace configurations; the measurement path {:.3} (joint space, rad and m)",
             self.points.len(),
-            if options.orientation {
-                "full poses"
-            } else {
-                "positions"
-            },
             self.candidates,
             self.targets,
             self.path
         );
+        if let Some(plate) = &options.sockets {
+            let counts: Vec<String> = plate
+                .sockets
+                .iter()
+                .enumerate()
+                .map(|(k, s)| {
+                    let n = self.socket_of.iter().filter(|&&j| j == k).count();
+                    format!("{} {n}", s.name)
+                })
+                .collect();
+            let _ = writeln!(
+                out,
+                "poses a socket: {}; the robot is predicted in the frame the sockets are \
+                 estimated in (its base held at nominal){}",
+                counts.join(", "),
+                if plate.distances.is_empty() {
+                    "; no known distance: only the prior on the lengths holds the arm's scale"
+                } else {
+                    ""
+                }
+            );
+        }
         let _ = writeln!(
             out,
             "predicted at {} mm noise per axis: the calibrated robot off by {:.4} mm RMS over the \
@@ -129,11 +190,26 @@ impl Plan {
                 self.one_sided
             );
         }
+        for (joint, std) in &self.predicted.compliance {
+            let _ = writeln!(
+                out,
+                "the compliance of joint {} identified with the geometry, predicted standard \
+                 error {std:.3e} rad/(N·m)",
+                joint + 1
+            );
+        }
+        for (joint, why) in &self.compliance_held {
+            let _ = writeln!(
+                out,
+                "  the compliance of joint {}: no plan identifies it: {why}",
+                joint + 1
+            );
+        }
         let o = &self.predicted.observability;
         let _ = writeln!(
             out,
             "observability O1 {:.3e}, O2 {:.3e}, O3 {:.3e}, O4 {:.3e}, O5 {:.3e}; {} parameters \
-             identified, {} held by the prior:",
+             identified, {} not (held at nominal, or by the prior):",
             o[0],
             o[1],
             o[2],
@@ -150,6 +226,47 @@ impl Plan {
 }
 
 impl Plan {
+    /// The plan file of `--out`: the joints CSV of `docs/file-formats.md` §4
+    /// (the model's units of `cal`), the rows in measurement order. A socket
+    /// plan's is a session file of §3 besides: a `point` column naming each
+    /// row's socket and the known distances, so that the joints reached
+    /// written over the planned ones make the session to identify from.
+    pub fn csv(&self, comment: &str, cal: &Calibration, options: &PlanOptions) -> String {
+        let joints = compensate::joints_csv(comment, cal, self.q.iter().cloned());
+        let Some(plate) = &options.sockets else {
+            return joints;
+        };
+        let u = &cal.units;
+        let mut out = String::new();
+        let mut rows = self.socket_of.iter();
+        for (i, line) in joints.lines().enumerate() {
+            let _ = match i {
+                0 => writeln!(
+                    out,
+                    "{line}; seat the ball in the row's socket at about these joints and write \
+                     the joints it is seated at over them"
+                ),
+                1 => writeln!(out, "{line},point"),
+                _ => writeln!(
+                    out,
+                    "{line},{}",
+                    rows.next().map_or("", |&k| plate.sockets[k].name.as_str())
+                ),
+            };
+        }
+        for d in &plate.distances {
+            let _ = writeln!(
+                out,
+                "distance,{},{},{},{}",
+                plate.sockets[d.points[0]].name,
+                plate.sockets[d.points[1]].name,
+                u.length_from_si(d.length),
+                u.length_from_si(d.std)
+            );
+        }
+        out
+    }
+
     /// The HTML page of `--html`: the summary's figures, then where in the
     /// workspace the calibration from the plan is predicted to miss most.
     pub fn html(&self, model_name: &str, options: &PlanOptions, u: &Units) -> String {
