@@ -55,6 +55,11 @@ impl Request {
     }
 }
 
+/// The most poses a simulated session holds: its file stays within the
+/// 1 GiB armcal reads of a data file (about 200 bytes a row, 280 with
+/// orientations), and the rows drawn within a few hundred MB of memory.
+pub const MAX_POSES: usize = 3_000_000;
+
 impl Request {
     /// The scenario this request draws on `model`: refused when a value is
     /// out of range or an effect or tilt does not name a joint of it.
@@ -63,6 +68,17 @@ impl Request {
         let dof = model.robot.dof();
         if self.poses == 0 {
             return Err(Argument::Poses.refused(front, "0: at least 1"));
+        }
+        if self.poses > MAX_POSES {
+            return Err(Argument::Poses.refused(
+                front,
+                format!(
+                    "{}: at most {MAX_POSES} a session (about 200 bytes a row, 280 with \
+                     orientations: a larger file is more than the 1 GiB armcal reads of a data \
+                     file, and its rows are held in memory while drawn)",
+                    self.poses
+                ),
+            ));
         }
         let non_negative = |argument: Argument, v: f64| {
             if v.is_finite() && v >= 0.0 {

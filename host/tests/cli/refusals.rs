@@ -136,6 +136,12 @@ fn bad_arguments_exit_two_naming_the_argument() {
     };
     for (args, needle) in [
         (sim(&["--poses", "0"]), "--poses"),
+        // More poses than armcal reads back (1 GiB a data file) is refused
+        // before anything is drawn.
+        (
+            sim(&["--poses", "100000000"]),
+            "--poses: 100000000: at most 3000000",
+        ),
         (sim(&["--noise", "nan"]), "--noise"),
         (sim(&["--orientation-noise=-1"]), "--orientation-noise"),
         (sim(&["--effect", "foo"]), "--effect"),
