@@ -81,6 +81,30 @@ fn median(mut v: Vec<f64>) -> f64 {
     }
 }
 
+/// Asserts that the planned poses' median RMS and median worst error
+/// (`planned`, one (RMS, worst) a robot) are at most 0.8 of the random
+/// poses', after printing them and the median of `ratio` (predicted/found).
+fn at_most_four_fifths_of_random(
+    name: &str,
+    planned: &[(f64, f64)],
+    random: &[(f64, f64)],
+    ratio: &[f64],
+) {
+    let rms = |v: &[(f64, f64)]| median(v.iter().map(|x| x.0).collect());
+    let worst = |v: &[(f64, f64)]| median(v.iter().map(|x| x.1).collect());
+    eprintln!(
+        "{name}: median RMS planned/random {:.3}, worst {:.3}, predicted/measured {:.3}",
+        rms(planned) / rms(random),
+        worst(planned) / worst(random),
+        median(ratio.to_vec())
+    );
+    assert!(rms(planned) <= 0.8 * rms(random), "{planned:?} {random:?}");
+    assert!(
+        worst(planned) <= 0.8 * worst(random),
+        "{planned:?} {random:?}"
+    );
+}
+
 /// Plans 20 poses for `name` and compares them with 20 random ones on
 /// `robots` true robots (see the module header).
 fn planned_against_random(name: &str, robots: u64) {
@@ -125,22 +149,7 @@ fn planned_against_random(name: &str, robots: u64) {
         planned.push(planned_error);
         random.push(random_error);
     }
-    let rms = |v: &[(f64, f64)]| median(v.iter().map(|x| x.0).collect());
-    let worst = |v: &[(f64, f64)]| median(v.iter().map(|x| x.1).collect());
-    eprintln!(
-        "{name}: median RMS planned/random {:.3}, worst {:.3}, predicted/measured {:.3}",
-        rms(&planned) / rms(&random),
-        worst(&planned) / worst(&random),
-        median(ratio.clone())
-    );
-    assert!(
-        rms(&planned) <= 0.8 * rms(&random),
-        "{planned:?} {random:?}"
-    );
-    assert!(
-        worst(&planned) <= 0.8 * worst(&random),
-        "{planned:?} {random:?}"
-    );
+    at_most_four_fifths_of_random(name, &planned, &random, &ratio);
     for predicted in [median(ratio), median(measured_ratio)] {
         assert!(
             (0.7..=1.3).contains(&predicted),
@@ -382,22 +391,7 @@ fn planned_socket_seatings_beat_random_ones() {
         planned.push(planned_error);
         random.push(random_error);
     }
-    let rms = |v: &[(f64, f64)]| median(v.iter().map(|x| x.0).collect());
-    let worst = |v: &[(f64, f64)]| median(v.iter().map(|x| x.1).collect());
-    eprintln!(
-        "puma560 plate: median RMS planned/random {:.3}, worst {:.3}, predicted/measured {:.3}",
-        rms(&planned) / rms(&random),
-        worst(&planned) / worst(&random),
-        median(ratio.clone())
-    );
-    assert!(
-        rms(&planned) <= 0.8 * rms(&random),
-        "{planned:?} {random:?}"
-    );
-    assert!(
-        worst(&planned) <= 0.8 * worst(&random),
-        "{planned:?} {random:?}"
-    );
+    at_most_four_fifths_of_random("puma560 plate", &planned, &random, &ratio);
     // The prediction is conservative here: about 1.55 of the error found
     // (the fit's own standard errors agree with the plan's to its estimated
     // noise; what makes the held-out error smaller is not found yet).
