@@ -337,7 +337,7 @@ fn planned_socket_seatings_beat_random_ones() {
     let (pool, pool_socket) = sockets::candidates(nominal, &plate, 3_000, 8, 0.05, 1).unwrap();
     let params: Vec<Param> = nominal.params().collect();
     let (mut planned, mut random, mut ratio) = (Vec::new(), Vec::new(), Vec::new());
-    for seed in 1..=9 {
+    for seed in 1..=25 {
         let mut r = rng(300 + seed);
         let (truth, _) = with_random_errors(nominal, &params, 1e-3, 1e-3, &mut r);
         let centres: Vec<nalgebra::Point3<f64>> = plate
@@ -392,9 +392,10 @@ fn planned_socket_seatings_beat_random_ones() {
         random.push(random_error);
     }
     at_most_four_fifths_of_random("puma560 plate", &planned, &random, &ratio);
-    // The prediction is conservative here: about 1.55 of the error found
-    // (the fit's own standard errors agree with the plan's to its estimated
-    // noise; what makes the held-out error smaller is not found yet).
+    // The prediction is cautious here: 1.47 of the error found. A plan of
+    // the same predicted RMS made for the 200 targets of one draw is found
+    // at 1.13 of it: the realised accuracy of plans the linearised
+    // criterion cannot tell apart differs by a third.
     let predicted = median(ratio);
     assert!(
         (1.0..=2.0).contains(&predicted),
