@@ -7,7 +7,9 @@ then measures the wall time and the peak memory (the child's maximum resident
 set size) of
 
 - `armcal identify` on all 10⁶ positions: budget 2 s and 300 MB;
-- `armcal diagnose` on the first 10⁵: budget 5 s;
+- `armcal diagnose` on all 10⁶: budget 10 s and 1 GB (the model chosen on
+  every 10th position, the calibration fitted to all: docs/diagnosis.md);
+- `armcal diagnose` on the first 10⁵ (the whole diagnosis): budget 5 s;
 - `armcal check` on all 10⁶ (reported, no budget);
 - `armcal plan`: 30 poses of a UR10e from 10⁴ candidates, budget 1 s;
 
@@ -29,6 +31,7 @@ import time
 BUDGETS = {
     # name: (seconds, MB)
     "identify 10^6": (2.0, 300.0),
+    "diagnose 10^6": (10.0, 1000.0),
     "diagnose 10^5": (5.0, None),
     "check 10^6": (None, None),
     "plan 30 of 10^4": (1.0, None),
@@ -81,6 +84,7 @@ def main():
                         break
         cases = {
             "identify 10^6": [armcal, "identify", "--model", "puma560", "--data", big],
+            "diagnose 10^6": [armcal, "diagnose", "--model", "puma560", "--data", big],
             "diagnose 10^5": [armcal, "diagnose", "--model", "puma560", "--data", small],
             "check 10^6": [armcal, "check", "--model", "puma560", "--data", big],
             "plan 30 of 10^4": [armcal, "plan", "--model", "ur10e", "--poses", "30",

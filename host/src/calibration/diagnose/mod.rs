@@ -52,6 +52,7 @@ pub mod blunders;
 pub mod candidates;
 pub mod cross_validation;
 pub mod geometry;
+pub mod large;
 mod summary;
 pub use summary::RowPlaces;
 
@@ -106,6 +107,10 @@ pub struct DiagnoseOptions {
     pub min_gain: f64,
     /// The identification's settings (noise, stated prior).
     pub fit: FullOptions,
+    /// The most poses the model is chosen on: a session of more rows of
+    /// measured coordinates is diagnosed on an evenly spread sample of as
+    /// many, the calibration fitted to every row ([`large`]).
+    pub selection_poses: usize,
 }
 
 impl Default for DiagnoseOptions {
@@ -114,6 +119,7 @@ impl Default for DiagnoseOptions {
             folds: cross_validation::DEFAULT_FOLDS,
             min_gain: 1.05,
             fit: FullOptions::default(),
+            selection_poses: large::SELECTION_POSES,
         }
     }
 }
@@ -322,6 +328,10 @@ pub struct Diagnosis {
     pub fitted: Option<HeldOut>,
     /// The session's repeated configurations, when it has some.
     pub replicates: Option<Replicates>,
+    /// For a session of more rows than [`large::SELECTION_POSES`]: the
+    /// sample the model was chosen on and the rows the calibration's screen
+    /// set aside ([`large`]).
+    pub selection: Option<large::Selection>,
     /// The joint, temperature and payload ranges of the poses the final fit
     /// used (blunders set aside), SI: where the calibration was tested.
     pub ranges: Ranges<f64>,
@@ -374,6 +384,9 @@ pub fn diagnose_with_progress(
     options: &DiagnoseOptions,
     progress: &mut dyn FnMut(usize, usize, usize),
 ) -> Result<Diagnosis, FullError> {
+    if constraints.is_empty() && data.len() > options.selection_poses {
+        return large::diagnose_large(nominal, data, options, progress);
+    }
     let configurations = Configurations::of(nominal, data);
     if !configurations.repeated() {
         return diagnose_distinct(nominal, data, constraints, options, progress);
@@ -929,6 +942,7 @@ impl Pass<'_> {
             unsettled: search.unsettled,
             fitted: None,
             replicates: None,
+            selection: None,
             ranges: crate::io::measurements::ranges(&screen.clean),
         };
         d.fitted = d.fitted_at(self.nominal, &screen.clean);
@@ -1268,20 +1282,10 @@ impl Diagnosis {
     /// evaluated as `armcal predict` evaluates it; `None` when no pose has a
     /// measured position.
     fn fitted_at(&self, nominal: &Robot<f64>, data: &[Observation]) -> Option<HeldOut> {
-        let orientation = data.iter().all(|o| o.orientation.is_some());
-        let model = self.calibration(nominal, orientation, Units::SI).model();
-        // Each session's rows as its own frames place the written model.
-        let models = self.fit.registrations.effect_models(&model);
-        let errors: Vec<f64> = data
-            .iter()
-            .filter(|o| o.contact == Contact::Measured)
-            .map(|o| {
-                in_session(&models, o.session)
-                    .forward(&o.q, &o.context)
-                    .map_or(f64::INFINITY, |t| {
-                        (o.position.coords - t.translation.vector).norm()
-                    })
-            })
+        let errors: Vec<f64> = self
+            .position_errors(nominal, data)
+            .into_iter()
+            .flatten()
             .collect();
         (!errors.is_empty()).then(|| HeldOut::of(&errors))
     }

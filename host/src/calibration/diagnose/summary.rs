@@ -276,6 +276,9 @@ impl Diagnosis {
                 })),
             },
             "replicates": self.replicates_json(),
+            "selection": self.selection.map(|s| json!({
+                "rows": s.rows, "every": s.every, "poses": s.poses, "set_aside": s.set_aside,
+            })),
             "fitted": self.fitted.map(|h| json!({
                 "rms_mm": mm(h.rms), "mean_mm": mm(h.mean), "max_mm": mm(h.max),
             })),
@@ -430,6 +433,7 @@ impl Diagnosis {
         units: &armcal_shared::units::Units,
     ) -> String {
         let mut out = String::new();
+        self.write_selection(&mut out);
         self.write_noise(&mut out, units);
         self.write_suspects(&mut out, rows);
         self.write_models(&mut out, options);
@@ -497,6 +501,25 @@ impl Diagnosis {
                     }
                 );
             }
+        }
+    }
+
+    /// How a long session was diagnosed: on a sample, the calibration on all.
+    fn write_selection(&self, out: &mut String) {
+        use std::fmt::Write as _;
+        if let Some(s) = &self.selection {
+            let _ = writeln!(
+                out,
+                "{} rows: the model chosen on every {}th ({} poses; every held-out figure, test \
+                 and effect below is of them), the calibration written fitted to the {} rows \
+                 kept; {} rows set aside by their residual about it (F above the 1% threshold \
+                 over the rows)",
+                s.rows,
+                s.every,
+                s.poses,
+                s.rows - self.blunders.len(),
+                s.set_aside
+            );
         }
     }
 
