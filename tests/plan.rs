@@ -35,16 +35,27 @@ const SMR: [f64; 3] = [0.06, 0.0, 0.08];
 /// a tracker session of `truth` at `q`.
 fn calibrate(model: &RobotModel, truth: &Robot<f64>, q: &[Vec<f64>], seed: u64) -> Robot<f64> {
     let poses = measure(truth, q, NOISE, None, &mut rng(seed));
+    identified(model, poses, Default::default())
+}
+
+/// The calibrated robot `armcal identify` (its default options) makes of
+/// `model` from the rows `poses` (at the unknown points of `constraints`,
+/// for a session of contacts).
+fn identified(
+    model: &RobotModel,
+    poses: Vec<armcal::calibration::identify::full::Observation>,
+    constraints: armcal::session::constraints::Constraints,
+) -> Robot<f64> {
     let n = poses.len();
     let data = Measurements {
-        file: "tracker.csv".into(),
+        file: "session.csv".into(),
         poses,
         lines: (2..2 + n).collect(),
         times: vec![None; n],
         columns_used: Vec::new(),
         columns_ignored: Vec::new(),
         warnings: Vec::new(),
-        constraints: Default::default(),
+        constraints,
         sessions: Vec::new(),
     };
     let request = identify::Request {
@@ -246,28 +257,11 @@ fn calibrate_contacts(
             reach_point(truth, q.clone(), &seat).expect("the true robot reaches its socket")
         })
         .collect();
-    let poses = sockets::exact(&reached, socket_of);
-    let n = poses.len();
-    let data = Measurements {
-        file: "plate.csv".into(),
-        poses,
-        lines: (2..2 + n).collect(),
-        times: vec![None; n],
-        columns_used: Vec::new(),
-        columns_ignored: Vec::new(),
-        warnings: Vec::new(),
-        constraints: sockets::constraints(plate, socket_of),
-        sessions: Vec::new(),
-    };
-    let request = identify::Request {
-        params: armcal::calibration::identify::ParamSet::Full,
-        scales: Default::default(),
-        prior_scale: Default::default(),
-        targets: TargetFrame::World,
-        frames: FrameSharing::default(),
-    };
-    let identified = identify::run(Front::CommandLine, model, &data, &request).unwrap();
-    identified.result.calibration.calibrated()
+    identified(
+        model,
+        sockets::exact(&reached, socket_of),
+        sockets::constraints(plate, socket_of),
+    )
 }
 
 /// The RMS and worst distance (m) between `robot`'s tool points and
