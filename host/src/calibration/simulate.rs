@@ -281,7 +281,8 @@ pub fn simulate_visiting(
     let mut session = Session {
         truth,
         effects: scenario.effects.clone(),
-        q: q.clone(),
+        // Moved in once the rows are drawn: a long session is not copied.
+        q: Vec::new(),
         t: Vec::new(),
         temp: Vec::new(),
         load: Vec::new(),
@@ -333,6 +334,7 @@ pub fn simulate_visiting(
         session.temp.push(temp);
         session.load.push(load);
     }
+    session.q = q;
     Ok(session)
 }
 
