@@ -568,15 +568,7 @@ pub fn socket_session(
             let noise = Vector3::from_fn(|_, _| contact_noise * normal.sample(rng));
             let start = random_configurations(truth, 1, rng).remove(0);
             if let Some(q) = reach_point(truth, start, &(socket + noise)) {
-                observations.push(Observation {
-                    q,
-                    position: Point3::origin(),
-                    orientation: None,
-                    context: Default::default(),
-                    torque: None,
-                    contact: Contact::Point(k),
-                    session: 0,
-                });
+                observations.push(Observation::at_contact(q, Contact::Point(k)));
                 found += 1;
             }
         }
@@ -625,15 +617,7 @@ pub fn plane_touches(
         let target = centre + u * x + v * y + normal * (contact_noise * normal_draw.sample(rng));
         let start = random_configurations(truth, 1, rng).remove(0);
         if let Some(q) = reach_point(truth, start, &target) {
-            out.push(Observation {
-                q,
-                position: Point3::origin(),
-                orientation: None,
-                context: Default::default(),
-                torque: None,
-                contact: Contact::Plane(plane),
-                session: 0,
-            });
+            out.push(Observation::at_contact(q, Contact::Plane(plane)));
         }
     }
     (out.len() == count).then_some(out)

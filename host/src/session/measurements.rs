@@ -95,6 +95,21 @@ pub enum Contact {
 }
 
 impl Observation {
+    /// A row of a session without a tracker: joints `q` (SI), the tool point
+    /// at the unknown point or on the unknown plane `contact` names; no
+    /// coordinate measured.
+    pub fn at_contact(q: Vec<f64>, contact: Contact) -> Self {
+        Self {
+            q,
+            position: Point3::origin(),
+            orientation: None,
+            context: Context::default(),
+            torque: None,
+            contact,
+            session: 0,
+        }
+    }
+
     /// The pose of one row, in the order of the rows: joints `q` (SI), the
     /// measured point (m) and orientation, the row's temperature (°C) and
     /// payload (kg); `approach` carries the joints' approach directions from

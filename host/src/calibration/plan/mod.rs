@@ -569,7 +569,7 @@ pub fn plan(
             &workspace_drawn
         }
     };
-    let criterion = Criterion::of(robot, workspace, options, &pool, &all, &compliance);
+    let criterion = Criterion::of(robot, workspace, options, &pool, &all);
     let slots = match &pool.socket_of {
         Some(_) => sockets::slots(options.poses, sockets),
         None => vec![0; options.poses],
@@ -767,7 +767,6 @@ impl Criterion {
         options: &PlanOptions,
         pool: &Pool,
         all: &Separable,
-        compliance: &[usize],
     ) -> Self {
         let sockets = options.sockets.as_ref().map_or(0, |s| s.sockets.len());
         let gauge = match &pool.socket_of {
@@ -785,13 +784,7 @@ impl Criterion {
                 !(frame || gauge.contains(p))
             })
             .map(Column::Param)
-            .chain(
-                all.compliance
-                    .iter()
-                    .copied()
-                    .filter(|j| compliance.contains(j))
-                    .map(Column::Compliance),
-            )
+            .chain(all.compliance.iter().copied().map(Column::Compliance))
             .chain(
                 (0..sockets)
                     .flat_map(|socket| (0..3).map(move |axis| Column::Socket { socket, axis })),
@@ -901,30 +894,23 @@ impl Criterion {
         let rows = jacobian(robot, q, socket_of, free, Some(self.noise));
         let distances = distance_rows(self.plate.as_ref(), free);
         let s = design::scaled_singular_values(&stack(&rows, &distances));
-        let std = |k: usize| cov[(k, k)].max(0.0).sqrt();
+        // Each parameter's and each compliance's standard error.
+        let (mut std, mut compliance) = (Vec::new(), Vec::new());
+        for (k, column) in self.columns.iter().enumerate() {
+            let s = cov[(k, k)].max(0.0).sqrt();
+            match *column {
+                Column::Param(p) => std.push((p, s)),
+                Column::Compliance(joint) => compliance.push((joint, s)),
+                Column::Socket { .. } => {}
+            }
+        }
         let sigma = self.noise.0;
         Some(Prediction {
             rms: mean.sqrt(),
             max: worst.sqrt(),
             measured_rms: (mean + 3.0 * sigma * sigma).sqrt(),
-            std: self
-                .columns
-                .iter()
-                .enumerate()
-                .filter_map(|(k, c)| match c {
-                    Column::Param(p) => Some((*p, std(k))),
-                    _ => None,
-                })
-                .collect(),
-            compliance: self
-                .columns
-                .iter()
-                .enumerate()
-                .filter_map(|(k, c)| match c {
-                    Column::Compliance(joint) => Some((*joint, std(k))),
-                    _ => None,
-                })
-                .collect(),
+            std,
+            compliance,
             observability: design::observability(&s, j.nrows()),
             per_target: per_target.iter().map(|v| v.sqrt()).collect(),
         })

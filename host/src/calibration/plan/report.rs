@@ -77,7 +77,7 @@ impl Plan {
                     .enumerate()
                     .map(|(k, s)| json!({
                         "name": s.name,
-                        "poses": self.socket_of.iter().filter(|&&j| j == k).count(),
+                        "poses": super::sockets::rows_at(&self.socket_of, k),
                     }))
                     .collect::<Vec<_>>()
             );
@@ -137,7 +137,7 @@ impl Plan {
                 .iter()
                 .enumerate()
                 .map(|(k, s)| {
-                    let n = self.socket_of.iter().filter(|&&j| j == k).count();
+                    let n = super::sockets::rows_at(&self.socket_of, k);
                     format!("{} {n}", s.name)
                 })
                 .collect();

@@ -25,7 +25,7 @@
 //! scale, without a known distance). SI inside.
 
 use armcal_shared::{FrameAxis, Param, Robot};
-use nalgebra::{DMatrix, Point3};
+use nalgebra::DMatrix;
 
 use super::{Column, PlanError, jacobian, within_limits};
 use crate::calibration::identify::full::Observation;
@@ -103,20 +103,17 @@ pub fn slots(n: usize, sockets: usize) -> Vec<usize> {
     (0..n).map(|i| i % sockets.max(1)).collect()
 }
 
+/// How many of the rows `socket_of` (the socket of each) are at `socket`.
+pub fn rows_at(socket_of: &[usize], socket: usize) -> usize {
+    socket_of.iter().filter(|&&k| k == socket).count()
+}
+
 /// Exact contacts of `robot` at `q`, each at its socket `socket_of`: what the
 /// identifiability checks read.
 pub fn exact(q: &[Vec<f64>], socket_of: &[usize]) -> Vec<Observation> {
     q.iter()
         .zip(socket_of)
-        .map(|(q, &k)| Observation {
-            q: q.clone(),
-            position: Point3::origin(),
-            orientation: None,
-            context: Default::default(),
-            torque: None,
-            contact: Contact::Point(k),
-            session: 0,
-        })
+        .map(|(q, &k)| Observation::at_contact(q.clone(), Contact::Point(k)))
         .collect()
 }
 
@@ -131,7 +128,7 @@ pub fn constraints(plate: &Sockets, socket_of: &[usize]) -> Constraints {
             .map(|(k, s)| Named {
                 name: s.name.clone(),
                 first: (0, 0),
-                rows: socket_of.iter().filter(|&&j| j == k).count(),
+                rows: rows_at(socket_of, k),
             })
             .collect(),
         planes: Vec::new(),
@@ -159,15 +156,16 @@ pub fn gauge(
         )
         .collect();
     let a = jacobian(robot, q, Some(socket_of), &frame, None);
+    let held_columns: Vec<Column> = held.iter().map(|&p| Column::Param(p)).collect();
+    let b = jacobian(robot, q, Some(socket_of), &held_columns, None);
     let svd = a.clone().svd(true, true);
+    let Ok(x) = svd.solve(&b, 1e-12 * svd.singular_values.max()) else {
+        return Vec::new();
+    };
+    let residual: DMatrix<f64> = &a * x - &b;
     held.iter()
-        .copied()
-        .filter(|&p| {
-            let b: DMatrix<f64> = jacobian(robot, q, Some(socket_of), &[Column::Param(p)], None);
-            let Ok(x) = svd.solve(&b, 1e-12 * svd.singular_values.max()) else {
-                return false;
-            };
-            (&a * x - &b).norm() <= 1e-6 * b.norm()
-        })
+        .enumerate()
+        .filter(|&(k, _)| residual.column(k).norm() <= 1e-6 * b.column(k).norm())
+        .map(|(_, &p)| p)
         .collect()
 }
