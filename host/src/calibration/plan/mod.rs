@@ -1018,6 +1018,26 @@ mod tests {
     use crate::calibration::simulate::{measure, reach_point, with_random_errors};
     use crate::io::model_file::load_model;
 
+    /// Asserts that `fit` identifies each of `params` (`what` names the case).
+    fn assert_identified(
+        fit: &crate::calibration::identify::full::FullFit,
+        params: &[Param],
+        what: &str,
+    ) {
+        for param in params {
+            let status = &fit
+                .params
+                .iter()
+                .find(|x| x.param == *param)
+                .unwrap()
+                .status;
+            assert!(
+                matches!(status, Status::Identified { .. }),
+                "{what}: {param} {status:?}"
+            );
+        }
+    }
+
     /// A plan of the fewest poses that give as many equations as the
     /// parameters it says it identifies does identify each of them: on a
     /// true robot off by up to 1 mm and 1 mrad, measured at the planned poses
@@ -1055,19 +1075,11 @@ mod tests {
             let noise = orientation.then_some(20e-6);
             let data = measure(&truth, &p.q, 20e-6, noise, &mut r);
             let fit = identify_full(&robot, &data, &FullOptions::least_squares()).unwrap();
-            for param in &p.identified {
-                let status = &fit
-                    .params
-                    .iter()
-                    .find(|x| x.param == *param)
-                    .unwrap()
-                    .status;
-                assert!(
-                    matches!(status, Status::Identified { .. }),
-                    "{name}, {} poses: {param} {status:?}",
-                    options.poses
-                );
-            }
+            assert_identified(
+                &fit,
+                &p.identified,
+                &format!("{name}, {} poses", options.poses),
+            );
             // One pose fewer gives fewer equations than parameters: refused.
             let fewer = PlanOptions {
                 poses: options.poses - 1,
@@ -1188,17 +1200,6 @@ mod tests {
             &FullOptions::least_squares(),
         )
         .unwrap();
-        for param in &p.identified {
-            let status = &fit
-                .params
-                .iter()
-                .find(|x| x.param == *param)
-                .unwrap()
-                .status;
-            assert!(
-                matches!(status, Status::Identified { .. }),
-                "{fewest} poses: {param} {status:?}"
-            );
-        }
+        assert_identified(&fit, &p.identified, &format!("{fewest} poses"));
     }
 }
