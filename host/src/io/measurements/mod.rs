@@ -42,10 +42,13 @@
 //! Every other refusal is the measurement reader's, from the same code.
 //!
 //! The `csv` crate splits the records; the column of a field is found by scanning
-//! the raw line for commas outside double quotes. A file is read as a stream,
-//! one record at a time, into [`Observation`]s (one copy of each pose, which
-//! the identification then reads in place): memory grows with the poses, not
-//! with the text.
+//! the record's text for commas outside double quotes. A file is read as a
+//! stream, one record at a time, into [`Observation`]s (one copy of each pose,
+//! which the identification then reads in place): memory grows with the poses,
+//! not with the text. Two threads share the reading: one splits the records
+//! and converts the joint readings, the other reads the rest of each row and
+//! assembles the poses, in file order; the refusal given is the first in the
+//! file, whichever thread meets it.
 //!
 //! ## Where it is read
 //!
@@ -53,7 +56,8 @@
 //! | --- | --- |
 //! | this one | the entry points: [`load_measurements`], [`parse_measurements`], [`load_joints`], [`parse_joints`] |
 //! | `source` | the bytes on their way to the `csv` crate: mark, line ends, size, UTF-8 |
-//! | `csv_reader` | one record at a time, the place of each field, the header checked |
+//! | `csv_reader` | one record at a time, its text and line; the reader's and the parser's threads |
+//! | `table` | the header checked, the role of each column; a distance line |
 //! | `record` | one data row read cell by cell into SI, then checked whole |
 //! | `schema` | the kinds of file, the roles of the columns, what a line is as read, the columns' and limits' warnings |
 //! | `assemble` | the rows of a measurement file made a session: constraints named, distances checked |
@@ -66,6 +70,7 @@ mod csv_reader;
 mod record;
 mod schema;
 mod source;
+mod table;
 
 use armcal_shared::Robot;
 use armcal_shared::units::Units;

@@ -7,31 +7,27 @@
 use armcal_shared::JointType;
 use nalgebra::{Quaternion, UnitQuaternion};
 
-use super::csv_reader::{CsvReader, Row};
+use super::csv_reader::Row;
 use super::schema::{Place, QUAT, Record, Role, Schema};
+use super::table::Table;
 use crate::io::input_error::InputError;
 use crate::session::constraints::RESERVED;
 use crate::session::measurements::{
     MAX_TORQUE, PAYLOAD_RANGE, POSITION, QUATERNION_NORM_TOLERANCE, TEMPERATURE_RANGE, plural,
 };
 
-impl<R: std::io::Read> CsvReader<'_, R> {
+impl Table<'_> {
     /// One data row.
-    pub(super) fn record(
-        &self,
-        row: &Row,
-        header: &Row,
-        roles: &[Role],
-        schema: &Schema<'_>,
-    ) -> Result<Record, InputError> {
+    pub(super) fn record(&self, row: &Row) -> Result<Record, InputError> {
+        let roles = &self.roles;
         if row.len() != roles.len() {
             let hint = if row.field(0).is_some_and(|f| f.starts_with('#')) {
                 " (a comment line must start with '#' in its first column)"
             } else {
                 ""
             };
-            return Err(self.field_err(
-                row,
+            return Err(row.err(
+                self.file,
                 roles.len().min(row.len()),
                 format!(
                     "row has {}, the header has {}{hint}",
@@ -40,7 +36,7 @@ impl<R: std::io::Read> CsvReader<'_, R> {
                 ),
             ));
         }
-        let mut reading = RowReading::new(self, row, header, roles, schema);
+        let mut reading = RowReading::new(self, row);
         for (i, role) in roles.iter().enumerate() {
             if *role != Role::Ignored {
                 reading.cell(i, *role)?;
@@ -50,18 +46,12 @@ impl<R: std::io::Read> CsvReader<'_, R> {
         reading.require_one_kind(orientation.is_some())?;
         Ok(reading.into_record(orientation))
     }
-
-    /// The refusal `message` at field `index` of `row`.
-    pub(super) fn field_err(&self, row: &Row, index: usize, message: String) -> InputError {
-        self.err_at(self.field_offset(row.start, index), message)
-    }
 }
 
-/// A data row being read: where it comes from (the reader, the row, the
-/// header and the role of each column) and the values its cells gave so far,
-/// in SI.
-struct RowReading<'a, 'f, R> {
-    reader: &'a CsvReader<'f, R>,
+/// A data row being read: where it comes from (the file's table, the row)
+/// and the values its cells gave so far, in SI.
+struct RowReading<'a> {
+    file: &'a str,
     row: &'a Row,
     header: &'a Row,
     roles: &'a [Role],
@@ -83,18 +73,13 @@ struct RowReading<'a, 'f, R> {
     torque: Option<Vec<f64>>,
 }
 
-impl<'a, 'f, R: std::io::Read> RowReading<'a, 'f, R> {
-    fn new(
-        reader: &'a CsvReader<'f, R>,
-        row: &'a Row,
-        header: &'a Row,
-        roles: &'a [Role],
-        schema: &'a Schema<'a>,
-    ) -> Self {
+impl<'a> RowReading<'a> {
+    fn new(table: &'a Table<'a>, row: &'a Row) -> Self {
+        let (roles, schema) = (&table.roles[..], table.schema);
         Self {
-            reader,
+            file: table.file,
             row,
-            header,
+            header: &table.header,
             roles,
             schema,
             point_index: roles.iter().position(|r| *r == Role::Point),
@@ -117,7 +102,7 @@ impl<'a, 'f, R: std::io::Read> RowReading<'a, 'f, R> {
 
     /// The refusal `message` at field `index` of the row.
     fn at(&self, index: usize, message: String) -> InputError {
-        self.reader.field_err(self.row, index, message)
+        self.row.err(self.file, index, message)
     }
 
     /// Whether the file names unknown points or planes (its rows may leave
@@ -136,10 +121,15 @@ impl<'a, 'f, R: std::io::Read> RowReading<'a, 'f, R> {
             .or_else(|| named_cell(self.plane_index).map(|n| ("plane", n)))
     }
 
-    /// Cell `i` as a finite number; `name` is its column's.
+    /// Cell `i` as a finite number (as the reader converted it); `name` is
+    /// its column's.
     fn number(&self, i: usize, name: &str, value: &str) -> Result<f64, InputError> {
-        match value.parse::<f64>() {
-            Ok(x) if x.is_finite() => Ok(x),
+        let number = match self.row.numbers.get(i) {
+            Some(&Some(x)) => Some(x),
+            _ => value.parse::<f64>().ok(),
+        };
+        match number {
+            Some(x) if x.is_finite() => Ok(x),
             _ if value.is_empty() => Err(self.at(
                 i,
                 format!("column '{name}': empty, expected a finite number"),
@@ -270,7 +260,7 @@ impl<'a, 'f, R: std::io::Read> RowReading<'a, 'f, R> {
                 ),
             ));
         }
-        let named = Some((value.to_owned(), self.reader.place(self.row.start, i)));
+        let named = Some((value.to_owned(), self.row.place(i)));
         if role == Role::Point {
             self.point = named;
         } else {
@@ -413,7 +403,7 @@ impl<'a, 'f, R: std::io::Read> RowReading<'a, 'f, R> {
                     .enumerate()
                     .filter_map(|(c, g)| g.map(|i| (i, c)))
                     .min()?;
-                Some((self.reader.place(self.row.start, i), POSITION[c]))
+                Some((self.row.place(i), POSITION[c]))
             })
             .flatten();
         Record {

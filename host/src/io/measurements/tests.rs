@@ -844,6 +844,46 @@ fn a_long_file_keeps_its_places() {
     assert!(text.len() > 16 << 16, "sixteen times what the reader keeps");
 }
 
+/// Two threads read a file (the records split on one, the rows read on
+/// the other, in batches): the refusal is the first in file order whichever
+/// thread meets it, a bad joint reading (converted by the reader) or
+/// coordinate (by the parser), or a byte that is not UTF-8 (the reader's own
+/// stop), thousands of rows in.
+#[test]
+fn the_first_refusal_in_the_file_is_the_one_given() {
+    let model = ur5e();
+    let bad_joint = "0.1,0.2,q,0.4,0.5,0.6,1.0,2.0,3.0";
+    let bad_y = "0.1,0.2,0.3,0.4,0.5,0.6,1.0,y,3.0";
+    let file = |lines: &[(usize, &str)]| {
+        let mut text = format!("{HEADER6}\n").into_bytes();
+        for i in 2..6000 {
+            let line = lines.iter().find(|(at, _)| *at == i).map_or(ROW6, |l| l.1);
+            text.extend_from_slice(line.as_bytes());
+            text.push(b'\n');
+        }
+        text
+    };
+    let read = |bytes: Vec<u8>| {
+        let source = Source::new(&bytes[..], DATA_FILE);
+        read_measurements(source, "data.csv", &model).unwrap_err()
+    };
+    let not_utf8 = "0.1,0.2,0.3,0.4,0.5,0.6,1.0,2.0,\u{1}";
+    let with_byte = |mut text: Vec<u8>| {
+        // The control character made a byte that is never UTF-8.
+        let at = text.iter().position(|&b| b == 1).unwrap();
+        text[at] = 0xFF;
+        text
+    };
+    let e = read(file(&[(3000, bad_joint), (4000, bad_y)]));
+    assert_refused_at(&e, "data.csv", 3000, 9, &["column 'q3'", "\"q\""]);
+    let e = read(file(&[(3000, bad_y), (4000, bad_joint)]));
+    assert_refused_at(&e, "data.csv", 3000, 29, &["column 'y'"]);
+    let e = read(with_byte(file(&[(3000, bad_y), (4000, not_utf8)])));
+    assert_refused_at(&e, "data.csv", 3000, 29, &["column 'y'"]);
+    let e = read(with_byte(file(&[(3000, not_utf8), (4000, bad_joint)])));
+    assert_refused_at(&e, "data.csv", 3000, 33, &["not UTF-8"]);
+}
+
 proptest! {
     /// Random bytes never make the measurement parser panic.
     #[test]
