@@ -6,6 +6,8 @@ positions. This simulates one (a PUMA 560, `armcal simulate --poses 1000000`),
 then measures the wall time and the peak memory (the child's maximum resident
 set size) of
 
+- `armcal simulate` of the 10⁶ positions, written as they are drawn:
+  budget 50 MB (its memory does not grow with the poses);
 - `armcal identify` on all 10⁶ positions: budget 2 s and 300 MB;
 - `armcal diagnose` on all 10⁶: budget 10 s and 1 GB (the model chosen on
   every 10th position, the calibration fitted to all: docs/diagnosis.md);
@@ -30,6 +32,7 @@ import time
 
 BUDGETS = {
     # name: (seconds, MB)
+    "simulate 10^6": (None, 50.0),
     "identify 10^6": (2.0, 300.0),
     "diagnose 10^6": (10.0, 1000.0),
     "diagnose 10^5": (5.0, None),
@@ -83,6 +86,8 @@ def main():
                     if rows == 100_000:
                         break
         cases = {
+            "simulate 10^6": [armcal, "simulate", "--model", "puma560", "--poses", "1000000",
+                              "--seed", "1", "--out", os.path.join(tmp, "again.csv")],
             "identify 10^6": [armcal, "identify", "--model", "puma560", "--data", big],
             "diagnose 10^6": [armcal, "diagnose", "--model", "puma560", "--data", big],
             "diagnose 10^5": [armcal, "diagnose", "--model", "puma560", "--data", small],

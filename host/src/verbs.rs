@@ -199,9 +199,7 @@ pub(crate) fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
     outputs.check()?;
     let model = args.model.load()?;
     let u = model.units;
-    let progress = Progress::stage(format!("simulating {} poses", args.poses));
-    let session = simulate_cmd::run(CLI, &model, &args.request())?;
-    progress.set("writing");
+    let writer = simulate_cmd::writer(CLI, &model, &args.request())?;
     let description = format!(
         "armcal simulate --model {} --poses {} --seed {}{}{}",
         model.name,
@@ -216,18 +214,26 @@ pub(crate) fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
             .map(|t| format!(" --tilt {}:{}", t.joint, t.beta))
             .collect::<String>()
     ) + &simulated_sessions(&args);
-    if paths.len() > 1 {
-        for (k, path) in paths.iter().enumerate() {
-            let text = session.session_csv(&u, &format!("{description} (session {})", k + 1), k);
-            outputs.set_path(path, text.into_bytes());
-        }
-    } else {
-        outputs.set("--out", session.to_csv(&u, &description).into_bytes());
-    }
     if args.truth.is_some() {
-        let json = serde_json::to_string_pretty(&session.truth_json(&model.robot, &u))?;
+        let json = serde_json::to_string_pretty(&writer.truth().truth_json(&model.robot, &u))?;
         outputs.set("--truth", json.into_bytes());
     }
+    // The rows are drawn as they are written, session after session: the
+    // writers are called in the order the files were planned.
+    let writer = std::rc::Rc::new(std::cell::RefCell::new(writer));
+    for (k, path) in paths.iter().enumerate() {
+        let description = if paths.len() > 1 {
+            format!("{description} (session {})", k + 1)
+        } else {
+            description.clone()
+        };
+        let writer = std::rc::Rc::clone(&writer);
+        outputs.set_writer(
+            path,
+            Box::new(move |out| writer.borrow_mut().write_session(k, &description, out)),
+        );
+    }
+    let _progress = Progress::stage(format!("simulating {} poses", args.poses));
     outputs.commit()?;
     Ok(())
 }

@@ -7,7 +7,7 @@
 //! and tilts in SI (rad, m), as `NAME[:JOINT[:VALUE]]` and `JOINT:BETA` say.
 
 use super::{Argument, Front};
-use crate::calibration::simulate::{self, Scenario, Session};
+use crate::calibration::simulate::{self, Scenario, Session, SessionWriter};
 use crate::io::input_error::InputError;
 use crate::io::model_file::RobotModel;
 use crate::session::measurements::PAYLOAD_RANGE;
@@ -57,7 +57,7 @@ impl Request {
 
 /// The most poses a simulated session holds: its file stays within the
 /// 1 GiB armcal reads of a data file (about 200 bytes a row, 280 with
-/// orientations), and the rows drawn within a few hundred MB of memory.
+/// orientations).
 pub const MAX_POSES: usize = 3_000_000;
 
 impl Request {
@@ -75,7 +75,7 @@ impl Request {
                 format!(
                     "{}: at most {MAX_POSES} a session (about 200 bytes a row, 280 with \
                      orientations: a larger file is more than the 1 GiB armcal reads of a data \
-                     file, and its rows are held in memory while drawn)",
+                     file)",
                     self.poses
                 ),
             ));
@@ -139,8 +139,20 @@ impl Request {
     }
 }
 
-/// Simulates the session `request` asks of `model`.
+/// Simulates the session `request` asks of `model`, held in memory.
 pub fn run(front: Front, model: &RobotModel, request: &Request) -> anyhow::Result<Session> {
     let scenario = request.scenario(front, model)?;
     Ok(simulate::simulate(&model.robot, &scenario)?)
+}
+
+/// The session `request` asks of `model`, to be written to its files as its
+/// rows are drawn, in the model's units (what `armcal simulate` writes: the
+/// bytes of [`Session::to_csv`] of [`run`]'s session).
+pub fn writer(
+    front: Front,
+    model: &RobotModel,
+    request: &Request,
+) -> anyhow::Result<SessionWriter> {
+    let scenario = request.scenario(front, model)?;
+    Ok(SessionWriter::new(&model.robot, &scenario, model.units)?)
 }

@@ -26,13 +26,20 @@
 //!   written into as it is, never replaced: it is opened before any temporary
 //!   is created (a FIFO waits there for its reader) and written after all
 //!   temporaries are complete, before the renames; bytes sent into a stream
-//!   cannot be taken back, so a later failure cannot undo them. A directory, a
+//!   cannot be taken back, so a later failure cannot undo them. An output
+//!   written as it is produced ([`Outputs::set_writer`]) goes into its device
+//!   in its planned turn instead, as produced. A directory, a
 //!   block device (a disk) and a socket are refused with the reason. Devices
 //!   and FIFOs are not compared with the inputs: writing into them replaces
 //!   nothing.
 //! - Exit status: a refused plan, a missing directory or a directory armcal may
 //!   not write in is the user's path (status 2, [`InputError`]); anything else
 //!   (a full disk, an I/O error) is status 1.
+//!
+//! An output too long to hold in memory (`simulate`'s rows) is given as a
+//! [`Writer`] instead of bytes: it writes into the temporary (or the device)
+//! as it produces, at commit, the writers in the order the outputs were
+//! planned.
 //!
 //! A replaced file keeps its permission bits (not its owner: the new file is
 //! armcal's); a hard link of it elsewhere keeps the old content, as with any
@@ -62,7 +69,41 @@ pub struct Outputs {
 struct Planned {
     flag: String,
     path: PathBuf,
-    bytes: Option<Vec<u8>>,
+    content: Option<Content>,
+}
+
+/// Writes an output into the file (or device) it is given as it produces
+/// it; called once, at [`Outputs::commit`]. An error fails the commit, as a
+/// failed write does.
+pub type Writer = Box<dyn FnOnce(&mut dyn std::io::Write) -> std::io::Result<()>>;
+
+/// What an output holds.
+enum Content {
+    Bytes(Vec<u8>),
+    Written(Writer),
+}
+
+impl std::fmt::Debug for Content {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Content::Bytes(b) => write!(f, "{} bytes", b.len()),
+            Content::Written(_) => f.write_str("written at commit"),
+        }
+    }
+}
+
+impl Content {
+    /// Writes the content into `out`.
+    fn write_into(self, out: &mut dyn std::io::Write) -> std::io::Result<()> {
+        match self {
+            Content::Bytes(bytes) => out.write_all(&bytes),
+            Content::Written(writer) => {
+                let mut buffered = std::io::BufWriter::new(out);
+                writer(&mut buffered)?;
+                buffered.flush()
+            }
+        }
+    }
 }
 
 /// Where one output goes.
@@ -73,6 +114,13 @@ enum Target {
     File(PathBuf),
     /// A character device or FIFO, written into as it is.
     Stream,
+}
+
+/// Where an output is written at commit: a temporary beside its target,
+/// renamed over it, or the device or FIFO opened.
+enum Destination {
+    Temporary(PathBuf),
+    Device(File),
 }
 
 /// Which file a path names: its canonical path and, if it exists, its device and inode.
@@ -134,7 +182,7 @@ impl Outputs {
             self.outputs.push(Planned {
                 flag: flag.to_owned(),
                 path: path.to_owned(),
-                bytes: None,
+                content: None,
             });
         }
         self
@@ -155,18 +203,21 @@ impl Outputs {
             .iter_mut()
             .find(|p| p.flag == flag)
             .unwrap_or_else(|| panic!("no output planned under {flag}"));
-        planned.bytes = Some(bytes);
+        planned.content = Some(Content::Bytes(bytes));
     }
 
-    /// Gives the bytes of the output planned at `path` (one flag that names
-    /// several files: `simulate --sessions`).
-    pub fn set_path(&mut self, path: &Path, bytes: Vec<u8>) {
+    /// Gives the output planned at `path` (one flag may name several files:
+    /// `simulate --sessions`) as a [`Writer`], called at commit.
+    ///
+    /// # Panics
+    /// If no output was planned at `path` (a bug of the caller).
+    pub fn set_writer(&mut self, path: &Path, writer: Writer) {
         let planned = self
             .outputs
             .iter_mut()
             .find(|p| p.path == path)
             .unwrap_or_else(|| panic!("no output planned at {}", path.display()));
-        planned.bytes = Some(bytes);
+        planned.content = Some(Content::Written(writer));
     }
 
     /// Checks the plan (see [the module](self)) without writing anything:
@@ -178,44 +229,39 @@ impl Outputs {
     }
 
     /// Writes every output, all or none (see [the module](self)), after checking
-    /// the plan again. An output without bytes is an error of the program.
+    /// the plan again. An output without content is an error of the program.
     pub fn commit(self) -> anyhow::Result<()> {
         let targets = self.targets()?;
         let mut outputs = Vec::with_capacity(self.outputs.len());
-        for (planned, target) in self.outputs.iter().zip(targets) {
-            let bytes = planned
-                .bytes
-                .as_deref()
+        for (mut planned, target) in self.outputs.into_iter().zip(targets) {
+            let content = planned
+                .content
+                .take()
                 .ok_or_else(|| anyhow::anyhow!("internal error: no bytes for {}", planned.flag))?;
-            outputs.push((planned, target, bytes));
+            outputs.push((planned, target, content));
         }
 
         // Streams are opened first: a FIFO waits here for its reader, and no
         // temporary exists yet that an interrupt would leave behind.
-        let mut streams = Vec::new();
-        for (planned, target, bytes) in &outputs {
-            if *target == Target::Stream {
-                let file = OpenOptions::new()
-                    .write(true)
-                    .open(&planned.path)
-                    .map_err(|e| failure(planned, "cannot open it for writing", e))?;
-                streams.push((*planned, file, *bytes));
-            }
+        let mut opened = Vec::with_capacity(outputs.len());
+        for (planned, target, content) in outputs {
+            let destination = match target {
+                Target::File(path) => Destination::Temporary(path),
+                Target::Stream => Destination::Device(
+                    OpenOptions::new()
+                        .write(true)
+                        .open(&planned.path)
+                        .map_err(|e| failure(&planned, "cannot open it for writing", e))?,
+                ),
+            };
+            opened.push((planned, destination, content));
         }
 
-        let mut temporaries = Temporaries::default();
-        let mut renames = Vec::new();
-        for (planned, target, bytes) in &outputs {
-            if let Target::File(path) = target {
-                let tmp = temporaries
-                    .write(path, bytes)
-                    .map_err(|e| failure(planned, "cannot write it (no output was written)", e))?;
-                renames.push((*planned, tmp, path));
-            }
-        }
-
-        for (planned, mut file, bytes) in streams {
-            file.write_all(bytes)
+        // In the planned order: the temporaries, and the streams written as
+        // produced; the streams of bytes after every temporary is complete.
+        let into_stream = |planned: &Planned, file: &mut File, content: Content| {
+            content
+                .write_into(file)
                 .and_then(|()| file.flush())
                 .map_err(|e| {
                     failure(
@@ -223,12 +269,32 @@ impl Outputs {
                         "cannot write into it (the outputs to files were not written)",
                         e,
                     )
-                })?;
+                })
+        };
+        let mut temporaries = Temporaries::default();
+        let mut renames = Vec::new();
+        let mut streams = Vec::new();
+        for (planned, destination, content) in opened {
+            match (destination, content) {
+                (Destination::Temporary(path), content) => {
+                    let tmp = temporaries.write(&path, content).map_err(|e| {
+                        failure(&planned, "cannot write it (no output was written)", e)
+                    })?;
+                    renames.push((planned, tmp, path));
+                }
+                (Destination::Device(mut file), Content::Written(writer)) => {
+                    into_stream(&planned, &mut file, Content::Written(writer))?;
+                }
+                (Destination::Device(file), bytes) => streams.push((planned, file, bytes)),
+            }
+        }
+        for (planned, mut file, content) in streams {
+            into_stream(&planned, &mut file, content)?;
         }
 
         let mut replaced: Vec<String> = Vec::new();
         for (planned, tmp, path) in renames {
-            if let Err(e) = fs::rename(&tmp, path) {
+            if let Err(e) = fs::rename(&tmp, &path) {
                 let already = if replaced.is_empty() {
                     "no output was written".to_owned()
                 } else {
@@ -238,7 +304,7 @@ impl Outputs {
                     )
                 };
                 return Err(failure(
-                    planned,
+                    &planned,
                     &format!("cannot replace it ({already})"),
                     e,
                 ));
@@ -246,7 +312,7 @@ impl Outputs {
             temporaries.renamed += 1;
             replaced.push(format!("{} {}", planned.flag, planned.path.display()));
             // The rename itself reaches the disk with its directory.
-            if let Ok(dir) = File::open(parent_of(path)) {
+            if let Ok(dir) = File::open(parent_of(&path)) {
                 let _ = dir.sync_all();
             }
         }
@@ -441,9 +507,9 @@ struct Temporaries {
 }
 
 impl Temporaries {
-    /// Writes `bytes` to a new temporary beside `target`, flushed to disk, with
-    /// the permissions of `target` if it exists; returns its path.
-    fn write(&mut self, target: &Path, bytes: &[u8]) -> std::io::Result<PathBuf> {
+    /// Writes `content` to a new temporary beside `target`, flushed to disk,
+    /// with the permissions of `target` if it exists; returns its path.
+    fn write(&mut self, target: &Path, content: Content) -> std::io::Result<PathBuf> {
         let name = target
             .file_name()
             .ok_or_else(|| std::io::Error::other("not a file name"))?
@@ -475,7 +541,7 @@ impl Temporaries {
         if let Ok(meta) = fs::metadata(target) {
             file.set_permissions(meta.permissions())?;
         }
-        file.write_all(bytes)?;
+        content.write_into(&mut file)?;
         file.sync_all()?;
         Ok(tmp)
     }
@@ -544,10 +610,10 @@ mod tests {
         let pending = |tmp: &Path| PENDING.lock().unwrap().iter().any(|p| p == tmp);
         let mut temporaries = Temporaries::default();
         let a = temporaries
-            .write(&dir.path().join("a.cal"), b"new")
+            .write(&dir.path().join("a.cal"), Content::Bytes(b"new".to_vec()))
             .unwrap();
         let b = temporaries
-            .write(&dir.path().join("r.json"), b"{}")
+            .write(&dir.path().join("r.json"), Content::Bytes(b"{}".to_vec()))
             .unwrap();
         assert!(pending(&a) && pending(&b));
         fs::rename(&a, dir.path().join("a.cal")).unwrap();
@@ -615,6 +681,56 @@ mod tests {
     }
 
     /// A name as long as the file system allows still gets its temporary.
+    /// An output given as a writer is written as it produces, in the
+    /// planned order (the sessions of `simulate` share one generator); one
+    /// that fails, here after writing half its rows, fails the commit as a
+    /// failed write does: no target replaced, no temporary left.
+    #[test]
+    fn writers_write_in_order_and_a_failed_one_writes_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let (a, b) = (dir.path().join("a.csv"), dir.path().join("b.csv"));
+        fs::write(&a, b"old").unwrap();
+        let order = std::rc::Rc::new(std::cell::RefCell::new(Vec::new()));
+        let writer = |name: &'static str, fail: bool| -> Writer {
+            let order = std::rc::Rc::clone(&order);
+            Box::new(move |out| {
+                order.borrow_mut().push(name);
+                out.write_all(format!("{name} row 1\n").as_bytes())?;
+                if fail {
+                    return Err(std::io::Error::other("the draw failed"));
+                }
+                out.write_all(format!("{name} row 2\n").as_bytes())
+            })
+        };
+        let plan = || {
+            Outputs::new()
+                .output("--out", Some(&a))
+                .output("--out", Some(&b))
+        };
+        let mut outputs = plan();
+        outputs.set_writer(&a, writer("a", false));
+        outputs.set_writer(&b, writer("b", true));
+        let e = outputs.commit().unwrap_err();
+        assert!(e.to_string().contains("the draw failed"), "{e}");
+        assert_eq!(
+            snapshot(dir.path()),
+            vec![("a.csv".to_owned(), b"old".to_vec())]
+        );
+
+        let mut outputs = plan();
+        outputs.set_writer(&b, writer("b", false));
+        outputs.set_writer(&a, writer("a", false));
+        outputs.commit().unwrap();
+        assert_eq!(
+            snapshot(dir.path()),
+            vec![
+                ("a.csv".to_owned(), b"a row 1\na row 2\n".to_vec()),
+                ("b.csv".to_owned(), b"b row 1\nb row 2\n".to_vec()),
+            ]
+        );
+        assert_eq!(*order.borrow(), ["a", "b", "a", "b"], "planned order");
+    }
+
     #[test]
     fn a_long_name_is_written() {
         let dir = tempfile::tempdir().unwrap();

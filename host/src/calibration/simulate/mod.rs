@@ -1,6 +1,7 @@
 //! The project's simulator: true robots with built-in errors and the
 //! measurements a laser tracker or a pose sensor would take of them. The tests,
-//! the benchmarks and (later) `armcal simulate` draw their data from it.
+//! the benchmarks and `armcal simulate` draw their data from it; `csv` writes
+//! a session as a measurement file, from memory or as its rows are drawn.
 //!
 //! Units are SI (m, rad). Random draws come from a seeded `StdRng`, so every run
 //! is repeatable.
@@ -12,6 +13,9 @@ use nalgebra::{Point3, UnitQuaternion, Vector3};
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, Normal};
+
+mod csv;
+pub use csv::SessionWriter;
 
 /// A seeded generator.
 pub fn rng(seed: u64) -> StdRng {
@@ -40,35 +44,36 @@ pub fn with_random_errors(
     (truth, errors)
 }
 
-/// `n` random configurations within the joint limits (a revolute joint also
-/// within ±π; without limits ±π, or 0 to 0.5 m for a prismatic joint).
+/// `n` random configurations within the joint limits ([`random_configuration`]).
 pub fn random_configurations(robot: &Robot<f64>, n: usize, rng: &mut StdRng) -> Vec<Vec<f64>> {
-    (0..n)
-        .map(|_| {
-            robot
-                .links
-                .iter()
-                .map(|l| {
-                    let [lo, hi] = l.limits.unwrap_or(match l.joint {
-                        JointType::Revolute => [-std::f64::consts::PI, std::f64::consts::PI],
-                        JointType::Prismatic => [0.0, 0.5],
-                    });
-                    // Within ±π of a revolute joint's zero where the limits allow it.
-                    let pi = std::f64::consts::PI;
-                    let (a, b) = match l.joint {
-                        JointType::Revolute => (lo.max(-pi), hi.min(pi)),
-                        JointType::Prismatic => (lo, hi),
-                    };
-                    let (lo, hi) = if a < b { (a, b) } else { (lo, hi) };
-                    // A model file refuses limits that leave no motion; a built
-                    // robot may still have them.
-                    if lo < hi {
-                        rng.random_range(lo..hi)
-                    } else {
-                        lo
-                    }
-                })
-                .collect()
+    (0..n).map(|_| random_configuration(robot, rng)).collect()
+}
+
+/// A random configuration within the joint limits (a revolute joint also
+/// within ±π; without limits ±π, or 0 to 0.5 m for a prismatic joint).
+pub fn random_configuration(robot: &Robot<f64>, rng: &mut StdRng) -> Vec<f64> {
+    robot
+        .links
+        .iter()
+        .map(|l| {
+            let [lo, hi] = l.limits.unwrap_or(match l.joint {
+                JointType::Revolute => [-std::f64::consts::PI, std::f64::consts::PI],
+                JointType::Prismatic => [0.0, 0.5],
+            });
+            // Within ±π of a revolute joint's zero where the limits allow it.
+            let pi = std::f64::consts::PI;
+            let (a, b) = match l.joint {
+                JointType::Revolute => (lo.max(-pi), hi.min(pi)),
+                JointType::Prismatic => (lo, hi),
+            };
+            let (lo, hi) = if a < b { (a, b) } else { (lo, hi) };
+            // A model file refuses limits that leave no motion; a built
+            // robot may still have them.
+            if lo < hi {
+                rng.random_range(lo..hi)
+            } else {
+                lo
+            }
         })
         .collect()
 }
@@ -249,186 +254,186 @@ pub fn simulate_visiting(
     scenario: &Scenario,
     visit: impl FnOnce(&mut StdRng) -> Vec<Vec<f64>>,
 ) -> Result<Session, armcal_shared::effects::EffectError> {
-    use armcal_shared::effects::{Approach, Context, EffectModel};
-    let mut r = rng(scenario.seed);
-    let params: Vec<Param> = nominal.params().collect();
-    let (mut truth, _) = with_random_errors(
-        nominal,
-        &params,
-        scenario.errors.0,
-        scenario.errors.1,
-        &mut r,
-    );
-    for &(joint, beta) in &scenario.tilts {
-        if let Some(l) = truth.links.get_mut(joint) {
-            l.beta = beta;
+    let mut draw = Draw::new(nominal, scenario)?;
+    let q = visit(&mut draw.rng);
+    draw.rows = q.len();
+    let mut session = draw.session();
+    for qi in &q {
+        let row = draw.row(qi)?;
+        session.observations.push(row.observation);
+        session.t.push(row.t);
+        session.temp.push(row.temp);
+        session.load.push(row.load);
+    }
+    // Moved in once the rows are drawn: a long session is not copied.
+    session.q = q;
+    Ok(session)
+}
+
+/// A simulated session being drawn, one row at a time: the true robot (and
+/// the robot each session's instrument and mount see, with the hidden
+/// effects), and what the rows carry on from one to the next — the
+/// generator, each joint's approach direction and the row's index among
+/// the session's `rows`.
+pub(crate) struct Draw {
+    scenario: Scenario,
+    truth: Robot<f64>,
+    frames: Vec<(Frame<f64>, Frame<f64>)>,
+    models: Vec<armcal_shared::effects::EffectModel<f64>>,
+    rng: StdRng,
+    normal: Normal<f64>,
+    approach: armcal_shared::effects::Approach,
+    /// The rows the session has (the temperature drift, the payload blocks
+    /// and the sessions spread over them).
+    rows: usize,
+    /// The index of the next row.
+    next: usize,
+}
+
+/// One drawn row: what the instrument saw, and when, how warm and how loaded.
+pub(crate) struct DrawnRow {
+    pub(crate) observation: Observation,
+    /// s
+    pub(crate) t: f64,
+    /// °C
+    pub(crate) temp: f64,
+    /// kg
+    pub(crate) load: f64,
+}
+
+impl Draw {
+    /// The truth `scenario` draws on `nominal` (its geometric errors from the
+    /// scenario's seed, its tilts, each session's frames), the generator left
+    /// where the rows' draws begin.
+    pub(crate) fn new(
+        nominal: &Robot<f64>,
+        scenario: &Scenario,
+    ) -> Result<Self, armcal_shared::effects::EffectError> {
+        let mut rng = rng(scenario.seed);
+        let params: Vec<Param> = nominal.params().collect();
+        let (mut truth, _) = with_random_errors(
+            nominal,
+            &params,
+            scenario.errors.0,
+            scenario.errors.1,
+            &mut rng,
+        );
+        for &(joint, beta) in &scenario.tilts {
+            if let Some(l) = truth.links.get_mut(joint) {
+                l.beta = beta;
+            }
+        }
+        let frames = session_frames(&truth, scenario.sessions, scenario.seed);
+        let models = frames
+            .iter()
+            .map(|(base, tool)| {
+                let mut seen = truth.clone();
+                (seen.base, seen.tool) = (*base, *tool);
+                armcal_shared::effects::EffectModel::new(seen, &scenario.effects)
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Self {
+            scenario: scenario.clone(),
+            truth,
+            frames,
+            models,
+            rng,
+            normal: Normal::new(0.0, 1.0).expect("unit normal"),
+            approach: armcal_shared::effects::Approach::new(),
+            rows: scenario.poses,
+            next: 0,
+        })
+    }
+
+    /// The session without rows: the truth, its effects and frames.
+    pub(crate) fn session(&self) -> Session {
+        Session {
+            truth: self.truth.clone(),
+            effects: self.scenario.effects.clone(),
+            q: Vec::new(),
+            t: Vec::new(),
+            temp: Vec::new(),
+            load: Vec::new(),
+            observations: Vec::new(),
+            frames: self.frames.clone(),
         }
     }
-    let frames = session_frames(&truth, scenario.sessions, scenario.seed);
-    let models = frames
-        .iter()
-        .map(|(base, tool)| {
-            let mut seen = truth.clone();
-            (seen.base, seen.tool) = (*base, *tool);
-            EffectModel::new(seen, &scenario.effects)
-        })
-        .collect::<Result<Vec<_>, _>>()?;
-    let q = visit(&mut r);
-    let n = q.len().max(1);
-    let block = n.div_ceil(scenario.payloads.len().max(1));
-    let session_block = n.div_ceil(frames.len());
-    let normal = Normal::new(0.0, 1.0).expect("unit normal");
-    let mut session = Session {
-        truth,
-        effects: scenario.effects.clone(),
-        // Moved in once the rows are drawn: a long session is not copied.
-        q: Vec::new(),
-        t: Vec::new(),
-        temp: Vec::new(),
-        load: Vec::new(),
-        observations: Vec::new(),
-        frames: frames.clone(),
-    };
-    let mut approach = Approach::new();
-    for (i, qi) in q.iter().enumerate() {
+
+    /// The rows of each session but the last: the rows are shared among the
+    /// sessions in consecutive blocks.
+    fn session_rows(&self) -> usize {
+        self.rows.max(1).div_ceil(self.frames.len())
+    }
+
+    /// The session (from 0) of row `i`.
+    fn session_of(&self, i: usize) -> usize {
+        i / self.session_rows()
+    }
+
+    /// The first row of session `k` (from 0): the number of rows when
+    /// `k` is past the last.
+    fn first_row(&self, k: usize) -> usize {
+        (k * self.session_rows()).min(self.rows)
+    }
+
+    /// The next row, measured at the joint readings `q`.
+    pub(crate) fn row(
+        &mut self,
+        q: &[f64],
+    ) -> Result<DrawnRow, armcal_shared::effects::EffectError> {
+        let scenario = &self.scenario;
+        let (i, n) = (self.next, self.rows.max(1));
+        self.next += 1;
         let frac = i as f64 / (n.max(2) - 1) as f64;
         let temp =
             scenario.temperature.0 + frac * (scenario.temperature.1 - scenario.temperature.0);
+        let block = n.div_ceil(scenario.payloads.len().max(1));
         let load = scenario.payloads.get(i / block).copied().unwrap_or(0.0);
-        let ctx = Context {
+        let ctx = armcal_shared::effects::Context {
             temperature: Some(temp),
             payload: Some(load),
-            approach: approach.next(qi),
+            approach: self.approach.next(q),
         };
-        let session_of = i / session_block;
-        let frame = models[session_of].forward(qi, &ctx)?;
+        let session_of = self.session_of(i);
+        let frame = self.models[session_of].forward(q, &ctx)?;
+        let (rng, normal) = (&mut self.rng, self.normal);
         let torque = match scenario.torque_noise {
             None => None,
             Some(s) => {
-                let chain = session.truth.chain(qi)?;
-                let gravity = armcal_shared::effects::gravity_torques(&session.truth, &chain, load);
+                let chain = self.truth.chain(q)?;
+                let gravity = armcal_shared::effects::gravity_torques(&self.truth, &chain, load);
                 Some(
                     gravity
                         .iter()
-                        .map(|g| -g + s * normal.sample(&mut r))
+                        .map(|g| -g + s * normal.sample(rng))
                         .collect(),
                 )
             }
         };
-        let mut draw3 = |s: f64| Vector3::from_fn(|_, _| s * normal.sample(&mut r));
+        let mut draw3 = |s: f64| Vector3::from_fn(|_, _| s * normal.sample(rng));
         let position = Point3::from(frame.translation.vector + draw3(scenario.position_noise));
         let orientation = scenario.orientation_noise.map(|s| {
             UnitQuaternion::from_scaled_axis(draw3(s))
                 * UnitQuaternion::from_rotation_matrix(&frame.rotation)
         });
-        session.observations.push(Observation {
-            q: qi.clone(),
-            position,
-            orientation,
-            context: ctx,
-            torque,
-            contact: Contact::Measured,
-            session: session_of,
-        });
-        session.t.push(10.0 * i as f64);
-        session.temp.push(temp);
-        session.load.push(load);
+        Ok(DrawnRow {
+            observation: Observation {
+                q: q.to_vec(),
+                position,
+                orientation,
+                context: ctx,
+                torque,
+                contact: Contact::Measured,
+                session: session_of,
+            },
+            t: 10.0 * i as f64,
+            temp,
+            load,
+        })
     }
-    session.q = q;
-    Ok(session)
 }
 
 impl Session {
-    /// The measurements as a measurement CSV (`docs/file-formats.md` §2) in `units`, with `t`, `temp`, `load`.
-    pub fn to_csv(&self, units: &armcal_shared::units::Units, description: &str) -> String {
-        self.csv_of(units, description, |_| true)
-    }
-
-    /// The number of sessions the rows were measured in.
-    pub fn sessions(&self) -> usize {
-        self.frames.len().max(1)
-    }
-
-    /// Session `k`'s rows (from 0) as a measurement CSV, as [`Session::to_csv`].
-    pub fn session_csv(
-        &self,
-        units: &armcal_shared::units::Units,
-        description: &str,
-        k: usize,
-    ) -> String {
-        self.csv_of(units, description, |o| o.session == k)
-    }
-
-    /// The rows `keep` keeps as a measurement CSV.
-    fn csv_of(
-        &self,
-        units: &armcal_shared::units::Units,
-        description: &str,
-        keep: impl Fn(&Observation) -> bool,
-    ) -> String {
-        use std::fmt::Write as _;
-        let joints: Vec<JointType> = self.truth.links.iter().map(|l| l.joint).collect();
-        let orientation = self.observations.iter().any(|o| o.orientation.is_some());
-        let mut out = String::new();
-        let _ = writeln!(out, "# {description}");
-        let torques = self.observations.iter().any(|o| o.torque.is_some());
-        let _ = writeln!(
-            out,
-            "# lengths in {}, angles in {}; t in s, temp in °C, load in kg{}",
-            units.length,
-            units.angle,
-            if torques { ", tau in N·m (N)" } else { "" }
-        );
-        let mut header: Vec<String> = (1..=joints.len()).map(|m| format!("q{m}")).collect();
-        header.extend(["x", "y", "z"].map(String::from));
-        if orientation {
-            header.extend(["qw", "qx", "qy", "qz"].map(String::from));
-        }
-        header.extend(["t", "temp", "load"].map(String::from));
-        if torques {
-            header.extend((1..=joints.len()).map(|m| format!("tau{m}")));
-        }
-        let _ = writeln!(out, "{}", header.join(","));
-        for (i, obs) in self.observations.iter().enumerate() {
-            if !keep(obs) {
-                continue;
-            }
-            let mut row: Vec<String> = obs
-                .q
-                .iter()
-                .zip(&joints)
-                .map(|(q, j)| format!("{}", units.joint_from_si(*j, *q)))
-                .collect();
-            row.extend(
-                obs.position
-                    .coords
-                    .iter()
-                    .map(|x| format!("{}", units.length_from_si(*x))),
-            );
-            if let Some(q) = obs.orientation {
-                let q = if q.w < 0.0 {
-                    -q.into_inner()
-                } else {
-                    q.into_inner()
-                };
-                row.extend([q.w, q.i, q.j, q.k].map(|v| format!("{v}")));
-            }
-            row.extend([self.t[i], self.temp[i], self.load[i]].map(|v| format!("{v}")));
-            if torques {
-                let none = vec![0.0; joints.len()];
-                row.extend(
-                    obs.torque
-                        .as_ref()
-                        .unwrap_or(&none)
-                        .iter()
-                        .map(|v| format!("{v}")),
-                );
-            }
-            let _ = writeln!(out, "{}", row.join(","));
-        }
-        out
-    }
-
     /// The truth: every geometric error (true minus nominal, in `units`) and the
     /// hidden effects, as JSON.
     pub fn truth_json(
