@@ -66,17 +66,7 @@ impl Row {
     pub(super) fn place(&self, index: usize) -> Place {
         let (starts, end) = self.field_offsets();
         let offset = starts.get(index).copied().unwrap_or(end);
-        let before = self.text.get(..offset).unwrap_or(&self.text);
-        let line_start = memchr::memrchr(b'\n', before).map_or(0, |i| i + 1);
-        let column = before[line_start..]
-            .iter()
-            .filter(|&&b| b & 0xC0 != 0x80)
-            .count()
-            + 1;
-        (
-            self.line + memchr::memchr_iter(b'\n', before).count(),
-            column,
-        )
+        place_after(self.text.get(..offset).unwrap_or(&self.text), self.line)
     }
 
     /// The refusal `message` at field `index`, in `file`.
@@ -125,6 +115,18 @@ impl Row {
             }
         }
     }
+}
+
+/// The line and character column just after `text`, which begins a line,
+/// line `line`.
+fn place_after(text: &[u8], line: usize) -> Place {
+    let line_start = memchr::memrchr(b'\n', text).map_or(0, |i| i + 1);
+    let column = text[line_start..]
+        .iter()
+        .filter(|&&b| b & 0xC0 != 0x80)
+        .count()
+        + 1;
+    (line + memchr::memchr_iter(b'\n', text).count(), column)
 }
 
 /// `field` without leading and trailing white space ([`str::trim`], which a
@@ -176,14 +178,7 @@ impl<'f, R: std::io::Read> CsvReader<'f, R> {
         while offset > self.byte && source.byte(offset).is_some_and(|b| b & 0xC0 == 0x80) {
             offset -= 1;
         }
-        let before = source.text(self.byte, offset);
-        let line_start = memchr::memrchr(b'\n', before).map_or(0, |i| i + 1);
-        let column = before[line_start..]
-            .iter()
-            .filter(|&&b| b & 0xC0 != 0x80)
-            .count()
-            + 1;
-        let line = self.line + memchr::memchr_iter(b'\n', before).count();
+        let (line, column) = place_after(source.text(self.byte, offset), self.line);
         InputError::new(self.file, line, column, message)
     }
 
