@@ -8,7 +8,7 @@ use armcal_shared::JointType;
 use nalgebra::{Quaternion, UnitQuaternion};
 
 use super::csv_reader::Row;
-use super::schema::{Place, QUAT, Record, Role, Schema};
+use super::schema::{Place, QUAT, Record, Role};
 use super::table::Table;
 use crate::io::input_error::InputError;
 use crate::session::constraints::RESERVED;
@@ -51,11 +51,8 @@ impl Table<'_> {
 /// A data row being read: where it comes from (the file's table, the row)
 /// and the values its cells gave so far, in SI.
 struct RowReading<'a> {
-    file: &'a str,
+    table: &'a Table<'a>,
     row: &'a Row,
-    header: &'a Row,
-    roles: &'a [Role],
-    schema: &'a Schema<'a>,
     /// The column of the `point` and of the `plane` name, if the file has one.
     point_index: Option<usize>,
     plane_index: Option<usize>,
@@ -75,13 +72,10 @@ struct RowReading<'a> {
 
 impl<'a> RowReading<'a> {
     fn new(table: &'a Table<'a>, row: &'a Row) -> Self {
-        let (roles, schema) = (&table.roles[..], table.schema);
+        let (roles, schema) = (&table.roles, table.schema);
         Self {
-            file: table.file,
+            table,
             row,
-            header: &table.header,
-            roles,
-            schema,
             point_index: roles.iter().position(|r| *r == Role::Point),
             plane_index: roles.iter().position(|r| *r == Role::Plane),
             q: vec![0.0; schema.dof()],
@@ -102,7 +96,7 @@ impl<'a> RowReading<'a> {
 
     /// The refusal `message` at field `index` of the row.
     fn at(&self, index: usize, message: String) -> InputError {
-        self.row.err(self.file, index, message)
+        self.row.err(self.table.file, index, message)
     }
 
     /// Whether the file names unknown points or planes (its rows may leave
@@ -167,13 +161,14 @@ impl<'a> RowReading<'a> {
     /// Reads cell `i`, of a column of `role`, into the row's values.
     fn cell(&mut self, i: usize, role: Role) -> Result<(), InputError> {
         let (name, value) = (
-            self.header.field(i).unwrap_or(""),
+            self.table.header.field(i).unwrap_or(""),
             self.row.field(i).unwrap_or(""),
         );
-        let units = self.schema.units;
+        let units = self.table.schema.units;
         match role {
             Role::Joint(j) => {
                 let joint = self
+                    .table
                     .schema
                     .robot
                     .links
@@ -272,7 +267,7 @@ impl<'a> RowReading<'a> {
     /// The row's orientation: none if its four quaternion cells are empty,
     /// else all four, of norm 1 within [`QUATERNION_NORM_TOLERANCE`].
     fn orientation(&self) -> Result<Option<UnitQuaternion<f64>>, InputError> {
-        let roles = self.roles;
+        let roles = &self.table.roles;
         match self.quat {
             [None, None, None, None] => Ok(None),
             [Some(w), Some(x), Some(y), Some(z)] => {
@@ -344,14 +339,18 @@ impl<'a> RowReading<'a> {
                     "column '{}': a coordinate on a row that names the unknown {kind} '{n}': a row \
                      either measures x, y, z or names the point its tool point sits at or the \
                      plane it touches; leave x, y, z empty here",
-                    self.header.field(i).unwrap_or("")
+                    self.table.header.field(i).unwrap_or("")
                 ),
             ));
         }
         if named.is_none() && measured < 3 {
             // At the first empty coordinate, as a file without the column is refused.
             let empty = (0..3).find_map(|c| {
-                let i = self.roles.iter().position(|r| *r == Role::Position(c))?;
+                let i = self
+                    .table
+                    .roles
+                    .iter()
+                    .position(|r| *r == Role::Position(c))?;
                 given[c].is_none().then_some((i, POSITION[c]))
             });
             return Err(match empty {
@@ -375,6 +374,7 @@ impl<'a> RowReading<'a> {
             && oriented
         {
             let first = self
+                .table
                 .roles
                 .iter()
                 .position(|r| *r == Role::Quat(0))
