@@ -596,7 +596,7 @@ mod compensation_of_effects {
     use armcal_shared::compensation::{Compensator, Conditions, Limits, Pacing, Stream};
     use armcal_shared::effects::{Approach, Context, Effect, EffectModel};
     use armcal_shared::units::Units;
-    use armcal_tests::{random_configurations, rng};
+    use armcal_tests::{random_configuration, rng};
 
     /// UR10e, 300 tracker positions (σ = 20 µm) at 20–30 °C with 0 and 5 kg,
     /// ±1 mm / ±1 mrad geometry, a hidden compliance of joint 2 and backlash of
@@ -669,7 +669,7 @@ mod compensation_of_effects {
         let mut ticks: Vec<Tick> = Vec::new();
         for tried in 0.. {
             assert!(tried < 50, "no motion away from singularities");
-            let q0 = random_configurations(&nominal, 1, &mut r).remove(0);
+            let q0 = random_configuration(&nominal, &mut r);
             ticks.clear();
             let mut stream = Stream::new(Pacing::Servo);
             // The streams of compensated and of uncompensated commands.

@@ -1,7 +1,9 @@
 //! Helpers of the end-to-end tests: the host's simulator, re-exported, and the
 //! distance of a configuration from a singularity.
 
-pub use armcal::calibration::simulate::{measure, random_configurations, rng, with_random_errors};
+pub use armcal::calibration::simulate::{
+    measure, random_configuration, random_configurations, rng, with_random_errors,
+};
 
 use armcal_shared::Robot;
 

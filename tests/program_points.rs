@@ -31,7 +31,7 @@ use armcal::io::model_file::{RobotModel, load_model, parse_model};
 use armcal_shared::compensation::{Pacing, TargetFrame};
 use armcal_shared::effects::{Approach, Context, EffectModel};
 use armcal_shared::{Calibration, Robot};
-use armcal_tests::{random_configurations, rng, sigma_min};
+use armcal_tests::{random_configuration, random_configurations, rng, sigma_min};
 
 /// An industrial 6-axis arm of the 1.65 m class given in millimetres and
 /// degrees (an ABB IRB 2600-type geometry with its link masses approximated),
@@ -188,7 +188,7 @@ fn program_points(
     let mut r = rng(seed + 1000);
     let mut commands = Vec::new();
     while commands.len() < 40 {
-        let q = random_configurations(nominal, 1, &mut r).remove(0);
+        let q = random_configuration(nominal, &mut r);
         if sigma_min(nominal, &q) >= 0.05 {
             commands.push(q);
         }

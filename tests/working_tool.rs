@@ -44,7 +44,9 @@ use armcal::io::model_file::{RobotModel, load_model};
 use armcal::session::registration::FrameSharing;
 use armcal_shared::compensation::{Pacing, TargetFrame};
 use armcal_shared::{Calibration, Frame, Param, Robot};
-use armcal_tests::{measure, random_configurations, rng, sigma_min, with_random_errors};
+use armcal_tests::{
+    measure, random_configuration, random_configurations, rng, sigma_min, with_random_errors,
+};
 use nalgebra::{DMatrix, Vector3};
 
 /// The SMR, 100 mm from the flange's origin and 60 mm off the last joint's
@@ -208,7 +210,7 @@ fn smr_to_working_tool(name: &str, seed: u64) {
 
     let mut targets = Vec::new();
     while targets.len() < 40 {
-        let q = random_configurations(&model.robot, 1, &mut r).remove(0);
+        let q = random_configuration(&model.robot, &mut r);
         if sigma_min(&working.robot, &q) >= 0.05 {
             targets.push(q);
         }

@@ -37,7 +37,7 @@ use rand::RngExt;
 
 use crate::calibration::diagnose::{DiagnoseOptions, Diagnosis, HeldOut, diagnose};
 use crate::calibration::identify::full::{effect_parameter_name, identify_full};
-use crate::calibration::simulate::{Session, random_configurations, rng, simulate};
+use crate::calibration::simulate::{Session, random_configuration, rng, simulate};
 use crate::calibration::sweep::{hidden_case, tracker_diagnosis};
 use crate::io::measurements::JointRows;
 use crate::io::model_file::{RobotModel, load_model};
@@ -179,7 +179,7 @@ fn targets(
 ) -> anyhow::Result<Vec<[Vec<f64>; 2]>> {
     let mut out = Vec::with_capacity(n);
     while out.len() < n {
-        let q = random_configurations(robot, 1, r).remove(0);
+        let q = random_configuration(robot, r);
         if sigma_min(robot, &q)? < SIGMA_MIN {
             continue;
         }

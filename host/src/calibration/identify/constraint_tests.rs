@@ -79,7 +79,7 @@ fn session_of(
 /// The plane of the sessions: through a reachable point, a random normal.
 fn plane_of(truth: &Robot<f64>, rng: &mut rand::rngs::StdRng) -> (Point3<f64>, Vector3<f64>) {
     let kin = truth.prepare();
-    let q = simulate::random_configurations(truth, 1, rng).remove(0);
+    let q = simulate::random_configuration(truth, rng);
     let centre = Point3::from(kin.forward(&q).expect("joint count").translation.vector);
     let n = Vector3::new(0.3, -0.5, 0.8).normalize();
     (centre, n)

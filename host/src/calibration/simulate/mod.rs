@@ -571,7 +571,7 @@ pub fn socket_session(
                 break;
             }
             let noise = Vector3::from_fn(|_, _| contact_noise * normal.sample(rng));
-            let start = random_configurations(truth, 1, rng).remove(0);
+            let start = random_configuration(truth, rng);
             if let Some(q) = reach_point(truth, start, &(socket + noise)) {
                 observations.push(Observation::at_contact(q, Contact::Point(k)));
                 found += 1;
@@ -620,7 +620,7 @@ pub fn plane_touches(
             rng.random_range(-radius..radius),
         );
         let target = centre + u * x + v * y + normal * (contact_noise * normal_draw.sample(rng));
-        let start = random_configurations(truth, 1, rng).remove(0);
+        let start = random_configuration(truth, rng);
         if let Some(q) = reach_point(truth, start, &target) {
             out.push(Observation::at_contact(q, Contact::Plane(plane)));
         }
