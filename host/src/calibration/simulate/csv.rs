@@ -1,9 +1,9 @@
 //! A simulated session as the measurement CSV of `docs/file-formats.md` §2
 //! (joints, x, y, z and qw…qz in the model's units; `t` s, `temp` °C,
 //! `load` kg, `tau` N·m or N): from a session held in memory
-//! ([`Session::to_csv`], [`Session::session_csv`]), or written as its rows
-//! are drawn, without holding them ([`SessionWriter`], what `armcal
-//! simulate` writes): the same bytes either way.
+//! ([`Session::to_csv`]), or written as its rows are drawn, without holding
+//! them, one file per session ([`SessionWriter`], what `armcal simulate`
+//! writes): the same bytes either way.
 
 use std::fmt::Write as _;
 
@@ -17,26 +17,6 @@ use crate::calibration::identify::full::Observation;
 impl Session {
     /// The measurements as a measurement CSV (`docs/file-formats.md` §2) in `units`, with `t`, `temp`, `load`.
     pub fn to_csv(&self, units: &Units, description: &str) -> String {
-        self.csv_of(units, description, |_| true)
-    }
-
-    /// The number of sessions the rows were measured in.
-    pub fn sessions(&self) -> usize {
-        self.frames.len().max(1)
-    }
-
-    /// Session `k`'s rows (from 0) as a measurement CSV, as [`Session::to_csv`].
-    pub fn session_csv(&self, units: &Units, description: &str, k: usize) -> String {
-        self.csv_of(units, description, |o| o.session == k)
-    }
-
-    /// The rows `keep` keeps as a measurement CSV.
-    fn csv_of(
-        &self,
-        units: &Units,
-        description: &str,
-        keep: impl Fn(&Observation) -> bool,
-    ) -> String {
         let columns = Columns {
             joints: self.truth.links.iter().map(|l| l.joint).collect(),
             orientation: self.observations.iter().any(|o| o.orientation.is_some()),
@@ -45,11 +25,14 @@ impl Session {
         };
         let mut out = columns.header(description);
         for (i, obs) in self.observations.iter().enumerate() {
-            if keep(obs) {
-                columns.row(&mut out, obs, [self.t[i], self.temp[i], self.load[i]]);
-            }
+            columns.row(&mut out, obs, [self.t[i], self.temp[i], self.load[i]]);
         }
         out
+    }
+
+    /// The number of sessions the rows were measured in.
+    pub fn sessions(&self) -> usize {
+        self.frames.len().max(1)
     }
 }
 
@@ -131,7 +114,7 @@ impl Columns {
 
 /// The session [`super::simulate`] draws, written session by session as its
 /// rows are drawn: memory independent of its length. The bytes are
-/// [`Session::to_csv`]'s (one session) or [`Session::session_csv`]'s.
+/// [`Session::to_csv`]'s, its rows shared among the sessions' files.
 pub struct SessionWriter {
     draw: Draw,
     nominal: Robot<f64>,
@@ -215,7 +198,8 @@ mod tests {
     /// What `armcal simulate` writes as the rows are drawn is, byte for
     /// byte, the session [`simulate`] holds in memory written out: one
     /// session, and three (rows shared in blocks, orientations, torques, an
-    /// effect and a tilt), in inches for the PUMA.
+    /// effect and a tilt), each file with the comment and header lines and
+    /// its own session's rows, in order; in inches for the PUMA.
     #[test]
     fn rows_written_as_drawn_are_the_session_held() {
         for (name, poses, sessions) in [("puma560", 41, 1), ("ur10e", 31, 3)] {
@@ -229,17 +213,20 @@ mod tests {
                 scenario.tilts = vec![(1, 1e-3)];
             }
             let held = simulate(&model.robot, &scenario).unwrap();
+            let expected = held.to_csv(&model.units, "d");
+            let header: String = expected.split_inclusive('\n').take(3).collect();
             let mut writer = SessionWriter::new(&model.robot, &scenario, model.units).unwrap();
+            let mut rows = String::new();
             for k in 0..sessions {
                 let mut written = Vec::new();
                 writer.write_session(k, "d", &mut written).unwrap();
-                let expected = if sessions == 1 {
-                    held.to_csv(&model.units, "d")
-                } else {
-                    held.session_csv(&model.units, "d", k)
-                };
-                assert_eq!(String::from_utf8(written).unwrap(), expected, "{name} {k}");
+                let written = String::from_utf8(written).unwrap();
+                let own = written.strip_prefix(&header).expect("the header lines");
+                let count = held.observations.iter().filter(|o| o.session == k).count();
+                assert_eq!(own.lines().count(), count, "{name}: session {k}'s rows");
+                rows.push_str(own);
             }
+            assert_eq!(header + &rows, expected, "{name}");
             let e = writer.write_session(0, "d", &mut Vec::new()).unwrap_err();
             assert!(e.to_string().contains("out of order"), "{e}");
         }
