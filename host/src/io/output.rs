@@ -282,8 +282,8 @@ impl Outputs {
                     })?;
                     renames.push((planned, tmp, path));
                 }
-                (Destination::Device(mut file), Content::Written(writer)) => {
-                    into_stream(&planned, &mut file, Content::Written(writer))?;
+                (Destination::Device(mut file), content @ Content::Written(_)) => {
+                    into_stream(&planned, &mut file, content)?;
                 }
                 (Destination::Device(file), bytes) => streams.push((planned, file, bytes)),
             }
