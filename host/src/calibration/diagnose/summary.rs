@@ -510,7 +510,7 @@ impl Diagnosis {
         if let Some(s) = &self.selection {
             let _ = writeln!(
                 out,
-                "{} rows: the model chosen on every {}th ({} poses; every held-out figure, test \
+                "{} rows: the model chosen on one row in {} ({} poses; every held-out figure, test \
                  and effect below is of them), the calibration written fitted to the {} rows \
                  kept; {} rows set aside by their residual about it (F above the 1% threshold \
                  over the rows)",
