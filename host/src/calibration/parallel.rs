@@ -14,6 +14,13 @@ pub fn cores() -> usize {
     *CORES.get_or_init(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
 }
 
+/// The length of the pieces that share `n` items out one piece per core, at
+/// least `least` items each (where a smaller piece costs more to hand over
+/// than it saves).
+pub fn piece_len(n: usize, least: usize) -> usize {
+    n.div_ceil(cores()).max(least)
+}
+
 /// `f` of each item, on every core (each item a piece of its own), in the
 /// order of `items`.
 pub fn map<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync) -> Vec<R> {

@@ -167,7 +167,7 @@ fn best(
         .collect();
     // The candidates in one piece per core, each piece its own products.
     let n = candidates.count();
-    let piece = n.div_ceil(parallel::cores()).max(1);
+    let piece = parallel::piece_len(n, 1);
     let pieces: Vec<std::ops::Range<usize>> = (0..n)
         .step_by(piece)
         .map(|start| start..(start + piece).min(n))

@@ -59,7 +59,10 @@ pub fn candidates(
     let mut socket_of = Vec::new();
     for (k, socket) in plate.sockets.iter().enumerate() {
         let starts = within_limits(robot, per_socket, margin, seed ^ ((k as u64 + 1) << 20));
-        let reached = parallel::map(&chunks(&starts), |chunk| {
+        let pieces: Vec<&[Vec<f64>]> = starts
+            .chunks(parallel::piece_len(starts.len(), 1))
+            .collect();
+        let reached = parallel::map(&pieces, |chunk| {
             chunk
                 .iter()
                 .filter_map(|start| {
@@ -89,12 +92,6 @@ pub fn candidates(
         q.extend(reached);
     }
     Ok((q, socket_of))
-}
-
-/// `items` in one piece per core.
-fn chunks<T: Clone>(items: &[T]) -> Vec<Vec<T>> {
-    let piece = items.len().div_ceil(parallel::cores()).max(1);
-    items.chunks(piece).map(<[T]>::to_vec).collect()
 }
 
 /// The socket of each of `n` poses: the sockets in turn, so that they share

@@ -46,7 +46,7 @@ impl LinearSystem {
         let rows = Self::rows(data);
         let mut j = Mat::zeros(rows, params.len());
         let mut r = Mat::zeros(rows, 1);
-        let piece = data.len().div_ceil(parallel::cores()).max(MIN_PIECE_POSES);
+        let piece = parallel::piece_len(data.len(), MIN_PIECE_POSES);
         let mut pieces = Vec::new();
         let (mut j_rest, mut r_rest) = (j.as_mut(), r.as_mut());
         for poses in data.chunks(piece) {
