@@ -31,6 +31,13 @@ const NOISE: f64 = 20e-6;
 /// parameters of the last joints would be no better known than its nest).
 const SMR: [f64; 3] = [0.06, 0.0, 0.08];
 
+/// The built-in model `name` measured at the [`SMR`].
+fn with_smr(name: &str) -> RobotModel {
+    let mut model = load_model(name).unwrap();
+    model.robot.tool.xyz = nalgebra::Vector3::from(SMR);
+    model
+}
+
 /// `armcal identify`'s calibrated robot (default options) of `model` from
 /// a tracker session of `truth` at `q`.
 fn calibrate(model: &RobotModel, truth: &Robot<f64>, q: &[Vec<f64>], seed: u64) -> Robot<f64> {
@@ -119,8 +126,7 @@ fn at_most_four_fifths_of_random(
 /// Plans 20 poses for `name` and compares them with 20 random ones on
 /// `robots` true robots (see the module header).
 fn planned_against_random(name: &str, robots: u64) {
-    let mut model = load_model(name).unwrap();
-    model.robot.tool.xyz = nalgebra::Vector3::from(SMR);
+    let model = with_smr(name);
     let nominal = &model.robot;
     let options = PlanOptions {
         poses: 20,
@@ -188,8 +194,7 @@ fn a_plan_for_backlash_lets_diagnose_name_it() {
     use armcal::calibration::diagnose::{DiagnoseOptions, diagnose};
     use armcal::calibration::plan::Visits;
     use armcal::calibration::simulate::{Scenario, parse_effect, simulate_visiting};
-    let mut model = load_model("ur10e").unwrap();
-    model.robot.tool.xyz = nalgebra::Vector3::from(SMR);
+    let model = with_smr("ur10e");
     let nominal = &model.robot;
     let options = PlanOptions {
         poses: 20,
@@ -411,8 +416,7 @@ fn a_plan_for_compliance_identifies_it_better_than_random_poses() {
     use armcal::calibration::identify::full::{FullOptions, identify_with_effects};
     use armcal::calibration::simulate::{Scenario, parse_effect, simulate_visiting};
     use armcal_shared::effects::Effect;
-    let mut model = load_model("ur10e").unwrap();
-    model.robot.tool.xyz = nalgebra::Vector3::from(SMR);
+    let model = with_smr("ur10e");
     let nominal = &model.robot;
     let options = PlanOptions {
         poses: 20,
