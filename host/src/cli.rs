@@ -537,8 +537,9 @@ impl ModelArgs {
 /// The working tool that replaces the measured one (`armcal::commands::tool`).
 #[derive(clap::Args, Debug)]
 pub(crate) struct ToolArgs {
-    /// The working tool in the flange frame (the last link's frame, as the
-    /// model file's [tool]), model units: it replaces the tool the
+    /// The working tool in the robot's flange frame (a model file's last link
+    /// frame, as its [tool]; a URDF's tip link; a UR's flange), model units: it
+    /// replaces the tool the
     /// calibration was measured with, whose identified offset is reported
     /// and not applied (docs/file-formats.md §4).
     #[arg(long, value_name = "X,Y,Z[,RX,RY,RZ]", allow_hyphen_values = true, value_parser = args::tool_frame, conflicts_with = "tool_link")]

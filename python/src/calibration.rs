@@ -150,8 +150,9 @@ impl Calibration {
 
     /// This calibration working with another tool than the one it was
     /// measured with (an SMR, a ball): `xyz` and optionally `rpy` (roll,
-    /// pitch, yaw) of the working tool in the flange frame (the last link's
-    /// frame, as the model file's `[tool]`), model units. It keeps what the
+    /// pitch, yaw) of the working tool in the robot's flange frame (a model
+    /// file's last link frame, as its `[tool]`; a URDF's tip link; a UR's
+    /// flange), model units. It keeps what the
     /// data separate from the measured tool; the measured tool's identified
     /// offset is not applied to the working tool (`tool_note` says what was
     /// left and what one measured tool cannot separate), as `armcal

@@ -16,7 +16,8 @@
 //!               errors, whether orientation was calibrated, the model file's units,
 //!               the effects, from version 3 the frame of the targets, from
 //!               version 4 the ranges it was identified on, from version 5
-//!               its expected held-out error and the geometric fallback)
+//!               its expected held-out error and the geometric fallback, from
+//!               version 6 the flange frame)
 //! 24+n     4    CRC-32/ISO-HDLC of bytes 0 .. 24+n
 //! ```
 //!
@@ -35,6 +36,7 @@
 //!  5       Option: expected held-out error, m      held_out
 //!  5       Option: the geometric fallback          geometric
 //!            (errors, Option: its held-out error)
+//!  6       the flange in the last link's frame     flange
 //! ```
 //!
 //! Version 2 files (without the frame of the targets) are read as targets in the
@@ -44,6 +46,8 @@
 //! held-out error unknown and without a geometric fallback
 //! ([`Calibration::held_out`], [`Calibration::geometric`] `None`): an export
 //! that cannot carry their effects has only the geometry fitted with them.
+//! Files before version 6 are read with the flange at the last link's frame
+//! (what a model file's `[tool]` is given in, and what they meant).
 //!
 //! Lengths and angles are SI (m, rad) in `f64`; the controller converts to `f32`
 //! after validation. A file is accepted only whole: right magic, a version this
@@ -60,7 +64,7 @@ use serde::{Deserialize, Serialize};
 use crate::effects::{Effect, EffectModel, MAX_EFFECTS};
 use crate::ranges::Ranges;
 use crate::units::Units;
-use crate::{MAX_JOINTS, Param, Robot};
+use crate::{Frame, MAX_JOINTS, Param, Robot};
 
 #[cfg(test)]
 pub(crate) mod fixtures;
@@ -75,7 +79,7 @@ pub use magnitudes::{
 pub const MAGIC: [u8; 8] = *b"\x89ARMCAL\n";
 
 /// The format version this build writes and the newest it reads.
-pub const FORMAT_VERSION: u16 = 5;
+pub const FORMAT_VERSION: u16 = 6;
 
 /// The oldest format version this build reads.
 pub const OLDEST_VERSION: u16 = 2;
@@ -142,6 +146,11 @@ pub struct Calibration {
     /// deltas), and its expected held-out error. `None` in a file before
     /// version 5.
     pub geometric: Option<GeometricCalibration>,
+    /// The robot's flange (the frame a working tool is given in) in the last
+    /// link's frame `M`, nominal: identity for a model file (its `[tool]` is
+    /// in frame `M`), the tip link's frame for a URDF, UR's flange for a UR
+    /// with its factory calibration. Identity in a file before version 6.
+    pub flange: Frame<f64>,
 }
 
 /// The best geometry-only calibration of a calibration with effects: the
@@ -197,7 +206,8 @@ struct AddedV5 {
 
 /// The payload of `version`, decoded, and the bytes after it; before version
 /// 3 with targets in the world frame, before version 4 with the ranges
-/// unknown, before version 5 with neither held-out error nor fallback.
+/// unknown, before version 5 with neither held-out error nor fallback,
+/// before version 6 with the flange at the last link's frame.
 fn decode_payload(version: u16, payload: &[u8]) -> Result<(Calibration, &[u8]), CalibrationError> {
     let bad = |_| CalibrationError::Payload;
     let (v2, rest) = postcard::take_from_bytes::<PayloadV2>(payload).map_err(bad)?;
@@ -211,7 +221,7 @@ fn decode_payload(version: u16, payload: &[u8]) -> Result<(Calibration, &[u8]), 
     } else {
         (None, rest)
     };
-    let (added, rest) = if version >= 5 {
+    let (added5, rest) = if version >= 5 {
         postcard::take_from_bytes::<AddedV5>(rest).map_err(bad)?
     } else {
         (
@@ -222,6 +232,11 @@ fn decode_payload(version: u16, payload: &[u8]) -> Result<(Calibration, &[u8]), 
             rest,
         )
     };
+    let (flange, rest) = if version >= 6 {
+        postcard::take_from_bytes::<Frame<f64>>(rest).map_err(bad)?
+    } else {
+        (Frame::identity(), rest)
+    };
     let cal = Calibration {
         nominal: v2.nominal,
         errors: v2.errors,
@@ -230,8 +245,9 @@ fn decode_payload(version: u16, payload: &[u8]) -> Result<(Calibration, &[u8]), 
         effects: v2.effects,
         targets,
         ranges,
-        held_out: added.held_out,
-        geometric: added.geometric,
+        held_out: added5.held_out,
+        geometric: added5.geometric,
+        flange,
     };
     Ok((cal, rest))
 }
@@ -426,6 +442,7 @@ impl Calibration {
             ranges: None,
             held_out: None,
             geometric: None,
+            flange: Frame::identity(),
         }
     }
 
@@ -445,6 +462,7 @@ impl Calibration {
             ranges: self.ranges.clone(),
             held_out: g.held_out,
             geometric: None,
+            flange: self.flange,
         })
     }
 
@@ -616,7 +634,7 @@ impl Calibration {
                     .is_none_or(|[lo, hi]| lo.is_finite() && hi.is_finite())
                 && l.mass.is_none_or(|m| m.mass.is_finite() && finite3(&m.com))
         });
-        let frames_finite = [&model.base, &model.tool]
+        let frames_finite = [&model.base, &model.tool, &self.flange]
             .iter()
             .all(|f| finite3(&f.xyz) && finite3(&f.rpy));
         if !links_finite || !frames_finite || !model.gravity.as_ref().is_none_or(finite3) {

@@ -62,6 +62,12 @@ fn sample() -> Calibration {
         ([1.5; 6], Some(29.0), Some(5.0)),
     ];
     cal.ranges = Some(Ranges::of(poses.iter().map(|(q, t, l)| (&q[..], *t, *l))));
+    // The flange 80 mm out along the last axis, turned about it, as a URDF's
+    // `tool0` sits beyond its last joint's frame.
+    cal.flange = Frame {
+        xyz: Vector3::new(0.0, 0.0, 0.08),
+        rpy: Vector3::new(0.0, 0.0, 0.3),
+    };
     cal
 }
 
@@ -105,6 +111,20 @@ struct PayloadV4<'a> {
     effects: &'a [Effect<f64>],
     targets: TargetFrame,
     ranges: &'a Option<Ranges<f64>>,
+}
+
+/// The payload of a version 5 file: a calibration without its flange.
+#[derive(Serialize)]
+struct PayloadV5<'a> {
+    nominal: &'a Robot<f64>,
+    errors: &'a [ParamError],
+    orientation: bool,
+    units: Units,
+    effects: &'a [Effect<f64>],
+    targets: TargetFrame,
+    ranges: &'a Option<Ranges<f64>>,
+    held_out: Option<f64>,
+    geometric: &'a Option<GeometricCalibration>,
 }
 
 /// The payload of a version 3 file: a calibration without its ranges.
@@ -271,6 +291,7 @@ fn the_frame_of_the_targets_and_version_2_files() {
     let v2 = file_of(OLDEST_VERSION, &sample(), &v3[..v3.len() - 1]);
     let mut want = sample();
     want.ranges = None;
+    want.flange = Frame::identity();
     assert_eq!(Calibration::decode(&v2).unwrap(), want);
 
     let mut older = v2.clone();
@@ -332,6 +353,7 @@ fn the_ranges_and_version_3_files() {
     let old = Calibration::decode(&v3).unwrap();
     assert_eq!(old.ranges, None);
     cal.ranges = None;
+    cal.flange = Frame::identity();
     assert_eq!(old, cal);
     // Not one interval per joint, or not finite: neither written nor read.
     let mut bad = sample();
@@ -503,10 +525,39 @@ fn version_4_files() {
     assert_eq!(old.geometric_only(), None);
     cal.held_out = None;
     cal.geometric = None;
+    cal.flange = Frame::identity();
     assert_eq!(old, cal);
-    // The version 5 payload is the version 4 payload and the added fields.
-    let v5 = bytes_of(&with_fallback()).unwrap();
-    assert_eq!(&v5[HEADER_LEN..HEADER_LEN + payload.len()], &payload[..]);
+    // The version 6 payload is the version 4 payload and the added fields.
+    let v6 = bytes_of(&with_fallback()).unwrap();
+    assert_eq!(&v6[HEADER_LEN..HEADER_LEN + payload.len()], &payload[..]);
+}
+
+/// A version 5 file (written before calibrations carried their flange) reads
+/// whole with the flange at the last link's frame, where a model file's
+/// `[tool]` and every working tool were then given.
+#[test]
+fn version_5_files() {
+    let mut cal = with_fallback();
+    let mut buf = vec![0u8; MAX_FILE_LEN];
+    let payload = PayloadV5 {
+        nominal: &cal.nominal,
+        errors: &cal.errors,
+        orientation: cal.orientation,
+        units: cal.units,
+        effects: &cal.effects,
+        targets: cal.targets,
+        ranges: &cal.ranges,
+        held_out: cal.held_out,
+        geometric: &cal.geometric,
+    };
+    let payload = postcard::to_slice(&payload, &mut buf).unwrap().to_vec();
+    let old = Calibration::decode(&file_of(5, &cal, &payload)).unwrap();
+    assert_eq!(old.flange, Frame::identity());
+    cal.flange = Frame::identity();
+    assert_eq!(old, cal);
+    // A flange that is not finite is neither written nor read.
+    cal.flange.xyz.z = f64::NAN;
+    assert_eq!(bytes_of(&cal), Err(CalibrationError::NonFinite));
 }
 
 /// A fallback or held-out error that is not valid is neither written nor

@@ -43,12 +43,15 @@
 //! The expected held-out error of the file is the measured tool's; with
 //! another tool it is unknown, and the calibration's `held_out` is cleared.
 //!
-//! Frames and units: the working tool is a frame in the flange frame (frame
-//! `M` of the model, as the model file's `[tool]`), SI here; the front ends
-//! read it in the model's units ([`crate::commands::tool`]).
+//! Frames and units: the working tool is a frame in the robot's flange frame
+//! ([`Calibration::flange`]: frame `M` of a model file, as its `[tool]`; the
+//! tip link's frame of a URDF; UR's flange), SI here; the front ends read it
+//! in the model's units ([`crate::commands::tool`]).
 
 use armcal_shared::calibration::{Calibration, ParamError};
 use armcal_shared::{Convention, Frame, JointType, Param, Robot};
+
+use crate::io::urdf::convert::to_frame;
 
 /// A measured point closer than this to a revolute last joint's axis, m, is
 /// named in the note: turning the joint moves it by less than 1 mm per
@@ -93,7 +96,7 @@ pub fn flange_params(robot: &Robot<f64>) -> Vec<Param> {
 /// The tool a calibrated robot works with, in the flange frame, SI.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WorkingTool {
-    /// Its frame in the flange frame (frame `M`), m and rad.
+    /// Its frame in the flange frame ([`Calibration::flange`]), m and rad.
     pub frame: Frame<f64>,
 }
 
@@ -131,7 +134,13 @@ impl WorkingTool {
             .copied()
             .collect();
         let mut calibration = cal.clone();
-        calibration.nominal.tool = self.frame;
+        // On the flange; the frame as given where the flange is the last
+        // link's frame (no roll-pitch-yaw round trip of the user's numbers).
+        calibration.nominal.tool = if cal.flange == Frame::identity() {
+            self.frame
+        } else {
+            to_frame(&(cal.flange.isometry() * self.frame.isometry()))
+        };
         calibration
             .errors
             .retain(|e| !of_measured_tool(e.param, &confounded));
@@ -304,6 +313,35 @@ mod tests {
             *expected.param_mut(Param::Alpha(1)).unwrap() += 0.5e-3;
             assert_eq!(change.calibration.calibrated(), expected);
         }
+    }
+
+    /// Where the robot's flange is not its last link's frame (a URDF's
+    /// `tool0`, 117 mm out along the last axis and turned about it), the
+    /// working tool is given in the flange: its frame in the last link's is
+    /// the flange's composed with it, to rounding.
+    #[test]
+    fn a_working_tool_is_given_in_the_robots_flange() {
+        let mut cal = calibration(puma560());
+        cal.flange = Frame {
+            xyz: Vector3::new(0.0, 0.0, 0.11655),
+            rpy: Vector3::new(0.0, 0.0, std::f64::consts::FRAC_PI_2),
+        };
+        let frame = Frame {
+            xyz: Vector3::new(0.01, 0.0, 0.25),
+            rpy: Vector3::new(0.0, 0.1, 0.0),
+        };
+        let tool = WorkingTool { frame }.apply(&cal).calibration.nominal.tool;
+        let want = cal.flange.isometry() * frame.isometry();
+        let got = tool.isometry();
+        assert!((got.translation.vector - Vector3::new(0.0, 0.01, 0.36655)).norm() < 1e-15);
+        assert!((got.to_homogeneous() - want.to_homogeneous()).amax() < 1e-15);
+        // A tool at the flange's origin is the flange.
+        let at_flange = WorkingTool {
+            frame: Frame::identity(),
+        }
+        .apply(&cal);
+        let f = at_flange.calibration.nominal.tool.isometry();
+        assert!((f.to_homogeneous() - cal.flange.isometry().to_homogeneous()).amax() < 1e-15);
     }
 
     /// The distance from the last axis is the tool point's lever about it:

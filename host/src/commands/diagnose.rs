@@ -97,6 +97,7 @@ pub fn run(
     let failed = diagnosis_refusal(model, data, &diagnosis, front.write_failed());
     let mut calibration = diagnosis.calibration(&model.robot, data.has_orientation(), model.units);
     calibration.targets = request.targets;
+    calibration.flange = model.flange;
     let sessions_held_out = sessions_held_out(model, observations, &diagnosis, &options)?;
     Ok(Diagnosed {
         sessions_held_out,

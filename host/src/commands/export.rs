@@ -6,13 +6,14 @@
 //! Lengths on file in m, angles in rad, as each format defines them
 //! (docs/urdf.md, docs/ur.md).
 
-use armcal_shared::{Calibration, JointType};
+use armcal_shared::{Calibration, Frame, JointType};
 
 use super::tool::Tool;
 use super::{Argument, Front};
 use crate::apply::export::{GeometryExport, geometry_only};
 use crate::apply::predict::load_calibration;
-use crate::apply::working_tool::ToolChange;
+use crate::apply::read_back;
+use crate::apply::working_tool::{ToolChange, WorkingTool};
 use crate::io::input_error::{InputError, MODEL_FILE, read_text};
 use crate::io::model_file::{load_model_with, urdf_chain};
 use crate::io::ur;
@@ -186,11 +187,34 @@ fn ur_export(
             .into());
     }
     ur::require_same_type(&cal.nominal, &nominal, calibration)?;
-    let deltas = ur::export_deltas(&robot, &nominal.robot);
+    // The arm to the robot's flange: the measured (or working) tool's offset
+    // goes to the TCP the file states, never into the arm's links.
+    let arm = WorkingTool {
+        frame: Frame::identity(),
+    }
+    .apply(cal)
+    .calibration
+    .calibrated();
+    let exported = ur::export_deltas(&arm, &robot, &nominal.robot);
     let text = match format {
-        Format::UrDeltas => ur::deltas_yaml(&deltas, calibration),
-        _ => ur::ur_calibration_yaml(&deltas, calibration),
+        Format::UrDeltas => ur::deltas_yaml(&exported, calibration),
+        _ => ur::ur_calibration_yaml(&exported, calibration),
     };
+    let read = match format {
+        Format::UrDeltas => read_back::check(
+            &exported,
+            &arm,
+            &robot,
+            read_back::deltas_reader(&text, &nominal.robot)?,
+        ),
+        _ => read_back::check(
+            &exported,
+            &arm,
+            &robot,
+            read_back::description_reader(&text)?,
+        ),
+    };
+    read.map_err(|why| anyhow::anyhow!("{calibration}: {why}; nothing written"))?;
     Ok(Exported {
         text,
         held,

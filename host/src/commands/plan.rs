@@ -134,6 +134,13 @@ impl Request {
                 return Err(refuse("--above", format!("{z}: above the box's top")));
             }
         }
+        // A model without joint limits would plan through the table the
+        // robot stands on: its flange and tool point stay above its base
+        // plane unless the cell is given.
+        options.above_base = self.sockets.is_none()
+            && self.within.is_none()
+            && self.above.is_none()
+            && model.robot.links.iter().any(|l| l.limits.is_none());
         if let Some(plate) = &self.sockets {
             let clash = [
                 (

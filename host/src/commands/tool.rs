@@ -6,24 +6,30 @@
 //!
 //! - A frame: `x, y, z` and optionally roll, pitch, yaw
 //!   (`R = Rot_z(yaw) Rot_y(pitch) Rot_x(roll)`) of the working tool in the
-//!   flange frame (frame `M` of the model, as the model file's `[tool]`), in
-//!   the calibration's model units.
+//!   robot's flange frame ([`Calibration::flange`]: frame `M` of a model file,
+//!   as its `[tool]`; the tip link's frame of a URDF model; UR's flange of a
+//!   UR read with its factory calibration), in the calibration's model
+//!   units. A tool farther from the flange than the arm reaches is refused,
+//!   naming the unit it would fit in (250 typed for 0.25 m).
 //! - A URDF link: the working tool is that link's frame. The URDF is the one
 //!   the calibration's model was read from, the chain from the same base link;
 //!   the link must move rigidly with the calibration's last joint (checked at
 //!   three configurations: its frame in the flange frame the same to 1e-9 m
 //!   and rad). Its frame in the flange frame is the nominal chain's, read from
-//!   the URDF: `F_M(q)⁻¹ · L(q)`, with `F_M` the calibration's nominal frame `M`
+//!   the URDF: `F(q)⁻¹ · L(q)`, with `F` the calibration's nominal flange
 //!   and `L` the link's frame, both in the model's base frame.
 
+use armcal_shared::units::LengthUnit;
 use armcal_shared::{Calibration, Frame, Robot};
 use nalgebra::{IsometryMatrix3, Matrix3, Vector3};
 
 use super::Front;
 use crate::apply::working_tool::{ToolChange, WorkingTool};
+use crate::calibration::diagnose::significant;
 use crate::io::input_error::InputError;
 use crate::io::model_file::load_model_with;
 use crate::io::urdf::ChainSpec;
+use crate::session::measurements::reach;
 
 /// How far the link's frame in the flange frame may move between
 /// configurations and still be rigid with the last joint, m and rad: the
@@ -58,10 +64,13 @@ impl Tool {
     /// is refused naming the argument as `front` calls it.
     pub fn apply(&self, front: Front, cal: &Calibration) -> Result<ToolChange, InputError> {
         let frame = match self {
-            Self::Frame { xyz, rpy } => Frame {
-                xyz: Vector3::from_fn(|i, _| cal.units.length_to_si(xyz[i])),
-                rpy: Vector3::from_fn(|i, _| cal.units.angle_to_si(rpy[i])),
-            },
+            Self::Frame { xyz, rpy } => {
+                require_within_reach(front, cal, xyz)?;
+                Frame {
+                    xyz: Vector3::from_fn(|i, _| cal.units.length_to_si(xyz[i])),
+                    rpy: Vector3::from_fn(|i, _| cal.units.angle_to_si(rpy[i])),
+                }
+            }
             Self::Link {
                 model,
                 base_link,
@@ -70,6 +79,52 @@ impl Tool {
         };
         Ok(WorkingTool { frame }.apply(cal))
     }
+}
+
+/// Refuses a working tool `xyz` (model units) farther from the flange than
+/// the arm reaches ([`reach`] of the nominal arm without its tool): no tool
+/// is longer than the arm that carries it, and such a number is a length in
+/// another unit (250 typed for 0.25 m). The error names the units it would
+/// fit in.
+fn require_within_reach(front: Front, cal: &Calibration, xyz: &[f64; 3]) -> Result<(), InputError> {
+    let arm = Robot {
+        tool: Frame::identity(),
+        ..cal.nominal.clone()
+    };
+    let reach = reach(&arm, std::iter::empty());
+    let typed = Vector3::from(*xyz).norm();
+    let unit = cal.units.length;
+    if unit.to_si(typed) <= reach {
+        return Ok(());
+    }
+    let fits: Vec<String> = LengthUnit::ALL
+        .into_iter()
+        .filter(|u| *u != unit && u.to_si(typed) <= reach)
+        .map(|u| {
+            format!(
+                "in {} it would be {} {}",
+                u.name(),
+                unit.from_si(u.to_si(typed)),
+                unit.name()
+            )
+        })
+        .collect();
+    Err(InputError::argument(
+        front.flag("--tool"),
+        format!(
+            "the working tool is {} {} from the flange, farther than the arm reaches ({} {}): the tool is given in the model's length unit, {}{}",
+            typed,
+            unit.name(),
+            significant(unit.from_si(reach)),
+            unit.name(),
+            unit.name(),
+            if fits.is_empty() {
+                String::new()
+            } else {
+                format!(" ({})", fits.join("; "))
+            }
+        ),
+    ))
 }
 
 /// The frame of `link` of the URDF `model` in `cal`'s flange frame.
@@ -101,7 +156,7 @@ fn link_frame(
         )));
     }
     let flange = Robot {
-        tool: Frame::identity(),
+        tool: cal.flange,
         ..cal.nominal.clone()
     };
     let in_flange = |q: &[f64]| -> IsometryMatrix3<f64> {

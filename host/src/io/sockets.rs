@@ -32,6 +32,14 @@ use crate::session::constraints::{DEFAULT_DISTANCE_STD, Distance};
 /// entered from its open side.
 pub const APPROACH_CONE_DEG: f64 = 60.0;
 
+/// How far a socket's stated centre may be from the true one, m: the file
+/// gives it to a few millimetres, and the plan seats the ball there with the
+/// nominal model, whose tool point misses by millimetres. A known distance
+/// may thus differ from its two centres' by twice this, and by no more: a
+/// larger difference is a wrong centre, a wrong name or a length in another
+/// unit.
+pub const CENTRE_UNCERTAINTY: f64 = 0.01;
+
 /// A socket: its name, its nominal centre (base frame, m) and the unit
 /// direction it is entered from.
 #[derive(Clone, Debug, PartialEq)]
@@ -197,9 +205,32 @@ fn distance(
             .map(|v| units.length_to_si(v))
             .ok_or_else(|| at(k, format!("`{}`: must be a positive number", cells[k].1)))
     };
+    let length = positive(3)?;
+    let centres = (sockets[a].centre - sockets[b].centre).norm();
+    if (length - centres).abs() > 2.0 * CENTRE_UNCERTAINTY {
+        let unit = units.length;
+        return Err(at(
+            3,
+            format!(
+                "{} {} stated between `{}` and `{}`, whose centres are {:.4} {} apart: a \
+                 distance may differ from its sockets' centres by {} {} at most (each centre to \
+                 {} {}); check the centres, the names and the unit",
+                cells[3].1,
+                unit.name(),
+                cells[1].1,
+                cells[2].1,
+                unit.from_si(centres),
+                unit.name(),
+                unit.from_si(2.0 * CENTRE_UNCERTAINTY),
+                unit.name(),
+                unit.from_si(CENTRE_UNCERTAINTY),
+                unit.name(),
+            ),
+        ));
+    }
     Ok(Distance {
         points: [a, b],
-        length: positive(3)?,
+        length,
         std: if cells.len() == 5 {
             positive(4)?
         } else {
@@ -246,6 +277,8 @@ mod tests {
             ("point,x,y,z\na,1,2,3\nb,1,2,4\ndistance,a,a,5\n", 4, 12),
             ("point,x,y,z,ax,ay,az\na,1,2,3,0,0,0\n", 2, 9),
             ("point,x,y,z\n3,1,2,3\n", 2, 1),
+            // Centres 300 mm apart, a distance of 900 mm: contradicts them.
+            ("point,x,y,z\na,0,0,0\nb,300,0,0\ndistance,a,b,900\n", 4, 14),
         ];
         for (text, line, column) in cases {
             let e = parse_sockets(text, "s.csv", &mm()).unwrap_err();
@@ -257,5 +290,18 @@ mod tests {
                 .line,
             0
         );
+    }
+
+    /// A known distance within twice a centre's uncertainty of its sockets'
+    /// centres is taken (the centres are given to a few millimetres); just
+    /// beyond it, refused.
+    #[test]
+    fn a_distance_is_checked_against_its_centres() {
+        let file = |d: f64| format!("point,x,y,z\na,0,0,0\nb,300,0,0\ndistance,a,b,{d}\n");
+        let within = 300.0 + 2e3 * CENTRE_UNCERTAINTY * 0.99;
+        let beyond = 300.0 - 2e3 * CENTRE_UNCERTAINTY * 1.01;
+        assert!(parse_sockets(&file(within), "s.csv", &mm()).is_ok());
+        let e = parse_sockets(&file(beyond), "s.csv", &mm()).unwrap_err();
+        assert!(e.message.contains("centres are 300.0000 mm apart"), "{e}");
     }
 }

@@ -55,7 +55,8 @@ use saphyr::{LoadableYamlNode, MarkedYaml, Scalar, YamlData};
 use crate::io::input_error::{InputError, MODEL_FILE, read_text};
 use crate::io::model_file::RobotModel;
 use crate::io::urdf::{
-    ChainSpec, Inertial, JointKind, Pose, Urdf, UrdfJoint, UrdfLink, convert::Converted, rpy,
+    ChainSpec, Inertial, JointKind, Pose, Urdf, UrdfJoint, UrdfLink,
+    convert::{Converted, to_frame},
 };
 
 /// The number of joints of a UR arm.
@@ -318,14 +319,6 @@ pub fn convert_dh(links: &[Link<f64>], file: &str) -> Result<Converted, InputErr
     urdf.convert(&ChainSpec::default())
 }
 
-/// `pose` as armcal's `xyz`/`rpy`.
-fn frame(pose: &Pose) -> Frame<f64> {
-    Frame {
-        xyz: pose.translation.vector,
-        rpy: Vector3::from(rpy(&pose.rotation)),
-    }
-}
-
 /// The model of the robot whose nominal model is `model` (of UR's form) and
 /// whose factory calibration is `deltas` (see the module header). `file`
 /// names the calibration.
@@ -333,8 +326,8 @@ pub fn import(model: &RobotModel, deltas: &DhDeltas, file: &str) -> Result<Robot
     let nominal = &model.robot;
     let converted = convert_dh(&calibrated_dh(nominal, deltas), file)?;
     let mut robot = converted.robot;
-    robot.base = frame(&(nominal.base.isometry() * robot.base.isometry()));
-    robot.tool = frame(&(robot.tool.isometry() * nominal.tool.isometry()));
+    robot.base = to_frame(&(nominal.base.isometry() * robot.base.isometry()));
+    robot.tool = to_frame(&(robot.tool.isometry() * nominal.tool.isometry()));
     robot.gravity = nominal.gravity;
     let tilted: Vec<usize> = (0..JOINTS).filter(|&k| converted.hayati[k]).collect();
     let joints: Vec<String> = tilted.iter().map(|k| (k + 1).to_string()).collect();
@@ -350,6 +343,8 @@ pub fn import(model: &RobotModel, deltas: &DhDeltas, file: &str) -> Result<Robot
         robot,
         prior: model.prior,
         tilted,
+        // The flange link of the chain, before the nominal model's tool.
+        flange: converted.flange,
     })
 }
 
@@ -419,12 +414,16 @@ fn angle_delta(x: f64, nominal: f64) -> f64 {
 /// the parameters just found before the next axis is expressed in it, so the
 /// chain of the written numbers ends on the calibrated axis 6 to rounding.
 /// Frame 6 (the flange) is on axis 6 (`a_6 = α_6 = 0` as on every UR): origin
-/// at the foot of the perpendicular from the model's measured point, x the
-/// measured frame's x made perpendicular. The rest of the measured frame is
-/// [`UrExport::tcp`].
-pub fn export_deltas(robot: &Robot<f64>, nominal: &Robot<f64>) -> UrExport {
-    let base = robot.base.isometry();
-    let (joints, tip) = joint_frames(robot);
+/// at the foot of the perpendicular from the origin of `arm`'s tool, x that
+/// tool's x made perpendicular. `arm` is the calibrated chain with its tool
+/// at the robot's flange ([`crate::apply::working_tool`]: the measured tool's
+/// offset left out), `measured` the same chain with the measured (or working)
+/// tool, whose frame in the flange is [`UrExport::tcp`]: the measured point's
+/// offset goes to the TCP, never into the arm's links.
+pub fn export_deltas(arm: &Robot<f64>, measured: &Robot<f64>, nominal: &Robot<f64>) -> UrExport {
+    let base = arm.base.isometry();
+    let (joints, tip) = joint_frames(arm);
+    let (_, measured) = joint_frames(measured);
     let lines = axis_lines(&Pose::identity(), &joints);
     let ur_base = ur_base_frame(lines[0]);
     let mut at = ur_base;
@@ -488,7 +487,7 @@ pub fn export_deltas(robot: &Robot<f64>, nominal: &Robot<f64>) -> UrExport {
     UrExport {
         deltas: DhDeltas { theta, a, d, alpha },
         base: base * ur_base,
-        tcp: at.inverse() * tip,
+        tcp: at.inverse() * measured,
         ur_base,
         flange: at,
         links,
@@ -553,6 +552,93 @@ pub fn joint_frames(robot: &Robot<f64>) -> (Vec<Pose>, Pose) {
     (joints, f * robot.tool.isometry())
 }
 
+/// The flange in the UR base frame at joint readings `q`, as the controller
+/// computes it from the nominal D-H of its type and the factory calibration
+/// `deltas`: `Π Rot_z(θ_k + δθ_k + q_k) Trans_z(d_k + δd_k) Trans_x(a_k + δa_k)
+/// Rot_x(α_k + δα_k)`, written out here apart from armcal's own kinematics.
+pub fn dh_flange(nominal: &Robot<f64>, deltas: &DhDeltas, q: &[f64; JOINTS]) -> Pose {
+    let mut t = Pose::identity();
+    for (k, l) in nominal.links.iter().enumerate().take(JOINTS) {
+        let theta = l.theta + deltas.theta[k] + q[k];
+        let (d, a, alpha) = (
+            l.s + deltas.d[k],
+            l.a + deltas.a[k],
+            l.alpha + deltas.alpha[k],
+        );
+        let (st, ct) = theta.sin_cos();
+        let (sa, ca) = alpha.sin_cos();
+        let m = nalgebra::Matrix3::new(ct, -st * ca, st * sa, st, ct * ca, -ct * sa, 0.0, sa, ca);
+        let link = Pose::from_parts(
+            nalgebra::Translation3::new(a * ct, a * st, d),
+            nalgebra::Rotation3::from_matrix_unchecked(m),
+        );
+        t *= link;
+    }
+    t
+}
+
+/// The flange (`wrist_3_link`) in `base_link_inertia` at joint readings `q`,
+/// as ur_description composes `ur_calibration`'s joint origins:
+/// `origin_1 Rot_z(q_1) ⋯ origin_6 Rot_z(q_6)`.
+pub fn description_flange(origins: &[Pose; JOINTS], q: &[f64; JOINTS]) -> Pose {
+    origins.iter().zip(q).fold(Pose::identity(), |t, (o, &qk)| {
+        t * o * nalgebra::Rotation3::from_axis_angle(&Vector3::z_axis(), qk)
+    })
+}
+
+/// Parses `ur_calibration`'s URDF-correction YAML (per joint of
+/// [`UR_DESCRIPTION_JOINTS`] `x, y, z, roll, pitch, yaw`, m and rad, under
+/// `kinematics:`) into the joint origins, as ur_description reads them
+/// (`Trans(xyz) Rot_z(yaw) Rot_y(pitch) Rot_x(roll)`); `file` names it in errors.
+pub fn parse_ur_description(text: &str, file: &str) -> Result<[Pose; JOINTS], InputError> {
+    let docs = MarkedYaml::load_from_str(text).map_err(|e| {
+        let m = e.marker();
+        InputError::new(
+            file,
+            m.line().max(1),
+            m.col() + 1,
+            format!("YAML syntax: {}", e.info()),
+        )
+    })?;
+    let refuse = |node: &MarkedYaml<'_>, why: String| {
+        let (l, c) = place(node);
+        InputError::new(file, l, c, why)
+    };
+    let Some(doc) = docs.first() else {
+        return Err(InputError::new(
+            file,
+            1,
+            1,
+            "empty file: expected `kinematics:`",
+        ));
+    };
+    let table = get(doc, "kinematics").unwrap_or(doc);
+    let mut origins = [Pose::identity(); JOINTS];
+    for (name, origin) in UR_DESCRIPTION_JOINTS.iter().zip(origins.iter_mut()) {
+        let joint =
+            get(table, name).ok_or_else(|| refuse(table, format!("missing joint '{name}'")))?;
+        let mut v = [0.0; 6];
+        for (key, x) in ["x", "y", "z", "roll", "pitch", "yaw"]
+            .iter()
+            .zip(v.iter_mut())
+        {
+            let node = get(joint, key)
+                .ok_or_else(|| refuse(joint, format!("'{name}': missing '{key}'")))?;
+            *x = match &node.data {
+                YamlData::Value(Scalar::FloatingPoint(f)) => f.into_inner(),
+                YamlData::Value(Scalar::Integer(n)) => *n as f64,
+                _ => return Err(refuse(node, format!("'{name}.{key}': not a number"))),
+            };
+        }
+        *origin = Frame {
+            xyz: Vector3::new(v[0], v[1], v[2]),
+            rpy: Vector3::new(v[3], v[4], v[5]),
+        }
+        .isometry();
+    }
+    Ok(origins)
+}
+
 /// The joints of ur_description, in order, as `ur_calibration` names them.
 pub const UR_DESCRIPTION_JOINTS: [&str; JOINTS] = [
     "shoulder",
@@ -598,7 +684,7 @@ pub fn ur_calibration_yaml(export: &UrExport, label: &str) -> String {
         .iter()
         .zip(ur_description_origins(export))
     {
-        let f = frame(&origin);
+        let f = to_frame(&origin);
         s += &format!(
             "  {name}:\n    x: {:?}\n    y: {:?}\n    z: {:?}\n    roll: {:?}\n    pitch: {:?}\n    yaw: {:?}\n",
             f.xyz.x, f.xyz.y, f.xyz.z, f.rpy.x, f.rpy.y, f.rpy.z
@@ -609,7 +695,7 @@ pub fn ur_calibration_yaml(export: &UrExport, label: &str) -> String {
 
 /// `p` as `xyz [..] m, rpy [..] rad`.
 fn pose_text(p: &Pose) -> String {
-    let f = frame(p);
+    let f = to_frame(p);
     format!(
         "xyz [{:?}, {:?}, {:?}] m, rpy [{:?}, {:?}, {:?}] rad",
         f.xyz.x, f.xyz.y, f.xyz.z, f.rpy.x, f.rpy.y, f.rpy.z
@@ -739,22 +825,49 @@ pub fn require_same_type(
             .map(|(p, z)| (to_ur * p, to_ur * z))
             .collect::<Vec<_>>()
     };
-    for (k, ((p, z), (q, w))) in axes(ours).into_iter().zip(axes(theirs)).enumerate() {
-        // The type's joint origin's distance to our axis, and the angle
-        // between the directions.
-        let off = (q - p).cross(&z).norm();
-        let turn = z.angle(&w);
-        if off > FACTORY_LENGTH || turn > FACTORY_ANGLE {
-            return Err(refuse(format!(
-                "its nominal (a factory-calibrated model) has joint {}'s axis {:.4} m from \
-                 {}'s joint origin and turned {:.4} rad from its axis (a factory calibration \
-                 moves an axis by a few mm and tens of mrad at most)",
-                k + 1,
-                off,
-                model.name,
-                turn
-            )));
-        }
+    let (ours, theirs) = (axes(ours), axes(theirs));
+    // The first joint whose axis is off, how far and how much turned.
+    let first_off = |ours: &[(Point3<f64>, Vector3<f64>)]| {
+        ours.iter()
+            .zip(&theirs)
+            .enumerate()
+            .map(|(k, ((p, z), (q, w)))| (k, (q - p).cross(z).norm(), z.angle(w)))
+            .find(|&(_, off, turn)| off > FACTORY_LENGTH || turn > FACTORY_ANGLE)
+    };
+    let Some((k, off, turn)) = first_off(&ours) else {
+        return Ok(());
+    };
+    // A chain read from another base link than UR's base frame (a URDF's
+    // `world` or `base_link`: turned about axis 1 from `base_link_inertia`,
+    // or raised along it) has every axis where the type has it once moved
+    // along and turned about axis 1 (axis 2 is across axis 1 on every UR:
+    // its direction gives the turn, its height the shift). Only a turn
+    // beyond what a factory calibration makes tells that apart from another
+    // type (the UR10's and UR10e's shoulders differ by a shift alone).
+    let ((p2, z2), (q2, w2)) = (ours[1], theirs[1]);
+    let about = w2.y.atan2(w2.x) - z2.y.atan2(z2.x);
+    let turned = nalgebra::Rotation3::from_axis_angle(&Vector3::z_axis(), about);
+    let along = q2.z - (turned * p2).z;
+    let realigned: Vec<_> = ours
+        .iter()
+        .map(|(p, z)| (turned * p + Vector3::z() * along, turned * z))
+        .collect();
+    if angle_delta(about, 0.0).abs() > FACTORY_ANGLE && first_off(&realigned).is_none() {
+        return Err(refuse(format!(
+            "its chain starts {along:.4} m along axis 1 from UR's base frame and turned \
+             {:.4} rad about it (joint {}'s axis is {off:.4} m from {}'s joint origin): a \
+             URDF chain must start at UR's base frame, ur_description's `base_link_inertia`: \
+             identify with `--base-link base_link_inertia`",
+            angle_delta(about, 0.0),
+            k + 1,
+            model.name,
+        )));
     }
-    Ok(())
+    Err(refuse(format!(
+        "its nominal (not in UR's D-H form: a URDF or a factory-calibrated model) has joint \
+         {}'s axis {off:.4} m from {}'s joint origin and turned {turn:.4} rad from its axis (a \
+         factory calibration moves an axis by a few mm and tens of mrad at most)",
+        k + 1,
+        model.name,
+    )))
 }

@@ -4,8 +4,8 @@
 //! errors and the joints whose link carries a tilt. [`crate::io::model_file`]
 //! reads it from a model file, a URDF or a built-in name.
 
-use armcal_shared::Robot;
 use armcal_shared::units::Units;
+use armcal_shared::{Frame, Robot};
 
 use crate::session::prior::Prior;
 
@@ -32,6 +32,12 @@ pub struct RobotModel {
     /// their `β`; a model file has none (`armcal diagnose` adds tilts as it
     /// finds them).
     pub tilted: Vec<usize>,
+    /// The robot's flange in the last link's frame `M`, SI: the frame a
+    /// working tool (`--tool`, `with_tool`) is given in. Identity for a model
+    /// file, whose `[tool]` is in frame `M`; the tip link's frame for a URDF
+    /// (before `--tip-point`); UR's flange (D-H frame 6) for a UR with its
+    /// factory calibration.
+    pub flange: Frame<f64>,
 }
 
 impl RobotModel {

@@ -264,3 +264,48 @@ fn a_socket_plan_is_a_session_file_to_measure() {
     );
     assert!(!d.join("q.csv").exists());
 }
+
+/// A model without joint limits (the built-in UR10e) reaches through the
+/// table it stands on: by default the plan keeps the flange (the last link's
+/// frame) and the tool point above the robot's base plane, and says so;
+/// `--above` sets the floor instead (a robot on a pedestal may reach below).
+#[test]
+fn a_plan_stays_above_the_base_plane_of_a_model_without_limits() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let model = armcal::io::model_file::load_model("ur10e").unwrap();
+    let flange = armcal_shared::Robot {
+        tool: armcal_shared::Frame::identity(),
+        ..model.robot.clone()
+    };
+    let heights = |file: &str| -> Vec<f64> {
+        let text = std::fs::read_to_string(d.join(file)).unwrap();
+        let rows = armcal::io::measurements::parse_joints(&text, file, &model.robot, &model.units)
+            .unwrap();
+        rows.rows
+            .iter()
+            .map(|r| flange.forward(&r.q).unwrap().translation.vector.z)
+            .collect()
+    };
+    let out = succeeds(
+        d,
+        &[
+            "plan", "--model", "ur10e", "--poses", "30", "--out", "p.csv",
+        ],
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("kept above the robot's base plane"),
+        "{stdout}"
+    );
+    let lowest = heights("p.csv").into_iter().fold(f64::INFINITY, f64::min);
+    assert!(lowest >= 0.0, "a flange {lowest} m below the base plane");
+    // With a floor given, that floor: the flange may go below the base.
+    succeeds(
+        d,
+        &[
+            "plan", "--model", "ur10e", "--poses", "30", "--above", "-2", "--out", "q.csv",
+        ],
+    );
+    assert!(heights("q.csv").iter().any(|&z| z < 0.0));
+}

@@ -12,9 +12,10 @@
 
 use std::path::{Path, PathBuf};
 
+use armcal::apply::working_tool::WorkingTool;
 use armcal::io::model_file::{RobotModel, load_model};
 use armcal::io::ur;
-use armcal_shared::Robot;
+use armcal_shared::{Calibration, Frame, Robot};
 use nalgebra::Matrix4;
 use saphyr::{LoadableYamlNode, Yaml};
 
@@ -109,6 +110,17 @@ fn ur_fk(nominal: &Robot<f64>, set: &[[f64; 6]; 4], q: &[f64]) -> Matrix4<f64> {
         );
     }
     t
+}
+
+/// The calibrated arm of `cal` with its tool at the robot's flange (the
+/// measured tool's offset left out: what a UR's kinematics hold).
+fn arm(cal: &Calibration) -> Robot<f64> {
+    WorkingTool {
+        frame: Frame::identity(),
+    }
+    .apply(cal)
+    .calibration
+    .calibrated()
 }
 
 /// Random readings in [−π, π]⁶ (a fixed sequence).
@@ -231,7 +243,7 @@ fn ur_factory_export_round_trips() {
     let dir = tempfile::tempdir().unwrap();
     for (i, set) in real_sets().iter().enumerate() {
         let model = import(dir.path(), &nominal, "set.yaml", &yaml(set, false));
-        let exported = ur::export_deltas(&model.robot, &nominal.robot);
+        let exported = ur::export_deltas(&model.robot, &model.robot, &nominal.robot);
         assert!(
             exported.tcp.translation.vector.norm() < 1e-12
                 && (exported.tcp.rotation.matrix() - nalgebra::Matrix3::identity()).norm() < 1e-12,
@@ -291,14 +303,14 @@ fn ur_factory_identify_then_export_deltas() {
     for j in ur::UR_DESCRIPTION_JOINTS {
         assert!(doc[j]["yaw"].as_floating_point().is_some(), "{written}");
     }
-    let cal =
+    let loaded =
         armcal::apply::predict::load_calibration(dir.path().join("fit.cal").to_str().unwrap())
-            .unwrap()
-            .calibrated();
+            .unwrap();
+    let cal = loaded.calibrated();
     let nominal = load_model("ur10e").unwrap();
     let back =
         ur::load_factory(&nominal, dir.path().join("deltas.yaml").to_str().unwrap()).unwrap();
-    let exported = ur::export_deltas(&cal, &nominal.robot);
+    let exported = ur::export_deltas(&arm(&loaded), &cal, &nominal.robot);
     let mut w = 0.0f64;
     for q in configurations(500) {
         let want = cal.forward(&q).unwrap();
@@ -322,7 +334,10 @@ fn ur_factory_ur_calibration_yaml_is_the_chain() {
     let dir = tempfile::tempdir().unwrap();
     for (i, set) in real_sets().iter().enumerate() {
         let model = import(dir.path(), &nominal, "set.yaml", &yaml(set, false));
-        let text = ur::ur_calibration_yaml(&ur::export_deltas(&model.robot, &nominal.robot), "t");
+        let text = ur::ur_calibration_yaml(
+            &ur::export_deltas(&model.robot, &model.robot, &nominal.robot),
+            "t",
+        );
         let doc = &Yaml::load_from_str(&text).unwrap()[0]["kinematics"];
         let origins: Vec<Matrix4<f64>> = ur::UR_DESCRIPTION_JOINTS
             .iter()
@@ -363,7 +378,11 @@ fn ur_factory_nominal_gives_ur_description_defaults() {
         "zero.yaml",
         &yaml(&[[0.0; 6]; 4], false),
     );
-    let origins = ur::ur_description_origins(&ur::export_deltas(&model.robot, &nominal.robot));
+    let origins = ur::ur_description_origins(&ur::export_deltas(
+        &model.robot,
+        &model.robot,
+        &nominal.robot,
+    ));
     let h = std::f64::consts::FRAC_PI_2;
     let pi = std::f64::consts::PI;
     let want: [([f64; 3], [f64; 3]); 6] = [
@@ -394,7 +413,10 @@ fn ur_factory_ur_calibration_yaml_has_the_shape_of_real_ones() {
     let nominal = load_model("ur10").unwrap();
     let dir = tempfile::tempdir().unwrap();
     let model = import(dir.path(), &nominal, "z.yaml", &yaml(&[[0.0; 6]; 4], false));
-    let ours = ur::ur_calibration_yaml(&ur::export_deltas(&model.robot, &nominal.robot), "t");
+    let ours = ur::ur_calibration_yaml(
+        &ur::export_deltas(&model.robot, &model.robot, &nominal.robot),
+        "t",
+    );
     let shape = |text: &str| -> Vec<(String, Vec<String>)> {
         let doc = &Yaml::load_from_str(text).unwrap()[0]["kinematics"];
         doc.as_mapping()
@@ -494,4 +516,218 @@ fn ur_export_refuses_another_robots_calibration() {
             }
         }
     }
+}
+
+/// The six numbers of a `xyz [..] m, rpy [..] rad` comment line that starts
+/// with `label` in a written UR file, as a pose.
+fn comment_pose(text: &str, label: &str) -> nalgebra::IsometryMatrix3<f64> {
+    let line = text
+        .lines()
+        .find(|l| l.starts_with(label))
+        .unwrap_or_else(|| panic!("no line {label:?} in {text}"));
+    let v: Vec<f64> = line[label.len()..]
+        .split(|c: char| !(c.is_ascii_digit() || "-+.e".contains(c)))
+        .filter_map(|t| t.parse().ok())
+        .collect();
+    assert_eq!(v.len(), 6, "{line}");
+    Frame {
+        xyz: nalgebra::Vector3::new(v[0], v[1], v[2]),
+        rpy: nalgebra::Vector3::new(v[3], v[4], v[5]),
+    }
+    .isometry()
+}
+
+/// The largest difference between the motions of two chains of frames over
+/// the same configurations: `A(q_0)⁻¹ A(q_i)` against `B(q_0)⁻¹ B(q_i)`,
+/// translation (m) and rotation matrix entries. Frame-free: the UR base
+/// frame a file's chain runs from need not be known.
+fn motion_difference(a: &[Matrix4<f64>], b: &[Matrix4<f64>]) -> f64 {
+    let rel = |m: &[Matrix4<f64>], i: usize| m[0].try_inverse().unwrap() * m[i];
+    (1..a.len())
+        .map(|i| (rel(a, i) - rel(b, i)).abs().max())
+        .fold(0.0, f64::max)
+}
+
+/// An SMR off the flange is the TCP, never the arm's links: a UR10e
+/// measured at an SMR 50 mm off its flange along x, along y, along z and
+/// 30 mm off the axis and 50 mm out, from a model file (standard D-H), from
+/// the UR10e URDF (modified D-H, the SMR at `--tip-point` on `tool0`) and
+/// from the UR10e with a factory calibration; 150 simulated positions,
+/// `identify`, `export --format ur-deltas`. Read back with UR's own D-H
+/// (written out in this file) from the YAML parsed here: the file's flange
+/// moves as the calibrated flange does (to 1 µm over 40 configurations) and
+/// the flange with the TCP the file states moves as the measured point does;
+/// the last link's `d` is the robot's own (the nominal's, or its factory
+/// calibration's, to 1 µm: the SMR's 50 mm do not go there) and the stated TCP is the SMR's offset to within its
+/// nest's simulated error (±1 mm per axis: √3 mm, and 0.1 mm for the fit).
+#[test]
+fn ur_export_puts_the_measured_point_in_the_tcp() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("factory.yaml"), yaml(&real_sets()[2], true)).unwrap();
+    let urdf = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/urdf/ur10e_robot.urdf");
+    let urdf = urdf.to_str().unwrap();
+    let toml =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../models/ur10e.toml"))
+            .unwrap();
+    let nominal = load_model("ur10e").unwrap();
+    let smrs = [
+        [0.05, 0.0, 0.0],
+        [0.0, 0.05, 0.0],
+        [0.0, 0.0, 0.05],
+        [0.03, 0.0, 0.05],
+    ];
+    // The robot's own delta of the last link's `d`: none but the factory
+    // calibration's.
+    let mut cases: Vec<(String, Vec<String>, [f64; 3], f64)> = Vec::new();
+    for smr in smrs {
+        let file = format!("smr{}.toml", cases.len());
+        std::fs::write(
+            dir.path().join(&file),
+            format!(
+                "{toml}\n[tool]\nxyz = [{}, {}, {}]\n",
+                smr[0], smr[1], smr[2]
+            ),
+        )
+        .unwrap();
+        cases.push((
+            format!("model file, SMR {smr:?}"),
+            vec!["--model".into(), file.clone()],
+            smr,
+            0.0,
+        ));
+        if smr == smrs[3] {
+            cases.push((
+                format!("factory calibration, SMR {smr:?}"),
+                vec![
+                    "--model".into(),
+                    file,
+                    "--factory-calibration".into(),
+                    "factory.yaml".into(),
+                ],
+                smr,
+                real_sets()[2][2][5],
+            ));
+        }
+    }
+    for smr in [smrs[0], smrs[3]] {
+        cases.push((
+            format!("URDF, SMR {smr:?} on tool0"),
+            vec![
+                "--model".into(),
+                urdf.into(),
+                "--base-link".into(),
+                "base_link_inertia".into(),
+                "--tip-link".into(),
+                "tool0".into(),
+                "--tip-point".into(),
+                format!("{},{},{}", smr[0], smr[1], smr[2]),
+            ],
+            smr,
+            0.0,
+        ));
+    }
+    let qs = configurations(40);
+    for (name, model, smr, d6) in &cases {
+        let model: Vec<&str> = model.iter().map(String::as_str).collect();
+        let run = |verb: &str, rest: &[&str]| {
+            let mut args = vec![verb];
+            args.extend(&model);
+            args.extend(rest);
+            succeeds(dir.path(), &args);
+        };
+        run("simulate", &["--poses", "150", "--out", "smr.csv"]);
+        run(
+            "identify",
+            &["--data", "smr.csv", "--out", "smr.cal", "--quiet"],
+        );
+        succeeds(
+            dir.path(),
+            &[
+                "export",
+                "--calibration",
+                "smr.cal",
+                "--model",
+                "ur10e",
+                "--format",
+                "ur-deltas",
+                "--out",
+                "d.yaml",
+            ],
+        );
+        let text = std::fs::read_to_string(dir.path().join("d.yaml")).unwrap();
+        let doc = &Yaml::load_from_str(&text).unwrap()[0]["kinematics"];
+        let set: [[f64; 6]; 4] = ur::KEYS.map(|k| {
+            let v = doc[k].as_vec().unwrap();
+            std::array::from_fn(|i| v[i].as_floating_point().unwrap())
+        });
+        let tcp = comment_pose(&text, "# measured frame (TCP) in the flange:").to_homogeneous();
+        let cal =
+            armcal::apply::predict::load_calibration(dir.path().join("smr.cal").to_str().unwrap())
+                .unwrap();
+        let chain = |r: &Robot<f64>| -> Vec<Matrix4<f64>> {
+            qs.iter()
+                .map(|q| r.forward(q).unwrap().to_homogeneous())
+                .collect()
+        };
+        let file: Vec<Matrix4<f64>> = qs.iter().map(|q| ur_fk(&nominal.robot, &set, q)).collect();
+        let file_tcp: Vec<Matrix4<f64>> = file.iter().map(|f| f * tcp).collect();
+        let flange = motion_difference(&file, &chain(&arm(&cal)));
+        let measured = motion_difference(&file_tcp, &chain(&cal.calibrated()));
+        assert!(
+            flange < 1e-6 && measured < 1e-6,
+            "{name}: flange {flange}, TCP {measured}"
+        );
+        assert!(
+            (set[2][5] - d6).abs() < 1e-6,
+            "{name}: delta_d6 {}, the robot's {d6}",
+            set[2][5]
+        );
+        let off = (tcp.fixed_view::<3, 1>(0, 3) - nalgebra::Vector3::from(*smr)).norm();
+        assert!(
+            off < 3f64.sqrt() * 1e-3 + 1e-4,
+            "{name}: TCP {off} m from the SMR"
+        );
+    }
+}
+
+/// A calibration read from the UR10e URDF from its root (`world`: the arm
+/// mounted, turned about its first axis from UR's base frame) cannot be
+/// exported against the UR10e: the refusal names the base link that works,
+/// and with it the export is made.
+#[test]
+fn ur_export_of_a_urdf_names_the_base_link_that_works() {
+    let dir = tempfile::tempdir().unwrap();
+    let urdf = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/urdf/ur10e_robot.urdf");
+    let urdf = urdf.to_str().unwrap();
+    for (base, cal) in [(None, "w.cal"), (Some("base_link_inertia"), "b.cal")] {
+        let mut model = vec!["--model", urdf];
+        model.extend(base.map(|b| ["--base-link", b]).into_iter().flatten());
+        let mut args = vec!["simulate"];
+        args.extend(&model);
+        args.extend(["--poses", "60", "--out", "s.csv"]);
+        succeeds(dir.path(), &args);
+        let mut args = vec!["identify"];
+        args.extend(&model);
+        args.extend(["--data", "s.csv", "--out", cal, "--quiet"]);
+        succeeds(dir.path(), &args);
+    }
+    let export = |cal: &'static str| {
+        [
+            "export",
+            "--calibration",
+            cal,
+            "--model",
+            "ur10e",
+            "--format",
+            "ur-deltas",
+            "--out",
+            "d.yaml",
+        ]
+    };
+    refused(
+        dir.path(),
+        &export("w.cal"),
+        &["--calibration", "turned", "--base-link base_link_inertia"],
+    );
+    succeeds(dir.path(), &export("b.cal"));
 }

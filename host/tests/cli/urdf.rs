@@ -885,3 +885,105 @@ fn bad_urdfs_are_refused_with_their_place() {
         &["small.urdf:4:3: ", "branches", "--tip-link"],
     );
 }
+
+/// `--tool` of a URDF model is in the URDF's own frame of the tip link: the
+/// UR10e read with its default chain (world to `wrist_3_link`, whose frame
+/// is the flange face, 116.55 mm out from where the model's last frame sits,
+/// at the crossing of the wrist axes), an SMR measured 50 mm out on it. The
+/// calibration `identify` writes carries that flange; `predict --tool X,Y,Z`
+/// of its nominal puts the working tool at the URDF's `wrist_3_link ·
+/// (X, Y, Z)` and `--tool 0,0,0` at `tool0` (the same origin), by the
+/// independent evaluation of the joint origins, to 1e-12 m at 200
+/// configurations.
+#[test]
+fn a_working_tool_of_a_urdf_model_is_in_its_tip_links_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let path = urdf_file("ur10e_robot.urdf");
+    let file = path.to_str().unwrap();
+    let chain = ChainSpec {
+        tip_point: Some(Vector3::new(0.0, 0.0, 0.05)),
+        ..ChainSpec::default()
+    };
+    let model = load_model_with(file, &chain).unwrap();
+    // The flange is 116.55 mm from the model's last frame, on its axis.
+    let flange = model.flange.isometry();
+    assert!(
+        (flange.translation.vector.norm() - 0.11655).abs() < 1e-9,
+        "{flange}"
+    );
+    // What identify writes carries the flange.
+    succeeds(
+        d,
+        &[
+            "simulate",
+            "--model",
+            file,
+            "--tip-point",
+            "0,0,0.05",
+            "--poses",
+            "60",
+            "--out",
+            "s.csv",
+        ],
+    );
+    succeeds(
+        d,
+        &[
+            "identify",
+            "--model",
+            file,
+            "--tip-point",
+            "0,0,0.05",
+            "--data",
+            "s.csv",
+            "--out",
+            "s.cal",
+            "--quiet",
+        ],
+    );
+    let written =
+        armcal::apply::predict::load_calibration(d.join("s.cal").to_str().unwrap()).unwrap();
+    assert_eq!(written.flange, model.flange);
+    // The nominal calibration with that flange, predicted with working tools.
+    let mut cal = armcal_shared::Calibration::nominal(model.robot.clone(), false, model.units);
+    cal.flange = model.flange;
+    std::fs::write(d.join("n.cal"), cal.to_bytes().unwrap()).unwrap();
+    let qs = configurations(&model.robot);
+    let mut joints = String::from("q1,q2,q3,q4,q5,q6\n");
+    for q in &qs {
+        let row: Vec<String> = q.iter().map(|v| format!("{v:?}")).collect();
+        joints += &(row.join(",") + "\n");
+    }
+    std::fs::write(d.join("j.csv"), joints).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    let joints = reference(&text);
+    for (tool, link) in [
+        ([0.0, 0.0, 0.0], "tool0"),
+        ([0.01, -0.02, 0.25], "wrist_3_link"),
+    ] {
+        let flag = format!("{},{},{}", tool[0], tool[1], tool[2]);
+        let out = succeeds(
+            d,
+            &[
+                "predict",
+                "--calibration",
+                "n.cal",
+                "--joints",
+                "j.csv",
+                "--tool",
+                &flag,
+            ],
+        );
+        let points = predicted_points(&String::from_utf8(out.stdout).unwrap());
+        let worst = qs
+            .iter()
+            .zip(&points)
+            .map(|(q, p)| {
+                let want = reference_fk(&joints, "world", link, q) * Point3::from(tool);
+                (want - p).norm()
+            })
+            .fold(0.0, f64::max);
+        assert!(worst < 1e-12, "--tool {flag} against {link}: {worst} m");
+    }
+}

@@ -113,18 +113,25 @@ fn mukca_panda_6_hand_commands_hold_nothing_of_the_ball_mount() {
     // The note names the ball's offset as the measured tool's, not applied,
     // and what the socket sessions cannot separate from it.
     for needle in [
-        "working tool at (0, 0, 0.2104) m",
+        // The hand's TCP in the flange frame, ball_link's (the tip link the
+        // calibration was read with): the URDF's ball_joint reversed.
+        "working tool at (-0.000077737, 0.00004214, -0.030128298) m",
         "tool.x, tool.y, tool.z",
         "is not applied to it",
         "theta7, s7 move the measured tool rigidly with the flange",
     ] {
         assert!(note.contains(needle), "{needle:?} not in {note}");
     }
-    // The same tool given as a frame in the flange frame: the same commands.
+    // The same tool given as a frame in the flange frame, the tip link's
+    // (ball_link; the hand's TCP is the URDF's ball_joint reversed): the same
+    // commands.
     compensate(
         d,
         "urdf-ball.cal",
-        &["--tool", "0,0,0.2104"],
+        &[
+            "--tool",
+            "-7.773732033005863e-05,4.214022515884392e-05,-0.030128297908475325",
+        ],
         "hand-frame.csv",
     );
     let frame_change = largest_difference(
@@ -183,6 +190,33 @@ fn a_working_tool_that_is_not_the_arms_is_refused() {
     run(
         &["--tool-link", "panda_hand_tcp", "--model", "ur5e"],
         &["--tool-link", "URDF"],
+    );
+    // A 250 mm tool typed in mm on a metre model: 250 m, farther from the
+    // flange than the arm reaches (the Panda's links sum to 1.286 m); the unit it
+    // fits in is named.
+    run(
+        &["--tool", "0,0,250"],
+        &[
+            "--tool",
+            "250 m from the flange, farther than the arm reaches",
+            "in mm it would be 0.25 m",
+        ],
+    );
+    // Export alike: no 250 m link is written.
+    refused(
+        d,
+        &[
+            "export",
+            "--calibration",
+            "ball.cal",
+            "--format",
+            "urdf",
+            "--tool",
+            "0,0,250",
+            "--out",
+            "x.urdf",
+        ],
+        &["--tool", "in mm it would be 0.25 m"],
     );
 }
 

@@ -241,6 +241,7 @@ pub fn identify(
         None => full::residual_rms(&calibrated, observations(data)),
     };
     let mut calibration = Calibration::nominal(nominal.clone(), orientation, model.units);
+    calibration.flange = model.flange;
     calibration.ranges = Some(crate::io::measurements::ranges(&data.poses));
     // What the prior's cross-validation measured of the fit written.
     calibration.held_out = prior.as_ref().and_then(PriorChoice::held_out);

@@ -101,6 +101,10 @@ pub struct PlanOptions {
     pub margin: f64,
     /// Where the tool point must stay.
     pub cell: Cell,
+    /// Whether the flange (the last link's frame) and the tool point must
+    /// stay above the robot's base plane (`z ≥ 0` in its base frame): a
+    /// model without joint limits reaches through the table it stands on.
+    pub above_base: bool,
     /// The prior on the D-H errors `identify` will fit with (the model's).
     pub prior: Prior,
     /// How each pose is visited: once, or from both sides (for backlash).
@@ -127,6 +131,7 @@ impl Default for PlanOptions {
             workspace: 2_000,
             margin: 0.05,
             cell: Cell::ANYWHERE,
+            above_base: false,
             prior: Prior::default(),
             visits: Visits::Once,
             compliance: false,
@@ -672,12 +677,8 @@ fn pool(
             &drawn
         }
     };
-    let kinematics = robot.prepare();
-    let kept: Vec<Vec<f64>> = given
-        .iter()
-        .filter(|q| in_cell(&kinematics, q, &options.cell))
-        .cloned()
-        .collect();
+    let bounds = Bounds::new(robot, options);
+    let kept: Vec<Vec<f64>> = given.iter().filter(|q| bounds.hold(q)).cloned().collect();
     if kept.len() < options.poses {
         return Err(PlanError::TooFewCandidates {
             found: kept.len(),
@@ -690,11 +691,49 @@ fn pool(
     })
 }
 
-/// Whether the tool point of `kinematics` at `q` keeps within `cell`.
-fn in_cell(kinematics: &armcal_shared::Prepared<f64>, q: &[f64], cell: &Cell) -> bool {
-    kinematics
-        .forward(q)
-        .is_ok_and(|t| cell.holds(&Point3::from(t.translation.vector)))
+/// Where a pose may put the arm ([`PlanOptions::cell`],
+/// [`PlanOptions::above_base`]).
+struct Bounds<'a> {
+    /// The robot's tool point, measurement frame.
+    tool: armcal_shared::Prepared<f64>,
+    /// Its flange (the last link's frame), in its own base frame.
+    flange: armcal_shared::Prepared<f64>,
+    /// Its tool point in its own base frame.
+    tool_in_base: armcal_shared::Prepared<f64>,
+    cell: &'a Cell,
+    above_base: bool,
+}
+
+impl<'a> Bounds<'a> {
+    fn new(robot: &Robot<f64>, options: &'a PlanOptions) -> Self {
+        let in_base = Robot {
+            base: armcal_shared::Frame::identity(),
+            ..robot.clone()
+        };
+        let flange = Robot {
+            tool: armcal_shared::Frame::identity(),
+            ..in_base.clone()
+        };
+        Self {
+            tool: robot.prepare(),
+            flange: flange.prepare(),
+            tool_in_base: in_base.prepare(),
+            cell: &options.cell,
+            above_base: options.above_base,
+        }
+    }
+
+    /// Whether the arm at `q` keeps within them.
+    fn hold(&self, q: &[f64]) -> bool {
+        let in_cell = self
+            .tool
+            .forward(q)
+            .is_ok_and(|t| self.cell.holds(&Point3::from(t.translation.vector)));
+        let above = |k: &armcal_shared::Prepared<f64>| {
+            k.forward(q).is_ok_and(|t| t.translation.vector.z >= 0.0)
+        };
+        in_cell && (!self.above_base || (above(&self.flange) && above(&self.tool_in_base)))
+    }
 }
 
 /// The middle of the joint ranges of `poses`: where the path starts from.
@@ -722,7 +761,7 @@ fn measurement_rows(
     match options.visits {
         Visits::Once => (ordered.to_vec(), 0),
         Visits::BothSides => {
-            let kinematics = robot.prepare();
+            let bounds = Bounds::new(robot, options);
             let limits: Vec<[f64; 2]> = robot
                 .links
                 .iter()
@@ -733,9 +772,7 @@ fn measurement_rows(
                 .iter()
                 .map(|l| l.joint == armcal_shared::JointType::Prismatic)
                 .collect();
-            order::both_sides(ordered, &limits, &prismatic, |q| {
-                in_cell(&kinematics, q, &options.cell)
-            })
+            order::both_sides(ordered, &limits, &prismatic, |q| bounds.hold(q))
         }
     }
 }

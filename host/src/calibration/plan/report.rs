@@ -131,6 +131,13 @@ impl Plan {
             self.targets,
             self.path
         );
+        if options.above_base {
+            let _ = writeln!(
+                out,
+                "the flange and the tool point kept above the robot's base plane: the model \
+                 gives no joint limits (--above or --within sets the cell instead)"
+            );
+        }
         if let Some(plate) = &options.sockets {
             let counts: Vec<String> = plate
                 .sockets

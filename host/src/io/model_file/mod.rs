@@ -174,6 +174,7 @@ pub fn urdf_model(urdf: &urdf::Urdf, converted: urdf::convert::Converted) -> Rob
         robot: converted.robot,
         prior: Prior::default(),
         tilted,
+        flange: converted.flange,
     }
 }
 

@@ -131,6 +131,7 @@ impl ModelReader<'_> {
             robot,
             prior,
             tilted: Vec::new(),
+            flange: Frame::identity(),
         })
     }
 

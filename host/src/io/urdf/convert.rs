@@ -94,6 +94,9 @@ pub struct Converted {
     pub tip_in_last: Pose,
     /// The measured point in the tip link, m.
     pub tip_point: Vector3<f64>,
+    /// The tip link's frame (the flange a working tool is given in) in the
+    /// model's last frame `M`: the model's `tool` without the tip point.
+    pub flange: Frame<f64>,
     /// For each moving joint, whether its link uses Hayati's tilt (the axis
     /// before it nearly parallel).
     pub hayati: Vec<bool>,
@@ -119,7 +122,7 @@ fn frame_from(
 }
 
 /// `frame` as armcal's `xyz`/`rpy`.
-fn to_frame(frame: &Pose) -> Frame<f64> {
+pub fn to_frame(frame: &Pose) -> Frame<f64> {
     Frame {
         xyz: frame.translation.vector,
         rpy: Vector3::from(rpy(&frame.rotation)),
@@ -281,6 +284,7 @@ impl Urdf {
             .map_err(|e| InputError::new(&self.file, 1, 1, e.to_string()))?;
         robot.base = base;
         robot.tool = to_frame(&(last.inverse() * tip));
+        let flange = to_frame(&(last.inverse() * at * fixed));
         Ok(Converted {
             robot,
             chain,
@@ -288,6 +292,7 @@ impl Urdf {
             fixed_before,
             tip_in_last,
             tip_point,
+            flange,
             hayati,
         })
     }
