@@ -470,14 +470,15 @@ fn model_hash_tells_models_apart() {
     assert!(bytes.len() > HEADER_LEN);
 }
 
-/// Version 5: the expected held-out error and the geometric fallback are
-/// written and read back bit for bit; the fallback as a calibration of its own
-/// has the fallback's errors and held-out error and no effects.
+/// Version 6: the expected held-out error, the geometric fallback (since
+/// version 5) and the flange are written and read back bit for bit; the
+/// fallback as a calibration of its own has the fallback's errors and
+/// held-out error, no effects and the calibration's flange.
 #[test]
 fn the_held_out_error_and_the_geometric_fallback() {
     let cal = with_fallback();
     let bytes = bytes_of(&cal).unwrap();
-    assert_eq!(&bytes[8..10], &5u16.to_le_bytes());
+    assert_eq!(&bytes[8..10], &6u16.to_le_bytes());
     let read = Calibration::decode(&bytes).unwrap();
     assert_eq!(read, cal);
     assert_eq!(read.held_out, Some(3.7e-4));
@@ -490,6 +491,7 @@ fn the_held_out_error_and_the_geometric_fallback() {
         (geometric.nominal, geometric.units, geometric.ranges),
         (cal.nominal.clone(), cal.units, cal.ranges.clone())
     );
+    assert_eq!(geometric.flange, cal.flange);
     // Nothing to fall back to without a fallback.
     assert_eq!(sample().geometric_only(), None);
     // Unknown held-out errors are written and read as unknown.

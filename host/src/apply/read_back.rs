@@ -1,5 +1,12 @@
 //! An export read back as its target reads it, before it is written.
 //!
+//! A URDF is read by armcal's URDF reader (whose forward kinematics equals
+//! the joint origins composed as the URDF specification defines them, to
+//! 1e-15 m: `host/tests/cli/urdf.rs`): at [`CONFIGURATIONS`] joint vectors
+//! within the limits, the pose of the link at the measured point in the link
+//! at the measurement frame must be the calibration's measured frame, to
+//! [`POSITION`] and [`ANGLE`].
+//!
 //! A UR deltas file is evaluated with UR's own standard D-H (the type's
 //! nominal plus the deltas, [`ur::dh_flange`]), a `ur_calibration` file by
 //! composing its joint origins as ur_description does
@@ -20,11 +27,11 @@
 //! rounding of the composition (1e-13 m on the real factory calibrations,
 //! whose D-H `d` reach hundreds of metres).
 
-use armcal_shared::Robot;
+use armcal_shared::{Calibration, JointType, Robot};
 use nalgebra::Vector3;
 
 use crate::io::ur::{self, DhDeltas, JOINTS, UrExport};
-use crate::io::urdf::Pose;
+use crate::io::urdf::{self, ChainSpec, Pose};
 
 /// How far the file's flange or TCP may be from the calibration's, m.
 pub const POSITION: f64 = 1e-6;
@@ -124,4 +131,73 @@ pub fn check(
 /// and dot products, not acos).
 fn angle(u: &Vector3<f64>, v: &Vector3<f64>) -> f64 {
     u.cross(v).norm().atan2(u.dot(v))
+}
+
+/// Checks the URDF `exported` (written from `cal`, the geometry it holds)
+/// read back: the measured point's link in the measurement frame's link is
+/// `cal`'s measured frame at every configuration (see the module header);
+/// the worst difference, as a sentence, when it is not.
+pub fn check_urdf(exported: &urdf::export::Exported, cal: &Calibration) -> anyhow::Result<()> {
+    let parsed = urdf::parse(&exported.text, "the URDF written")
+        .map_err(|e| anyhow::anyhow!("the file written does not read back: {e}"))?;
+    let links = &exported.links;
+    let chain = ChainSpec {
+        base_link: Some(links.base.clone()),
+        tip_link: Some(links.measured_point.clone()),
+        tip_point: None,
+    };
+    let converted = parsed
+        .convert(&chain)
+        .map_err(|e| anyhow::anyhow!("the file written does not read back: {e}"))?;
+    let frame = parsed
+        .joints
+        .iter()
+        .find(|j| parsed.links[j.child].name == links.measurement_frame)
+        .map(|j| j.origin)
+        .ok_or_else(|| {
+            anyhow::anyhow!("the URDF written has no link {}", links.measurement_frame)
+        })?;
+    let calibrated = cal.calibrated();
+    let read = converted.robot;
+    let mut worst = (0.0f64, 0.0f64);
+    let angles = configurations();
+    for q in angles.iter().map(|a| within_limits(&calibrated, a)) {
+        let want = calibrated.forward(&q)?;
+        let got = frame.inverse() * read.forward(&q)?;
+        worst.0 = worst
+            .0
+            .max((got.translation.vector - want.translation.vector).norm());
+        worst.1 = worst
+            .1
+            .max((got.rotation.inverse() * want.rotation).angle());
+    }
+    if worst.0 > POSITION || worst.1 > ANGLE {
+        anyhow::bail!(
+            "the URDF read back does not give the calibrated robot: its measured point is {:.3e} m and {:.3e} rad from the calibration's, at worst over {CONFIGURATIONS} configurations (bounds {POSITION:e} m, {ANGLE:e} rad); nothing written",
+            worst.0,
+            worst.1
+        );
+    }
+    Ok(())
+}
+
+/// The joint vector of `robot` with `angles` (each in `(−π, π]`) mapped
+/// into each joint's limits (a prismatic joint without limits: within ±1 m).
+fn within_limits(robot: &Robot<f64>, angles: &[f64; JOINTS]) -> Vec<f64> {
+    robot
+        .links
+        .iter()
+        .enumerate()
+        .map(|(k, l)| {
+            // Six values cycle over longer chains, shifted per pass.
+            let u = (angles[k % JOINTS] / std::f64::consts::PI + 1.0 + 0.37 * (k / JOINTS) as f64)
+                .rem_euclid(2.0)
+                / 2.0;
+            match (l.limits, l.joint) {
+                (Some([lo, hi]), _) => lo + u * (hi - lo),
+                (None, JointType::Revolute) => std::f64::consts::PI * (2.0 * u - 1.0),
+                (None, JointType::Prismatic) => 2.0 * u - 1.0,
+            }
+        })
+        .collect()
 }

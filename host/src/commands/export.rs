@@ -149,6 +149,7 @@ fn urdf_export(
         }
         None => urdf::export::generate(cal, calibration),
     };
+    read_back::check_urdf(&exported, cal).map_err(|e| anyhow::anyhow!("{calibration}: {e}"))?;
     Ok(Exported {
         text: exported.text,
         held,

@@ -170,17 +170,20 @@ fn a_version_3_calibration_still_predicts_with_one_note() {
     let dir = tempfile::tempdir().unwrap();
     let model = armcal::io::model_file::load_model("ur10e").unwrap();
     let cal = Calibration::nominal(model.robot, false, model.units);
-    let v5 = cal.to_bytes().unwrap();
-    let payload = u32::from_le_bytes(v5[20..24].try_into().unwrap()) as usize;
-    // Version 3 is the version 5 payload without its last three fields.
+    let v6 = cal.to_bytes().unwrap();
+    let payload = u32::from_le_bytes(v6[20..24].try_into().unwrap()) as usize;
+    // Version 3 is the version 6 payload without its last four fields: the
+    // ranges, held-out error and fallback (`None`, a byte each) and the
+    // flange (the identity: six `f64` zeros).
+    let added = 3 + 6 * 8;
     assert_eq!(
-        v5[HEADER_LEN + payload - 3..HEADER_LEN + payload],
-        [0, 0, 0],
-        "ranges, held-out error and fallback: None, the last three bytes"
+        v6[HEADER_LEN + payload - added..HEADER_LEN + payload],
+        [0; 3 + 6 * 8],
+        "ranges, held-out error and fallback: None; the flange at the last link's frame"
     );
-    let mut v3 = v5[..HEADER_LEN + payload - 3].to_vec();
+    let mut v3 = v6[..HEADER_LEN + payload - added].to_vec();
     v3[8..10].copy_from_slice(&3u16.to_le_bytes());
-    v3[20..24].copy_from_slice(&((payload - 3) as u32).to_le_bytes());
+    v3[20..24].copy_from_slice(&((payload - added) as u32).to_le_bytes());
     let crc = crc32(&v3);
     v3.extend_from_slice(&crc.to_le_bytes());
     std::fs::write(dir.path().join("v3.bin"), &v3).unwrap();

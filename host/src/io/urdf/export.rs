@@ -70,6 +70,23 @@ pub struct Exported {
     pub text: String,
     /// What could not be expressed, for standard error.
     pub warnings: Vec<String>,
+    /// The chain's base link, the names given to the link added at the
+    /// measured point and to the one at the measurement frame: where a
+    /// reader of the file finds the calibration.
+    pub links: ExportedLinks,
+}
+
+/// The links of an exported URDF that hold the calibration.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ExportedLinks {
+    /// The robot's base link.
+    pub base: String,
+    /// The link at the calibrated measured point ([`MEASURED_POINT`] or a
+    /// unique variant).
+    pub measured_point: String,
+    /// The link at the measurement frame ([`MEASUREMENT_FRAME`] or a unique
+    /// variant), fixed to the base link.
+    pub measurement_frame: String,
 }
 
 /// `<origin xyz=".." rpy=".."/>` of `pose`, every number exact.
@@ -100,8 +117,9 @@ fn added_links(
     base: &str,
     frame: &Pose,
     taken: &dyn Fn(&str) -> bool,
-) -> String {
+) -> (String, ExportedLinks) {
     let mut out = String::new();
+    let mut names = Vec::new();
     for (name, parent, pose, what) in [
         (
             MEASURED_POINT,
@@ -117,13 +135,23 @@ fn added_links(
         ),
     ] {
         let name = unique(name, taken);
+        names.push(name.clone());
         let _ = write!(
             out,
             "  <!-- armcal: {what} -->\n  <link name=\"{name}\"/>\n  <joint name=\"{name}_joint\" type=\"fixed\">\n    <parent link=\"{parent}\"/>\n    <child link=\"{name}\"/>\n    {}\n  </joint>\n",
             origin(pose)
         );
     }
-    out
+    let [measured_point, measurement_frame]: [String; 2] =
+        names.try_into().expect("two links added");
+    (
+        out,
+        ExportedLinks {
+            base: base.to_owned(),
+            measured_point,
+            measurement_frame,
+        },
+    )
 }
 
 /// The calibration `cal` written into the URDF `urdf` its model was read from
@@ -175,16 +203,14 @@ pub fn into_urdf(
     }
     let tip_in_dh = before.inverse() * converted.tip_in_last;
     let taken = |n: &str| urdf.link(n).is_some();
-    edits.push((
-        urdf.robot_end..urdf.robot_end,
-        added_links(
-            &urdf.links[converted.chain.tip].name,
-            &(tip_in_dh.inverse() * calibrated.tool.isometry()),
-            &urdf.links[converted.chain.base].name,
-            &(frame0 * calibrated.base.isometry().inverse()),
-            &taken,
-        ),
-    ));
+    let (added, links) = added_links(
+        &urdf.links[converted.chain.tip].name,
+        &(tip_in_dh.inverse() * calibrated.tool.isometry()),
+        &urdf.links[converted.chain.base].name,
+        &(frame0 * calibrated.base.isometry().inverse()),
+        &taken,
+    );
+    edits.push((urdf.robot_end..urdf.robot_end, added));
     edits.sort_by_key(|(r, _)| r.start);
     let mut text = String::with_capacity(urdf.text.len() + 1024);
     let mut at = 0;
@@ -197,6 +223,7 @@ pub fn into_urdf(
     Ok(Exported {
         text,
         warnings: Vec::new(),
+        links,
     })
 }
 
@@ -289,16 +316,18 @@ pub fn generate(cal: &Calibration, label: &str) -> Exported {
         );
     }
     let last = format!("link{}", robot.dof());
-    out.push_str(&added_links(
+    let (added, links) = added_links(
         &last,
         &(after * robot.tool.isometry()),
         "base_link",
         &(frame0 * robot.base.isometry().inverse()),
         &|_| false,
-    ));
+    );
+    out.push_str(&added);
     out.push_str("</robot>\n");
     Exported {
         text: out,
         warnings,
+        links,
     }
 }
