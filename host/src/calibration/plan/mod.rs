@@ -205,6 +205,9 @@ pub struct Plan {
     pub compliance_held: Vec<(usize, String)>,
     /// The length of the measurement path, joint space (rad, m).
     pub path: f64,
+    /// The rows of `q` near a singularity of the arm, with how near
+    /// ([`conditioning`]: below [`NEAR_SINGULAR`]).
+    pub near_singular: Vec<(usize, f64)>,
     /// The candidates the plan was chosen from (within the limits and the cell).
     pub candidates: usize,
     /// The workspace configurations it was made for.
@@ -628,7 +631,14 @@ pub fn plan(
     };
     let (rows, one_sided) = measurement_rows(robot, &ordered, options);
     let all_rows: Vec<usize> = (0..rows.len()).collect();
+    let near_singular = rows
+        .iter()
+        .enumerate()
+        .filter_map(|(i, q)| conditioning(robot, q).map(|c| (i, c)))
+        .filter(|&(_, c)| c < NEAR_SINGULAR)
+        .collect();
     Ok(Plan {
+        near_singular,
         target_points: workspace.iter().map(tool_point).collect(),
         points: ordered.iter().map(tool_point).collect(),
         path: order::length(&rows, &all_rows),
@@ -644,6 +654,29 @@ pub fn plan(
         candidates: pool.q.len(),
         targets: workspace.len(),
     })
+}
+
+/// Below this [`conditioning`] a pose is near a singularity, and the plan
+/// says so: for the UR10e, its wrist axes 4 and 6 within about 1.5° of each
+/// other (`q5` near 0), where the controller turns joints 4 and 6 fast for a
+/// small motion of the flange.
+pub const NEAR_SINGULAR: f64 = 0.005;
+
+/// How far `q` is from a singularity of `robot`: the smallest singular value
+/// of its manipulator Jacobian over the largest, the rotation rows scaled by
+/// the arm's reach (so that a radian and a reach weigh alike), over the
+/// `min(6, M)` singular values. `None` where the chain cannot be evaluated.
+pub fn conditioning(robot: &Robot<f64>, q: &[f64]) -> Option<f64> {
+    let chain = robot.chain(q).ok()?;
+    let j = chain.manipulator_jacobian();
+    let reach = crate::session::measurements::reach(robot, std::iter::once(q)).max(1e-9);
+    let m = nalgebra::DMatrix::from_fn(6, robot.dof(), |r, c| {
+        let v = j.view()[(r, c)];
+        if r < 3 { v * reach } else { v }
+    });
+    let s = m.singular_values();
+    let largest = s.max();
+    (largest > 0.0).then(|| s.min() / largest)
 }
 
 /// The configurations `options` lets a plan choose among: for a socket
@@ -1238,5 +1271,28 @@ mod tests {
         )
         .unwrap();
         assert_identified(&fit, &p.identified, &format!("{fewest} poses"));
+    }
+
+    /// A UR10e with its wrist axes 4 and 6 aligned (`q5 = 0`) is at a
+    /// singularity; 1° away the conditioning is still below the bound, 2°
+    /// away above it, and at an ordinary pose (`q5` 69°) ten times above
+    /// (the conditioning grows as `sin q5` until the arm's own limits it:
+    /// 0.0033 at 1°, 0.0066 at 2°, 0.088 at 69°).
+    #[test]
+    fn a_pose_near_the_wrist_singularity_is_named() {
+        let robot = crate::io::model_file::load_model("ur10e").unwrap().robot;
+        let at = |q5: f64| conditioning(&robot, &[0.3, -1.2, 1.4, -0.7, q5, 0.4]).unwrap();
+        assert!(at(0.0) < 1e-12, "{}", at(0.0));
+        assert!(
+            at(1f64.to_radians()) < NEAR_SINGULAR,
+            "{}",
+            at(1f64.to_radians())
+        );
+        assert!(
+            at(2f64.to_radians()) > NEAR_SINGULAR,
+            "{}",
+            at(2f64.to_radians())
+        );
+        assert!(at(1.2) > 10.0 * NEAR_SINGULAR, "{}", at(1.2));
     }
 }

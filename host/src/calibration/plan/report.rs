@@ -54,6 +54,12 @@ impl Plan {
         out["rows"] = json!(self.q.len());
         out["both_sides"] = json!(options.visits == super::Visits::BothSides);
         out["one_sided"] = json!(self.one_sided);
+        out["near_singular"] = json!(
+            self.near_singular
+                .iter()
+                .map(|(row, c)| json!({"row": row + 1, "conditioning": c}))
+                .collect::<Vec<_>>()
+        );
         out["noise_mm"] = json!(options.position_noise * 1e3);
         out["orientation"] = json!(options.orientation);
         out["compliance"] = json!(
@@ -131,6 +137,21 @@ impl Plan {
             self.targets,
             self.path
         );
+        if !self.near_singular.is_empty() {
+            let rows: Vec<String> = self
+                .near_singular
+                .iter()
+                .map(|(row, c)| format!("{} ({c:.4})", row + 1))
+                .collect();
+            let _ = writeln!(
+                out,
+                "warning: {} near a singularity of the arm (its Jacobian's conditioning below {}): row{} {}; the controller may turn some joints fast there",
+                if rows.len() == 1 { "a pose" } else { "poses" },
+                super::NEAR_SINGULAR,
+                if rows.len() == 1 { "" } else { "s" },
+                rows.join(", ")
+            );
+        }
         if options.above_base {
             let _ = writeln!(
                 out,
