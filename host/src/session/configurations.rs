@@ -46,15 +46,31 @@ pub struct Configurations {
     pub rows: Vec<Vec<usize>>,
 }
 
+/// What two rows must share, besides the joints and context, to be one
+/// configuration.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Scope {
+    /// The session and the contact too: one configuration of one measured
+    /// point, whose repeats' spread is the pure error ([`Configurations::of`]).
+    Measurement,
+    /// Nothing else: one configuration of the robot, whatever point or
+    /// session measured it ([`Configurations::of_robot`]). A held-out figure
+    /// must hold it out whole: the same joints seen through another SMR, or
+    /// in another session, predict it as well as itself.
+    Robot,
+}
+
 /// When two rows are one configuration, for a robot's joint types.
 struct Sameness {
     /// Each joint's resolution: rad, or m for a prismatic joint.
     resolution: Vec<f64>,
+    scope: Scope,
 }
 
 impl Sameness {
-    fn of(robot: &Robot<f64>) -> Self {
+    fn of(robot: &Robot<f64>, scope: Scope) -> Self {
         Self {
+            scope,
             resolution: robot
                 .links
                 .iter()
@@ -73,8 +89,8 @@ impl Sameness {
             (None, None) => true,
             _ => false,
         };
-        a.contact == b.contact
-            && a.session == b.session
+        let measurement = self.scope == Scope::Measurement;
+        (!measurement || (a.contact == b.contact && a.session == b.session))
             && a.q.len() == b.q.len()
             && a.q
                 .iter()
@@ -103,7 +119,7 @@ pub fn distinct_equations_reach(
     needed: usize,
     equations: impl Fn(&Observation) -> usize,
 ) -> bool {
-    let sameness = Sameness::of(robot);
+    let sameness = Sameness::of(robot, Scope::Measurement);
     let mut kept: Vec<&Observation> = Vec::new();
     let mut total = 0;
     for o in data {
@@ -119,9 +135,32 @@ pub fn distinct_equations_reach(
 }
 
 impl Configurations {
-    /// The configurations of `data` for `robot`'s joint types.
+    /// The configurations of `data` for `robot`'s joint types: of one
+    /// measured point in one session each.
     pub fn of(robot: &Robot<f64>, data: &[Observation]) -> Self {
-        let sameness = Sameness::of(robot);
+        Self::partition(&Sameness::of(robot, Scope::Measurement), data)
+    }
+
+    /// The configurations of the robot in `data`, whatever point or session
+    /// measured them (several SMRs on the flange, sessions that overlap).
+    pub fn of_robot(robot: &Robot<f64>, data: &[Observation]) -> Self {
+        Self::partition(&Sameness::of(robot, Scope::Robot), data)
+    }
+
+    /// For each row, its configuration's index (configurations in order of
+    /// their first row).
+    pub fn index(&self, rows: usize) -> Vec<usize> {
+        let mut index = vec![0; rows];
+        for (c, members) in self.rows.iter().enumerate() {
+            for &i in members {
+                index[i] = c;
+            }
+        }
+        index
+    }
+
+    /// `data` partitioned by `sameness`.
+    fn partition(sameness: &Sameness, data: &[Observation]) -> Self {
         let resolution = &sameness.resolution;
         let same = |a: &Observation, b: &Observation| sameness.same(a, b);
         // Rows sorted by the joint that varies most; a repeat lies within the

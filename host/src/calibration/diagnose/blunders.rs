@@ -276,11 +276,15 @@ pub fn judge(lin: &Linearization, k: usize, flagged: &[Suspect], level: f64) -> 
         .filter(|&i| !excluded[i])
         .map(|i| lin.contacts[i])
         .collect();
+    let configurations: Vec<usize> = (0..n)
+        .filter(|&i| !excluded[i])
+        .map(|i| lin.configurations[i])
+        .collect();
     if flagged.is_empty() || others.len() < 2 {
         return Vec::new();
     }
     let k = k.clamp(2, others.len());
-    let mut folds = interleaved_folds(&others, k).into_iter();
+    let mut folds = interleaved_folds(&others, &configurations, k).into_iter();
     let roles = (0..n)
         .map(|i| {
             if excluded[i] {

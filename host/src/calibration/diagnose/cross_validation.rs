@@ -3,7 +3,8 @@
 //! Folds are interleaved (pose `i` in fold `i mod k`; the rows of each fixed
 //! point or plane of a session without a tracker interleaved among
 //! themselves: [`interleaved_folds`]), so that a drift in time falls into
-//! every fold. The figure is the held-out 3-D position error of each
+//! every fold; the rows of one configuration of the robot (several points on
+//! the flange, sessions that revisit it) share a fold. The figure is the held-out 3-D position error of each
 //! pose, in metres, from a model fitted without its fold.
 //!
 //! [`Folds`] cross-validates by linearisation: about one fit's solution `x*`
@@ -84,22 +85,36 @@ pub fn cross_validate(
 }
 
 /// The fold of each pose of `contacts` (what each pose's tool point is held
-/// to) in `k` interleaved folds: the `r`-th pose held to one contact (a
-/// measured position, or one fixed point or plane) in fold `(f + r) mod k`,
-/// `f` the index of that contact's first pose. For measured coordinates pose
-/// `i` is in fold `i mod k`; the rows of each fixed point or plane are spread
-/// over the folds, so that every fold trains on some of them (a session that
-/// visits ten sockets in turn, twice, would otherwise hold out both rows of a
-/// socket together, and nothing would locate it in that fold).
-pub fn interleaved_folds(contacts: &[Contact], k: usize) -> Vec<usize> {
+/// to) in `k` interleaved folds, the poses of one robot configuration
+/// (`configurations`: each pose's, [`Configurations::of_robot`]) together:
+/// the `r`-th configuration held to one contact (a measured position, or one
+/// fixed point or plane) in fold `(f + r) mod k`, `f` the index of that
+/// contact's first pose, and every later pose of a configuration in its
+/// first pose's fold. For measured coordinates of distinct configurations
+/// pose `i` is in fold `i mod k`; the rows of each fixed point or plane are
+/// spread over the folds, so that every fold trains on some of them (a
+/// session that visits ten sockets in turn, twice, would otherwise hold out
+/// both rows of a socket together, and nothing would locate it in that
+/// fold). A configuration seen through three SMRs, or in two sessions, is
+/// held out whole: its copies would predict it as well as itself.
+///
+/// [`Configurations::of_robot`]: crate::session::configurations::Configurations::of_robot
+pub fn interleaved_folds(contacts: &[Contact], configurations: &[usize], k: usize) -> Vec<usize> {
+    debug_assert_eq!(contacts.len(), configurations.len());
     let mut seen: HashMap<Contact, (usize, usize)> = HashMap::new();
+    let mut fold_of: HashMap<usize, usize> = HashMap::new();
     contacts
         .iter()
+        .zip(configurations)
         .enumerate()
-        .map(|(i, c)| {
+        .map(|(i, (c, g))| {
+            if let Some(&fold) = fold_of.get(g) {
+                return fold;
+            }
             let (first, rank) = seen.entry(*c).or_insert((i, 0));
             let fold = (*first + *rank) % k;
             *rank += 1;
+            fold_of.insert(*g, fold);
             fold
         })
         .collect()
@@ -310,7 +325,7 @@ impl<'a> Folds<'a> {
     /// measured coordinates pose `i` in fold `i mod k`.
     pub fn interleaved(lin: &'a Linearization, k: usize) -> Self {
         let k = k.clamp(2, lin.poses().max(2));
-        let folds = interleaved_folds(&lin.contacts, k);
+        let folds = interleaved_folds(&lin.contacts, &lin.configurations, k);
         Self::new(lin, folds.into_iter().map(Role::Fold).collect())
     }
 
@@ -691,5 +706,45 @@ impl Extensions<'_, '_> {
         }
         self.folds
             .evaluation(&subset, |fold| self.step(extra, fold))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calibration::simulate::{measure, random_configurations, rng};
+    use crate::io::model_file::load_model;
+    use crate::session::configurations::Configurations;
+
+    /// One configuration of the robot seen through three SMRs, each a session
+    /// of its own (24 configurations, three points each): the three rows of a
+    /// configuration always share a fold, whatever their sessions, so that no
+    /// fold is tested on a configuration its training set holds; and every
+    /// fold holds some out. Distinct configurations keep `i mod k`.
+    #[test]
+    fn the_rows_of_one_configuration_share_a_fold() {
+        let robot = load_model("puma560").unwrap().robot;
+        let qs = random_configurations(&robot, 24, &mut rng(3));
+        let mut data = Vec::new();
+        for session in 0..3 {
+            let mut rows = measure(&robot, &qs, 20e-6, None, &mut rng(session as u64));
+            for r in &mut rows {
+                r.session = session;
+            }
+            data.extend(rows);
+        }
+        let configurations = Configurations::of_robot(&robot, &data).index(data.len());
+        assert_eq!(*configurations.iter().max().unwrap(), 23);
+        let contacts: Vec<Contact> = data.iter().map(|o| o.contact).collect();
+        let folds = interleaved_folds(&contacts, &configurations, 10);
+        for c in 0..24 {
+            assert_eq!(folds[c], folds[24 + c], "configuration {c}");
+            assert_eq!(folds[c], folds[48 + c], "configuration {c}");
+        }
+        assert!((0..10).all(|f| folds.contains(&f)));
+        // Distinct configurations: pose i in fold i mod k.
+        let alone: Vec<usize> = (0..24).collect();
+        let folds = interleaved_folds(&contacts[..24], &alone, 10);
+        assert!(folds.iter().enumerate().all(|(i, &f)| f == i % 10));
     }
 }

@@ -173,7 +173,8 @@ pub(crate) fn position_errors(fit: &FullFit, data: &[Observation]) -> Vec<f64> {
 fn nominal_errors(nominal: &[Robot<f64>], data: &[Observation], k: usize) -> Vec<f64> {
     let k = k.clamp(2, data.len().max(2));
     let contacts: Vec<Contact> = data.iter().map(|o| o.contact).collect();
-    let fold = cross_validation::interleaved_folds(&contacts, k);
+    let configurations = Configurations::of_robot(&nominal[0], data).index(data.len());
+    let fold = cross_validation::interleaved_folds(&contacts, &configurations, k);
     let tool: Vec<Vector3<f64>> = data
         .iter()
         .map(|o| {

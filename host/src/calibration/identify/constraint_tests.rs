@@ -459,7 +459,8 @@ fn a_session_visiting_its_sockets_in_turn_locates_each_in_every_fold() {
         .map(|(k, round)| session.observations[3 * k + round].clone())
         .collect();
     let contacts: Vec<Contact> = rows.iter().map(|o| o.contact).collect();
-    let folds = interleaved_folds(&contacts, 10);
+    let configurations: Vec<usize> = (0..rows.len()).collect();
+    let folds = interleaved_folds(&contacts, &configurations, 10);
     for k in 0..10 {
         let mine: Vec<usize> = (0..rows.len())
             .filter(|&i| contacts[i] == Contact::Point(k))

@@ -43,6 +43,7 @@ use super::full::{Constraints, FoldNormals, FullFit, Observation, fold_normals, 
 use super::prior::{PRIOR_FACTORS, Prior};
 pub use crate::calibration::diagnose::cross_validation::DEFAULT_FOLDS;
 use crate::calibration::diagnose::cross_validation::interleaved_folds;
+use crate::session::configurations::Configurations;
 use nalgebra::{DMatrix, DVector};
 
 /// How the identification sets the prior's scale.
@@ -178,7 +179,8 @@ fn scores(
 ) -> (usize, Vec<PriorScore>) {
     let contacts: Vec<_> = data.iter().map(|o| o.contact).collect();
     let k = folds.clamp(2, data.len().max(2));
-    let fold = interleaved_folds(&contacts, k);
+    let configurations = Configurations::of_robot(&fit.calibrated, data).index(data.len());
+    let fold = interleaved_folds(&contacts, &configurations, k);
     let sums = fold_normals(fit, data, constraints, prior, &fold, k);
     let scores = PRIOR_FACTORS
         .iter()

@@ -13,6 +13,7 @@ use super::{Constraints, FullFit, Model, Observation, PlaneEstimate, Status, Unk
 use crate::calibration::identify::noise::Channel;
 use crate::calibration::identify::prior::Prior;
 use crate::io::measurements::Contact;
+use crate::session::configurations::Configurations;
 
 /// The model at a fit's solution and the unknowns of a linearisation about
 /// it ([`linearize`], [`fold_normals`]): the fit's identified parameters, its
@@ -170,6 +171,7 @@ pub fn linearize(
         r,
         first_rows,
         contacts: data.iter().map(|o| o.contact).collect(),
+        configurations: Configurations::of_robot(&fit.calibrated, data).index(data.len()),
         fitted,
         noise: data
             .iter()
@@ -194,6 +196,11 @@ pub struct Linearization {
     /// What each pose's tool point is held to, one per pose (its folds follow it:
     /// [`crate::calibration::diagnose::cross_validation::interleaved_folds`]).
     pub contacts: Vec<Contact>,
+    /// The robot configuration of each pose: its index among the joint
+    /// configurations of the poses, whatever point or session measured them
+    /// ([`crate::session::configurations::Configurations::of_robot`]): a
+    /// fold holds a configuration out whole.
+    pub configurations: Vec<usize>,
     /// How many leading columns are the fit's own unknowns.
     pub fitted: usize,
     /// The noise the position rows of each pose (the rows of its tool point:
