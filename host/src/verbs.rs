@@ -31,8 +31,15 @@ pub(crate) fn check(args: CheckArgs) -> anyhow::Result<()> {
     let (model, data) = load_session(&args.model, &args.data, &progress)?;
     progress.set("the nominal model against the rows");
     let report = check::report(&model, &data);
+    // The torques as identify and diagnose read them: a column they refuse
+    // is refused here too.
+    let (_, gravity) =
+        armcal::calibration::gravity::with_measured_gravity(&model, &data, args.torques.sign())?;
     progress.finish();
     print!("{report}");
+    if let Some(g) = gravity {
+        println!("{}", g.summary());
+    }
     Ok(())
 }
 
@@ -239,9 +246,16 @@ pub(crate) fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
 }
 
 /// The flags of several simulated sessions as the files' header gives them:
-/// `--payloads` and `--sessions` when given.
+/// `--payloads` and `--sessions` when given, and the torques' sign when it is
+/// the load's.
 fn simulated_sessions(args: &SimulateArgs) -> String {
     let mut out = String::new();
+    if args.torque_noise.is_some()
+        && armcal::calibration::gravity::TorqueSign::from(args.torque_sign)
+            == armcal::calibration::gravity::TorqueSign::Load
+    {
+        out += " --torque-sign load";
+    }
     if !args.payloads.is_empty() {
         let kg: Vec<String> = args.payloads.iter().map(f64::to_string).collect();
         out += &format!(" --payloads {}", kg.join(","));
