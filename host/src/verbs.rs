@@ -39,6 +39,7 @@ pub(crate) fn check(args: CheckArgs) -> anyhow::Result<()> {
     print!("{report}");
     if let Some(g) = gravity {
         println!("{}", g.summary());
+        warn(g.warning().iter());
     }
     Ok(())
 }
@@ -107,6 +108,14 @@ pub(crate) fn identify(args: IdentifyArgs) -> anyhow::Result<()> {
     progress.set(format!("identifying from {} poses", data.len()));
     let identified = identify_cmd::run(CLI, &model, &data, &args.request())?;
     progress.finish();
+    warn(
+        identified
+            .result
+            .gravity
+            .as_ref()
+            .and_then(|g| g.warning())
+            .iter(),
+    );
     accept(identified.failed, args.write_failed)?;
     let (model, result) = (identified.model, identified.result);
     // Everything is computed and encoded before the first byte is written.
@@ -286,6 +295,7 @@ pub(crate) fn diagnose(args: DiagnoseArgs) -> anyhow::Result<()> {
     let diagnosed = diagnose_cmd::run(CLI, &model, &data, &args.request(), &mut bar);
     progress.finish();
     let mut diagnosed = diagnosed?;
+    warn(diagnosed.gravity.as_ref().and_then(|g| g.warning()).iter());
     accept(diagnosed.failed.take(), args.write_failed)?;
     let lines = &data.lines;
     if args.out.is_some() {

@@ -778,6 +778,20 @@ pub fn with_measured_gravity(
 }
 
 impl GravityFit {
+    /// The warning a front end prints when the fitted masses are not used
+    /// (whatever else it prints): why, each reason naming its column or
+    /// link; `None` when they are used.
+    pub fn warning(&self) -> Option<String> {
+        match &self.used {
+            MassesUsed::Fitted => None,
+            MassesUsed::ModelMasses(reasons) => Some(format!(
+                "the masses fitted to the joint torques ({}) are not used, the model's are: {}",
+                self.sign.reading(),
+                reasons.join("; ")
+            )),
+        }
+    }
+
     /// How the sign was read, for the summary: what the torques were read
     /// as, and why.
     pub fn sign_summary(&self) -> String {

@@ -247,6 +247,12 @@ fn swapped_torque_columns_give_no_negative_mass() {
     );
     let said = String::from_utf8_lossy(&out.stdout);
     assert!(said.contains("not used: tau2 and tau3 swapped?"), "{said}");
+    let warned = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        warned.contains("armcal: warning: the masses fitted to the joint torques")
+            && warned.contains("tau2 and tau3 swapped?"),
+        "{warned}"
+    );
     let json: serde_json::Value =
         serde_json::from_slice(&std::fs::read(d.join("r.json")).unwrap()).unwrap();
     assert_eq!(json["gravity"]["masses_used"], "model");
