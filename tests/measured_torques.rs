@@ -262,7 +262,7 @@ fn load_torques_give_the_drive_torques_calibration() {
         assert_close(&got, &want, 1e-6, "calibration");
     }
     // Read with the drives' sign, the payloads' torques contradict the fit:
-    // its masses are not used, joint 2 named.
+    // its masses are not used, joint 2 named, the sign that fits said.
     let (used, g) = with_measured_gravity(&model, &load, Some(TorqueSign::Drive)).unwrap();
     let g = g.unwrap();
     assert_eq!(used.robot, model.robot);
@@ -271,6 +271,11 @@ fn load_torques_give_the_drive_torques_calibration() {
     };
     assert!(
         reasons.iter().any(|r| r.starts_with("tau2:")),
+        "{reasons:?}"
+    );
+    // And says which sign the masses fit.
+    assert!(
+        reasons[0].ends_with("pass every check: --torque-sign load?"),
         "{reasons:?}"
     );
 }

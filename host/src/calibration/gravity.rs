@@ -741,6 +741,23 @@ pub fn with_measured_gravity(
         Some(sign) => vec![sign],
         None => vec![g.sign, g.sign.other()],
     };
+    if let Some(sign) = stated
+        && !reasons.is_empty()
+        && fit(&model.robot, &data.poses, sign.other())
+            .is_some_and(|other| other.failed_checks(&model.robot).is_empty())
+    {
+        reasons.insert(
+            0,
+            format!(
+                "{} pass every check: --torque-sign {}?",
+                match sign.other() {
+                    TorqueSign::Drive => "read as the drives' torques, the masses",
+                    TorqueSign::Load => "read as the sensors' load torques (negated), the masses",
+                },
+                sign.other().name()
+            ),
+        );
+    }
     if !g.contradicting_joints().is_empty()
         && let Some((j, k, sign, worst)) = swapped_pair(&model.robot, &data.poses, &signs)
     {
@@ -1148,9 +1165,9 @@ mod tests {
     }
 
     /// Torques of the load's sign stated as the drive's (two payloads):
-    /// the fit contradicts them, the masses it gives are not used (a
-    /// negative mass, or joints misfitted, named); unstated, the sign is
-    /// read and the masses are used.
+    /// the fit contradicts them, the masses it gives are not used, and the
+    /// sign that fits is named; unstated, the sign is read and the masses
+    /// are used.
     #[test]
     fn a_flipped_sign_stated_wrong_is_not_used() {
         let ur = load_model("ur10e").unwrap();
@@ -1160,7 +1177,13 @@ mod tests {
         });
         let (used, g) = with_measured_gravity(&ur, &data, Some(TorqueSign::Drive)).unwrap();
         assert_eq!(used.robot, ur.robot);
-        assert!(matches!(g.unwrap().used, MassesUsed::ModelMasses(_)));
+        let MassesUsed::ModelMasses(reasons) = g.unwrap().used else {
+            panic!("the fit of the wrong sign used")
+        };
+        assert!(
+            reasons[0].ends_with("pass every check: --torque-sign load?"),
+            "{reasons:?}"
+        );
         let (_, g) = with_measured_gravity(&ur, &data, None).unwrap();
         let g = g.unwrap();
         assert_eq!((g.sign, &g.used), (TorqueSign::Load, &MassesUsed::Fitted));
