@@ -53,10 +53,11 @@
 //! more than the whole arm's mass at the arm's reach (the sum of its links'
 //! `|a|` and `|s|` and the tool's offset; a link's own mass and centre of mass
 //! are not what gravity shows, only their combinations with the links beyond
-//! it). A fit that fails any of
-//! these is not used: the model's masses are, and the summary says which joint
-//! or link and why; a model without masses has nothing to fall back to, and
-//! the session is refused.
+//! it). A fit that fails any of these is not used: the model's masses are,
+//! and the summary and a warning say which joint or link and why — with the
+//! two columns whose exchange makes the fit pass, if two do, and the other
+//! sign, if a stated sign fails where it passes; a model without masses has
+//! nothing to fall back to, and the session is refused.
 //!
 //! The identification then reads the masses used as the model's: the
 //! compliance it fits is in rad/(N·m) of the measured torques, whatever the
