@@ -14,10 +14,15 @@
 //! - with the model's masses 30 % off (a mass model is an approximation),
 //!   from the torques it predicts better than from the masses, and finds each
 //!   compliance within three standard errors of its value;
-//! - a model without any masses, from the torques, finds them too.
+//! - a model without any masses, from the torques, finds them too;
+//! - four sessions at four payloads whose robot reports the load torques
+//!   its sensors read (the drives' negated, as a KUKA iiwa does) give the
+//!   calibration the drives' torques give, the sign read from the data or
+//!   stated, and each joint's torque residual at the torque noise; read with
+//!   the drives' sign, the masses fitted to them are not used.
 
 use armcal::calibration::diagnose::{DiagnoseOptions, Diagnosis, diagnose};
-use armcal::calibration::gravity::with_measured_gravity;
+use armcal::calibration::gravity::{MassesUsed, TorqueSign, with_measured_gravity};
 use armcal::calibration::identify::full::Status;
 use armcal::calibration::simulate::{Scenario, parse_effect, simulate};
 use armcal::io::measurements::parse_measurements;
@@ -61,7 +66,7 @@ fn session(model: &RobotModel, torques: bool) -> armcal::session::measurements::
 /// session, the masses fitted to its torques when it has them.
 fn diagnosis(model: &RobotModel, torques: bool) -> Diagnosis {
     let data = session(model, torques);
-    let (fitted, gravity) = with_measured_gravity(model, &data);
+    let (fitted, gravity) = with_measured_gravity(model, &data, None).unwrap();
     assert_eq!(gravity.is_some(), torques);
     let observations = armcal::calibration::identify::observations(&data);
     diagnose(&fitted.robot, observations, &DiagnoseOptions::default()).unwrap()
@@ -145,4 +150,132 @@ fn a_model_without_masses_gets_its_compliance_from_the_torques() {
         l.mass = None;
     }
     assert_found(&diagnosis(&model, true), "no masses, torques");
+}
+
+/// The torque noise of the four-session scenario, N·m.
+const TORQUE_NOISE: f64 = 0.05;
+
+/// Four sessions of 40 positions of the compliant UR10e, at 0, 1.25, 2.5
+/// and 5 kg, the tracker moved and the SMR remounted between them, the
+/// torques reported with `sign`: as armcal reads the four files.
+fn payload_sessions(sign: TorqueSign) -> armcal::session::measurements::Measurements {
+    let truth = load_model("ur10e").unwrap();
+    let mut scenario = Scenario::tracker(160, 41);
+    scenario.effects = COMPLIANCE
+        .iter()
+        .map(|(j, c)| parse_effect(&format!("joint_compliance:{}:{c}", j + 1), 6).unwrap())
+        .collect();
+    scenario.payloads = vec![0.0, 1.25, 2.5, 5.0];
+    scenario.sessions = 4;
+    scenario.torque_noise = Some(TORQUE_NOISE);
+    scenario.torque_sign = sign;
+    let s = simulate(&truth.robot, &scenario).unwrap();
+    let mut data = parse_measurements(&s.to_csv(&truth.units, "UR10e"), "s.csv", &truth).unwrap();
+    for (pose, simulated) in data.poses.iter_mut().zip(&s.observations) {
+        pose.session = simulated.session;
+    }
+    data.sessions = (1..=4).map(|k| format!("s-{k}.csv")).collect();
+    data
+}
+
+/// Every number of `a` within `relative` of `b`'s (1e-300 absolute for
+/// zeros), the two of the same shape.
+fn assert_close(a: &serde_json::Value, b: &serde_json::Value, relative: f64, at: &str) {
+    use serde_json::Value;
+    match (a, b) {
+        (Value::Number(x), Value::Number(y)) => {
+            let (x, y) = (x.as_f64().unwrap(), y.as_f64().unwrap());
+            assert!(
+                (x - y).abs() <= relative * x.abs().max(y.abs()) + 1e-300,
+                "{at}: {x} vs {y}"
+            );
+        }
+        (Value::Array(x), Value::Array(y)) => {
+            assert_eq!(x.len(), y.len(), "{at}");
+            for (i, (x, y)) in x.iter().zip(y).enumerate() {
+                assert_close(x, y, relative, &format!("{at}[{i}]"));
+            }
+        }
+        (Value::Object(x), Value::Object(y)) => {
+            assert_eq!(x.len(), y.len(), "{at}");
+            for (k, x) in x {
+                assert_close(x, &y[k], relative, &format!("{at}.{k}"));
+            }
+        }
+        _ => assert_eq!(a, b, "{at}"),
+    }
+}
+
+#[test]
+fn load_torques_give_the_drive_torques_calibration() {
+    use armcal::commands::{Front, diagnose as diagnose_cmd};
+    let model = load_model("ur10e").unwrap();
+    let run = |data: &armcal::session::measurements::Measurements, sign: Option<TorqueSign>| {
+        let request = diagnose_cmd::Request {
+            folds: None,
+            scales: Default::default(),
+            targets: armcal_shared::TargetFrame::World,
+            frames: armcal::session::registration::FrameSharing::stated(false, false),
+            torque_sign: sign,
+        };
+        diagnose_cmd::run(
+            Front::CommandLine,
+            &model,
+            data,
+            &request,
+            &mut |_, _, _| {},
+        )
+        .unwrap()
+    };
+    let (drive, load) = (
+        payload_sessions(TorqueSign::Drive),
+        payload_sessions(TorqueSign::Load),
+    );
+    let reference = run(&drive, None);
+    let g = reference.gravity.as_ref().unwrap();
+    assert_eq!((g.sign, &g.used), (TorqueSign::Drive, &MassesUsed::Fitted));
+    let want = serde_json::to_value(&reference.calibration).unwrap();
+    for sign in [None, Some(TorqueSign::Load)] {
+        let d = run(&load, sign);
+        let g = d.gravity.as_ref().unwrap();
+        let line = g.summary();
+        eprintln!("{line}");
+        assert_eq!(
+            (g.sign, &g.used),
+            (TorqueSign::Load, &MassesUsed::Fitted),
+            "{line}"
+        );
+        assert!(
+            line.contains("tau read as the sensors' load torques: negated"),
+            "{line}"
+        );
+        // 160 rows, a few tens of unknowns: the residual RMS is the noise
+        // within 25 %.
+        for (j, r) in g.residual.iter().enumerate() {
+            assert!(
+                (0.75 * TORQUE_NOISE..1.25 * TORQUE_NOISE).contains(r),
+                "joint {}: {r} N·m ({line})",
+                j + 1
+            );
+        }
+        let got = serde_json::to_value(&d.calibration).unwrap();
+        assert_close(&got, &want, 1e-6, "calibration");
+    }
+    // Read with the drives' sign, the payloads' torques contradict the fit:
+    // its masses are not used, joint 2 named, the sign that fits said.
+    let (used, g) = with_measured_gravity(&model, &load, Some(TorqueSign::Drive)).unwrap();
+    let g = g.unwrap();
+    assert_eq!(used.robot, model.robot);
+    let MassesUsed::ModelMasses(reasons) = &g.used else {
+        panic!("{}", g.summary())
+    };
+    assert!(
+        reasons.iter().any(|r| r.starts_with("tau2:")),
+        "{reasons:?}"
+    );
+    // And says which sign the masses fit.
+    assert!(
+        reasons[0].ends_with("pass every check: --torque-sign load?"),
+        "{reasons:?}"
+    );
 }

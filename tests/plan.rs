@@ -71,6 +71,7 @@ fn identified(
         prior_scale: Default::default(),
         targets: TargetFrame::World,
         frames: FrameSharing::default(),
+        torque_sign: None,
     };
     let identified = identify::run(Front::CommandLine, model, &data, &request).unwrap();
     identified.result.calibration.calibrated()

@@ -94,6 +94,7 @@ fn identify_session(
         prior_scale: PriorScale::default(),
         targets: TargetFrame::World,
         frames: FrameSharing::default(),
+        torque_sign: None,
     };
     let identified = identify::run(Front::CommandLine, model, &data, &request).unwrap();
     assert!(identified.failed.is_none(), "{:?}", identified.failed);

@@ -4,6 +4,7 @@
 
 use std::path::PathBuf;
 
+use armcal::calibration::gravity::TorqueSign;
 use armcal::calibration::identify::prior_scale::PriorScale;
 use armcal::calibration::identify::{ParamSet, StatedScales};
 use armcal::commands::tool::Tool;
@@ -193,6 +194,8 @@ pub(crate) struct CheckArgs {
     /// each in its own measurement frame with its own tool.
     #[arg(long, value_name = "D.csv|NAME", required = true, num_args = 1..)]
     pub(crate) data: Vec<String>,
+    #[command(flatten)]
+    pub(crate) torques: TorqueArgs,
 }
 
 /// The flags of `armcal identify`.
@@ -207,6 +210,8 @@ pub(crate) struct IdentifyArgs {
     pub(crate) data: Vec<String>,
     #[command(flatten)]
     pub(crate) sessions: SessionArgs,
+    #[command(flatten)]
+    pub(crate) torques: TorqueArgs,
     /// `full`: every identifiable parameter, base and tool included; `paper`: the
     /// 3M model and iterative regression of Mirman & Gupta (needs full poses).
     #[arg(long, value_enum, default_value = "full")]
@@ -315,6 +320,12 @@ pub(crate) struct SimulateArgs {
     /// (N·m, N for a prismatic joint).
     #[arg(long, value_name = "N·m", value_parser = args::non_negative)]
     pub(crate) torque_noise: Option<f64>,
+    /// The sign the torques are written with: `drive` (the torque each
+    /// drive exerts on its link, armcal's tau) or `load` (the load torque
+    /// the joints' sensors read, as a KUKA iiwa reports it: the drive's
+    /// negated).
+    #[arg(long, value_enum, value_name = "drive|load", default_value = "drive")]
+    pub(crate) torque_sign: TorqueSignArg,
     /// The payloads the poses are measured with, kg, in consecutive blocks
     /// of rows (default 0,5).
     #[arg(long, value_name = "KG,KG,…", value_delimiter = ',', value_parser = args::non_negative)]
@@ -377,6 +388,8 @@ pub(crate) struct DiagnoseArgs {
     pub(crate) data: Vec<String>,
     #[command(flatten)]
     pub(crate) sessions: SessionArgs,
+    #[command(flatten)]
+    pub(crate) torques: TorqueArgs,
     /// Write the extended calibration (geometry and effects) here.
     #[arg(long, value_name = "CAL")]
     pub(crate) out: Option<PathBuf>,
@@ -680,6 +693,43 @@ pub(crate) struct SessionArgs {
     pub(crate) same_tool: bool,
 }
 
+/// How the measured joint torques (`tau1..tauM`) are read.
+#[derive(clap::Args, Debug, Clone, Copy)]
+pub(crate) struct TorqueArgs {
+    /// The sign of the tau columns: `drive` (the torque each drive exerts on
+    /// its link about the joint's axis, positive with increasing q: armcal's
+    /// convention) or `load` (the load torque the joints' sensors read, as a
+    /// KUKA iiwa reports it: negated when read). Default: read from the data
+    /// (the fit of the arm's masses with either sign, else the model's
+    /// gravity torques); the summary says which was read and why.
+    #[arg(long, value_enum, value_name = "drive|load")]
+    pub(crate) torque_sign: Option<TorqueSignArg>,
+}
+
+impl TorqueArgs {
+    /// The sign these flags state; `None`: read from the data.
+    pub(crate) fn sign(self) -> Option<TorqueSign> {
+        self.torque_sign.map(TorqueSign::from)
+    }
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub(crate) enum TorqueSignArg {
+    /// The torque each drive exerts on its link (armcal's tau).
+    Drive,
+    /// The load torque the joints' sensors read (the drive's negated).
+    Load,
+}
+
+impl From<TorqueSignArg> for TorqueSign {
+    fn from(a: TorqueSignArg) -> Self {
+        match a {
+            TorqueSignArg::Drive => TorqueSign::Drive,
+            TorqueSignArg::Load => TorqueSign::Load,
+        }
+    }
+}
+
 impl SessionArgs {
     /// The frames these flags share.
     pub(crate) fn sharing(self) -> FrameSharing {
@@ -770,6 +820,7 @@ impl IdentifyArgs {
             prior_scale: self.prior_scale.into(),
             targets: self.targets.into(),
             frames: self.sessions.sharing(),
+            torque_sign: self.torques.sign(),
         }
     }
 }
@@ -782,6 +833,7 @@ impl DiagnoseArgs {
             scales: self.weights.scales(),
             targets: self.targets.into(),
             frames: self.sessions.sharing(),
+            torque_sign: self.torques.sign(),
         }
     }
 }
@@ -828,6 +880,7 @@ impl SimulateArgs {
             noise: self.noise,
             orientation_noise: self.orientation_noise,
             torque_noise: self.torque_noise,
+            torque_sign: self.torque_sign.into(),
             effects: self.effects.clone(),
             tilts: self.tilts.iter().map(|t| (t.joint, t.beta)).collect(),
             payloads: self.payloads.clone(),

@@ -31,8 +31,16 @@ pub(crate) fn check(args: CheckArgs) -> anyhow::Result<()> {
     let (model, data) = load_session(&args.model, &args.data, &progress)?;
     progress.set("the nominal model against the rows");
     let report = check::report(&model, &data);
+    // The torques as identify and diagnose read them: a column they refuse
+    // is refused here too.
+    let (_, gravity) =
+        armcal::calibration::gravity::with_measured_gravity(&model, &data, args.torques.sign())?;
     progress.finish();
     print!("{report}");
+    if let Some(g) = gravity {
+        println!("{}", g.summary());
+        warn(g.warning().iter());
+    }
     Ok(())
 }
 
@@ -100,6 +108,14 @@ pub(crate) fn identify(args: IdentifyArgs) -> anyhow::Result<()> {
     progress.set(format!("identifying from {} poses", data.len()));
     let identified = identify_cmd::run(CLI, &model, &data, &args.request())?;
     progress.finish();
+    warn(
+        identified
+            .result
+            .gravity
+            .as_ref()
+            .and_then(|g| g.warning())
+            .iter(),
+    );
     accept(identified.failed, args.write_failed)?;
     let (model, result) = (identified.model, identified.result);
     // Everything is computed and encoded before the first byte is written.
@@ -239,9 +255,16 @@ pub(crate) fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
 }
 
 /// The flags of several simulated sessions as the files' header gives them:
-/// `--payloads` and `--sessions` when given.
+/// `--payloads` and `--sessions` when given, and the torques' sign when it is
+/// the load's.
 fn simulated_sessions(args: &SimulateArgs) -> String {
     let mut out = String::new();
+    if args.torque_noise.is_some()
+        && armcal::calibration::gravity::TorqueSign::from(args.torque_sign)
+            == armcal::calibration::gravity::TorqueSign::Load
+    {
+        out += " --torque-sign load";
+    }
     if !args.payloads.is_empty() {
         let kg: Vec<String> = args.payloads.iter().map(f64::to_string).collect();
         out += &format!(" --payloads {}", kg.join(","));
@@ -272,6 +295,7 @@ pub(crate) fn diagnose(args: DiagnoseArgs) -> anyhow::Result<()> {
     let diagnosed = diagnose_cmd::run(CLI, &model, &data, &args.request(), &mut bar);
     progress.finish();
     let mut diagnosed = diagnosed?;
+    warn(diagnosed.gravity.as_ref().and_then(|g| g.warning()).iter());
     accept(diagnosed.failed.take(), args.write_failed)?;
     let lines = &data.lines;
     if args.out.is_some() {

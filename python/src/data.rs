@@ -1,6 +1,7 @@
 //! Measurements: a CSV file (`docs/file-formats.md` §2) or built-in data set, numpy
 //! arrays, or a simulated session.
 
+use armcal::calibration::gravity::TorqueSign;
 use armcal::commands::simulate as simulate_cmd;
 use armcal::io::arrays::{self, Conditions, PoseArrays};
 use armcal::io::measurements::{self, Contact};
@@ -128,14 +129,16 @@ pub fn from_arrays<'py>(
 /// hidden `effects` `"NAME[:JOINT[:VALUE]]"`, Hayati `tilts` `(joint, beta)`)
 /// measured at `poses` random configurations with `noise` (model length unit,
 /// default 20 µm) and, with `orientation_noise` (model angle unit), orientations;
-/// with `torque_noise` (N·m), the joint torques the robot reports (`tau`);
+/// with `torque_noise` (N·m), the joint torques the robot reports (`tau`,
+/// with `torque_sign` `"drive"`, armcal's, or `"load"`, the sensors' load
+/// torques: the drives' negated);
 /// `payloads` (kg) of consecutive blocks of rows (default 0 and 5); in
 /// `sessions` sessions, each after the first with the instrument moved and
 /// the point remounted (one Measurements holding them all: `identify` and
 /// `diagnose` read its sessions as several files'). Returns the
 /// measurements (rows numbered from 0) and the truth as a dict.
 #[pyfunction]
-#[pyo3(signature = (model, poses = 200, seed = 1, noise = None, orientation_noise = None, effects = Vec::new(), tilts = Vec::new(), torque_noise = None, *, payloads = Vec::new(), sessions = 1))]
+#[pyo3(signature = (model, poses = 200, seed = 1, noise = None, orientation_noise = None, effects = Vec::new(), tilts = Vec::new(), torque_noise = None, *, payloads = Vec::new(), sessions = 1, torque_sign = "drive"))]
 #[expect(
     clippy::too_many_arguments,
     reason = "a parameter per Python keyword argument, as the signature above lists them"
@@ -152,6 +155,7 @@ pub fn simulate<'py>(
     torque_noise: Option<f64>,
     payloads: Vec<f64>,
     sessions: usize,
+    torque_sign: &str,
 ) -> PyResult<(Measurements, Bound<'py, PyAny>)> {
     let m = &model.inner;
     let u = m.units;
@@ -161,6 +165,7 @@ pub fn simulate<'py>(
         noise,
         orientation_noise,
         torque_noise,
+        torque_sign: crate::fit::torque_sign(py, Some(torque_sign))?.unwrap_or(TorqueSign::Drive),
         effects,
         tilts,
         payloads,

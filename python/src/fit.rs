@@ -2,6 +2,7 @@
 //! diagnose` compose them: the same checks of the data, the same options, the
 //! same report (the JSON of `docs/file-formats.md` §6, as Python dicts), the same refusals.
 
+use armcal::calibration::gravity::TorqueSign;
 use armcal::calibration::identify::prior_scale::PriorScale;
 use armcal::calibration::identify::{ParamSet, StatedScales};
 use armcal::commands::{self, Front, diagnose as diagnose_cmd, identify as identify_cmd};
@@ -153,6 +154,24 @@ fn on_rows<T: Send + 'static>(
     Ok((result, std::sync::Arc::unwrap_or_clone(rows)))
 }
 
+/// The sign of the `tau` columns `torque_sign` names: `"drive"`, `"load"`,
+/// or `None` (read from the data).
+pub(crate) fn torque_sign(
+    py: Python<'_>,
+    torque_sign: Option<&str>,
+) -> PyResult<Option<TorqueSign>> {
+    match torque_sign {
+        None => Ok(None),
+        Some(name) => TorqueSign::from_name(name).map(Some).ok_or_else(|| {
+            errors::argument(
+                py,
+                "torque_sign",
+                format!("{name:?}: expected \"drive\", \"load\" or None (read from the data)"),
+            )
+        }),
+    }
+}
+
 /// `world` or `base`: the frame the compensation's targets are given in.
 fn targets(py: Python<'_>, targets: &str) -> PyResult<TargetFrame> {
     match targets {
@@ -176,9 +195,10 @@ fn targets(py: Python<'_>, targets: &str) -> PyResult<TargetFrame> {
 /// session without a tracker, as `--point-noise`, `--plane-noise`);
 /// `prior_scale`: `chosen` (the stated prior times the factor that predicts
 /// held-out poses best, as `--prior-scale chosen`, the default) or `stated`;
-/// `targets`: `world` or `base`.
+/// `targets`: `world` or `base`; `torque_sign`: of the `tau` columns,
+/// `drive` or `load` (as `--torque-sign`; default: read from the data).
 #[pyfunction(name = "identify")]
-#[pyo3(signature = (model, data, params = "full", *, position_noise = None, orientation_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None, prior_scale = "chosen", targets = "world", same_base = false, same_tool = false))]
+#[pyo3(signature = (model, data, params = "full", *, position_noise = None, orientation_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None, prior_scale = "chosen", targets = "world", same_base = false, same_tool = false, torque_sign = None))]
 #[expect(
     clippy::too_many_arguments,
     reason = "a parameter per Python keyword argument, as the signature above lists them"
@@ -198,6 +218,7 @@ pub fn identify_py(
     targets: &str,
     same_base: bool,
     same_tool: bool,
+    torque_sign: Option<&str>,
 ) -> PyResult<Py<Identification>> {
     let prior_scale = match prior_scale {
         "chosen" => PriorScale::default(),
@@ -234,6 +255,7 @@ pub fn identify_py(
         prior_scale,
         targets: self::targets(py, targets)?,
         frames: FrameSharing::stated(same_base, same_tool),
+        torque_sign: self::torque_sign(py, torque_sign)?,
     };
     let (data, arrays) = session(py, model, data)?;
     let (identified, data) = on_rows(py, model, data.data, move |m, rows| {
@@ -261,9 +283,10 @@ pub fn identify_py(
 /// extends the model and measures the gain on held-out poses, as `armcal
 /// diagnose` does, for measured coordinates and for a session without a
 /// tracker alike. `folds`: of the cross-validation (default 10, or one per
-/// pose with fewer poses). Other options as `identify`.
+/// pose with fewer poses). Other options as `identify` (`torque_sign`
+/// included).
 #[pyfunction]
-#[pyo3(signature = (model, data, *, folds = None, position_noise = None, orientation_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None, targets = "world", same_base = false, same_tool = false))]
+#[pyo3(signature = (model, data, *, folds = None, position_noise = None, orientation_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None, targets = "world", same_base = false, same_tool = false, torque_sign = None))]
 #[expect(
     clippy::too_many_arguments,
     reason = "a parameter per Python keyword argument, as the signature above lists them"
@@ -282,6 +305,7 @@ pub fn diagnose(
     targets: &str,
     same_base: bool,
     same_tool: bool,
+    torque_sign: Option<&str>,
 ) -> PyResult<Py<Diagnosis>> {
     let request = diagnose_cmd::Request {
         folds,
@@ -295,6 +319,7 @@ pub fn diagnose(
         },
         targets: self::targets(py, targets)?,
         frames: FrameSharing::stated(same_base, same_tool),
+        torque_sign: self::torque_sign(py, torque_sign)?,
     };
     let (data, arrays) = session(py, model, data)?;
     let (diagnosed, data) = on_rows(py, model, data.data, move |m, rows| {

@@ -465,9 +465,30 @@ def test_measured_torques_drive_the_compliance_as_the_command_line():
     data, truth = armcal.simulate(model, poses=120, seed=31, effects=["joint_compliance:2:2e-6"], torque_noise=0.05)
     assert data.tau.shape == (120, 6)
     result = armcal.diagnose(model, data)
-    assert result.summary.startswith("gravity torques from the measured joint torques (tau1..tau6, 120 poses)")
+    assert result.summary.startswith(
+        "gravity torques from the measured joint torques (tau1..tau6, 120 poses, tau read as the drives' torques ("
+    )
     effect = [e for e in result.report["effects"] if e["name"] == "joint_compliance"]
     assert effect and effect[0]["joints"] == [2]
+
+
+def test_load_torques_read_as_the_command_line_reads_them():
+    """A robot that reports its sensors' load torques (`simulate(...,
+    torque_sign="load")`: the drives' negated): identify reads the sign from
+    the data, or as `torque_sign` states it, and writes the calibration the
+    drives' torques give, byte for byte; a sign that is neither is refused."""
+    model = armcal.load_model("ur10e")
+    drive, _ = armcal.simulate(model, poses=60, seed=5, torque_noise=0.05)
+    load, _ = armcal.simulate(model, poses=60, seed=5, torque_noise=0.05, torque_sign="load")
+    np.testing.assert_array_equal(load.tau, -drive.tau)
+    want = armcal.identify(model, drive).calibration.to_bytes()
+    read = armcal.identify(model, load)
+    assert "tau read as the sensors' load torques: negated" in read.summary
+    assert read.report["gravity"]["torque_sign"] == "load"
+    assert read.calibration.to_bytes() == want
+    assert armcal.identify(model, load, torque_sign="load").calibration.to_bytes() == want
+    with pytest.raises(armcal.InputError, match="torque_sign"):
+        armcal.identify(model, load, torque_sign="sideways")
 
 
 def test_torques_from_arrays_read_as_from_a_file():

@@ -324,6 +324,11 @@ pub enum CalibrationError {
     },
     /// An expected held-out error is negative.
     HeldOut,
+    /// A link of the model has a negative mass.
+    NegativeMass {
+        /// The link, from 0.
+        link: usize,
+    },
     /// The output buffer is too small (writing).
     BufferTooSmall,
 }
@@ -376,6 +381,11 @@ impl fmt::Display for CalibrationError {
             }
             Self::DuplicateParam { param } => write!(f, "calibration identifies {param} twice"),
             Self::HeldOut => f.write_str("calibration's expected held-out error is negative"),
+            Self::NegativeMass { link } => write!(
+                f,
+                "calibration's model gives link {} a negative mass",
+                link + 1
+            ),
             Self::EffectJoint => {
                 f.write_str("calibration has an effect on a joint its model does not have")
             }
@@ -622,8 +632,9 @@ impl Calibration {
         Ok(cal)
     }
 
-    /// Finite values everywhere, every identified parameter exists once (in
-    /// the errors, and in the geometric fallback's), the ranges (when known)
+    /// Finite values everywhere, no negative mass, every identified
+    /// parameter exists once (in the errors, and in the geometric
+    /// fallback's), the ranges (when known)
     /// have one interval per joint, and the held-out errors are not negative.
     fn validate(&self) -> Result<(), CalibrationError> {
         let model = &self.nominal;
@@ -639,6 +650,13 @@ impl Calibration {
             .all(|f| finite3(&f.xyz) && finite3(&f.rpy));
         if !links_finite || !frames_finite || !model.gravity.as_ref().is_none_or(finite3) {
             return Err(CalibrationError::NonFinite);
+        }
+        if let Some(link) = model
+            .links
+            .iter()
+            .position(|l| l.mass.is_some_and(|m| m.mass < 0.0))
+        {
+            return Err(CalibrationError::NegativeMass { link });
         }
         for e in &self.effects {
             // The thermal reference temperature is not a parameter: checked apart.

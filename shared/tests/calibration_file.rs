@@ -643,3 +643,36 @@ fn an_invalid_fallback_is_refused() {
         })
     );
 }
+
+/// A link's mass is not negative (a mass fitted to torques of the wrong
+/// sign can be): such a calibration is neither written nor read.
+#[test]
+fn a_negative_mass_is_neither_written_nor_read() {
+    let mut cal = sample();
+    cal.nominal.links[2].mass = Some(armcal_shared::LinkMass {
+        mass: 3.217,
+        com: nalgebra::Vector3::new(0.1, 0.0, 0.0),
+    });
+    let good = bytes_of(&cal).unwrap();
+    assert_eq!(Calibration::decode(&good).unwrap(), cal);
+    cal.nominal.links[2].mass.as_mut().unwrap().mass = -3.87;
+    assert_eq!(
+        bytes_of(&cal),
+        Err(CalibrationError::NegativeMass { link: 2 })
+    );
+    // The same bytes as a good file's, the mass negated, the header's
+    // model hash that of the model so changed and the file sealed again:
+    // refused when read.
+    let mut bytes = good.clone();
+    let at = bytes
+        .windows(8)
+        .position(|w| w == 3.217f64.to_le_bytes())
+        .expect("the mass's bytes");
+    bytes[at..at + 8].copy_from_slice(&(-3.87f64).to_le_bytes());
+    bytes[12..20].copy_from_slice(&model_hash(&cal.nominal).to_le_bytes());
+    reseal(&mut bytes);
+    assert_eq!(
+        Calibration::decode(&bytes),
+        Err(CalibrationError::NegativeMass { link: 2 })
+    );
+}

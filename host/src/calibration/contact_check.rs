@@ -224,8 +224,10 @@ pub fn calibrate(
     options: &FullOptions,
     selection: Selection,
 ) -> Result<Calibrated, IdentifyError> {
-    // As identify and diagnose: the masses fitted to measured torques, if any.
-    let (fitted, _) = crate::calibration::gravity::with_measured_gravity(model, data);
+    // As identify and diagnose: the masses fitted to measured torques, if
+    // any, their sign read from the data.
+    let (fitted, _) = crate::calibration::gravity::with_measured_gravity(model, data, None)
+        .map_err(IdentifyError::from)?;
     let model = &fitted;
     let identified = |scale: PriorScale| -> Result<Calibrated, IdentifyError> {
         let fit = identify::identify(model, data, ParamSet::Full, options, scale)?;

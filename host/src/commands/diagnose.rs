@@ -12,7 +12,7 @@ use crate::calibration::acceptance::{FailedCalibration, diagnosis_refusal};
 use crate::calibration::diagnose::Choice;
 use crate::calibration::diagnose::RowPlaces;
 use crate::calibration::diagnose::{DiagnoseOptions, Diagnosis, diagnose_with_progress};
-use crate::calibration::gravity::{GravityFit, with_measured_gravity};
+use crate::calibration::gravity::{GravityFit, TorqueSign, with_measured_gravity};
 use crate::calibration::identify::full::{
     FullError, FullOptions, Observation, identify_with_effects,
 };
@@ -35,6 +35,9 @@ pub struct Request {
     pub targets: TargetFrame,
     /// With several sessions, which frames are each session's own.
     pub frames: FrameSharing,
+    /// The sign of the session's `tau` columns; `None`: read from the data
+    /// ([`crate::calibration::gravity`]).
+    pub torque_sign: Option<TorqueSign>,
 }
 
 /// What `diagnose` found.
@@ -74,7 +77,7 @@ pub fn run(
     request: &Request,
     progress: &mut dyn FnMut(usize, usize, usize),
 ) -> anyhow::Result<Diagnosed> {
-    let (fitted, gravity) = with_measured_gravity(model, data);
+    let (fitted, gravity) = with_measured_gravity(model, data, request.torque_sign)?;
     let model = &fitted;
     let folds = folds(front, request.folds, data.len())?;
     let options = DiagnoseOptions {

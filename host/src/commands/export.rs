@@ -147,7 +147,28 @@ fn urdf_export(
             }
             urdf::export::into_urdf(cal, &parsed, &converted)?
         }
-        None => urdf::export::generate(cal, calibration),
+        None => {
+            // A URDF's masses are the calibration's: never a negative one
+            // (what a URDF reader refuses).
+            if let Some(k) = cal
+                .nominal
+                .links
+                .iter()
+                .position(|l| l.mass.is_some_and(|m| m.mass < 0.0))
+            {
+                return Err(InputError::new(
+                    calibration,
+                    0,
+                    0,
+                    format!(
+                        "link {} has a negative mass: no URDF is written with it",
+                        k + 1
+                    ),
+                )
+                .into());
+            }
+            urdf::export::generate(cal, calibration)
+        }
     };
     read_back::check_urdf(&exported, cal).map_err(|e| anyhow::anyhow!("{calibration}: {e}"))?;
     Ok(Exported {

@@ -9,7 +9,7 @@ use armcal_shared::TargetFrame;
 
 use super::{Front, fit_options};
 use crate::calibration::acceptance::FailedCalibration;
-use crate::calibration::gravity::with_measured_gravity;
+use crate::calibration::gravity::{TorqueSign, with_measured_gravity};
 use crate::calibration::identify::full::{FullOptions, Observation, identify_with_effects};
 use crate::calibration::identify::prior_scale::PriorScale;
 use crate::calibration::identify::sessions::held_out_by_session;
@@ -33,6 +33,9 @@ pub struct Request {
     pub targets: TargetFrame,
     /// With several sessions, which frames are each session's own.
     pub frames: FrameSharing,
+    /// The sign of the session's `tau` columns; `None`: read from the data
+    /// ([`crate::calibration::gravity`]).
+    pub torque_sign: Option<TorqueSign>,
 }
 
 /// What `identify` found.
@@ -51,8 +54,9 @@ pub struct Identified {
 }
 
 /// Identifies `model` from `data` (a session [`super::require_session`]
-/// accepted): refused when a scale is not positive, when the fit cannot be
-/// made, or when the fitted model cannot be of these measurements
+/// accepted): refused when a scale is not positive, when the measured joint
+/// torques cannot be the arm's gravity and the model has no masses, when the
+/// fit cannot be made, or when the fitted model cannot be of these measurements
 /// ([`Measurements::require_fit_supported`]).
 pub fn run(
     front: Front,
@@ -60,7 +64,7 @@ pub fn run(
     data: &Measurements,
     request: &Request,
 ) -> anyhow::Result<Identified> {
-    let (fitted, gravity) = with_measured_gravity(model, data);
+    let (fitted, gravity) = with_measured_gravity(model, data, request.torque_sign)?;
     let model = &fitted;
     let options = FullOptions {
         sessions: request.frames,

@@ -7,6 +7,7 @@
 //! and tilts in SI (rad, m), as `NAME[:JOINT[:VALUE]]` and `JOINT:BETA` say.
 
 use super::{Argument, Front};
+use crate::calibration::gravity::TorqueSign;
 use crate::calibration::simulate::{self, Scenario, Session, SessionWriter};
 use crate::io::input_error::InputError;
 use crate::io::model_file::RobotModel;
@@ -28,6 +29,8 @@ pub struct Request {
     /// Noise of the joint torques the robot reports (N·m, N for a prismatic
     /// joint); `None` reports none.
     pub torque_noise: Option<f64>,
+    /// The sign the torques are written with.
+    pub torque_sign: TorqueSign,
     /// Hidden effects, `NAME[:JOINT[:VALUE]]` (joint from 1).
     pub effects: Vec<String>,
     /// Hidden Hayati tilts `(joint from 1, β rad)`.
@@ -98,6 +101,7 @@ impl Request {
         if let Some(n) = self.torque_noise {
             scenario.torque_noise = Some(non_negative(Argument::TorqueNoise, n)?);
         }
+        scenario.torque_sign = self.torque_sign;
         if self.sessions == 0 {
             return Err(Argument::SimulatedSessions.refused(front, "0: at least 1"));
         }

@@ -2,7 +2,10 @@
 //! simulated with `armcal simulate --torque-noise`, read by `check`, the
 //! masses fitted to them named first in `identify`'s and `diagnose`'s
 //! summaries and JSON; a file with some of the columns, or a torque no arm
-//! carries, refused with its line and column, nothing written.
+//! carries, refused with its line and column, nothing written; the torques'
+//! sign read from the data (`--torque-sign` states it), a column that cannot
+//! be its joint's torque refused, and masses that contradict the torques not
+//! used, so that no negative mass reaches a calibration or a URDF.
 
 use crate::{refused, succeeds};
 
@@ -41,7 +44,10 @@ fn torques_are_read_fitted_and_reported() {
     );
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
-        stdout.contains("gravity torques from the measured joint torques (tau1..tau6, 60 poses)"),
+        stdout.contains(
+            "gravity torques from the measured joint torques (tau1..tau6, 60 poses, tau read as \
+             the drives' torques ("
+        ),
         "{stdout}"
     );
     let json: serde_json::Value =
@@ -87,5 +93,201 @@ fn partial_or_impossible_torques_are_refused() {
         &format!("{six},tau7"),
         "1,2,3,4,5,6,7",
         &["seven.csv:1:", "column 'tau7'", "the model has 6 joints"],
+    );
+}
+
+/// `rows` of a simulated file, each row's tau cells (the last six) edited.
+fn edit_torques(text: &str, edit: impl Fn(&mut Vec<String>)) -> String {
+    text.lines()
+        .map(|l| {
+            if l.starts_with('#') || l.starts_with('q') {
+                return format!("{l}\n");
+            }
+            let mut cells: Vec<String> = l.split(',').map(String::from).collect();
+            let n = cells.len();
+            let mut tau = cells.split_off(n - 6);
+            edit(&mut tau);
+            cells.extend(tau);
+            cells.join(",") + "\n"
+        })
+        .collect()
+}
+
+/// A UR10e session of 60 poses at 0 and 5 kg with torques (σ = 0.05 N·m),
+/// written with `sign` into `file`.
+fn simulate_torques(d: &std::path::Path, sign: &str, file: &str) {
+    succeeds(
+        d,
+        &[
+            "simulate",
+            "--model",
+            "ur10e",
+            "--poses",
+            "60",
+            "--torque-noise",
+            "0.05",
+            "--torque-sign",
+            sign,
+            "--out",
+            file,
+        ],
+    );
+}
+
+/// A robot that reports its sensors' load torques (the drives' negated):
+/// the sign is read from the data and said, and the calibration is the
+/// drives' torques' own, byte for byte (the torques negated exactly);
+/// stated, the same.
+#[test]
+fn load_torques_are_read_as_such() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    simulate_torques(d, "drive", "drive.csv");
+    simulate_torques(d, "load", "load.csv");
+    let drive = std::fs::read_to_string(d.join("drive.csv")).unwrap();
+    let load = std::fs::read_to_string(d.join("load.csv")).unwrap();
+    assert!(load.starts_with("# armcal simulate") && load.contains("--torque-sign load"));
+    let negated = edit_torques(&drive, |t| {
+        for v in t.iter_mut() {
+            *v = format!("{}", -v.parse::<f64>().unwrap());
+        }
+    });
+    let rows = |text: &str| -> Vec<String> {
+        text.lines()
+            .filter(|l| !l.starts_with('#'))
+            .map(String::from)
+            .collect()
+    };
+    assert_eq!(
+        rows(&load),
+        rows(&negated),
+        "the load's torques are the drives' negated"
+    );
+    let identify = |file: &str, out: &str, sign: &[&str]| -> String {
+        let mut args = vec!["identify", "--model", "ur10e", "--data", file, "--out", out];
+        args.extend(sign);
+        String::from_utf8_lossy(&succeeds(d, &args).stdout).into_owned()
+    };
+    let said = identify("drive.csv", "drive.cal", &[]);
+    assert!(said.contains("tau read as the drives' torques ("), "{said}");
+    let said = identify("load.csv", "load.cal", &[]);
+    assert!(
+        said.contains("tau read as the sensors' load torques: negated ("),
+        "{said}"
+    );
+    let stated = identify("load.csv", "stated.cal", &["--torque-sign", "load"]);
+    assert!(stated.contains("as stated, --torque-sign load"), "{stated}");
+    let want = std::fs::read(d.join("drive.cal")).unwrap();
+    assert!(std::fs::read(d.join("load.cal")).unwrap() == want);
+    assert!(std::fs::read(d.join("stated.cal")).unwrap() == want);
+    let check = succeeds(d, &["check", "--model", "ur10e", "--data", "load.csv"]);
+    let check = String::from_utf8_lossy(&check.stdout);
+    assert!(
+        check.contains("tau read as the sensors' load torques: negated"),
+        "{check}"
+    );
+}
+
+/// A tau column all zero, or one value in every row, where gravity's
+/// torque about its joint varies: refused (exit status 2), the file and the
+/// column named, nothing written — by `check` too.
+#[test]
+fn a_constant_torque_column_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    simulate_torques(d, "drive", "s.csv");
+    let text = std::fs::read_to_string(d.join("s.csv")).unwrap();
+    std::fs::write(
+        d.join("zero.csv"),
+        edit_torques(&text, |t| t.iter_mut().for_each(|v| *v = "0".into())),
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("constant.csv"),
+        edit_torques(&text, |t| t[2] = "12.5".into()),
+    )
+    .unwrap();
+    for (file, column) in [("zero.csv", "tau2"), ("constant.csv", "tau3")] {
+        let named = [file, &format!("column '{column}'")];
+        for verb in ["identify", "diagnose"] {
+            refused(
+                d,
+                &[verb, "--model", "ur10e", "--data", file, "--out", "c.cal"],
+                &named,
+            );
+        }
+        refused(d, &["check", "--model", "ur10e", "--data", file], &named);
+    }
+}
+
+/// Two joints' columns swapped (tau2 and tau3): the masses fitted to them
+/// are not used, both columns named, the model's masses are; the
+/// calibration and the URDF exported from it carry no negative mass, and
+/// armcal reads that URDF back.
+#[test]
+fn swapped_torque_columns_give_no_negative_mass() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    simulate_torques(d, "drive", "s.csv");
+    let text = std::fs::read_to_string(d.join("s.csv")).unwrap();
+    std::fs::write(d.join("swapped.csv"), edit_torques(&text, |t| t.swap(1, 2))).unwrap();
+    let out = succeeds(
+        d,
+        &[
+            "identify",
+            "--model",
+            "ur10e",
+            "--data",
+            "swapped.csv",
+            "--out",
+            "c.cal",
+            "--json",
+            "r.json",
+        ],
+    );
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(said.contains("not used: tau2 and tau3 swapped?"), "{said}");
+    let warned = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        warned.contains("armcal: warning: the masses fitted to the joint torques")
+            && warned.contains("tau2 and tau3 swapped?"),
+        "{warned}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("r.json")).unwrap()).unwrap();
+    assert_eq!(json["gravity"]["masses_used"], "model");
+    succeeds(
+        d,
+        &[
+            "export",
+            "--calibration",
+            "c.cal",
+            "--format",
+            "urdf",
+            "--out",
+            "c.urdf",
+        ],
+    );
+    let urdf = std::fs::read_to_string(d.join("c.urdf")).unwrap();
+    let masses: Vec<f64> = urdf
+        .split("<mass value=\"")
+        .skip(1)
+        .map(|s| s.split('"').next().unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(masses.len(), 6, "{urdf}");
+    assert!(masses.iter().all(|m| *m > 0.0), "{masses:?}");
+    succeeds(
+        d,
+        &[
+            "check",
+            "--model",
+            "c.urdf",
+            "--base-link",
+            "base_link",
+            "--tip-link",
+            "armcal_measured_point",
+            "--data",
+            "s.csv",
+        ],
     );
 }

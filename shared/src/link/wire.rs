@@ -187,7 +187,9 @@ impl From<&CalibrationError> for Rejection {
             CalibrationError::DuplicateParam { .. } => Self::DuplicateParam,
             CalibrationError::EffectJoint => Self::UnknownParam,
             CalibrationError::Ranges => Self::Ranges,
-            CalibrationError::HeldOut | CalibrationError::BufferTooSmall => Self::Other,
+            CalibrationError::HeldOut
+            | CalibrationError::NegativeMass { .. }
+            | CalibrationError::BufferTooSmall => Self::Other,
         }
     }
 }

@@ -198,6 +198,10 @@ pub enum IdentifyError {
     /// The calibration could not be encoded.
     #[error("the calibration cannot be written: {0}")]
     Calibration(#[from] armcal_shared::CalibrationError),
+    /// The session's measured joint torques cannot be the arm's gravity
+    /// ([`crate::calibration::gravity`]).
+    #[error(transparent)]
+    Input(#[from] crate::session::input_error::InputError),
 }
 
 /// The observations of `data`, SI, with each pose's context: temperature and

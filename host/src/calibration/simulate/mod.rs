@@ -179,6 +179,9 @@ pub struct Scenario {
     /// (N·m, N for a prismatic joint, per joint). Each pose's `tau` is its
     /// drives' torque, minus the true gravity torque with the payload.
     pub torque_noise: Option<f64>,
+    /// The sign the torques are reported with: the drives' (armcal's
+    /// `tau`), or the load torques the sensors read (the drives' negated).
+    pub torque_sign: crate::calibration::gravity::TorqueSign,
     /// Seed of every draw.
     pub seed: u64,
     /// Sessions the rows are measured in, in consecutive blocks: each after
@@ -203,6 +206,7 @@ impl Scenario {
             temperature: (20.0, 30.0),
             payloads: vec![0.0, 5.0],
             torque_noise: None,
+            torque_sign: crate::calibration::gravity::TorqueSign::Drive,
             seed,
             sessions: 1,
         }
@@ -402,10 +406,12 @@ impl Draw {
             Some(s) => {
                 let chain = self.truth.chain(q)?;
                 let gravity = armcal_shared::effects::gravity_torques(&self.truth, &chain, load);
+                // The drive's torque, negated exactly for the load's.
+                let sign = scenario.torque_sign.to_drive();
                 Some(
                     gravity
                         .iter()
-                        .map(|g| -g + s * normal.sample(rng))
+                        .map(|g| sign * (-g + s * normal.sample(rng)))
                         .collect(),
                 )
             }
