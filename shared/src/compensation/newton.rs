@@ -25,7 +25,7 @@
 use super::factors::{Factors, Freshness, apply};
 use super::start::Start;
 use super::step_bound::Bounded;
-use super::{Compensator, Fault, Joints, Parts, Problem, Tick};
+use super::{Compensator, Fault, Joints, Parts, Problem, Task, Tick};
 use crate::servo_chain::ServoChain;
 use crate::{JointType, MAX_JOINTS, Real};
 
@@ -124,6 +124,10 @@ pub(crate) struct Solved<T: Real> {
     /// Whether the least correction settled (a step no longer moved the
     /// joints); always for a task without joints beyond its rows.
     pub settled: bool,
+    /// The square of the flange's turn from the orientation kept, rad²
+    /// ([`Compensator::turn2`]), at the last point evaluated (a step taken on
+    /// its bound and settled moves it by a few tolerances at most).
+    pub turn2: T,
 }
 
 impl<T: Real> Compensator<T> {
@@ -220,17 +224,16 @@ impl<T: Real> Compensator<T> {
             let bound = loop {
                 if fresh {
                     factors
-                        .factor(jac, self.damping2())
+                        .factor(jac, self.damping2(), self.rotation_damping2)
                         .ok_or(Fault::NonFinite)?;
                 }
                 if !predicted {
-                    // δ₀ = J⁺ e with fresh factors, which leave exactly `λ² y`.
+                    // δ₀ = J⁺ e with fresh factors, which leave exactly `D y`.
                     let c = self.offset(&mut offset[..n], &point, q_cmd, None);
                     let y = self
                         .pseudo_solve(jac, factors, &residual.0, c, first)
                         .ok_or(Fault::NonFinite)?;
-                    let lambda2 = self.damping2();
-                    r = self.predicted(chain, jac, y.map(|y| lambda2 * y), first);
+                    r = self.predicted(chain, jac, self.leftover(y), first);
                 }
                 let c = self.offset(&mut offset[..n], &point, q_cmd, Some(first));
                 let at = Linearisation {
@@ -261,6 +264,7 @@ impl<T: Real> Compensator<T> {
                         residual2: bound * bound,
                         bound: Some(bound),
                         settled: true,
+                        turn2: self.turn2(&residual.0),
                     });
                 }
                 geometry.chain(point.current(), Parts::Lines, chain)?;
@@ -300,6 +304,7 @@ impl<T: Real> Compensator<T> {
             residual2: residual.1,
             bound: None,
             settled: !settling,
+            turn2: self.turn2(&residual.0),
         })
     }
 
@@ -397,12 +402,11 @@ impl<T: Real> Compensator<T> {
                 whole.iter_mut().zip(rhs).for_each(|(w, r)| *w += *r);
                 let y = factors.solve(jac, &whole, out)?;
                 out.iter_mut().zip(c).for_each(|(o, c)| *o -= *c);
-                // The damping leaves `λ² y` of `rhs`, of the order of `λ²/σ²`
+                // The damping leaves `D y` of `rhs`, of the order of `λ²/σ²`
                 // times `J c`, which does not shrink as the search converges
                 // (the correction does not): one refinement with the same
-                // factors leaves `λ² y₂`, of order `(λ²/σ²)²`.
-                let lambda2 = self.damping2();
-                let left = y.map(|y| lambda2 * y);
+                // factors leaves `D y₂`, of order `(λ²/σ²)²`.
+                let left = self.leftover(y);
                 let mut refined = [T::zero(); MAX_JOINTS];
                 let y2 = factors.solve(jac, &left, &mut refined[..out.len()])?;
                 out.iter_mut().zip(refined).for_each(|(o, d)| *o += d);
@@ -433,15 +437,22 @@ impl<T: Real> Compensator<T> {
             reach,
         } = *at;
         let y = self.pseudo_solve(jac, factors, r, c, second)?;
+        // The rows that must be reached: all for a full pose, the position's
+        // for a position (whose rotation rows, where the orientation is kept,
+        // give way near a singularity and are not bounded).
+        let rows = if self.task == Task::Pose { 0 } else { 3 };
         let linear = match factors.freshness {
-            Freshness::Fresh => self.damping2() * y.iter().fold(T::zero(), |s, v| s + v.abs()),
+            Freshness::Fresh => {
+                self.damping2() * y[rows..].iter().fold(T::zero(), |s, v| s + v.abs())
+            }
             // Factors of a nearby configuration leave a part of order `|J −
             // J'| |δ − δ₀|` besides: measured, `ℓ = r − J (δ − δ₀)`.
             _ => {
                 let moved = apply(jac, second);
-                r.iter()
-                    .zip(moved)
-                    .fold(T::zero(), |s, (r, m)| s + (*r - m).abs())
+                r[rows..]
+                    .iter()
+                    .zip(&moved[rows..])
+                    .fold(T::zero(), |s, (r, m)| s + (*r - *m).abs())
             }
         };
         if !linear.is_finite() {
