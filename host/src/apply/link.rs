@@ -399,6 +399,7 @@ impl Streamed {
             .collect();
         compensate::RowWarning::of_rows(
             named.into_iter(),
+            Vec::new(),
             settling,
             self.rows.len(),
             compensate::registration(cal),
