@@ -76,12 +76,17 @@
 //!
 //! # Rows and units
 //!
-//! Residual rows: rotation (rad, scaled by [`Limits::length_scale`] so that both
-//! parts are lengths), then position (m). The rotation part is `φ`, the vector of
-//! the skew-symmetric part of `R_target R_reachedᵀ` (eq. 15's `νdφ`, `½ Σ_i r_i ×
+//! Residual rows: rotation (rad, scaled by [`Limits::length_scale`], or for a
+//! position task by [`Limits::turn_scale`], so that both parts are lengths),
+//! then position (m). The rotation part is `φ`, the vector of the
+//! skew-symmetric part of `R_target R_reachedᵀ` (eq. 15's `νdφ`, `½ Σ_i r_i ×
 //! t_i` over the columns): zero exactly where the rotations agree. `J⁺` is the
-//! damped least-squares inverse `Jᵀ (J Jᵀ + λ² I)⁻¹`: away from singularities
-//! `J⁻¹` up to `λ²/σ²`, near one it bounds the step. Every correction is bounded
+//! damped least-squares inverse `Jᵀ (J Jᵀ + D)⁻¹`, `D = λ² I` (for a position
+//! task keeping the orientation, `(λ/100)²` on every row, the position rows,
+//! which must be reached, and [`Limits::turn_damping`]² more on the rotation
+//! rows, which give way): away from singularities `J⁻¹` up to `λ²/σ²`, near
+//! one it bounds the
+//! step. Every correction is bounded
 //! per joint in size ([`Limits::max_correction_angle`],
 //! [`Limits::max_correction_length`]); any non-finite input or intermediate
 //! value returns the nominal command with [`Fault::NonFinite`]: the controller
@@ -244,12 +249,6 @@ pub struct Correction<T: Real> {
     /// [`Limits::length_scale`]; when the last step was taken on its bound
     /// ([`step_bound`]), that bound, which the residual does not exceed.
     pub residual: T,
-    /// For [`Task::Position`], how far the flange turns from the orientation
-    /// the calibrated model has at the command, rad (the rotation vector's
-    /// norm, to third order): near zero, unless the command is so near a
-    /// singularity that keeping the orientation would ask for a larger
-    /// correction. Zero for [`Task::Pose`].
-    pub turn: T,
 }
 
 /// The rows a correction brings to the target.
@@ -310,6 +309,8 @@ pub struct Compensator<T: Real> {
     /// Whether the task keeps the calibrated orientation at the command
     /// ([`Task::Position`] with more than 3 joints).
     keeps: bool,
+    /// Whether the residual has rotation rows: [`Task::Pose`], or `keeps`.
+    rotation_rows: bool,
     /// The length scale of the rotation rows: [`Limits::length_scale`] for
     /// [`Task::Pose`], [`Limits::turn_scale`] where the orientation is kept,
     /// else zero.
@@ -419,9 +420,6 @@ pub(crate) struct Answer<T: Real> {
     pub iterations: usize,
     /// The residual, m (or its bound).
     pub residual: T,
-    /// The square of the flange's turn from the orientation kept, rad²
-    /// ([`Correction::turn`]).
-    pub turn2: T,
 }
 
 impl<T: Real> Correction<T> {
@@ -433,7 +431,6 @@ impl<T: Real> Correction<T> {
             fault: Some(fault),
             iterations: 0,
             residual: T::zero(),
-            turn: T::zero(),
         }
     }
 }
@@ -547,6 +544,7 @@ impl<T: Real> Compensator<T> {
         Self {
             redundant: robot.dof() > task.rows(),
             keeps,
+            rotation_rows: task == Task::Pose || keeps,
             rotation: match task {
                 Task::Pose => limits.length_scale,
                 Task::Position if keeps => limits.turn_scale,
@@ -693,7 +691,7 @@ impl<T: Real> Compensator<T> {
         let geometry = Geometry {
             model: &self.calibrated,
             factor: length_factor(self.thermal.iter().copied(), conditions.temperature),
-            rotation: self.task == Task::Pose || self.keeps,
+            rotation: self.rotation_rows,
             angles,
         };
         if self.keeps {
@@ -724,7 +722,6 @@ impl<T: Real> Compensator<T> {
         // predictor when this one converged from a warm start.
         let extrapolates = start == Start::Warm && solved.residual2 <= tolerance2;
         let (mut residual2, mut norm) = (solved.residual2, solved.bound);
-        let mut turn2 = solved.turn2;
         // 2. The commands that put the joints at p (in place of the start).
         let Tick {
             chain,
@@ -745,8 +742,7 @@ impl<T: Real> Compensator<T> {
                     if geometry.chain(&reached[..n], Parts::Frame, chain).is_err() {
                         return Err(Fault::JointCount);
                     }
-                    let (e, r2) = self.residual(&target, &chain.end);
-                    (residual2, turn2) = (r2, self.turn2(&e));
+                    residual2 = self.residual(&target, &chain.end).1;
                     norm = None;
                 }
             }
@@ -758,7 +754,6 @@ impl<T: Real> Compensator<T> {
             extrapolates,
             iterations,
             residual: norm.unwrap_or_else(|| residual2.sqrt()),
-            turn2,
         })
     }
 
@@ -776,7 +771,7 @@ impl<T: Real> Compensator<T> {
     ) -> ([T; 6], T) {
         let dp = target.translation.vector - reached.translation.vector;
         let mut dr = Vector3::zeros();
-        if self.task == Task::Pose || self.keeps {
+        if self.rotation_rows {
             let (t, r) = (target.rotation.matrix(), reached.rotation.matrix());
             for i in 0..3 {
                 dr += r.column(i).cross(&t.column(i));
@@ -791,14 +786,29 @@ impl<T: Real> Compensator<T> {
         }
     }
 
-    /// The square of the flange's turn (rad²) that the residual `e` carries
-    /// where the task keeps the orientation; zero otherwise.
-    pub(crate) fn turn2(&self, e: &[T; 6]) -> T {
+    /// For [`Task::Position`], how far the flange turns at the joint
+    /// positions `p` ([`Correction::p`]) from the orientation the calibrated
+    /// model has at the command `q_cmd`, rad: the norm of the vector of the
+    /// skew-symmetric part of the rotation between them, the sine of its
+    /// angle (eq. 15's `νdφ`). Near zero, unless the command is so near a
+    /// singularity that keeping the orientation would ask for a larger
+    /// correction. Zero for [`Task::Pose`] and where the orientation is not
+    /// kept; `None` for the wrong number of joints. Two evaluations of the
+    /// calibrated geometry: for the calibrator, not part of a tick.
+    pub fn turn(&self, q_cmd: &[T], p: &[T]) -> Option<T> {
         if !self.keeps {
-            return T::zero();
+            return (q_cmd.len() == self.dof() && p.len() == self.dof()).then(T::zero);
         }
-        let s = self.rotation;
-        (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]) / (s * s)
+        let (kept, turned) = (
+            self.calibrated.forward(q_cmd).ok()?,
+            self.calibrated.forward(p).ok()?,
+        );
+        let (t, r) = (kept.rotation.matrix(), turned.rotation.matrix());
+        let mut phi = Vector3::zeros();
+        for i in 0..3 {
+            phi += r.column(i).cross(&t.column(i));
+        }
+        Some(phi.norm() * T::lit(0.5))
     }
 
     /// The length scale of the rotation rows: [`Limits::length_scale`] for

@@ -124,10 +124,6 @@ pub(crate) struct Solved<T: Real> {
     /// Whether the least correction settled (a step no longer moved the
     /// joints); always for a task without joints beyond its rows.
     pub settled: bool,
-    /// The square of the flange's turn from the orientation kept, rad²
-    /// ([`Compensator::turn2`]), at the last point evaluated (a step taken on
-    /// its bound and settled moves it by a few tolerances at most).
-    pub turn2: T,
 }
 
 impl<T: Real> Compensator<T> {
@@ -264,7 +260,6 @@ impl<T: Real> Compensator<T> {
                         residual2: bound * bound,
                         bound: Some(bound),
                         settled: true,
-                        turn2: self.turn2(&residual.0),
                     });
                 }
                 geometry.chain(point.current(), Parts::Lines, chain)?;
@@ -304,7 +299,6 @@ impl<T: Real> Compensator<T> {
             residual2: residual.1,
             bound: None,
             settled: !settling,
-            turn2: self.turn2(&residual.0),
         })
     }
 
@@ -440,24 +434,37 @@ impl<T: Real> Compensator<T> {
         // The rows that must be reached: all for a full pose, the position's
         // for a position (whose rotation rows, where the orientation is kept,
         // give way near a singularity and are not bounded).
-        let rows = if self.task == Task::Pose { 0 } else { 3 };
+        let pose = self.task == Task::Pose;
         let linear = match factors.freshness {
-            Freshness::Fresh => {
-                self.damping2() * y[rows..].iter().fold(T::zero(), |s, v| s + v.abs())
-            }
+            Freshness::Fresh => self.damping2() * rows_sum(&y, pose),
             // Factors of a nearby configuration leave a part of order `|J −
             // J'| |δ − δ₀|` besides: measured, `ℓ = r − J (δ − δ₀)`.
             _ => {
                 let moved = apply(jac, second);
-                r[rows..]
-                    .iter()
-                    .zip(&moved[rows..])
-                    .fold(T::zero(), |s, (r, m)| s + (*r - *m).abs())
+                if pose {
+                    r.iter()
+                        .zip(moved)
+                        .fold(T::zero(), |s, (r, m)| s + (*r - m).abs())
+                } else {
+                    (r[3] - moved[3]).abs() + (r[4] - moved[4]).abs() + (r[5] - moved[5]).abs()
+                }
             }
         };
         if !linear.is_finite() {
             return None;
         }
         Some(self.step_bound(chain.lines(), e, first, second, linear, reach))
+    }
+}
+
+/// `|v|₁` over the rows that must be reached: all six for a full pose
+/// (`pose`), the position's three otherwise. Fixed lengths: no loop over a
+/// slice cut at run time.
+#[inline(always)]
+fn rows_sum<T: Real>(v: &[T; 6], pose: bool) -> T {
+    if pose {
+        v.iter().fold(T::zero(), |s, x| s + x.abs())
+    } else {
+        v[3].abs() + v[4].abs() + v[5].abs()
     }
 }

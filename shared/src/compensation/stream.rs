@@ -164,11 +164,6 @@ impl<T: Real> Stream<T> {
             fault,
             iterations: answer.iterations,
             residual: answer.residual,
-            turn: if compensator.keeps {
-                answer.turn2.sqrt()
-            } else {
-                T::zero()
-            },
         }
     }
 }
