@@ -85,6 +85,10 @@ pub fn joints_csv(
 pub struct Compensated {
     /// `(line, correction)` per input row.
     pub rows: Vec<(usize, Correction<f64>)>,
+    /// Per input row, how far the flange turns from the orientation the
+    /// calibrated model has at the command, rad ([`Compensator::turn`]):
+    /// zero for a full-pose calibration.
+    pub turns: Vec<f64>,
     /// The residual below which a row's pose is reached, m ([`Limits::tolerance`]).
     pub tolerance: f64,
 }
@@ -287,7 +291,7 @@ pub fn compensate(cal: &Calibration, commands: &JointRows, pacing: Pacing) -> Co
     let limits = Limits::of(pacing);
     let compensator = Compensator::<f64>::from_calibration(cal, limits);
     let mut stream = Stream::new(pacing);
-    let rows = commands
+    let rows: Vec<(usize, Correction<f64>)> = commands
         .rows
         .iter()
         .map(|row| {
@@ -295,8 +299,15 @@ pub fn compensate(cal: &Calibration, commands: &JointRows, pacing: Pacing) -> Co
             (row.line, c)
         })
         .collect();
+    let turns = commands
+        .rows
+        .iter()
+        .zip(&rows)
+        .map(|(row, (_, c))| compensator.turn(&row.q, &c.p).unwrap_or(0.0))
+        .collect();
     Compensated {
         rows,
+        turns,
         tolerance: limits.tolerance,
     }
 }
@@ -341,8 +352,9 @@ impl Compensated {
         let turned: Vec<(usize, f64)> = self
             .rows
             .iter()
-            .filter(|(_, c)| c.turn > TURN && c.residual <= self.tolerance)
-            .map(|(line, c)| (*line, c.turn))
+            .zip(&self.turns)
+            .filter(|((_, c), turn)| **turn > TURN && c.residual <= self.tolerance)
+            .map(|((line, _), turn)| (*line, *turn))
             .collect();
         let named: Vec<(usize, String)> = self
             .rows

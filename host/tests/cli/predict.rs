@@ -555,7 +555,10 @@ fn compensate_names_the_rows_whose_flange_turns_near_a_singularity() {
     let singular = [0.3, -1.2, 1.5, -1.0, 0.0, 0.4];
     let away = [0.3, -1.2, 1.5, -1.0, 1.2, 0.4];
     let comp = Compensator::<f64>::from_calibration(&cal, Limits::of(Pacing::Program));
-    let turn = |q: &[f64]| comp.correct(q, &Conditions::default()).turn;
+    let turn = |q: &[f64]| {
+        let c = comp.correct(q, &Conditions::default());
+        comp.turn(q, &c.p).unwrap()
+    };
     assert!(
         turn(&away) < 1e-5,
         "away from the singularity: {:e} rad",
