@@ -575,6 +575,8 @@ fn compensate_names_the_rows_whose_flange_turns_near_a_singularity() {
         .filter(|l| l.contains("the flange turned from the orientation"))
         .collect();
     assert_eq!(named.len(), 1, "{stderr}");
+    // The warning as a user reads it (`-- --nocapture`).
+    eprintln!("{}", named[0]);
     let want = format!(
         "cmd.csv: on 1 of 2 rows the point is reached with the flange turned from the orientation the calibrated model has at the command by more than 1 mrad, at worst {:.2} mrad (line 2)",
         at * 1e3

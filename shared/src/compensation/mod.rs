@@ -43,7 +43,7 @@
 //!   [`Limits::turn_damping`], so that where the joints keeping the point
 //!   turn the flange by less than 0.1 rad per rad, the orientation gives way
 //!   smoothly to a smaller correction while the point is still reached; the
-//!   turn left is reported ([`Correction::turn`]). An arm of 3 joints or
+//!   turn left is reported ([`Compensator::turn`]). An arm of 3 joints or
 //!   fewer has no joint to spare: the point alone.
 //! - **The least correction.** Where joints remain beyond the task's rows (a
 //!   6-axis arm in position, a 7-axis arm in full pose), the answer is the
