@@ -42,7 +42,7 @@ use armcal_shared::compensation::{
 use armcal_shared::{Calibration, JointType, Param};
 
 use crate::apply::predict::row_conditions;
-use crate::apply::ranges::RowNames;
+use crate::apply::ranges::{ROWS_NAMED, RowNames};
 use crate::io::measurements::JointRows;
 
 /// A CSV of joint commands `q1..qM` (SI in, the calibration's model units out,
@@ -85,6 +85,10 @@ pub fn joints_csv(
 pub struct Compensated {
     /// `(line, correction)` per input row.
     pub rows: Vec<(usize, Correction<f64>)>,
+    /// Per input row, how far the flange turns from the orientation the
+    /// calibrated model has at the command, rad ([`Compensator::turn`]):
+    /// zero for a full-pose calibration.
+    pub turns: Vec<f64>,
     /// The residual below which a row's pose is reached, m ([`Limits::tolerance`]).
     pub tolerance: f64,
 }
@@ -93,6 +97,15 @@ pub struct Compensated {
 /// names the registration when rows are bounded: 10 mm or 10 mrad, a camera's
 /// or a tracker's frame rather than a robot's mounting.
 pub const REGISTRATION: (f64, f64) = (0.01, 0.01);
+
+/// A turn of the flange (rad) from the orientation the calibrated model has at
+/// the command beyond which a row of a position-only calibration is named:
+/// 1 mrad, of the order of a robot's own orientation error (an arm off by
+/// 1 mm / 1 mrad turns its flange by 1–4 mrad), which moves the tip of a
+/// 250 mm tool by 0.25 mm. Away from singularities the compensation keeps
+/// the orientation to within a few µrad
+/// ([`armcal_shared::compensation::Task::Position`]).
+pub const TURN: f64 = 1e-3;
 
 /// The warning of a row flagged [`Fault::NotConverged`] whose `residual` (m)
 /// is above the tolerance: its pose is not reached.
@@ -128,6 +141,16 @@ pub enum RowWarning {
         rows: usize,
         /// The largest base translation (m) and rotation (rad).
         base: (f64, f64),
+    },
+    /// Rows of a position-only calibration whose point is reached with the
+    /// flange turned by more than [`TURN`] from the orientation the
+    /// calibrated model has at the command: near a singularity, keeping the
+    /// orientation would ask for a larger correction.
+    Turned {
+        /// `(line, turn)` of each such row, rad, in order.
+        turned: Vec<(usize, f64)>,
+        /// Rows in all.
+        rows: usize,
     },
     /// `count` of `rows` rows flagged [`Fault::NotConverged`] reach their
     /// pose (residual within the tolerance), but their search for the least
@@ -165,6 +188,30 @@ impl RowWarning {
                 length * 1e3,
                 angle * 1e3
             ),
+            (Self::Turned { turned, rows }, names) => {
+                let (worst_line, worst) = turned
+                    .iter()
+                    .copied()
+                    .fold((0, 0.0), |w, t| if t.1 > w.1 { t } else { w });
+                let lines: Vec<usize> = turned.iter().map(|(l, _)| *l).collect();
+                let each: Vec<String> = turned
+                    .iter()
+                    .take(ROWS_NAMED)
+                    .map(|(_, t)| format!("{:.2}", t * 1e3))
+                    .collect();
+                format!(
+                    "{commands}: on {} of {rows} rows the point is reached with the flange turned \
+                     from the orientation the calibrated model has at the command by more than \
+                     {} mrad, at worst {:.2} mrad ({}): near a singularity, keeping the \
+                     orientation would ask for a larger joint correction; {} turned by {} mrad",
+                    turned.len(),
+                    TURN * 1e3,
+                    worst * 1e3,
+                    names.list(&[worst_line], 1),
+                    names.list(&lines, lines.len()),
+                    each.join(", "),
+                )
+            }
             (Self::Unsettled { count, rows }, _) => format!(
                 "{commands}: {count} of {rows} rows reach their pose, but the search for the \
                  least joint change did not settle in its iterations (near a singularity, or a \
@@ -205,18 +252,23 @@ impl RowWarning {
             .collect()
     }
 
-    /// The warnings of rows `(line, what)`, of `settling` of `rows` rows
-    /// that did not settle (none when none), and, when rows were named and
-    /// the calibration compensates a `registration` ([`registration`]), of
-    /// that.
+    /// The warnings of rows `(line, what)`, of the rows `turned` beyond
+    /// [`TURN`] (`(line, turn)`, none when none), of `settling` of `rows`
+    /// rows that did not settle (none when none), and, when rows were named
+    /// and the calibration compensates a `registration` ([`registration`]),
+    /// of that.
     pub fn of_rows(
         named: impl Iterator<Item = (usize, String)>,
+        turned: Vec<(usize, f64)>,
         settling: usize,
         rows: usize,
         registration: Option<(f64, f64)>,
     ) -> Vec<Self> {
         let mut out: Vec<Self> = named.map(|(line, what)| Self::Row { line, what }).collect();
         let bounded = out.len();
+        if !turned.is_empty() {
+            out.push(Self::Turned { turned, rows });
+        }
         if settling > 0 {
             out.push(Self::Unsettled {
                 count: settling,
@@ -239,7 +291,7 @@ pub fn compensate(cal: &Calibration, commands: &JointRows, pacing: Pacing) -> Co
     let limits = Limits::of(pacing);
     let compensator = Compensator::<f64>::from_calibration(cal, limits);
     let mut stream = Stream::new(pacing);
-    let rows = commands
+    let rows: Vec<(usize, Correction<f64>)> = commands
         .rows
         .iter()
         .map(|row| {
@@ -247,8 +299,15 @@ pub fn compensate(cal: &Calibration, commands: &JointRows, pacing: Pacing) -> Co
             (row.line, c)
         })
         .collect();
+    let turns = commands
+        .rows
+        .iter()
+        .zip(&rows)
+        .map(|(row, (_, c))| compensator.turn(&row.q, &c.p).unwrap_or(0.0))
+        .collect();
     Compensated {
         rows,
+        turns,
         tolerance: limits.tolerance,
     }
 }
@@ -290,6 +349,13 @@ impl Compensated {
     /// asked to move by, when they were bounded ([`registration`]).
     pub fn warnings(&self, cal: &Calibration) -> Vec<RowWarning> {
         let mut settling = 0;
+        let turned: Vec<(usize, f64)> = self
+            .rows
+            .iter()
+            .zip(&self.turns)
+            .filter(|((_, c), turn)| **turn > TURN && c.residual <= self.tolerance)
+            .map(|((line, _), turn)| (*line, *turn))
+            .collect();
         let named: Vec<(usize, String)> = self
             .rows
             .iter()
@@ -314,6 +380,7 @@ impl Compensated {
             .collect();
         RowWarning::of_rows(
             named.into_iter(),
+            turned,
             settling,
             self.rows.len(),
             registration(cal),

@@ -35,7 +35,7 @@ use armcal_shared::link::{
 
 use crate::apply::compensate;
 use crate::io::measurements::JointRows;
-use armcal_shared::compensation::Limits;
+use armcal_shared::compensation::{Compensator, Limits};
 
 /// How often `Hello` is repeated until answered.
 pub const HELLO_RETRY: Duration = Duration::from_millis(250);
@@ -327,6 +327,8 @@ impl Session {
 pub struct Streamed {
     /// `(line, answer)` per input row.
     pub rows: Vec<(usize, Corrected)>,
+    /// The nominal commands of each row, SI.
+    pub commands: Vec<Vec<f64>>,
     /// The counters after the last row.
     pub status: StatusReport,
     /// The ticks outside the identified ranges, if the controller counts them.
@@ -347,6 +349,7 @@ pub fn stream_rows(session: &mut Session, commands: &JointRows) -> Result<Stream
     let ranges = session.ranges()?;
     Ok(Streamed {
         rows,
+        commands: commands.rows.iter().map(|row| row.q.clone()).collect(),
         status,
         ranges,
     })
@@ -367,13 +370,33 @@ impl Streamed {
     }
 
     /// What the controller said of the rows ([`compensate::RowWarning`]):
-    /// each row whose status was not `Corrected`, in order, then the count
-    /// of the rows whose pose is reached but whose least correction did not
-    /// settle (told apart by the residual against the controller's
-    /// tolerance), and the registration of `cal` the rows were asked to move
-    /// by, when they were bounded ([`compensate::registration`]).
+    /// each row whose status was not `Corrected`, in order, the rows of a
+    /// position-only calibration whose point is reached with the flange
+    /// turned by more than [`compensate::TURN`] (the turn the calibrated
+    /// geometry gives between the nominal commands and the commands sent,
+    /// [`Compensator::turn`]: with joint effects, their offsets besides, a
+    /// fraction of a mrad), then the count of the rows whose pose is reached
+    /// but whose least correction did not settle (told apart by the residual
+    /// against the controller's tolerance), and the registration of `cal` the
+    /// rows were asked to move by, when they were bounded
+    /// ([`compensate::registration`]).
     pub fn warnings(&self, cal: &Calibration) -> Vec<compensate::RowWarning> {
         let tolerance = f64::from(Limits::<f32>::default().tolerance);
+        let compensator = Compensator::<f64>::from_calibration(cal, Limits::default());
+        let turned: Vec<(usize, f64)> = self
+            .rows
+            .iter()
+            .zip(&self.commands)
+            .filter(|((_, c), _)| {
+                matches!(c.status, TickStatus::Corrected | TickStatus::NotConverged)
+                    && f64::from(c.residual) <= tolerance
+            })
+            .filter_map(|((line, c), q_cmd)| {
+                let sent: Vec<f64> = c.q.iter().map(|q| f64::from(*q)).collect();
+                let turn = compensator.turn(q_cmd, &sent)?;
+                (turn > compensate::TURN).then_some((*line, turn))
+            })
+            .collect();
         let mut settling = 0;
         let named: Vec<(usize, String)> = self
             .rows
@@ -399,6 +422,7 @@ impl Streamed {
             .collect();
         compensate::RowWarning::of_rows(
             named.into_iter(),
+            turned,
             settling,
             self.rows.len(),
             compensate::registration(cal),

@@ -526,3 +526,65 @@ fn compensate_servo_counts_an_unsettled_least_correction_once() {
     assert!(counted[0].contains("j.csv: "), "{stderr}");
     assert!(counted[0].contains(" of 3000 rows"), "{stderr}");
 }
+
+/// `armcal compensate` with a position-only calibration keeps the flange's
+/// orientation where the calibrated model has it at the command, and names
+/// the rows near a singularity where it cannot without a larger joint
+/// correction: a UR10e whose link lengths, twists and base are off by
+/// millimetres and milliradians, commanded at its wrist singularity (q5 = 0,
+/// joints 4 and 6 aligned) and away from it (q5 = 1.2 rad). The row at the
+/// singularity is named with its line and its turn (the figure the library's
+/// correction reports, to the 0.01 mrad printed), the row away from it is
+/// not; both reach their point (no row said missed).
+#[test]
+fn compensate_names_the_rows_whose_flange_turns_near_a_singularity() {
+    use armcal_shared::compensation::{Compensator, Conditions, Limits, Pacing};
+    let model = load_model("ur10e").unwrap();
+    let cal = calibration(
+        &model,
+        false,
+        &[
+            ("base.y", 5e-3),
+            ("alpha2", 3e-3),
+            ("a3", 3e-3),
+            ("alpha4", 3e-3),
+            ("s4", -3e-3),
+            ("theta5", 2e-3),
+        ],
+    );
+    let singular = [0.3, -1.2, 1.5, -1.0, 0.0, 0.4];
+    let away = [0.3, -1.2, 1.5, -1.0, 1.2, 0.4];
+    let comp = Compensator::<f64>::from_calibration(&cal, Limits::of(Pacing::Program));
+    let turn = |q: &[f64]| {
+        let c = comp.correct(q, &Conditions::default());
+        comp.turn(q, &c.p).unwrap()
+    };
+    assert!(
+        turn(&away) < 1e-5,
+        "away from the singularity: {:e} rad",
+        turn(&away)
+    );
+    let at = turn(&singular);
+    assert!(at > 1e-3, "at the singularity: {at:e} rad");
+    let row = |q: &[f64; 6]| q.map(|x| x.to_string()).join(",");
+    let text = format!("q1,q2,q3,q4,q5,q6\n{}\n{}\n", row(&singular), row(&away));
+    let (rows, stderr) = compensate_warning(&cal, &text);
+    assert_eq!(rows.len(), 2);
+    let named: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.contains("the flange turned from the orientation"))
+        .collect();
+    assert_eq!(named.len(), 1, "{stderr}");
+    // The warning as a user reads it (`-- --nocapture`).
+    eprintln!("{}", named[0]);
+    let want = format!(
+        "cmd.csv: on 1 of 2 rows the point is reached with the flange turned from the orientation the calibrated model has at the command by more than 1 mrad, at worst {:.2} mrad (line 2)",
+        at * 1e3
+    );
+    assert!(named[0].contains(&want), "{want} not in {stderr}");
+    assert!(
+        named[0].ends_with(&format!("line 2 turned by {:.2} mrad", at * 1e3)),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("did not converge"), "{stderr}");
+}

@@ -1,10 +1,13 @@
-//! The `L D Lᵀ` factors of the damped system `J Jᵀ + λ² I` of a step, and the
-//! damped least-squares solve `J⁺ r = Jᵀ (J Jᵀ + λ² I)⁻¹ r` with them.
+//! The `L D Lᵀ` factors of the damped system `J Jᵀ + D` of a step (`D = λ² I`,
+//! the rotation rows damped more where a position-only task keeps the
+//! orientation: [`Limits::turn_damping`](super::Limits::turn_damping)), and the
+//! damped least-squares solve `J⁺ r = Jᵀ (J Jᵀ + D)⁻¹ r` with them.
 //!
-//! Always the six rows: for [`Task::Position`](super::Task) the rotation rows of
-//! `J` and of the residual are zero, their block is `λ² I` and their part of the
-//! solution zero, the same step as the three position rows alone, and every loop
-//! has a fixed length. No square root is taken (a software routine on the
+//! Always the six rows: where a task has no rotation rows (a position-only
+//! compensation of an arm of 3 joints or fewer) the rotation rows of `J` and of
+//! the residual are zero, their block is `λ² I` and their part of the solution
+//! zero, the same step as the three position rows alone, and every loop has a
+//! fixed length. No square root is taken (a software routine on the
 //! controller).
 //!
 //! Factors of one tick's `J` solve the next tick's step too on a smooth motion
@@ -41,11 +44,12 @@ impl<T: Real> Factors<T> {
         }
     }
 
-    /// Factors `J Jᵀ + λ² I` (`lambda2 = λ²`) for the columns `jac`, in place;
-    /// `None` (and no factors) if not positive definite or not finite.
+    /// Factors `J Jᵀ + D` for the columns `jac`, in place, with the damping
+    /// `D = λ² I` (`lambda2 = λ²`) plus `rotation2` on the three rotation
+    /// rows; `None` (and no factors) if not positive definite or not finite.
     // Triangular index arithmetic reads best with indices.
     #[allow(clippy::needless_range_loop)]
-    pub fn factor(&mut self, jac: &[[T; 6]], lambda2: T) -> Option<()> {
+    pub fn factor(&mut self, jac: &[[T; 6]], lambda2: T, rotation2: T) -> Option<()> {
         self.freshness = Freshness::None;
         let a = &mut self.ldl;
         for i in 0..6 {
@@ -53,6 +57,9 @@ impl<T: Real> Factors<T> {
                 a[i][j] = T::zero();
             }
             a[i][i] = lambda2;
+        }
+        for i in 0..3 {
+            a[i][i] += rotation2;
         }
         for col in jac {
             for i in 0..6 {

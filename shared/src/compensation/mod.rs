@@ -25,26 +25,41 @@
 //! how the search got there. Three choices make it unique:
 //!
 //! - **The task.** A calibration from full poses is compensated in full pose
-//!   (6 rows); one from positions alone in position (3 rows). A position-only
-//!   calibration does not measure the orientation: parameters that turn the
-//!   tool about its own point (a wrist offset traded against a wrist length,
-//!   the tool's rotation) can be off by tens of mrad while every position fits,
-//!   so bringing its orientation to the nominal one would ask the wrist for
-//!   corrections of that size. The joints left free by the position rows (three
-//!   of a 6-axis arm) are fixed by the next rule instead.
+//!   (6 rows); one from positions alone in position (3 rows that must be
+//!   reached), keeping the flange's orientation where the calibrated model
+//!   has it at the command, `R_cal(p) = R_cal(q_cmd)` (3 rows more, weighed).
+//!   A position-only calibration does not measure the orientation: parameters
+//!   that turn the tool about its own point (a wrist offset traded against a
+//!   wrist length, the tool's rotation) can be off by tens of mrad while every
+//!   position fits, so bringing its orientation to the nominal one would ask
+//!   the wrist for corrections of that size; keeping its own orientation at
+//!   the command asks for none of that (the flange turns as the robot would
+//!   at the command), and a working tool then misses by what the robot's own
+//!   orientation error at the command puts at its tip, where the least
+//!   correction reaching the point turned the flange by up to tens of mrad
+//!   near a wrist singularity. Near a singularity keeping the orientation
+//!   needs large corrections (`1/sin q5` of the turn for a wrist), and at it
+//!   is impossible: the rotation rows are damped at
+//!   [`Limits::turn_damping`], so that where the joints keeping the point
+//!   turn the flange by less than 0.1 rad per rad, the orientation gives way
+//!   smoothly to a smaller correction while the point is still reached; the
+//!   turn left is reported ([`Compensator::turn`]). An arm of 3 joints or
+//!   fewer has no joint to spare: the point alone.
 //! - **The least correction.** Where joints remain beyond the task's rows (a
 //!   6-axis arm in position, a 7-axis arm in full pose), the answer is the
-//!   least correction `p − q_cmd` that reaches the target: each step solves for
-//!   the whole correction (`J⁺ (r + J c)` in place of `c + J⁺ r`, with `c` the
-//!   correction so far), so the null-space part of the correction is removed
-//!   at every step, from whichever start, and the search goes on until a step
-//!   no longer moves the joints (the task's residual says nothing of the null
-//!   space; a search whose iterations run out first, near a singularity, is
-//!   flagged [`Fault::NotConverged`]). It is measured from `q_cmd`, never
-//!   from the previous tick, and it keeps the tool's orientation within the
-//!   correction's size of the nominal command's. Position rows alone with steps
-//!   from the previous tick would leave three directions free, along which a
-//!   servo stream drifts (tens of mrad over a thousand ticks).
+//!   least correction `p − q_cmd` that reaches the target, weighed against
+//!   the turn for a position (the damped least squares of all six rows: the
+//!   position's reached, the turn's and the correction's squares balanced):
+//!   each step solves for the whole correction (`J⁺ (r + J c)` in place of
+//!   `c + J⁺ r`, with `c` the correction so far), so the null-space part of
+//!   the correction is removed at every step, from whichever start, and the
+//!   search goes on until a step no longer moves the joints (the task's
+//!   residual says nothing of the null space; a search whose iterations run
+//!   out first, near a singularity, is flagged [`Fault::NotConverged`]). It is
+//!   measured from `q_cmd`, never from the previous tick. Position rows alone
+//!   with steps from the previous tick would leave three directions free,
+//!   along which a servo stream drifts (tens of mrad over a thousand
+//!   ticks).
 //! - **The frame of the targets** ([`TargetFrame`], carried by the
 //!   calibration): targets in the world (measurement) frame compensate the
 //!   identified base too; targets in the robot's own base frame compensate the
@@ -61,12 +76,17 @@
 //!
 //! # Rows and units
 //!
-//! Residual rows: rotation (rad, scaled by [`Limits::length_scale`] so that both
-//! parts are lengths), then position (m). The rotation part is `φ`, the vector of
-//! the skew-symmetric part of `R_target R_reachedᵀ` (eq. 15's `νdφ`, `½ Σ_i r_i ×
+//! Residual rows: rotation (rad, scaled by [`Limits::length_scale`], or for a
+//! position task by [`Limits::turn_scale`], so that both parts are lengths),
+//! then position (m). The rotation part is `φ`, the vector of the
+//! skew-symmetric part of `R_target R_reachedᵀ` (eq. 15's `νdφ`, `½ Σ_i r_i ×
 //! t_i` over the columns): zero exactly where the rotations agree. `J⁺` is the
-//! damped least-squares inverse `Jᵀ (J Jᵀ + λ² I)⁻¹`: away from singularities
-//! `J⁻¹` up to `λ²/σ²`, near one it bounds the step. Every correction is bounded
+//! damped least-squares inverse `Jᵀ (J Jᵀ + D)⁻¹`, `D = λ² I` (for a position
+//! task keeping the orientation, `(λ/100)²` on every row, the position rows,
+//! which must be reached, and [`Limits::turn_damping`]² more on the rotation
+//! rows, which give way): away from singularities `J⁻¹` up to `λ²/σ²`, near
+//! one it bounds the
+//! step. Every correction is bounded
 //! per joint in size ([`Limits::max_correction_angle`],
 //! [`Limits::max_correction_length`]); any non-finite input or intermediate
 //! value returns the nominal command with [`Fault::NonFinite`]: the controller
@@ -138,6 +158,16 @@ pub struct Limits<T: Real> {
     pub damping: T,
     /// The length that turns rotation rows (rad) into lengths, m.
     pub length_scale: T,
+    /// The length that turns the rotation rows of a position-only
+    /// compensation ([`Task::Position`]: the flange's turn from the calibrated
+    /// orientation at the command) into lengths, m; zero: the orientation is
+    /// not kept (the least correction that reaches the point).
+    pub turn_scale: T,
+    /// The damping of those rotation rows, m: where the joints that keep the
+    /// point can turn the flange by less than `turn_damping / turn_scale` rad
+    /// per rad (a wrist within that sine of its singularity), keeping the
+    /// orientation gives way to a smaller correction.
+    pub turn_damping: T,
 }
 
 impl<T: Real> Default for Limits<T> {
@@ -145,7 +175,11 @@ impl<T: Real> Default for Limits<T> {
     /// 5 mm per servo tick; refine until the residual is below 8 ε of a metre or
     /// 1 nm, whichever is larger (0.95 µm in f32, where rounding of a 1 m chain
     /// is about 0.1 µm; 1 nm in f64), in at most 4 iterations; damping 1e-4 m;
-    /// rotations weighed at 1 m.
+    /// rotations weighed at 1 m, in a position-only compensation too, where
+    /// they are damped at 0.1 m: keeping the orientation gives way within a
+    /// sine of about 0.1 of a wrist singularity (about 6°, where keeping a
+    /// turn asks the wrist for about 7 times as much), and the wrist's
+    /// correction for a turn of a few mrad stays within its 0.1 rad bound.
     fn default() -> Self {
         Self {
             max_correction_angle: T::lit(0.1),
@@ -156,6 +190,8 @@ impl<T: Real> Default for Limits<T> {
             max_iterations: 4,
             damping: T::lit(1e-4),
             length_scale: T::one(),
+            turn_scale: T::one(),
+            turn_damping: T::lit(0.1),
         }
     }
 }
@@ -209,9 +245,9 @@ pub struct Correction<T: Real> {
     /// Iterations run (a cold search after a failed warm one adds its own).
     pub iterations: usize,
     /// The remaining residual before bounding, m: the norm of the position error
-    /// and of the orientation error times [`Limits::length_scale`]; when the
-    /// last step was taken on its bound ([`step_bound`]), that bound, which the
-    /// residual does not exceed.
+    /// and, for [`Task::Pose`], of the orientation error times
+    /// [`Limits::length_scale`]; when the last step was taken on its bound
+    /// ([`step_bound`]), that bound, which the residual does not exceed.
     pub residual: T,
 }
 
@@ -220,12 +256,16 @@ pub struct Correction<T: Real> {
 pub enum Task {
     /// Rotation and position: 6 rows.
     Pose,
-    /// Position alone: 3 rows (the rotation rows are zero).
+    /// The position (3 rows), with the flange's orientation kept where the
+    /// calibrated model has it at the command, weighed at
+    /// [`Limits::turn_scale`] (3 rows more, which give way near a
+    /// singularity; none for an arm of 3 joints or fewer, which has no
+    /// joint to spare).
     Position,
 }
 
 impl Task {
-    /// The number of rows.
+    /// The number of rows that must be reached.
     pub fn rows(self) -> usize {
         match self {
             Self::Pose => 6,
@@ -266,6 +306,25 @@ pub struct Compensator<T: Real> {
     /// Whether joints remain beyond the task's rows (the least correction
     /// from the command is chosen among the solutions).
     redundant: bool,
+    /// Whether the task keeps the calibrated orientation at the command
+    /// ([`Task::Position`] with more than 3 joints).
+    keeps: bool,
+    /// Whether the residual has rotation rows: [`Task::Pose`], or `keeps`.
+    rotation_rows: bool,
+    /// The length scale of the rotation rows: [`Limits::length_scale`] for
+    /// [`Task::Pose`], [`Limits::turn_scale`] where the orientation is kept,
+    /// else zero.
+    rotation: T,
+    /// The rotation rows' damping beyond `λ²` ([`Limits::turn_damping`]²
+    /// where the orientation is kept, else zero), m².
+    rotation_damping2: T,
+    /// `λ²`: [`Limits::damping`]², or, where the orientation is kept,
+    /// `(λ/100)²`. There the position rows must be reached while the rotation
+    /// rows give way; the damping of the position rows leaves of the
+    /// position about `λ²/σ²` times what the rotation rows leave, a few nm at
+    /// `λ` near a singularity: at `λ/100` it is far below the tolerance. The
+    /// rotation rows' damping keeps the system positive definite.
+    damping2: T,
     /// The thermal expansions among the effects: coefficient (1/°C) and
     /// reference temperature (°C).
     thermal: Vec<(T, T), MAX_EFFECTS>,
@@ -480,8 +539,27 @@ impl<T: Real> Compensator<T> {
         } else {
             Task::Position
         };
+        let keeps =
+            task == Task::Position && robot.dof() > task.rows() && limits.turn_scale > T::zero();
         Self {
             redundant: robot.dof() > task.rows(),
+            keeps,
+            rotation_rows: task == Task::Pose || keeps,
+            rotation: match task {
+                Task::Pose => limits.length_scale,
+                Task::Position if keeps => limits.turn_scale,
+                Task::Position => T::zero(),
+            },
+            damping2: if keeps {
+                limits.damping * limits.damping * T::lit(1e-4)
+            } else {
+                limits.damping * limits.damping
+            },
+            rotation_damping2: if keeps {
+                limits.turn_damping * limits.turn_damping
+            } else {
+                T::zero()
+            },
             task,
             compliant,
             corrects_joints: calibrated.corrects_joints(),
@@ -588,8 +666,9 @@ impl<T: Real> Compensator<T> {
             angles,
             tick,
         } = work;
-        // The pose the nominal model intended, its joint angles' sines and
-        // cosines recorded: every chain of the calibrated model below is near them.
+        // The pose the nominal model intended (for a position-only task, its
+        // point), its joint angles' sines and cosines recorded: every chain of
+        // the calibrated model below is near them.
         let wanted = Wanted {
             lines: false,
             centres: false,
@@ -608,13 +687,18 @@ impl<T: Real> Compensator<T> {
         {
             return Err(Fault::JointCount);
         }
-        let target = tick.chain.end;
+        let mut target = tick.chain.end;
         let geometry = Geometry {
             model: &self.calibrated,
             factor: length_factor(self.thermal.iter().copied(), conditions.temperature),
-            rotation: self.task == Task::Pose,
+            rotation: self.rotation_rows,
             angles,
         };
+        if self.keeps {
+            // The orientation to keep: the calibrated model's at the command.
+            geometry.chain(q_cmd, Parts::Frame, &mut tick.chain)?;
+            target.rotation = tick.chain.end.rotation;
+        }
         let problem = Problem {
             geometry: &geometry,
             target: &target,
@@ -674,7 +758,9 @@ impl<T: Real> Compensator<T> {
     }
 
     /// The residual `e` (rotation scaled to a length, then position; the rotation
-    /// part is zero for [`Task::Position`]) and its squared norm. The rotation
+    /// part is zero for [`Task::Position`] of an arm of 3 joints or fewer) and
+    /// the squared norm of the rows that must be reached (all six for
+    /// [`Task::Pose`], the position's for [`Task::Position`]). The rotation
     /// part is `φ`, the vector of the skew-symmetric part of `R_target R_reachedᵀ`
     /// (`½ Σ_i r_i × t_i` over the columns, eq. 15's `νdφ`): zero exactly where
     /// the rotations agree, the rotation vector to third order.
@@ -685,28 +771,74 @@ impl<T: Real> Compensator<T> {
     ) -> ([T; 6], T) {
         let dp = target.translation.vector - reached.translation.vector;
         let mut dr = Vector3::zeros();
-        if self.task == Task::Pose {
+        if self.rotation_rows {
             let (t, r) = (target.rotation.matrix(), reached.rotation.matrix());
             for i in 0..3 {
                 dr += r.column(i).cross(&t.column(i));
             }
-            dr *= T::lit(0.5) * self.limits.length_scale;
+            dr *= T::lit(0.5) * self.rotation;
         }
         let e = [dr.x, dr.y, dr.z, dp.x, dp.y, dp.z];
-        (e, e.iter().fold(T::zero(), |s, x| s + *x * *x))
-    }
-
-    /// The length scale of the rotation rows: zero for [`Task::Position`].
-    pub(crate) fn rotation_scale(&self) -> T {
-        match self.task {
-            Task::Pose => self.limits.length_scale,
-            Task::Position => T::zero(),
+        if self.task == Task::Pose {
+            (e, e.iter().fold(T::zero(), |s, x| s + *x * *x))
+        } else {
+            (e, dp.x * dp.x + dp.y * dp.y + dp.z * dp.z)
         }
     }
 
-    /// `λ²`, the square of the damping of the step's least-squares inverse.
+    /// For [`Task::Position`], how far the flange turns at the joint
+    /// positions `p` ([`Correction::p`]) from the orientation the calibrated
+    /// model has at the command `q_cmd`, rad: the norm of the vector of the
+    /// skew-symmetric part of the rotation between them, the sine of its
+    /// angle (eq. 15's `νdφ`). Near zero, unless the command is so near a
+    /// singularity that keeping the orientation would ask for a larger
+    /// correction. Zero for [`Task::Pose`] and where the orientation is not
+    /// kept; `None` for the wrong number of joints. Two evaluations of the
+    /// calibrated geometry: for the calibrator, not part of a tick.
+    pub fn turn(&self, q_cmd: &[T], p: &[T]) -> Option<T> {
+        if !self.keeps {
+            return (q_cmd.len() == self.dof() && p.len() == self.dof()).then(T::zero);
+        }
+        let (kept, turned) = (
+            self.calibrated.forward(q_cmd).ok()?,
+            self.calibrated.forward(p).ok()?,
+        );
+        let (t, r) = (kept.rotation.matrix(), turned.rotation.matrix());
+        let mut phi = Vector3::zeros();
+        for i in 0..3 {
+            phi += r.column(i).cross(&t.column(i));
+        }
+        Some(phi.norm() * T::lit(0.5))
+    }
+
+    /// The length scale of the rotation rows: [`Limits::length_scale`] for
+    /// [`Task::Pose`], [`Limits::turn_scale`] where the orientation is kept,
+    /// zero otherwise.
+    pub(crate) fn rotation_scale(&self) -> T {
+        self.rotation
+    }
+
+    /// `λ²`, the square of the damping of the step's least-squares inverse
+    /// (of its position rows, and of its rotation rows but where the
+    /// orientation is kept: [`Self::leftover`]).
     pub(crate) fn damping2(&self) -> T {
-        self.limits.damping * self.limits.damping
+        self.damping2
+    }
+
+    /// What a solve with fresh factors leaves of its right-hand side, `D y`
+    /// for the `y` it returns: `D` the damping, `λ²` on every row, plus
+    /// [`Limits::turn_damping`]² on the rotation rows where the orientation
+    /// is kept.
+    #[inline(always)]
+    pub(crate) fn leftover(&self, y: [T; 6]) -> [T; 6] {
+        let lambda2 = self.damping2();
+        let mut left = y.map(|y| lambda2 * y);
+        if self.keeps {
+            for (l, y) in left.iter_mut().zip(y).take(3) {
+                *l += self.rotation_damping2 * y;
+            }
+        }
+        left
     }
 }
 

@@ -25,7 +25,7 @@
 use super::factors::{Factors, Freshness, apply};
 use super::start::Start;
 use super::step_bound::Bounded;
-use super::{Compensator, Fault, Joints, Parts, Problem, Tick};
+use super::{Compensator, Fault, Joints, Parts, Problem, Task, Tick};
 use crate::servo_chain::ServoChain;
 use crate::{JointType, MAX_JOINTS, Real};
 
@@ -220,17 +220,16 @@ impl<T: Real> Compensator<T> {
             let bound = loop {
                 if fresh {
                     factors
-                        .factor(jac, self.damping2())
+                        .factor(jac, self.damping2(), self.rotation_damping2)
                         .ok_or(Fault::NonFinite)?;
                 }
                 if !predicted {
-                    // δ₀ = J⁺ e with fresh factors, which leave exactly `λ² y`.
+                    // δ₀ = J⁺ e with fresh factors, which leave exactly `D y`.
                     let c = self.offset(&mut offset[..n], &point, q_cmd, None);
                     let y = self
                         .pseudo_solve(jac, factors, &residual.0, c, first)
                         .ok_or(Fault::NonFinite)?;
-                    let lambda2 = self.damping2();
-                    r = self.predicted(chain, jac, y.map(|y| lambda2 * y), first);
+                    r = self.predicted(chain, jac, self.leftover(y), first);
                 }
                 let c = self.offset(&mut offset[..n], &point, q_cmd, Some(first));
                 let at = Linearisation {
@@ -397,12 +396,11 @@ impl<T: Real> Compensator<T> {
                 whole.iter_mut().zip(rhs).for_each(|(w, r)| *w += *r);
                 let y = factors.solve(jac, &whole, out)?;
                 out.iter_mut().zip(c).for_each(|(o, c)| *o -= *c);
-                // The damping leaves `λ² y` of `rhs`, of the order of `λ²/σ²`
+                // The damping leaves `D y` of `rhs`, of the order of `λ²/σ²`
                 // times `J c`, which does not shrink as the search converges
                 // (the correction does not): one refinement with the same
-                // factors leaves `λ² y₂`, of order `(λ²/σ²)²`.
-                let lambda2 = self.damping2();
-                let left = y.map(|y| lambda2 * y);
+                // factors leaves `D y₂`, of order `(λ²/σ²)²`.
+                let left = self.leftover(y);
                 let mut refined = [T::zero(); MAX_JOINTS];
                 let y2 = factors.solve(jac, &left, &mut refined[..out.len()])?;
                 out.iter_mut().zip(refined).for_each(|(o, d)| *o += d);
@@ -433,20 +431,40 @@ impl<T: Real> Compensator<T> {
             reach,
         } = *at;
         let y = self.pseudo_solve(jac, factors, r, c, second)?;
+        // The rows that must be reached: all for a full pose, the position's
+        // for a position (whose rotation rows, where the orientation is kept,
+        // give way near a singularity and are not bounded).
+        let pose = self.task == Task::Pose;
         let linear = match factors.freshness {
-            Freshness::Fresh => self.damping2() * y.iter().fold(T::zero(), |s, v| s + v.abs()),
+            Freshness::Fresh => self.damping2() * rows_sum(&y, pose),
             // Factors of a nearby configuration leave a part of order `|J −
             // J'| |δ − δ₀|` besides: measured, `ℓ = r − J (δ − δ₀)`.
             _ => {
                 let moved = apply(jac, second);
-                r.iter()
-                    .zip(moved)
-                    .fold(T::zero(), |s, (r, m)| s + (*r - m).abs())
+                if pose {
+                    r.iter()
+                        .zip(moved)
+                        .fold(T::zero(), |s, (r, m)| s + (*r - m).abs())
+                } else {
+                    (r[3] - moved[3]).abs() + (r[4] - moved[4]).abs() + (r[5] - moved[5]).abs()
+                }
             }
         };
         if !linear.is_finite() {
             return None;
         }
         Some(self.step_bound(chain.lines(), e, first, second, linear, reach))
+    }
+}
+
+/// `|v|₁` over the rows that must be reached: all six for a full pose
+/// (`pose`), the position's three otherwise. Fixed lengths: no loop over a
+/// slice cut at run time.
+#[inline(always)]
+fn rows_sum<T: Real>(v: &[T; 6], pose: bool) -> T {
+    if pose {
+        v.iter().fold(T::zero(), |s, x| s + x.abs())
+    } else {
+        v[3].abs() + v[4].abs() + v[5].abs()
     }
 }

@@ -38,7 +38,10 @@
 //! the tolerance the step is taken without evaluating the chain after it: on a
 //! smooth motion a tick is one chain of the calibrated model and one step, and
 //! [`Correction::residual`](super::Correction::residual) is the bound (a
-//! property test checks that the real residual never exceeds it).
+//! property test checks that the real residual never exceeds it). For
+//! [`Task::Position`] the bound is of the position rows alone (the rows that
+//! must be reached: `ℓ` of those rows, the lever `R`), whether or not its
+//! weighed rotation rows keep the orientation.
 
 use nalgebra::Vector3;
 
@@ -58,8 +61,9 @@ pub(crate) struct Bounded<T: Real> {
 
 impl<T: Real> Compensator<T> {
     /// The columns of `J_r` at `chain` (with its joint lines) into `jac`, one
-    /// `[T; 6]` per joint: its rotation (scaled by the length scale; zero for
-    /// [`Task::Position`]) and the tool point's displacement; returns `reach`, a
+    /// `[T; 6]` per joint: its rotation (scaled by the rotation rows' length
+    /// scale: zero for a position task that does not keep the orientation)
+    /// and the tool point's displacement; returns `reach`, a
     /// bound on the levers `|v_m|` (1-norm), at least the length scale.
     #[inline(never)]
     pub(crate) fn jacobian(&self, chain: &ServoChain<T>, jac: &mut [[T; 6]]) -> T {
