@@ -175,15 +175,28 @@ fn three_smrs_at_the_same_configurations_claim_what_they_deliver() {
         for (poses, out) in [("24", format!("s{k}.csv")), ("224", format!("all{k}.csv"))] {
             succeeds(
                 d,
-                &["simulate", "--model", &model, "--poses", poses, "--seed", "5", "--out", &out],
+                &[
+                    "simulate", "--model", &model, "--poses", poses, "--seed", "5", "--out", &out,
+                ],
             );
         }
     }
     succeeds(
         d,
         &[
-            "diagnose", "--model", "smr0.toml", "--data", "s0.csv", "s1.csv", "s2.csv",
-            "--same-base", "--out", "d.cal", "--json", "d.json", "--quiet",
+            "diagnose",
+            "--model",
+            "smr0.toml",
+            "--data",
+            "s0.csv",
+            "s1.csv",
+            "s2.csv",
+            "--same-base",
+            "--out",
+            "d.cal",
+            "--json",
+            "d.json",
+            "--quiet",
         ],
     );
     let report: serde_json::Value =
@@ -199,7 +212,15 @@ fn three_smrs_at_the_same_configurations_claim_what_they_deliver() {
     std::fs::write(d.join("new.csv"), new + "\n").unwrap();
     succeeds(
         d,
-        &["predict", "--calibration", "d.cal", "--joints", "new.csv", "--out", "p.csv"],
+        &[
+            "predict",
+            "--calibration",
+            "d.cal",
+            "--joints",
+            "new.csv",
+            "--out",
+            "p.csv",
+        ],
     );
     let delivered = rms_distance(&d.join("p.csv"), &d.join("new.csv")) * 25.4;
     eprintln!("three SMRs: claimed {claimed:.4} mm held out, delivered {delivered:.4} mm");
