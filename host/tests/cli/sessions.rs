@@ -229,3 +229,58 @@ fn three_smrs_at_the_same_configurations_claim_what_they_deliver() {
         "claimed {claimed} mm, delivered {delivered} mm"
     );
 }
+
+/// A session given again reversed, re-rounded to nine significant digits
+/// and one row short is the same session, not a second one: refused (its
+/// "left out" figure would be in-sample), naming both files. The same
+/// configurations measured again (the instrument's noise drawn anew, 30 µm
+/// instead of 20 µm: points microns apart) are a session of their own.
+#[test]
+fn a_session_copied_reordered_or_rounded_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (noise, out) in [("0.00002", "a.csv"), ("0.00003", "again.csv")] {
+        succeeds(
+            d,
+            &[
+                "simulate", "--model", "ur10e", "--poses", "50", "--seed", "9", "--noise", noise,
+                "--out", out,
+            ],
+        );
+    }
+    let text = std::fs::read_to_string(d.join("a.csv")).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let header = lines.iter().position(|l| !l.starts_with('#')).unwrap();
+    let mut copy = lines[..=header].join("\n") + "\n";
+    for line in lines[header + 2..].iter().rev() {
+        let cells: Vec<String> = line
+            .split(',')
+            .map(|c| format!("{:.8e}", c.parse::<f64>().unwrap()))
+            .collect();
+        copy += &(cells.join(",") + "\n");
+    }
+    std::fs::write(d.join("copy.csv"), copy).unwrap();
+    refused(
+        d,
+        &[
+            "identify", "--model", "ur10e", "--data", "a.csv", "copy.csv",
+        ],
+        &[
+            "copy.csv",
+            "a.csv",
+            "49 of its 49 rows repeat a configuration",
+        ],
+    );
+    succeeds(
+        d,
+        &[
+            "identify",
+            "--model",
+            "ur10e",
+            "--data",
+            "a.csv",
+            "again.csv",
+            "--quiet",
+        ],
+    );
+}
