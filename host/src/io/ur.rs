@@ -105,10 +105,10 @@ fn get<'a, 'i>(node: &'a MarkedYaml<'i>, key: &str) -> Option<&'a MarkedYaml<'i>
     }
 }
 
-/// Parses a factory calibration (see the module header); `file` names it in errors.
-pub fn parse_deltas(text: &str, file: &str) -> Result<DhDeltas, InputError> {
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let docs = MarkedYaml::load_from_str(text).map_err(|e| {
+/// The YAML documents of `text`, refused at the place of a syntax error;
+/// `file` names it.
+fn load_yaml<'i>(text: &'i str, file: &str) -> Result<Vec<MarkedYaml<'i>>, InputError> {
+    MarkedYaml::load_from_str(text).map_err(|e| {
         let m = e.marker();
         InputError::new(
             file,
@@ -116,7 +116,13 @@ pub fn parse_deltas(text: &str, file: &str) -> Result<DhDeltas, InputError> {
             m.col() + 1,
             format!("YAML syntax: {}", e.info()),
         )
-    })?;
+    })
+}
+
+/// Parses a factory calibration (see the module header); `file` names it in errors.
+pub fn parse_deltas(text: &str, file: &str) -> Result<DhDeltas, InputError> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let docs = load_yaml(text, file)?;
     let Some(doc) = docs.first() else {
         return Err(InputError::new(
             file,
@@ -591,15 +597,7 @@ pub fn description_flange(origins: &[Pose; JOINTS], q: &[f64; JOINTS]) -> Pose {
 /// `kinematics:`) into the joint origins, as ur_description reads them
 /// (`Trans(xyz) Rot_z(yaw) Rot_y(pitch) Rot_x(roll)`); `file` names it in errors.
 pub fn parse_ur_description(text: &str, file: &str) -> Result<[Pose; JOINTS], InputError> {
-    let docs = MarkedYaml::load_from_str(text).map_err(|e| {
-        let m = e.marker();
-        InputError::new(
-            file,
-            m.line().max(1),
-            m.col() + 1,
-            format!("YAML syntax: {}", e.info()),
-        )
-    })?;
+    let docs = load_yaml(text, file)?;
     let refuse = |node: &MarkedYaml<'_>, why: String| {
         let (l, c) = place(node);
         InputError::new(file, l, c, why)
