@@ -429,8 +429,9 @@ def test_a_working_tool_replaces_the_measured_ball_as_the_command_line():
 
     `with_tool_link` gives the calibration that command uses (the ball's
     identified offset left out, the held-out figure of the ball gone),
-    `with_tool` the same tool as a frame in the flange frame; its commands do
-    not depend on where the ball was nominally mounted."""
+    `with_tool` the same tool as a frame in the flange frame (the tip link's,
+    `ball_link`: the hand's TCP is the URDF's `ball_joint` reversed); its
+    commands do not depend on where the ball was nominally mounted."""
     urdf = str(MUKCA / "original" / "urdf" / "panda.urdf")
     model = armcal.load_model(urdf, tip_link="ball_link")
     data = armcal.load_measurements(model, str(MUKCA / "panda_6" / "front.csv"))
@@ -444,7 +445,8 @@ def test_a_working_tool_replaces_the_measured_ball_as_the_command_line():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # rows outside the identified ranges
         by_link = hand.compensate(q)
-        by_frame = ball.with_tool([0.0, 0.0, 0.2104]).compensate(q)
+        hand_in_ball = [-7.773732033005863e-05, 4.214022515884392e-05, -0.030128297908475325]
+        by_frame = ball.with_tool(hand_in_ball).compensate(q)
         moved = armcal.load_model(urdf, tip_link="ball_link", tip_point=[0.008, -0.006, 0.004])
         moved_ball = armcal.identify(moved, armcal.load_measurements(moved, str(MUKCA / "panda_6" / "front.csv")))
         from_moved = moved_ball.calibration.with_tool_link(urdf, "panda_hand_tcp").compensate(q)

@@ -287,17 +287,48 @@ impl RowWarning {
 }
 
 /// Compensates every row of `commands` in order, with `pacing`.
+///
+/// A robot program's point of a position-only calibration whose correction
+/// keeping the flange's orientation is bounded, or misses its point (near a
+/// singularity, where keeping the orientation asks for large joint
+/// motions), takes the least correction that reaches the point instead,
+/// computed in a second pass over the rows (the same approach directions);
+/// its turn is reported as every row's. Servo ticks keep one stream.
 pub fn compensate(cal: &Calibration, commands: &JointRows, pacing: Pacing) -> Compensated {
     let limits = Limits::of(pacing);
     let compensator = Compensator::<f64>::from_calibration(cal, limits);
-    let mut stream = Stream::new(pacing);
+    let run = |compensator: &Compensator<f64>| -> Vec<Correction<f64>> {
+        let mut stream = Stream::new(pacing);
+        commands
+            .rows
+            .iter()
+            .map(|row| stream.tick(compensator, &row.q, &row_conditions(row)))
+            .collect()
+    };
+    let mut corrections = run(&compensator);
+    let failed = |c: &Correction<f64>| {
+        c.fault == Some(Fault::Limited)
+            || (c.fault == Some(Fault::NotConverged) && c.residual > limits.tolerance)
+    };
+    if pacing == Pacing::Program && !cal.orientation && corrections.iter().any(failed) {
+        let least = Compensator::<f64>::from_calibration(
+            cal,
+            Limits {
+                turn_scale: 0.0,
+                ..limits
+            },
+        );
+        for (c, again) in corrections.iter_mut().zip(run(&least)) {
+            if failed(c) && !failed(&again) {
+                *c = again;
+            }
+        }
+    }
     let rows: Vec<(usize, Correction<f64>)> = commands
         .rows
         .iter()
-        .map(|row| {
-            let c = stream.tick(&compensator, &row.q, &row_conditions(row));
-            (row.line, c)
-        })
+        .map(|row| row.line)
+        .zip(corrections)
         .collect();
     let turns = commands
         .rows
