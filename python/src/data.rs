@@ -129,13 +129,16 @@ pub fn from_arrays<'py>(
 /// measured at `poses` random configurations with `noise` (model length unit,
 /// default 20 µm) and, with `orientation_noise` (model angle unit), orientations;
 /// with `torque_noise` (N·m), the joint torques the robot reports (`tau`);
-/// `payloads` (kg) of consecutive blocks of rows (default 0 and 5); in
+/// `payloads` (kg) of consecutive blocks of rows (default 0 and 5); the true
+/// robot off nominal by `link_errors`, `base_errors`, `tool_errors`
+/// (`(length, angle)` in the model's units, as `armcal simulate
+/// --link-errors` etc.) in place of ±1 mm / ±1 mrad; in
 /// `sessions` sessions, each after the first with the instrument moved and
 /// the point remounted (one Measurements holding them all: `identify` and
 /// `diagnose` read its sessions as several files'). Returns the
 /// measurements (rows numbered from 0) and the truth as a dict.
 #[pyfunction]
-#[pyo3(signature = (model, poses = 200, seed = 1, noise = None, orientation_noise = None, effects = Vec::new(), tilts = Vec::new(), torque_noise = None, *, payloads = Vec::new(), sessions = 1))]
+#[pyo3(signature = (model, poses = 200, seed = 1, noise = None, orientation_noise = None, effects = Vec::new(), tilts = Vec::new(), torque_noise = None, *, payloads = Vec::new(), sessions = 1, link_errors = None, base_errors = None, tool_errors = None))]
 #[expect(
     clippy::too_many_arguments,
     reason = "a parameter per Python keyword argument, as the signature above lists them"
@@ -152,6 +155,9 @@ pub fn simulate<'py>(
     torque_noise: Option<f64>,
     payloads: Vec<f64>,
     sessions: usize,
+    link_errors: Option<(f64, f64)>,
+    base_errors: Option<(f64, f64)>,
+    tool_errors: Option<(f64, f64)>,
 ) -> PyResult<(Measurements, Bound<'py, PyAny>)> {
     let m = &model.inner;
     let u = m.units;
@@ -165,6 +171,11 @@ pub fn simulate<'py>(
         tilts,
         payloads,
         sessions,
+        errors: simulate_cmd::ErrorRequest {
+            link: link_errors.map(|(l, a)| [l, a]),
+            base: base_errors.map(|(l, a)| [l, a]),
+            tool: tool_errors.map(|(l, a)| [l, a]),
+        },
     };
     let session = py
         .detach(|| simulate_cmd::run(PYTHON, m, &request))
