@@ -1235,6 +1235,53 @@ mod diagnosis_random {
     }
 }
 
+mod tilt_sweep {
+    //! Issue 41's tilt sweep: the rate `armcal sweep --effect
+    //! parallel_axis_tilt` measures with the true robots off nominal by the
+    //! independent simulator's sizes.
+
+    use armcal::calibration::simulate::ErrorSizes;
+    use armcal::calibration::sweep::{KINDS, Settings, rates, sweep_with};
+
+    /// A Hayati tilt between axes 2 and 3 of a PUMA 560, UR5e or UR10e, sized
+    /// to leave 5–20× the noise after a geometric fit, with the D-H angles off
+    /// by up to ±2 mrad and lengths by ±0.5 mm, the base by ±2 mm / ±2 mrad and
+    /// the tool by ±1 mm / ±2 mrad (120 tracker positions, σ = 20 µm): the
+    /// tilt is named first in at least 95 % of the cases whose signal reaches
+    /// 5×, and nothing is named in the pure-geometry cases (one in five), as
+    /// at ±1 mm / ±1 mrad. Before the fit's selection was made at the nominal
+    /// structure, 73 % of such tilts were named (500 cases).
+    #[test]
+    fn a_tilt_is_named_at_the_independent_simulators_error_sizes() {
+        let settings = Settings {
+            errors: ErrorSizes {
+                link_length: 0.5e-3,
+                link_angle: 2e-3,
+                base_length: 2e-3,
+                base_angle: 2e-3,
+                tool_length: 1e-3,
+                tool_angle: 2e-3,
+            },
+            effect: KINDS.iter().position(|k| *k == "parallel_axis_tilt"),
+            ..Settings::new(100, 1, 120)
+        };
+        let cases = sweep_with(&settings, |_, _| {});
+        let r = rates(&cases);
+        eprintln!(
+            "tilts named {} of {}, false positives {} of {}",
+            r.detected, r.strong, r.false_positives, r.pure
+        );
+        assert!(r.strong >= 60, "{} strong cases", r.strong);
+        assert!(
+            r.detected as f64 >= 0.95 * r.strong as f64,
+            "named {} of {}",
+            r.detected,
+            r.strong
+        );
+        assert_eq!(r.false_positives, 0, "of {} pure-geometry cases", r.pure);
+    }
+}
+
 mod blunders {
     //! Blunders among tracker readings are found at a scale they cannot
     //! inflate: a 1–5 mm blunder is 50–250 times the 20 µm noise, and a few of

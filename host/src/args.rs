@@ -90,6 +90,16 @@ pub(crate) fn tilt(text: &str) -> Result<Tilt, String> {
     }
 }
 
+/// `LENGTH,ANGLE`, two finite numbers, zero or more: the size of the true
+/// robot's errors (`--link-errors`, `--base-errors`, `--tool-errors`).
+pub(crate) fn error_sizes(text: &str) -> Result<[f64; 2], String> {
+    let parsed = text.split_once(',').and_then(|(l, a)| {
+        let (l, a) = (non_negative(l).ok()?, non_negative(a).ok()?);
+        Some([l, a])
+    });
+    parsed.ok_or_else(|| "expected LENGTH,ANGLE, two non-negative numbers".into())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -126,6 +136,11 @@ mod tests {
         assert_eq!((t.joint, t.beta), (3, 0.001));
         for bad in ["0:0.1", "3", "3:inf", "x:0.1"] {
             assert!(tilt(bad).is_err(), "{bad}");
+        }
+        assert_eq!(error_sizes("0.5, 0.002"), Ok([0.5, 0.002]));
+        assert_eq!(error_sizes("0,0"), Ok([0.0, 0.0]));
+        for bad in ["0.5", "0.5,0.002,1", "-1,0.002", "0.5,nan", "a,b"] {
+            assert!(error_sizes(bad).is_err(), "{bad}");
         }
     }
 }

@@ -336,6 +336,8 @@ pub(crate) struct SimulateArgs {
     /// for `--out D.csv`.
     #[arg(long, default_value_t = 1, value_parser = args::at_least(1, "session"))]
     pub(crate) sessions: usize,
+    #[command(flatten)]
+    pub(crate) errors: TrueErrorArgs,
     /// Seed of every random draw.
     #[arg(long, default_value_t = 1)]
     pub(crate) seed: u64,
@@ -345,6 +347,39 @@ pub(crate) struct SimulateArgs {
     /// Write what was built in (errors and effects) here, as JSON.
     #[arg(long, value_name = "T.json")]
     pub(crate) truth: Option<PathBuf>,
+}
+
+/// The true robot's error sizes, shared by `simulate` and `sweep`: in the
+/// model's units (m and rad for `sweep`'s built-in robots).
+#[derive(clap::Args, Debug, Clone, Copy)]
+pub(crate) struct TrueErrorArgs {
+    /// How far the true robot's links are off the nominal D-H model: each
+    /// length (a, d) drawn uniform within ±LENGTH, each angle (the joint
+    /// offset θ, the twist α) within ±ANGLE, in the model's units (m and rad
+    /// for sweep; default 1 mm, 1 mrad).
+    #[arg(long, value_name = "LENGTH,ANGLE", value_parser = args::error_sizes)]
+    pub(crate) link_errors: Option<[f64; 2]>,
+    /// How far the true base frame (the instrument's placement) is off the
+    /// model's: each coordinate within ±LENGTH, each angle within ±ANGLE
+    /// (default 1 mm, 1 mrad).
+    #[arg(long, value_name = "LENGTH,ANGLE", value_parser = args::error_sizes)]
+    pub(crate) base_errors: Option<[f64; 2]>,
+    /// How far the true tool frame (the measured point's mount) is off the
+    /// model's: each coordinate within ±LENGTH, each angle within ±ANGLE
+    /// (default 1 mm, 1 mrad).
+    #[arg(long, value_name = "LENGTH,ANGLE", value_parser = args::error_sizes)]
+    pub(crate) tool_errors: Option<[f64; 2]>,
+}
+
+impl TrueErrorArgs {
+    /// What these flags ask.
+    pub(crate) fn request(&self) -> simulate::ErrorRequest {
+        simulate::ErrorRequest {
+            link: self.link_errors,
+            base: self.base_errors,
+            tool: self.tool_errors,
+        }
+    }
 }
 
 /// The flags of `armcal stream`.
@@ -435,6 +470,18 @@ pub(crate) struct SweepArgs {
     /// Tracker positions per simulated session (at least 20).
     #[arg(long, default_value_t = 300, value_parser = args::at_least(20, "positions per session"))]
     pub(crate) poses: usize,
+    /// Hide only this effect in every case that hides one, the other draws
+    /// of each case kept (parallel_axis_tilt: a Hayati tilt between axes 2
+    /// and 3).
+    #[arg(long, value_name = "NAME", value_parser = clap::builder::PossibleValuesParser::new(armcal::calibration::sweep::KINDS))]
+    pub(crate) effect: Option<String>,
+    /// Draw the true robots from these built-in models only (repeat for
+    /// several).
+    #[arg(long = "robot", value_name = "NAME", value_parser = clap::builder::PossibleValuesParser::new(armcal::calibration::sweep::ROBOTS))]
+    pub(crate) robots: Vec<String>,
+    /// The true robots' error sizes, in m and rad (the built-in robots' units).
+    #[command(flatten)]
+    pub(crate) errors: TrueErrorArgs,
     /// Write every case as JSON here.
     #[arg(long, value_name = "R.json")]
     pub(crate) json: Option<PathBuf>,
@@ -885,6 +932,7 @@ impl SimulateArgs {
             tilts: self.tilts.iter().map(|t| (t.joint, t.beta)).collect(),
             payloads: self.payloads.clone(),
             sessions: self.sessions,
+            errors: self.errors.request(),
         }
     }
 }

@@ -326,16 +326,48 @@ pub(crate) fn demo(args: DemoArgs) -> anyhow::Result<()> {
 
 /// `armcal sweep`.
 pub(crate) fn sweep(args: SweepArgs) -> anyhow::Result<()> {
+    use armcal::calibration::simulate::ErrorSizes;
+    use armcal::calibration::sweep::{KINDS, ROBOTS, Settings};
     let SweepArgs {
         cases,
         seed,
         poses,
         json,
+        effect,
+        robots,
+        errors,
     } = args;
     let mut outputs = output::Outputs::new().output("--json", json.as_deref());
     outputs.check()?;
+    // In SI, the built-in robots' units.
+    let default = ErrorSizes::default();
+    let [link_length, link_angle] = errors
+        .link_errors
+        .unwrap_or([default.link_length, default.link_angle]);
+    let [base_length, base_angle] = errors
+        .base_errors
+        .unwrap_or([default.base_length, default.base_angle]);
+    let [tool_length, tool_angle] = errors
+        .tool_errors
+        .unwrap_or([default.tool_length, default.tool_angle]);
+    let settings = Settings {
+        errors: ErrorSizes {
+            link_length,
+            link_angle,
+            base_length,
+            base_angle,
+            tool_length,
+            tool_angle,
+        },
+        effect: effect.and_then(|e| KINDS.iter().position(|k| *k == e)),
+        robots: robots
+            .iter()
+            .filter_map(|r| ROBOTS.iter().position(|k| k == r))
+            .collect(),
+        ..Settings::new(cases, seed, poses)
+    };
     let progress = Progress::stage("sweeping");
-    let results = armcal::calibration::sweep::sweep(cases, seed, poses, |i, c| {
+    let results = armcal::calibration::sweep::sweep_with(&settings, |i, c| {
         progress.step(
             i + 1,
             cases,

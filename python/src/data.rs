@@ -132,13 +132,16 @@ pub fn from_arrays<'py>(
 /// with `torque_noise` (N·m), the joint torques the robot reports (`tau`,
 /// with `torque_sign` `"drive"`, armcal's, or `"load"`, the sensors' load
 /// torques: the drives' negated);
-/// `payloads` (kg) of consecutive blocks of rows (default 0 and 5); in
+/// `payloads` (kg) of consecutive blocks of rows (default 0 and 5); the true
+/// robot off nominal by `link_errors`, `base_errors`, `tool_errors`
+/// (`(length, angle)` in the model's units, as `armcal simulate
+/// --link-errors` etc.) in place of ±1 mm / ±1 mrad; in
 /// `sessions` sessions, each after the first with the instrument moved and
 /// the point remounted (one Measurements holding them all: `identify` and
 /// `diagnose` read its sessions as several files'). Returns the
 /// measurements (rows numbered from 0) and the truth as a dict.
 #[pyfunction]
-#[pyo3(signature = (model, poses = 200, seed = 1, noise = None, orientation_noise = None, effects = Vec::new(), tilts = Vec::new(), torque_noise = None, *, payloads = Vec::new(), sessions = 1, torque_sign = "drive"))]
+#[pyo3(signature = (model, poses = 200, seed = 1, noise = None, orientation_noise = None, effects = Vec::new(), tilts = Vec::new(), torque_noise = None, *, payloads = Vec::new(), sessions = 1, torque_sign = "drive", link_errors = None, base_errors = None, tool_errors = None))]
 #[expect(
     clippy::too_many_arguments,
     reason = "a parameter per Python keyword argument, as the signature above lists them"
@@ -156,6 +159,9 @@ pub fn simulate<'py>(
     payloads: Vec<f64>,
     sessions: usize,
     torque_sign: &str,
+    link_errors: Option<(f64, f64)>,
+    base_errors: Option<(f64, f64)>,
+    tool_errors: Option<(f64, f64)>,
 ) -> PyResult<(Measurements, Bound<'py, PyAny>)> {
     let m = &model.inner;
     let u = m.units;
@@ -170,6 +176,11 @@ pub fn simulate<'py>(
         tilts,
         payloads,
         sessions,
+        errors: simulate_cmd::ErrorRequest {
+            link: link_errors.map(|(l, a)| [l, a]),
+            base: base_errors.map(|(l, a)| [l, a]),
+            tool: tool_errors.map(|(l, a)| [l, a]),
+        },
     };
     let session = py
         .detach(|| simulate_cmd::run(PYTHON, m, &request))

@@ -7,12 +7,16 @@
 //! scales the effect's magnitude so that the geometric fit leaves that much
 //! (residuals grow linearly with a small effect: one trial fit sets the scale);
 //! simulates 300
-//! (`--poses`) tracker positions (σ = 20 µm, ±1 mm / ±1 mrad geometry, 20–30 °C, payloads 0
-//! and 5 kg); runs the diagnosis (5-fold); and records whether the first finding
+//! (`--poses`) tracker positions (σ = 20 µm, the true robot off nominal by
+//! ±1 mm / ±1 mrad on every parameter or by the [`Settings::errors`] asked,
+//! 20–30 °C, payloads 0 and 5 kg); runs the diagnosis (5-fold); and records
+//! whether the first finding
 //! is the hidden effect on its joints, whether anything was named for pure
 //! geometry, the signal (geometric held-out RMS over the noise-limited one) and
 //! the time. The detection rate is reported over the cases whose signal is at
 //! least 5× (the "leaving 5–20× the noise after a geometric fit").
+//! [`Settings::effect`] and [`Settings::robots`] keep the draws of every case
+//! and replace its effect (not a pure-geometry case's) or its robot.
 
 use std::time::Instant;
 
@@ -22,7 +26,7 @@ use rand::RngExt;
 
 use crate::calibration::diagnose::{DiagnoseOptions, diagnose};
 use crate::calibration::identify::full::FullOptions;
-use crate::calibration::simulate::{Scenario, rng, simulate};
+use crate::calibration::simulate::{ErrorSizes, Scenario, rng, simulate};
 
 /// One case of the sweep and its outcome.
 #[derive(Clone, Debug)]
@@ -51,6 +55,16 @@ impl Case {
     }
 }
 
+/// The names of the hidden effects of a case's `kind` (see [`hidden_case`]), in order.
+pub const KINDS: [&str; 6] = [
+    "joint_compliance",
+    "gear_transmission",
+    "backlash",
+    "thermal_expansion",
+    "encoder_scale",
+    "parallel_axis_tilt",
+];
+
 /// The simulated session of one case: a hidden effect of `kind` (0 compliance,
 /// 1 gear transmission, 2 backlash, 3 thermal expansion, 4 encoder scale, 5 a tilt
 /// between the second and third axes; `None` pure geometry) on `joint`, its size
@@ -66,7 +80,27 @@ pub fn hidden_case(
     poses: usize,
     fit: &FullOptions,
 ) -> Option<(Scenario, Option<&'static str>, Vec<usize>)> {
-    let mut scenario = Scenario::tracker(poses, seed);
+    hidden_case_in(
+        Scenario::tracker(poses, seed),
+        nominal,
+        kind,
+        joint,
+        target,
+        fit,
+    )
+}
+
+/// [`hidden_case`] in `scenario` (its poses, seed, the true robot's error
+/// sizes, …), the hidden effect added to it.
+pub fn hidden_case_in(
+    mut scenario: Scenario,
+    nominal: &Robot<f64>,
+    kind: Option<usize>,
+    joint: usize,
+    target: f64,
+    fit: &FullOptions,
+) -> Option<(Scenario, Option<&'static str>, Vec<usize>)> {
+    let seed = scenario.seed;
     // Unit-size starting shapes; the scaling below sets the size.
     let (hidden, joints): (Option<&'static str>, Vec<usize>) = match kind {
         Some(0) => {
@@ -165,15 +199,60 @@ pub fn tracker_diagnosis() -> DiagnoseOptions {
     }
 }
 
+/// The robots a sweep draws from, by their built-in names.
+pub const ROBOTS: [&str; 3] = ["puma560", "ur5e", "ur10e"];
+
+/// What a sweep runs.
+#[derive(Clone, Debug)]
+pub struct Settings {
+    /// Cases to run.
+    pub cases: usize,
+    /// Seed of every draw.
+    pub seed: u64,
+    /// Tracker positions per simulated session.
+    pub poses: usize,
+    /// How far each true robot is off nominal.
+    pub errors: ErrorSizes,
+    /// Only this hidden effect (an index into [`KINDS`]), in place of the one
+    /// each case draws; pure-geometry cases stay so. `None`: every kind.
+    pub effect: Option<usize>,
+    /// Only these robots (indices into [`ROBOTS`]): a case's draw among the
+    /// three picks one of these in turn. Empty: all three.
+    pub robots: Vec<usize>,
+}
+
+impl Settings {
+    /// `cases` cases of `poses` positions from `seed`, every kind and robot,
+    /// ±1 mm / ±1 mrad.
+    pub fn new(cases: usize, seed: u64, poses: usize) -> Self {
+        Self {
+            cases,
+            seed,
+            poses,
+            errors: ErrorSizes::default(),
+            effect: None,
+            robots: Vec::new(),
+        }
+    }
+}
+
 /// Runs `cases` cases of `poses` positions each from `seed`; `progress` is
 /// called after each.
 pub fn sweep(
     cases: usize,
     seed: u64,
     poses: usize,
-    mut progress: impl FnMut(usize, &Case),
+    progress: impl FnMut(usize, &Case),
 ) -> Vec<Case> {
-    let robots: Vec<(&'static str, Robot<f64>)> = ["puma560", "ur5e", "ur10e"]
+    sweep_with(&Settings::new(cases, seed, poses), progress)
+}
+
+/// Runs the sweep `settings` asks; `progress` is called after each case.
+/// Every case draws its robot, effect, joint, target and seed as
+/// [`sweep`] does, whatever the settings keep of them, so that a sweep
+/// restricted to one effect runs the same sessions but for the effect.
+pub fn sweep_with(settings: &Settings, mut progress: impl FnMut(usize, &Case)) -> Vec<Case> {
+    let robots: Vec<(&'static str, Robot<f64>)> = ROBOTS
         .into_iter()
         .filter_map(|n| {
             crate::io::model_file::load_model(n)
@@ -181,23 +260,36 @@ pub fn sweep(
                 .map(|m| (n, m.robot))
         })
         .collect();
+    let (cases, seed, poses) = (settings.cases, settings.seed, settings.poses);
     let mut r = rng(seed);
     let options = tracker_diagnosis();
     let mut out = Vec::with_capacity(cases);
     for i in 0..cases {
-        let (name, nominal) = &robots[r.random_range(0..robots.len())];
+        let drawn = r.random_range(0..robots.len());
+        let robot = match settings.robots.as_slice() {
+            [] => drawn,
+            only => only[drawn % only.len()],
+        };
+        let Some((name, nominal)) = robots.get(robot) else {
+            continue;
+        };
         // PUMA in SI is a 1 m class arm like the others; the UR and PUMA axes 2, 3
         // are nominally parallel (tilt candidates).
         let kind = if i % 5 == 4 {
             None
         } else {
-            Some(r.random_range(0..6))
+            let drawn = r.random_range(0..6);
+            Some(settings.effect.unwrap_or(drawn))
         };
         let joint = r.random_range(0..nominal.dof());
         let target: f64 = r.random_range(5.0..20.0);
         let case_seed = seed.wrapping_mul(1000).wrapping_add(i as u64);
+        let scenario = Scenario {
+            errors: settings.errors,
+            ..Scenario::tracker(poses, case_seed)
+        };
         let Some((scenario, hidden, joints)) =
-            hidden_case(nominal, kind, joint, target, case_seed, poses, &options.fit)
+            hidden_case_in(scenario, nominal, kind, joint, target, &options.fit)
         else {
             continue;
         };

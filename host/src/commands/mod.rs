@@ -95,6 +95,12 @@ pub enum Argument {
     Payloads,
     /// The sessions `simulate` measures in.
     SimulatedSessions,
+    /// The true robot's D-H errors `simulate` draws.
+    LinkErrors,
+    /// The true base frame's errors `simulate` draws.
+    BaseErrors,
+    /// The true tool frame's errors `simulate` draws.
+    ToolErrors,
     /// The model a calibration is exported against or into.
     Model,
     /// The calibration file exported.
@@ -129,6 +135,12 @@ impl Argument {
             (Self::Payloads, Front::Python) => "payloads",
             (Self::SimulatedSessions, Front::CommandLine) => "--sessions",
             (Self::SimulatedSessions, Front::Python) => "sessions",
+            (Self::LinkErrors, Front::CommandLine) => "--link-errors",
+            (Self::LinkErrors, Front::Python) => "link_errors",
+            (Self::BaseErrors, Front::CommandLine) => "--base-errors",
+            (Self::BaseErrors, Front::Python) => "base_errors",
+            (Self::ToolErrors, Front::CommandLine) => "--tool-errors",
+            (Self::ToolErrors, Front::Python) => "tool_errors",
             (Self::Model, Front::CommandLine) => "--model",
             (Self::Model, Front::Python) => "model",
             (Self::Calibration, Front::CommandLine) => "--calibration",

@@ -3,12 +3,13 @@
 //! [`crate::calibration::simulate`] draws it, with the request checked the
 //! same way whichever front end asks.
 //!
-//! Noises are in the model's units as the user states them; effect values
-//! and tilts in SI (rad, m), as `NAME[:JOINT[:VALUE]]` and `JOINT:BETA` say.
+//! Noises and the true robot's error sizes are in the model's units as the
+//! user states them; effect values and tilts in SI (rad, m), as
+//! `NAME[:JOINT[:VALUE]]` and `JOINT:BETA` say.
 
 use super::{Argument, Front};
 use crate::calibration::gravity::TorqueSign;
-use crate::calibration::simulate::{self, Scenario, Session, SessionWriter};
+use crate::calibration::simulate::{self, ErrorSizes, Scenario, Session, SessionWriter};
 use crate::io::input_error::InputError;
 use crate::io::model_file::RobotModel;
 use crate::session::measurements::PAYLOAD_RANGE;
@@ -41,6 +42,24 @@ pub struct Request {
     /// Sessions the rows are measured in (at least 1): see
     /// [`Scenario::sessions`].
     pub sessions: usize,
+    /// The true robot's errors off the nominal model (model units, each
+    /// `[length, angle]`, drawn uniform within ± each): of the D-H links
+    /// (`a`, `d`; `θ`, `α`), of the base frame (the instrument's placement)
+    /// and of the tool frame (the measured point's mount); `None` for
+    /// ±1 mm / ±1 mrad.
+    pub errors: ErrorRequest,
+}
+
+/// The true robot's error sizes a [`Request`] asks, each `[length, angle]`
+/// in the model's units; `None` for ±1 mm / ±1 mrad.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ErrorRequest {
+    /// The D-H links' lengths (`a`, `d`) and angles (`θ`, `α`).
+    pub link: Option<[f64; 2]>,
+    /// The base frame's position and orientation.
+    pub base: Option<[f64; 2]>,
+    /// The tool frame's position and orientation.
+    pub tool: Option<[f64; 2]>,
 }
 
 impl Request {
@@ -105,6 +124,40 @@ impl Request {
         if self.sessions == 0 {
             return Err(Argument::SimulatedSessions.refused(front, "0: at least 1"));
         }
+        let sizes = |argument: Argument, given: Option<[f64; 2]>, default: [f64; 2]| match given {
+            None => Ok(default),
+            Some([length, angle]) => {
+                let (length, angle) = (
+                    non_negative(argument, length)?,
+                    non_negative(argument, angle)?,
+                );
+                Ok([u.length_to_si(length), u.angle_to_si(angle)])
+            }
+        };
+        let default = ErrorSizes::default();
+        let [link_length, link_angle] = sizes(
+            Argument::LinkErrors,
+            self.errors.link,
+            [default.link_length, default.link_angle],
+        )?;
+        let [base_length, base_angle] = sizes(
+            Argument::BaseErrors,
+            self.errors.base,
+            [default.base_length, default.base_angle],
+        )?;
+        let [tool_length, tool_angle] = sizes(
+            Argument::ToolErrors,
+            self.errors.tool,
+            [default.tool_length, default.tool_angle],
+        )?;
+        scenario.errors = ErrorSizes {
+            link_length,
+            link_angle,
+            base_length,
+            base_angle,
+            tool_length,
+            tool_angle,
+        };
         scenario.sessions = self.sessions;
         for &kg in &self.payloads {
             let [lo, hi] = PAYLOAD_RANGE;

@@ -320,6 +320,50 @@ fn simulate_writes_data_that_identify_reads() {
     assert_eq!(truth["effects"][0]["joint"], 2);
 }
 
+/// `simulate`'s true robot is off nominal by the sizes asked, in the model's
+/// units: the PUMA (inches) with its links' lengths within ±0.5 mm
+/// (0.019685 in) and angles within ±2 mrad, the base exact and the tool's
+/// position within ±1 mm, its orientation exact. Every error the truth
+/// lists is within its size, and none of the base or of the tool's angles.
+#[test]
+fn simulate_draws_the_error_sizes_asked() {
+    let dir = tempfile::tempdir().unwrap();
+    succeeds(
+        dir.path(),
+        &[
+            "simulate",
+            "--model",
+            "puma560",
+            "--poses",
+            "20",
+            "--link-errors",
+            "0.019685,0.002",
+            "--base-errors",
+            "0,0",
+            "--tool-errors",
+            "0.0393701,0",
+            "--out",
+            "s.csv",
+            "--truth",
+            "t.json",
+        ],
+    );
+    let truth: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("t.json")).unwrap()).unwrap();
+    let errors = truth["errors"].as_object().unwrap();
+    assert!(errors.len() >= 20, "{} errors", errors.len());
+    for (name, e) in errors {
+        let e = e.as_f64().unwrap().abs();
+        let size = match name.as_str() {
+            n if n.starts_with("base.") || n.starts_with("tool.r") => 0.0,
+            n if n.starts_with("tool.") => 0.0393701,
+            n if n.starts_with("theta") || n.starts_with("alpha") => 0.002,
+            _ => 0.019685,
+        };
+        assert!(e <= size, "{name}: {e} beyond ±{size}");
+    }
+}
+
 /// `armcal diagnose` on a session with a hidden joint compliance: the JSON of
 /// docs/file-formats.md §6 names it on joint 2 with its parameter, the held-out error drops
 /// to the noise, the noise estimate is the simulated 20 µm, and the calibration

@@ -147,6 +147,10 @@ fn bad_arguments_exit_two_naming_the_argument() {
         (sim(&["--effect", "foo"]), "--effect"),
         (sim(&["--effect", "backlash:9"]), "--effect"),
         (sim(&["--tilt", "7:0.01"]), "--tilt"),
+        (sim(&["--link-errors", "0.0005"]), "--link-errors"),
+        (sim(&["--base-errors=-0.002,0.002"]), "--base-errors"),
+        (sim(&["--tool-errors", "0.001,nan"]), "--tool-errors"),
+        (vec!["sweep", "--effect", "parallel_axis_tilts"], "--effect"),
         (
             vec![
                 "identify",

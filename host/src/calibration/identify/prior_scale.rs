@@ -241,7 +241,7 @@ mod tests {
     fn tracker(model: &str, poses: usize, errors: f64, seed: u64) -> (RobotModel, Measurements) {
         let model = load_model(model).unwrap();
         let scenario = Scenario {
-            errors: (errors, errors),
+            errors: crate::calibration::simulate::ErrorSizes::uniform(errors, errors),
             ..Scenario::tracker(poses, seed)
         };
         let s = simulate(&model.robot, &scenario).unwrap();

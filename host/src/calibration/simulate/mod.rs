@@ -22,6 +22,62 @@ pub fn rng(seed: u64) -> StdRng {
     StdRng::seed_from_u64(seed)
 }
 
+/// How far the true robot is off its nominal model: each geometric parameter
+/// moved by a uniform draw within ± its size, SI (m, rad). The D-H links'
+/// lengths (`a`, `d`/`s`) and angles (the joint offsets `θ` and the twists
+/// `α`), the base frame's (the instrument's placement) and the tool frame's
+/// (the measured point's mount) each have their own.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ErrorSizes {
+    /// The links' `a` and `d` (`s`), m.
+    pub link_length: f64,
+    /// The links' `θ` and `α`, rad.
+    pub link_angle: f64,
+    /// The base frame's position, m.
+    pub base_length: f64,
+    /// The base frame's orientation (roll, pitch, yaw), rad.
+    pub base_angle: f64,
+    /// The tool frame's position, m.
+    pub tool_length: f64,
+    /// The tool frame's orientation, rad.
+    pub tool_angle: f64,
+}
+
+impl ErrorSizes {
+    /// The same `length` (m) and `angle` (rad) for the links, the base and
+    /// the tool.
+    pub fn uniform(length: f64, angle: f64) -> Self {
+        Self {
+            link_length: length,
+            link_angle: angle,
+            base_length: length,
+            base_angle: angle,
+            tool_length: length,
+            tool_angle: angle,
+        }
+    }
+
+    /// The size of `param`'s error (`Beta`, a tilt, is drawn by none: 0).
+    pub fn of(&self, param: Param) -> f64 {
+        match param {
+            Param::Theta(_) | Param::Alpha(_) => self.link_angle,
+            Param::S(_) | Param::A(_) => self.link_length,
+            Param::Beta(_) => 0.0,
+            Param::Base(ax) if ax.is_angle() => self.base_angle,
+            Param::Base(_) => self.base_length,
+            Param::Tool(ax) if ax.is_angle() => self.tool_angle,
+            Param::Tool(_) => self.tool_length,
+        }
+    }
+}
+
+impl Default for ErrorSizes {
+    /// ±1 mm / ±1 mrad on every parameter.
+    fn default() -> Self {
+        Self::uniform(1e-3, 1e-3)
+    }
+}
+
 /// `nominal` with every parameter in `params` moved by a uniform draw within
 /// `±length` (m) or `±angle` (rad); returns the true robot and the errors.
 pub fn with_random_errors(
@@ -31,12 +87,31 @@ pub fn with_random_errors(
     angle: f64,
     rng: &mut StdRng,
 ) -> (Robot<f64>, Vec<f64>) {
+    with_error_sizes(nominal, params, &ErrorSizes::uniform(length, angle), rng)
+}
+
+/// `nominal` with every parameter in `params` moved by a uniform draw within
+/// ± its size in `sizes` (none for a size of 0); returns the true robot and
+/// the errors.
+pub fn with_error_sizes(
+    nominal: &Robot<f64>,
+    params: &[Param],
+    sizes: &ErrorSizes,
+    rng: &mut StdRng,
+) -> (Robot<f64>, Vec<f64>) {
     let mut truth = nominal.clone();
     let errors: Vec<f64> = params
         .iter()
         .map(|p| {
-            let scale = if p.is_angle() { angle } else { length };
-            let e = rng.random_range(-scale..scale);
+            let scale = sizes.of(*p);
+            // A size of 0 moves nothing; the generator moves on all the same
+            // (one draw), so that the other parameters' draws stay theirs.
+            let e = if scale > 0.0 {
+                rng.random_range(-scale..scale)
+            } else {
+                let _ = rng.random::<u64>();
+                0.0
+            };
             *truth.param_mut(*p).expect("param of the model") += e;
             e
         })
@@ -160,9 +235,9 @@ pub struct Session {
 pub struct Scenario {
     /// Poses measured.
     pub poses: usize,
-    /// Geometric errors: ±length (m) and ±angle (rad), uniform, on every D-H,
-    /// base and tool parameter.
-    pub errors: (f64, f64),
+    /// The true robot's geometric errors: uniform within ± their sizes on
+    /// every D-H, base and tool parameter.
+    pub errors: ErrorSizes,
     /// Position noise, m per axis.
     pub position_noise: f64,
     /// Orientation noise, rad per axis, when orientations are measured.
@@ -198,7 +273,7 @@ impl Scenario {
     pub fn tracker(poses: usize, seed: u64) -> Self {
         Self {
             poses,
-            errors: (1e-3, 1e-3),
+            errors: ErrorSizes::default(),
             position_noise: 20e-6,
             orientation_noise: None,
             effects: Vec::new(),
@@ -315,13 +390,7 @@ impl Draw {
     ) -> Result<Self, armcal_shared::effects::EffectError> {
         let mut rng = rng(scenario.seed);
         let params: Vec<Param> = nominal.params().collect();
-        let (mut truth, _) = with_random_errors(
-            nominal,
-            &params,
-            scenario.errors.0,
-            scenario.errors.1,
-            &mut rng,
-        );
+        let (mut truth, _) = with_error_sizes(nominal, &params, &scenario.errors, &mut rng);
         for &(joint, beta) in &scenario.tilts {
             if let Some(l) = truth.links.get_mut(joint) {
                 l.beta = beta;

@@ -254,11 +254,12 @@ impl Unknowns {
     }
 }
 
-/// The state of the fit across its rounds: identifiability at the initial
-/// estimate; the fit; then, for an estimated noise, the variance components
-/// and the fit again with their weights until they settle. A stated noise is
-/// kept, but when the fit shows it significantly larger the selection is
-/// made again with the noise the residuals show.
+/// The state of the fit across its rounds: identifiability at the nominal
+/// link geometry ([`Fit::structure`]); the fit from the initial estimate;
+/// then, for an estimated noise, the variance components and the fit again
+/// with their weights until they settle. A stated noise is kept, but when the
+/// fit shows it significantly larger the selection is made again with the
+/// noise the residuals show.
 pub(super) struct Fit<'a> {
     nominal: &'a Robot<f64>,
     data: &'a [Observation],
@@ -268,6 +269,22 @@ pub(super) struct Fit<'a> {
     /// The initial estimate: where the held base, tool, effects, points and
     /// planes stay.
     start: Model,
+    /// Where the selection of the separable unknowns is made, whatever the
+    /// fit starts from: the start with its links' D-H parameters (and
+    /// tilts) at their nominal values. Which link parameters the data can separate is
+    /// a property of the model's structure: at two nominally parallel
+    /// axes `s` of the later link does exactly what `s` of the earlier one
+    /// does (Hayati's reason for `β`), but at an estimate whose twist
+    /// between them is off by `ε` the two differ by `ε²` of their norm,
+    /// which passes the test from about a mrad (`ε² > 10⁻⁶`). Freed there,
+    /// `s` of the later link makes the pair's D-H parameters a complete
+    /// description of two skew axes: the tilt `β` between them is then in
+    /// their span, held as inseparable, and the fit's selection would
+    /// change with how far the start lies from nominal.
+    structure: Model,
+    /// Whether `start` is `structure` (a fit from the nominal model): the
+    /// first round's linearisation at the start then serves the selection.
+    start_is_structure: bool,
     /// The current estimate.
     robot: Model,
     /// The channels the data have rows in.
@@ -330,6 +347,18 @@ impl<'a> Fit<'a> {
         });
         let estimate =
             present.map(|c, &present| present && options.noise(c).source == NoiseSource::Estimated);
+        let mut structure = robot.clone();
+        let mut moved = false;
+        let links = nominal
+            .params()
+            .filter(|p| !matches!(p, Param::Base(_) | Param::Tool(_)))
+            .chain((0..nominal.dof()).map(Param::Beta));
+        for p in links {
+            if let (Some(n), Some(v)) = (nominal.param(p), structure.robot.param_mut(p)) {
+                moved |= *v != n;
+                *v = n;
+            }
+        }
         Self {
             nominal,
             data,
@@ -337,6 +366,8 @@ impl<'a> Fit<'a> {
             options,
             unknowns,
             start: robot.clone(),
+            structure,
+            start_is_structure: !moved,
             robot,
             present,
             estimate,
@@ -371,16 +402,21 @@ impl<'a> Fit<'a> {
     }
 
     /// The separable unknowns (indices into the unknowns) at `noise_scale`
-    /// and the others with why; `system`, when given, is the linearisation of
-    /// every unknown at the current estimate.
+    /// and the others with why, at the nominal link geometry
+    /// ([`Fit::structure`]); `system`, when given, is the linearisation of
+    /// every unknown there.
     fn separable(
         &self,
         system: Option<&NormalEquations>,
         noise_scale: f64,
         weights: &Weights,
     ) -> (Vec<usize>, Vec<(Unknown, String)>) {
-        let (params, robot, data, options) =
-            (&self.unknowns.params, &self.robot, self.data, self.options);
+        let (params, robot, data, options) = (
+            &self.unknowns.params,
+            &self.structure,
+            self.data,
+            self.options,
+        );
         if self.unknowns.constrained {
             return constrained_subset(params, robot, data, options, noise_scale, weights);
         }
@@ -400,7 +436,11 @@ impl<'a> Fit<'a> {
     fn select_and_solve(&mut self, weights: &Weights) -> Result<Solution, FullError> {
         let system =
             NormalEquations::accumulate(&self.robot, self.data, &self.unknowns.params, weights);
-        let (free, fixed) = self.separable(Some(&system), self.noise_scale, weights);
+        // The first round of a fit from the nominal model linearises where
+        // the selection is made.
+        let at_structure = self.start_is_structure && self.round == 1;
+        let (free, fixed) =
+            self.separable(at_structure.then_some(&system), self.noise_scale, weights);
         let equations = self.unknowns.equations;
         if equations < free.len() && self.options.prior == Prior::NONE {
             return Err(FullError::TooFewEquations {
