@@ -374,7 +374,7 @@ fn copied_rows(a: &Measurements, b: &Measurements) -> usize {
 /// compared once canonicalised), the same rows (the joint readings and
 /// measured points of every row, the names of the points and planes they
 /// are held to, and the known distances), or nine in ten of the measured
-/// rows of the shorter one copied from the other ([`copied_rows`]: reordered,
+/// rows of the shorter one copied from the other (`copied_rows`: reordered,
 /// re-rounded, a few rows less), naming both and saying `why` a
 /// session must be given once (the sessions of a holdout: left out and
 /// trained on at once, its held-out figures would be in-sample ones,
