@@ -170,7 +170,11 @@ def test_compensated_commands_take_the_calibrated_robot_to_the_nominal_pose(puma
     cal = puma_fit.calibration
     q = data.q[:30]
     with warnings.catch_warnings():
-        warnings.simplefilter("error")  # no row may be bounded or unconverged
+        # No row may be bounded or unconverged. Rows near the wrist singularity
+        # (q5 within 0.01 rad of π here) reach their point with the flange
+        # turned, and are named: expected.
+        warnings.simplefilter("ignore")
+        warnings.filterwarnings("error", message=".*(bounded|converge).*")
         corrected = cal.compensate(q)
     with warnings.catch_warnings():
         # The corrected commands of poses at the edge of the session's joint
