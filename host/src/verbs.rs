@@ -340,25 +340,8 @@ pub(crate) fn sweep(args: SweepArgs) -> anyhow::Result<()> {
     let mut outputs = output::Outputs::new().output("--json", json.as_deref());
     outputs.check()?;
     // In SI, the built-in robots' units.
-    let default = ErrorSizes::default();
-    let [link_length, link_angle] = errors
-        .link_errors
-        .unwrap_or([default.link_length, default.link_angle]);
-    let [base_length, base_angle] = errors
-        .base_errors
-        .unwrap_or([default.base_length, default.base_angle]);
-    let [tool_length, tool_angle] = errors
-        .tool_errors
-        .unwrap_or([default.tool_length, default.tool_angle]);
     let settings = Settings {
-        errors: ErrorSizes {
-            link_length,
-            link_angle,
-            base_length,
-            base_angle,
-            tool_length,
-            tool_angle,
-        },
+        errors: ErrorSizes::given(errors.link_errors, errors.base_errors, errors.tool_errors),
         effect: effect.and_then(|e| KINDS.iter().position(|k| *k == e)),
         robots: robots
             .iter()

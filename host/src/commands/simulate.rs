@@ -124,40 +124,22 @@ impl Request {
         if self.sessions == 0 {
             return Err(Argument::SimulatedSessions.refused(front, "0: at least 1"));
         }
-        let sizes = |argument: Argument, given: Option<[f64; 2]>, default: [f64; 2]| match given {
-            None => Ok(default),
-            Some([length, angle]) => {
-                let (length, angle) = (
-                    non_negative(argument, length)?,
-                    non_negative(argument, angle)?,
-                );
-                Ok([u.length_to_si(length), u.angle_to_si(angle)])
-            }
+        // Each size given checked and in SI.
+        let si = |argument: Argument, given: Option<[f64; 2]>| {
+            given
+                .map(|[length, angle]| {
+                    Ok([
+                        u.length_to_si(non_negative(argument, length)?),
+                        u.angle_to_si(non_negative(argument, angle)?),
+                    ])
+                })
+                .transpose()
         };
-        let default = ErrorSizes::default();
-        let [link_length, link_angle] = sizes(
-            Argument::LinkErrors,
-            self.errors.link,
-            [default.link_length, default.link_angle],
-        )?;
-        let [base_length, base_angle] = sizes(
-            Argument::BaseErrors,
-            self.errors.base,
-            [default.base_length, default.base_angle],
-        )?;
-        let [tool_length, tool_angle] = sizes(
-            Argument::ToolErrors,
-            self.errors.tool,
-            [default.tool_length, default.tool_angle],
-        )?;
-        scenario.errors = ErrorSizes {
-            link_length,
-            link_angle,
-            base_length,
-            base_angle,
-            tool_length,
-            tool_angle,
-        };
+        scenario.errors = ErrorSizes::given(
+            si(Argument::LinkErrors, self.errors.link)?,
+            si(Argument::BaseErrors, self.errors.base)?,
+            si(Argument::ToolErrors, self.errors.tool)?,
+        );
         scenario.sessions = self.sessions;
         for &kg in &self.payloads {
             let [lo, hi] = PAYLOAD_RANGE;

@@ -57,6 +57,23 @@ impl ErrorSizes {
         }
     }
 
+    /// The `[length, angle]` sizes given (SI) for the links, the base and the
+    /// tool, each the default's where none is given.
+    pub fn given(link: Option<[f64; 2]>, base: Option<[f64; 2]>, tool: Option<[f64; 2]>) -> Self {
+        let d = Self::default();
+        let [link_length, link_angle] = link.unwrap_or([d.link_length, d.link_angle]);
+        let [base_length, base_angle] = base.unwrap_or([d.base_length, d.base_angle]);
+        let [tool_length, tool_angle] = tool.unwrap_or([d.tool_length, d.tool_angle]);
+        Self {
+            link_length,
+            link_angle,
+            base_length,
+            base_angle,
+            tool_length,
+            tool_angle,
+        }
+    }
+
     /// The size of `param`'s error (`Beta`, a tilt, is drawn by none: 0).
     pub fn of(&self, param: Param) -> f64 {
         match param {
