@@ -11,7 +11,11 @@ use armcal::io::model_file::load_model;
 /// effect candidate, the refits) on 120 tracker poses of a PUMA with a hidden
 /// compliance costs at most 10 times one identification of the same poses
 /// (the best of fifteen timings each, interleaved; the only test of its binary,
-/// so that no other test runs beside it).
+/// so that no other test runs beside it). The fits are timed ten in a row, a
+/// timing as long as the selection's: the best of short timings is the one
+/// that no interrupt of the machine happened to fall in, which a timing ten
+/// times longer cannot be, and the ratio would count the interrupts the
+/// selection saw against it.
 #[test]
 #[cfg_attr(
     debug_assertions,
@@ -38,9 +42,14 @@ fn the_selection_costs_at_most_ten_fits() {
     // Interleaved, so that a machine busy with something else slows both alike.
     let (mut fit, mut selection) = (f64::INFINITY, f64::INFINITY);
     for _ in 0..5 {
-        fit = fit.min(best(&mut || {
-            identify_full(&nominal, &data, &FullOptions::default()).unwrap();
-        }));
+        let fits = 10;
+        fit = fit.min(
+            best(&mut || {
+                for _ in 0..fits {
+                    identify_full(&nominal, &data, &FullOptions::default()).unwrap();
+                }
+            }) / fits as f64,
+        );
         selection = selection.min(best(&mut || {
             diagnose(&nominal, &data, &DiagnoseOptions::default()).unwrap();
         }));

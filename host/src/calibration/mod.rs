@@ -8,6 +8,7 @@ pub mod acceptance;
 pub mod check;
 pub mod contact_check;
 pub mod demo;
+pub mod dense;
 pub mod diagnose;
 pub mod gravity;
 pub mod identify;

@@ -90,15 +90,30 @@ pub fn alike(columns: &Columns, chosen: &[usize], others: &[(&Candidate, &[usize
         return Vec::new();
     };
     let x = z.rows(columns.fitted, chosen.len()).into_owned();
-    let aa = columns.block(chosen, chosen);
+    // `[F B]`'s factor from `F`'s, shared by every other candidate: with
+    // `W = L_F⁻¹ N_FB` and `L_S` the factor of `N_BB − WᵀW` it is
+    // `[L_F 0; Wᵀ L_S]`, so `N_A[F B] N_[F B]⁻¹ N_[F B]A = Y_FᵀY_F + Y_BᵀY_B`
+    // with `Y_F = L_F⁻¹ N_FA` (the same for every other) and
+    // `Y_B = L_S⁻¹ (N_BA − Wᵀ Y_F)`.
+    let fitted: Vec<usize> = (0..columns.fitted).collect();
+    let Some(l_f) = columns.block(&fitted, &fitted).cholesky() else {
+        return Vec::new();
+    };
+    let l_f = l_f.l();
+    let Some(y_f) = l_f.solve_lower_triangular(&columns.block(&fitted, chosen)) else {
+        return Vec::new();
+    };
+    let beside_fitted = columns.block(chosen, chosen) - y_f.transpose() * &y_f;
     others
         .iter()
         .filter(|(_, own)| !own.is_empty() && own.iter().all(|c| !chosen.contains(c)))
         .filter_map(|(candidate, own)| {
-            let fb = columns.with(own);
-            let l = columns.block(&fb, &fb).cholesky()?;
-            let cross = columns.block(&fb, chosen);
-            let outside = &aa - cross.transpose() * l.solve(&cross);
+            let w = l_f.solve_lower_triangular(&columns.block(&fitted, own))?;
+            let schur = (columns.block(own, own) - w.transpose() * &w).cholesky()?;
+            let y_b = schur
+                .l()
+                .solve_lower_triangular(&(columns.block(own, chosen) - w.transpose() * &y_f))?;
+            let outside = &beside_fitted - y_b.transpose() * &y_b;
             let unexplained = (x.transpose() * outside * &x)[(0, 0)].max(0.0).sqrt();
             (unexplained < SEPARATED).then(|| Alike {
                 candidate: (*candidate).clone(),

@@ -121,9 +121,8 @@ pub fn deleted_residuals(lin: &Linearization, excluded: &[bool]) -> Option<Delet
     // The rows of the fit: every included pose's, and every known distance's.
     let fitted: Vec<usize> = (0..lin.first_rows.len())
         .filter(|&i| i >= n || !excluded[i])
-        .flat_map(|i| lin.rows_of(i))
         .collect();
-    let jf = Mat::from_fn(fitted.len(), p, |r, c| lin.j[(fitted[r], c)]);
+    let (jf, rf) = lin.gathered(&fitted);
     let a = jf.transpose() * &jf;
     let scale = unit_diagonal_scale(&a);
     let normal = Mat::from_fn(p, p, |i, j| {
@@ -135,7 +134,7 @@ pub fn deleted_residuals(lin: &Linearization, excluded: &[bool]) -> Option<Delet
     let llt = normal.llt(Side::Lower).ok()?;
     let mut b = Mat::from_fn(p, lin.j.nrows(), |c, row| lin.j[(row, c)] * scale[c]);
     solve_lower_triangular_in_place(llt.L(), b.as_mut(), Par::Seq);
-    let omega = fitted.iter().map(|&row| lin.r[(row, 0)].powi(2)).sum();
+    let omega = rf.squared_norm_l2();
     let stats = (0..n)
         .map(|i| {
             let rows = lin.rows_of(i);

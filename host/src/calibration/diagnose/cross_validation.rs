@@ -31,6 +31,7 @@ use faer::Mat;
 use nalgebra::{DMatrix, DVector};
 
 use super::{DiagnoseOptions, position_errors};
+use crate::calibration::dense::{column, normal_equations};
 use crate::calibration::identify::full::{
     FullError, Linearization, Observation, identify_with_effects, unit_scale,
 };
@@ -131,27 +132,43 @@ pub enum Role {
     Out,
 }
 
-/// The held-out poses of a fold and their position rows (3, or 1 for a touch
-/// of a plane), in order.
+/// The rows of a group of poses (a fold's, or those trained on in every
+/// fold with the known distances), gathered: each pose's position rows (3, or
+/// 1 for a touch of a plane) first, in the order of the poses, then their
+/// other rows; their Jacobian `j` and weighted residual `r`.
 #[derive(Clone)]
-struct HeldRows {
+struct GroupRows {
+    /// Each pose with how many position rows it has.
     poses: Vec<(usize, usize)>,
-    rows: Vec<usize>,
+    /// How many leading rows are position rows.
+    position_rows: usize,
+    j: Mat<f64>,
+    r: Mat<f64>,
 }
 
-impl HeldRows {
+impl GroupRows {
     fn of(lin: &Linearization, poses: &[usize]) -> Self {
-        let mut rows = Vec::new();
+        let mut position = Vec::new();
+        let mut other = Vec::new();
         let poses = poses
             .iter()
             .map(|&i| {
                 let own = lin.rows_of(i);
                 let n = own.len().min(3);
-                rows.extend(own.start..own.start + n);
+                position.push(own.start..own.start + n);
+                other.push(own.start + n..own.end);
                 (i, n)
             })
             .collect();
-        Self { poses, rows }
+        let position_rows = position.iter().map(|r| r.len()).sum();
+        position.extend(other);
+        let (j, r) = lin.rows(&position);
+        Self {
+            poses,
+            position_rows,
+            j,
+            r,
+        }
     }
 }
 
@@ -209,7 +226,7 @@ pub struct Folds<'a> {
     /// Each fold's training normal equations: every pose's less the fold's.
     training: Vec<(DMatrix<f64>, DVector<f64>)>,
     /// Each fold's held-out rows.
-    held_rows: Vec<HeldRows>,
+    held_rows: Vec<GroupRows>,
     all: (DMatrix<f64>, DVector<f64>),
     rtr: f64,
 }
@@ -221,7 +238,6 @@ impl<'a> Folds<'a> {
     /// point lands, not a distance.
     pub fn new(lin: &'a Linearization, fold: Vec<Role>) -> Self {
         debug_assert_eq!(fold.len(), lin.poses());
-        let columns = lin.j.ncols();
         let k = fold
             .iter()
             .filter_map(|r| match r {
@@ -230,18 +246,10 @@ impl<'a> Folds<'a> {
             })
             .max()
             .unwrap_or(0);
-        // Each group's rows gathered, its normal matrix by one product (the
-        // small solves below run on nalgebra's dense matrices).
+        // Each group's rows gathered, its normal matrix by one product.
         let normal = |poses: Vec<usize>| {
-            let rows: Vec<usize> = poses.iter().flat_map(|&i| lin.rows_of(i)).collect();
-            let j = Mat::from_fn(rows.len(), columns, |r, c| lin.j[(rows[r], c)]);
-            let r = Mat::from_fn(rows.len(), 1, |i, _| lin.r[(rows[i], 0)]);
-            let (a, b) = (j.transpose() * &j, j.transpose() * &r);
-            let normal = (
-                DMatrix::from_fn(columns, columns, |i, k| a[(i, k)]),
-                DVector::from_fn(columns, |i, _| b[(i, 0)]),
-            );
-            (normal, HeldRows::of(lin, &poses))
+            let rows = GroupRows::of(lin, &poses);
+            (normal_equations(&rows.j, &rows.r), rows)
         };
         let distances = lin.poses()..lin.first_rows.len();
         let group = |g: Role| -> Vec<usize> {
@@ -362,10 +370,14 @@ impl<'a> Folds<'a> {
             .iter()
             .map(|&c| unit_scale(a[(c, c)] + precision(c)))
             .collect();
-        let n = DMatrix::from_fn(m, m, |i, j| {
-            let prior = if i == j { precision(s[i]) } else { 0.0 };
-            (a[(s[i], s[j])] + prior) * scale[i] * scale[j]
-        });
+        // The lower half: all the factorisation reads.
+        let mut n = DMatrix::zeros(m, m);
+        for j in 0..m {
+            n[(j, j)] = (a[(s[j], s[j])] + precision(s[j])) * scale[j] * scale[j];
+            for i in j + 1..m {
+                n[(i, j)] = a[(s[i], s[j])] * scale[i] * scale[j];
+            }
+        }
         Some(Factor {
             l: n.cholesky()?.unpack(),
             scale,
@@ -502,11 +514,11 @@ impl<'a> Folds<'a> {
             let delta = step(Some(f))?;
             // The held-out position rows' residuals after the step, r − J δ,
             // a column of J at a time (it is stored by columns).
-            let mut e: Vec<f64> = fold.rows.iter().map(|&row| lin.r[(row, 0)]).collect();
+            let held = fold.position_rows;
+            let mut e = column(&fold.r, 0)[..held].to_vec();
             for c in moving(&delta) {
-                let column = lin.j.col(c);
-                for (e, &row) in e.iter_mut().zip(&fold.rows) {
-                    *e -= column[row] * delta[c];
+                for (e, j) in e.iter_mut().zip(&column(&fold.j, c)[..held]) {
+                    *e -= j * delta[c];
                 }
             }
             let mut e = e.into_iter();

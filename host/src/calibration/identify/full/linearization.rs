@@ -10,6 +10,7 @@ use nalgebra::{DMatrix, DVector, Point3};
 
 use super::rows::{DistanceRows, LinearSystem, NormalEquations};
 use super::{Constraints, FullFit, Model, Observation, PlaneEstimate, Status, Unknown};
+use crate::calibration::dense;
 use crate::calibration::identify::noise::Channel;
 use crate::calibration::identify::prior::Prior;
 use crate::io::measurements::Contact;
@@ -231,6 +232,35 @@ impl Linearization {
                 .copied()
                 .unwrap_or(self.j.nrows())
     }
+
+    /// The rows of `poses` (indices into [`Linearization::first_rows`]: poses
+    /// or known distances), in order: their Jacobian and weighted residual.
+    pub fn gathered(&self, poses: &[usize]) -> (Mat<f64>, Mat<f64>) {
+        let runs: Vec<std::ops::Range<usize>> = poses.iter().map(|&i| self.rows_of(i)).collect();
+        self.rows(&runs)
+    }
+
+    /// The rows in `runs`, in order: their Jacobian and weighted residual,
+    /// gathered a column at a time.
+    pub fn rows(&self, runs: &[std::ops::Range<usize>]) -> (Mat<f64>, Mat<f64>) {
+        let index: Vec<usize> = runs.iter().flat_map(|r| r.clone()).collect();
+        let gather = |from: &Mat<f64>| {
+            let mut into = Mat::zeros(index.len(), from.ncols());
+            for c in 0..from.ncols() {
+                let column = dense::column(from, c);
+                let into = into
+                    .col_mut(c)
+                    .try_as_col_major_mut()
+                    .expect(dense::CONTIGUOUS)
+                    .as_slice_mut();
+                for (into, &row) in into.iter_mut().zip(&index) {
+                    *into = column[row];
+                }
+            }
+            into
+        };
+        (gather(&self.j), gather(&self.r))
+    }
 }
 
 /// One fold's share of the normal equations about a fit ([`fold_normals`]).
@@ -288,8 +318,7 @@ pub fn fold_normals(
     } = AtFit::of(fit, &[], &[], constraints, prior);
     let weights = fit.weights();
     let p = unknowns.len();
-    let matrix = |m: &Mat<f64>| DMatrix::from_fn(m.nrows(), m.ncols(), |i, j| m[(i, j)]);
-    let vector = |v: &Mat<f64>| DVector::from_fn(v.nrows(), |i, _| v[(i, 0)]);
+    let (matrix, vector) = (dense::to_nalgebra, dense::to_vector);
     let tool = [Channel::Position, Channel::Point, Channel::Plane];
     let folds: Vec<FoldNormal> = (0..k)
         .map(|f| {
