@@ -160,11 +160,37 @@ impl Diagnosed {
     pub fn summary(&self, data: &Measurements, lines: &[usize]) -> String {
         let units = &self.model.units;
         let head = self.gravity.as_ref().map(|g| format!("{}\n", g.summary()));
+        let order = self
+            .backlash_from_row_order(data)
+            .map(|joints| {
+                format!(
+                    "note: the backlash of joint {joints} takes each pose's approach direction from the \
+                     rows' order (the file has no `t` column): it holds only if the rows are in the \
+                     order the robot moved\n"
+                )
+            })
+            .unwrap_or_default();
         head.unwrap_or_default()
             + &sessions::summary(&self.diagnosis.fit, &self.sessions_held_out, data, units)
             + &self
                 .diagnosis
                 .summary(RowPlaces::of(lines, data), &self.options, units)
+            + &order
+    }
+
+    /// The joints of the backlash found (`"2, 3"`), when the approach
+    /// directions came from the rows' order: a row without a time `t`. With a
+    /// time on every row they are in the order of the times
+    /// (docs/file-formats.md §2).
+    fn backlash_from_row_order(&self, data: &Measurements) -> Option<String> {
+        let joints: Vec<String> = self
+            .diagnosis
+            .findings
+            .iter()
+            .filter(|f| f.candidate.name == "backlash")
+            .map(|f| f.candidate.joints_label())
+            .collect();
+        (!joints.is_empty() && data.times.iter().any(Option::is_none)).then(|| joints.join(", "))
     }
 
     /// The HTML page of the diagnosis of `data` (`--html`).
@@ -197,6 +223,12 @@ impl Diagnosed {
         if let Some(g) = &self.gravity {
             report["gravity"] = g.to_json();
         }
+        report["approach_order"] = if data.times.iter().all(Option::is_some) {
+            "times"
+        } else {
+            "rows"
+        }
+        .into();
         let held_out = &self.sessions_held_out;
         if let Some(s) = sessions::json(&self.diagnosis.fit, held_out, data, &self.model.units) {
             report["sessions"] = s;

@@ -17,6 +17,7 @@ mod ranges;
 mod refusals;
 mod replicates;
 mod sessions;
+mod time_order;
 mod torques;
 mod ur;
 mod urdf;

@@ -413,6 +413,7 @@ pub fn diagnose_with_progress(
     d.replicates = Some(Replicates {
         rows: data.len(),
         configurations: configurations.count(),
+        robot_configurations: Configurations::of_robot(nominal, data).count(),
         copies: kept_configurations.measured_repeats(data) && pure.is_none(),
         lack_of_fit: pure.map(|pure| {
             LackOfFit::test(
@@ -432,8 +433,12 @@ pub fn diagnose_with_progress(
 pub struct Replicates {
     /// The session's rows.
     pub rows: usize,
-    /// Its distinct configurations, what the diagnosis fitted and held out.
+    /// Its distinct configurations, what the diagnosis fitted (of one
+    /// measured point in one session each).
     pub configurations: usize,
+    /// The distinct configurations of the robot, whatever point or session
+    /// measured them: what the folds hold out whole.
+    pub robot_configurations: usize,
     /// The instrument noise the repeats show and the lack-of-fit test of the
     /// chosen model against it; `None` when no measured position repeats, or
     /// the repeats are copies.

@@ -391,6 +391,7 @@ impl Diagnosis {
             json!({
                 "rows": r.rows,
                 "configurations": r.configurations,
+                "robot_configurations": r.robot_configurations,
                 "copies": r.copies,
                 "pure_error_mm": r.lack_of_fit.map(|l| mm(l.pure.sigma)),
                 "pure_error_dof": r.lack_of_fit.map(|l| l.pure.dof),
@@ -473,8 +474,10 @@ impl Diagnosis {
         if let Some(r) = &self.replicates {
             let _ = writeln!(
                 out,
-                "{} rows in {} distinct configurations (joints equal within the encoder's resolution): every fold, test and count is of configurations, each the mean of its repeats",
-                r.rows, r.configurations
+                "{} rows in {} distinct configurations (joints equal within the encoder's resolution){}: every fit, test and count is of configurations, each the mean of its repeats, and every fold holds out a robot configuration whole",
+                r.rows,
+                r.configurations,
+                robot_configurations(r)
             );
             if r.copies {
                 let _ = writeln!(
@@ -683,6 +686,19 @@ impl Diagnosis {
                 gain
             );
         }
+    }
+}
+
+/// `, at 16 configurations of the robot` when the configurations are of
+/// several measured points or sessions at fewer robot configurations.
+fn robot_configurations(r: &super::Replicates) -> String {
+    if r.robot_configurations < r.configurations {
+        format!(
+            ", at {} configurations of the robot",
+            r.robot_configurations
+        )
+    } else {
+        String::new()
     }
 }
 

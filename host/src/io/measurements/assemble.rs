@@ -198,11 +198,17 @@ impl Session {
     }
 
     fn into_measurements(
-        self,
+        mut self,
         file: &str,
-        columns: Columns,
+        mut columns: Columns,
         constraints: Constraints,
     ) -> Measurements {
+        if self.approach_in_time_order() {
+            columns.warnings.push(format!(
+                "{file}: the rows are not in the order of their times (`t`): each joint's approach \
+                 direction (backlash) is taken in the order of the times, the order the robot moved in"
+            ));
+        }
         Measurements {
             file: file.to_owned(),
             poses: self.poses,
@@ -214,6 +220,31 @@ impl Session {
             constraints,
             sessions: Vec::new(),
         }
+    }
+}
+
+impl Session {
+    /// When every row has a time and the rows are not in its order, each
+    /// pose's approach directions set again in the order of the times (rows of
+    /// equal times in file order): the direction a joint approached a pose from
+    /// is that of its move to it, and a file written sorted by configuration or
+    /// merged from several logs is not in the order the robot moved. Whether
+    /// they were set again.
+    fn approach_in_time_order(&mut self) -> bool {
+        let Some(times) = self.times.iter().copied().collect::<Option<Vec<f64>>>() else {
+            return false;
+        };
+        if times.is_sorted() {
+            return false;
+        }
+        let mut order: Vec<usize> = (0..times.len()).collect();
+        order.sort_by(|&a, &b| times[a].total_cmp(&times[b]));
+        let mut approach = Approach::new();
+        for i in order {
+            let pose = &mut self.poses[i];
+            pose.context.approach = approach.next(&pose.q);
+        }
+        true
     }
 }
 

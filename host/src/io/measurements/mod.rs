@@ -1,9 +1,10 @@
 //! Measured poses: the CSV of `docs/file-formats.md` §2, read against a robot model.
 //!
-//! One row per measured pose, in the order the poses were measured (row order
+//! One row per measured pose, kept in file order. The order of the moves
 //! carries information: the direction from which each joint approached a pose is
-//! the sign of its last change, held through the rows where it holds, so rows are
-//! kept in file order).
+//! the sign of its last change, held through the poses where it holds. It is
+//! taken in row order, or in the order of the times when every row has one and
+//! the rows are not in it (a warning then says so).
 //! Lines that start with `#` are comments; the first other line is the header;
 //! blank lines are skipped; fields are trimmed. Lines end at `\n`, `\r\n` or a
 //! lone `\r`.
