@@ -16,7 +16,10 @@
 //!   Any failure before that (a missing or read-only directory, a full disk)
 //!   removes every temporary and leaves every target as it was; so does an
 //!   interrupt (Ctrl-C, `SIGTERM`: the binary's handler calls
-//!   [`remove_pending`] and exits with status 130). A rename is
+//!   [`remove_pending`] and exits with status 130). A run killed before its
+//!   clean-up (`SIGKILL`, the out-of-memory killer) leaves its temporary; the
+//!   next run that plans the same output removes those of processes no longer
+//!   running ([`Outputs::check`]). A rename is
 //!   atomic; should one fail after another succeeded (practically impossible
 //!   once the temporaries exist beside their targets), the error says which
 //!   outputs were already replaced.
@@ -32,6 +35,9 @@
 //!   block device (a disk) and a socket are refused with the reason. Devices
 //!   and FIFOs are not compared with the inputs: writing into them replaces
 //!   nothing.
+//! - **Refused before the computation.** [`Outputs::check`] creates and
+//!   removes an empty temporary beside each file target: a directory armcal
+//!   may not create files in is refused then, not after minutes of work.
 //! - Exit status: a refused plan, a missing directory or a directory armcal may
 //!   not write in is the user's path (status 2, [`InputError`]); anything else
 //!   (a full disk, an I/O error) is status 1.
@@ -225,7 +231,13 @@ impl Outputs {
     /// output, a directory, a block device, a socket, or a place in a missing
     /// directory.
     pub fn check(&self) -> Result<(), InputError> {
-        self.targets().map(|_| ())
+        for (planned, target) in self.outputs.iter().zip(self.targets()?) {
+            if let Target::File(path) = target {
+                remove_stale(&path);
+                probe(planned, &path)?;
+            }
+        }
+        Ok(())
     }
 
     /// Writes every output, all or none (see [the module](self)), after checking
@@ -416,6 +428,78 @@ fn classify(planned: &Planned) -> Result<Target, InputError> {
     }
 }
 
+/// The temporary of `target` for process `pid` (`-attempt` after a name
+/// taken): `.NAME.PID[-k].armcal-partial` beside it.
+fn temporary_name(target: &Path, pid: u32, attempt: usize) -> Option<PathBuf> {
+    let name = target.file_name()?.to_string_lossy();
+    // Short enough for the file system whatever the target's name (255 bytes).
+    let name: String = name.chars().take(120).collect();
+    let suffix = if attempt == 0 {
+        String::new()
+    } else {
+        format!("-{attempt}")
+    };
+    Some(target.with_file_name(format!(".{name}.{pid}{suffix}.armcal-partial")))
+}
+
+/// Whether process `pid` may be running: `false` only when the system's
+/// process table (`/proc`) says it is not.
+fn may_be_running(pid: u32) -> bool {
+    !Path::new("/proc/self").exists() || Path::new(&format!("/proc/{pid}")).exists()
+}
+
+/// Removes the temporaries of `target` that a run killed before it could
+/// clean up left behind (`SIGKILL`, the out-of-memory killer): those of a
+/// process no longer running. A running one's are its own.
+fn remove_stale(target: &Path) {
+    let (Some(name), Ok(entries)) = (target.file_name(), fs::read_dir(parent_of(target))) else {
+        return;
+    };
+    let name: String = name.to_string_lossy().chars().take(120).collect();
+    let prefix = format!(".{name}.");
+    for entry in entries.flatten() {
+        let file = entry.file_name().to_string_lossy().into_owned();
+        let Some(rest) = file
+            .strip_prefix(&prefix)
+            .and_then(|r| r.strip_suffix(".armcal-partial"))
+        else {
+            continue;
+        };
+        let pid = rest.split('-').next().and_then(|p| p.parse::<u32>().ok());
+        if let Some(pid) = pid
+            && pid != std::process::id()
+            && !may_be_running(pid)
+        {
+            let _ = fs::remove_file(entry.path());
+        }
+    }
+}
+
+/// Refuses `planned` before anything is computed when its directory does not
+/// let armcal create the temporary it will write (permissions, a read-only or
+/// pseudo file system): an empty temporary is created and removed at once.
+fn probe(planned: &Planned, target: &Path) -> Result<(), InputError> {
+    let Some(tmp) = temporary_name(target, std::process::id(), 0) else {
+        return Ok(());
+    };
+    locked(&PENDING).push(tmp.clone());
+    let created = OpenOptions::new().write(true).create_new(true).open(&tmp);
+    let result = match created {
+        Ok(_) => {
+            let _ = fs::remove_file(&tmp);
+            Ok(())
+        }
+        // Another temporary of this run, or of a run with our number.
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => Ok(()),
+        Err(e) => Err(InputError::argument(
+            format!("{} {}", planned.flag, planned.path.display()),
+            format!("cannot write there: {e} (nothing was computed, nothing written)"),
+        )),
+    };
+    settled(&tmp);
+    result
+}
+
 /// `path` with the symbolic links of its last component followed to the name
 /// they lead to (which need not exist).
 fn resolve_links(path: &Path) -> Result<PathBuf, String> {
@@ -510,22 +594,11 @@ impl Temporaries {
     /// Writes `content` to a new temporary beside `target`, flushed to disk,
     /// with the permissions of `target` if it exists; returns its path.
     fn write(&mut self, target: &Path, content: Content) -> std::io::Result<PathBuf> {
-        let name = target
-            .file_name()
-            .ok_or_else(|| std::io::Error::other("not a file name"))?
-            .to_string_lossy()
-            .into_owned();
-        // Short enough for the file system whatever the target's name (255 bytes).
-        let name: String = name.chars().take(120).collect();
         let pid = std::process::id();
         let mut attempt = 0;
         let (tmp, mut file) = loop {
-            let suffix = if attempt == 0 {
-                String::new()
-            } else {
-                format!("-{attempt}")
-            };
-            let tmp = target.with_file_name(format!(".{name}.{pid}{suffix}.armcal-partial"));
+            let tmp = temporary_name(target, pid, attempt)
+                .ok_or_else(|| std::io::Error::other("not a file name"))?;
             match OpenOptions::new().write(true).create_new(true).open(&tmp) {
                 Ok(file) => {
                     locked(&PENDING).push(tmp.clone());
@@ -638,6 +711,50 @@ mod tests {
             snapshot(dir.path()),
             vec![("a.cal".to_owned(), b"new".to_vec())]
         );
+    }
+
+    /// A run killed before its clean-up (`SIGKILL`) leaves its temporary: the
+    /// next run planning the same output removes it when its process is gone
+    /// (a process number above any the kernel gives), and leaves a running
+    /// process's (1, the init process) alone. The check creates nothing.
+    #[test]
+    fn a_killed_run_s_temporary_is_removed_by_the_next() {
+        if !Path::new("/proc/self").exists() {
+            return;
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let dead = dir.path().join(".a.cal.4294967294.armcal-partial");
+        let running = dir.path().join(".a.cal.1-2.armcal-partial");
+        let other = dir.path().join(".b.cal.4294967294.armcal-partial");
+        for tmp in [&dead, &running, &other] {
+            fs::write(tmp, b"partial").unwrap();
+        }
+        let outputs = Outputs::new().output("--out", Some(&dir.path().join("a.cal")));
+        outputs.check().unwrap();
+        let names: Vec<String> = snapshot(dir.path()).into_iter().map(|(n, _)| n).collect();
+        assert_eq!(
+            names,
+            [
+                ".a.cal.1-2.armcal-partial",
+                ".b.cal.4294967294.armcal-partial"
+            ]
+        );
+    }
+
+    /// A directory armcal may not create files in is refused by the check,
+    /// before anything is computed, even for root: `/proc` takes no new file.
+    #[test]
+    fn an_unwritable_directory_is_refused_before_the_computation() {
+        if !Path::new("/proc/self").exists() {
+            return;
+        }
+        let outputs = Outputs::new().output("--out", Some(Path::new("/proc/armcal-probe.cal")));
+        let e = outputs.check().unwrap_err().to_string();
+        assert!(
+            e.contains("--out /proc/armcal-probe.cal") && e.contains("cannot write there"),
+            "{e}"
+        );
+        assert!(!Path::new("/proc/armcal-probe.cal").exists());
     }
 
     #[test]
