@@ -145,7 +145,7 @@ pub(crate) struct PlanArgs {
     /// predicts them best (default: random configurations within the limits).
     #[arg(long, value_name = "T.csv")]
     pub(crate) targets: Option<String>,
-    /// Random candidates to choose from (default 10000).
+    /// Random candidates to choose from (default 10000, at most 100000).
     #[arg(long, value_name = "N")]
     pub(crate) candidates: Option<usize>,
     /// Effects the measurement must serve besides the geometry: `backlash`

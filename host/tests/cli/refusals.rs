@@ -142,6 +142,28 @@ fn bad_arguments_exit_two_naming_the_argument() {
             sim(&["--poses", "100000000"]),
             "--poses: 100000000: at most 3000000",
         ),
+        // A plan holds about 3 KB of each candidate: its memory is bounded
+        // by refusing more than 10⁵, before anything is drawn.
+        (
+            vec![
+                "plan",
+                "--model",
+                "ur5e",
+                "--poses",
+                "30",
+                "--candidates",
+                "1000000000",
+                "--out",
+                "p.csv",
+            ],
+            "--candidates: 1000000000: at most 100000",
+        ),
+        (
+            vec![
+                "plan", "--model", "ur5e", "--poses", "10000000", "--out", "p.csv",
+            ],
+            "--poses: 10000000: at most 100000",
+        ),
         (sim(&["--noise", "nan"]), "--noise"),
         (sim(&["--orientation-noise=-1"]), "--orientation-noise"),
         (sim(&["--effect", "foo"]), "--effect"),
