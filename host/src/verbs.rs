@@ -178,8 +178,8 @@ pub(crate) fn plan(args: PlanArgs) -> anyhow::Result<()> {
         plan_cmd::run(CLI, &model, &request, from.as_deref(), targets.as_deref())?;
     let cal = Calibration::nominal(model.robot.clone(), false, model.units);
     let comment = format!(
-        "armcal plan --model {} --poses {}: the poses to measure, in this order",
-        model.name, args.poses
+        "{}: the poses to measure, in this order",
+        command_line(Some(args.seed))
     );
     outputs.set("--out", plan.csv(&comment, &cal, &options).into_bytes());
     if args.json.is_some() {
@@ -216,20 +216,7 @@ pub(crate) fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
     let model = args.model.load()?;
     let u = model.units;
     let writer = simulate_cmd::writer(CLI, &model, &args.request())?;
-    let description = format!(
-        "armcal simulate --model {} --poses {} --seed {}{}{}",
-        model.name,
-        args.poses,
-        args.seed,
-        args.effects
-            .iter()
-            .map(|e| format!(" --effect {e}"))
-            .collect::<String>(),
-        args.tilts
-            .iter()
-            .map(|t| format!(" --tilt {}:{}", t.joint, t.beta))
-            .collect::<String>()
-    ) + &simulated_sessions(&args);
+    let description = command_line(Some(args.seed));
     if args.truth.is_some() {
         let json = serde_json::to_string_pretty(&writer.truth().truth_json(&model.robot, &u))?;
         outputs.set("--truth", json.into_bytes());
@@ -254,25 +241,32 @@ pub(crate) fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The flags of several simulated sessions as the files' header gives them:
-/// `--payloads` and `--sessions` when given, and the torques' sign when it is
-/// the load's.
-fn simulated_sessions(args: &SimulateArgs) -> String {
-    let mut out = String::new();
-    if args.torque_noise.is_some()
-        && armcal::calibration::gravity::TorqueSign::from(args.torque_sign)
-            == armcal::calibration::gravity::TorqueSign::Load
-    {
-        out += " --torque-sign load";
+/// The command line as typed, `armcal simulate --model ur10e.urdf …`: what
+/// made a file, for its header. Each argument is quoted where a shell would
+/// read it otherwise; `seed`, the seed of the draws when the command has one,
+/// is added as `--seed N` when the default was taken, so that the line makes
+/// the same file again.
+fn command_line(seed: Option<u64>) -> String {
+    let quoted = |a: String| {
+        let plain = |c: char| c.is_ascii_alphanumeric() || "-_./:=,+@%".contains(c);
+        if !a.is_empty() && a.chars().all(plain) {
+            a
+        } else {
+            format!("'{}'", a.replace('\'', "'\\''"))
+        }
+    };
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let given = args
+        .iter()
+        .any(|a| a == "--seed" || a.starts_with("--seed="));
+    let mut line = std::iter::once("armcal".to_owned())
+        .chain(args.into_iter().map(quoted))
+        .collect::<Vec<_>>()
+        .join(" ");
+    if let (Some(seed), false) = (seed, given) {
+        line += &format!(" --seed {seed}");
     }
-    if !args.payloads.is_empty() {
-        let kg: Vec<String> = args.payloads.iter().map(f64::to_string).collect();
-        out += &format!(" --payloads {}", kg.join(","));
-    }
-    if args.sessions > 1 {
-        out += &format!(" --sessions {}", args.sessions);
-    }
-    out
+    line
 }
 
 /// `armcal diagnose`.
