@@ -879,9 +879,9 @@ impl GravityFit {
             .enumerate()
             .max_by(|a, b| a.1.0.total_cmp(b.1.0));
         let mut s = format!(
-            "gravity torques from the measured joint torques (tau1..tau{}, {} poses, {}): ",
+            "gravity torques from the measured joint torques (tau1..tau{}, {}, {}): ",
             self.residual.len(),
-            self.poses,
+            crate::session::measurements::plural(self.poses, "pose"),
             self.sign_summary()
         );
         match &self.used {

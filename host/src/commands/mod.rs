@@ -208,7 +208,10 @@ pub fn fit_options(
     scales.options(model).map_err(|e| {
         InputError::argument(
             front.flag(e.flag),
-            format!("{}: must be a positive number", e.value),
+            format!(
+                "{}: must be a positive number",
+                crate::session::input_error::number(e.value)
+            ),
         )
     })
 }

@@ -10,6 +10,7 @@ use crate::calibration::plan::{Plan, PlanOptions, Visits, plan};
 use crate::io::input_error::InputError;
 use crate::io::model_file::RobotModel;
 use crate::io::sockets::Sockets;
+use crate::session::input_error::number;
 
 /// The most candidates a plan chooses from, drawn (`--candidates`) or given
 /// (`--from`): what the plan holds of each (its configuration and its rows of
@@ -61,7 +62,10 @@ impl Request {
             if v.is_finite() && v > 0.0 {
                 Ok(v)
             } else {
-                Err(refuse(flag, format!("{v}: must be a positive number")))
+                Err(refuse(
+                    flag,
+                    format!("{}: must be a positive number", number(v)),
+                ))
             }
         };
         if self.poses == 0 {
@@ -85,7 +89,8 @@ impl Request {
                 return Err(refuse(
                     "--margin",
                     format!(
-                        "{m}: the share of each joint's range kept off each limit, from 0 to below 0.5"
+                        "{}: the share of each joint's range kept off each limit, from 0 to below 0.5",
+                        number(m)
                     ),
                 ));
             }
@@ -154,11 +159,17 @@ impl Request {
         }
         if let Some(z) = self.above {
             if !z.is_finite() {
-                return Err(refuse("--above", format!("{z}: must be a number")));
+                return Err(refuse(
+                    "--above",
+                    format!("{}: must be a number", number(z)),
+                ));
             }
             options.cell.min[2] = options.cell.min[2].max(u.length_to_si(z));
             if options.cell.min[2] >= options.cell.max[2] {
-                return Err(refuse("--above", format!("{z}: above the box's top")));
+                return Err(refuse(
+                    "--above",
+                    format!("{}: above the box's top", number(z)),
+                ));
             }
         }
         // A model without joint limits would plan through the table the

@@ -12,6 +12,7 @@ use crate::calibration::gravity::TorqueSign;
 use crate::calibration::simulate::{self, ErrorSizes, Scenario, Session, SessionWriter};
 use crate::io::input_error::InputError;
 use crate::io::model_file::RobotModel;
+use crate::session::input_error::number;
 use crate::session::measurements::PAYLOAD_RANGE;
 
 /// What `simulate` is asked.
@@ -106,7 +107,10 @@ impl Request {
             if v.is_finite() && v >= 0.0 {
                 Ok(v)
             } else {
-                Err(argument.refused(front, format!("{v}: must be a non-negative number")))
+                Err(argument.refused(
+                    front,
+                    format!("{}: must be a non-negative number", number(v)),
+                ))
             }
         };
         let mut scenario = Scenario::tracker(self.poses, self.seed);
@@ -144,8 +148,10 @@ impl Request {
         for &kg in &self.payloads {
             let [lo, hi] = PAYLOAD_RANGE;
             if !(lo..=hi).contains(&kg) {
-                return Err(Argument::Payloads
-                    .refused(front, format!("{kg}: a payload from {lo} to {hi} kg")));
+                return Err(Argument::Payloads.refused(
+                    front,
+                    format!("{}: a payload from {lo} to {hi} kg", number(kg)),
+                ));
             }
         }
         if !self.payloads.is_empty() {

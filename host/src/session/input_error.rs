@@ -125,6 +125,16 @@ pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
     (line, column)
 }
 
+/// A number as a refusal quotes it: as Rust writes it between 10⁻⁴ and 10¹⁵,
+/// in scientific notation beyond (`1e300`, not three hundred digits).
+pub fn number(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() || (1e-4..1e15).contains(&v.abs()) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

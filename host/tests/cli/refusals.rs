@@ -164,6 +164,17 @@ fn bad_arguments_exit_two_naming_the_argument() {
             ],
             "--poses: 10000000: at most 100000",
         ),
+        // A value is quoted as short as it was given, not in 300 digits.
+        (
+            vec![
+                "plan", "--model", "ur5e", "--poses", "5", "--margin", "1e300", "--out", "p.csv",
+            ],
+            "--margin: 1e300: the share",
+        ),
+        (
+            sim(&["--payloads", "1e300"]),
+            "--payloads: 1e300: a payload",
+        ),
         (sim(&["--noise", "nan"]), "--noise"),
         (sim(&["--orientation-noise=-1"]), "--orientation-noise"),
         (sim(&["--effect", "foo"]), "--effect"),

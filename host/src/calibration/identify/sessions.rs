@@ -131,9 +131,9 @@ pub fn summary(
         let file = data.sessions.get(k).map_or("?", String::as_str);
         let _ = write!(
             out,
-            "  session {} {file}: {} poses, position RMS {}",
+            "  session {} {file}: {}, position RMS {}",
             k + 1,
-            s.poses,
+            crate::session::measurements::plural(s.poses, "pose"),
             length(s.position_rms)
         );
         if let Some(o) = s.orientation_rms {

@@ -271,12 +271,12 @@ impl Identification {
         let mut out = String::new();
         let _ = writeln!(
             out,
-            "identify --params {}: {} ({} joints) from {} ({} poses{})",
+            "identify --params {}: {} ({} joints) from {} ({}{})",
             self.params.name(),
             model.name,
             model.robot.dof(),
             data.file,
-            data.poses.len(),
+            crate::session::measurements::plural(data.poses.len(), "pose"),
             if self.calibration.orientation {
                 ", full poses"
             } else {

@@ -6,6 +6,7 @@
 //! Lengths in the model's units (`_mm` fields in mm), each parameter's
 //! standard error in its own unit. Nothing here computes; it reads a [`Plan`].
 
+use crate::session::measurements::plural;
 use std::fmt::Write as _;
 
 use armcal_shared::units::Units;
@@ -121,20 +122,20 @@ impl Plan {
         let mm = |x: f64| x * 1e3;
         let measured = match &options.sockets {
             Some(plate) => format!(
-                "a ball seated in {} sockets, {} known distances between them",
-                plate.sockets.len(),
-                plate.distances.len()
+                "a ball seated in {}, {} between them",
+                plural(plate.sockets.len(), "socket"),
+                plural(plate.distances.len(), "known distance")
             ),
             None if options.orientation => "full poses".into(),
             None => "positions".into(),
         };
         let _ = writeln!(
             out,
-            "plan: {} poses of {model_name} ({measured}), chosen from {} candidates for {} \
-             workspace configurations; the measurement path {:.3} (joint space, rad and m)",
-            self.points.len(),
-            self.candidates,
-            self.targets,
+            "plan: {} of {model_name} ({measured}), chosen from {} for {}; the measurement \
+             path {:.3} (joint space, rad and m)",
+            plural(self.points.len(), "pose"),
+            plural(self.candidates, "candidate"),
+            plural(self.targets, "workspace configuration"),
             self.path
         );
         if !self.near_singular.is_empty() {
