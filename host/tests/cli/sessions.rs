@@ -284,3 +284,50 @@ fn a_session_copied_reordered_or_rounded_is_refused() {
         ],
     );
 }
+
+/// With two sessions each has its own base and tool frames: a parameter held
+/// as not separable names each frame parameter it cannot be told from with
+/// its session (`session 1 tool.y`, `session 2 tool.x`), never a bare
+/// `tool.y` that could be either.
+#[test]
+fn what_a_parameter_cannot_be_told_from_names_each_frame_s_session() {
+    let dir = tempfile::tempdir().unwrap();
+    let dir = dir.path();
+    succeeds(
+        dir,
+        &[
+            "simulate",
+            "--model",
+            "ur10e",
+            "--poses",
+            "60",
+            "--sessions",
+            "2",
+            "--out",
+            "s.csv",
+        ],
+    );
+    let out = succeeds(
+        dir,
+        &[
+            "identify", "--model", "ur10e", "--data", "s-1.csv", "s-2.csv",
+        ],
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let lists: Vec<&str> = stdout
+        .lines()
+        .filter_map(|l| l.split("not separable from ").nth(1))
+        .map(|rest| rest.split([':', '[']).next().unwrap())
+        .collect();
+    let frames: Vec<&str> = lists
+        .iter()
+        .flat_map(|l| l.split(", "))
+        .map(str::trim)
+        .filter(|n| n.contains("base.") || n.contains("tool."))
+        .collect();
+    assert!(frames.len() >= 2, "{stdout}");
+    assert!(
+        frames.iter().all(|n| n.starts_with("session ")),
+        "{frames:?}"
+    );
+}

@@ -168,11 +168,20 @@ pub(super) fn dependence_reason(
     };
     names.sort_by(|a, b| b.0.total_cmp(&a.0));
     let top = names.first().map_or(0.0, |x| x.0);
+    // With several sessions the model's own base and tool are the first
+    // session's, named so beside another session's.
+    let several = !robot.registrations.sessions.is_empty();
+    let name = |u: Unknown| match u {
+        Unknown::Param(p @ (Param::Base(_) | Param::Tool(_))) if several => {
+            format!("session 1 {p}")
+        }
+        u => robot.name(u),
+    };
     let list: Vec<String> = names
         .iter()
         .take_while(|x| x.0 >= 0.1 * top && x.0 > 0.0)
         .take(3)
-        .map(|x| robot.name(x.1))
+        .map(|x| name(x.1))
         .collect();
     let mut reason = if list.is_empty() {
         "not separable by these data".to_string()
