@@ -67,12 +67,14 @@ pub(crate) enum Command {
     /// gets wrong, and the named cause), 50 random targets compensated and checked
     /// on the true robot; writes the HTML report and prints the gain.
     Demo(DemoArgs),
-    /// Write a calibration as a URDF: into the URDF its model was read from
-    /// (only the origins of the chain's moving joints change), or generated from
-    /// the calibrated model; with two links added, `armcal_measured_point` (the
-    /// calibrated measured point) and `armcal_measurement_frame` (the
-    /// calibration's measurement frame). Effects other than geometry are left
-    /// out, with a warning.
+    /// Write a calibration for a robot's own software, each file read back
+    /// before it is written: a URDF (`--format urdf`: into the URDF its model
+    /// was read from, only the origins of the chain's moving joints changed, or
+    /// generated from the calibrated model; with two links added,
+    /// `armcal_measured_point` and `armcal_measurement_frame`), or a Universal
+    /// Robots controller's delta D-H (`ur-deltas`) or ur_calibration file
+    /// (`ur-calibration`). Effects other than geometry are left out, with a
+    /// warning.
     Export(ExportArgs),
     /// Sessions without a tracker (a `point` column: unknown fixed points and
     /// known distances; docs/file-formats.md): leave each --data session out
@@ -115,11 +117,11 @@ pub(crate) struct PlanArgs {
     #[arg(long)]
     pub(crate) orientation: bool,
     /// The instrument's position noise, one standard deviation per axis, model
-    /// length unit (default 20 µm).
+    /// length unit [default: 20 µm]
     #[arg(long, value_name = "LENGTH", value_parser = args::positive)]
     pub(crate) noise: Option<f64>,
     /// The instrument's orientation noise, per axis, model angle unit
-    /// (default 20 µrad).
+    /// [default: 20 µrad]
     #[arg(long, value_name = "ANGLE", value_parser = args::positive)]
     pub(crate) orientation_noise: Option<f64>,
     /// A box the tool point must stay in, measurement frame, model length unit.
@@ -134,7 +136,7 @@ pub(crate) struct PlanArgs {
     /// model length unit.
     #[arg(long, value_name = "Z", allow_hyphen_values = true)]
     pub(crate) above: Option<f64>,
-    /// The share of each joint's range kept off each limit (default 0.05).
+    /// The share of each joint's range kept off each limit [default: 0.05]
     #[arg(long, value_name = "SHARE")]
     pub(crate) margin: Option<f64>,
     /// Choose among these configurations (a joints CSV) instead of random ones
@@ -145,7 +147,7 @@ pub(crate) struct PlanArgs {
     /// predicts them best (default: random configurations within the limits).
     #[arg(long, value_name = "T.csv")]
     pub(crate) targets: Option<String>,
-    /// Random candidates to choose from (default 10000, at most 100000).
+    /// Random candidates to choose from, at most 100000 [default: 10000]
     #[arg(long, value_name = "N")]
     pub(crate) candidates: Option<usize>,
     /// Effects the measurement must serve besides the geometry: `backlash`
@@ -252,7 +254,7 @@ pub(crate) struct IdentifyArgs {
 /// The flags of `armcal predict`.
 #[derive(clap::Args, Debug)]
 pub(crate) struct PredictArgs {
-    /// The calibration file written by `armcal identify --out`.
+    /// The calibration file written by `armcal identify --out` or `armcal diagnose --out`.
     #[arg(long, value_name = "CAL")]
     pub(crate) calibration: String,
     /// Joint readings: a CSV with q1..qM in the model's units (docs/file-formats.md §2;
@@ -271,7 +273,7 @@ pub(crate) struct PredictArgs {
 /// The flags of `armcal compensate`.
 #[derive(clap::Args, Debug)]
 pub(crate) struct CompensateArgs {
-    /// The calibration file written by `armcal identify --out`.
+    /// The calibration file written by `armcal identify --out` or `armcal diagnose --out`.
     #[arg(long, value_name = "CAL")]
     pub(crate) calibration: String,
     /// Joint commands: a CSV with q1..qM in the model's units, rows in the order sent.
@@ -309,7 +311,7 @@ pub(crate) struct SimulateArgs {
     #[arg(long = "tilt", value_name = "JOINT:BETA", value_parser = args::tilt)]
     pub(crate) tilts: Vec<args::Tilt>,
     /// Position noise, one standard deviation per axis, model length unit
-    /// (default 20 µm).
+    /// [default: 20 µm]
     #[arg(long, value_name = "LENGTH", value_parser = args::non_negative)]
     pub(crate) noise: Option<f64>,
     /// Also measure orientations, with this noise (model angle unit).
@@ -327,7 +329,7 @@ pub(crate) struct SimulateArgs {
     #[arg(long, value_enum, value_name = "drive|load", default_value = "drive")]
     pub(crate) torque_sign: TorqueSignArg,
     /// The payloads the poses are measured with, kg, in consecutive blocks
-    /// of rows (default 0,5).
+    /// of rows [default: 0,5]
     #[arg(long, value_name = "KG,KG,…", value_delimiter = ',', value_parser = args::non_negative)]
     pub(crate) payloads: Vec<f64>,
     /// Measure the poses in this many sessions, in consecutive blocks of
@@ -361,12 +363,12 @@ pub(crate) struct TrueErrorArgs {
     pub(crate) link_errors: Option<[f64; 2]>,
     /// How far the true base frame (the instrument's placement) is off the
     /// model's: each coordinate within ±LENGTH, each angle within ±ANGLE
-    /// (default 1 mm, 1 mrad).
+    /// [default: 1 mm, 1 mrad]
     #[arg(long, value_name = "LENGTH,ANGLE", value_parser = args::error_sizes)]
     pub(crate) base_errors: Option<[f64; 2]>,
     /// How far the true tool frame (the measured point's mount) is off the
     /// model's: each coordinate within ±LENGTH, each angle within ±ANGLE
-    /// (default 1 mm, 1 mrad).
+    /// [default: 1 mm, 1 mrad]
     #[arg(long, value_name = "LENGTH,ANGLE", value_parser = args::error_sizes)]
     pub(crate) tool_errors: Option<[f64; 2]>,
 }
@@ -385,7 +387,8 @@ impl TrueErrorArgs {
 /// The flags of `armcal stream`.
 #[derive(clap::Args, Debug)]
 pub(crate) struct StreamArgs {
-    /// The calibration file written by `armcal identify --out`, sent as it is.
+    /// The calibration file written by `armcal identify --out` or `armcal diagnose --out`,
+    /// sent as it is.
     #[arg(long, value_name = "CAL")]
     pub(crate) calibration: String,
     /// Joint commands: a CSV with q1..qM in the model's units (and optionally
