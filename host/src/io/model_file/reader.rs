@@ -7,7 +7,7 @@
 use core::ops::Range;
 
 use armcal_shared::units::{AngleUnit, LengthUnit, Units};
-use armcal_shared::{Frame, Robot};
+use armcal_shared::{Frame, JointType, Robot};
 use nalgebra::Vector3;
 use toml::de::{DeTable, DeValue};
 
@@ -16,6 +16,10 @@ use crate::io::input_error::InputError;
 use crate::session::model::RobotModel;
 
 /// Walks the spanned TOML document; every error is placed by a span of `text`.
+/// The sizes a serial arm's links and tool add up to, m: from a desktop
+/// arm's few centimetres to a gantry's tens of metres.
+pub const ARM_SIZE: [f64; 2] = [0.02, 50.0];
+
 pub(super) struct ModelReader<'a> {
     pub(super) text: &'a str,
     pub(super) file: &'a str,
@@ -80,6 +84,7 @@ impl ModelReader<'_> {
             })?;
 
         let v = self.required_top(doc, "length_unit")?;
+        let length_unit_span = v.span();
         let s = self.string(v, "length_unit", "")?;
         let length = LengthUnit::from_name(s).ok_or_else(|| {
             self.err(
@@ -122,6 +127,7 @@ impl ModelReader<'_> {
         robot.tool = tool;
         robot.base = base;
         robot.gravity = gravity;
+        self.require_arm_size(&robot, units, length_unit_span)?;
         let prior = self.prior(doc, units)?;
         Ok(RobotModel {
             name: name.to_owned(),
@@ -133,6 +139,56 @@ impl ModelReader<'_> {
             tilted: Vec::new(),
             flange: Frame::identity(),
         })
+    }
+
+    /// Refuses a model whose size is not an arm's in its `length_unit`: its
+    /// links' lengths (`|s|`, `|a|`, each prismatic joint's farthest limit) and
+    /// the tool's offset adding up to less than [`ARM_SIZE`]'s least or more
+    /// than its most, as the values of a model in metres read as millimetres
+    /// do (a 1.8 mm robot, which data in metres then fit as well as the real
+    /// one). Placed at `length_unit` (`span`), naming the unit the values
+    /// would make an arm in.
+    fn require_arm_size(
+        &self,
+        robot: &Robot<f64>,
+        units: Units,
+        span: Range<usize>,
+    ) -> Result<(), InputError> {
+        let size = robot
+            .links
+            .iter()
+            .map(|l| {
+                let stroke = match (l.joint, l.limits) {
+                    (JointType::Prismatic, Some([lo, hi])) => lo.abs().max(hi.abs()),
+                    _ => 0.0,
+                };
+                l.s.abs() + l.a.abs() + stroke
+            })
+            .sum::<f64>()
+            + robot.tool.xyz.norm();
+        let [least, most] = ARM_SIZE;
+        if size == 0.0 || (least..=most).contains(&size) {
+            return Ok(());
+        }
+        let given = units.length.name();
+        let would = LengthUnit::ALL.iter().find(|u| {
+            let as_u = units.length.from_si(size);
+            (least..=most).contains(&u.to_si(as_u))
+        });
+        let hint = would.map_or(String::new(), |u| {
+            format!(
+                ": are the values in {} while length_unit says {given:?}?",
+                u.name()
+            )
+        });
+        Err(self.err(
+            span,
+            format!(
+                "the links' lengths and the tool's offset add up to {:.4} {given}, not the size of \
+                 an arm (from {least} to {most} m){hint}",
+                units.length.from_si(size),
+            ),
+        ))
     }
 
     /// Refuses the first key of `table` (in file order) that is not in `allowed`.

@@ -593,3 +593,29 @@ proptest! {
         }
     }
 }
+
+/// A model whose values are in metres read with `length_unit = "mm"` is a
+/// 0.3 mm arm, which data in metres would fit as well as the real one: refused
+/// at `length_unit`, naming the unit the values make an arm in; so is the
+/// reverse, millimetre values read as metres (a 300 m arm).
+#[test]
+fn a_model_whose_size_is_not_an_arm_s_is_refused_at_its_unit() {
+    refused(
+        &edit(3, r#"length_unit = "mm""#),
+        3,
+        15,
+        &["0.3000 mm", "not the size of an arm", "are the values in m"],
+    );
+    let in_mm = GOOD
+        .replace("s = 0.1", "s = 100")
+        .replace("a = 0.2", "a = 200");
+    refused(
+        &in_mm,
+        3,
+        15,
+        &[
+            "300.0000 m",
+            "are the values in mm while length_unit says \"m\"",
+        ],
+    );
+}
