@@ -12,7 +12,9 @@ set size) of
 - `armcal diagnose` on all 10⁶: budget 10 s and 1 GB (the model chosen on
   every 10th position, the calibration fitted to all: docs/diagnosis.md);
 - `armcal diagnose` on the first 10⁵ (the whole diagnosis): budget 5 s;
-- `armcal check` on all 10⁶ (reported, no budget);
+- `armcal check` on all 10⁶ (reported, no budget), and on 3·10⁶ rows of
+  nine short numbers, the most a measurement file holds: budget 1 GB (the
+  rows, not the bytes, bound the memory);
 - `armcal plan`: 30 poses of a UR10e from 10⁴ candidates, budget 1 s; and
   from 10⁵, the most candidates a plan takes: budget 300 MB;
 
@@ -38,6 +40,7 @@ BUDGETS = {
     "diagnose 10^6": (10.0, 1000.0),
     "diagnose 10^5": (5.0, None),
     "check 10^6": (None, None),
+    "check 3*10^6 short rows": (None, 1000.0),
     "plan 30 of 10^4": (1.0, None),
     "plan 30 of 10^5": (None, 300.0),
 }
@@ -87,6 +90,13 @@ def main():
                     rows += 1
                     if rows == 100_000:
                         break
+        # The most rows a measurement file holds, each as short as a row is.
+        short = os.path.join(tmp, "short-3e6.csv")
+        with open(short, "w") as dst:
+            dst.write("q1,q2,q3,q4,q5,q6,x,y,z\n")
+            row = "0.1,0.2,0.3,0.4,0.5,0.6,0.1,0.2,0.3\n"
+            for _ in range(300):
+                dst.write(row * 10_000)
         cases = {
             "simulate 10^6": [armcal, "simulate", "--model", "puma560", "--poses", "1000000",
                               "--seed", "1", "--out", os.path.join(tmp, "again.csv")],
@@ -94,6 +104,7 @@ def main():
             "diagnose 10^6": [armcal, "diagnose", "--model", "puma560", "--data", big],
             "diagnose 10^5": [armcal, "diagnose", "--model", "puma560", "--data", small],
             "check 10^6": [armcal, "check", "--model", "puma560", "--data", big],
+            "check 3*10^6 short rows": [armcal, "check", "--model", "ur5e", "--data", short],
             "plan 30 of 10^4": [armcal, "plan", "--model", "ur10e", "--poses", "30",
                                 "--candidates", "10000", "--out", os.path.join(tmp, "plan.csv")],
             "plan 30 of 10^5": [armcal, "plan", "--model", "ur10e", "--poses", "30",

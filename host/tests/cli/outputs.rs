@@ -474,3 +474,50 @@ fn a_file_s_header_is_the_command_that_makes_it_again() {
         assert!(first == second, "{header}");
     }
 }
+
+/// A stream of measurement rows on standard input, shorter than any real
+/// row (so that the 1 GiB cap would let some forty million in, held as poses
+/// of a few hundred bytes each), is refused at the first row past three
+/// million, as it is read: the rows, not only the bytes, bound the memory.
+#[test]
+fn a_stream_of_rows_is_refused_past_the_row_cap() {
+    use std::io::Write as _;
+    let dir = tempfile::tempdir().unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_armcal"))
+        .args(["check", "--model", "ur5e", "--data", "/dev/stdin"])
+        .current_dir(dir.path())
+        .stdin(Stdio::piped())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    let rows = armcal::io::measurements::MAX_MEASURED_ROWS;
+    let feeder = std::thread::spawn(move || {
+        let mut block = String::from("q1,q2,q3,q4,q5,q6,x,y,z\n");
+        let row = "0.1,0.2,0.3,0.4,0.5,0.6,0.1,0.2,0.3\n";
+        let mut sent = 0;
+        // Twice the cap at most; armcal stops reading at the cap.
+        while sent < 2 * rows {
+            block.push_str(&row.repeat(10_000));
+            if stdin.write_all(block.as_bytes()).is_err() {
+                return sent;
+            }
+            block.clear();
+            sent += 10_000;
+        }
+        sent
+    });
+    let out = child.wait_with_output().unwrap();
+    let sent = feeder.join().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains(&format!(
+            "/dev/stdin:{}:1: more than {rows} data rows",
+            rows + 2
+        )),
+        "{stderr}"
+    );
+    assert!(sent < 2 * rows, "read to the end: {sent} rows");
+}

@@ -70,6 +70,7 @@ mod assemble;
 mod csv_reader;
 mod record;
 mod schema;
+pub use schema::{MAX_JOINT_ROWS, MAX_MEASURED_ROWS};
 mod source;
 mod table;
 

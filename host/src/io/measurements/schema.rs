@@ -11,6 +11,18 @@ use nalgebra::UnitQuaternion;
 use crate::session::constraints::DistanceLine;
 use crate::session::measurements::POSITION;
 
+/// The most measured poses a measurement file holds: three million, 50 minutes
+/// of a tracker's 1 kHz stream and what `armcal simulate` writes at most. Each
+/// pose is held while the calibration runs (a few hundred bytes): the rows,
+/// not only the bytes, bound the memory, whatever the rows' length; a file or
+/// a stream is refused at the row past the bound, as it is read.
+pub const MAX_MEASURED_ROWS: usize = 3_000_000;
+
+/// The most rows a joints file holds (`predict`, `compensate`, `stream`): ten
+/// million, close to three hours of 1 kHz servo commands (each row held as
+/// read: about a hundred bytes).
+pub const MAX_JOINT_ROWS: usize = 10_000_000;
+
 /// Which file is read: the columns it needs and those it reads.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum Kind {
@@ -36,6 +48,15 @@ impl Kind {
                 format!("q1..q{m}, x, y, z, qw, qx, qy, qz, t, temp, load, tau1..tau{m}")
             }
             Self::Joints => format!("q1..q{m}, t, temp, load"),
+        }
+    }
+
+    /// The most data rows a file of this kind holds ([`MAX_MEASURED_ROWS`],
+    /// [`MAX_JOINT_ROWS`]).
+    pub(super) fn max_rows(self) -> usize {
+        match self {
+            Self::Measurements => MAX_MEASURED_ROWS,
+            Self::Joints => MAX_JOINT_ROWS,
         }
     }
 

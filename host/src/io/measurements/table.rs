@@ -75,6 +75,21 @@ impl<'a> Table<'a> {
                     sink(Item::Distance(self.distance_line(row)?));
                     continue;
                 }
+                let max = self.schema.kind.max_rows();
+                if rows == max {
+                    return Err(row.err(
+                        self.file,
+                        0,
+                        format!(
+                            "more than {max} data rows: the most a {} holds \
+                             (docs/file-formats.md §2); split it",
+                            match self.schema.kind {
+                                Kind::Measurements => "measurement file",
+                                Kind::Joints => "joints file",
+                            }
+                        ),
+                    ));
+                }
                 let record = self.record(row)?;
                 tally.add(&record);
                 sink(Item::Row(record));
