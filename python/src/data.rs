@@ -170,6 +170,8 @@ pub fn simulate<'py>(
         seed,
         noise,
         orientation_noise,
+        orientation_bias: None,
+        orientation_bias_growth: None,
         torque_noise,
         torque_sign: crate::fit::torque_sign(py, Some(torque_sign))?.unwrap_or(TorqueSign::Drive),
         effects,

@@ -152,6 +152,9 @@ impl Identification {
             out["equations"] = json!(fit.equations);
             out["noise"] = noise_json(&fit.noise, units);
             out["prior"] = self.prior_json(units);
+            if let Some(w) = &self.orientation_weight {
+                out["orientation_weight"] = w.to_json(self.orientation_rms);
+            }
             out["correlations"] = json!(
                 fit.correlations
                     .iter()
@@ -403,6 +406,9 @@ impl Identification {
     fn write_parameters(&self, out: &mut String, u: &Units) {
         if let Some(line) = self.prior_line(u) {
             let _ = writeln!(out, "{line}");
+        }
+        if let Some(w) = &self.orientation_weight {
+            out.push_str(&w.summary(self.orientation_rms));
         }
         let _ = writeln!(
             out,
