@@ -13,10 +13,10 @@ use crate::calibration::diagnose::Choice;
 use crate::calibration::diagnose::RowPlaces;
 use crate::calibration::diagnose::{DiagnoseOptions, Diagnosis, diagnose_with_progress};
 use crate::calibration::gravity::{GravityFit, TorqueSign, with_measured_gravity};
+use crate::calibration::identify::channel_weight::{self, OrientationWeight, WeightChoice};
 use crate::calibration::identify::full::{
     FullError, FullOptions, Observation, identify_with_effects,
 };
-use crate::calibration::identify::channel_weight::{self, OrientationWeight, WeightChoice};
 use crate::calibration::identify::sessions::{SessionHeldOut, held_out_by_session};
 use crate::calibration::identify::{self, StatedScales, sessions};
 use crate::io::model_file::RobotModel;

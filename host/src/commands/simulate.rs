@@ -127,7 +127,10 @@ impl Request {
         }
         for (argument, given) in [
             (Argument::OrientationBias, self.orientation_bias),
-            (Argument::OrientationBiasGrowth, self.orientation_bias_growth),
+            (
+                Argument::OrientationBiasGrowth,
+                self.orientation_bias_growth,
+            ),
         ] {
             if let Some(v) = given {
                 non_negative(argument, v)?;

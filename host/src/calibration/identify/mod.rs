@@ -36,10 +36,10 @@ use armcal_shared::{Calibration, Param, Robot};
 use crate::calibration::acceptance::Judgement;
 use crate::io::measurements::Measurements;
 use crate::io::model_file::RobotModel;
+use channel_weight::{OrientationWeight, WeightChoice};
 use full::{FullFit, FullOptions, Observation, Registrations, Status};
 use paper::{PaperOptions, PaperPose};
 use prior::Prior;
-use channel_weight::{OrientationWeight, WeightChoice};
 use prior_scale::{PriorChoice, PriorScale};
 
 /// Which model to identify.
@@ -231,7 +231,14 @@ pub fn identify(
     options: &FullOptions,
     scale: PriorScale,
 ) -> Result<Identification, IdentifyError> {
-    identify_weighted(model, data, set, options, scale, OrientationWeight::default())
+    identify_weighted(
+        model,
+        data,
+        set,
+        options,
+        scale,
+        OrientationWeight::default(),
+    )
 }
 
 /// [`identify`] with the orientation rows weighed as `weight` says: as

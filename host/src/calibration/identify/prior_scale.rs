@@ -231,7 +231,10 @@ pub(crate) fn fold_steps(
     // The orientation rows' share taken down to the weight asked.
     let less = 1.0 - orientation_weight;
     let (a, b) = &sums.all;
-    let (a, b) = (a - &sums.orientation.0 * less, b - &sums.orientation.1 * less);
+    let (a, b) = (
+        a - &sums.orientation.0 * less,
+        b - &sums.orientation.1 * less,
+    );
     sums.folds
         .iter()
         .map(|fold| {

@@ -798,7 +798,10 @@ impl<'a> Fit<'a> {
         let mut noise = self.noise_estimate(&s);
         // A down-weighted orientation channel: its residuals measured
         // unweighted, whatever its weight (0 included).
-        if let (Some(o), true) = (&mut noise.orientation, self.options.orientation_weight != 1.0) {
+        if let (Some(o), true) = (
+            &mut noise.orientation,
+            self.options.orientation_weight != 1.0,
+        ) {
             let (sum, rows) = self.orientation_squares();
             orientation_rms = (sum / (rows / 3).max(1) as f64).sqrt();
             o.shown = if o.redundancy >= 1.0 {

@@ -3,8 +3,8 @@
 //! fold ([`fold_normals`]), what the cross-validations of `diagnose` and of
 //! the prior's scale ([`super::super::prior_scale`]) step from.
 
-use armcal_shared::Param;
 use armcal_shared::effects::Effect;
+use armcal_shared::{FrameAxis, Param};
 use faer::Mat;
 use nalgebra::{DMatrix, DVector, Point3};
 
@@ -45,9 +45,22 @@ impl AtFit {
             .map(|p| PlaneEstimate::through(&Point3::from(p.normal * p.offset), &p.normal))
             .collect();
         let identified = |s: &Status| matches!(s, Status::Identified { .. });
+        // Orientations not used: no row weighs the tool's rotation (it was
+        // registered to them apart), no step moves it.
+        let weighed = |p: Param| {
+            fit.orientation_weight > 0.0
+                || !matches!(
+                    p,
+                    Param::Tool(FrameAxis::Rx | FrameAxis::Ry | FrameAxis::Rz)
+                )
+        };
         let mut unknowns: Vec<Unknown> = Vec::new();
         let mut offset: Vec<f64> = Vec::new();
-        for p in fit.params.iter().filter(|p| identified(&p.status)) {
+        for p in fit
+            .params
+            .iter()
+            .filter(|p| identified(&p.status) && weighed(p.param))
+        {
             unknowns.push(Unknown::Param(p.param));
             offset.push(p.error);
         }
