@@ -384,7 +384,14 @@ impl Identification {
                     ..
                 } = n;
                 let stated = n.source == noise::NoiseSource::Stated;
+                let weighed_down = what == "orientation" && fit.orientation_weight != 1.0;
                 let _ = match stated {
+                    _ if weighed_down => writeln!(
+                        out,
+                        "{what} noise {used:.3e} {unit} ({}, at full weight; the rows weighed ×{} of it); the residuals show {shown:.3e} {unit}",
+                        if stated { "stated" } else { "estimated" },
+                        fit.orientation_weight
+                    ),
                     true if r < 1.0 => writeln!(
                         out,
                         "{what} noise {used:.3e} {unit} (stated); too few rows beyond the unknowns (redundancy {r:.2}) to check it"
