@@ -5,6 +5,7 @@
 use std::path::PathBuf;
 
 use armcal::calibration::gravity::TorqueSign;
+use armcal::calibration::identify::channel_weight::OrientationWeight;
 use armcal::calibration::identify::prior_scale::PriorScale;
 use armcal::calibration::identify::{ParamSet, StatedScales};
 use armcal::commands::tool::Tool;
@@ -233,6 +234,14 @@ pub(crate) struct IdentifyArgs {
     /// `stated`: the stated prior as it is.
     #[arg(long, value_enum, default_value = "chosen")]
     pub(crate) prior_scale: PriorScaleArg,
+    /// The orientation rows' weight relative to what their noise gives
+    /// them: `chosen` scores as estimated, 0.1, 0.01 and none by the
+    /// held-out error of the tool point's position (10-fold
+    /// cross-validation) and fits at the best (the largest within two
+    /// standard errors of the least: orientations as clean as their noise
+    /// stay); `estimated`, `0.1`, `0.01`, `none` state it. Full poses only.
+    #[arg(long, value_enum, default_value = "chosen")]
+    pub(crate) orientation_weight: OrientationWeightArg,
     /// The frame the compensation's targets will be given in: `world` (the
     /// measurement frame of these data: the identified base is compensated)
     /// or `base` (the robot's own base frame: the identified base, the
@@ -317,6 +326,18 @@ pub(crate) struct SimulateArgs {
     /// Also measure orientations, with this noise (model angle unit).
     #[arg(long, value_name = "ANGLE", value_parser = args::non_negative)]
     pub(crate) orientation_noise: Option<f64>,
+    /// A systematic orientation error: the measured orientations turned by
+    /// this angle (model angle unit) about an axis drawn from the seed, in
+    /// the instrument's frame, which the positions do not share (a hand-eye
+    /// rotation error). Needs --orientation-noise.
+    #[arg(long, value_name = "ANGLE", value_parser = args::non_negative)]
+    pub(crate) orientation_bias: Option<f64>,
+    /// A systematic orientation error growing with the tool point's
+    /// distance from the instrument (model angle unit per model length
+    /// unit), about the horizontal axis across the line of sight, as a
+    /// camera's. Needs --orientation-noise.
+    #[arg(long, value_name = "ANGLE/LENGTH", value_parser = args::non_negative)]
+    pub(crate) orientation_bias_growth: Option<f64>,
     /// Also write the joint torques the robot reports (tau1..tauM: its
     /// drives' torques, minus the true gravity torques), with this noise
     /// (N·m, N for a prismatic joint).
@@ -443,6 +464,14 @@ pub(crate) struct DiagnoseArgs {
     /// (default: 10, or one per pose with fewer poses).
     #[arg(long, value_parser = args::at_least(2, "folds"))]
     pub(crate) folds: Option<usize>,
+    /// The orientation rows' weight relative to what their noise gives
+    /// them: `chosen` scores as estimated, 0.1, 0.01 and none by the
+    /// held-out error of the tool point's position (10-fold
+    /// cross-validation) and fits at the best (the largest within two
+    /// standard errors of the least: orientations as clean as their noise
+    /// stay); `estimated`, `0.1`, `0.01`, `none` state it. Full poses only.
+    #[arg(long, value_enum, default_value = "chosen")]
+    pub(crate) orientation_weight: OrientationWeightArg,
     /// The frame the compensation's targets will be given in: `world` (the
     /// measurement frame of these data: the identified base is compensated)
     /// or `base` (the robot's own base frame: the identified base, the
@@ -818,6 +847,34 @@ impl From<PriorScaleArg> for PriorScale {
     }
 }
 
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub(crate) enum OrientationWeightArg {
+    /// The weight that predicts held-out positions best.
+    Chosen,
+    /// As the orientation noise gives it.
+    Estimated,
+    /// A tenth of it.
+    #[value(name = "0.1")]
+    Tenth,
+    /// A hundredth of it.
+    #[value(name = "0.01")]
+    Hundredth,
+    /// Not used: the geometry from the positions alone.
+    None,
+}
+
+impl From<OrientationWeightArg> for OrientationWeight {
+    fn from(a: OrientationWeightArg) -> Self {
+        match a {
+            OrientationWeightArg::Chosen => OrientationWeight::default(),
+            OrientationWeightArg::Estimated => OrientationWeight::Stated(1.0),
+            OrientationWeightArg::Tenth => OrientationWeight::Stated(0.1),
+            OrientationWeightArg::Hundredth => OrientationWeight::Stated(0.01),
+            OrientationWeightArg::None => OrientationWeight::Stated(0.0),
+        }
+    }
+}
+
 impl From<Params> for ParamSet {
     fn from(p: Params) -> Self {
         match p {
@@ -868,6 +925,7 @@ impl IdentifyArgs {
             params: self.params.into(),
             scales: self.weights.scales(),
             prior_scale: self.prior_scale.into(),
+            orientation_weight: self.orientation_weight.into(),
             targets: self.targets.into(),
             frames: self.sessions.sharing(),
             torque_sign: self.torques.sign(),
@@ -881,6 +939,7 @@ impl DiagnoseArgs {
         diagnose::Request {
             folds: self.folds,
             scales: self.weights.scales(),
+            orientation_weight: self.orientation_weight.into(),
             targets: self.targets.into(),
             frames: self.sessions.sharing(),
             torque_sign: self.torques.sign(),
@@ -929,6 +988,8 @@ impl SimulateArgs {
             seed: self.seed,
             noise: self.noise,
             orientation_noise: self.orientation_noise,
+            orientation_bias: self.orientation_bias,
+            orientation_bias_growth: self.orientation_bias_growth,
             torque_noise: self.torque_noise,
             torque_sign: self.torque_sign.into(),
             effects: self.effects.clone(),

@@ -135,13 +135,16 @@ pub fn from_arrays<'py>(
 /// `payloads` (kg) of consecutive blocks of rows (default 0 and 5); the true
 /// robot off nominal by `link_errors`, `base_errors`, `tool_errors`
 /// (`(length, angle)` in the model's units, as `armcal simulate
-/// --link-errors` etc.) in place of ±1 mm / ±1 mrad; in
+/// --link-errors` etc.) in place of ±1 mm / ±1 mrad;
+/// `orientation_bias` (model angle unit) and `orientation_bias_growth` (per
+/// model length unit) bias the orientations as `--orientation-bias`,
+/// `--orientation-bias-growth` do; in
 /// `sessions` sessions, each after the first with the instrument moved and
 /// the point remounted (one Measurements holding them all: `identify` and
 /// `diagnose` read its sessions as several files'). Returns the
 /// measurements (rows numbered from 0) and the truth as a dict.
 #[pyfunction]
-#[pyo3(signature = (model, poses = 200, seed = 1, noise = None, orientation_noise = None, effects = Vec::new(), tilts = Vec::new(), torque_noise = None, *, payloads = Vec::new(), sessions = 1, torque_sign = "drive", link_errors = None, base_errors = None, tool_errors = None))]
+#[pyo3(signature = (model, poses = 200, seed = 1, noise = None, orientation_noise = None, effects = Vec::new(), tilts = Vec::new(), torque_noise = None, *, payloads = Vec::new(), sessions = 1, torque_sign = "drive", link_errors = None, base_errors = None, tool_errors = None, orientation_bias = None, orientation_bias_growth = None))]
 #[expect(
     clippy::too_many_arguments,
     reason = "a parameter per Python keyword argument, as the signature above lists them"
@@ -162,6 +165,8 @@ pub fn simulate<'py>(
     link_errors: Option<(f64, f64)>,
     base_errors: Option<(f64, f64)>,
     tool_errors: Option<(f64, f64)>,
+    orientation_bias: Option<f64>,
+    orientation_bias_growth: Option<f64>,
 ) -> PyResult<(Measurements, Bound<'py, PyAny>)> {
     let m = &model.inner;
     let u = m.units;
@@ -170,6 +175,8 @@ pub fn simulate<'py>(
         seed,
         noise,
         orientation_noise,
+        orientation_bias,
+        orientation_bias_growth,
         torque_noise,
         torque_sign: crate::fit::torque_sign(py, Some(torque_sign))?.unwrap_or(TorqueSign::Drive),
         effects,

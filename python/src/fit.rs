@@ -3,6 +3,7 @@
 //! same report (the JSON of `docs/file-formats.md` §6, as Python dicts), the same refusals.
 
 use armcal::calibration::gravity::TorqueSign;
+use armcal::calibration::identify::channel_weight::OrientationWeight;
 use armcal::calibration::identify::prior_scale::PriorScale;
 use armcal::calibration::identify::{ParamSet, StatedScales};
 use armcal::commands::{self, Front, diagnose as diagnose_cmd, identify as identify_cmd};
@@ -195,10 +196,13 @@ fn targets(py: Python<'_>, targets: &str) -> PyResult<TargetFrame> {
 /// session without a tracker, as `--point-noise`, `--plane-noise`);
 /// `prior_scale`: `chosen` (the stated prior times the factor that predicts
 /// held-out poses best, as `--prior-scale chosen`, the default) or `stated`;
+/// `orientation_weight`: of the orientation rows, `chosen` (the weight that
+/// predicts held-out positions best, as `--orientation-weight chosen`, the
+/// default), `estimated`, `0.1`, `0.01` or `none`;
 /// `targets`: `world` or `base`; `torque_sign`: of the `tau` columns,
 /// `drive` or `load` (as `--torque-sign`; default: read from the data).
 #[pyfunction(name = "identify")]
-#[pyo3(signature = (model, data, params = "full", *, position_noise = None, orientation_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None, prior_scale = "chosen", targets = "world", same_base = false, same_tool = false, torque_sign = None))]
+#[pyo3(signature = (model, data, params = "full", *, position_noise = None, orientation_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None, prior_scale = "chosen", orientation_weight = "chosen", targets = "world", same_base = false, same_tool = false, torque_sign = None))]
 #[expect(
     clippy::too_many_arguments,
     reason = "a parameter per Python keyword argument, as the signature above lists them"
@@ -215,6 +219,7 @@ pub fn identify_py(
     prior_length: Option<f64>,
     prior_angle: Option<f64>,
     prior_scale: &str,
+    orientation_weight: &str,
     targets: &str,
     same_base: bool,
     same_tool: bool,
@@ -253,6 +258,7 @@ pub fn identify_py(
             prior_angle,
         },
         prior_scale,
+        orientation_weight: self::orientation_weight(py, orientation_weight)?,
         targets: self::targets(py, targets)?,
         frames: FrameSharing::stated(same_base, same_tool),
         torque_sign: self::torque_sign(py, torque_sign)?,
@@ -279,6 +285,19 @@ pub fn identify_py(
     )
 }
 
+/// The orientation weight a keyword names (`orientation_weight`).
+fn orientation_weight(py: Python<'_>, text: &str) -> PyResult<OrientationWeight> {
+    OrientationWeight::parse(text).ok_or_else(|| {
+        errors::argument(
+            py,
+            "orientation_weight",
+            format!(
+                "{text:?}: expected \"chosen\", \"estimated\", \"0.1\", \"0.01\" or \"none\""
+            ),
+        )
+    })
+}
+
 /// Fits the geometry, analyses the residuals, names what geometry misses,
 /// extends the model and measures the gain on held-out poses, as `armcal
 /// diagnose` does, for measured coordinates and for a session without a
@@ -286,7 +305,7 @@ pub fn identify_py(
 /// pose with fewer poses). Other options as `identify` (`torque_sign`
 /// included).
 #[pyfunction]
-#[pyo3(signature = (model, data, *, folds = None, position_noise = None, orientation_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None, targets = "world", same_base = false, same_tool = false, torque_sign = None))]
+#[pyo3(signature = (model, data, *, folds = None, position_noise = None, orientation_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None, orientation_weight = "chosen", targets = "world", same_base = false, same_tool = false, torque_sign = None))]
 #[expect(
     clippy::too_many_arguments,
     reason = "a parameter per Python keyword argument, as the signature above lists them"
@@ -302,6 +321,7 @@ pub fn diagnose(
     plane_noise: Option<f64>,
     prior_length: Option<f64>,
     prior_angle: Option<f64>,
+    orientation_weight: &str,
     targets: &str,
     same_base: bool,
     same_tool: bool,
@@ -317,6 +337,7 @@ pub fn diagnose(
             prior_length,
             prior_angle,
         },
+        orientation_weight: self::orientation_weight(py, orientation_weight)?,
         targets: self::targets(py, targets)?,
         frames: FrameSharing::stated(same_base, same_tool),
         torque_sign: self::torque_sign(py, torque_sign)?,

@@ -13,6 +13,7 @@ use crate::calibration::diagnose::Choice;
 use crate::calibration::diagnose::RowPlaces;
 use crate::calibration::diagnose::{DiagnoseOptions, Diagnosis, diagnose_with_progress};
 use crate::calibration::gravity::{GravityFit, TorqueSign, with_measured_gravity};
+use crate::calibration::identify::channel_weight::{self, OrientationWeight, WeightChoice};
 use crate::calibration::identify::full::{
     FullError, FullOptions, Observation, identify_with_effects,
 };
@@ -31,6 +32,9 @@ pub struct Request {
     pub folds: Option<usize>,
     /// The noise and prior scales stated (model units).
     pub scales: StatedScales,
+    /// The orientation rows' weight: stated, or chosen at the reference fit
+    /// by cross-validation and kept for the rest of the diagnosis.
+    pub orientation_weight: OrientationWeight,
     /// The frame the compensation's targets will be given in.
     pub targets: TargetFrame,
     /// With several sessions, which frames are each session's own.
@@ -63,6 +67,9 @@ pub struct Diagnosed {
     /// calibrated as the diagnosis chose ([`held_out_by_session`]); empty
     /// otherwise.
     pub sessions_held_out: Vec<SessionHeldOut>,
+    /// Full poses: the orientation rows' weight every fit used, stated or
+    /// chosen at the reference fit ([`channel_weight`]).
+    pub orientation_weight: Option<WeightChoice>,
 }
 
 /// Diagnoses `model` on `data` (a session [`super::require_session`]
@@ -80,7 +87,7 @@ pub fn run(
     let (fitted, gravity) = with_measured_gravity(model, data, request.torque_sign)?;
     let model = &fitted;
     let folds = folds(front, request.folds, data.len())?;
-    let options = DiagnoseOptions {
+    let mut options = DiagnoseOptions {
         folds,
         fit: FullOptions {
             sessions: request.frames,
@@ -89,6 +96,26 @@ pub fn run(
         ..Default::default()
     };
     let observations = identify::observations(data);
+    // Full poses: the orientation rows' weight chosen (or stated) at the
+    // reference fit, kept by every fit of the diagnosis; one channel has
+    // nothing to choose.
+    let orientation_weight = if data.has_orientation() {
+        let weight = match request.orientation_weight {
+            OrientationWeight::Chosen { .. } => OrientationWeight::Chosen { folds },
+            stated => stated,
+        };
+        let (choice, weighted) = channel_weight::for_diagnosis(
+            &model.robot,
+            observations,
+            &data.constraints,
+            &options.fit,
+            weight,
+        )?;
+        options.fit = weighted;
+        Some(choice)
+    } else {
+        None
+    };
     let diagnosis = diagnose_with_progress(
         &model.robot,
         observations,
@@ -103,6 +130,7 @@ pub fn run(
     calibration.flange = model.flange;
     let sessions_held_out = sessions_held_out(model, observations, &diagnosis, &options)?;
     Ok(Diagnosed {
+        orientation_weight,
         sessions_held_out,
         model: fitted,
         gravity,
@@ -170,7 +198,10 @@ impl Diagnosed {
                 )
             })
             .unwrap_or_default();
+        let weight = self.orientation_weight.as_ref();
+        let weight = weight.map(|w| w.summary(self.diagnosis.fit.orientation_rms));
         head.unwrap_or_default()
+            + &weight.unwrap_or_default()
             + &sessions::summary(&self.diagnosis.fit, &self.sessions_held_out, data, units)
             + &self
                 .diagnosis
@@ -201,7 +232,12 @@ impl Diagnosed {
             &self.diagnosis,
             identify::observations(data),
             &self.options,
-            &sessions::html(&self.diagnosis.fit, &self.sessions_held_out, data),
+            &(sessions::html(&self.diagnosis.fit, &self.sessions_held_out, data)
+                + &self
+                    .orientation_weight
+                    .as_ref()
+                    .map(|w| w.html(self.diagnosis.fit.orientation_rms))
+                    .unwrap_or_default()),
         )
     }
 
@@ -229,6 +265,9 @@ impl Diagnosed {
             "rows"
         }
         .into();
+        if let Some(w) = &self.orientation_weight {
+            report["orientation_weight"] = w.to_json(self.diagnosis.fit.orientation_rms);
+        }
         let held_out = &self.sessions_held_out;
         if let Some(s) = sessions::json(&self.diagnosis.fit, held_out, data, &self.model.units) {
             report["sessions"] = s;

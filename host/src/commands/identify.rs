@@ -10,6 +10,7 @@ use armcal_shared::TargetFrame;
 use super::{Front, fit_options};
 use crate::calibration::acceptance::FailedCalibration;
 use crate::calibration::gravity::{TorqueSign, with_measured_gravity};
+use crate::calibration::identify::channel_weight::OrientationWeight;
 use crate::calibration::identify::full::{FullOptions, Observation, identify_with_effects};
 use crate::calibration::identify::prior_scale::PriorScale;
 use crate::calibration::identify::sessions::held_out_by_session;
@@ -29,6 +30,9 @@ pub struct Request {
     pub scales: StatedScales,
     /// The prior's scale: stated, or chosen by cross-validation.
     pub prior_scale: PriorScale,
+    /// The orientation rows' weight: stated, or chosen by cross-validation
+    /// (one channel, positions only: nothing to choose).
+    pub orientation_weight: OrientationWeight,
     /// The frame the compensation's targets will be given in.
     pub targets: TargetFrame,
     /// With several sessions, which frames are each session's own.
@@ -78,13 +82,20 @@ pub fn run(
         )
         .into());
     }
-    let mut result =
-        identify::identify(model, data, request.params, &options, request.prior_scale)?;
+    let mut result = identify::identify_weighted(
+        model,
+        data,
+        request.params,
+        &options,
+        request.prior_scale,
+        request.orientation_weight,
+    )?;
     if let Some(fit) = result.full.as_ref().filter(|f| f.sessions.len() > 1) {
         // Each session left out, the others calibrated at the prior's scale chosen.
         let factor = result.prior.as_ref().map_or(1.0, |p| p.factor());
         let at = FullOptions {
             prior: options.prior.scaled(factor),
+            orientation_weight: fit.orientation_weight,
             ..options.at_noise_of(fit)
         };
         let tilts: Vec<Param> = model.tilted.iter().map(|&k| Param::Beta(k)).collect();

@@ -85,6 +85,10 @@ pub enum Argument {
     Noise,
     /// The orientation noise `simulate` draws.
     OrientationNoise,
+    /// `simulate`'s fixed orientation bias.
+    OrientationBias,
+    /// `simulate`'s orientation bias growing with distance.
+    OrientationBiasGrowth,
     /// The noise of the joint torques `simulate` reports.
     TorqueNoise,
     /// The hidden effects `simulate` builds in.
@@ -125,6 +129,10 @@ impl Argument {
             (Self::Noise, Front::Python) => "noise",
             (Self::OrientationNoise, Front::CommandLine) => "--orientation-noise",
             (Self::OrientationNoise, Front::Python) => "orientation_noise",
+            (Self::OrientationBias, Front::CommandLine) => "--orientation-bias",
+            (Self::OrientationBias, Front::Python) => "orientation_bias",
+            (Self::OrientationBiasGrowth, Front::CommandLine) => "--orientation-bias-growth",
+            (Self::OrientationBiasGrowth, Front::Python) => "orientation_bias_growth",
             (Self::TorqueNoise, Front::CommandLine) => "--torque-noise",
             (Self::TorqueNoise, Front::Python) => "torque_noise",
             (Self::Effects, Front::CommandLine) => "--effect",

@@ -28,6 +28,14 @@ pub struct Request {
     /// Orientation noise per axis (model angle unit); `None` measures no
     /// orientation.
     pub orientation_noise: Option<f64>,
+    /// A fixed rotation of the measured orientations in the instrument's
+    /// frame, about an axis drawn from the seed (model angle unit; needs
+    /// `orientation_noise`): see [`simulate::OrientationBias`].
+    pub orientation_bias: Option<f64>,
+    /// A rotation of the measured orientations growing with the tool
+    /// point's distance from the instrument (model angle unit per model
+    /// length unit; needs `orientation_noise`).
+    pub orientation_bias_growth: Option<f64>,
     /// Noise of the joint torques the robot reports (N·m, N for a prismatic
     /// joint); `None` reports none.
     pub torque_noise: Option<f64>,
@@ -121,6 +129,31 @@ impl Request {
             let n = non_negative(Argument::OrientationNoise, n)?;
             scenario.orientation_noise = Some(u.angle_to_si(n));
         }
+        for (argument, given) in [
+            (Argument::OrientationBias, self.orientation_bias),
+            (
+                Argument::OrientationBiasGrowth,
+                self.orientation_bias_growth,
+            ),
+        ] {
+            if let Some(v) = given {
+                non_negative(argument, v)?;
+                if self.orientation_noise.is_none() {
+                    return Err(argument.refused(
+                        front,
+                        format!("{v}: biases measured orientations; measure them (--orientation-noise, orientation_noise)"),
+                    ));
+                }
+            }
+        }
+        scenario.orientation_bias = simulate::OrientationBias {
+            fixed: self.orientation_bias.map_or(0.0, |b| u.angle_to_si(b)),
+            axis: None,
+            // An angle per length: the angle to rad, per the length in m.
+            per_metre: self
+                .orientation_bias_growth
+                .map_or(0.0, |g| u.angle_to_si(g) / u.length_to_si(1.0)),
+        };
         if let Some(n) = self.torque_noise {
             scenario.torque_noise = Some(non_negative(Argument::TorqueNoise, n)?);
         }

@@ -737,3 +737,82 @@ fn bounded_rows_of_a_registration_suggest_targets_in_the_base_frame() {
     assert!(!base.contains("the instrument's registration"), "{base}");
     assert!(bounded(&base) * 5 < bounded(&world), "{base}\n{world}");
 }
+
+/// A simulated marker frame whose orientations are turned 2 mrad from the
+/// positions' frame (`simulate --orientation-bias`), 20 UR5e poses: the
+/// positions say the orientations mislead them, and `identify` and
+/// `diagnose` weigh them down and name it — in the summary, the JSON
+/// (`orientation_weight`: each weight's held-out figure and the
+/// disagreement) and the HTML report; `--orientation-weight estimated`
+/// states the weight instead and chooses nothing.
+#[test]
+fn biased_orientations_are_weighed_down_and_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = armcal(
+        &[
+            "simulate",
+            "--model",
+            "ur5e",
+            "--poses",
+            "20",
+            "--noise",
+            "0.00005",
+            "--orientation-noise",
+            "0.0001",
+            "--orientation-bias",
+            "0.002",
+            "--seed",
+            "3",
+            "--out",
+            "b.csv",
+        ],
+        d,
+    );
+    assert_success(&out);
+    let args = ["--model", "ur5e", "--data", "b.csv", "--json", "r.json"];
+    for verb in ["identify", "diagnose"] {
+        let mut all = vec![verb];
+        all.extend_from_slice(&args);
+        if verb == "diagnose" {
+            all.extend_from_slice(&["--html", "r.html"]);
+        }
+        let out = armcal(&all, d);
+        assert_success(&out);
+        let summary = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            summary.contains("orientation weight: none (chosen")
+                && summary.contains("the orientations disagree with the positions"),
+            "{verb}: {summary}"
+        );
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(d.join("r.json")).unwrap()).unwrap();
+        let w = &json["orientation_weight"];
+        assert_eq!(w["chosen_by"], "cross-validation", "{verb}: {w}");
+        assert_eq!(w["held_out"].as_array().unwrap().len(), 4, "{verb}: {w}");
+        assert!(
+            w["disagreement"]["significance"].as_f64().unwrap() > 2.0,
+            "{verb}: {w}"
+        );
+    }
+    let html = std::fs::read_to_string(d.join("r.html")).unwrap();
+    assert!(html.contains("<h2>Orientation weight</h2>") && html.contains("none (chosen)"));
+    let out = armcal(
+        &[
+            "identify",
+            "--model",
+            "ur5e",
+            "--data",
+            "b.csv",
+            "--orientation-weight",
+            "estimated",
+        ],
+        d,
+    );
+    assert_success(&out);
+    let summary = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        summary.contains("orientation weight: estimated (stated"),
+        "{summary}"
+    );
+}

@@ -177,6 +177,16 @@ fn bad_arguments_exit_two_naming_the_argument() {
         ),
         (sim(&["--noise", "nan"]), "--noise"),
         (sim(&["--orientation-noise=-1"]), "--orientation-noise"),
+        // A bias of orientations not measured.
+        (sim(&["--orientation-bias", "0.002"]), "--orientation-bias"),
+        (
+            sim(&["--orientation-bias-growth", "0.002"]),
+            "--orientation-bias-growth",
+        ),
+        (
+            sim(&["--orientation-noise", "1e-4", "--orientation-bias=-1"]),
+            "--orientation-bias",
+        ),
         (sim(&["--effect", "foo"]), "--effect"),
         (sim(&["--effect", "backlash:9"]), "--effect"),
         (sim(&["--tilt", "7:0.01"]), "--tilt"),
@@ -207,6 +217,18 @@ fn bad_arguments_exit_two_naming_the_argument() {
                 "diagnose", "--model", "ur5e", "--data", "pos.csv", "--folds", "1",
             ],
             "--folds",
+        ),
+        (
+            vec![
+                "identify",
+                "--model",
+                "ur5e",
+                "--data",
+                "pos.csv",
+                "--orientation-weight",
+                "half",
+            ],
+            "--orientation-weight",
         ),
         (
             vec![

@@ -6,6 +6,7 @@
 //! | [`paper`] | `--params paper`: the 3M position-independent model and the Iterative Regression Algorithm of Mirman & Gupta (1992), as the paper gives them |
 //! | [`prior`] | the prior on the D-H errors and the nested geometric models |
 //! | [`prior_scale`] | the prior's scale chosen on held-out poses (`--prior-scale chosen`, the default) |
+//! | [`channel_weight`] | the orientation rows' weight chosen on held-out positions (`--orientation-weight chosen`, the default) |
 //! | [`noise`] | each channel's noise, estimated from the residuals as variance components |
 //! | [`sessions`] | several sessions in the reports: each session's figures and frames |
 //! | `summary` | the report of `armcal identify`: the JSON of `docs/file-formats.md` §6 and the human summary |
@@ -15,6 +16,7 @@
 //! converts every length and angle to the model file's units (`mm`-suffixed
 //! fields excepted).
 
+pub mod channel_weight;
 pub mod full;
 pub mod noise;
 pub mod paper;
@@ -34,6 +36,7 @@ use armcal_shared::{Calibration, Param, Robot};
 use crate::calibration::acceptance::Judgement;
 use crate::io::measurements::Measurements;
 use crate::io::model_file::RobotModel;
+use channel_weight::{OrientationWeight, WeightChoice};
 use full::{FullFit, FullOptions, Observation, Registrations, Status};
 use paper::{PaperOptions, PaperPose};
 use prior::Prior;
@@ -164,6 +167,10 @@ pub struct Identification {
     /// Full model with the prior's scale chosen: the factor on the stated
     /// prior it was fitted at and every factor's held-out score.
     pub prior: Option<PriorChoice>,
+    /// Full model on a session with orientations: the orientation rows'
+    /// weight fitted at, stated or chosen with every weight's held-out
+    /// score ([`channel_weight`]).
+    pub orientation_weight: Option<WeightChoice>,
     /// The calibration to write.
     pub calibration: Calibration,
     /// The nominal model's and the calibration's residuals on the rows,
@@ -224,6 +231,28 @@ pub fn identify(
     options: &FullOptions,
     scale: PriorScale,
 ) -> Result<Identification, IdentifyError> {
+    identify_weighted(
+        model,
+        data,
+        set,
+        options,
+        scale,
+        OrientationWeight::default(),
+    )
+}
+
+/// [`identify`] with the orientation rows weighed as `weight` says: as
+/// stated, or at the weight that predicts held-out positions best
+/// ([`channel_weight`]; a session without orientations has one channel and
+/// no choice).
+pub fn identify_weighted(
+    model: &RobotModel,
+    data: &Measurements,
+    set: ParamSet,
+    options: &FullOptions,
+    scale: PriorScale,
+    weight: OrientationWeight,
+) -> Result<Identification, IdentifyError> {
     let nominal = &model.robot;
     let orientation = data.poses.iter().any(|p| p.orientation.is_some());
     let Fitted {
@@ -233,8 +262,9 @@ pub fn identify(
         calibrated,
         fit,
         prior,
+        orientation_weight,
     } = match set {
-        ParamSet::Full => fit_full(model, data, options, scale)?,
+        ParamSet::Full => fit_full(model, data, options, scale, weight)?,
         ParamSet::Paper => fit_paper(model, data)?,
     };
     let (position_rms, orientation_rms) = match &fit {
@@ -271,6 +301,7 @@ pub fn identify(
         full: fit,
         stated_prior: options.prior,
         prior,
+        orientation_weight,
         calibration,
         judgement: None,
         gravity: None,
@@ -292,21 +323,26 @@ struct Fitted {
     fit: Option<FullFit>,
     /// The prior's scale chosen by cross-validation, when asked.
     prior: Option<PriorChoice>,
+    /// The orientation rows' weight, with orientations.
+    orientation_weight: Option<WeightChoice>,
 }
 
-/// `--params full`: the fit at the stated prior, then at the factor chosen
-/// held-out when `scale` asks for one and it differs.
+/// `--params full`: the fit at the stated prior (the orientations weighed by
+/// their noise), then at the factor and the orientation weight chosen
+/// held-out when `scale` and `weight` ask for them and they differ.
 fn fit_full(
     model: &RobotModel,
     data: &Measurements,
     options: &FullOptions,
     scale: PriorScale,
+    weight: OrientationWeight,
 ) -> Result<Fitted, IdentifyError> {
     let nominal = &model.robot;
     let mut prior = None;
+    let mut orientation_weight = None;
     // The model's own tilts (a URDF's parallel axes) beside its D-H parameters.
     let tilts: Vec<Param> = model.tilted.iter().map(|&k| Param::Beta(k)).collect();
-    let fit_at = |factor: f64| {
+    let fit_at = |factor: f64, options: &FullOptions| {
         full::identify_constrained(
             nominal,
             None,
@@ -320,9 +356,50 @@ fn fit_full(
             },
         )
     };
-    let mut fit = fit_at(1.0)?;
-    // A prior without a finite scale (least squares) has none to choose.
-    if let (PriorScale::Chosen { folds }, true) = (scale, options.prior.has_scale()) {
+    let mut fit = fit_at(1.0, options)?;
+    if data.has_orientation() {
+        // The weight chosen (or stated) with the prior's factor; the
+        // orientation noise held at its estimate at full weight.
+        let (choice, prior_choice) = match weight {
+            OrientationWeight::Stated(weight) => (WeightChoice::Stated { weight }, None),
+            OrientationWeight::Chosen { folds } => channel_weight::choose(
+                &fit,
+                observations(data),
+                &data.constraints,
+                &options.prior,
+                folds,
+                scale,
+            ),
+        };
+        let prior_choice = match (prior_choice, scale) {
+            (Some(c), _) => Some(c),
+            (None, PriorScale::Chosen { folds }) if options.prior.has_scale() => {
+                Some(prior_scale::choose(
+                    &fit,
+                    observations(data),
+                    &data.constraints,
+                    &options.prior,
+                    folds,
+                ))
+            }
+            (None, _) => None,
+        };
+        let factor = prior_choice.as_ref().map_or(1.0, PriorChoice::factor);
+        if factor != 1.0 || choice.weight() != 1.0 {
+            let weighted = if choice.weight() == 1.0 {
+                *options
+            } else {
+                FullOptions {
+                    orientation_weight: choice.weight(),
+                    ..options.at_noise_of(&fit)
+                }
+            };
+            fit = fit_at(factor, &weighted)?;
+        }
+        prior = prior_choice;
+        orientation_weight = Some(choice);
+    } else if let (PriorScale::Chosen { folds }, true) = (scale, options.prior.has_scale()) {
+        // A prior without a finite scale (least squares) has none to choose.
         let choice = prior_scale::choose(
             &fit,
             observations(data),
@@ -331,7 +408,7 @@ fn fit_full(
             folds,
         );
         if choice.factor() != 1.0 {
-            fit = fit_at(choice.factor())?;
+            fit = fit_at(choice.factor(), options)?;
         }
         prior = Some(choice);
     }
@@ -359,6 +436,7 @@ fn fit_full(
         calibrated: fit.calibrated.clone(),
         fit: Some(fit),
         prior,
+        orientation_weight,
     })
 }
 
@@ -413,6 +491,7 @@ fn fit_paper(model: &RobotModel, data: &Measurements) -> Result<Fitted, Identify
         calibrated,
         fit: None,
         prior: None,
+        orientation_weight: None,
     })
 }
 

@@ -177,11 +177,7 @@ fn scores(
     prior: &Prior,
     folds: usize,
 ) -> (usize, Vec<PriorScore>) {
-    let contacts: Vec<_> = data.iter().map(|o| o.contact).collect();
-    let k = folds.clamp(2, data.len().max(2));
-    let configurations = Configurations::of_robot(&fit.calibrated, data).index(data.len());
-    let fold = interleaved_folds(&contacts, &configurations, k);
-    let sums = fold_normals(fit, data, constraints, prior, &fold, k);
+    let (k, sums) = fold_sums(fit, data, constraints, prior, folds);
     let scores = PRIOR_FACTORS
         .iter()
         .filter_map(|&factor| {
@@ -191,38 +187,89 @@ fn scores(
     (k, scores)
 }
 
+/// The folds used (`folds`, at least 2 and at most one per pose) and the
+/// normal equations about `fit` summed over each ([`fold_normals`]): the
+/// poses of `data` in interleaved folds, a robot configuration held out whole.
+pub(crate) fn fold_sums(
+    fit: &FullFit,
+    data: &[Observation],
+    constraints: &Constraints,
+    prior: &Prior,
+    folds: usize,
+) -> (usize, FoldNormals) {
+    let contacts: Vec<_> = data.iter().map(|o| o.contact).collect();
+    let k = folds.clamp(2, data.len().max(2));
+    let configurations = Configurations::of_robot(&fit.calibrated, data).index(data.len());
+    let fold = interleaved_folds(&contacts, &configurations, k);
+    (k, fold_normals(fit, data, constraints, prior, &fold, k))
+}
+
 /// The RMS of the held-out tool-point errors at `factor` times the prior
 /// `sums` were gathered at, m; `None` when a fold's training poses cannot
 /// determine the unknowns.
 fn held_out(sums: &FoldNormals, factor: f64) -> Option<f64> {
+    let steps = fold_steps(sums, factor, 1.0)?;
+    let (squares, poses) = held_out_squares(sums, &steps);
+    (poses > 0 && squares.is_finite()).then(|| (squares.max(0.0) / poses as f64).sqrt())
+}
+
+/// Each fold's MAP step from the fit `sums` were gathered about, at
+/// `factor` times its prior and the orientation rows' weight times
+/// `orientation_weight` (1: as in the fit); `None` when a fold's training
+/// poses cannot determine the unknowns.
+pub(crate) fn fold_steps(
+    sums: &FoldNormals,
+    factor: f64,
+    orientation_weight: f64,
+) -> Option<Vec<DVector<f64>>> {
     let p = sums.offset.len();
     let precision: Vec<f64> = sums
         .precision
         .iter()
         .map(|q| q / (factor * factor))
         .collect();
+    // The orientation rows' share taken down to the weight asked.
+    let less = 1.0 - orientation_weight;
     let (a, b) = &sums.all;
-    let (mut squares, mut poses) = (0.0, 0);
-    for fold in &sums.folds {
-        let a = a - &fold.a;
-        let rhs = DVector::from_fn(p, |i, _| b[i] - fold.b[i] - precision[i] * sums.offset[i]);
-        // Scaled to a unit diagonal, for the conditioning of the factorisation.
-        let scale: Vec<f64> = (0..p)
-            .map(|i| unit_scale(a[(i, i)] + precision[i]))
-            .collect();
-        let n = DMatrix::from_fn(p, p, |i, j| {
-            let prior = if i == j { precision[i] } else { 0.0 };
-            (a[(i, j)] + prior) * scale[i] * scale[j]
-        });
-        let x = n
-            .cholesky()?
-            .solve(&DVector::from_fn(p, |i, _| rhs[i] * scale[i]));
-        let delta = DVector::from_fn(p, |i, _| x[i] * scale[i]);
-        squares +=
-            fold.held_rtr - 2.0 * delta.dot(&fold.held_b) + delta.dot(&(&fold.held_a * &delta));
-        poses += fold.poses;
-    }
-    (poses > 0 && squares.is_finite()).then(|| (squares.max(0.0) / poses as f64).sqrt())
+    let (a, b) = (
+        a - &sums.orientation.0 * less,
+        b - &sums.orientation.1 * less,
+    );
+    sums.folds
+        .iter()
+        .map(|fold| {
+            let a = &a - &fold.a + &fold.orientation.0 * less;
+            let b = &b - &fold.b + &fold.orientation.1 * less;
+            let rhs = DVector::from_fn(p, |i, _| b[i] - precision[i] * sums.offset[i]);
+            // Scaled to a unit diagonal, for the conditioning of the factorisation.
+            let scale: Vec<f64> = (0..p)
+                .map(|i| unit_scale(a[(i, i)] + precision[i]))
+                .collect();
+            let n = DMatrix::from_fn(p, p, |i, j| {
+                let prior = if i == j { precision[i] } else { 0.0 };
+                (a[(i, j)] + prior) * scale[i] * scale[j]
+            });
+            let x = n
+                .cholesky()?
+                .solve(&DVector::from_fn(p, |i, _| rhs[i] * scale[i]));
+            Some(DVector::from_fn(p, |i, _| x[i] * scale[i]))
+        })
+        .collect()
+}
+
+/// The held-out tool-point rows' sum of squares after each fold's step
+/// `steps`, m², and the poses held out.
+pub(crate) fn held_out_squares(sums: &FoldNormals, steps: &[DVector<f64>]) -> (f64, usize) {
+    sums.folds
+        .iter()
+        .zip(steps)
+        .fold((0.0, 0), |(squares, poses), (fold, delta)| {
+            (
+                squares + fold.held_rtr - 2.0 * delta.dot(&fold.held_b)
+                    + delta.dot(&(&fold.held_a * delta)),
+                poses + fold.poses,
+            )
+        })
 }
 
 #[cfg(test)]

@@ -152,6 +152,9 @@ impl Identification {
             out["equations"] = json!(fit.equations);
             out["noise"] = noise_json(&fit.noise, units);
             out["prior"] = self.prior_json(units);
+            if let Some(w) = &self.orientation_weight {
+                out["orientation_weight"] = w.to_json(self.orientation_rms);
+            }
             out["correlations"] = json!(
                 fit.correlations
                     .iter()
@@ -381,7 +384,14 @@ impl Identification {
                     ..
                 } = n;
                 let stated = n.source == noise::NoiseSource::Stated;
+                let weighed_down = what == "orientation" && fit.orientation_weight != 1.0;
                 let _ = match stated {
+                    _ if weighed_down => writeln!(
+                        out,
+                        "{what} noise {used:.3e} {unit} ({}, at full weight; the rows weighed ×{} of it); the residuals show {shown:.3e} {unit}",
+                        if stated { "stated" } else { "estimated" },
+                        fit.orientation_weight
+                    ),
                     true if r < 1.0 => writeln!(
                         out,
                         "{what} noise {used:.3e} {unit} (stated); too few rows beyond the unknowns (redundancy {r:.2}) to check it"
@@ -403,6 +413,9 @@ impl Identification {
     fn write_parameters(&self, out: &mut String, u: &Units) {
         if let Some(line) = self.prior_line(u) {
             let _ = writeln!(out, "{line}");
+        }
+        if let Some(w) = &self.orientation_weight {
+            out.push_str(&w.summary(self.orientation_rms));
         }
         let _ = writeln!(
             out,

@@ -259,6 +259,8 @@ pub struct Scenario {
     pub position_noise: f64,
     /// Orientation noise, rad per axis, when orientations are measured.
     pub orientation_noise: Option<f64>,
+    /// A systematic error of the measured orientations (none by default).
+    pub orientation_bias: OrientationBias,
     /// The hidden effects.
     pub effects: Vec<armcal_shared::effects::Effect<f64>>,
     /// Hidden Hayati tilts `(joint, β)`.
@@ -284,6 +286,49 @@ pub struct Scenario {
     pub sessions: usize,
 }
 
+/// A systematic error of the measured orientations, as a camera or an
+/// optical tracker makes one: not noise, the same at the same pose. The
+/// instrument sits at the origin of the measurement frame; each measured
+/// orientation `R` is reported as `R_bias R`, `R_bias` a rotation in the
+/// instrument's frame. The positions do not share it: a rotation shared by
+/// both would be the base frame's, and one in the tool's frame the tool's,
+/// both identified as such.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct OrientationBias {
+    /// A fixed rotation, rad: the orientations reported in a frame turned
+    /// by it from the one the positions are in (a hand-eye rotation error,
+    /// a marker frame built from few points).
+    pub fixed: f64,
+    /// The fixed rotation's axis in the instrument's frame; `None`: drawn
+    /// from the seed (apart from the rows' draws).
+    pub axis: Option<Vector3<f64>>,
+    /// A rotation growing with the tool point's distance from the
+    /// instrument, rad per m, about the horizontal axis across the line of
+    /// sight (`ẑ × p`): a camera's orientation error, whose target seen
+    /// farther is seen smaller and its tilt across the view worse.
+    pub per_metre: f64,
+}
+
+impl OrientationBias {
+    /// Whether it changes nothing.
+    pub fn is_none(&self) -> bool {
+        self.fixed == 0.0 && self.per_metre == 0.0
+    }
+
+    /// The rotation it puts on the orientation measured at tool point `p`
+    /// (instrument frame, m), the fixed part about `axis` (unit).
+    fn at(&self, p: &Vector3<f64>, axis: &Vector3<f64>) -> UnitQuaternion<f64> {
+        let across = Vector3::z().cross(p);
+        let across = if across.norm() > 1e-9 {
+            across.normalize()
+        } else {
+            Vector3::x()
+        };
+        UnitQuaternion::from_scaled_axis(across * (self.per_metre * p.norm()))
+            * UnitQuaternion::from_scaled_axis(axis * self.fixed)
+    }
+}
+
 impl Scenario {
     /// A laser-tracker session: `poses` positions, σ = 20 µm, ±1 mm / ±1 mrad
     /// geometric errors, 20 °C to 30 °C, payloads 0 and 5 kg.
@@ -293,6 +338,7 @@ impl Scenario {
             errors: ErrorSizes::default(),
             position_noise: 20e-6,
             orientation_noise: None,
+            orientation_bias: OrientationBias::default(),
             effects: Vec::new(),
             tilts: Vec::new(),
             temperature: (20.0, 30.0),
@@ -384,6 +430,8 @@ pub(crate) struct Draw {
     rows: usize,
     /// The index of the next row.
     next: usize,
+    /// The axis of the orientations' fixed bias (unit, instrument frame).
+    bias_axis: Vector3<f64>,
 }
 
 /// One drawn row: what the instrument saw, and when, how warm and how loaded.
@@ -432,6 +480,15 @@ impl Draw {
             approach: armcal_shared::effects::Approach::new(),
             rows: scenario.poses,
             next: 0,
+            bias_axis: scenario.orientation_bias.axis.map_or_else(
+                || {
+                    // From its own generator: the rows' draws are the unbiased session's.
+                    let mut r = self::rng(scenario.seed ^ 0x0b1a_5ed0);
+                    let n = Normal::new(0.0, 1.0).expect("unit normal");
+                    Vector3::from_fn(|_, _| n.sample(&mut r)).normalize()
+                },
+                |a| a.normalize(),
+            ),
         })
     }
 
@@ -504,8 +561,11 @@ impl Draw {
         };
         let mut draw3 = |s: f64| Vector3::from_fn(|_, _| s * normal.sample(rng));
         let position = Point3::from(frame.translation.vector + draw3(scenario.position_noise));
+        let bias = scenario
+            .orientation_bias
+            .at(&frame.translation.vector, &self.bias_axis);
         let orientation = scenario.orientation_noise.map(|s| {
-            UnitQuaternion::from_scaled_axis(draw3(s))
+            bias * UnitQuaternion::from_scaled_axis(draw3(s))
                 * UnitQuaternion::from_rotation_matrix(&frame.rotation)
         });
         Ok(DrawnRow {

@@ -12,9 +12,9 @@
 use std::collections::HashMap;
 
 use armcal_shared::effects::Effect;
-use armcal_shared::{Param, Robot};
+use armcal_shared::{FrameAxis, Param, Robot};
 use faer::Side;
-use nalgebra::{Point3, Vector3};
+use nalgebra::{Matrix3, Point3, Rotation3, Vector3};
 
 use super::super::noise::{
     Channel, ChannelNoise, NoiseEstimate, NoiseSource, PerChannel, SETTLED, Weights,
@@ -27,7 +27,7 @@ use super::solve::{levenberg_marquardt, wrap_angle};
 use super::{
     Constraints, EffectFit, FullError, FullFit, FullOptions, MAX_NOISE_ROUNDS, Model, Observation,
     ParamResult, PlaneEstimate, PlaneFit, PointFit, Posterior, Registrations, SessionFit, Status,
-    Unknown, full_params, independent_parameter_count, prior_reach, prior_terms,
+    Unknown, channel_weights, full_params, independent_parameter_count, prior_reach, prior_terms,
 };
 use crate::session::measurements::session_count;
 
@@ -345,8 +345,13 @@ impl<'a> Fit<'a> {
             Channel::Point => data.iter().any(|o| o.fixed_point().is_some()),
             Channel::Plane => data.iter().any(|o| o.on_plane().is_some()),
         });
-        let estimate =
-            present.map(|c, &present| present && options.noise(c).source == NoiseSource::Estimated);
+        // A down-weighted orientation channel keeps the noise it is given:
+        // its variance component would restore the weight.
+        let estimate = present.map(|c, &present| {
+            present
+                && options.noise(c).source == NoiseSource::Estimated
+                && (c != Channel::Orientation || options.orientation_weight == 1.0)
+        });
         let mut structure = robot.clone();
         let mut moved = false;
         let links = nominal
@@ -389,7 +394,7 @@ impl<'a> Fit<'a> {
     fn rounds(&mut self) -> Result<Solution, FullError> {
         loop {
             self.round += 1;
-            let weights = Weights::of(&self.noise);
+            let weights = self.weights();
             let mut solution = self.select_and_solve(&weights)?;
             if self.estimate.0.contains(&true) {
                 self.settle_noise(&mut solution)?;
@@ -462,7 +467,7 @@ impl<'a> Fit<'a> {
         };
         let prior = prior_terms(&free_params, self.nominal, &self.options.prior);
         let (converged, last_decrease, sys) = self.solve(&free_params, &prior, weights, first)?;
-        let post = Posterior::at(&sys, &prior);
+        let post = self.posterior(&sys, &prior);
         Ok(Solution {
             free_params,
             fixed,
@@ -518,6 +523,14 @@ impl<'a> Fit<'a> {
         Ok((converged, last_decrease, sys))
     }
 
+    /// The posterior at `sys`; its variance factor counts the channels
+    /// weighted by their noise (not a down-weighted orientation channel).
+    fn posterior(&self, sys: &NormalEquations, prior: &[(f64, f64)]) -> Posterior {
+        let mut post = Posterior::at(sys, prior);
+        post.counted[Channel::Orientation] = self.options.orientation_weight == 1.0;
+        post
+    }
+
     /// The variance components: the free parameters stay; each round
     /// reweighs the rows of the solution's linearisation and iterates from
     /// there, until the noise settles.
@@ -537,13 +550,13 @@ impl<'a> Fit<'a> {
                 return Ok(());
             }
             self.round += 1;
-            let before = Weights::of(&self.noise);
+            let before = self.weights();
             self.noise = next;
-            let weights = Weights::of(&self.noise);
+            let weights = self.weights();
             let first = s.sys.reweighted(&before, &weights);
             (s.converged, s.last_decrease, s.sys) =
                 self.solve(&s.free_params, &s.prior, &weights, first)?;
-            s.post = Posterior::at(&s.sys, &s.prior);
+            s.post = self.posterior(&s.sys, &s.prior);
         }
     }
 
@@ -773,9 +786,30 @@ impl<'a> Fit<'a> {
 
     /// The result at solution `s`.
     fn result(mut self, s: Solution) -> Result<FullFit, FullError> {
+        // Orientations not used: the tool's rotation registered to them.
+        let unused = self.options.orientation_weight == 0.0 && self.unknowns.orientation;
+        let tool_rotation_std = if unused {
+            self.register_tool_rotation()
+        } else {
+            None
+        };
         let stats = self.statistics(&s);
-        let (position_rms, orientation_rms) = s.sys.residual_rms(&Weights::of(&self.noise));
-        let noise = self.noise_estimate(&s);
+        let (position_rms, mut orientation_rms) = s.sys.residual_rms(&self.weights());
+        let mut noise = self.noise_estimate(&s);
+        // A down-weighted orientation channel: its residuals measured
+        // unweighted, whatever its weight (0 included).
+        if let (Some(o), true) = (
+            &mut noise.orientation,
+            self.options.orientation_weight != 1.0,
+        ) {
+            let (sum, rows) = self.orientation_squares();
+            orientation_rms = (sum / (rows / 3).max(1) as f64).sqrt();
+            o.shown = if o.redundancy >= 1.0 {
+                (sum / o.redundancy).sqrt()
+            } else {
+                o.used
+            };
+        }
         let held_by_model = std::mem::take(&mut self.unknowns.held_by_model);
         let reasons = s
             .fixed
@@ -784,8 +818,19 @@ impl<'a> Fit<'a> {
             .chain(held_by_model)
             .collect::<HashMap<_, _>>();
         let sessions = self.session_fits(&s, &stats.std_of, &reasons);
-        let (params, effects) =
+        let (mut params, effects) =
             self.statuses(&s.free_params, &s.post.share, &stats.std_of, reasons);
+        if let Some(std) = tool_rotation_std {
+            for p in &mut params {
+                if matches!(
+                    p.param,
+                    Param::Tool(FrameAxis::Rx | FrameAxis::Ry | FrameAxis::Rz)
+                ) {
+                    p.status = Status::Identified { std };
+                    p.data_share = 1.0;
+                }
+            }
+        }
         if !s.sys.cost().is_finite() {
             return Err(FullError::NonFinite);
         }
@@ -815,8 +860,70 @@ impl<'a> Fit<'a> {
             equations: self.unknowns.equations,
             redundancy: s.post.redundancy(),
             noise,
+            orientation_weight: self.options.orientation_weight,
             prior_reach: stats.prior_reach,
         })
+    }
+
+    /// Orientations not used (weight 0): the tool's rotation, which no
+    /// position sees, registered to them with the geometry held — the
+    /// rotation nearest the mean of `R_modelᵀ R_measured` over the first
+    /// session's rows (the chordal mean) put on the tool. The standard
+    /// error of each of its angles, rad: the rows' scatter about it per
+    /// axis over `√n`; `None` without such rows.
+    fn register_tool_rotation(&mut self) -> Option<f64> {
+        let kinematics = self.robot.robot.prepare();
+        let pairs: Vec<(Rotation3<f64>, Rotation3<f64>)> = self
+            .data
+            .iter()
+            .filter(|o| o.session == 0)
+            .filter_map(|o| {
+                let measured = o.orientation?.to_rotation_matrix();
+                let model = kinematics.forward(&o.q).ok()?.rotation;
+                Some((model, measured))
+            })
+            .collect();
+        if pairs.is_empty() {
+            return None;
+        }
+        let mean: Matrix3<f64> = pairs
+            .iter()
+            .map(|(model, measured)| (model.transpose() * measured).into_inner())
+            .sum();
+        let correction = super::initial::project_to_rotation(&mean);
+        let tool = &mut self.robot.robot.tool;
+        let rotation = tool.isometry().rotation * correction;
+        let (roll, pitch, yaw) = rotation.euler_angles();
+        tool.rpy = Vector3::new(roll, pitch, yaw);
+        let n = pairs.len() as f64;
+        let squares: f64 = pairs
+            .iter()
+            .map(|(model, measured)| {
+                (correction.transpose() * model.transpose() * measured)
+                    .scaled_axis()
+                    .norm_squared()
+            })
+            .sum();
+        Some((squares / (3.0 * n)).sqrt() / n.sqrt())
+    }
+
+    /// The weight of each channel's rows at the current noises.
+    fn weights(&self) -> Weights {
+        channel_weights(&self.noise, self.options.orientation_weight)
+    }
+
+    /// The sum of squares of the orientation rows' residuals, rad², and
+    /// their count, at the current model (each session's own frames).
+    fn orientation_squares(&self) -> (f64, usize) {
+        let (mut sum, mut rows) = (0.0, 0);
+        let ones = Weights::of(&PerChannel::from_fn(|_| 1.0));
+        super::rows::for_each_pose_rows(&self.robot, self.data, &[], &ones, |pose| {
+            if pose.orientation {
+                sum += pose.r[3..6].iter().map(|x| x * x).sum::<f64>();
+                rows += 3;
+            }
+        });
+        (sum, rows)
     }
 }
 

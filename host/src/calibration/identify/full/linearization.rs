@@ -3,8 +3,8 @@
 //! fold ([`fold_normals`]), what the cross-validations of `diagnose` and of
 //! the prior's scale ([`super::super::prior_scale`]) step from.
 
-use armcal_shared::Param;
 use armcal_shared::effects::Effect;
+use armcal_shared::{FrameAxis, Param};
 use faer::Mat;
 use nalgebra::{DMatrix, DVector, Point3};
 
@@ -45,9 +45,22 @@ impl AtFit {
             .map(|p| PlaneEstimate::through(&Point3::from(p.normal * p.offset), &p.normal))
             .collect();
         let identified = |s: &Status| matches!(s, Status::Identified { .. });
+        // Orientations not used: no row weighs the tool's rotation (it was
+        // registered to them apart), no step moves it.
+        let weighed = |p: Param| {
+            fit.orientation_weight > 0.0
+                || !matches!(
+                    p,
+                    Param::Tool(FrameAxis::Rx | FrameAxis::Ry | FrameAxis::Rz)
+                )
+        };
         let mut unknowns: Vec<Unknown> = Vec::new();
         let mut offset: Vec<f64> = Vec::new();
-        for p in fit.params.iter().filter(|p| identified(&p.status)) {
+        for p in fit
+            .params
+            .iter()
+            .filter(|p| identified(&p.status) && weighed(p.param))
+        {
             unknowns.push(Unknown::Param(p.param));
             offset.push(p.error);
         }
@@ -278,6 +291,10 @@ pub struct FoldNormal {
     pub held_b: DVector<f64>,
     /// `rᵀr` of the same rows, m².
     pub held_rtr: f64,
+    /// `JᵀJ` and `Jᵀr` of its orientation rows alone, as in `a` and `b`
+    /// (zero without orientations): what another weight of the
+    /// orientation channel scales ([`super::super::channel_weight`]).
+    pub orientation: (DMatrix<f64>, DVector<f64>),
     /// The fold's poses.
     pub poses: usize,
 }
@@ -291,6 +308,8 @@ pub struct FoldNormals {
     /// `JᵀJ` and `Jᵀr` of every row: each fold's poses and the known
     /// distances (trained on in every fold).
     pub all: (DMatrix<f64>, DVector<f64>),
+    /// `JᵀJ` and `Jᵀr` of every orientation row (part of `all`).
+    pub orientation: (DMatrix<f64>, DVector<f64>),
     /// Each unknown's prior precision `1/τ²` (0: none).
     pub precision: Vec<f64>,
     /// Each unknown's value less its nominal value (its prior's centre), SI.
@@ -335,6 +354,7 @@ pub fn fold_normals(
                 held_a: DMatrix::zeros(p, p),
                 held_b: DVector::zeros(p),
                 held_rtr: 0.0,
+                orientation: (DMatrix::zeros(p, p), DVector::zeros(p)),
                 poses: poses.len(),
             };
             for c in Channel::ALL {
@@ -345,6 +365,9 @@ pub fn fold_normals(
                     fold.held_b += &b * s2;
                     fold.held_rtr += sums.rtr[c] * s2;
                 }
+                if c == Channel::Orientation {
+                    fold.orientation = (a.clone(), b.clone());
+                }
                 fold.a += a;
                 fold.b += b;
             }
@@ -353,13 +376,17 @@ pub fn fold_normals(
         .collect();
     let distances = DistanceRows::of(&model, &unknowns);
     let mut all = (matrix(&distances.jtj), vector(&distances.jtr));
+    let mut orientation = (DMatrix::zeros(p, p), DVector::zeros(p));
     for fold in &folds {
         all.0 += &fold.a;
         all.1 += &fold.b;
+        orientation.0 += &fold.orientation.0;
+        orientation.1 += &fold.orientation.1;
     }
     FoldNormals {
         folds,
         all,
+        orientation,
         precision,
         offset,
     }

@@ -374,6 +374,14 @@ pub struct FullOptions {
     pub geometry: Geometry,
     /// With several sessions, which frames are each session's own.
     pub sessions: FrameSharing,
+    /// The weight of the orientation rows relative to what their noise
+    /// gives them (`1/σ_r²`): 1 as the noise says, 0.1, 0.01, or 0 — not
+    /// used, the geometry from the positions alone
+    /// ([`crate::calibration::identify::channel_weight`]).
+    /// Below 1 the orientation noise is held where these options put it
+    /// (the estimate at full weight), not estimated again: variance
+    /// components would restore the weight.
+    pub orientation_weight: f64,
 }
 
 impl FullOptions {
@@ -463,6 +471,7 @@ impl Default for FullOptions {
             prior: Prior::default(),
             geometry: Geometry::Full,
             sessions: FrameSharing::default(),
+            orientation_weight: 1.0,
         }
     }
 }
@@ -537,6 +546,9 @@ pub struct FullFit {
     pub redundancy: f64,
     /// The noise of each channel: used and shown by the residuals.
     pub noise: NoiseEstimate,
+    /// The orientation rows' weight relative to their noise's
+    /// ([`FullOptions::orientation_weight`]): 1 unless down-weighted.
+    pub orientation_weight: f64,
     /// How much another scale of the prior (a factor of [`PRIOR_FACTORS`])
     /// could change the sum of squares of the held-out residuals, in units
     /// of its sampling error (the first-order change of the fit between
@@ -602,7 +614,10 @@ impl FullFit {
     /// The weights of the rows of each channel at the noise the fit used (1
     /// for a channel without rows).
     pub fn weights(&self) -> Weights {
-        PerChannel::from_fn(|c| 1.0 / self.noise_of(c))
+        channel_weights(
+            &PerChannel::from_fn(|c| self.noise_of(c)),
+            self.orientation_weight,
+        )
     }
 
     /// The noise the fit divided channel `c`'s rows by (1 for a channel
@@ -831,6 +846,15 @@ fn prior_reach(
         .fold(0.0, f64::max)
 }
 
+/// The weight of each channel's rows at the noises `noise`: `1/σ_c`, the
+/// orientation rows' times `√orientation_weight` (a factor on `1/σ_r²`).
+pub(crate) fn channel_weights(noise: &PerChannel<f64>, orientation_weight: f64) -> Weights {
+    noise.map(|c, s| match c {
+        Channel::Orientation => orientation_weight.sqrt() / s,
+        Channel::Position | Channel::Point | Channel::Plane => 1.0 / s,
+    })
+}
+
 /// Most rounds of the variance-component iteration (each a fit from the last);
 /// they settle in a handful.
 const MAX_NOISE_ROUNDS: usize = 30;
@@ -877,6 +901,9 @@ struct Posterior {
     distances: (f64, f64),
     /// The diagonal of the resolution matrix `(G + P)⁻¹ G`.
     share: Vec<f64>,
+    /// The channels the variance factor counts: those weighted by their
+    /// noise (a down-weighted channel's rows are not in units of theirs).
+    counted: PerChannel<bool>,
 }
 
 impl Posterior {
@@ -918,6 +945,7 @@ impl Posterior {
             redundancy,
             distances: (sys.distances.rtr, sys.distances.rows as f64 - td),
             share,
+            counted: PerChannel::from_fn(|_| true),
         }
     }
 
@@ -928,9 +956,16 @@ impl Posterior {
 
     /// The a-posteriori variance factor: the weighted sum of squares over the redundancy.
     fn variance_factor(&self) -> f64 {
-        let r = self.redundancy();
+        let counted = |v: &PerChannel<f64>| {
+            Channel::ALL
+                .iter()
+                .filter(|&&c| self.counted[c])
+                .map(|&c| v[c])
+                .sum::<f64>()
+        };
+        let r = counted(&self.redundancy) + self.distances.1;
         if r > 0.0 {
-            (self.omega.0.iter().sum::<f64>() + self.distances.0) / r
+            (counted(&self.omega) + self.distances.0) / r
         } else {
             1.0
         }

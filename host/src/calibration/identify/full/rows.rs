@@ -719,7 +719,12 @@ impl NormalEquations {
     pub(super) fn reweighted(&self, before: &Weights, after: &Weights) -> Self {
         let mut next = self.clone();
         for c in Channel::ALL {
-            let ratio = after[c] / before[c];
+            // A weight unchanged (0 too: a channel not used) keeps its rows.
+            let ratio = if after[c] == before[c] {
+                1.0
+            } else {
+                after[c] / before[c]
+            };
             let f = ratio * ratio;
             let (g, v) = (&mut next.jtj[c], &mut next.jtr[c]);
             for b in 0..g.ncols() {
@@ -741,6 +746,9 @@ impl NormalEquations {
         let located = [Channel::Position, Channel::Point, Channel::Plane];
         let sum = |c: Channel| self.rtr[c] / (weights[c] * weights[c]);
         let wr = weights[Channel::Orientation];
+        // Orientation rows weighed 0 (not used) keep no residual here: the
+        // fit measures them apart.
+        let wr = if wr == 0.0 { f64::INFINITY } else { wr };
         rms_pair(
             located.iter().map(|&c| sum(c)).sum(),
             located.iter().map(|&c| self.rows[c]).sum::<usize>() / 3,
