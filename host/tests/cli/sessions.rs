@@ -343,6 +343,13 @@ impl Csv {
     }
 }
 
+/// `armcal simulate --model ur5e` with `args` in `d`, which must succeed.
+fn simulate(d: &std::path::Path, args: &[&str]) {
+    let mut all = vec!["simulate", "--model", "ur5e"];
+    all.extend(args);
+    succeeds(d, &all);
+}
+
 /// Runs `args` in `d`, which must succeed, and returns its standard error.
 fn stderr_of(d: &std::path::Path, args: &[&str]) -> String {
     String::from_utf8_lossy(&succeeds(d, args).stderr).into_owned()
@@ -362,20 +369,7 @@ fn stderr_of(d: &std::path::Path, args: &[&str]) -> String {
 fn sessions_far_apart_are_judged_each_in_its_own_frame_and_named_by_file_and_line() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    succeeds(
-        d,
-        &[
-            "simulate",
-            "--model",
-            "ur5e",
-            "--poses",
-            "120",
-            "--sessions",
-            "2",
-            "--out",
-            "s.csv",
-        ],
-    );
+    simulate(d, &["--poses", "120", "--sessions", "2", "--out", "s.csv"]);
     let mut far = Csv::read(&d.join("s-2.csv")).first(30);
     for i in 0..far.rows.len() {
         far.add(i, "x", 8.0);
@@ -445,20 +439,7 @@ fn sessions_far_apart_are_judged_each_in_its_own_frame_and_named_by_file_and_lin
 fn a_session_too_short_for_its_own_frames_is_refused_by_name() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    succeeds(
-        d,
-        &[
-            "simulate",
-            "--model",
-            "ur5e",
-            "--poses",
-            "100",
-            "--sessions",
-            "2",
-            "--out",
-            "s.csv",
-        ],
-    );
+    simulate(d, &["--poses", "100", "--sessions", "2", "--out", "s.csv"]);
     let second = Csv::read(&d.join("s-2.csv"));
     second.first(2).write(&d.join("two.csv"));
     second.first(4).write(&d.join("four.csv"));
@@ -525,34 +506,8 @@ fn a_session_too_short_for_its_own_frames_is_refused_by_name() {
 fn a_session_that_does_not_reconcile_is_named_with_its_figures() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    succeeds(
-        d,
-        &[
-            "simulate",
-            "--model",
-            "ur5e",
-            "--poses",
-            "120",
-            "--sessions",
-            "2",
-            "--out",
-            "r.csv",
-        ],
-    );
-    succeeds(
-        d,
-        &[
-            "simulate",
-            "--model",
-            "ur5e",
-            "--poses",
-            "60",
-            "--seed",
-            "2",
-            "--out",
-            "other.csv",
-        ],
-    );
+    simulate(d, &["--poses", "120", "--sessions", "2", "--out", "r.csv"]);
+    simulate(d, &["--poses", "60", "--seed", "2", "--out", "other.csv"]);
     let files = ["r-1.csv", "r-2.csv", "other.csv"];
     let mut args = vec![
         "identify", "--model", "ur5e", "--out", "c.cal", "--json", "r.json",
@@ -627,12 +582,7 @@ fn a_session_that_does_not_reconcile_is_named_with_its_figures() {
 fn identify_names_the_row_it_explains_worst() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    succeeds(
-        d,
-        &[
-            "simulate", "--model", "ur5e", "--poses", "200", "--out", "s.csv",
-        ],
-    );
+    simulate(d, &["--poses", "200", "--out", "s.csv"]);
     let clean = stderr_of(
         d,
         &[
@@ -686,20 +636,7 @@ fn identify_names_the_row_it_explains_worst() {
     let mm = rows[0]["residual_mm"].as_f64().unwrap();
     assert!(mm > 2.5 && mm < 5.5, "{mm}");
 
-    succeeds(
-        d,
-        &[
-            "simulate",
-            "--model",
-            "ur5e",
-            "--poses",
-            "60",
-            "--seed",
-            "3",
-            "--out",
-            "first.csv",
-        ],
-    );
+    simulate(d, &["--poses", "60", "--seed", "3", "--out", "first.csv"]);
     let stderr = stderr_of(
         d,
         &[
@@ -726,12 +663,7 @@ fn identify_names_the_row_it_explains_worst() {
 fn an_absurd_joint_reading_is_refused_at_its_line() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    succeeds(
-        d,
-        &[
-            "simulate", "--model", "ur5e", "--poses", "60", "--out", "s.csv",
-        ],
-    );
+    simulate(d, &["--poses", "60", "--out", "s.csv"]);
     let mut absurd = Csv::read(&d.join("s.csv"));
     let q2 = absurd.rows[5]
         .split(',')
@@ -768,20 +700,7 @@ fn an_absurd_joint_reading_is_refused_at_its_line() {
             "nothing is written",
         ],
     );
-    succeeds(
-        d,
-        &[
-            "simulate",
-            "--model",
-            "ur5e",
-            "--poses",
-            "60",
-            "--seed",
-            "4",
-            "--out",
-            "first.csv",
-        ],
-    );
+    simulate(d, &["--poses", "60", "--seed", "4", "--out", "first.csv"]);
     refused(
         d,
         &[

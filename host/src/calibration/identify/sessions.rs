@@ -550,6 +550,36 @@ mod tests {
     use crate::calibration::simulate::{measure, random_configurations, rng};
     use crate::io::model_file::load_model;
 
+    /// Rows of `truths` (each a session's true robot and its positions),
+    /// measured at random configurations of `nominal` with σ = 20 µm, each
+    /// marked with its session.
+    fn measured(
+        nominal: &Robot<f64>,
+        truths: &[(Robot<f64>, usize)],
+        seed: u64,
+    ) -> Vec<Observation> {
+        let mut r = rng(seed);
+        let mut rows = Vec::new();
+        for (session, (truth, poses)) in truths.iter().enumerate() {
+            let q = random_configurations(nominal, *poses, &mut r);
+            rows.extend(
+                measure(truth, &q, 20e-6, None, &mut r)
+                    .into_iter()
+                    .map(|o| Observation { session, ..o }),
+            );
+        }
+        rows
+    }
+
+    /// Each session of `rows` left out, `nominal` calibrated as `identify_full`
+    /// calibrates it, each session in its own frames.
+    fn each_left_out(nominal: &Robot<f64>, rows: &[Observation]) -> Vec<SessionHeldOut> {
+        let options = FullOptions::default();
+        let calibrate =
+            |rows: &[Observation]| identify_full(nominal, rows, &options).map(|f| Trained::of(&f));
+        held_out_by_session(rows, &calibrate, FrameSharing::default(), &options)
+    }
+
     /// Each of four sessions of a UR5e (60 positions each, σ = 20 µm, the
     /// tracker moved between them) left out in turn, predicted by the robot
     /// the others make; in the last, when `drift`, the upper arm is 0.5 mm
@@ -557,26 +587,18 @@ mod tests {
     /// figure in mm and whether it reconciles with the others.
     fn left_out(drift: bool) -> Vec<(f64, bool)> {
         let nominal = load_model("ur5e").unwrap().robot;
-        let mut r = rng(5);
-        let mut rows = Vec::new();
-        for session in 0..4 {
-            let mut truth = nominal.clone();
-            truth.base.xyz.x += 0.4 * session as f64;
-            truth.base.rpy.z += 0.7 * session as f64;
-            if drift && session == 3 {
-                truth.links[1].a -= 0.5e-3;
-            }
-            let q = random_configurations(&nominal, 60, &mut r);
-            rows.extend(
-                measure(&truth, &q, 20e-6, None, &mut r)
-                    .into_iter()
-                    .map(|o| Observation { session, ..o }),
-            );
-        }
-        let options = FullOptions::default();
-        let calibrate =
-            |rows: &[Observation]| identify_full(&nominal, rows, &options).map(|f| Trained::of(&f));
-        held_out_by_session(&rows, &calibrate, FrameSharing::default(), &options)
+        let truths: Vec<(Robot<f64>, usize)> = (0..4)
+            .map(|session| {
+                let mut truth = nominal.clone();
+                truth.base.xyz.x += 0.4 * session as f64;
+                truth.base.rpy.z += 0.7 * session as f64;
+                if drift && session == 3 {
+                    truth.links[1].a -= 0.5e-3;
+                }
+                (truth, 60)
+            })
+            .collect();
+        each_left_out(&nominal, &measured(&nominal, &truths, 5))
             .iter()
             .map(|h| {
                 let figure = h.figure().unwrap();
@@ -621,22 +643,10 @@ mod tests {
     #[test]
     fn a_figure_left_out_that_cannot_be_computed_is_skipped() {
         let nominal = load_model("ur5e").unwrap().robot;
-        let mut r = rng(8);
-        let mut rows = Vec::new();
-        for (session, poses) in [(0, 50), (1, 4)] {
-            let mut truth = nominal.clone();
-            truth.base.xyz.y += 0.3 * session as f64;
-            let q = random_configurations(&nominal, poses, &mut r);
-            rows.extend(
-                measure(&truth, &q, 20e-6, None, &mut r)
-                    .into_iter()
-                    .map(|o| Observation { session, ..o }),
-            );
-        }
-        let options = FullOptions::default();
-        let calibrate =
-            |rows: &[Observation]| identify_full(&nominal, rows, &options).map(|f| Trained::of(&f));
-        let held = held_out_by_session(&rows, &calibrate, FrameSharing::default(), &options);
+        let mut moved = nominal.clone();
+        moved.base.xyz.y += 0.3;
+        let rows = measured(&nominal, &[(nominal.clone(), 50), (moved, 4)], 8);
+        let held = each_left_out(&nominal, &rows);
         match &held[0] {
             SessionHeldOut::NotComputed { reason } => {
                 assert!(reason.contains("12 equations"), "{reason}")
