@@ -315,17 +315,7 @@ pub fn warnings(
 /// The frames `fit`'s sessions share, as its registrations hold them.
 pub fn sharing_of(fit: &FullFit) -> FrameSharing {
     let (base, tool) = fit.registrations.own_frames(1);
-    let sharing = |own: bool| {
-        if own {
-            Sharing::PerSession
-        } else {
-            Sharing::Shared
-        }
-    };
-    FrameSharing {
-        base: sharing(base),
-        tool: sharing(tool),
-    }
+    FrameSharing::stated(!base, !tool)
 }
 
 /// `1 − 1 %/3` for three sessions.
