@@ -9,17 +9,19 @@ use armcal::io::input_error::InputError;
 use armcal::io::measurements::{self, Measurements};
 use armcal::io::model_file::RobotModel;
 use armcal::io::output::Outputs;
+use armcal::session::registration::FrameSharing;
 
 use crate::cli::ModelArgs;
 
 /// The model and the measurements of one session or several (one file
 /// each: [`Measurements::sessions`]), refused
 /// ([`commands::require_session`]) if the poses give fewer equations than
-/// the model's independent parameters or if they cannot be measurements of
-/// this robot.
+/// the model's independent parameters, a session fewer than the frames
+/// `frames` makes its own, or if they cannot be measurements of this robot.
 pub(crate) fn load_session(
     model: &ModelArgs,
     data: &[String],
+    frames: FrameSharing,
     progress: &Progress,
 ) -> anyhow::Result<(RobotModel, Measurements)> {
     let model = model.load()?;
@@ -32,7 +34,7 @@ pub(crate) fn load_session(
         .collect::<Result<Vec<_>, _>>()?;
     progress.set("checking the rows");
     let data = commands::sessions(parts)?;
-    commands::require_session(&model, &data)?;
+    commands::require_session(&model, &data, frames)?;
     Ok((model, data))
 }
 

@@ -28,7 +28,9 @@ use crate::terminal::{
 /// `armcal check`.
 pub(crate) fn check(args: CheckArgs) -> anyhow::Result<()> {
     let progress = Progress::stage("reading");
-    let (model, data) = load_session(&args.model, &args.data, &progress)?;
+    // check reads each session in its own frames, as identify does by default.
+    let frames = armcal::session::registration::FrameSharing::default();
+    let (model, data) = load_session(&args.model, &args.data, frames, &progress)?;
     progress.set("the nominal model against the rows");
     let report = check::report(&model, &data);
     // The torques as identify and diagnose read them: a column they refuse
@@ -103,7 +105,8 @@ pub(crate) fn identify(args: IdentifyArgs) -> anyhow::Result<()> {
         .output("--json", args.json.as_deref());
     outputs.check()?;
     let progress = Progress::stage("reading");
-    let (model, data) = load_session(&args.model, &args.data, &progress)?;
+    let frames = args.sessions.sharing();
+    let (model, data) = load_session(&args.model, &args.data, frames, &progress)?;
     progress.suspend(|| warn(&data.warnings));
     progress.set(format!("identifying from {} poses", data.len()));
     let identified = identify_cmd::run(CLI, &model, &data, &args.request())?;
@@ -116,6 +119,7 @@ pub(crate) fn identify(args: IdentifyArgs) -> anyhow::Result<()> {
             .and_then(|g| g.warning())
             .iter(),
     );
+    warn(&identified.result.warnings(&data, &identified.model.units));
     accept(identified.failed, args.write_failed)?;
     let (model, result) = (identified.model, identified.result);
     // Everything is computed and encoded before the first byte is written.
@@ -279,7 +283,8 @@ pub(crate) fn diagnose(args: DiagnoseArgs) -> anyhow::Result<()> {
         .output("--html", args.html.as_deref());
     outputs.check()?;
     let progress = Progress::stage("reading");
-    let (model, data) = load_session(&args.model, &args.data, &progress)?;
+    let frames = args.sessions.sharing();
+    let (model, data) = load_session(&args.model, &args.data, frames, &progress)?;
     progress.suspend(|| warn(&data.warnings));
     progress.set(format!("diagnosing {} poses", data.len()));
     // A bar: every candidate is cross-validated.
@@ -290,6 +295,7 @@ pub(crate) fn diagnose(args: DiagnoseArgs) -> anyhow::Result<()> {
     progress.finish();
     let mut diagnosed = diagnosed?;
     warn(diagnosed.gravity.as_ref().and_then(|g| g.warning()).iter());
+    warn(&diagnosed.session_warnings(&data));
     accept(diagnosed.failed.take(), args.write_failed)?;
     let lines = &data.lines;
     if args.out.is_some() {

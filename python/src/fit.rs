@@ -49,12 +49,14 @@ pub struct Diagnosis {
 
 /// The data of a fit: given, or loaded from a path or built-in name against
 /// `model` ([`measurements_of`]); refused, as the command line refuses it,
-/// when it gives fewer equations than the model's independent parameters or
-/// cannot be measurements of this robot.
+/// when it gives fewer equations than the model's independent parameters, a
+/// session fewer than the frames `frames` makes its own, or cannot be
+/// measurements of this robot.
 fn session(
     py: Python<'_>,
     model: &Model,
     data: &Bound<'_, PyAny>,
+    frames: FrameSharing,
 ) -> PyResult<(Measurements, bool)> {
     // A list (or tuple) of sessions: several sessions of one calibration.
     let several = !data.is_instance_of::<pyo3::types::PyString>()
@@ -76,7 +78,7 @@ fn session(
     } else {
         measurements_of(py, model, data, "data")?
     };
-    commands::require_session(&model.inner, &data.data)
+    commands::require_session(&model.inner, &data.data, frames)
         .map_err(|e| errors::input(py, &e, data.arrays))?;
     let arrays = data.arrays;
     Ok((data, arrays))
@@ -263,7 +265,7 @@ pub fn identify_py(
         frames: FrameSharing::stated(same_base, same_tool),
         torque_sign: self::torque_sign(py, torque_sign)?,
     };
-    let (data, arrays) = session(py, model, data)?;
+    let (data, arrays) = session(py, model, data, request.frames)?;
     let (identified, data) = on_rows(py, model, data.data, move |m, rows| {
         identify_cmd::run(PYTHON, m, rows, &request)
     })?;
@@ -342,7 +344,7 @@ pub fn diagnose(
         frames: FrameSharing::stated(same_base, same_tool),
         torque_sign: self::torque_sign(py, torque_sign)?,
     };
-    let (data, arrays) = session(py, model, data)?;
+    let (data, arrays) = session(py, model, data, request.frames)?;
     let (diagnosed, data) = on_rows(py, model, data.data, move |m, rows| {
         diagnose_cmd::run(PYTHON, m, rows, &request, &mut |_, _, _| {})
     })?;

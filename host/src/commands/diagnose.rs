@@ -14,10 +14,8 @@ use crate::calibration::diagnose::RowPlaces;
 use crate::calibration::diagnose::{DiagnoseOptions, Diagnosis, diagnose_with_progress};
 use crate::calibration::gravity::{GravityFit, TorqueSign, with_measured_gravity};
 use crate::calibration::identify::channel_weight::{self, OrientationWeight, WeightChoice};
-use crate::calibration::identify::full::{
-    FullError, FullOptions, Observation, identify_with_effects,
-};
-use crate::calibration::identify::sessions::{SessionHeldOut, held_out_by_session};
+use crate::calibration::identify::full::{FullOptions, Observation, identify_with_effects};
+use crate::calibration::identify::sessions::{SessionHeldOut, Trained, held_out_by_session};
 use crate::calibration::identify::{self, StatedScales, sessions};
 use crate::io::model_file::RobotModel;
 use crate::session::measurements::Measurements;
@@ -123,12 +121,14 @@ pub fn run(
         &options,
         progress,
     )?;
-    data.require_fit_supported(model, diagnosis.reference.position_rms)?;
+    data.require_fit_supported(model, diagnosis.reference.position_rms, || {
+        super::nominal_worst_row(model, data)
+    })?;
     let failed = diagnosis_refusal(model, data, &diagnosis, front.write_failed());
     let mut calibration = diagnosis.calibration(&model.robot, data.has_orientation(), model.units);
     calibration.targets = request.targets;
     calibration.flange = model.flange;
-    let sessions_held_out = sessions_held_out(model, observations, &diagnosis, &options)?;
+    let sessions_held_out = sessions_held_out(model, observations, &diagnosis, &options);
     Ok(Diagnosed {
         orientation_weight,
         sessions_held_out,
@@ -149,9 +149,9 @@ fn sessions_held_out(
     data: &[Observation],
     diagnosis: &Diagnosis,
     options: &DiagnoseOptions,
-) -> Result<Vec<SessionHeldOut>, FullError> {
+) -> Vec<SessionHeldOut> {
     if diagnosis.fit.sessions.len() < 2 {
-        return Ok(Vec::new());
+        return Vec::new();
     }
     let kept: Vec<Observation> = (0..data.len())
         .filter(|i| diagnosis.blunders.binary_search(i).is_err())
@@ -165,7 +165,11 @@ fn sessions_held_out(
         .flat_map(|f| f.candidate.extra.iter().copied())
         .collect();
     let calibrate = |rows: &[Observation]| match diagnosis.choice {
-        Choice::Nominal => Ok((model.robot.clone(), Vec::new())),
+        Choice::Nominal => Ok(Trained {
+            robot: model.robot.clone(),
+            effects: Vec::new(),
+            noise: None,
+        }),
         Choice::Calibrated {
             geometry, prior, ..
         } => {
@@ -175,13 +179,24 @@ fn sessions_held_out(
                 ..at
             };
             identify_with_effects(&model.robot, &effects, &extra, rows, &chosen)
-                .map(|f| (f.calibrated.clone(), f.fitted_effects()))
+                .map(|f| Trained::of(&f))
         }
     };
     held_out_by_session(&kept, &calibrate, options.fit.sessions, &at)
 }
 
 impl Diagnosed {
+    /// The sessions of `data` left out that do not reconcile with the
+    /// others ([`sessions::warnings`]), one warning each.
+    pub fn session_warnings(&self, data: &Measurements) -> Vec<String> {
+        sessions::warnings(
+            &self.sessions_held_out,
+            data,
+            sessions::sharing_of(&self.diagnosis.fit),
+            &self.model.units,
+        )
+    }
+
     /// The summary of the diagnosis of `data`: the masses' fit to the
     /// measured torques, if any, each session's figures when there are
     /// several, then the diagnosis' own (`lines`: each pose's line or row).

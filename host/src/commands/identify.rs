@@ -13,8 +13,8 @@ use crate::calibration::gravity::{TorqueSign, with_measured_gravity};
 use crate::calibration::identify::channel_weight::OrientationWeight;
 use crate::calibration::identify::full::{FullOptions, Observation, identify_with_effects};
 use crate::calibration::identify::prior_scale::PriorScale;
-use crate::calibration::identify::sessions::held_out_by_session;
-use crate::calibration::identify::{self, Identification, ParamSet, StatedScales};
+use crate::calibration::identify::sessions::{Trained, held_out_by_session};
+use crate::calibration::identify::{self, Identification, ParamSet, StatedScales, suspect_rows};
 use crate::io::input_error::InputError;
 use crate::io::model_file::RobotModel;
 use crate::session::measurements::Measurements;
@@ -100,13 +100,26 @@ pub fn run(
         };
         let tilts: Vec<Param> = model.tilted.iter().map(|&k| Param::Beta(k)).collect();
         let calibrate = |rows: &[Observation]| {
-            identify_with_effects(&model.robot, &[], &tilts, rows, &at)
-                .map(|f| (f.calibrated, Vec::new()))
+            identify_with_effects(&model.robot, &[], &tilts, rows, &at).map(|f| Trained {
+                effects: Vec::new(),
+                ..Trained::of(&f)
+            })
         };
         result.sessions_held_out =
-            held_out_by_session(&data.poses, &calibrate, request.frames, &at)?;
+            held_out_by_session(&data.poses, &calibrate, request.frames, &at);
     }
-    data.require_fit_supported(model, result.position_rms)?;
+    if let Some(fit) = &result.full {
+        let factor = result.prior.as_ref().map_or(1.0, |p| p.factor());
+        result.suspect_rows = suspect_rows::of_fit(
+            fit,
+            &data.poses,
+            &data.constraints,
+            &options.prior.scaled(factor),
+        );
+    }
+    data.require_fit_supported(model, result.position_rms, || {
+        super::nominal_worst_row(model, data)
+    })?;
     let verdict = result.verdict(model, data, front.write_failed());
     result.judgement = Some(verdict.judgement);
     let failed = verdict.refusal;

@@ -38,7 +38,8 @@ use crate::calibration::identify::paper::PaperError;
 use crate::calibration::identify::{IdentifyError, StatedScales};
 use crate::io::input_error::InputError;
 use crate::io::model_file::RobotModel;
-use crate::session::measurements::Measurements;
+use crate::session::measurements::{Measurements, WorstRow};
+use crate::session::registration::FrameSharing;
 
 /// Which front end asked.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -186,14 +187,40 @@ pub fn folds(front: Front, requested: Option<usize>, poses: usize) -> Result<usi
 
 /// The checks of a session of measured poses before any fit: enough
 /// equations for the model's independent parameters
-/// ([`Measurements::require_poses`]), and rows that can be measurements of
-/// this robot ([`Measurements::require_plausible`]).
-pub fn require_session(model: &RobotModel, data: &Measurements) -> Result<(), InputError> {
+/// ([`Measurements::require_poses`]); with several sessions, enough in each
+/// for the frames `frames` makes its own
+/// ([`Measurements::require_own_frames`]); and rows that can be
+/// measurements of this robot, each session's against its own points unless
+/// they share one base frame ([`Measurements::require_plausible_sessions`]).
+/// Every refusal names the file and line of the row concerned.
+pub fn require_session(
+    model: &RobotModel,
+    data: &Measurements,
+    frames: FrameSharing,
+) -> Result<(), InputError> {
     data.require_poses(
         &model.robot,
         independent_parameter_count(&model.robot, data.has_orientation()),
     )?;
-    data.require_plausible(model)
+    data.require_own_frames(&model.robot, frames)?;
+    data.require_plausible_sessions(model, frames.base)
+}
+
+/// The row of `data` the nominal `model` misses most, for
+/// [`Measurements::require_fit_supported`] to name when it alone holds most
+/// of the misfit (as `armcal check` names it: `check::nominal_error`, each
+/// session in its own frames registered); none for a session of contacts.
+pub fn nominal_worst_row(model: &RobotModel, data: &Measurements) -> Option<WorstRow> {
+    if data.is_constrained() {
+        return None;
+    }
+    let e = crate::calibration::check::nominal_error(model, data);
+    let total = e.position_rms.powi(2) * data.len() as f64;
+    (total > 0.0).then(|| WorstRow {
+        pose: e.position_max_pose,
+        error: e.position_max,
+        share: e.position_max.powi(2) / total,
+    })
 }
 
 /// Several sessions of one robot as one calibration's rows

@@ -18,6 +18,7 @@ use crate::session::configurations::{Configurations, distinct_equations_reach};
 use crate::session::constraints::{Constraints, DistanceLine, merge_named};
 use crate::session::input_error::InputError;
 use crate::session::model::RobotModel;
+use crate::session::registration::{FrameSharing, Sharing};
 
 /// The temperatures (°C) a working robot may be measured at: below it a `temp`
 /// is refused as a unit or a typo (−273.15 °C, a value in K or °F).
@@ -226,14 +227,16 @@ impl Measurements {
 
     /// The sessions `parts` as one, in order: their poses, their lines (each
     /// its own file's), and their constraints, a point named in two parts
-    /// being one point. The file is named by the parts' files joined with `+`.
+    /// being one point. The file is named by the parts' files listed (`a.csv,
+    /// b.csv`): what a message about all the rows names; one about a row
+    /// names its own file ([`Measurements::file_of`]).
     pub fn merged(parts: &[&Measurements]) -> Measurements {
         let mut out = Measurements {
             file: parts
                 .iter()
                 .map(|p| p.file.as_str())
                 .collect::<Vec<_>>()
-                .join("+"),
+                .join(", "),
             poses: Vec::new(),
             lines: Vec::new(),
             times: Vec::new(),
@@ -319,6 +322,42 @@ impl Measurements {
             .map_or(&self.file, String::as_str)
     }
 
+    /// Where a message about the rows as a whole points: the last row's file
+    /// and line (the file to add rows to), `file` and line 1 without rows.
+    pub fn last_place(&self) -> (&str, usize) {
+        match self.poses.len().checked_sub(1) {
+            Some(last) => (self.file_of(last), self.lines[last]),
+            None => (&self.file, 1),
+        }
+    }
+
+    /// Session `session`'s rows as the file they were read from: its poses
+    /// (numbered session 0), lines and times, its file's name; the whole
+    /// for one session. Constraints are not carried (sessions of contacts
+    /// share their points: they are checked as one).
+    pub fn session_part(&self, session: usize) -> Measurements {
+        let rows: Vec<usize> = (0..self.poses.len())
+            .filter(|&i| self.poses[i].session == session)
+            .collect();
+        Measurements {
+            file: self.file_of(rows.first().copied().unwrap_or(0)).to_owned(),
+            poses: rows
+                .iter()
+                .map(|&i| Observation {
+                    session: 0,
+                    ..self.poses[i].clone()
+                })
+                .collect(),
+            lines: rows.iter().map(|&i| self.lines[i]).collect(),
+            times: rows.iter().map(|&i| self.times[i]).collect(),
+            columns_used: self.columns_used.clone(),
+            columns_ignored: Vec::new(),
+            warnings: Vec::new(),
+            constraints: Constraints::default(),
+            sessions: Vec::new(),
+        }
+    }
+
     /// Whether there are no poses (never the case for a parsed file).
     pub fn is_empty(&self) -> bool {
         self.poses.is_empty()
@@ -370,11 +409,11 @@ impl Measurements {
                 .sum::<usize>()
                 + self.constraints.equations();
             let distinct = configurations.count();
-            let line = self.lines.last().copied().unwrap_or(1);
+            let (file, line) = self.last_place();
             let unknowns = self.unknowns(unknowns);
             if equations < unknowns && self.equations() >= unknowns {
                 return Err(InputError::new(
-                    &self.file,
+                    file,
                     line,
                     1,
                     format!(
@@ -390,6 +429,69 @@ impl Measurements {
         self.require_equations(unknowns)
     }
 
+    /// Refuses a session of several whose rows cannot determine its own
+    /// frames: the unknowns of the frames `sharing` makes each session's own
+    /// (its base frame 6; its tool 3 with positions, 6 with orientations)
+    /// need more equations than its distinct configurations give (as
+    /// [`Measurements::require_poses`] counts them). A session with no more
+    /// equations than that would fit its own frames and nothing else: it
+    /// adds nothing to the robot's geometry, and the robot calibrated
+    /// without it cannot be judged on it. The error names the session's
+    /// file and its last line, its equations and what it needs. Sessions of
+    /// contacts share their frames: nothing to refuse.
+    pub fn require_own_frames(
+        &self,
+        robot: &Robot<f64>,
+        sharing: FrameSharing,
+    ) -> Result<(), InputError> {
+        if self.session_count() < 2 || self.is_constrained() {
+            return Ok(());
+        }
+        for session in 0..self.session_count() {
+            let part = self.session_part(session);
+            let orientation = part.has_orientation();
+            let frames = OwnFrames::of(sharing, orientation);
+            let unknowns = frames.unknowns();
+            if unknowns == 0
+                || distinct_equations_reach(
+                    robot,
+                    &part.poses,
+                    unknowns + 1,
+                    Observation::equations,
+                )
+            {
+                continue;
+            }
+            let per_pose = if orientation { 6 } else { 3 };
+            let equations = Configurations::of(robot, &part.poses)
+                .rows
+                .iter()
+                .map(|rows| part.poses[rows[0]].equations())
+                .sum::<usize>();
+            let (file, line) = part.last_place();
+            return Err(InputError::new(
+                file,
+                line,
+                1,
+                format!(
+                    "session {file}: {} in {} give {equations} equations ({per_pose} per pose), \
+                     no more than the {unknowns} unknowns of its own frames ({}): its rows would \
+                     fit its frames alone and add nothing to the robot; measure at least {} \
+                     distinct poses in it{}",
+                    plural(part.poses.len(), "row"),
+                    plural(
+                        Configurations::of(robot, &part.poses).count(),
+                        "distinct configuration"
+                    ),
+                    frames.describe(),
+                    (unknowns + 1).div_ceil(per_pose),
+                    frames.share_hint()
+                ),
+            ));
+        }
+        Ok(())
+    }
+
     /// Refuses the file if its rows give fewer equations than `unknowns`.
     fn require_equations(&self, unknowns: usize) -> Result<(), InputError> {
         let unknowns = self.unknowns(unknowns);
@@ -397,10 +499,10 @@ impl Measurements {
         if equations >= unknowns {
             return Ok(());
         }
-        let line = self.lines.last().copied().unwrap_or(1);
+        let (file, line) = self.last_place();
         if self.is_constrained() {
             return Err(InputError::new(
-                &self.file,
+                file,
                 line,
                 1,
                 format!(
@@ -417,7 +519,7 @@ impl Measurements {
         let per_pose = if self.has_orientation() { 6 } else { 3 };
         let needed = unknowns.div_ceil(per_pose);
         Err(InputError::new(
-            &self.file,
+            file,
             line,
             1,
             format!(
@@ -496,7 +598,7 @@ impl Measurements {
                     .all(|p| p.position[c] == first.position[c])
             {
                 return Err(InputError::new(
-                    &self.file,
+                    self.file_of(0),
                     self.lines.first().copied().unwrap_or(0),
                     1,
                     format!(
@@ -507,6 +609,70 @@ impl Measurements {
                 ));
             }
         }
+        if let Some(far) = self.beyond_reach(robot) {
+            return Err(InputError::new(
+                self.file_of(far.pose),
+                self.lines[far.pose],
+                1,
+                format!(
+                    "the point {} lies {} {unit} from the median of the points, but the robot \
+                     reaches at most {:.4} {unit} from its base: a typo, or the data and the \
+                     model in different length units?",
+                    self.point(far.pose, units),
+                    show(units, far.distance),
+                    length(far.reach)
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// [`Measurements::require_plausible`] for several sessions: each
+    /// session's rows checked as the file they were read from (a session has
+    /// its own median: with its own base frame, [`Sharing::PerSession`], its
+    /// points may lie anywhere from the others'), every message naming the
+    /// row's own file and line; and, when the sessions share one base frame
+    /// (`base`), all their points against the median of all, a session far
+    /// from the others refused as an instrument that moved. One session:
+    /// [`Measurements::require_plausible`].
+    pub fn require_plausible_sessions(
+        &self,
+        model: &RobotModel,
+        base: Sharing,
+    ) -> Result<(), InputError> {
+        if self.session_count() < 2 || self.is_constrained() {
+            return self.require_plausible(model);
+        }
+        for session in 0..self.session_count() {
+            self.session_part(session).require_plausible(model)?;
+        }
+        if base == Sharing::PerSession {
+            return Ok(());
+        }
+        let units = &model.units;
+        let Some(far) = self.beyond_reach(&model.robot) else {
+            return Ok(());
+        };
+        Err(InputError::new(
+            self.file_of(far.pose),
+            self.lines[far.pose],
+            1,
+            format!(
+                "the point {} lies {} {unit} from the median of every session's points, but the \
+                 robot reaches at most {:.4} {unit} from its base; each session alone is within \
+                 reach: the sessions are taken to share one base frame (--same-base), was the \
+                 instrument moved between them?",
+                self.point(far.pose, units),
+                show(units, far.distance),
+                units.length_from_si(far.reach),
+                unit = units.length.name()
+            ),
+        ))
+    }
+
+    /// The first pose farther from the median of the measured points than
+    /// [`SPREAD_LIMIT`] times `robot`'s [`reach`], if one is.
+    fn beyond_reach(&self, robot: &Robot<f64>) -> Option<FarPoint> {
         let reach = reach(robot, self.poses.iter().map(|p| p.q.as_slice()));
         let median = |c: usize| {
             let mut v: Vec<f64> = self.poses.iter().map(|p| p.position[c]).collect();
@@ -520,68 +686,243 @@ impl Measurements {
             let m = v.amax();
             if m > 0.0 { m * (v / m).norm() } else { 0.0 }
         };
-        // A figure as an engineer writes it: 1e30 as 1e30, not 31 digits.
-        let show = |x: f64| {
-            let x = length(x);
-            if x != 0.0 && !(1e-4..1e6).contains(&x.abs()) {
-                format!("{x:e}")
-            } else {
-                format!("{x}")
-            }
-        };
-        if let Some((far, line)) = self
-            .poses
+        self.poses
             .iter()
-            .zip(&self.lines)
-            .find(|(p, _)| distance(p) > SPREAD_LIMIT * reach.max(1e-3))
-        {
-            let d = distance(far);
-            return Err(InputError::new(
-                &self.file,
-                *line,
-                1,
-                format!(
-                    "the point ({}, {}, {}) {unit} lies {} {unit} from the median of the \
-                     points, but the robot reaches at most {:.4} {unit} from its base: a typo, \
-                     or the data and the model in different length units?",
-                    show(far.position.x),
-                    show(far.position.y),
-                    show(far.position.z),
-                    show(d),
-                    length(reach)
-                ),
-            ));
-        }
-        Ok(())
+            .position(|p| distance(p) > SPREAD_LIMIT * reach.max(1e-3))
+            .map(|pose| FarPoint {
+                pose,
+                distance: distance(&self.poses[pose]),
+                reach,
+            })
     }
 
-    /// Refuses to let a calibration be written from a fit that still misses the
-    /// points by more than [`FIT_LIMIT`] of the robot's reach (`position_rms`,
-    /// m): such data do not carry a calibration of this model.
+    /// Pose `pose`'s measured point as a message quotes it, `(x, y, z) mm`.
+    fn point(&self, pose: usize, units: &Units) -> String {
+        let p = &self.poses[pose].position;
+        format!(
+            "({}, {}, {}) {}",
+            show(units, p.x),
+            show(units, p.y),
+            show(units, p.z),
+            units.length.name()
+        )
+    }
+
+    /// Refuses to let a calibration be written from a fit that still misses
+    /// the points by more than [`FIT_LIMIT`] of the robot's reach (`position_rms`,
+    /// m): such data do not carry a calibration of this model. `worst`, asked
+    /// only then, is the row the nominal model misses most and by how much
+    /// (m), with the share of the nominal model's sum of squares it holds:
+    /// when that row alone holds most of it (a typo, an absurd joint
+    /// reading), the refusal is placed at its file and line and names its
+    /// joint reading farthest outside what the other rows read; otherwise
+    /// (the joints in another order, another robot) at the files.
     pub fn require_fit_supported(
         &self,
         model: &RobotModel,
         position_rms: f64,
+        worst: impl FnOnce() -> Option<WorstRow>,
     ) -> Result<(), InputError> {
         let reach = reach(&model.robot, self.poses.iter().map(|p| p.q.as_slice()));
         if position_rms.is_finite() && position_rms <= FIT_LIMIT * reach {
             return Ok(());
         }
         let u = &model.units;
-        Err(InputError::new(
-            &self.file,
-            0,
-            0,
-            format!(
-                "the fitted model still misses the measured points by {:.4} {unit} RMS, {:.0} % \
-                 of the robot's reach ({:.4} {unit}): these data do not support a calibration of \
-                 this model (joint order, joint units, the tool point?); nothing is written",
-                u.length_from_si(position_rms),
-                100.0 * position_rms / reach,
-                u.length_from_si(reach),
-                unit = u.length.name()
-            ),
-        ))
+        let message = format!(
+            "the fitted model still misses the measured points by {:.4} {unit} RMS, {:.0} % \
+             of the robot's reach ({:.4} {unit}): these data do not support a calibration of \
+             this model (joint order, joint units, the tool point?)",
+            u.length_from_si(position_rms),
+            100.0 * position_rms / reach,
+            u.length_from_si(reach),
+            unit = u.length.name()
+        );
+        match worst().filter(|w| w.share > 0.5 && w.pose < self.poses.len()) {
+            Some(w) => {
+                let joint = self.outlying_joint(w.pose).map_or_else(String::new, |j| {
+                    let unit = |k: usize| match model.robot.links[k].joint {
+                        JointType::Revolute => u.angle.name(),
+                        JointType::Prismatic => u.length.name(),
+                    };
+                    let angle = |k: usize, v: f64| match model.robot.links[k].joint {
+                        JointType::Revolute => u.angle_from_si(v),
+                        JointType::Prismatic => u.length_from_si(v),
+                    };
+                    format!(
+                        "; its q{} = {} {} lies outside what the other rows read ({:.4} … {:.4} {})",
+                        j.joint + 1,
+                        angle(j.joint, self.poses[w.pose].q[j.joint]),
+                        unit(j.joint),
+                        angle(j.joint, j.others[0]),
+                        angle(j.joint, j.others[1]),
+                        unit(j.joint)
+                    )
+                });
+                Err(InputError::new(
+                    self.file_of(w.pose),
+                    self.lines[w.pose],
+                    1,
+                    format!(
+                        "{message}; this row holds {:.0} % of the nominal model's sum of squares \
+                         (it misses it by {:.4} {}){joint}: a typo in it? nothing is written",
+                        100.0 * w.share,
+                        u.length_from_si(w.error),
+                        u.length.name()
+                    ),
+                ))
+            }
+            None => Err(InputError::new(
+                &self.file,
+                0,
+                0,
+                format!("{message}; nothing is written"),
+            )),
+        }
+    }
+
+    /// The joint of pose `pose` whose reading lies farthest outside the
+    /// range the other rows read (in units of that range), if one lies
+    /// outside it.
+    fn outlying_joint(&self, pose: usize) -> Option<OutlyingJoint> {
+        let q = &self.poses[pose].q;
+        (0..q.len())
+            .filter_map(|j| {
+                let (lo, hi) = self
+                    .poses
+                    .iter()
+                    .enumerate()
+                    .filter(|(i, _)| *i != pose)
+                    .map(|(_, p)| p.q[j])
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                        (lo.min(v), hi.max(v))
+                    });
+                let outside = (lo - q[j]).max(q[j] - hi);
+                (lo <= hi && outside > 0.0).then(|| {
+                    (
+                        outside / (hi - lo).max(f64::MIN_POSITIVE),
+                        OutlyingJoint {
+                            joint: j,
+                            others: [lo, hi],
+                        },
+                    )
+                })
+            })
+            .max_by(|a, b| a.0.total_cmp(&b.0))
+            .map(|(_, j)| j)
+    }
+}
+
+/// The row a model misses most ([`Measurements::require_fit_supported`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WorstRow {
+    /// Its pose.
+    pub pose: usize,
+    /// By how much the model misses it, m.
+    pub error: f64,
+    /// The share of the model's sum of squares over all the rows it holds.
+    pub share: f64,
+}
+
+/// A joint reading outside the others' ([`Measurements::outlying_joint`]).
+struct OutlyingJoint {
+    /// The joint, from 0.
+    joint: usize,
+    /// The range the other rows read, SI.
+    others: [f64; 2],
+}
+
+/// The frames a session of several fits on its own
+/// ([`Measurements::require_own_frames`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct OwnFrames {
+    /// Its own base frame (the instrument's registration).
+    base: bool,
+    /// Its own tool, and whether its orientation is measured.
+    tool: OwnTool,
+}
+
+/// A session's own tool, as its rows see it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum OwnTool {
+    /// The tool is shared (`--same-tool`).
+    Shared,
+    /// Its own tool point: 3 unknowns.
+    Point,
+    /// Its own tool frame, orientations measured: 6 unknowns.
+    Frame,
+}
+
+impl OwnFrames {
+    /// The own frames `sharing` gives a session with or without measured
+    /// `orientation`s.
+    fn of(sharing: FrameSharing, orientation: bool) -> Self {
+        Self {
+            base: sharing.base == Sharing::PerSession,
+            tool: match (sharing.tool, orientation) {
+                (Sharing::Shared, _) => OwnTool::Shared,
+                (Sharing::PerSession, false) => OwnTool::Point,
+                (Sharing::PerSession, true) => OwnTool::Frame,
+            },
+        }
+    }
+
+    /// Their unknowns.
+    fn unknowns(self) -> usize {
+        let tool = match self.tool {
+            OwnTool::Shared => 0,
+            OwnTool::Point => 3,
+            OwnTool::Frame => 6,
+        };
+        6 * usize::from(self.base) + tool
+    }
+
+    /// `its base frame's 6 and its tool point's 3`.
+    fn describe(self) -> String {
+        let tool = match self.tool {
+            OwnTool::Shared => None,
+            OwnTool::Point => Some("its tool point's 3"),
+            OwnTool::Frame => Some("its tool frame's 6"),
+        };
+        match (self.base, tool) {
+            (true, Some(t)) => format!("its base frame's 6 and {t}"),
+            (true, None) => "its base frame's 6".to_owned(),
+            (false, Some(t)) => t.to_owned(),
+            (false, None) => "none".to_owned(),
+        }
+    }
+
+    /// How the session may need fewer: the frames it could share.
+    fn share_hint(self) -> &'static str {
+        match (self.base, self.tool != OwnTool::Shared) {
+            (true, true) => {
+                ", or share frames with the others (--same-base, --same-tool) if they did not move"
+            }
+            (true, false) => {
+                ", or share the base frame (--same-base) if the instrument did not move"
+            }
+            (false, _) => ", or share the tool (--same-tool) if it was not remounted",
+        }
+    }
+}
+
+/// A point far from the others ([`Measurements::beyond_reach`]).
+struct FarPoint {
+    /// Its pose.
+    pose: usize,
+    /// Its distance from the median of the points, m.
+    distance: f64,
+    /// The robot's reach, m.
+    reach: f64,
+}
+
+/// A length `x` (m) in `units` as an engineer writes it: 1e30 as 1e30, not
+/// 31 digits.
+fn show(units: &Units, x: f64) -> String {
+    let x = units.length_from_si(x);
+    if x != 0.0 && !(1e-4..1e6).contains(&x.abs()) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
     }
 }
 

@@ -285,6 +285,440 @@ fn a_session_copied_reordered_or_rounded_is_refused() {
     );
 }
 
+/// A simulated CSV as its lines: the comment lines and the header, then the
+/// data rows; `line(i)` is the 1-based line of data row `i` in the file.
+struct Csv {
+    head: Vec<String>,
+    rows: Vec<String>,
+}
+
+impl Csv {
+    fn read(path: &std::path::Path) -> Self {
+        let text = std::fs::read_to_string(path).unwrap();
+        let lines: Vec<String> = text.lines().map(str::to_owned).collect();
+        let header = lines.iter().position(|l| !l.starts_with('#')).unwrap();
+        Self {
+            head: lines[..=header].to_vec(),
+            rows: lines[header + 1..].to_vec(),
+        }
+    }
+
+    /// The 1-based line of data row `i`.
+    fn line(&self, i: usize) -> usize {
+        self.head.len() + 1 + i
+    }
+
+    /// The index of column `name`.
+    fn column(&self, name: &str) -> usize {
+        self.head
+            .last()
+            .unwrap()
+            .split(',')
+            .position(|c| c.trim() == name)
+            .unwrap()
+    }
+
+    /// Adds `delta` to column `name` of data row `i`.
+    fn add(&mut self, i: usize, name: &str, delta: f64) {
+        let c = self.column(name);
+        let mut cells: Vec<String> = self.rows[i].split(',').map(str::to_owned).collect();
+        cells[c] = format!("{}", cells[c].trim().parse::<f64>().unwrap() + delta);
+        self.rows[i] = cells.join(",");
+    }
+
+    /// Its first `n` data rows.
+    fn first(&self, n: usize) -> Self {
+        Self {
+            head: self.head.clone(),
+            rows: self.rows[..n].to_vec(),
+        }
+    }
+
+    fn write(&self, path: &std::path::Path) {
+        std::fs::write(
+            path,
+            self.head.join("\n") + "\n" + &self.rows.join("\n") + "\n",
+        )
+        .unwrap();
+    }
+}
+
+/// `armcal simulate --model ur5e` with `args` in `d`, which must succeed.
+fn simulate(d: &std::path::Path, args: &[&str]) {
+    let mut all = vec!["simulate", "--model", "ur5e"];
+    all.extend(args);
+    succeeds(d, &all);
+}
+
+/// Runs `args` in `d`, which must succeed, and returns its standard error.
+fn stderr_of(d: &std::path::Path, args: &[&str]) -> String {
+    String::from_utf8_lossy(&succeeds(d, args).stderr).into_owned()
+}
+
+/// Two good sessions of a UR5e whose tracker frames are 8 m apart (the
+/// second session's every point shifted 8 m along x: its base frame
+/// registered there) are calibrated, each in its own base frame: a frame
+/// far away is a registration, not a unit mistake. Said to share one base
+/// frame (`--same-base`), they are refused at the first row of the session
+/// far from the median of all the points (the shorter one, so that the
+/// median lies among the other's), named by its own file and line, as an
+/// instrument moved. A real unit mistake in one row of the second session
+/// (a point written in mm in a file in m) is refused at that row of that
+/// file, exit 2, nothing written.
+#[test]
+fn sessions_far_apart_are_judged_each_in_its_own_frame_and_named_by_file_and_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    simulate(d, &["--poses", "120", "--sessions", "2", "--out", "s.csv"]);
+    let mut far = Csv::read(&d.join("s-2.csv")).first(30);
+    for i in 0..far.rows.len() {
+        far.add(i, "x", 8.0);
+    }
+    far.write(&d.join("far.csv"));
+    let stderr = stderr_of(
+        d,
+        &[
+            "identify", "--model", "ur5e", "--data", "s-1.csv", "far.csv", "--out", "c.cal",
+        ],
+    );
+    assert!(!stderr.contains("reconcile"), "{stderr}");
+    let line = far.line(0);
+    refused(
+        d,
+        &[
+            "identify",
+            "--model",
+            "ur5e",
+            "--same-base",
+            "--data",
+            "s-1.csv",
+            "far.csv",
+            "--out",
+            "same.cal",
+        ],
+        &[
+            &format!("far.csv:{line}:1: the point ("),
+            "from the median of every session's points",
+            "each session alone is within reach",
+            "was the instrument moved between them?",
+        ],
+    );
+    let mut typo = Csv::read(&d.join("far.csv"));
+    let x = typo.rows[7]
+        .split(',')
+        .nth(typo.column("x"))
+        .unwrap()
+        .trim()
+        .parse::<f64>()
+        .unwrap();
+    typo.add(7, "x", 999.0 * x);
+    typo.write(&d.join("typo.csv"));
+    let line = typo.line(7);
+    for verb in ["identify", "check", "diagnose"] {
+        refused(
+            d,
+            &[verb, "--model", "ur5e", "--data", "s-1.csv", "typo.csv"],
+            &[
+                &format!("typo.csv:{line}:1: the point ("),
+                "a typo, or the data and the model in different length units?",
+            ],
+        );
+    }
+}
+
+/// A short session beside a 50-pose one. Two rows (6 equations) cannot
+/// determine its own base frame and tool point (9 unknowns): refused up
+/// front at its last line, naming the file and what it would need, exit 2,
+/// nothing written; sharing the tool (`--same-tool`, 6 unknowns) it still
+/// has no equation for the robot. Four rows (12 equations) determine them:
+/// the calibration is made, and the 50-pose session's figure left out (the
+/// robot from the short one's 12 equations alone: fewer than its
+/// parameters) is not computed, with a note, while the short session's own
+/// figure is.
+#[test]
+fn a_session_too_short_for_its_own_frames_is_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    simulate(d, &["--poses", "100", "--sessions", "2", "--out", "s.csv"]);
+    let second = Csv::read(&d.join("s-2.csv"));
+    second.first(2).write(&d.join("two.csv"));
+    second.first(4).write(&d.join("four.csv"));
+    let last = second.line(1);
+    refused(
+        d,
+        &[
+            "identify", "--model", "ur5e", "--data", "s-1.csv", "two.csv", "--out", "c.cal",
+        ],
+        &[&format!(
+            "two.csv:{last}:1: session two.csv: 2 rows in 2 distinct configurations give 6 \
+             equations (3 per pose), no more than the 9 unknowns of its own frames (its base \
+             frame's 6 and its tool point's 3): its rows would fit its frames alone and add \
+             nothing to the robot; measure at least 4 distinct poses in it, or share frames"
+        )],
+    );
+    refused(
+        d,
+        &[
+            "identify",
+            "--model",
+            "ur5e",
+            "--same-tool",
+            "--data",
+            "s-1.csv",
+            "two.csv",
+        ],
+        &[
+            &format!("two.csv:{last}:1: session two.csv"),
+            "no more than the 6 unknowns of its own frames (its base frame's 6)",
+            "measure at least 3 distinct poses in it",
+        ],
+    );
+    let out = succeeds(
+        d,
+        &[
+            "identify", "--model", "ur5e", "--data", "s-1.csv", "four.csv", "--json", "r.json",
+        ],
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("left out: not computed, the others alone cannot calibrate the robot"),
+        "{stdout}"
+    );
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("r.json")).unwrap()).unwrap();
+    let sessions = report["sessions"].as_array().unwrap();
+    let why = sessions[0]["held_out_not_computed"].as_str().unwrap();
+    assert!(why.contains("12 equations"), "{why}");
+    assert!(sessions[0]["held_out_rms_mm"].is_null());
+    assert!(sessions[1]["held_out_not_computed"].is_null());
+    assert!(sessions[1]["held_out_rms_mm"].as_f64().unwrap() > 0.0);
+}
+
+/// A session of another robot (another seed: other D-H errors, of the
+/// order of a millimetre) beside two sessions of one UR5e (20 µm noise): it
+/// is named, with its figure left out and the others' noise (F far above
+/// the 1 − 1 %/3 quantile), the two sessions of the same robot reconciled;
+/// the calibration is written (exit 0), since it may still be good for the
+/// other sessions. The same three files with the tools taken as one
+/// (`--same-tool`, while the simulator remounted the point by up to 3 mm
+/// before each later session) name the remounted tool as the likely cause.
+#[test]
+fn a_session_that_does_not_reconcile_is_named_with_its_figures() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    simulate(d, &["--poses", "120", "--sessions", "2", "--out", "r.csv"]);
+    simulate(d, &["--poses", "60", "--seed", "2", "--out", "other.csv"]);
+    let files = ["r-1.csv", "r-2.csv", "other.csv"];
+    let mut args = vec![
+        "identify", "--model", "ur5e", "--out", "c.cal", "--json", "r.json",
+    ];
+    args.push("--data");
+    args.extend(files);
+    let stderr = stderr_of(d, &args);
+    assert!(d.join("c.cal").exists());
+    assert_eq!(stderr.matches("does not reconcile").count(), 1, "{stderr}");
+    assert!(
+        stderr.contains(
+            "session other.csv: left out, its rows miss the robot the other sessions calibrate by"
+        ),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("the 1 − 1 %/3 quantile of F(171, "),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("another robot, or the robot changed"),
+        "{stderr}"
+    );
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("r.json")).unwrap()).unwrap();
+    let sessions = report["sessions"].as_array().unwrap();
+    for s in &sessions[..2] {
+        assert_eq!(s["reconciled"], true, "{s}");
+    }
+    let other = &sessions[2];
+    assert_eq!(other["reconciled"], false, "{other}");
+    let r = &other["reconciliation"];
+    // The others fit to their noise, 20 µm per axis (35 µm in 3-D), and
+    // the other robot misses by its own millimetre-sized errors.
+    let others = r["others_rms_mm"].as_f64().unwrap();
+    assert!(others < 0.05, "{r}");
+    assert!(
+        other["held_out_rms_mm"].as_f64().unwrap() > 10.0 * others,
+        "{other}"
+    );
+    assert!(
+        r["f"].as_f64().unwrap() > 100.0 * r["threshold"].as_f64().unwrap(),
+        "{r}"
+    );
+    let warnings = report["warnings"].as_array().unwrap();
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.as_str().unwrap().starts_with("session other.csv:")),
+        "{warnings:?}"
+    );
+
+    let mut args = vec!["identify", "--model", "ur5e", "--same-tool", "--data"];
+    args.extend(&files[..2]);
+    let stderr = stderr_of(d, &args);
+    assert!(
+        stderr.contains("does not reconcile with them: a different tool than --same-tool says?"),
+        "{stderr}"
+    );
+    // In its own frames, the same robot's two sessions reconcile.
+    let mut args = vec!["identify", "--model", "ur5e", "--data"];
+    args.extend(&files[..2]);
+    assert!(!stderr_of(d, &args).contains("reconcile"));
+}
+
+/// One reading of 200 (20 µm noise) moved 5 mm: `identify` names its file
+/// and line as the row its fit explains worst, failing the deleted-residual
+/// test, in the warnings, the summary and the JSON, and says that
+/// `diagnose` sets such rows aside; on the same rows without the blunder it
+/// names none. Beside another session, the row is named by its own file.
+#[test]
+fn identify_names_the_row_it_explains_worst() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    simulate(d, &["--poses", "200", "--out", "s.csv"]);
+    let clean = stderr_of(
+        d,
+        &[
+            "identify",
+            "--model",
+            "ur5e",
+            "--data",
+            "s.csv",
+            "--json",
+            "clean.json",
+        ],
+    );
+    assert!(!clean.contains("explains this row worst"), "{clean}");
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("clean.json")).unwrap()).unwrap();
+    assert_eq!(report["suspect_rows"].as_array().unwrap().len(), 0);
+    let mut bad = Csv::read(&d.join("s.csv"));
+    bad.add(57, "x", 0.005);
+    bad.write(&d.join("bad.csv"));
+    let line = bad.line(57);
+    let out = succeeds(
+        d,
+        &[
+            "identify", "--model", "ur5e", "--data", "bad.csv", "--json", "bad.json",
+        ],
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stderr.contains(&format!("bad.csv:{line}: the fit explains this row worst")),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("`armcal diagnose` sets such rows aside"),
+        "{stderr}"
+    );
+    assert!(
+        stdout.contains(&format!(
+            "failing the deleted-residual test (1 of 200 rows at α = 1 %): bad.csv:{line} ("
+        )),
+        "{stdout}"
+    );
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("bad.json")).unwrap()).unwrap();
+    let rows = report["suspect_rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 1, "{rows:?}");
+    assert_eq!(rows[0]["file"], "bad.csv");
+    assert_eq!(rows[0]["line"], line);
+    // The fit absorbs a part of the blunder: its residual is below 5 mm,
+    // and far above the noise.
+    let mm = rows[0]["residual_mm"].as_f64().unwrap();
+    assert!(mm > 2.5 && mm < 5.5, "{mm}");
+
+    simulate(d, &["--poses", "60", "--seed", "3", "--out", "first.csv"]);
+    let stderr = stderr_of(
+        d,
+        &[
+            "identify",
+            "--model",
+            "ur5e",
+            "--data",
+            "first.csv",
+            "bad.csv",
+        ],
+    );
+    assert!(
+        stderr.contains(&format!("bad.csv:{line}: the fit explains this row worst")),
+        "{stderr}"
+    );
+}
+
+/// One absurd joint reading (q2 = 1000 rad on row 6 of 60, a UR5e without
+/// joint limits in its model): `check` names the line of the largest
+/// error; `identify`'s refusal names the same file and line, and the joint
+/// outside what the other rows read, exit 2, nothing written; given as the
+/// second of two sessions, the same row of its own file.
+#[test]
+fn an_absurd_joint_reading_is_refused_at_its_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    simulate(d, &["--poses", "60", "--out", "s.csv"]);
+    let mut absurd = Csv::read(&d.join("s.csv"));
+    let q2 = absurd.rows[5]
+        .split(',')
+        .nth(absurd.column("q2"))
+        .unwrap()
+        .trim()
+        .parse::<f64>()
+        .unwrap();
+    absurd.add(5, "q2", 1000.0 - q2);
+    absurd.write(&d.join("absurd.csv"));
+    let line = absurd.line(5);
+    let check = String::from_utf8_lossy(
+        &succeeds(d, &["check", "--model", "ur5e", "--data", "absurd.csv"]).stdout,
+    )
+    .into_owned();
+    assert!(check.contains(&format!("(line {line})")), "{check}");
+    refused(
+        d,
+        &[
+            "identify",
+            "--model",
+            "ur5e",
+            "--data",
+            "absurd.csv",
+            "--out",
+            "c.cal",
+            "--json",
+            "r.json",
+        ],
+        &[
+            &format!("absurd.csv:{line}:1: the fitted model still misses the measured points"),
+            "this row holds 100 % of the nominal model's sum of squares",
+            "its q2 = 1000 rad lies outside what the other rows read",
+            "nothing is written",
+        ],
+    );
+    simulate(d, &["--poses", "60", "--seed", "4", "--out", "first.csv"]);
+    refused(
+        d,
+        &[
+            "identify",
+            "--model",
+            "ur5e",
+            "--data",
+            "first.csv",
+            "absurd.csv",
+            "--out",
+            "c.cal",
+        ],
+        &[&format!(
+            "absurd.csv:{line}:1: the fitted model still misses"
+        )],
+    );
+}
+
 /// With two sessions each has its own base and tool frames: a parameter held
 /// as not separable names each frame parameter it cannot be told from with
 /// its session (`session 1 tool.y`, `session 2 tool.x`), never a bare

@@ -24,6 +24,7 @@ pub mod prior;
 pub mod prior_scale;
 pub mod sessions;
 mod summary;
+pub mod suspect_rows;
 
 pub use summary::{NoiseRow, noise_json, noise_rows};
 
@@ -182,6 +183,9 @@ pub struct Identification {
     /// With several sessions, each one left out in turn
     /// ([`sessions::held_out_by_session`]); empty otherwise.
     pub sessions_held_out: Vec<sessions::SessionHeldOut>,
+    /// The rows the full fit explains worst that fail the deleted-residual
+    /// test ([`suspect_rows`]); none for `--params paper`.
+    pub suspect_rows: suspect_rows::SuspectRows,
 }
 
 /// Why an identification could not be made.
@@ -306,6 +310,7 @@ pub fn identify_weighted(
         judgement: None,
         gravity: None,
         sessions_held_out: Vec::new(),
+        suspect_rows: suspect_rows::SuspectRows::default(),
     })
 }
 

@@ -135,6 +135,21 @@ impl Identification {
         if let Some(g) = &self.gravity {
             out["gravity"] = g.to_json();
         }
+        out["warnings"] = json!(self.warnings(data, units));
+        out["suspect_rows"] = json!(
+            self.suspect_rows
+                .named
+                .iter()
+                .map(|r| json!({
+                    "file": data.file_of(r.pose),
+                    "line": data.lines[r.pose],
+                    "residual": units.length_from_si(r.residual),
+                    "residual_mm": r.residual * 1e3,
+                    "f": r.f,
+                    "threshold": r.threshold,
+                }))
+                .collect::<Vec<_>>()
+        );
         if let Some(j) = &self.judgement {
             out["nominal_residual"] = json!({
                 "position_rms": units.length_from_si(j.nominal.position),
@@ -317,6 +332,7 @@ impl Identification {
                 u,
             ));
         }
+        self.write_suspect_rows(&mut out, data, u);
         if let Some(g) = &self.gravity {
             let _ = writeln!(out, "{}", g.summary());
         }
@@ -324,6 +340,84 @@ impl Identification {
         self.write_parameters(&mut out, u);
         self.write_constraints(&mut out, u, data);
         self.write_correlations(&mut out);
+        out
+    }
+
+    /// The rows the fit explains worst that fail the deleted-residual test
+    /// ([`super::suspect_rows`]), each at its file and line, and what
+    /// `diagnose` does with them.
+    fn write_suspect_rows(&self, out: &mut String, data: &Measurements, u: &Units) {
+        let rows = &self.suspect_rows;
+        if rows.named.is_empty() {
+            return;
+        }
+        let named: Vec<String> = rows
+            .named
+            .iter()
+            .map(|r| {
+                format!(
+                    "{}:{} (residual {}, F = {:.3e} > {:.1})",
+                    data.file_of(r.pose),
+                    data.lines[r.pose],
+                    length_and_mm(u, r.residual),
+                    r.f,
+                    r.threshold
+                )
+            })
+            .collect();
+        let more = rows.failing - rows.named.len();
+        let _ = writeln!(
+            out,
+            "rows the fit explains worst, failing the deleted-residual test ({} of {} rows at \
+             α = 1 %): {}{}; identify fits them, `armcal diagnose` sets such rows aside when \
+             the others are predicted better without them",
+            rows.failing,
+            rows.tested,
+            named.join(", "),
+            if more > 0 {
+                format!(" and {more} more")
+            } else {
+                String::new()
+            }
+        );
+    }
+
+    /// What the user should know of this identification of `data` that
+    /// does not stop it, one a line for standard error and the JSON's
+    /// `warnings`: each session that does not reconcile with the others
+    /// ([`super::sessions::warnings`]), each row named by
+    /// [`super::suspect_rows`].
+    pub fn warnings(&self, data: &Measurements, u: &Units) -> Vec<String> {
+        let mut out = Vec::new();
+        if let Some(fit) = &self.full {
+            out.extend(super::sessions::warnings(
+                &self.sessions_held_out,
+                data,
+                super::sessions::sharing_of(fit),
+                u,
+            ));
+        }
+        let rows = &self.suspect_rows;
+        out.extend(rows.named.iter().map(|r| {
+            format!(
+                "{}:{}: the fit explains this row worst: its residual {}, its deleted residual \
+                 F = {:.3e} above {:.1} (the {} quantile of F(k, R − k)): a blunder? identify \
+                 fitted it; `armcal diagnose` sets such rows aside when the others are \
+                 predicted better without them",
+                data.file_of(r.pose),
+                data.lines[r.pose],
+                length_and_mm(u, r.residual),
+                r.f,
+                r.threshold,
+                super::suspect_rows::quantile_name(rows.tested)
+            )
+        }));
+        if rows.failing > rows.named.len() {
+            out.push(format!(
+                "{} more rows fail the deleted-residual test: run `armcal diagnose`",
+                rows.failing - rows.named.len()
+            ));
+        }
         out
     }
 
