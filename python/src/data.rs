@@ -7,7 +7,7 @@ use armcal::io::arrays::{self, Conditions, PoseArrays};
 use armcal::io::measurements::{self, Contact};
 use pyo3::prelude::*;
 
-use crate::errors::{self, ArrayLike, Owned};
+use crate::errors::{self, ArrayLike, Owned, args};
 use crate::fit::PYTHON;
 use crate::model::{Model, joints_in_units, pose_values};
 
@@ -98,8 +98,11 @@ pub fn from_arrays<'py>(
     let xyz = Owned::rows(py, "xyz", &xyz)?;
     let quat = quat.map(|a| Owned::rows(py, "quat", &a)).transpose()?;
     let tau = tau.map(|a| Owned::rows(py, "tau", &a)).transpose()?;
-    let column =
-        |name: &str, a: Option<ArrayLike<'py>>| a.map(|a| Owned::column(py, name, &a)).transpose();
+    // Their precision has no bound to be held to here.
+    let column = |name: &str, a: Option<ArrayLike<'py>>| {
+        a.map(|a| Owned::column(py, name, &a).map(|(values, _)| values))
+            .transpose()
+    };
     let (t, temp, load) = (
         column("t", t)?,
         column("temp", temp)?,
@@ -141,7 +144,7 @@ pub fn from_arrays<'py>(
 /// `diagnose` read its sessions as several files'). Returns the
 /// measurements (rows numbered from 0) and the truth as a dict.
 #[pyfunction]
-#[pyo3(signature = (model, poses = 200, seed = 1, noise = None, orientation_noise = None, effects = Vec::new(), tilts = Vec::new(), torque_noise = None, *, payloads = Vec::new(), sessions = 1, torque_sign = "drive", link_errors = None, base_errors = None, tool_errors = None))]
+#[pyo3(signature = (model, poses = 200, seed = 1, noise = None, orientation_noise = None, effects = Vec::new(), tilts = Vec::new(), torque_noise = None, *, payloads = Vec::new(), sessions = 1, torque_sign = String::from("drive"), link_errors = None, base_errors = None, tool_errors = None))]
 #[expect(
     clippy::too_many_arguments,
     reason = "a parameter per Python keyword argument, as the signature above lists them"
@@ -149,19 +152,19 @@ pub fn from_arrays<'py>(
 pub fn simulate<'py>(
     py: Python<'py>,
     model: &Model,
-    poses: usize,
-    seed: u64,
-    noise: Option<f64>,
-    orientation_noise: Option<f64>,
-    effects: Vec<String>,
-    tilts: Vec<(usize, f64)>,
-    torque_noise: Option<f64>,
-    payloads: Vec<f64>,
-    sessions: usize,
-    torque_sign: &str,
-    link_errors: Option<(f64, f64)>,
-    base_errors: Option<(f64, f64)>,
-    tool_errors: Option<(f64, f64)>,
+    #[pyo3(from_py_with = args::poses)] poses: usize,
+    #[pyo3(from_py_with = args::seed)] seed: u64,
+    #[pyo3(from_py_with = args::noise)] noise: Option<f64>,
+    #[pyo3(from_py_with = args::orientation_noise)] orientation_noise: Option<f64>,
+    #[pyo3(from_py_with = args::effects)] effects: Vec<String>,
+    #[pyo3(from_py_with = args::tilts)] tilts: Vec<(usize, f64)>,
+    #[pyo3(from_py_with = args::torque_noise)] torque_noise: Option<f64>,
+    #[pyo3(from_py_with = args::payloads)] payloads: Vec<f64>,
+    #[pyo3(from_py_with = args::sessions)] sessions: usize,
+    #[pyo3(from_py_with = args::simulated_torque_sign)] torque_sign: String,
+    #[pyo3(from_py_with = args::link_errors)] link_errors: Option<(f64, f64)>,
+    #[pyo3(from_py_with = args::base_errors)] base_errors: Option<(f64, f64)>,
+    #[pyo3(from_py_with = args::tool_errors)] tool_errors: Option<(f64, f64)>,
 ) -> PyResult<(Measurements, Bound<'py, PyAny>)> {
     let m = &model.inner;
     let u = m.units;
@@ -171,7 +174,7 @@ pub fn simulate<'py>(
         noise,
         orientation_noise,
         torque_noise,
-        torque_sign: crate::fit::torque_sign(py, Some(torque_sign))?.unwrap_or(TorqueSign::Drive),
+        torque_sign: crate::fit::torque_sign(py, Some(&torque_sign))?.unwrap_or(TorqueSign::Drive),
         effects,
         tilts,
         payloads,
