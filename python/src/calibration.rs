@@ -17,6 +17,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 
 use crate::errors::{self, ArrayLike, Owned};
+use crate::fit::{OnInterrupt, interruptible};
 use crate::model::{joints_in_units, pose_values};
 
 /// A calibration: the nominal model, its identified errors and effects, in
@@ -242,8 +243,11 @@ impl Calibration {
             py,
             ranges::check_at(&self.cal, &rows, RowNames::ArrayRows, resolutions),
         )?;
+        // On a thread of its own: Ctrl-C raises at once (it runs on).
+        let cal = self.cal.clone();
         let predictions =
-            pred::predict(&self.cal, &rows).map_err(|e| errors::input(py, &e, true))?;
+            interruptible(py, OnInterrupt::RunsOn, move |_| pred::predict(&cal, &rows))?
+                .map_err(|e| errors::input(py, &e, true))?;
         let out: Vec<Vec<f64>> = predictions
             .rows
             .iter()
@@ -279,7 +283,11 @@ impl Calibration {
             py,
             ranges::check_at(cal, &rows, RowNames::ArrayRows, resolutions),
         )?;
-        let result = py.detach(|| comp::compensate(cal, &rows, pacing));
+        // On a thread of its own: Ctrl-C raises at once (it runs on).
+        let of_run = cal.clone();
+        let result = interruptible(py, OnInterrupt::RunsOn, move |_| {
+            comp::compensate(&of_run, &rows, pacing)
+        })?;
         // One warning per kind of report, with its rows.
         let messages = comp::RowWarning::grouped(
             &result.warnings(cal),

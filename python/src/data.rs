@@ -8,7 +8,7 @@ use armcal::io::measurements::{self, Contact};
 use pyo3::prelude::*;
 
 use crate::errors::{self, ArrayLike, Owned, args};
-use crate::fit::PYTHON;
+use crate::fit::{OnInterrupt, PYTHON, interruptible};
 use crate::model::{Model, joints_in_units, pose_values};
 
 /// Measured poses read against a model. Rows are in measurement order; values
@@ -185,9 +185,12 @@ pub fn simulate<'py>(
             tool: tool_errors.map(|(l, a)| [l, a]),
         },
     };
-    let session = py
-        .detach(|| simulate_cmd::run(PYTHON, m, &request))
-        .map_err(|e| errors::command(py, e, false))?;
+    // On a thread of its own: Ctrl-C raises at once (it runs on).
+    let of_run = m.clone();
+    let session = interruptible(py, OnInterrupt::RunsOn, move |_| {
+        simulate_cmd::run(PYTHON, &of_run, &request)
+    })?
+    .map_err(|e| errors::command(py, e, false))?;
     let n = session.observations.len();
     let data = measurements::Measurements {
         file: arrays::DATA.to_owned(),

@@ -98,14 +98,14 @@ pub type ArrayLike<'py> = Bound<'py, PyAny>;
 fn resolution_of(kind: u8, itemsize: usize) -> Option<ranges::Resolution> {
     match (kind, itemsize) {
         (b'f', 8) | (b'i' | b'u', _) => Some(ranges::Resolution::Exact),
-        (b'f', 4 | 2) => Some(ranges::Resolution::Float32),
+        (b'f', 4) => Some(ranges::Resolution::Float32),
         _ => None,
     }
 }
 
 /// The values of the array-like `a` (the argument `name`) as float64, and the
-/// precision they were given in: float64 as is; float32 (and float16) and
-/// integers widened exactly; booleans, complex numbers, strings, objects and
+/// precision they were given in: float64 as is; float32 and integers
+/// widened exactly; booleans, complex numbers, float16, strings, objects and
 /// anything else refused, naming the argument (numpy's casts would take a
 /// boolean for 0 or 1 and drop an imaginary part without a word).
 fn floats<'py>(
@@ -133,10 +133,13 @@ fn floats<'py>(
     let resolution = match kind.as_bytes() {
         [b'b'] => return Err(refuse("booleans are not joint values or coordinates")),
         [b'c'] => return Err(refuse("complex numbers have no place here")),
-        [k] => {
-            resolution_of(*k, itemsize).ok_or_else(|| refuse("not real numbers armcal reads"))?
+        [b'f'] if itemsize < 4 => {
+            return Err(refuse(
+                "too few digits for joint values or coordinates (a thousandth of a radian)",
+            ));
         }
-        _ => return Err(refuse("not real numbers armcal reads")),
+        [k] => resolution_of(*k, itemsize).ok_or_else(|| refuse("not a dtype armcal reads"))?,
+        _ => return Err(refuse("not a dtype armcal reads")),
     };
     let widened = array.call_method1("astype", ("float64",))?;
     let widened = widened

@@ -2,7 +2,8 @@
 `armcal.InputError` naming it; arrays by their dtype (float64 as is, float32
 widened and held to the identified ranges at float32's resolution, integers
 widened, booleans and complex numbers refused); Ctrl-C stops a long `plan`
-within a tenth of a second, nothing running on after it."""
+within a tenth of a second, nothing running on after it, and interrupts a
+long `compensate` as fast."""
 
 import re
 import signal
@@ -126,14 +127,15 @@ def test_float32_temperatures_at_the_identified_range_raise_no_warning(puma, pum
 
 def test_complex_boolean_and_text_arrays_are_refused_naming_the_argument(puma, puma_fit):
     """numpy would drop an imaginary part (with a ComplexWarning) and take
-    True for 1.0: both refused, as text is, naming the array; integers are
-    widened exactly."""
+    True for 1.0: both refused, as text and float16 (a thousandth of a
+    radian) are, naming the array; integers are widened exactly."""
     data, cal = puma_fit
     q, xyz = data.q, data.xyz
     assert "complex" in refused("q", lambda: armcal.measurements(puma, q + 1e-3j, xyz))
     assert "bool" in refused("q", lambda: armcal.measurements(puma, q > 0, xyz))
     refused("xyz", lambda: armcal.measurements(puma, q, xyz.astype(complex)))
     refused("q", lambda: armcal.measurements(puma, "q", xyz))
+    assert "too few digits" in refused("q", lambda: cal.predict(q.astype(np.float16)))
     refused("temp", lambda: armcal.measurements(puma, q, xyz, temp=np.full(len(q), True)))
     refused("q", lambda: cal.predict(q.astype(complex)))
     refused("q", lambda: cal.compensate(q > 0))
@@ -177,6 +179,17 @@ def interrupted_after(seconds, call):
     cpu = time.process_time()
     time.sleep(0.3)
     return latency, time.process_time() - cpu
+
+
+def test_ctrl_c_interrupts_a_long_compensation_within_a_tenth_of_a_second(puma):
+    """`compensate` of 10⁵ rows (4 s) ran with the main thread's signals
+    unhandled: SIGINT half a second in now raises KeyboardInterrupt within
+    CTRL_C_LATENCY_S (the compensation runs on in the background: it has no
+    way to stop yet)."""
+    data, _ = armcal.simulate(puma, poses=100_000, seed=2)
+    cal = armcal.identify(puma, data).calibration
+    latency, _ = interrupted_after(0.5, lambda: cal.compensate(data.q))
+    assert latency < CTRL_C_LATENCY_S, latency
 
 
 def test_ctrl_c_stops_a_long_plan_within_a_tenth_of_a_second():
