@@ -178,8 +178,14 @@ pub(crate) fn plan(args: PlanArgs) -> anyhow::Result<()> {
         None => None,
     };
     let targets = joints(&args.targets)?;
-    let (plan, options) =
-        plan_cmd::run(CLI, &model, &request, from.as_deref(), targets.as_deref())?;
+    let (plan, options) = plan_cmd::run(
+        CLI,
+        &model,
+        &request,
+        from.as_deref(),
+        targets.as_deref(),
+        &|| false,
+    )?;
     let cal = Calibration::nominal(model.robot.clone(), false, model.units);
     let comment = format!(
         "{}: the poses to measure, in this order",

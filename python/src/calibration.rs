@@ -3,7 +3,7 @@
 
 use std::ffi::CString;
 
-use armcal::apply::ranges::{self, RowNames};
+use armcal::apply::ranges::{self, Resolutions, RowNames};
 use armcal::apply::{compensate as comp, predict as pred};
 use armcal::commands::Front;
 use armcal::commands::tool::Tool;
@@ -17,6 +17,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 
 use crate::errors::{self, ArrayLike, Owned};
+use crate::fit::{OnInterrupt, interruptible};
 use crate::model::{joints_in_units, pose_values};
 
 /// A calibration: the nominal model, its identified errors and effects, in
@@ -85,25 +86,32 @@ pub fn load_calibration(py: Python<'_>, path: &str) -> PyResult<Calibration> {
 }
 
 /// The joint arrays `q` (`(N, M)` or one row `(M,)`) and their conditions,
-/// read against the calibration's nominal model.
+/// read against the calibration's nominal model; whether `q` was one row,
+/// and the precision each was given in (float32 arrays are held to the
+/// identified ranges at float32's resolution).
 fn joint_rows(
     py: Python<'_>,
     cal: &Cal,
     q: &ArrayLike<'_>,
     temp: Option<ArrayLike<'_>>,
     load: Option<ArrayLike<'_>>,
-) -> PyResult<(JointRows, bool)> {
+) -> PyResult<(JointRows, bool, Resolutions)> {
     let q = Owned::rows(py, "q", q)?;
     let temp = temp.map(|a| Owned::column(py, "temp", &a)).transpose()?;
     let load = load.map(|a| Owned::column(py, "load", &a)).transpose()?;
+    let resolutions = Resolutions {
+        joints: q.resolution,
+        temp: temp.as_ref().map_or_else(Default::default, |(_, r)| *r),
+        load: load.as_ref().map_or_else(Default::default, |(_, r)| *r),
+    };
     let conditions = Conditions {
         t: None,
-        temp: temp.as_deref(),
-        load: load.as_deref(),
+        temp: temp.as_ref().map(|(v, _)| v.as_slice()),
+        load: load.as_ref().map(|(v, _)| v.as_slice()),
     };
     let rows = arrays::joints(&cal.nominal, &cal.units, &q.table(), &conditions)
         .map_err(|e| errors::input(py, &e, true))?;
-    Ok((rows, q.single))
+    Ok((rows, q.single, resolutions))
 }
 
 /// Each of `messages` as a Python `UserWarning`.
@@ -230,10 +238,16 @@ impl Calibration {
         temp: Option<ArrayLike<'py>>,
         load: Option<ArrayLike<'py>>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let (rows, single) = joint_rows(py, &self.cal, &q, temp, load)?;
-        warn_all(py, ranges::check(&self.cal, &rows, RowNames::ArrayRows))?;
+        let (rows, single, resolutions) = joint_rows(py, &self.cal, &q, temp, load)?;
+        warn_all(
+            py,
+            ranges::check_at(&self.cal, &rows, RowNames::ArrayRows, resolutions),
+        )?;
+        // On a thread of its own: Ctrl-C raises at once (it runs on).
+        let cal = self.cal.clone();
         let predictions =
-            pred::predict(&self.cal, &rows).map_err(|e| errors::input(py, &e, true))?;
+            interruptible(py, OnInterrupt::RunsOn, move |_| pred::predict(&cal, &rows))?
+                .map_err(|e| errors::input(py, &e, true))?;
         let out: Vec<Vec<f64>> = predictions
             .rows
             .iter()
@@ -258,15 +272,22 @@ impl Calibration {
         load: Option<ArrayLike<'py>>,
         servo: bool,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let (rows, single) = joint_rows(py, &self.cal, &q, temp, load)?;
+        let (rows, single, resolutions) = joint_rows(py, &self.cal, &q, temp, load)?;
         let pacing = if servo {
             Pacing::Servo
         } else {
             Pacing::Program
         };
         let cal = &self.cal;
-        warn_all(py, ranges::check(cal, &rows, RowNames::ArrayRows))?;
-        let result = py.detach(|| comp::compensate(cal, &rows, pacing));
+        warn_all(
+            py,
+            ranges::check_at(cal, &rows, RowNames::ArrayRows, resolutions),
+        )?;
+        // On a thread of its own: Ctrl-C raises at once (it runs on).
+        let of_run = cal.clone();
+        let result = interruptible(py, OnInterrupt::RunsOn, move |_| {
+            comp::compensate(&of_run, &rows, pacing)
+        })?;
         // One warning per kind of report, with its rows.
         let messages = comp::RowWarning::grouped(
             &result.warnings(cal),

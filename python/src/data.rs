@@ -7,8 +7,8 @@ use armcal::io::arrays::{self, Conditions, PoseArrays};
 use armcal::io::measurements::{self, Contact};
 use pyo3::prelude::*;
 
-use crate::errors::{self, ArrayLike, Owned};
-use crate::fit::PYTHON;
+use crate::errors::{self, ArrayLike, Owned, args};
+use crate::fit::{OnInterrupt, PYTHON, interruptible};
 use crate::model::{Model, joints_in_units, pose_values};
 
 /// Measured poses read against a model. Rows are in measurement order; values
@@ -98,8 +98,11 @@ pub fn from_arrays<'py>(
     let xyz = Owned::rows(py, "xyz", &xyz)?;
     let quat = quat.map(|a| Owned::rows(py, "quat", &a)).transpose()?;
     let tau = tau.map(|a| Owned::rows(py, "tau", &a)).transpose()?;
-    let column =
-        |name: &str, a: Option<ArrayLike<'py>>| a.map(|a| Owned::column(py, name, &a)).transpose();
+    // Their precision has no bound to be held to here.
+    let column = |name: &str, a: Option<ArrayLike<'py>>| {
+        a.map(|a| Owned::column(py, name, &a).map(|(values, _)| values))
+            .transpose()
+    };
     let (t, temp, load) = (
         column("t", t)?,
         column("temp", temp)?,
@@ -144,7 +147,7 @@ pub fn from_arrays<'py>(
 /// `diagnose` read its sessions as several files'). Returns the
 /// measurements (rows numbered from 0) and the truth as a dict.
 #[pyfunction]
-#[pyo3(signature = (model, poses = 200, seed = 1, noise = None, orientation_noise = None, effects = Vec::new(), tilts = Vec::new(), torque_noise = None, *, payloads = Vec::new(), sessions = 1, torque_sign = "drive", link_errors = None, base_errors = None, tool_errors = None, orientation_bias = None, orientation_bias_growth = None))]
+#[pyo3(signature = (model, poses = 200, seed = 1, noise = None, orientation_noise = None, effects = Vec::new(), tilts = Vec::new(), torque_noise = None, *, payloads = Vec::new(), sessions = 1, torque_sign = String::from("drive"), link_errors = None, base_errors = None, tool_errors = None, orientation_bias = None, orientation_bias_growth = None))]
 #[expect(
     clippy::too_many_arguments,
     reason = "a parameter per Python keyword argument, as the signature above lists them"
@@ -152,21 +155,21 @@ pub fn from_arrays<'py>(
 pub fn simulate<'py>(
     py: Python<'py>,
     model: &Model,
-    poses: usize,
-    seed: u64,
-    noise: Option<f64>,
-    orientation_noise: Option<f64>,
-    effects: Vec<String>,
-    tilts: Vec<(usize, f64)>,
-    torque_noise: Option<f64>,
-    payloads: Vec<f64>,
-    sessions: usize,
-    torque_sign: &str,
-    link_errors: Option<(f64, f64)>,
-    base_errors: Option<(f64, f64)>,
-    tool_errors: Option<(f64, f64)>,
-    orientation_bias: Option<f64>,
-    orientation_bias_growth: Option<f64>,
+    #[pyo3(from_py_with = args::poses)] poses: usize,
+    #[pyo3(from_py_with = args::seed)] seed: u64,
+    #[pyo3(from_py_with = args::noise)] noise: Option<f64>,
+    #[pyo3(from_py_with = args::orientation_noise)] orientation_noise: Option<f64>,
+    #[pyo3(from_py_with = args::effects)] effects: Vec<String>,
+    #[pyo3(from_py_with = args::tilts)] tilts: Vec<(usize, f64)>,
+    #[pyo3(from_py_with = args::torque_noise)] torque_noise: Option<f64>,
+    #[pyo3(from_py_with = args::payloads)] payloads: Vec<f64>,
+    #[pyo3(from_py_with = args::sessions)] sessions: usize,
+    #[pyo3(from_py_with = args::simulated_torque_sign)] torque_sign: String,
+    #[pyo3(from_py_with = args::link_errors)] link_errors: Option<(f64, f64)>,
+    #[pyo3(from_py_with = args::base_errors)] base_errors: Option<(f64, f64)>,
+    #[pyo3(from_py_with = args::tool_errors)] tool_errors: Option<(f64, f64)>,
+    #[pyo3(from_py_with = args::orientation_bias)] orientation_bias: Option<f64>,
+    #[pyo3(from_py_with = args::orientation_bias_growth)] orientation_bias_growth: Option<f64>,
 ) -> PyResult<(Measurements, Bound<'py, PyAny>)> {
     let m = &model.inner;
     let u = m.units;
@@ -178,7 +181,7 @@ pub fn simulate<'py>(
         orientation_bias,
         orientation_bias_growth,
         torque_noise,
-        torque_sign: crate::fit::torque_sign(py, Some(torque_sign))?.unwrap_or(TorqueSign::Drive),
+        torque_sign: crate::fit::torque_sign(py, Some(&torque_sign))?.unwrap_or(TorqueSign::Drive),
         effects,
         tilts,
         payloads,
@@ -189,9 +192,12 @@ pub fn simulate<'py>(
             tool: tool_errors.map(|(l, a)| [l, a]),
         },
     };
-    let session = py
-        .detach(|| simulate_cmd::run(PYTHON, m, &request))
-        .map_err(|e| errors::command(py, e, false))?;
+    // On a thread of its own: Ctrl-C raises at once (it runs on).
+    let of_run = m.clone();
+    let session = interruptible(py, OnInterrupt::RunsOn, move |_| {
+        simulate_cmd::run(PYTHON, &of_run, &request)
+    })?
+    .map_err(|e| errors::command(py, e, false))?;
     let n = session.observations.len();
     let data = measurements::Measurements {
         file: arrays::DATA.to_owned(),

@@ -1,10 +1,17 @@
 //! The exceptions, and conversions between numpy arrays and the library's rows.
+//!
+//! Every argument a call refuses raises `armcal.InputError` naming it:
+//! arrays by their dtype ([`Owned`]: float64 as is, float32 and integers
+//! widened, booleans and complex numbers refused), other arguments by their
+//! type ([`args`]: a negative count, a string where a list is taken).
 
+use armcal::apply::ranges;
 use armcal::commands;
 use armcal::io::arrays;
 use armcal::io::input_error;
 use numpy::ndarray::Array2;
-use numpy::{AllowTypeChange, IntoPyArray, PyArray2, PyArrayLikeDyn};
+use numpy::{IntoPyArray, PyArray2, PyArrayDyn, PyArrayMethods};
+use pyo3::conversion::FromPyObjectOwned;
 use pyo3::prelude::*;
 
 pyo3::create_exception!(
@@ -81,8 +88,65 @@ pub fn argument(py: Python<'_>, name: &str, message: impl Into<String>) -> PyErr
     input(py, &input_error::InputError::argument(name, message), false)
 }
 
-/// A numpy array (or anything numpy turns into one) of floats, 1-D or 2-D.
-pub type ArrayLike<'py> = PyArrayLikeDyn<'py, f64, AllowTypeChange>;
+/// A numpy array, or anything numpy turns into one (a list of numbers): an
+/// argument that [`Owned::rows`] and [`Owned::column`] read, refusing what is
+/// not numbers with an `InputError` naming it.
+pub type ArrayLike<'py> = Bound<'py, PyAny>;
+
+/// The precision an array's values were given in: what a check against a
+/// bound may hold them to ([`ranges::Resolution`]).
+fn resolution_of(kind: u8, itemsize: usize) -> Option<ranges::Resolution> {
+    match (kind, itemsize) {
+        (b'f', 8) | (b'i' | b'u', _) => Some(ranges::Resolution::Exact),
+        (b'f', 4) => Some(ranges::Resolution::Float32),
+        _ => None,
+    }
+}
+
+/// The values of the array-like `a` (the argument `name`) as float64, and the
+/// precision they were given in: float64 as is; float32 and integers
+/// widened exactly; booleans, complex numbers, float16, strings, objects and
+/// anything else refused, naming the argument (numpy's casts would take a
+/// boolean for 0 or 1 and drop an imaginary part without a word).
+fn floats<'py>(
+    name: &str,
+    a: &Bound<'py, PyAny>,
+) -> PyResult<(Bound<'py, PyArrayDyn<f64>>, ranges::Resolution)> {
+    let py = a.py();
+    let numpy = py.import("numpy")?;
+    let array = numpy
+        .call_method1("asarray", (a,))
+        .map_err(|e| argument(py, name, format!("not an array of numbers: {e}")))?;
+    let dtype = array.getattr("dtype")?;
+    let kind: String = dtype.getattr("kind")?.extract()?;
+    let itemsize: usize = dtype.getattr("itemsize")?.extract()?;
+    let refuse = |why: &str| {
+        argument(
+            py,
+            name,
+            format!(
+                "dtype {}: {why}; give float64 (float32 and integers are widened)",
+                dtype.str().map_or_else(|_| kind.clone(), |s| s.to_string())
+            ),
+        )
+    };
+    let resolution = match kind.as_bytes() {
+        [b'b'] => return Err(refuse("booleans are not joint values or coordinates")),
+        [b'c'] => return Err(refuse("complex numbers have no place here")),
+        [b'f'] if itemsize < 4 => {
+            return Err(refuse(
+                "too few digits for joint values or coordinates (a thousandth of a radian)",
+            ));
+        }
+        [k] => resolution_of(*k, itemsize).ok_or_else(|| refuse("not a dtype armcal reads"))?,
+        _ => return Err(refuse("not a dtype armcal reads")),
+    };
+    let widened = array.call_method1("astype", ("float64",))?;
+    let widened = widened
+        .cast_into::<PyArrayDyn<f64>>()
+        .map_err(|e| failure(format!("{name}: {e}")))?;
+    Ok((widened, resolution))
+}
 
 /// The values of a 1-D or 2-D array, row-major, its shape as `(rows, cols)`,
 /// and whether it was 1-D (a single row of `cols` values).
@@ -95,12 +159,18 @@ pub struct Owned {
     pub cols: usize,
     /// Whether the array was one row, 1-D.
     pub single: bool,
+    /// The precision the values were given in (float32: a value on a bound
+    /// may be off it by float32's rounding).
+    pub resolution: ranges::Resolution,
 }
 
 impl Owned {
-    /// The array `a`, named `name` in errors; 1-D is one row.
+    /// The array `a`, named `name` in errors; 1-D is one row. Its dtype as
+    /// [`floats`] takes it.
     pub fn rows(py: Python<'_>, name: &str, a: &ArrayLike<'_>) -> PyResult<Self> {
-        let view = a.as_array();
+        let (array, resolution) = floats(name, a)?;
+        let array = array.readonly();
+        let view = array.as_array();
         let values: Vec<f64> = view.iter().copied().collect();
         match *view.shape() {
             [cols] => Ok(Self {
@@ -108,12 +178,14 @@ impl Owned {
                 rows: 1,
                 cols,
                 single: true,
+                resolution,
             }),
             [rows, cols] => Ok(Self {
                 values,
                 rows,
                 cols,
                 single: false,
+                resolution,
             }),
             ref shape => Err(argument(
                 py,
@@ -126,11 +198,18 @@ impl Owned {
         }
     }
 
-    /// The values of a 1-D array (one per row), named `name` in errors.
-    pub fn column(py: Python<'_>, name: &str, a: &ArrayLike<'_>) -> PyResult<Vec<f64>> {
-        let view = a.as_array();
+    /// The values of a 1-D array (one per row), named `name` in errors, and
+    /// the precision they were given in.
+    pub fn column(
+        py: Python<'_>,
+        name: &str,
+        a: &ArrayLike<'_>,
+    ) -> PyResult<(Vec<f64>, ranges::Resolution)> {
+        let (array, resolution) = floats(name, a)?;
+        let array = array.readonly();
+        let view = array.as_array();
         match *view.shape() {
-            [_] => Ok(view.iter().copied().collect()),
+            [_] => Ok((view.iter().copied().collect(), resolution)),
             ref shape => Err(argument(
                 py,
                 name,
@@ -171,4 +250,90 @@ pub fn to_numpy<'py>(
 pub fn to_python<'py>(py: Python<'py>, value: &serde_json::Value) -> PyResult<Bound<'py, PyAny>> {
     let text = serde_json::to_string(value).map_err(failure)?;
     py.import("json")?.call_method1("loads", (text,))
+}
+
+/// The value of the argument `name` as `T`, refused with an
+/// `armcal.InputError` that names it and says what it takes (`expected`):
+/// the `TypeError`, `OverflowError` or `ValueError` of Python's conversion
+/// never reaches the caller.
+pub fn extract<'py, T: FromPyObjectOwned<'py>>(
+    ob: &Bound<'py, PyAny>,
+    name: &str,
+    expected: &str,
+) -> PyResult<T> {
+    ob.extract::<T>().map_err(|_| {
+        let shown = ob
+            .repr()
+            .map_or_else(|_| "the value".to_owned(), |r| r.to_string());
+        argument(ob.py(), name, format!("{shown}: expected {expected}"))
+    })
+}
+
+/// Declares one extractor per argument for `#[pyo3(from_py_with = …)]`:
+/// `function: Type = "name", "what it takes";`.
+macro_rules! arguments {
+    ($($function:ident: $t:ty = $name:literal, $expected:literal;)*) => {$(
+        #[doc = concat!("The argument `", $name, "`: ", $expected, " ([`extract`]).")]
+        pub fn $function(ob: &Bound<'_, PyAny>) -> PyResult<$t> {
+            super::extract(ob, $name, $expected)
+        }
+    )*};
+}
+
+/// The extractors of the calls' arguments, each refusing a value of the
+/// wrong type with an `armcal.InputError` naming the argument.
+pub mod args {
+    use pyo3::prelude::*;
+
+    arguments! {
+        poses: usize = "poses", "a whole number of poses, 0 or more";
+        seed: u64 = "seed", "a whole number, 0 or more";
+        folds: Option<usize> = "folds", "a whole number of folds, or None";
+        sessions: usize = "sessions", "a whole number of sessions, 1 or more";
+        orientation: bool = "orientation", "True or False";
+        same_base: bool = "same_base", "True or False";
+        same_tool: bool = "same_tool", "True or False";
+        noise: Option<f64> = "noise", "a number in the model's length unit, or None";
+        orientation_noise: Option<f64> = "orientation_noise", "a number in the model's angle unit, or None";
+        position_noise: Option<f64> = "position_noise", "a number in the model's length unit, or None";
+        point_noise: Option<f64> = "point_noise", "a number in the model's length unit, or None";
+        plane_noise: Option<f64> = "plane_noise", "a number in the model's length unit, or None";
+        prior_length: Option<f64> = "prior_length", "a number in the model's length unit, or None";
+        prior_angle: Option<f64> = "prior_angle", "a number in the model's angle unit, or None";
+        torque_noise: Option<f64> = "torque_noise", "a number in N·m, or None";
+        above: Option<f64> = "above", "a height in the model's length unit, or None";
+        margin: Option<f64> = "margin", "a share of each joint's range from 0 to below 0.5, or None";
+        within: Option<Vec<f64>> = "within", "six numbers (x_min, y_min, z_min, x_max, y_max, z_max), or None";
+        effects: Vec<String> = "effects", "a list of effect names, as [\"backlash\"]";
+        plan_effects: Vec<String> = "effects", "a list of effect names, as [\"backlash\"] or [\"compliance\"]";
+        tilts: Vec<(usize, f64)> = "tilts", "a list of (joint, beta) pairs";
+        payloads: Vec<f64> = "payloads", "a list of payloads in kg";
+        link_errors: Option<(f64, f64)> = "link_errors", "a (length, angle) pair, or None";
+        base_errors: Option<(f64, f64)> = "base_errors", "a (length, angle) pair, or None";
+        tool_errors: Option<(f64, f64)> = "tool_errors", "a (length, angle) pair, or None";
+        sockets: Option<String> = "sockets", "the path of a sockets file, or None";
+        params: String = "params", "\"full\" or \"paper\"";
+        prior_scale: String = "prior_scale", "\"chosen\" or \"stated\"";
+        orientation_weight: String = "orientation_weight", "\"chosen\", \"estimated\", \"0.1\", \"0.01\" or \"none\"";
+        orientation_bias: Option<f64> = "orientation_bias", "an angle in the model's angle unit, or None";
+        orientation_bias_growth: Option<f64> = "orientation_bias_growth", "an angle per length in the model's units, or None";
+        targets: String = "targets", "\"world\" or \"base\"";
+        select: String = "select", "\"stated\", \"prior\" or \"diagnose\"";
+        torque_sign: Option<String> = "torque_sign", "\"drive\", \"load\" or None";
+        simulated_torque_sign: String = "torque_sign", "\"drive\" or \"load\"";
+    }
+
+    /// The argument `sessions`: a list of sessions ([`super::extract`]).
+    pub fn sessions_list<'py>(ob: &Bound<'py, PyAny>) -> PyResult<Vec<Bound<'py, PyAny>>> {
+        super::extract(ob, "sessions", "a list of sessions (Measurements, paths)")
+    }
+
+    /// The argument `train`: a list of sessions, or None ([`super::extract`]).
+    pub fn train_list<'py>(ob: &Bound<'py, PyAny>) -> PyResult<Option<Vec<Bound<'py, PyAny>>>> {
+        super::extract(
+            ob,
+            "train",
+            "a list of sessions (Measurements, paths), or None",
+        )
+    }
 }

@@ -15,7 +15,7 @@ use pyo3::prelude::*;
 
 use crate::calibration::Calibration;
 use crate::data::Measurements;
-use crate::errors;
+use crate::errors::{self, args};
 use crate::model::Model;
 
 /// The Python package's front end, as the command layer names its
@@ -63,6 +63,14 @@ fn session(
         && (data.is_instance_of::<pyo3::types::PyList>()
             || data.is_instance_of::<pyo3::types::PyTuple>());
     let data = if several {
+        if data.len()? == 0 {
+            return Err(errors::argument(
+                py,
+                "data",
+                "an empty list: give one session (Measurements, a path or a built-in data set \
+                 name) or a list of one or more",
+            ));
+        }
         let parts = data
             .try_iter()?
             .map(|d| measurements_of(py, model, &d?, "data"))
@@ -123,28 +131,60 @@ pub(crate) fn measurements_of(
     }
 }
 
+/// How often Python's main thread runs its signal handlers while a
+/// computation runs: the latency of Ctrl-C, less the computation's own.
+const SIGNAL_POLL: std::time::Duration = std::time::Duration::from_millis(10);
+
+/// What an interrupted computation does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum OnInterrupt {
+    /// It polls its `cancelled` check between its steps and stops: the
+    /// exception is raised once it has, so that nothing runs on after it.
+    Stops,
+    /// It has no way to stop: it finishes in the background and its result
+    /// is dropped; the exception is raised at once.
+    RunsOn,
+}
+
 /// Runs `work` on a thread of its own while this one, Python's main thread,
-/// keeps handling its signals: Ctrl-C raises `KeyboardInterrupt` within 20
-/// ms, whatever the work's length. The work has no way to stop: it finishes
-/// in the background and its result is dropped.
+/// keeps handling its signals every [`SIGNAL_POLL`]. When a handler raises
+/// (Ctrl-C: `KeyboardInterrupt`), `work`'s `cancelled` check turns true and
+/// the exception is raised as `on_interrupt` says: for work that stops,
+/// within its longest step between two checks.
 pub(crate) fn interruptible<T: Send + 'static>(
     py: Python<'_>,
-    work: impl FnOnce() -> T + Send + 'static,
+    on_interrupt: OnInterrupt,
+    work: impl FnOnce(&(dyn Fn() -> bool + Sync)) -> T + Send + 'static,
 ) -> PyResult<T> {
-    let handle = std::thread::spawn(work);
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let stop = Arc::new(AtomicBool::new(false));
+    let asked = stop.clone();
+    let handle = std::thread::spawn(move || work(&|| asked.load(Ordering::Relaxed)));
+    let joined = |handle: std::thread::JoinHandle<T>| {
+        handle
+            .join()
+            .map_err(|_| errors::failure("the computation stopped on an internal error"))
+    };
     loop {
         if handle.is_finished() {
-            return handle
-                .join()
-                .map_err(|_| errors::failure("the computation stopped on an internal error"));
+            return joined(handle);
         }
-        py.check_signals()?;
-        py.detach(|| std::thread::sleep(std::time::Duration::from_millis(20)));
+        if let Err(interrupt) = py.check_signals() {
+            stop.store(true, Ordering::Relaxed);
+            if on_interrupt == OnInterrupt::Stops {
+                // Its result (a cancellation, or what it finished) is dropped.
+                let _ = py.detach(|| handle.join());
+            }
+            return Err(interrupt);
+        }
+        py.detach(|| std::thread::sleep(SIGNAL_POLL));
     }
 }
 
 /// `work` on `model` and the session's `rows` on a thread of its own
-/// ([`interruptible`]); its result and the rows, back.
+/// ([`interruptible`]; it runs on when interrupted); its result and the
+/// rows, back.
 fn on_rows<T: Send + 'static>(
     py: Python<'_>,
     model: &Model,
@@ -153,7 +193,7 @@ fn on_rows<T: Send + 'static>(
 ) -> PyResult<(T, measurements::Measurements)> {
     let (m, rows) = (model.inner.clone(), std::sync::Arc::new(rows));
     let shared = rows.clone();
-    let result = interruptible(py, move || work(&m, &shared))?;
+    let result = interruptible(py, OnInterrupt::RunsOn, move |_| work(&m, &shared))?;
     Ok((result, std::sync::Arc::unwrap_or_clone(rows)))
 }
 
@@ -204,7 +244,7 @@ fn targets(py: Python<'_>, targets: &str) -> PyResult<TargetFrame> {
 /// `targets`: `world` or `base`; `torque_sign`: of the `tau` columns,
 /// `drive` or `load` (as `--torque-sign`; default: read from the data).
 #[pyfunction(name = "identify")]
-#[pyo3(signature = (model, data, params = "full", *, position_noise = None, orientation_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None, prior_scale = "chosen", orientation_weight = "chosen", targets = "world", same_base = false, same_tool = false, torque_sign = None))]
+#[pyo3(signature = (model, data, params = String::from("full"), *, position_noise = None, orientation_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None, prior_scale = String::from("chosen"), orientation_weight = String::from("chosen"), targets = String::from("world"), same_base = false, same_tool = false, torque_sign = None))]
 #[expect(
     clippy::too_many_arguments,
     reason = "a parameter per Python keyword argument, as the signature above lists them"
@@ -213,21 +253,21 @@ pub fn identify_py(
     py: Python<'_>,
     model: &Model,
     data: &Bound<'_, PyAny>,
-    params: &str,
-    position_noise: Option<f64>,
-    orientation_noise: Option<f64>,
-    point_noise: Option<f64>,
-    plane_noise: Option<f64>,
-    prior_length: Option<f64>,
-    prior_angle: Option<f64>,
-    prior_scale: &str,
-    orientation_weight: &str,
-    targets: &str,
-    same_base: bool,
-    same_tool: bool,
-    torque_sign: Option<&str>,
+    #[pyo3(from_py_with = args::params)] params: String,
+    #[pyo3(from_py_with = args::position_noise)] position_noise: Option<f64>,
+    #[pyo3(from_py_with = args::orientation_noise)] orientation_noise: Option<f64>,
+    #[pyo3(from_py_with = args::point_noise)] point_noise: Option<f64>,
+    #[pyo3(from_py_with = args::plane_noise)] plane_noise: Option<f64>,
+    #[pyo3(from_py_with = args::prior_length)] prior_length: Option<f64>,
+    #[pyo3(from_py_with = args::prior_angle)] prior_angle: Option<f64>,
+    #[pyo3(from_py_with = args::prior_scale)] prior_scale: String,
+    #[pyo3(from_py_with = args::orientation_weight)] orientation_weight: String,
+    #[pyo3(from_py_with = args::targets)] targets: String,
+    #[pyo3(from_py_with = args::same_base)] same_base: bool,
+    #[pyo3(from_py_with = args::same_tool)] same_tool: bool,
+    #[pyo3(from_py_with = args::torque_sign)] torque_sign: Option<String>,
 ) -> PyResult<Py<Identification>> {
-    let prior_scale = match prior_scale {
+    let prior_scale = match prior_scale.as_str() {
         "chosen" => PriorScale::default(),
         "stated" => PriorScale::Stated,
         other => {
@@ -238,7 +278,7 @@ pub fn identify_py(
             ));
         }
     };
-    let params = match params {
+    let params = match params.as_str() {
         "full" => ParamSet::Full,
         "paper" => ParamSet::Paper,
         other => {
@@ -260,10 +300,10 @@ pub fn identify_py(
             prior_angle,
         },
         prior_scale,
-        orientation_weight: self::orientation_weight(py, orientation_weight)?,
-        targets: self::targets(py, targets)?,
+        orientation_weight: self::orientation_weight(py, &orientation_weight)?,
+        targets: self::targets(py, &targets)?,
         frames: FrameSharing::stated(same_base, same_tool),
-        torque_sign: self::torque_sign(py, torque_sign)?,
+        torque_sign: self::torque_sign(py, torque_sign.as_deref())?,
     };
     let (data, arrays) = session(py, model, data, request.frames)?;
     let (identified, data) = on_rows(py, model, data.data, move |m, rows| {
@@ -293,9 +333,7 @@ fn orientation_weight(py: Python<'_>, text: &str) -> PyResult<OrientationWeight>
         errors::argument(
             py,
             "orientation_weight",
-            format!(
-                "{text:?}: expected \"chosen\", \"estimated\", \"0.1\", \"0.01\" or \"none\""
-            ),
+            format!("{text:?}: expected \"chosen\", \"estimated\", \"0.1\", \"0.01\" or \"none\""),
         )
     })
 }
@@ -307,7 +345,7 @@ fn orientation_weight(py: Python<'_>, text: &str) -> PyResult<OrientationWeight>
 /// pose with fewer poses). Other options as `identify` (`torque_sign`
 /// included).
 #[pyfunction]
-#[pyo3(signature = (model, data, *, folds = None, position_noise = None, orientation_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None, orientation_weight = "chosen", targets = "world", same_base = false, same_tool = false, torque_sign = None))]
+#[pyo3(signature = (model, data, *, folds = None, position_noise = None, orientation_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None, orientation_weight = String::from("chosen"), targets = String::from("world"), same_base = false, same_tool = false, torque_sign = None))]
 #[expect(
     clippy::too_many_arguments,
     reason = "a parameter per Python keyword argument, as the signature above lists them"
@@ -316,18 +354,18 @@ pub fn diagnose(
     py: Python<'_>,
     model: &Model,
     data: &Bound<'_, PyAny>,
-    folds: Option<usize>,
-    position_noise: Option<f64>,
-    orientation_noise: Option<f64>,
-    point_noise: Option<f64>,
-    plane_noise: Option<f64>,
-    prior_length: Option<f64>,
-    prior_angle: Option<f64>,
-    orientation_weight: &str,
-    targets: &str,
-    same_base: bool,
-    same_tool: bool,
-    torque_sign: Option<&str>,
+    #[pyo3(from_py_with = args::folds)] folds: Option<usize>,
+    #[pyo3(from_py_with = args::position_noise)] position_noise: Option<f64>,
+    #[pyo3(from_py_with = args::orientation_noise)] orientation_noise: Option<f64>,
+    #[pyo3(from_py_with = args::point_noise)] point_noise: Option<f64>,
+    #[pyo3(from_py_with = args::plane_noise)] plane_noise: Option<f64>,
+    #[pyo3(from_py_with = args::prior_length)] prior_length: Option<f64>,
+    #[pyo3(from_py_with = args::prior_angle)] prior_angle: Option<f64>,
+    #[pyo3(from_py_with = args::orientation_weight)] orientation_weight: String,
+    #[pyo3(from_py_with = args::targets)] targets: String,
+    #[pyo3(from_py_with = args::same_base)] same_base: bool,
+    #[pyo3(from_py_with = args::same_tool)] same_tool: bool,
+    #[pyo3(from_py_with = args::torque_sign)] torque_sign: Option<String>,
 ) -> PyResult<Py<Diagnosis>> {
     let request = diagnose_cmd::Request {
         folds,
@@ -339,10 +377,10 @@ pub fn diagnose(
             prior_length,
             prior_angle,
         },
-        orientation_weight: self::orientation_weight(py, orientation_weight)?,
-        targets: self::targets(py, targets)?,
+        orientation_weight: self::orientation_weight(py, &orientation_weight)?,
+        targets: self::targets(py, &targets)?,
         frames: FrameSharing::stated(same_base, same_tool),
-        torque_sign: self::torque_sign(py, torque_sign)?,
+        torque_sign: self::torque_sign(py, torque_sign.as_deref())?,
     };
     let (data, arrays) = session(py, model, data, request.frames)?;
     let (diagnosed, data) = on_rows(py, model, data.data, move |m, rows| {

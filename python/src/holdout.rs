@@ -16,7 +16,7 @@ use armcal::io::measurements;
 use pyo3::prelude::*;
 use serde_json::json;
 
-use crate::errors;
+use crate::errors::{self, args};
 use crate::fit::{PYTHON, measurements_of};
 use crate::model::Model;
 
@@ -48,7 +48,7 @@ use crate::model::Model;
 /// and `distances` (`points` [a, b], `stated`, `error`). Lengths in the
 /// model's unit.
 #[pyfunction]
-#[pyo3(signature = (model, sessions, *, train = None, reference = None, select = "prior", position_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None))]
+#[pyo3(signature = (model, sessions, *, train = None, reference = None, select = String::from("prior"), position_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None))]
 #[expect(
     clippy::too_many_arguments,
     reason = "a parameter per Python keyword argument, as the signature above lists them"
@@ -56,18 +56,18 @@ use crate::model::Model;
 pub fn holdout<'py>(
     py: Python<'py>,
     model: &Model,
-    sessions: Vec<Bound<'py, PyAny>>,
-    train: Option<Vec<Bound<'py, PyAny>>>,
+    #[pyo3(from_py_with = args::sessions_list)] sessions: Vec<Bound<'py, PyAny>>,
+    #[pyo3(from_py_with = args::train_list)] train: Option<Vec<Bound<'py, PyAny>>>,
     reference: Option<&Model>,
-    select: &str,
-    position_noise: Option<f64>,
-    point_noise: Option<f64>,
-    plane_noise: Option<f64>,
-    prior_length: Option<f64>,
-    prior_angle: Option<f64>,
+    #[pyo3(from_py_with = args::select)] select: String,
+    #[pyo3(from_py_with = args::position_noise)] position_noise: Option<f64>,
+    #[pyo3(from_py_with = args::point_noise)] point_noise: Option<f64>,
+    #[pyo3(from_py_with = args::plane_noise)] plane_noise: Option<f64>,
+    #[pyo3(from_py_with = args::prior_length)] prior_length: Option<f64>,
+    #[pyo3(from_py_with = args::prior_angle)] prior_angle: Option<f64>,
 ) -> PyResult<Vec<Bound<'py, PyAny>>> {
     let m = &model.inner;
-    let calibrate = match select {
+    let calibrate = match select.as_str() {
         "stated" => Calibrate::Stated,
         "prior" => Calibrate::Prior,
         "diagnose" => Calibrate::Diagnosis,

@@ -5,8 +5,8 @@ use armcal::commands::plan::{Request, run, within_limits};
 use armcal::io::arrays;
 use pyo3::prelude::*;
 
-use crate::errors::{self, ArrayLike, Owned};
-use crate::fit::PYTHON;
+use crate::errors::{self, ArrayLike, Owned, args};
+use crate::fit::{OnInterrupt, PYTHON, interruptible};
 use crate::model::Model;
 
 /// The joint rows of the array `a` (named `name`), SI.
@@ -37,6 +37,9 @@ fn joint_rows(
 /// file) plans a session seating a ball in them (the report's `socket_of`
 /// names each row's socket). Returns the poses, an `(poses, M)` array in the
 /// model's units in measurement order, and the report (`--json`'s) as a dict.
+///
+/// Ctrl-C stops the plan within a step of its loops (a pass over the
+/// candidates) and raises `KeyboardInterrupt`.
 #[pyfunction]
 #[pyo3(signature = (model, poses = 30, *, orientation = false, noise = None, orientation_noise = None, within = None, above = None, margin = None, candidates = None, targets = None, effects = Vec::new(), sockets = None, seed = 1))]
 #[expect(
@@ -46,18 +49,18 @@ fn joint_rows(
 pub fn plan<'py>(
     py: Python<'py>,
     model: &Model,
-    poses: usize,
-    orientation: bool,
-    noise: Option<f64>,
-    orientation_noise: Option<f64>,
-    within: Option<Vec<f64>>,
-    above: Option<f64>,
-    margin: Option<f64>,
+    #[pyo3(from_py_with = args::poses)] poses: usize,
+    #[pyo3(from_py_with = args::orientation)] orientation: bool,
+    #[pyo3(from_py_with = args::noise)] noise: Option<f64>,
+    #[pyo3(from_py_with = args::orientation_noise)] orientation_noise: Option<f64>,
+    #[pyo3(from_py_with = args::within)] within: Option<Vec<f64>>,
+    #[pyo3(from_py_with = args::above)] above: Option<f64>,
+    #[pyo3(from_py_with = args::margin)] margin: Option<f64>,
     candidates: Option<ArrayLike<'py>>,
     targets: Option<ArrayLike<'py>>,
-    effects: Vec<String>,
-    sockets: Option<String>,
-    seed: u64,
+    #[pyo3(from_py_with = args::plan_effects)] effects: Vec<String>,
+    #[pyo3(from_py_with = args::sockets)] sockets: Option<String>,
+    #[pyo3(from_py_with = args::seed)] seed: u64,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
     let m = &model.inner;
     let request = Request {
@@ -86,9 +89,18 @@ pub fn plan<'py>(
     let targets = targets
         .map(|a| joint_rows(py, model, "targets", &a))
         .transpose()?;
-    let (plan, options) = py
-        .detach(|| run(PYTHON, m, &request, from.as_deref(), targets.as_deref()))
-        .map_err(|e| errors::command(py, e, true))?;
+    let model_of_run = m.clone();
+    let (plan, options) = interruptible(py, OnInterrupt::Stops, move |cancelled| {
+        run(
+            PYTHON,
+            &model_of_run,
+            &request,
+            from.as_deref(),
+            targets.as_deref(),
+            cancelled,
+        )
+    })?
+    .map_err(|e| errors::command(py, e, true))?;
     let joints: Vec<Vec<f64>> = plan
         .q
         .iter()

@@ -19,6 +19,11 @@
 //! command by the identified errors, milliradians, not what this is about). A
 //! value on a bound is inside.
 //!
+//! Precision: rows given as float32 (the Python package's arrays) are held
+//! to the ranges at float32's resolution ([`Resolution`]): a value on a bound,
+//! rounded to float32, may lie beyond it by half a float32 step, and is not
+//! named for that.
+//!
 //! Units: the calibration's model units for joints (its angle unit for a
 //! revolute joint, its length unit for a prismatic one), °C and kg for the
 //! conditions.
@@ -71,6 +76,41 @@ impl RowNames {
     }
 }
 
+/// The precision the values of a quantity were given in.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Resolution {
+    /// As they are (a file's decimals, float64 arrays): held to the bounds.
+    #[default]
+    Exact,
+    /// Rounded to float32 in the model's units (float32 arrays): held to the
+    /// bounds as rounded to float32 the same way, so that a value given on a
+    /// bound is inside.
+    Float32,
+}
+
+/// The precision of each quantity of a joints input: the joint readings,
+/// the temperatures and the payloads.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Resolutions {
+    /// Of the joint readings.
+    pub joints: Resolution,
+    /// Of the temperatures.
+    pub temp: Resolution,
+    /// Of the payloads.
+    pub load: Resolution,
+}
+
+impl Resolutions {
+    /// The resolution of `quantity`'s values.
+    fn of(self, quantity: Quantity) -> Resolution {
+        match quantity {
+            Quantity::Joint(_) => self.joints,
+            Quantity::Temperature => self.temp,
+            Quantity::Load => self.load,
+        }
+    }
+}
+
 /// A quantity a calibration records the range of.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Quantity {
@@ -98,6 +138,39 @@ impl Quantity {
             Self::Joint(m) => row.q.get(m).copied(),
             Self::Temperature => row.temp,
             Self::Load => row.load,
+        }
+    }
+
+    /// `x` in the calibration's units, SI.
+    fn to_si(self, cal: &Calibration, x: f64) -> f64 {
+        match self {
+            Self::Joint(m) => cal.units.joint_to_si(cal.nominal.links[m].joint, x),
+            Self::Temperature | Self::Load => x,
+        }
+    }
+
+    /// `range` (SI) as values given at `resolution` state it: for float32,
+    /// each bound rounded to float32 in the calibration's units where that
+    /// widens it. Rounding is monotone, so a value within the range rounds
+    /// to within the rounded bounds.
+    fn held_to(
+        self,
+        cal: &Calibration,
+        range: &Interval<f64>,
+        resolution: Resolution,
+    ) -> Interval<f64> {
+        match resolution {
+            Resolution::Exact => *range,
+            Resolution::Float32 => {
+                let rounded = |x: f64| {
+                    let (in_units, _) = self.in_units(cal, x);
+                    self.to_si(cal, f64::from(in_units as f32))
+                };
+                Interval {
+                    min: range.min.min(rounded(range.min)),
+                    max: range.max.max(rounded(range.max)),
+                }
+            }
         }
     }
 
@@ -142,15 +215,17 @@ fn beyond(
     names: RowNames,
     quantity: Quantity,
     range: &Interval<f64>,
+    resolution: Resolution,
 ) -> Option<String> {
+    let held = quantity.held_to(cal, range, resolution);
     let mut lines = Vec::new();
     let mut worst = 0.0f64;
     for row in &rows.rows {
         if let Some(x) = quantity.value(row)
-            && range.excludes(x)
+            && held.excludes(x)
         {
             lines.push(row.line);
-            worst = worst.max(range.excess(x));
+            worst = worst.max(held.excess(x));
         }
     }
     if lines.is_empty() {
@@ -250,6 +325,16 @@ fn missing(
 /// ranges. Empty when the rows lie within what the calibration was
 /// identified on.
 pub fn check(cal: &Calibration, rows: &JointRows, names: RowNames) -> Vec<String> {
+    check_at(cal, rows, names, Resolutions::default())
+}
+
+/// [`check`] of rows whose quantities were given at `resolutions`.
+pub fn check_at(
+    cal: &Calibration,
+    rows: &JointRows,
+    names: RowNames,
+    resolutions: Resolutions,
+) -> Vec<String> {
     let mut out = Vec::new();
     match &cal.ranges {
         Some(ranges) => {
@@ -268,7 +353,7 @@ pub fn check(cal: &Calibration, rows: &JointRows, names: RowNames) -> Vec<String
             out.extend(
                 joints
                     .chain(conditions)
-                    .filter_map(|(q, r)| beyond(cal, rows, names, q, r)),
+                    .filter_map(|(q, r)| beyond(cal, rows, names, q, r, resolutions.of(q))),
             );
         }
         None if !rows.rows.is_empty() => out.push(format!(
@@ -377,6 +462,52 @@ mod tests {
         // As numpy rows: counted from 0.
         let w = check(&cal, &rows(&cal, &text), RowNames::ArrayRows);
         assert!(w[0].contains("(rows 2, 3, 4)"), "{}", w[0]);
+    }
+
+    /// Joint 1 identified up to 10.1° and the temperature up to 30.1 °C,
+    /// values float32 rounds up (10.1000004°, 30.1000004 °C): rows at those
+    /// bounds given as float32 are named when held to the exact bounds, not
+    /// at float32's resolution; a float32 step beyond is named at either.
+    #[test]
+    fn float32_values_on_a_bound_are_inside_at_float32_resolution() {
+        let mut cal = calibration();
+        let (q1, temp) = (10.1f64, 30.1f64);
+        cal.ranges = Some(Ranges::of([
+            (&[-q1.to_radians(), 0.0][..], Some(20.0), Some(0.0)),
+            (&[q1.to_radians(), 0.2][..], Some(temp), Some(5.0)),
+        ]));
+        let as_float32 = |x: f64| f64::from(x as f32);
+        let step_beyond = |x: f64| f64::from(f32::from_bits((x as f32).to_bits() + 1));
+        assert!(as_float32(q1) > q1 && as_float32(temp) > temp);
+        let float32 = Resolutions {
+            joints: Resolution::Float32,
+            temp: Resolution::Float32,
+            load: Resolution::Exact,
+        };
+        let on_bounds = rows(
+            &cal,
+            &format!(
+                "q1,q2,temp,load\n{},100,{},1\n",
+                as_float32(q1),
+                as_float32(temp)
+            ),
+        );
+        let exact = check(&cal, &on_bounds, RowNames::ArrayRows);
+        assert_eq!(exact.len(), 2, "{exact:#?}");
+        let w = check_at(&cal, &on_bounds, RowNames::ArrayRows, float32);
+        assert_eq!(w, Vec::<String>::new());
+        let beyond = rows(
+            &cal,
+            &format!(
+                "q1,q2,temp,load\n{},100,{},1\n",
+                step_beyond(q1),
+                step_beyond(temp)
+            ),
+        );
+        let w = check_at(&cal, &beyond, RowNames::ArrayRows, float32);
+        assert_eq!(w.len(), 2, "{w:#?}");
+        assert!(w[0].starts_with("j.csv: q1 outside"), "{}", w[0]);
+        assert!(w[1].starts_with("j.csv: temp outside"), "{}", w[1]);
     }
 
     /// More rows outside than are named: the first five, then `…`.

@@ -261,7 +261,7 @@ pub fn is_refusal(err: &anyhow::Error) -> bool {
         || err.downcast_ref::<PaperError>().is_some()
         || err
             .downcast_ref::<crate::calibration::plan::PlanError>()
-            .is_some()
+            .is_some_and(|e| !matches!(e, crate::calibration::plan::PlanError::Cancelled))
         || err
             .downcast_ref::<IdentifyError>()
             .is_some_and(|e| !matches!(e, IdentifyError::Calibration(_)))

@@ -6,7 +6,7 @@
 //! the plan is SI.
 
 use super::Front;
-use crate::calibration::plan::{Plan, PlanOptions, Visits, plan};
+use crate::calibration::plan::{Plan, PlanOptions, Visits, plan_cancellable};
 use crate::io::input_error::InputError;
 use crate::io::model_file::RobotModel;
 use crate::io::sockets::Sockets;
@@ -234,13 +234,16 @@ pub fn within_limits(
 
 /// The plan `request` asks of `model`, from the candidates `from` (SI; the
 /// ones within the limits) or random ones, for the workspace `targets` (SI)
-/// or random configurations.
+/// or random configurations; giving up with
+/// [`crate::calibration::plan::PlanError::Cancelled`] once `cancelled` is
+/// true (asked between the plan's steps).
 pub fn run(
     front: Front,
     model: &RobotModel,
     request: &Request,
     from: Option<&[Vec<f64>]>,
     targets: Option<&[Vec<f64>]>,
+    cancelled: &(dyn Fn() -> bool + Sync),
 ) -> anyhow::Result<(Plan, PlanOptions)> {
     let options = request.options(front, model)?;
     if options.sockets.is_some() && from.is_some() {
@@ -264,6 +267,6 @@ pub fn run(
         )
         .into());
     }
-    let plan = plan(&model.robot, from, targets, &options)?;
+    let plan = plan_cancellable(&model.robot, from, targets, &options, cancelled)?;
     Ok((plan, options))
 }

@@ -99,19 +99,24 @@ const RIDGE: f64 = 1e-6;
 /// scaled columns: the prior's precision, and for a socket plan the known
 /// distances'), one for each of `slots`: each slot takes a candidate of its
 /// group (`group`, each candidate's: a socket plan's sockets; all 0
-/// otherwise), in the order chosen.
+/// otherwise), in the order chosen. `cancelled` is asked before each pass
+/// over the candidates (each pose put in): `None` once it is true.
 pub fn choose(
     candidates: &Candidates,
     w: &DMatrix<f64>,
     prior: &DMatrix<f64>,
     slots: &[usize],
     group: &[usize],
-) -> Vec<usize> {
+    cancelled: &(dyn Fn() -> bool + Sync),
+) -> Option<Vec<usize>> {
     let p = candidates.jt.nrows();
     let start = prior + DMatrix::identity(p, p) * RIDGE;
     let mut plan: Vec<usize> = Vec::with_capacity(slots.len());
     let mut m = start.clone();
     for &slot in slots {
+        if cancelled() {
+            return None;
+        }
         let Some(c) = best(candidates, &m, w, (&plan, None), (group, slot)) else {
             break;
         };
@@ -126,6 +131,9 @@ pub fn choose(
     for _ in 0..PASSES {
         let before = current;
         for i in 0..plan.len() {
+            if cancelled() {
+                return None;
+            }
             let out = candidates.block(plan[i]);
             let without = &m - out.transpose() * &out;
             let Some(c) = best(candidates, &without, w, (&plan, Some(i)), (group, slots[i])) else {
@@ -144,7 +152,7 @@ pub fn choose(
             break;
         }
     }
-    plan
+    Some(plan)
 }
 
 /// The candidate of group `slot` among `group` (not in `plan`, but for its

@@ -272,6 +272,9 @@ pub enum PlanError {
         /// Poses it needs.
         least: usize,
     },
+    /// The caller's `cancelled` check turned true ([`plan_cancellable`]).
+    #[error("the plan was cancelled")]
+    Cancelled,
 }
 
 /// `n` random configurations of `robot` within its joint limits less
@@ -533,7 +536,28 @@ pub fn plan(
     targets: Option<&[Vec<f64>]>,
     options: &PlanOptions,
 ) -> Result<Plan, PlanError> {
+    plan_cancellable(robot, candidates, targets, options, &|| false)
+}
+
+/// [`plan`], asking `cancelled` between its steps (each stage, each pose
+/// the exchange puts in: a pass over the candidates) and giving up with
+/// [`PlanError::Cancelled`] once it is true (Python's Ctrl-C).
+pub fn plan_cancellable(
+    robot: &Robot<f64>,
+    candidates: Option<&[Vec<f64>]>,
+    targets: Option<&[Vec<f64>]>,
+    options: &PlanOptions,
+    cancelled: &(dyn Fn() -> bool + Sync),
+) -> Result<Plan, PlanError> {
+    let check = || {
+        if cancelled() {
+            Err(PlanError::Cancelled)
+        } else {
+            Ok(())
+        }
+    };
     let pool = pool(robot, candidates, options)?;
+    check()?;
     let sockets = options.sockets.as_ref().map_or(0, |s| s.sockets.len());
     let compliance = if options.compliance {
         compliance_joints(robot, &pool.q)
@@ -547,6 +571,7 @@ pub fn plan(
         &compliance,
         options,
     );
+    check()?;
     let rows = if options.orientation { 6 } else { 3 };
     let distances = options.sockets.as_ref().map_or(0, |s| s.distances.len());
     // What the plan separates, and at least what `identify` asks equations
@@ -577,12 +602,16 @@ pub fn plan(
             &workspace_drawn
         }
     };
+    check()?;
     let criterion = Criterion::of(robot, workspace, options, &pool, &all);
+    check()?;
     let slots = match &pool.socket_of {
         Some(_) => sockets::slots(options.poses, sockets),
         None => vec![0; options.poses],
     };
-    let chosen = criterion.choose(robot, &pool, &slots);
+    let chosen = criterion
+        .choose(robot, &pool, &slots, cancelled)
+        .ok_or(PlanError::Cancelled)?;
     let socket_at = |picked: &[usize]| {
         pool.socket_of
             .as_ref()
@@ -902,8 +931,14 @@ impl Criterion {
 
     /// The candidates of `pool` the exchange chooses ([`design::choose`]),
     /// one for each of `slots` (the socket of each pose of a socket plan;
-    /// all 0 otherwise), in the order chosen.
-    fn choose(&self, robot: &Robot<f64>, pool: &Pool, slots: &[usize]) -> Vec<usize> {
+    /// all 0 otherwise), in the order chosen; `None` once `cancelled`.
+    fn choose(
+        &self,
+        robot: &Robot<f64>,
+        pool: &Pool,
+        slots: &[usize],
+        cancelled: &(dyn Fn() -> bool + Sync),
+    ) -> Option<Vec<usize>> {
         let rows = if self.noise.1.is_some() { 6 } else { 3 };
         let j = jacobian(
             robot,
@@ -933,6 +968,7 @@ impl Criterion {
             &(&d * &self.prior * &d),
             slots,
             &group,
+            cancelled,
         )
     }
 
