@@ -13,7 +13,7 @@
 //!
 //! Which weight predicts the tool point best is measured, as the prior's
 //! scale is ([`super::prior_scale`]): about the fit at the weight the noise
-//! gives (`w = 1`), the folds' normal equations ([`fold_normals`]) give, for
+//! gives (`w = 1`), the folds' normal equations ([`fold_normals`](crate::calibration::identify::full::fold_normals)) give, for
 //! the orientation rows weighed `w` times as much and the prior `f` times as
 //! wide, fold `k`'s MAP step
 //!
