@@ -161,6 +161,34 @@ impl Request {
         if self.sessions == 0 {
             return Err(Argument::SimulatedSessions.refused(front, "0: at least 1"));
         }
+        // The poses go in consecutive blocks of ⌈poses/sessions⌉, the last
+        // one what is left; each session but the first has its own base frame
+        // and tool, which its rows must determine with equations to spare
+        // (9 unknowns: 4 positions; 12 with orientations: 3 full poses), or
+        // armcal refuses the file written (`require_own_frames`).
+        if self.sessions > 1 {
+            let least = if self.orientation_noise.is_some() {
+                3
+            } else {
+                4
+            };
+            let block = self.poses.div_ceil(self.sessions);
+            let last = self.poses.saturating_sub((self.sessions - 1) * block);
+            if last < least {
+                return Err(Argument::SimulatedSessions.refused(
+                    front,
+                    format!(
+                        "{}: {} in blocks of {block} leave {} to the last session, which needs at \
+                         least {least} to determine its own base frame and tool; give at least {} \
+                         poses, or fewer sessions",
+                        self.sessions,
+                        crate::session::measurements::plural(self.poses, "pose"),
+                        last,
+                        self.sessions * least
+                    ),
+                ));
+            }
+        }
         // Each size given checked and in SI.
         let si = |argument: Argument, given: Option<[f64; 2]>| {
             given

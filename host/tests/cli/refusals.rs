@@ -175,6 +175,15 @@ fn bad_arguments_exit_two_naming_the_argument() {
             sim(&["--payloads", "1e300"]),
             "--payloads: 1e300: a payload",
         ),
+        // Sessions armcal would refuse to read back are not written.
+        (
+            sim(&["--poses", "5", "--sessions", "10"]),
+            "--sessions: 10: 5 poses in blocks of 1 leave 0 to the last session",
+        ),
+        (
+            sim(&["--poses", "17", "--sessions", "4"]),
+            "give at least 16 poses",
+        ),
         (sim(&["--noise", "nan"]), "--noise"),
         (sim(&["--orientation-noise=-1"]), "--orientation-noise"),
         // A bias of orientations not measured.
