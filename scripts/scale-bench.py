@@ -90,13 +90,16 @@ def main():
                     rows += 1
                     if rows == 100_000:
                         break
-        # The most rows a measurement file holds, each as short as a row is.
+        # The most rows a measurement file holds, each as short as a row is:
+        # 10⁵ configurations (q1 in steps of 60 µrad) at 30 values of q2.
         short = os.path.join(tmp, "short-3e6.csv")
         with open(short, "w") as dst:
             dst.write("q1,q2,q3,q4,q5,q6,x,y,z\n")
-            row = "0.1,0.2,0.3,0.4,0.5,0.6,0.1,0.2,0.3\n"
-            for _ in range(300):
-                dst.write(row * 10_000)
+            for k in range(30):
+                q2 = f"{0.01 * k:.2f}"
+                dst.write("".join(
+                    f"{q1},{q2},0.3,0.4,0.5,0.6,{q1},{q2},{q1}\n"
+                    for q1 in (f"{-3 + 6e-5 * i:.5f}" for i in range(100_000))))
         cases = {
             "simulate 10^6": [armcal, "simulate", "--model", "puma560", "--poses", "1000000",
                               "--seed", "1", "--out", os.path.join(tmp, "again.csv")],

@@ -373,6 +373,7 @@ pub struct PureError {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use armcal_shared::Link;
     use nalgebra::Point3;
 
     /// A repeatability test (one pose read 10⁵ times, the encoders jittering
@@ -382,7 +383,18 @@ mod tests {
     /// pose one resolution step away is another configuration.
     #[test]
     fn a_pose_read_many_times_is_one_configuration_found_in_linear_time() {
-        let robot = crate::io::model_file::load_model("ur5e").unwrap().robot;
+        // Six revolute joints with a UR5e's lengths.
+        let link = |s: f64, a: f64, alpha: f64| Link::new(JointType::Revolute, 0.0, s, a, alpha);
+        let half = std::f64::consts::FRAC_PI_2;
+        let links = [
+            link(0.1625, 0.0, half),
+            link(0.0, -0.425, 0.0),
+            link(0.0, -0.3922, 0.0),
+            link(0.1333, 0.0, half),
+            link(0.0997, 0.0, -half),
+            link(0.0996, 0.0, 0.0),
+        ];
+        let robot = Robot::new(armcal_shared::Convention::Dh, &links).unwrap();
         let q0 = [0.1, -1.2, 1.3, -0.4, 1.5, 0.6];
         let mut data: Vec<Observation> = (0..100_000)
             .map(|i| {
