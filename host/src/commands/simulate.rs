@@ -162,16 +162,14 @@ impl Request {
             return Err(Argument::SimulatedSessions.refused(front, "0: at least 1"));
         }
         // The poses go in consecutive blocks of ⌈poses/sessions⌉, the last
-        // one what is left; each session but the first has its own base frame
-        // and tool, which its rows must determine with equations to spare
-        // (9 unknowns: 4 positions; 12 with orientations: 3 full poses), or
-        // armcal refuses the file written (`require_own_frames`).
+        // one what is left; each session has its own base frame and tool,
+        // which its rows must determine with equations to spare, or armcal
+        // refuses the file written (`require_own_frames`).
         if self.sessions > 1 {
-            let least = if self.orientation_noise.is_some() {
-                3
-            } else {
-                4
-            };
+            let least = crate::session::measurements::fewest_poses_of_a_session(
+                crate::session::registration::FrameSharing::stated(false, false),
+                self.orientation_noise.is_some(),
+            );
             let block = self.poses.div_ceil(self.sessions);
             let last = self.poses.saturating_sub((self.sessions - 1) * block);
             if last < least {

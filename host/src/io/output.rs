@@ -431,16 +431,29 @@ fn classify(planned: &Planned) -> Result<Target, InputError> {
 /// The temporary of `target` for process `pid` (`-attempt` after a name
 /// taken): `.NAME.PID[-k].armcal-partial` beside it.
 fn temporary_name(target: &Path, pid: u32, attempt: usize) -> Option<PathBuf> {
-    let name = target.file_name()?.to_string_lossy();
-    // Short enough for the file system whatever the target's name (255 bytes).
-    let name: String = name.chars().take(120).collect();
+    let prefix = temporary_prefix(target)?;
     let suffix = if attempt == 0 {
         String::new()
     } else {
         format!("-{attempt}")
     };
-    Some(target.with_file_name(format!(".{name}.{pid}{suffix}.armcal-partial")))
+    Some(target.with_file_name(format!("{prefix}{pid}{suffix}{PARTIAL}")))
 }
+
+/// What every temporary of `target` starts with, `.NAME.`: its name cut
+/// short enough for the file system whatever the target's (255 bytes).
+fn temporary_prefix(target: &Path) -> Option<String> {
+    let name: String = target
+        .file_name()?
+        .to_string_lossy()
+        .chars()
+        .take(120)
+        .collect();
+    Some(format!(".{name}."))
+}
+
+/// What every temporary's name ends with.
+const PARTIAL: &str = ".armcal-partial";
 
 /// Whether process `pid` may be running: `false` only when the system's
 /// process table (`/proc`) says it is not.
@@ -452,16 +465,15 @@ fn may_be_running(pid: u32) -> bool {
 /// clean up left behind (`SIGKILL`, the out-of-memory killer): those of a
 /// process no longer running. A running one's are its own.
 fn remove_stale(target: &Path) {
-    let (Some(name), Ok(entries)) = (target.file_name(), fs::read_dir(parent_of(target))) else {
+    let (Some(prefix), Ok(entries)) = (temporary_prefix(target), fs::read_dir(parent_of(target)))
+    else {
         return;
     };
-    let name: String = name.to_string_lossy().chars().take(120).collect();
-    let prefix = format!(".{name}.");
     for entry in entries.flatten() {
         let file = entry.file_name().to_string_lossy().into_owned();
         let Some(rest) = file
             .strip_prefix(&prefix)
-            .and_then(|r| r.strip_suffix(".armcal-partial"))
+            .and_then(|r| r.strip_suffix(PARTIAL))
         else {
             continue;
         };

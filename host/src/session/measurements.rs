@@ -484,7 +484,7 @@ impl Measurements {
                         "distinct configuration"
                     ),
                     frames.describe(),
-                    (unknowns + 1).div_ceil(per_pose),
+                    fewest_poses_of_a_session(sharing, orientation),
                     frames.share_hint()
                 ),
             ));
@@ -850,6 +850,15 @@ enum OwnTool {
     Point,
     /// Its own tool frame, orientations measured: 6 unknowns.
     Frame,
+}
+
+/// The fewest distinct poses a session of several needs for the frames
+/// `sharing` makes its own, with or without measured `orientation`s: more
+/// equations than those frames' unknowns
+/// ([`Measurements::require_own_frames`]).
+pub fn fewest_poses_of_a_session(sharing: FrameSharing, orientation: bool) -> usize {
+    let per_pose = if orientation { 6 } else { 3 };
+    (OwnFrames::of(sharing, orientation).unknowns() + 1).div_ceil(per_pose)
 }
 
 impl OwnFrames {
