@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 
 use armcal::calibration::gravity::TorqueSign;
-use armcal::calibration::identify::channel_weight::OrientationWeight;
+use armcal::calibration::identify::channel_weight::{ChannelWeight, ChannelWeights, Weighed};
 use armcal::calibration::identify::prior_scale::PriorScale;
 use armcal::calibration::identify::{ParamSet, StatedScales};
 use armcal::commands::tool::Tool;
@@ -234,14 +234,8 @@ pub(crate) struct IdentifyArgs {
     /// `stated`: the stated prior as it is.
     #[arg(long, value_enum, default_value = "chosen")]
     pub(crate) prior_scale: PriorScaleArg,
-    /// The orientation rows' weight relative to what their noise gives
-    /// them: `chosen` scores as estimated, 0.1, 0.01 and none by the
-    /// held-out error of the tool point's position (10-fold
-    /// cross-validation) and fits at the best (the largest within two
-    /// standard errors of the least: orientations as clean as their noise
-    /// stay); `estimated`, `0.1`, `0.01`, `none` state it. Full poses only.
-    #[arg(long, value_enum, default_value = "chosen")]
-    pub(crate) orientation_weight: OrientationWeightArg,
+    #[command(flatten)]
+    pub(crate) channel_weights: ChannelWeightArgs,
     /// The frame the compensation's targets will be given in: `world` (the
     /// measurement frame of these data: the identified base is compensated)
     /// or `base` (the robot's own base frame: the identified base, the
@@ -464,14 +458,8 @@ pub(crate) struct DiagnoseArgs {
     /// (default: 10, or one per pose with fewer poses).
     #[arg(long, value_parser = args::at_least(2, "folds"))]
     pub(crate) folds: Option<usize>,
-    /// The orientation rows' weight relative to what their noise gives
-    /// them: `chosen` scores as estimated, 0.1, 0.01 and none by the
-    /// held-out error of the tool point's position (10-fold
-    /// cross-validation) and fits at the best (the largest within two
-    /// standard errors of the least: orientations as clean as their noise
-    /// stay); `estimated`, `0.1`, `0.01`, `none` state it. Full poses only.
-    #[arg(long, value_enum, default_value = "chosen")]
-    pub(crate) orientation_weight: OrientationWeightArg,
+    #[command(flatten)]
+    pub(crate) channel_weights: ChannelWeightArgs,
     /// The frame the compensation's targets will be given in: `world` (the
     /// measurement frame of these data: the identified base is compensated)
     /// or `base` (the robot's own base frame: the identified base, the
@@ -847,11 +835,48 @@ impl From<PriorScaleArg> for PriorScale {
     }
 }
 
+/// The weight of each kind of row beside the measured positions (or, in a
+/// session without a tracker, beside the first kind of contact): chosen on
+/// held-out tool points, or stated.
+#[derive(clap::Args, Clone, Copy, Debug)]
+pub(crate) struct ChannelWeightArgs {
+    /// The orientation rows' weight relative to what their noise gives
+    /// them: `chosen` scores as estimated, 0.1, 0.01 and none by the
+    /// held-out error of the tool point's position (10-fold
+    /// cross-validation) and fits at the best (the largest within two
+    /// standard errors of the least: orientations as clean as their noise
+    /// stay); `estimated`, `0.1`, `0.01`, `none` state it. Full poses only.
+    #[arg(long, value_enum, default_value = "chosen")]
+    pub(crate) orientation_weight: WeightArg,
+    /// The point contacts' weight (a ball in a socket) beside measured
+    /// positions, chosen or stated as --orientation-weight's.
+    #[arg(long, value_enum, default_value = "chosen")]
+    pub(crate) point_weight: WeightArg,
+    /// The plane contacts' weight (a probe on a plate) beside measured
+    /// positions or point contacts, chosen or stated as --orientation-weight's.
+    #[arg(long, value_enum, default_value = "chosen")]
+    pub(crate) plane_weight: WeightArg,
+}
+
+impl ChannelWeightArgs {
+    /// What these flags ask.
+    pub(crate) fn request(&self) -> ChannelWeights {
+        ChannelWeights::from_fn(|w| {
+            match w {
+                Weighed::Orientation => self.orientation_weight,
+                Weighed::Point => self.point_weight,
+                Weighed::Plane => self.plane_weight,
+            }
+            .into()
+        })
+    }
+}
+
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
-pub(crate) enum OrientationWeightArg {
-    /// The weight that predicts held-out positions best.
+pub(crate) enum WeightArg {
+    /// The weight that predicts held-out tool points best.
     Chosen,
-    /// As the orientation noise gives it.
+    /// As the noise gives it.
     Estimated,
     /// A tenth of it.
     #[value(name = "0.1")]
@@ -859,18 +884,18 @@ pub(crate) enum OrientationWeightArg {
     /// A hundredth of it.
     #[value(name = "0.01")]
     Hundredth,
-    /// Not used: the geometry from the positions alone.
+    /// Not used: the geometry from the other rows.
     None,
 }
 
-impl From<OrientationWeightArg> for OrientationWeight {
-    fn from(a: OrientationWeightArg) -> Self {
+impl From<WeightArg> for ChannelWeight {
+    fn from(a: WeightArg) -> Self {
         match a {
-            OrientationWeightArg::Chosen => OrientationWeight::default(),
-            OrientationWeightArg::Estimated => OrientationWeight::Stated(1.0),
-            OrientationWeightArg::Tenth => OrientationWeight::Stated(0.1),
-            OrientationWeightArg::Hundredth => OrientationWeight::Stated(0.01),
-            OrientationWeightArg::None => OrientationWeight::Stated(0.0),
+            WeightArg::Chosen => ChannelWeight::default(),
+            WeightArg::Estimated => ChannelWeight::Stated(1.0),
+            WeightArg::Tenth => ChannelWeight::Stated(0.1),
+            WeightArg::Hundredth => ChannelWeight::Stated(0.01),
+            WeightArg::None => ChannelWeight::Stated(0.0),
         }
     }
 }
@@ -925,7 +950,7 @@ impl IdentifyArgs {
             params: self.params.into(),
             scales: self.weights.scales(),
             prior_scale: self.prior_scale.into(),
-            orientation_weight: self.orientation_weight.into(),
+            channel_weights: self.channel_weights.request(),
             targets: self.targets.into(),
             frames: self.sessions.sharing(),
             torque_sign: self.torques.sign(),
@@ -939,7 +964,7 @@ impl DiagnoseArgs {
         diagnose::Request {
             folds: self.folds,
             scales: self.weights.scales(),
-            orientation_weight: self.orientation_weight.into(),
+            channel_weights: self.channel_weights.request(),
             targets: self.targets.into(),
             frames: self.sessions.sharing(),
             torque_sign: self.torques.sign(),

@@ -315,6 +315,8 @@ pub mod args {
         params: String = "params", "\"full\" or \"paper\"";
         prior_scale: String = "prior_scale", "\"chosen\" or \"stated\"";
         orientation_weight: String = "orientation_weight", "\"chosen\", \"estimated\", \"0.1\", \"0.01\" or \"none\"";
+        point_weight: String = "point_weight", "\"chosen\", \"estimated\", \"0.1\", \"0.01\" or \"none\"";
+        plane_weight: String = "plane_weight", "\"chosen\", \"estimated\", \"0.1\", \"0.01\" or \"none\"";
         orientation_bias: Option<f64> = "orientation_bias", "an angle in the model's angle unit, or None";
         orientation_bias_growth: Option<f64> = "orientation_bias_growth", "an angle per length in the model's units, or None";
         targets: String = "targets", "\"world\" or \"base\"";

@@ -3,7 +3,7 @@
 //! same report (the JSON of `docs/file-formats.md` §6, as Python dicts), the same refusals.
 
 use armcal::calibration::gravity::TorqueSign;
-use armcal::calibration::identify::channel_weight::OrientationWeight;
+use armcal::calibration::identify::channel_weight::{ChannelWeight, ChannelWeights, Weighed};
 use armcal::calibration::identify::prior_scale::PriorScale;
 use armcal::calibration::identify::{ParamSet, StatedScales};
 use armcal::commands::{self, Front, diagnose as diagnose_cmd, identify as identify_cmd};
@@ -240,11 +240,13 @@ fn targets(py: Python<'_>, targets: &str) -> PyResult<TargetFrame> {
 /// held-out poses best, as `--prior-scale chosen`, the default) or `stated`;
 /// `orientation_weight`: of the orientation rows, `chosen` (the weight that
 /// predicts held-out positions best, as `--orientation-weight chosen`, the
-/// default), `estimated`, `0.1`, `0.01` or `none`;
+/// default), `estimated`, `0.1`, `0.01` or `none`; `point_weight`,
+/// `plane_weight`: of the contacts beside another kind that locates the tool
+/// point, likewise (as `--point-weight`, `--plane-weight`);
 /// `targets`: `world` or `base`; `torque_sign`: of the `tau` columns,
 /// `drive` or `load` (as `--torque-sign`; default: read from the data).
 #[pyfunction(name = "identify")]
-#[pyo3(signature = (model, data, params = String::from("full"), *, position_noise = None, orientation_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None, prior_scale = String::from("chosen"), orientation_weight = String::from("chosen"), targets = String::from("world"), same_base = false, same_tool = false, torque_sign = None))]
+#[pyo3(signature = (model, data, params = String::from("full"), *, position_noise = None, orientation_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None, prior_scale = String::from("chosen"), orientation_weight = String::from("chosen"), point_weight = String::from("chosen"), plane_weight = String::from("chosen"), targets = String::from("world"), same_base = false, same_tool = false, torque_sign = None))]
 #[expect(
     clippy::too_many_arguments,
     reason = "a parameter per Python keyword argument, as the signature above lists them"
@@ -262,6 +264,8 @@ pub fn identify_py(
     #[pyo3(from_py_with = args::prior_angle)] prior_angle: Option<f64>,
     #[pyo3(from_py_with = args::prior_scale)] prior_scale: String,
     #[pyo3(from_py_with = args::orientation_weight)] orientation_weight: String,
+    #[pyo3(from_py_with = args::point_weight)] point_weight: String,
+    #[pyo3(from_py_with = args::plane_weight)] plane_weight: String,
     #[pyo3(from_py_with = args::targets)] targets: String,
     #[pyo3(from_py_with = args::same_base)] same_base: bool,
     #[pyo3(from_py_with = args::same_tool)] same_tool: bool,
@@ -300,7 +304,10 @@ pub fn identify_py(
             prior_angle,
         },
         prior_scale,
-        orientation_weight: self::orientation_weight(py, &orientation_weight)?,
+        channel_weights: self::channel_weights(
+            py,
+            [&orientation_weight, &point_weight, &plane_weight],
+        )?,
         targets: self::targets(py, &targets)?,
         frames: FrameSharing::stated(same_base, same_tool),
         torque_sign: self::torque_sign(py, torque_sign.as_deref())?,
@@ -327,15 +334,20 @@ pub fn identify_py(
     )
 }
 
-/// The orientation weight a keyword names (`orientation_weight`).
-fn orientation_weight(py: Python<'_>, text: &str) -> PyResult<OrientationWeight> {
-    OrientationWeight::parse(text).ok_or_else(|| {
-        errors::argument(
-            py,
-            "orientation_weight",
-            format!("{text:?}: expected \"chosen\", \"estimated\", \"0.1\", \"0.01\" or \"none\""),
-        )
-    })
+/// The weights the keywords `orientation_weight`, `point_weight` and
+/// `plane_weight` name, in that order.
+fn channel_weights(py: Python<'_>, texts: [&str; 3]) -> PyResult<ChannelWeights> {
+    let mut weights = ChannelWeights::default();
+    for (kind, text) in Weighed::ALL.into_iter().zip(texts) {
+        weights[kind] = ChannelWeight::parse(text).ok_or_else(|| {
+            errors::argument(
+                py,
+                &format!("{}_weight", kind.key()),
+                format!("{text:?}: expected \"chosen\", \"estimated\", \"0.1\", \"0.01\" or \"none\""),
+            )
+        })?;
+    }
+    Ok(weights)
 }
 
 /// Fits the geometry, analyses the residuals, names what geometry misses,
@@ -345,7 +357,7 @@ fn orientation_weight(py: Python<'_>, text: &str) -> PyResult<OrientationWeight>
 /// pose with fewer poses). Other options as `identify` (`torque_sign`
 /// included).
 #[pyfunction]
-#[pyo3(signature = (model, data, *, folds = None, position_noise = None, orientation_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None, orientation_weight = String::from("chosen"), targets = String::from("world"), same_base = false, same_tool = false, torque_sign = None))]
+#[pyo3(signature = (model, data, *, folds = None, position_noise = None, orientation_noise = None, point_noise = None, plane_noise = None, prior_length = None, prior_angle = None, orientation_weight = String::from("chosen"), point_weight = String::from("chosen"), plane_weight = String::from("chosen"), targets = String::from("world"), same_base = false, same_tool = false, torque_sign = None))]
 #[expect(
     clippy::too_many_arguments,
     reason = "a parameter per Python keyword argument, as the signature above lists them"
@@ -362,6 +374,8 @@ pub fn diagnose(
     #[pyo3(from_py_with = args::prior_length)] prior_length: Option<f64>,
     #[pyo3(from_py_with = args::prior_angle)] prior_angle: Option<f64>,
     #[pyo3(from_py_with = args::orientation_weight)] orientation_weight: String,
+    #[pyo3(from_py_with = args::point_weight)] point_weight: String,
+    #[pyo3(from_py_with = args::plane_weight)] plane_weight: String,
     #[pyo3(from_py_with = args::targets)] targets: String,
     #[pyo3(from_py_with = args::same_base)] same_base: bool,
     #[pyo3(from_py_with = args::same_tool)] same_tool: bool,
@@ -377,7 +391,10 @@ pub fn diagnose(
             prior_length,
             prior_angle,
         },
-        orientation_weight: self::orientation_weight(py, &orientation_weight)?,
+        channel_weights: self::channel_weights(
+            py,
+            [&orientation_weight, &point_weight, &plane_weight],
+        )?,
         targets: self::targets(py, &targets)?,
         frames: FrameSharing::stated(same_base, same_tool),
         torque_sign: self::torque_sign(py, torque_sign.as_deref())?,

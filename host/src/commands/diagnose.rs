@@ -13,7 +13,7 @@ use crate::calibration::diagnose::Choice;
 use crate::calibration::diagnose::RowPlaces;
 use crate::calibration::diagnose::{DiagnoseOptions, Diagnosis, diagnose_with_progress};
 use crate::calibration::gravity::{GravityFit, TorqueSign, with_measured_gravity};
-use crate::calibration::identify::channel_weight::{self, OrientationWeight, WeightChoice};
+use crate::calibration::identify::channel_weight::{self, ChannelWeights, Weighting};
 use crate::calibration::identify::full::{FullOptions, Observation, identify_with_effects};
 use crate::calibration::identify::sessions::{SessionHeldOut, Trained, held_out_by_session};
 use crate::calibration::identify::{self, StatedScales, sessions};
@@ -30,9 +30,10 @@ pub struct Request {
     pub folds: Option<usize>,
     /// The noise and prior scales stated (model units).
     pub scales: StatedScales,
-    /// The orientation rows' weight: stated, or chosen at the reference fit
-    /// by cross-validation and kept for the rest of the diagnosis.
-    pub orientation_weight: OrientationWeight,
+    /// The weight of each kind of row beside the reference: stated, or
+    /// chosen at the reference fit by cross-validation and kept for the rest
+    /// of the diagnosis.
+    pub channel_weights: ChannelWeights,
     /// The frame the compensation's targets will be given in.
     pub targets: TargetFrame,
     /// With several sessions, which frames are each session's own.
@@ -65,9 +66,9 @@ pub struct Diagnosed {
     /// calibrated as the diagnosis chose ([`held_out_by_session`]); empty
     /// otherwise.
     pub sessions_held_out: Vec<SessionHeldOut>,
-    /// Full poses: the orientation rows' weight every fit used, stated or
-    /// chosen at the reference fit ([`channel_weight`]).
-    pub orientation_weight: Option<WeightChoice>,
+    /// The weight of each kind of row beside the reference every fit used,
+    /// stated or chosen at the reference fit ([`channel_weight`]).
+    pub weighting: Weighting,
 }
 
 /// Diagnoses `model` on `data` (a session [`super::require_session`]
@@ -94,26 +95,17 @@ pub fn run(
         ..Default::default()
     };
     let observations = identify::observations(data);
-    // Full poses: the orientation rows' weight chosen (or stated) at the
-    // reference fit, kept by every fit of the diagnosis; one channel has
-    // nothing to choose.
-    let orientation_weight = if data.has_orientation() {
-        let weight = match request.orientation_weight {
-            OrientationWeight::Chosen { .. } => OrientationWeight::Chosen { folds },
-            stated => stated,
-        };
-        let (choice, weighted) = channel_weight::for_diagnosis(
-            &model.robot,
-            observations,
-            &data.constraints,
-            &options.fit,
-            weight,
-        )?;
-        options.fit = weighted;
-        Some(choice)
-    } else {
-        None
-    };
+    // The weight of each kind of row beside the reference chosen (or
+    // stated) at the reference fit, kept by every fit of the diagnosis;
+    // positions alone have nothing to choose.
+    let (weighting, weighted) = channel_weight::for_diagnosis(
+        &model.robot,
+        observations,
+        &data.constraints,
+        &options.fit,
+        &request.channel_weights.with_folds(folds),
+    )?;
+    options.fit = weighted;
     let diagnosis = diagnose_with_progress(
         &model.robot,
         observations,
@@ -130,7 +122,7 @@ pub fn run(
     calibration.flange = model.flange;
     let sessions_held_out = sessions_held_out(model, observations, &diagnosis, &options);
     Ok(Diagnosed {
-        orientation_weight,
+        weighting,
         sessions_held_out,
         model: fitted,
         gravity,
@@ -213,10 +205,9 @@ impl Diagnosed {
                 )
             })
             .unwrap_or_default();
-        let weight = self.orientation_weight.as_ref();
-        let weight = weight.map(|w| w.summary(self.diagnosis.fit.orientation_rms));
+        let weight = self.weighting.summary(&self.diagnosis.fit);
         head.unwrap_or_default()
-            + &weight.unwrap_or_default()
+            + &weight
             + &sessions::summary(&self.diagnosis.fit, &self.sessions_held_out, data, units)
             + &self
                 .diagnosis
@@ -248,11 +239,7 @@ impl Diagnosed {
             identify::observations(data),
             &self.options,
             &(sessions::html(&self.diagnosis.fit, &self.sessions_held_out, data)
-                + &self
-                    .orientation_weight
-                    .as_ref()
-                    .map(|w| w.html(self.diagnosis.fit.orientation_rms))
-                    .unwrap_or_default()),
+                + &self.weighting.html(&self.diagnosis.fit)),
         )
     }
 
@@ -280,9 +267,7 @@ impl Diagnosed {
             "rows"
         }
         .into();
-        if let Some(w) = &self.orientation_weight {
-            report["orientation_weight"] = w.to_json(self.diagnosis.fit.orientation_rms);
-        }
+        self.weighting.insert_json(&mut report, &self.diagnosis.fit);
         let held_out = &self.sessions_held_out;
         if let Some(s) = sessions::json(&self.diagnosis.fit, held_out, data, &self.model.units) {
             report["sessions"] = s;

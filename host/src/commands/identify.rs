@@ -10,7 +10,7 @@ use armcal_shared::TargetFrame;
 use super::{Front, fit_options};
 use crate::calibration::acceptance::FailedCalibration;
 use crate::calibration::gravity::{TorqueSign, with_measured_gravity};
-use crate::calibration::identify::channel_weight::OrientationWeight;
+use crate::calibration::identify::channel_weight::ChannelWeights;
 use crate::calibration::identify::full::{FullOptions, Observation, identify_with_effects};
 use crate::calibration::identify::prior_scale::PriorScale;
 use crate::calibration::identify::sessions::{Trained, held_out_by_session};
@@ -30,9 +30,9 @@ pub struct Request {
     pub scales: StatedScales,
     /// The prior's scale: stated, or chosen by cross-validation.
     pub prior_scale: PriorScale,
-    /// The orientation rows' weight: stated, or chosen by cross-validation
-    /// (one channel, positions only: nothing to choose).
-    pub orientation_weight: OrientationWeight,
+    /// The weight of each kind of row beside the reference: stated, or
+    /// chosen by cross-validation (positions only: nothing to choose).
+    pub channel_weights: ChannelWeights,
     /// The frame the compensation's targets will be given in.
     pub targets: TargetFrame,
     /// With several sessions, which frames are each session's own.
@@ -88,14 +88,14 @@ pub fn run(
         request.params,
         &options,
         request.prior_scale,
-        request.orientation_weight,
+        &request.channel_weights,
     )?;
     if let Some(fit) = result.full.as_ref().filter(|f| f.sessions.len() > 1) {
         // Each session left out, the others calibrated at the prior's scale chosen.
         let factor = result.prior.as_ref().map_or(1.0, |p| p.factor());
         let at = FullOptions {
             prior: options.prior.scaled(factor),
-            orientation_weight: fit.orientation_weight,
+            weights: fit.weights,
             ..options.at_noise_of(fit)
         };
         let tilts: Vec<Param> = model.tilted.iter().map(|&k| Param::Beta(k)).collect();

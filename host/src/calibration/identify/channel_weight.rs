@@ -1,30 +1,53 @@
-//! The orientation channel's weight, chosen on held-out positions: what
-//! `armcal identify` and `armcal diagnose` fit a full-pose session at by
-//! default (`--orientation-weight chosen`).
+//! The weight of each kind of row beside the others, chosen on held-out
+//! tool points: what `armcal identify` and `armcal diagnose` fit at by
+//! default (`--orientation-weight`, `--point-weight`, `--plane-weight`,
+//! each `chosen`).
 //!
 //! Each channel's rows are weighed by `1/σ_c²`, `σ_c` the noise its
-//! residuals show ([`super::noise`]). That is right for a channel whose
-//! error is noise. A camera's or a marker frame's orientations are often
-//! *biased* instead — a hand-eye rotation error, a marker frame built from
-//! few points, an error growing with distance — and a bias is not noise:
-//! weighed by its scatter, the orientation rows pull the geometry toward
+//! residuals show ([`super::noise`]). That is right for rows whose error is
+//! noise. An instrument's rows are often *biased* instead: a camera's or a
+//! marker frame's orientations (a hand-eye rotation error, a marker frame
+//! built from few points, an error growing with distance), a plate that is
+//! not flat or a probe that deflects, a socket that moved. A bias is not
+//! noise: weighed by its scatter, the biased rows pull the geometry toward
 //! the bias, and the calibration predicts the tool point (what it is used
-//! for) worse than the positions alone would.
+//! for) worse than the other rows alone would.
 //!
-//! Which weight predicts the tool point best is measured, as the prior's
-//! scale is ([`super::prior_scale`]): about the fit at the weight the noise
-//! gives (`w = 1`), the folds' normal equations ([`fold_normals`](crate::calibration::identify::full::fold_normals)) give, for
-//! the orientation rows weighed `w` times as much and the prior `f` times as
+//! **What is weighed against what.** The tool point is judged by the rows
+//! that locate it ([`Channel::Position`], [`Channel::Point`],
+//! [`Channel::Plane`], in metres). The first of those the data have — the
+//! measured positions, else the point contacts, else the plane contacts —
+//! is the reference and keeps its weight; every other kind the data have
+//! ([`Weighed`]: orientations, and point or plane contacts beside a kind
+//! before them) is weighed, one after the other in that order, each at the
+//! weights chosen before it. A kind of contact is judged on the held-out
+//! rows of the other kinds that locate the tool point; the orientations, on
+//! all of them.
+//!
+//! **The known distances are not weighed.** They are the length standard of
+//! a session without a tracker, and nothing else sees the arm's scale: every
+//! contact's residual shrinks with the arm, so a held-out error in metres
+//! always prefers the distances gone (measured: a UR5e socket session
+//! predicted its held-out contacts 4–13 standard errors "better" without
+//! them, and missed the true tool points by 27–30 mm). They keep the
+//! uncertainty each line states.
+//!
+//! Which weight predicts best is measured, as the prior's scale is
+//! ([`super::prior_scale`]): about the fit at the weights the noise gives
+//! (`w = 1`), the folds' normal equations ([`fold_normals`](crate::calibration::identify::full::fold_normals)) give, for
+//! kind `c`'s rows weighed `w` times as much and the prior `f` times as
 //! wide, fold `k`'s MAP step
 //!
-//! `(A_w − A_w,k + P/f²) δ = (b_w − b_w,k) − (P/f²) o`, `A_w = A − (1 − w) A_r`
+//! `(A_w − A_w,k + P/f²) δ = (b_w − b_w,k) − (P/f²) o`, `A_w = A − (1 − w) A_c`
 //!
-//! (`A_r`, `b_r` the orientation rows' share) and its held-out position
-//! rows' sum of squares `S(w, f)` (m²). The weights [`ORIENTATION_WEIGHTS`]
-//! (×1, ×0.1, ×0.01 and none) are each scored at every prior factor; a
-//! weight's score is its best factor's. Not used (`w = 0`) is scored at
-//! `w = 10⁻⁹`: its limit, the geometry from the positions and the tool's
-//! rotation (which no position sees) from the orientations.
+//! (`A_c`, `b_c` the kind's share) and its held-out rows' sum of squares
+//! `S(w, f)` (m²). The weights [`WEIGHTS`] (×1, ×0.1, ×0.01 and none) are
+//! each scored at every prior factor; a weight's score is its best
+//! factor's. Not used (`w = 0`) is scored at `w = 10⁻⁹` ([`UNUSED`]): its
+//! limit, the geometry from the other rows and what only the kind's own
+//! rows see (the tool's rotation, a socket's centre, a plane) still from
+//! them. Contacts not used are fitted at that limit too; orientations not
+//! used are fitted at 0, the tool's rotation registered to them apart.
 //!
 //! **The margin.** Two weights' held-out sums differ by
 //! `ΔS = Σ_i (2 e_iᵀ Δ_i + ‖Δ_i‖²)` over the held-out rows, `Δ_i = J_i(δ_a − δ_b)`
@@ -34,60 +57,57 @@
 //! `k`'s steps, `H_k` its held-out rows' `JᵀJ`, `σ_e²` the best weight's
 //! held-out mean square per row). The weight chosen is the largest whose
 //! held-out sum is within [`MARGIN`] of those standard errors of the
-//! least: orientations as clean as their noise are kept (they predict no
-//! worse, and chance alone rarely makes another weight look two standard
-//! errors better), biased ones are weighed down only when the positions say
-//! so. The fit is then made again at that weight (and the prior's factor
-//! chosen with it), the orientation noise held at its estimate (variance
-//! components would restore the weight); at `w = 0` the tool's rotation is
-//! held at its closed-form registration to the orientations.
+//! least: rows as clean as their noise are kept (they predict no worse, and
+//! chance alone rarely makes another weight look two standard errors
+//! better), biased ones are weighed down only when the other rows say so.
+//! The fit is then made again at the weights chosen (and the prior's
+//! factor chosen with them, [`super::prior_scale`]), a weighed-down
+//! channel's noise held at its estimate (variance components would restore
+//! the weight).
 //!
 //! **Disagreement.** A weight below 1 chosen this way is a finding: the
-//! orientations predict the positions significantly worse than the
-//! positions do — they disagree with them beyond their own scatter, which
-//! no noise can do and a bias (hand-eye, marker frame, a camera's
-//! distance-dependent error) does. The reports name it with the orientation
-//! residual RMS of the fit at the weight chosen (rad) and the held-out
-//! figures of both weights.
+//! kind predicts the other rows significantly worse than they predict
+//! themselves — it disagrees with them beyond its own scatter, which no
+//! noise can do and a bias does. The reports name it with the kind's
+//! residual RMS at the weight chosen and the held-out figures of both
+//! weights.
 //!
 //! Units: SI inside (m, rad); the scores are RMS held-out tool-point errors, m.
 
 use nalgebra::DVector;
+use serde_json::{Value, json};
 
 use super::full::{Constraints, FoldNormals, FullFit, Observation};
-use super::prior::{PRIOR_FACTORS, Prior};
+use super::prior::Prior;
 use super::prior_scale::{
-    PriorChoice, PriorScale, PriorScore, fold_steps, fold_sums, held_out_squares, immaterial,
+    PriorChoice, PriorScale, fold_steps, fold_sums, held_out_squares, immaterial,
 };
 pub use crate::calibration::diagnose::cross_validation::DEFAULT_FOLDS;
+pub use crate::session::channel::{Channel, PerWeighed, UNUSED, Weighed, WeightFactors};
 
-/// The orientation channel's weights scored, relative to what its noise
-/// gives it: as estimated, a tenth, a hundredth, not used.
-pub const ORIENTATION_WEIGHTS: [f64; 4] = [1.0, 0.1, 0.01, 0.0];
+/// The weights scored, relative to what the noise gives: as estimated, a
+/// tenth, a hundredth, not used.
+pub const WEIGHTS: [f64; 4] = [1.0, 0.1, 0.01, 0.0];
 
 /// How many standard errors of the paired difference a smaller weight's
 /// held-out sum of squares must be below a larger one's to be chosen over it.
 pub const MARGIN: f64 = 2.0;
 
-/// The weight `w = 0` stands for in the linearised scores: its limit (the
-/// tool's rotation, which no position sees, still determined).
-const UNUSED: f64 = 1e-9;
-
-/// How the identification weighs the orientation rows.
+/// How the identification weighs one kind of row.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum OrientationWeight {
+pub enum ChannelWeight {
     /// This factor on the weight their noise gives them (1: as estimated,
     /// 0: not used).
     Stated(f64),
-    /// The weight of [`ORIENTATION_WEIGHTS`] that predicts held-out
-    /// positions best over `folds` interleaved folds (see the module).
+    /// The weight of [`WEIGHTS`] that predicts held-out tool points best
+    /// over `folds` interleaved folds (see the module).
     Chosen {
         /// Folds of the cross-validation.
         folds: usize,
     },
 }
 
-impl Default for OrientationWeight {
+impl Default for ChannelWeight {
     fn default() -> Self {
         Self::Chosen {
             folds: DEFAULT_FOLDS,
@@ -95,7 +115,7 @@ impl Default for OrientationWeight {
     }
 }
 
-impl OrientationWeight {
+impl ChannelWeight {
     /// The weight's name on the command line and in the reports: `estimated`,
     /// `0.1`, `0.01`, `none`, or the factor.
     pub fn name(weight: f64) -> String {
@@ -122,10 +142,28 @@ impl OrientationWeight {
     }
 }
 
-/// One orientation weight's held-out score, at its best prior factor.
+/// How each kind of row is to be weighed: a request.
+pub type ChannelWeights = PerWeighed<ChannelWeight>;
+
+impl ChannelWeights {
+    /// Every kind chosen over `folds` folds.
+    pub fn chosen(folds: usize) -> Self {
+        Self::from_fn(|_| ChannelWeight::Chosen { folds })
+    }
+
+    /// These weights with every chosen one over `folds` folds.
+    pub fn with_folds(self, folds: usize) -> Self {
+        Self::from_fn(|w| match self[w] {
+            ChannelWeight::Chosen { .. } => ChannelWeight::Chosen { folds },
+            stated => stated,
+        })
+    }
+}
+
+/// One weight's held-out score, at its best prior factor.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WeightScore {
-    /// The factor on the weight the orientation noise gives.
+    /// The factor on the weight the noise gives.
     pub weight: f64,
     /// The prior's factor it scores best at (1 when the prior's scale is
     /// stated or immaterial).
@@ -134,10 +172,10 @@ pub struct WeightScore {
     pub held_out: f64,
 }
 
-/// What the choice of the orientation weight found.
+/// What the choice of one kind's weight found.
 #[derive(Clone, Debug, PartialEq)]
 pub enum WeightChoice {
-    /// As stated (`--orientation-weight`): nothing cross-validated.
+    /// As stated (`--orientation-weight` and the like): nothing cross-validated.
     Stated {
         /// The factor fitted at.
         weight: f64,
@@ -150,14 +188,14 @@ pub enum WeightChoice {
         /// Folds of the cross-validation.
         folds: usize,
         /// Each weight a training set of every fold determines, in the
-        /// order of [`ORIENTATION_WEIGHTS`].
+        /// order of [`WEIGHTS`].
         scores: Vec<WeightScore>,
         /// How far the weight chosen predicts better than the weight the
         /// noise gives: the held-out sums' difference in standard errors of
         /// the paired difference (0 when it is that weight).
         significance: f64,
-        /// The orientation noise the fit at full weight shows, rad per axis.
-        orientation_noise: f64,
+        /// The kind's noise the fit at full weight shows (rad or m per axis).
+        noise: f64,
     },
     /// No training set of the folds determines the model at the weight the
     /// noise gives: that weight.
@@ -168,7 +206,7 @@ pub enum WeightChoice {
 }
 
 impl WeightChoice {
-    /// The factor on the orientation weight fitted at.
+    /// The factor fitted at.
     pub fn weight(&self) -> f64 {
         match self {
             Self::Stated { weight } | Self::CrossValidated { weight, .. } => *weight,
@@ -187,11 +225,49 @@ impl WeightChoice {
         }
     }
 
-    /// Whether the orientations disagree with the positions: a weight
-    /// below the noise's chosen on held-out positions (see the module).
+    /// Whether the kind disagrees with the other rows: a weight below the
+    /// noise's chosen on held-out tool points (see the module).
     pub fn disagrees(&self) -> bool {
         matches!(self, Self::CrossValidated { weight, .. } if *weight < 1.0)
     }
+}
+
+/// One kind's weight and how it was found.
+#[derive(Clone, Debug, PartialEq)]
+pub struct KindWeight {
+    /// The kind of row.
+    pub kind: Weighed,
+    /// Its weight.
+    pub choice: WeightChoice,
+}
+
+/// The weights of every kind of row the data have beside the reference
+/// (see the module), in the order of [`Weighed::ALL`].
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Weighting(pub Vec<KindWeight>);
+
+/// The kinds of `data`'s rows weighed against the others (see the module):
+/// measured orientations; point contacts beside measured positions; plane
+/// contacts beside either.
+pub fn weighed_kinds(data: &[Observation]) -> Vec<Weighed> {
+    let has = |c: Channel| {
+        data.iter()
+            .any(|o| o.channel() == c && o.position_rows() > 0)
+    };
+    let (positions, points, planes) = (
+        has(Channel::Position),
+        has(Channel::Point),
+        has(Channel::Plane),
+    );
+    let orientations = data.iter().any(|o| o.orientation_rows() > 0);
+    Weighed::ALL
+        .into_iter()
+        .filter(|&w| match w {
+            Weighed::Orientation => orientations,
+            Weighed::Point => points && positions,
+            Weighed::Plane => planes && (positions || points),
+        })
+        .collect()
 }
 
 /// One cell of the scores: a weight at a prior factor.
@@ -204,43 +280,57 @@ struct Cell {
 }
 
 /// The standard error of the difference of two cells' held-out sums of
-/// squares, m², their errors scattering by `sigma2` per row (m²).
-fn paired_error(sums: &FoldNormals, a: &Cell, b: &Cell, sigma2: f64) -> f64 {
+/// squares, m², their errors scattering by `sigma2` per row (m²), on the
+/// held-out rows of every tool-point channel but `except`.
+fn paired_error(
+    sums: &FoldNormals,
+    a: &Cell,
+    b: &Cell,
+    sigma2: f64,
+    except: Option<Channel>,
+) -> f64 {
     let spread: f64 = sums
         .folds
         .iter()
         .zip(a.steps.iter().zip(&b.steps))
         .map(|(fold, (x, y))| {
             let d = x - y;
-            d.dot(&(&fold.held_a * &d))
+            Channel::ALL
+                .into_iter()
+                .zip(&fold.held.0)
+                .filter(|&(c, _)| Some(c) != except)
+                .filter_map(|(_, held)| held.as_ref())
+                .map(|held| d.dot(&(&held.a * &d)))
+                .sum::<f64>()
         })
         .sum();
     2.0 * (sigma2 * spread.max(0.0)).sqrt()
 }
 
-/// Scores each orientation weight of [`ORIENTATION_WEIGHTS`] (each at every
-/// prior factor of [`PRIOR_FACTORS`] when `scale` chooses the prior's, else
-/// at the stated prior) by the linearised cross-validation of `data` about
-/// `fit` (made at the weight the noise gives and the stated `prior`), and
-/// chooses the weight and the prior's factor (see the module).
-pub fn choose(
+/// The kind's noise at full weight in `fit` (rad or m).
+fn noise_at_full_weight(fit: &FullFit, kind: Weighed) -> f64 {
+    fit.noise.channel(kind.channel()).map_or(0.0, |n| n.shown)
+}
+
+/// Chooses kind `kind`'s weight, the other kinds at `at`, among [`WEIGHTS`]
+/// at each prior factor of `factors` (see the module).
+fn choose_kind(
     fit: &FullFit,
-    data: &[Observation],
-    constraints: &Constraints,
-    prior: &Prior,
-    folds: usize,
-    scale: PriorScale,
-) -> (WeightChoice, Option<PriorChoice>) {
-    let scale_chosen = matches!(scale, PriorScale::Chosen { .. }) && prior.has_scale();
-    let material = scale_chosen && !immaterial(fit);
-    let factors: &[f64] = if material { &PRIOR_FACTORS } else { &[1.0] };
-    let (k, sums) = fold_sums(fit, data, constraints, prior, folds);
-    let cells: Vec<Cell> = ORIENTATION_WEIGHTS
+    (k, sums): (usize, &FoldNormals),
+    kind: Weighed,
+    at: &WeightFactors,
+    factors: &[f64],
+) -> WeightChoice {
+    // A contact is judged on the other rows that locate the tool point.
+    let except = Some(kind.channel()).filter(|&c| c != Channel::Orientation);
+    let cells: Vec<Cell> = WEIGHTS
         .iter()
         .flat_map(|&weight| factors.iter().map(move |&factor| (weight, factor)))
         .filter_map(|(weight, factor)| {
-            let steps = fold_steps(&sums, factor, weight.max(UNUSED))?;
-            let (squares, poses) = held_out_squares(&sums, &steps);
+            let mut weights = *at;
+            weights[kind] = weight;
+            let steps = fold_steps(sums, factor, &weights)?;
+            let (squares, poses) = held_out_squares(sums, &steps, except);
             (poses > 0 && squares.is_finite()).then_some(Cell {
                 weight,
                 factor,
@@ -258,37 +348,34 @@ pub fn choose(
             .min_by(|a, b| a.squares.total_cmp(&b.squares))
     };
     let Some(estimated) = best_of(1.0) else {
-        let undetermined = scale_chosen.then_some(PriorChoice::Undetermined { folds: k });
-        return (WeightChoice::Undetermined { folds: k }, undetermined);
+        return WeightChoice::Undetermined { folds: k };
     };
-    let bests: Vec<&Cell> = ORIENTATION_WEIGHTS
-        .iter()
-        .filter_map(|&w| best_of(w))
-        .collect();
+    let bests: Vec<&Cell> = WEIGHTS.iter().filter_map(|&w| best_of(w)).collect();
     let least = bests
         .iter()
         .min_by(|a, b| a.squares.total_cmp(&b.squares))
         .copied()
         .unwrap_or(estimated);
-    let sigma2 = least.squares / (3 * least.poses.max(1)) as f64;
+    let rows_per_pose = if except.is_some() { 1 } else { 3 };
+    let sigma2 = least.squares / (rows_per_pose * least.poses.max(1)) as f64;
+    let error = |a: &Cell, b: &Cell| paired_error(sums, a, b, sigma2, except);
     // The largest weight within the margin of the least.
     let chosen = bests
         .iter()
-        .find(|c| c.squares - least.squares <= MARGIN * paired_error(&sums, c, least, sigma2))
+        .find(|c| c.squares - least.squares <= MARGIN * error(c, least))
         .copied()
         .unwrap_or(least);
     let significance = if chosen.weight == 1.0 {
         0.0
     } else {
-        let se = paired_error(&sums, estimated, chosen, sigma2);
+        let se = error(estimated, chosen);
         if se > 0.0 {
             (estimated.squares - chosen.squares) / se
         } else {
             f64::INFINITY
         }
     };
-    let rms = |c: &Cell| (c.squares / c.poses as f64).sqrt();
-    let weight_choice = WeightChoice::CrossValidated {
+    WeightChoice::CrossValidated {
         weight: chosen.weight,
         folds: k,
         scores: bests
@@ -296,49 +383,85 @@ pub fn choose(
             .map(|c| WeightScore {
                 weight: c.weight,
                 prior_factor: c.factor,
-                held_out: rms(c),
+                held_out: (c.squares / c.poses as f64).sqrt(),
             })
             .collect(),
         significance,
-        orientation_noise: fit.noise.orientation.map_or(0.0, |o| o.shown),
-    };
-    let prior_choice = if !scale_chosen {
-        None
-    } else if !material {
-        Some(PriorChoice::Immaterial)
-    } else {
-        Some(PriorChoice::CrossValidated {
-            factor: chosen.factor,
-            folds: k,
-            scores: cells
-                .iter()
-                .filter(|c| c.weight == chosen.weight)
-                .map(|c| PriorScore {
-                    factor: c.factor,
-                    held_out: rms(c),
-                })
-                .collect(),
-        })
-    };
-    (weight_choice, prior_choice)
+        noise: noise_at_full_weight(fit, kind),
+    }
 }
 
-/// The orientation weight `weight` of a diagnosis of `data` (whose poses
-/// measure orientations): the fit of every D-H parameter at `options` (the
-/// stated prior, the orientations weighed by their noise), the weight
-/// chosen about it (at the stated prior: the diagnosis chooses its own) or
-/// stated, and `options` at that weight, the orientation noise held at the
+/// Weighs each kind of `data`'s rows beside the others as `request` says —
+/// stated, or chosen by the linearised cross-validation of `data` about
+/// `fit` (made at the weights the noise gives and the stated `prior`), one
+/// kind after the other (see the module) — and, when `scale` asks for it,
+/// chooses the prior's factor at the weights found (each weight chosen at
+/// its best factor). The folds are `folds`.
+pub fn choose(
+    fit: &FullFit,
+    data: &[Observation],
+    constraints: &Constraints,
+    prior: &Prior,
+    folds: usize,
+    (scale, request): (PriorScale, &ChannelWeights),
+) -> (Weighting, Option<PriorChoice>) {
+    let kinds = weighed_kinds(data);
+    let scale_chosen = matches!(scale, PriorScale::Chosen { .. }) && prior.has_scale();
+    let any_chosen = kinds
+        .iter()
+        .any(|&w| matches!(request[w], ChannelWeight::Chosen { .. }));
+    let prior_material = scale_chosen && !immaterial(fit);
+    if !any_chosen && !prior_material {
+        // Nothing to cross-validate: no pass over the data.
+        let stated = kinds
+            .iter()
+            .filter_map(|&kind| match request[kind] {
+                ChannelWeight::Stated(weight) => Some(KindWeight {
+                    kind,
+                    choice: WeightChoice::Stated { weight },
+                }),
+                ChannelWeight::Chosen { .. } => None,
+            })
+            .collect();
+        return (
+            Weighting(stated),
+            scale_chosen.then_some(PriorChoice::Immaterial),
+        );
+    }
+    let (k, sums) = fold_sums(fit, data, constraints, prior, folds);
+    let factors = super::prior_scale::factors_to_score(fit, scale_chosen);
+    let mut at = WeightFactors::NOISE;
+    let mut weighting = Vec::new();
+    for kind in kinds {
+        let choice = match request[kind] {
+            ChannelWeight::Stated(weight) => WeightChoice::Stated { weight },
+            ChannelWeight::Chosen { .. } => choose_kind(fit, (k, &sums), kind, &at, factors),
+        };
+        at[kind] = choice.weight();
+        weighting.push(KindWeight { kind, choice });
+    }
+    let prior_choice = scale_chosen.then(|| super::prior_scale::choose_among(fit, (k, &sums), &at));
+    (Weighting(weighting), prior_choice)
+}
+
+/// The weights of a diagnosis of `data`: the fit of every D-H parameter at
+/// `options` (the stated prior, every kind weighed by its noise), the
+/// weights chosen about it (at the stated prior: the diagnosis chooses its
+/// own) or stated, and `options` at those weights, the noise held at the
 /// fit's estimate: what every fit of the diagnosis then uses.
 pub fn for_diagnosis(
     nominal: &armcal_shared::Robot<f64>,
     data: &[Observation],
     constraints: &Constraints,
     options: &super::full::FullOptions,
-    weight: OrientationWeight,
-) -> Result<(WeightChoice, super::full::FullOptions), super::full::FullError> {
+    request: &ChannelWeights,
+) -> Result<(Weighting, super::full::FullOptions), super::full::FullError> {
+    if weighed_kinds(data).is_empty() {
+        return Ok((Weighting::default(), *options));
+    }
     let reference_options = super::full::FullOptions {
         geometry: super::prior::Geometry::Full,
-        orientation_weight: 1.0,
+        weights: WeightFactors::NOISE,
         ..*options
     };
     let reference = super::full::identify_constrained(
@@ -350,50 +473,142 @@ pub fn for_diagnosis(
         constraints,
         &reference_options,
     )?;
-    let choice = match weight {
-        OrientationWeight::Stated(weight) => WeightChoice::Stated { weight },
-        OrientationWeight::Chosen { folds } => {
-            choose(
-                &reference,
-                data,
-                constraints,
-                &options.prior,
-                folds,
-                PriorScale::Stated,
-            )
-            .0
-        }
+    let folds = match Weighed::ALL
+        .map(|w| request[w])
+        .into_iter()
+        .find_map(|w| match w {
+            ChannelWeight::Chosen { folds } => Some(folds),
+            ChannelWeight::Stated(_) => None,
+        }) {
+        Some(folds) => folds,
+        None => DEFAULT_FOLDS,
     };
-    let weighted = if choice.weight() == 1.0 {
-        *options
-    } else {
-        super::full::FullOptions {
-            orientation_weight: choice.weight(),
-            orientation_noise: reference
-                .noise
-                .orientation
-                .map_or(options.orientation_noise, |o| o.used),
-            ..*options
+    let (weighting, _) = choose(
+        &reference,
+        data,
+        constraints,
+        &options.prior,
+        folds,
+        (PriorScale::Stated, request),
+    );
+    let weighted = weighting.options(options, &reference);
+    Ok((weighting, weighted))
+}
+
+impl Weighting {
+    /// The factors fitted at (1 for a kind not weighed).
+    pub fn factors(&self) -> WeightFactors {
+        let mut at = WeightFactors::NOISE;
+        for w in &self.0 {
+            at[w.kind] = w.choice.weight();
         }
-    };
-    Ok((choice, weighted))
+        at
+    }
+
+    /// The orientations' weight, when weighed.
+    pub fn orientation(&self) -> Option<&WeightChoice> {
+        self.0
+            .iter()
+            .find(|w| w.kind == Weighed::Orientation)
+            .map(|w| &w.choice)
+    }
+
+    /// `options` at these weights, the noise held at `reference`'s
+    /// estimate (the fit at the weights the noise gives) when any is below
+    /// 1; `options` themselves otherwise.
+    pub fn options(
+        &self,
+        options: &super::full::FullOptions,
+        reference: &FullFit,
+    ) -> super::full::FullOptions {
+        let factors = self.factors();
+        if factors == WeightFactors::NOISE {
+            *options
+        } else {
+            super::full::FullOptions {
+                weights: factors,
+                ..options.at_noise_of(reference)
+            }
+        }
+    }
+
+    /// The summary's lines, a kind after another ([`WeightChoice::summary`]),
+    /// the residuals from `fit` (the fit at the weights chosen).
+    pub fn summary(&self, fit: &FullFit) -> String {
+        self.0
+            .iter()
+            .map(|w| w.choice.summary(w.kind, residual(fit, w.kind)))
+            .collect()
+    }
+
+    /// Sets the JSON report's `orientation_weight` and `contact_weights`
+    /// (docs/file-formats.md §6) in `report`, the residuals from `fit`.
+    pub fn insert_json(&self, report: &mut Value, fit: &FullFit) {
+        let mut contacts = serde_json::Map::new();
+        for w in &self.0 {
+            let value = w.choice.to_json(w.kind, residual(fit, w.kind));
+            match w.kind {
+                Weighed::Orientation => report["orientation_weight"] = value,
+                kind => {
+                    contacts.insert(kind.key().into(), value);
+                }
+            }
+        }
+        if !contacts.is_empty() {
+            report["contact_weights"] = Value::Object(contacts);
+        }
+    }
+
+    /// The HTML report's sections, one a kind ([`WeightChoice::html`]).
+    pub fn html(&self, fit: &FullFit) -> String {
+        self.0
+            .iter()
+            .map(|w| w.choice.html(w.kind, residual(fit, w.kind)))
+            .collect()
+    }
+}
+
+/// Kind `kind`'s residual RMS in `fit`, rad or m: the orientations' RMS
+/// (per pose), else what the kind's residuals show per axis.
+fn residual(fit: &FullFit, kind: Weighed) -> f64 {
+    match kind {
+        Weighed::Orientation => fit.orientation_rms,
+        Weighed::Point => fit.noise.point.map_or(0.0, |n| n.shown),
+        Weighed::Plane => fit.noise.plane.map_or(0.0, |n| n.shown),
+    }
+}
+
+/// How a kind's values read in the reports: the unit, its factor from SI,
+/// and what its disagreement suggests.
+fn reading(kind: Weighed) -> (&'static str, f64, &'static str) {
+    match kind {
+        Weighed::Orientation => ("mrad", 1e3, "a hand-eye or marker-frame error?"),
+        Weighed::Point => ("mm", 1e3, "a socket that moved, or a ball not seated?"),
+        Weighed::Plane => (
+            "mm",
+            1e3,
+            "a probe whose tip is not the ball's centre, a plate that is not flat, or a probe that deflects?",
+        ),
+    }
 }
 
 impl WeightChoice {
-    /// The summary's lines: the weight fitted at and how it was chosen
-    /// (each weight's held-out RMS of the tool point, mm), and when the
-    /// orientations disagree with the positions, that finding with the
-    /// orientation residual RMS of the fit at the weight chosen
-    /// (`orientation_rms`, rad).
-    pub fn summary(&self, orientation_rms: f64) -> String {
-        let name = OrientationWeight::name;
+    /// The summary's lines for kind `kind`: the weight fitted at and how it
+    /// was chosen (each weight's held-out RMS of the tool point, mm), and
+    /// when the kind disagrees with the other rows, that finding with its
+    /// residual RMS at the weight chosen (`residual`, rad or m).
+    pub fn summary(&self, kind: Weighed, residual: f64) -> String {
+        let name = ChannelWeight::name;
+        let what = kind.key();
+        let option = format!("--{what}-weight");
         let mut out = match self {
-            Self::Stated { weight } => format!(
-                "orientation weight: {} (stated, --orientation-weight)\n",
-                name(*weight)
-            ),
+            Self::Stated { weight } => {
+                format!("{what} weight: {} (stated, {option})
+", name(*weight))
+            }
             Self::Undetermined { folds } => format!(
-                "orientation weight: estimated (no training set of {folds} folds determines the model: nothing chosen)\n"
+                "{what} weight: estimated (no training set of {folds} folds determines the model: nothing chosen)
+"
             ),
             Self::CrossValidated {
                 weight,
@@ -401,7 +616,8 @@ impl WeightChoice {
                 scores,
                 ..
             } => format!(
-                "orientation weight: {} (chosen, {folds}-fold held-out tool-point RMS: {})\n",
+                "{what} weight: {} (chosen, {folds}-fold held-out tool-point RMS: {})
+",
                 name(*weight),
                 scores
                     .iter()
@@ -413,7 +629,7 @@ impl WeightChoice {
         if let Self::CrossValidated {
             weight,
             significance,
-            orientation_noise,
+            noise,
             ..
         } = self
             && self.disagrees()
@@ -422,27 +638,33 @@ impl WeightChoice {
                 self.score_of(1.0).unwrap_or(f64::NAN),
                 self.score_of(*weight).unwrap_or(f64::NAN),
             );
+            let (unit, to, cause) = reading(kind);
+            let others = match kind {
+                Weighed::Orientation => "positions",
+                Weighed::Point | Weighed::Plane => "other contacts",
+            };
             out.push_str(&format!(
-                "  the orientations disagree with the positions: weighed by their noise \
-                 ({:.3} mrad per axis) they predict held-out positions {:.4} mm against {:.4} \
-                 mm at {} ({:.1} standard errors of the difference); the orientation residual \
-                 at the weight chosen is {:.3} mrad RMS: a hand-eye or marker-frame error?\n",
-                orientation_noise * 1e3,
+                "  the {} disagree with the {others}: weighed by their noise \
+                 ({:.3} {unit} per axis) they predict held-out tool points {:.4} mm against {:.4} \
+                 mm at {} ({:.1} standard errors of the difference); their residual \
+                 at the weight chosen is {:.3} {unit} RMS: {cause}\n",
+                kind.name(),
+                noise * to,
                 estimated * 1e3,
                 chosen * 1e3,
                 name(*weight),
                 significance,
-                orientation_rms * 1e3
+                residual * to
             ));
         }
         out
     }
 
-    /// The JSON report's `orientation_weight` (docs/file-formats.md §6):
+    /// The JSON report's entry for kind `kind` (docs/file-formats.md §6):
     /// the weight, how it was chosen, each weight's held-out RMS (mm) and
-    /// the disagreement found, with the orientation residual RMS of the
-    /// fit at the weight chosen (`orientation_rms`, rad; given in mrad).
-    pub fn to_json(&self, orientation_rms: f64) -> serde_json::Value {
+    /// the disagreement found, with the kind's residual RMS at the weight
+    /// chosen (`residual`, rad or m; given in mrad or mm).
+    pub fn to_json(&self, kind: Weighed, residual: f64) -> Value {
         let (chosen_by, folds, scores, significance, noise) = match self {
             Self::Stated { .. } => ("stated", None, &[][..], None, None),
             Self::Undetermined { folds } => ("undetermined", Some(*folds), &[][..], None, None),
@@ -450,44 +672,60 @@ impl WeightChoice {
                 folds,
                 scores,
                 significance,
-                orientation_noise,
+                noise,
                 ..
             } => (
                 "cross-validation",
                 Some(*folds),
                 &scores[..],
                 Some(*significance),
-                Some(*orientation_noise),
+                Some(*noise),
             ),
         };
-        serde_json::json!({
+        let (unit, to, _) = reading(kind);
+        let disagreement = self.disagrees().then(|| {
+            let mut d = json!({ "significance": significance.filter(|s| s.is_finite()) });
+            let (noise_key, residual_key) = match kind {
+                Weighed::Orientation => (
+                    "orientation_noise_at_full_weight_mrad".to_string(),
+                    "orientation_rms_mrad".to_string(),
+                ),
+                _ => (
+                    format!("noise_at_full_weight_{unit}"),
+                    format!("residual_rms_{unit}"),
+                ),
+            };
+            d[noise_key] = json!(noise.map(|n| n * to));
+            d[residual_key] = json!(residual * to);
+            d
+        });
+        json!({
             "weight": self.weight(),
-            "name": OrientationWeight::name(self.weight()),
+            "name": ChannelWeight::name(self.weight()),
             "chosen_by": chosen_by,
             "folds": folds,
-            "held_out": scores.iter().map(|s| serde_json::json!({
+            "held_out": scores.iter().map(|s| json!({
                 "weight": s.weight,
-                "name": OrientationWeight::name(s.weight),
+                "name": ChannelWeight::name(s.weight),
                 "prior_factor": s.prior_factor,
                 "held_out_rms_mm": s.held_out * 1e3,
             })).collect::<Vec<_>>(),
-            "disagreement": self.disagrees().then(|| serde_json::json!({
-                "significance": significance.filter(|s| s.is_finite()),
-                "orientation_noise_at_full_weight_mrad": noise.map(|n| n * 1e3),
-                "orientation_rms_mrad": orientation_rms * 1e3,
-            })),
+            "disagreement": disagreement,
         })
     }
 
-    /// The HTML report's section: the summary's lines as a table of each
-    /// weight's held-out RMS and the finding.
-    pub fn html(&self, orientation_rms: f64) -> String {
-        let mut s = String::from("<h2>Orientation weight</h2>\n");
+    /// The HTML report's section for kind `kind`: the summary's lines as a
+    /// table of each weight's held-out RMS and the finding.
+    pub fn html(&self, kind: Weighed, residual: f64) -> String {
+        let what = kind.key();
+        let mut title = what.to_string();
+        title[..1].make_ascii_uppercase();
+        let mut s = format!("<h2>{title} weight</h2>\n");
         if let Self::CrossValidated { weight, scores, .. } = self {
-            s.push_str(
-                "<table><tr><th>orientation weight</th><th>prior factor</th>\
+            s.push_str(&format!(
+                "<table><tr><th>{what} weight</th><th>prior factor</th>\
                  <th>held-out tool-point RMS (mm)</th></tr>\n",
-            );
+            ));
             for score in scores {
                 let mark = if score.weight == *weight {
                     " (chosen)"
@@ -496,14 +734,14 @@ impl WeightChoice {
                 };
                 s.push_str(&format!(
                     "<tr><td>{}{mark}</td><td>×{}</td><td>{:.4}</td></tr>\n",
-                    OrientationWeight::name(score.weight),
+                    ChannelWeight::name(score.weight),
                     score.prior_factor,
                     score.held_out * 1e3
                 ));
             }
             s.push_str("</table>\n");
         }
-        for line in self.summary(orientation_rms).lines() {
+        for line in self.summary(kind, residual).lines() {
             s.push_str(&format!(
                 "<p>{}</p>\n",
                 crate::calibration::report::html_escape(line.trim())
@@ -571,23 +809,25 @@ mod tests {
     fn calibrated(
         model: &RobotModel,
         data: &Measurements,
-        weight: OrientationWeight,
+        weight: ChannelWeight,
         truth: &Robot<f64>,
         held: &[Vec<f64>],
     ) -> (f64, f64) {
         let options = FullOptions::default();
+        let mut weights = ChannelWeights::chosen(DEFAULT_FOLDS);
+        weights[Weighed::Orientation] = weight;
         let fit = identify_weighted(
             model,
             data,
             ParamSet::Full,
             &options,
             PriorScale::default(),
-            weight,
+            &weights,
         )
         .unwrap();
         let w = fit
-            .orientation_weight
-            .as_ref()
+            .weighting
+            .orientation()
             .map_or(1.0, WeightChoice::weight);
         (true_error(&fit.calibrated(), truth, held), w)
     }
@@ -637,16 +877,15 @@ mod tests {
         for (poses, seed, bias) in cases.into_iter().chain([(20, 5, growing)]) {
             let (model, data, truth, held) = session(poses, bias, seed);
             let only = positions(&data);
-            let (e_chosen, w) =
-                calibrated(&model, &data, OrientationWeight::default(), &truth, &held);
+            let (e_chosen, w) = calibrated(&model, &data, ChannelWeight::default(), &truth, &held);
             let (e_estimated, _) =
-                calibrated(&model, &data, OrientationWeight::Stated(1.0), &truth, &held);
+                calibrated(&model, &data, ChannelWeight::Stated(1.0), &truth, &held);
             let (e_positions, _) =
-                calibrated(&model, &only, OrientationWeight::default(), &truth, &held);
+                calibrated(&model, &only, ChannelWeight::default(), &truth, &held);
             eprintln!(
                 "{poses} poses, seed {seed}: weight {} held out {:.4} mm; as estimated {:.4} mm; \
                  positions alone {:.4} mm",
-                OrientationWeight::name(w),
+                ChannelWeight::name(w),
                 e_chosen * 1e3,
                 e_estimated * 1e3,
                 e_positions * 1e3
@@ -678,18 +917,17 @@ mod tests {
         let seeds = 1..=6;
         for seed in seeds.clone() {
             let (model, data, truth, held) = session(20, OrientationBias::default(), seed);
-            let (e_chosen, w) =
-                calibrated(&model, &data, OrientationWeight::default(), &truth, &held);
+            let (e_chosen, w) = calibrated(&model, &data, ChannelWeight::default(), &truth, &held);
             let (e_positions, _) = calibrated(
                 &model,
                 &positions(&data),
-                OrientationWeight::default(),
+                ChannelWeight::default(),
                 &truth,
                 &held,
             );
             eprintln!(
                 "seed {seed}: weight {} held out {:.4} mm; positions alone {:.4} mm",
-                OrientationWeight::name(w),
+                ChannelWeight::name(w),
                 e_chosen * 1e3,
                 e_positions * 1e3
             );

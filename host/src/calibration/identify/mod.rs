@@ -37,7 +37,7 @@ use armcal_shared::{Calibration, Param, Robot};
 use crate::calibration::acceptance::Judgement;
 use crate::io::measurements::Measurements;
 use crate::io::model_file::RobotModel;
-use channel_weight::{OrientationWeight, WeightChoice};
+use channel_weight::{ChannelWeights, Weighting};
 use full::{FullFit, FullOptions, Observation, Registrations, Status};
 use paper::{PaperOptions, PaperPose};
 use prior::Prior;
@@ -168,10 +168,10 @@ pub struct Identification {
     /// Full model with the prior's scale chosen: the factor on the stated
     /// prior it was fitted at and every factor's held-out score.
     pub prior: Option<PriorChoice>,
-    /// Full model on a session with orientations: the orientation rows'
-    /// weight fitted at, stated or chosen with every weight's held-out
-    /// score ([`channel_weight`]).
-    pub orientation_weight: Option<WeightChoice>,
+    /// Full model: the weight of each kind of row beside the reference
+    /// (orientations, contacts, known distances) fitted at, stated or
+    /// chosen with every weight's held-out score ([`channel_weight`]).
+    pub weighting: Weighting,
     /// The calibration to write.
     pub calibration: Calibration,
     /// The nominal model's and the calibration's residuals on the rows,
@@ -241,21 +241,21 @@ pub fn identify(
         set,
         options,
         scale,
-        OrientationWeight::default(),
+        &ChannelWeights::chosen(channel_weight::DEFAULT_FOLDS),
     )
 }
 
-/// [`identify`] with the orientation rows weighed as `weight` says: as
-/// stated, or at the weight that predicts held-out positions best
-/// ([`channel_weight`]; a session without orientations has one channel and
-/// no choice).
+/// [`identify`] with each kind of row beside the reference weighed as
+/// `weights` says: as stated, or at the weight that predicts held-out tool
+/// points best ([`channel_weight`]; a session of positions alone has one
+/// kind and no choice).
 pub fn identify_weighted(
     model: &RobotModel,
     data: &Measurements,
     set: ParamSet,
     options: &FullOptions,
     scale: PriorScale,
-    weight: OrientationWeight,
+    weights: &ChannelWeights,
 ) -> Result<Identification, IdentifyError> {
     let nominal = &model.robot;
     let orientation = data.poses.iter().any(|p| p.orientation.is_some());
@@ -266,9 +266,9 @@ pub fn identify_weighted(
         calibrated,
         fit,
         prior,
-        orientation_weight,
+        weighting,
     } = match set {
-        ParamSet::Full => fit_full(model, data, options, scale, weight)?,
+        ParamSet::Full => fit_full(model, data, options, scale, weights)?,
         ParamSet::Paper => fit_paper(model, data)?,
     };
     let (position_rms, orientation_rms) = match &fit {
@@ -305,7 +305,7 @@ pub fn identify_weighted(
         full: fit,
         stated_prior: options.prior,
         prior,
-        orientation_weight,
+        weighting,
         calibration,
         judgement: None,
         gravity: None,
@@ -328,8 +328,8 @@ struct Fitted {
     fit: Option<FullFit>,
     /// The prior's scale chosen by cross-validation, when asked.
     prior: Option<PriorChoice>,
-    /// The orientation rows' weight, with orientations.
-    orientation_weight: Option<WeightChoice>,
+    /// The weight of each kind of row beside the reference.
+    weighting: Weighting,
 }
 
 /// `--params full`: the fit at the stated prior (the orientations weighed by
@@ -340,11 +340,11 @@ fn fit_full(
     data: &Measurements,
     options: &FullOptions,
     scale: PriorScale,
-    weight: OrientationWeight,
+    weights: &ChannelWeights,
 ) -> Result<Fitted, IdentifyError> {
     let nominal = &model.robot;
     let mut prior = None;
-    let mut orientation_weight = None;
+    let mut weighting = Weighting::default();
     // The model's own tilts (a URDF's parallel axes) beside its D-H parameters.
     let tilts: Vec<Param> = model.tilted.iter().map(|&k| Param::Beta(k)).collect();
     let fit_at = |factor: f64, options: &FullOptions| {
@@ -362,60 +362,31 @@ fn fit_full(
         )
     };
     let mut fit = fit_at(1.0, options)?;
-    if data.has_orientation() {
-        // The weight chosen (or stated) with the prior's factor; the
-        // orientation noise held at its estimate at full weight.
-        let (choice, prior_choice) = match weight {
-            OrientationWeight::Stated(weight) => (WeightChoice::Stated { weight }, None),
-            OrientationWeight::Chosen { folds } => channel_weight::choose(
-                &fit,
-                observations(data),
-                &data.constraints,
-                &options.prior,
-                folds,
-                scale,
-            ),
+    let observed = observations(data);
+    let kinds = channel_weight::weighed_kinds(observed);
+    let scale_chosen = matches!(scale, PriorScale::Chosen { .. }) && options.prior.has_scale();
+    if !kinds.is_empty() || scale_chosen {
+        // The weights chosen (or stated) and the prior's factor at them; a
+        // weighed-down kind's noise held at its estimate at full weight.
+        let folds = match scale {
+            PriorScale::Chosen { folds } => folds,
+            PriorScale::Stated => channel_weight::DEFAULT_FOLDS,
         };
-        let prior_choice = match (prior_choice, scale) {
-            (Some(c), _) => Some(c),
-            (None, PriorScale::Chosen { folds }) if options.prior.has_scale() => {
-                Some(prior_scale::choose(
-                    &fit,
-                    observations(data),
-                    &data.constraints,
-                    &options.prior,
-                    folds,
-                ))
-            }
-            (None, _) => None,
-        };
-        let factor = prior_choice.as_ref().map_or(1.0, PriorChoice::factor);
-        if factor != 1.0 || choice.weight() != 1.0 {
-            let weighted = if choice.weight() == 1.0 {
-                *options
-            } else {
-                FullOptions {
-                    orientation_weight: choice.weight(),
-                    ..options.at_noise_of(&fit)
-                }
-            };
-            fit = fit_at(factor, &weighted)?;
-        }
-        prior = prior_choice;
-        orientation_weight = Some(choice);
-    } else if let (PriorScale::Chosen { folds }, true) = (scale, options.prior.has_scale()) {
-        // A prior without a finite scale (least squares) has none to choose.
-        let choice = prior_scale::choose(
+        let (chosen, prior_choice) = channel_weight::choose(
             &fit,
-            observations(data),
+            observed,
             &data.constraints,
             &options.prior,
             folds,
+            (scale, weights),
         );
-        if choice.factor() != 1.0 {
-            fit = fit_at(choice.factor(), options)?;
+        let factor = prior_choice.as_ref().map_or(1.0, PriorChoice::factor);
+        if factor != 1.0 || chosen.factors() != channel_weight::WeightFactors::NOISE {
+            let weighted = chosen.options(options, &fit);
+            fit = fit_at(factor, &weighted)?;
         }
-        prior = Some(choice);
+        prior = prior_choice;
+        weighting = chosen;
     }
     let rows: Vec<ParamRow> = fit
         .params
@@ -441,7 +412,7 @@ fn fit_full(
         calibrated: fit.calibrated.clone(),
         fit: Some(fit),
         prior,
-        orientation_weight,
+        weighting,
     })
 }
 
@@ -496,7 +467,7 @@ fn fit_paper(model: &RobotModel, data: &Measurements) -> Result<Fitted, Identify
         calibrated,
         fit: None,
         prior: None,
-        orientation_weight: None,
+        weighting: Weighting::default(),
     })
 }
 

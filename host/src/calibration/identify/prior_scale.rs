@@ -43,6 +43,7 @@ use super::full::{Constraints, FoldNormals, FullFit, Observation, fold_normals, 
 use super::prior::{PRIOR_FACTORS, Prior};
 pub use crate::calibration::diagnose::cross_validation::DEFAULT_FOLDS;
 use crate::calibration::diagnose::cross_validation::interleaved_folds;
+use crate::session::channel::{Channel, UNUSED, Weighed, WeightFactors};
 use crate::session::configurations::Configurations;
 use nalgebra::{DMatrix, DVector};
 
@@ -152,7 +153,33 @@ pub fn choose(
     if immaterial(fit) {
         return PriorChoice::Immaterial;
     }
-    let (k, scores) = scores(fit, data, constraints, prior, folds);
+    let (k, sums) = fold_sums(fit, data, constraints, prior, folds);
+    choose_among(fit, (k, &sums), &WeightFactors::NOISE)
+}
+
+/// The factors of the prior's scale worth scoring about `fit`: every one of
+/// [`PRIOR_FACTORS`] when the scale is chosen (`chosen`) and material, else
+/// the stated scale alone.
+pub(crate) fn factors_to_score(fit: &FullFit, chosen: bool) -> &'static [f64] {
+    if chosen && !immaterial(fit) {
+        &PRIOR_FACTORS
+    } else {
+        &[1.0]
+    }
+}
+
+/// The factor of [`PRIOR_FACTORS`] of least held-out error over the `k`
+/// folds' normal equations `sums` about `fit`, every kind of row weighed by
+/// `weights`; immaterial when no factor could matter.
+pub(crate) fn choose_among(
+    fit: &FullFit,
+    (k, sums): (usize, &FoldNormals),
+    weights: &WeightFactors,
+) -> PriorChoice {
+    if immaterial(fit) {
+        return PriorChoice::Immaterial;
+    }
+    let scores = scores(sums, weights);
     // The first least: the smaller factor on a tie.
     match scores
         .iter()
@@ -167,24 +194,15 @@ pub fn choose(
     }
 }
 
-/// The folds used (`folds`, at least 2 and at most one per pose) and the
-/// score of each factor of [`PRIOR_FACTORS`] a training set of every fold
-/// determines.
-fn scores(
-    fit: &FullFit,
-    data: &[Observation],
-    constraints: &Constraints,
-    prior: &Prior,
-    folds: usize,
-) -> (usize, Vec<PriorScore>) {
-    let (k, sums) = fold_sums(fit, data, constraints, prior, folds);
-    let scores = PRIOR_FACTORS
+/// The score of each factor of [`PRIOR_FACTORS`] a training set of every
+/// fold of `sums` determines, every kind of row weighed by `weights`.
+fn scores(sums: &FoldNormals, weights: &WeightFactors) -> Vec<PriorScore> {
+    PRIOR_FACTORS
         .iter()
         .filter_map(|&factor| {
-            held_out(&sums, factor).map(|held_out| PriorScore { factor, held_out })
+            held_out(sums, factor, weights).map(|held_out| PriorScore { factor, held_out })
         })
-        .collect();
-    (k, scores)
+        .collect()
 }
 
 /// The folds used (`folds`, at least 2 and at most one per pose) and the
@@ -205,22 +223,23 @@ pub(crate) fn fold_sums(
 }
 
 /// The RMS of the held-out tool-point errors at `factor` times the prior
-/// `sums` were gathered at, m; `None` when a fold's training poses cannot
-/// determine the unknowns.
-fn held_out(sums: &FoldNormals, factor: f64) -> Option<f64> {
-    let steps = fold_steps(sums, factor, 1.0)?;
-    let (squares, poses) = held_out_squares(sums, &steps);
+/// `sums` were gathered at, every kind of row weighed by `weights`, m; `None`
+/// when a fold's training poses cannot determine the unknowns.
+fn held_out(sums: &FoldNormals, factor: f64, weights: &WeightFactors) -> Option<f64> {
+    let steps = fold_steps(sums, factor, weights)?;
+    let (squares, poses) = held_out_squares(sums, &steps, None);
     (poses > 0 && squares.is_finite()).then(|| (squares.max(0.0) / poses as f64).sqrt())
 }
 
 /// Each fold's MAP step from the fit `sums` were gathered about, at
-/// `factor` times its prior and the orientation rows' weight times
-/// `orientation_weight` (1: as in the fit); `None` when a fold's training
-/// poses cannot determine the unknowns.
+/// `factor` times its prior and each kind of row's weight at the factor
+/// `weights` gives it (relative to its noise's; a kind not used at
+/// [`UNUSED`], its limit); `None` when a fold's training poses cannot
+/// determine the unknowns.
 pub(crate) fn fold_steps(
     sums: &FoldNormals,
     factor: f64,
-    orientation_weight: f64,
+    weights: &WeightFactors,
 ) -> Option<Vec<DVector<f64>>> {
     let p = sums.offset.len();
     let precision: Vec<f64> = sums
@@ -228,18 +247,29 @@ pub(crate) fn fold_steps(
         .iter()
         .map(|q| q / (factor * factor))
         .collect();
-    // The orientation rows' share taken down to the weight asked.
-    let less = 1.0 - orientation_weight;
+    // What each weighed kind's share is taken down by, from the weight it
+    // was gathered at to the weight asked.
+    let less = |w: Weighed| 1.0 - weights[w].max(UNUSED) / sums.fitted.fitted(w);
+    let channels: Vec<(Channel, f64)> = Weighed::ALL
+        .into_iter()
+        .map(|w| (w.channel(), less(w)))
+        .filter(|&(_, less)| less != 0.0)
+        .collect();
     let (a, b) = &sums.all;
-    let (a, b) = (
-        a - &sums.orientation.0 * less,
-        b - &sums.orientation.1 * less,
-    );
+    let (mut a, mut b) = (a.clone(), b.clone());
+    for &(c, less) in &channels {
+        a -= &sums.shares[c].0 * less;
+        b -= &sums.shares[c].1 * less;
+    }
     sums.folds
         .iter()
         .map(|fold| {
-            let a = &a - &fold.a + &fold.orientation.0 * less;
-            let b = &b - &fold.b + &fold.orientation.1 * less;
+            let mut a = &a - &fold.a;
+            let mut b = &b - &fold.b;
+            for &(c, less) in &channels {
+                a += &fold.shares[c].0 * less;
+                b += &fold.shares[c].1 * less;
+            }
             let rhs = DVector::from_fn(p, |i, _| b[i] - precision[i] * sums.offset[i]);
             // Scaled to a unit diagonal, for the conditioning of the factorisation.
             let scale: Vec<f64> = (0..p)
@@ -258,17 +288,24 @@ pub(crate) fn fold_steps(
 }
 
 /// The held-out tool-point rows' sum of squares after each fold's step
-/// `steps`, m², and the poses held out.
-pub(crate) fn held_out_squares(sums: &FoldNormals, steps: &[DVector<f64>]) -> (f64, usize) {
+/// `steps`, m², and the poses held out: of every tool-point channel but
+/// `except`.
+pub(crate) fn held_out_squares(
+    sums: &FoldNormals,
+    steps: &[DVector<f64>],
+    except: Option<Channel>,
+) -> (f64, usize) {
     sums.folds
         .iter()
         .zip(steps)
-        .fold((0.0, 0), |(squares, poses), (fold, delta)| {
-            (
-                squares + fold.held_rtr - 2.0 * delta.dot(&fold.held_b)
-                    + delta.dot(&(&fold.held_a * delta)),
-                poses + fold.poses,
-            )
+        .fold((0.0, 0), |(mut squares, mut poses), (fold, delta)| {
+            for (c, held) in Channel::ALL.into_iter().zip(&fold.held.0) {
+                if let (Some(held), true) = (held, Some(c) != except) {
+                    squares += held.rtr - 2.0 * delta.dot(&held.b) + delta.dot(&(&held.a * delta));
+                    poses += held.poses;
+                }
+            }
+            (squares, poses)
         })
 }
 
@@ -322,7 +359,8 @@ mod tests {
             let fit =
                 identify_constrained(&model.robot, None, &[], &[], poses, constraints, &options)
                     .unwrap();
-            let (k, scores) = scores(&fit, poses, constraints, &options.prior, 10);
+            let (k, sums) = fold_sums(&fit, poses, constraints, &options.prior, 10);
+            let scores = scores(&sums, &WeightFactors::NOISE);
             assert_eq!(scores.len(), PRIOR_FACTORS.len(), "{}", data.file);
             let lin = linearize(&fit, &[], &[], poses, constraints, &options.prior);
             let folds = Folds::interleaved(&lin, k);

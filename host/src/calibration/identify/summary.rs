@@ -167,9 +167,7 @@ impl Identification {
             out["equations"] = json!(fit.equations);
             out["noise"] = noise_json(&fit.noise, units);
             out["prior"] = self.prior_json(units);
-            if let Some(w) = &self.orientation_weight {
-                out["orientation_weight"] = w.to_json(self.orientation_rms);
-            }
+            self.weighting.insert_json(&mut out, fit);
             out["correlations"] = json!(
                 fit.correlations
                     .iter()
@@ -468,8 +466,12 @@ impl Identification {
                 "condition number {:.3e}, observability index O1 {:.3e}, variance factor {:.3} (residual/stated noise)²",
                 fit.condition_number, fit.observability, fit.variance_factor
             );
-            let redundancies = fit.noise.rows().into_iter().map(|(_, n)| n.redundancy);
-            for (n, r) in noise_rows(&fit.noise, u).into_iter().zip(redundancies) {
+            let rows = fit.noise.rows().into_iter().map(|(c, n)| {
+                // The factor on the channel's weight (the known distances': 1).
+                let factor = c.map_or(1.0, |c| fit.weights.of_channel(c));
+                (n.redundancy, factor)
+            });
+            for (n, (r, factor)) in noise_rows(&fit.noise, u).into_iter().zip(rows) {
                 let NoiseRow {
                     what,
                     used,
@@ -478,13 +480,11 @@ impl Identification {
                     ..
                 } = n;
                 let stated = n.source == noise::NoiseSource::Stated;
-                let weighed_down = what == "orientation" && fit.orientation_weight != 1.0;
                 let _ = match stated {
-                    _ if weighed_down => writeln!(
+                    _ if factor != 1.0 => writeln!(
                         out,
-                        "{what} noise {used:.3e} {unit} ({}, at full weight; the rows weighed ×{} of it); the residuals show {shown:.3e} {unit}",
+                        "{what} noise {used:.3e} {unit} ({}, at full weight; the rows weighed ×{factor} of it); the residuals show {shown:.3e} {unit}",
                         if stated { "stated" } else { "estimated" },
-                        fit.orientation_weight
                     ),
                     true if r < 1.0 => writeln!(
                         out,
@@ -508,8 +508,8 @@ impl Identification {
         if let Some(line) = self.prior_line(u) {
             let _ = writeln!(out, "{line}");
         }
-        if let Some(w) = &self.orientation_weight {
-            out.push_str(&w.summary(self.orientation_rms));
+        if let Some(fit) = &self.full {
+            out.push_str(&self.weighting.summary(fit));
         }
         let _ = writeln!(
             out,

@@ -29,6 +29,7 @@ use super::{
     ParamResult, PlaneEstimate, PlaneFit, PointFit, Posterior, Registrations, SessionFit, Status,
     Unknown, channel_weights, full_params, independent_parameter_count, prior_reach, prior_terms,
 };
+use crate::session::channel::Weighed;
 use crate::session::measurements::session_count;
 
 /// Refuses data the fit cannot read: rows at points or planes the
@@ -345,12 +346,12 @@ impl<'a> Fit<'a> {
             Channel::Point => data.iter().any(|o| o.fixed_point().is_some()),
             Channel::Plane => data.iter().any(|o| o.on_plane().is_some()),
         });
-        // A down-weighted orientation channel keeps the noise it is given:
-        // its variance component would restore the weight.
+        // A down-weighted channel keeps the noise it is given: its variance
+        // component would restore the weight.
         let estimate = present.map(|c, &present| {
             present
                 && options.noise(c).source == NoiseSource::Estimated
-                && (c != Channel::Orientation || options.orientation_weight == 1.0)
+                && options.weights.of_channel(c) == 1.0
         });
         let mut structure = robot.clone();
         let mut moved = false;
@@ -527,7 +528,9 @@ impl<'a> Fit<'a> {
     /// weighted by their noise (not a down-weighted orientation channel).
     fn posterior(&self, sys: &NormalEquations, prior: &[(f64, f64)]) -> Posterior {
         let mut post = Posterior::at(sys, prior);
-        post.counted[Channel::Orientation] = self.options.orientation_weight == 1.0;
+        for c in Channel::ALL {
+            post.counted[c] = self.options.weights.of_channel(c) == 1.0;
+        }
         post
     }
 
@@ -638,12 +641,21 @@ impl<'a> Fit<'a> {
     /// known distances' at their stated uncertainties.
     fn noise_estimate(&self, s: &Solution) -> NoiseEstimate {
         let (noise, post, constraints) = (&self.noise, &s.post, self.constraints);
-        let channel = |c: Channel| ChannelNoise {
-            source: self.options.noise(c).source,
-            used: noise[c],
-            shown: ChannelNoise::update(noise[c], post.omega[c], post.redundancy[c]),
-            rows: post.rows[c],
-            redundancy: post.redundancy[c],
+        // A down-weighted contact's weighted squares are its factor times
+        // its own: what its rows show, over the factor's square root.
+        let channel = |c: Channel| {
+            let shown = ChannelNoise::update(noise[c], post.omega[c], post.redundancy[c]);
+            let factor = match c {
+                Channel::Point | Channel::Plane => self.options.weights.fitted_channel(c),
+                Channel::Position | Channel::Orientation => 1.0,
+            };
+            ChannelNoise {
+                source: self.options.noise(c).source,
+                used: noise[c],
+                shown: shown / factor.sqrt(),
+                rows: post.rows[c],
+                redundancy: post.redundancy[c],
+            }
         };
         let distance = (!constraints.distances.is_empty()).then(|| {
             let n = constraints.distances.len();
@@ -787,7 +799,7 @@ impl<'a> Fit<'a> {
     /// The result at solution `s`.
     fn result(mut self, s: Solution) -> Result<FullFit, FullError> {
         // Orientations not used: the tool's rotation registered to them.
-        let unused = self.options.orientation_weight == 0.0 && self.unknowns.orientation;
+        let unused = self.options.weights[Weighed::Orientation] == 0.0 && self.unknowns.orientation;
         let tool_rotation_std = if unused {
             self.register_tool_rotation()
         } else {
@@ -800,7 +812,7 @@ impl<'a> Fit<'a> {
         // unweighted, whatever its weight (0 included).
         if let (Some(o), true) = (
             &mut noise.orientation,
-            self.options.orientation_weight != 1.0,
+            self.options.weights[Weighed::Orientation] != 1.0,
         ) {
             let (sum, rows) = self.orientation_squares();
             orientation_rms = (sum / (rows / 3).max(1) as f64).sqrt();
@@ -860,7 +872,7 @@ impl<'a> Fit<'a> {
             equations: self.unknowns.equations,
             redundancy: s.post.redundancy(),
             noise,
-            orientation_weight: self.options.orientation_weight,
+            weights: self.options.weights,
             prior_reach: stats.prior_reach,
         })
     }
@@ -909,7 +921,7 @@ impl<'a> Fit<'a> {
 
     /// The weight of each channel's rows at the current noises.
     fn weights(&self) -> Weights {
-        channel_weights(&self.noise, self.options.orientation_weight)
+        channel_weights(&self.noise, &self.options.weights)
     }
 
     /// The sum of squares of the orientation rows' residuals, rad², and

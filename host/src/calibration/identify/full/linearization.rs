@@ -14,6 +14,7 @@ use crate::calibration::dense;
 use crate::calibration::identify::noise::Channel;
 use crate::calibration::identify::prior::Prior;
 use crate::io::measurements::Contact;
+use crate::session::channel::{PerChannel, Weighed, WeightFactors};
 use crate::session::configurations::Configurations;
 
 /// The model at a fit's solution and the unknowns of a linearisation about
@@ -48,7 +49,7 @@ impl AtFit {
         // Orientations not used: no row weighs the tool's rotation (it was
         // registered to them apart), no step moves it.
         let weighed = |p: Param| {
-            fit.orientation_weight > 0.0
+            fit.weights[Weighed::Orientation] > 0.0
                 || !matches!(
                     p,
                     Param::Tool(FrameAxis::Rx | FrameAxis::Ry | FrameAxis::Rz)
@@ -189,7 +190,7 @@ pub fn linearize(
         fitted,
         noise: data
             .iter()
-            .map(|o| fit.noise_of(o.channel()))
+            .map(|o| fit.row_scale(o.channel()))
             .chain(constraints.distances.iter().map(|d| d.std))
             .collect(),
         unknowns,
@@ -276,40 +277,55 @@ impl Linearization {
     }
 }
 
+/// The normal equations of some rows: `JᵀJ` and `Jᵀr`.
+pub type Normal = (DMatrix<f64>, DVector<f64>);
+
+/// A fold's held-out rows of one tool-point channel (a measured position or
+/// a contact; not the orientation), each row in m (multiplied back by what
+/// the fit divided it by), so that `‖r − Jδ‖²` of those rows is in m².
+pub struct HeldRows {
+    /// `JᵀJ` of the rows, m².
+    pub a: DMatrix<f64>,
+    /// `Jᵀr` of the rows, m.
+    pub b: DVector<f64>,
+    /// `rᵀr` of the rows, m².
+    pub rtr: f64,
+    /// The poses they belong to.
+    pub poses: usize,
+}
+
 /// One fold's share of the normal equations about a fit ([`fold_normals`]).
 pub struct FoldNormal {
-    /// `JᵀJ` of the fold's pose rows, every channel, each row divided by its
-    /// noise as in the fit.
+    /// `JᵀJ` of the fold's pose rows, every channel, each row divided as in
+    /// the fit (by its noise, times the square root of its weight's factor).
     pub a: DMatrix<f64>,
     /// `Jᵀr` of the same rows.
     pub b: DVector<f64>,
-    /// `JᵀJ` of its tool-point rows alone (a measured position or a
-    /// contact; not the orientation), each row in m (multiplied back by its
-    /// noise), so that `‖r − Jδ‖²` of those rows is in m².
-    pub held_a: DMatrix<f64>,
-    /// `Jᵀr` of the same rows, m.
-    pub held_b: DVector<f64>,
-    /// `rᵀr` of the same rows, m².
-    pub held_rtr: f64,
-    /// `JᵀJ` and `Jᵀr` of its orientation rows alone, as in `a` and `b`
-    /// (zero without orientations): what another weight of the
-    /// orientation channel scales ([`super::super::channel_weight`]).
-    pub orientation: (DMatrix<f64>, DVector<f64>),
+    /// Each channel's share of `a` and `b` (zero for a channel without
+    /// rows): what another weight of the channel scales
+    /// ([`super::super::channel_weight`]).
+    pub shares: PerChannel<Normal>,
+    /// Each tool-point channel's rows, in m (`None` for the orientations
+    /// and for a channel without rows in the fold).
+    pub held: PerChannel<Option<HeldRows>>,
     /// The fold's poses.
     pub poses: usize,
 }
 
 /// The normal equations about a fit's solution, summed fold by fold: all a
 /// linearised k-fold cross-validation of the fit's unknowns at another prior
-/// needs, in memory independent of the number of poses (`O(k p²)`).
+/// or other channel weights needs, in memory independent of the number of
+/// poses (`O(k p²)`).
 pub struct FoldNormals {
     /// Each fold's.
     pub folds: Vec<FoldNormal>,
     /// `JᵀJ` and `Jᵀr` of every row: each fold's poses and the known
     /// distances (trained on in every fold).
-    pub all: (DMatrix<f64>, DVector<f64>),
-    /// `JᵀJ` and `Jᵀr` of every orientation row (part of `all`).
-    pub orientation: (DMatrix<f64>, DVector<f64>),
+    pub all: Normal,
+    /// Each channel's share of `all`.
+    pub shares: PerChannel<Normal>,
+    /// The factors the fit weighed each kind of row by: the shares' weights.
+    pub fitted: WeightFactors,
     /// Each unknown's prior precision `1/τ²` (0: none).
     pub precision: Vec<f64>,
     /// Each unknown's value less its nominal value (its prior's centre), SI.
@@ -338,7 +354,7 @@ pub fn fold_normals(
     let weights = fit.weights();
     let p = unknowns.len();
     let (matrix, vector) = (dense::to_nalgebra, dense::to_vector);
-    let tool = [Channel::Position, Channel::Point, Channel::Plane];
+    let zero = || (DMatrix::zeros(p, p), DVector::zeros(p));
     let folds: Vec<FoldNormal> = (0..k)
         .map(|f| {
             let poses: Vec<&Observation> = data
@@ -351,42 +367,44 @@ pub fn fold_normals(
             let mut fold = FoldNormal {
                 a: DMatrix::zeros(p, p),
                 b: DVector::zeros(p),
-                held_a: DMatrix::zeros(p, p),
-                held_b: DVector::zeros(p),
-                held_rtr: 0.0,
-                orientation: (DMatrix::zeros(p, p), DVector::zeros(p)),
+                shares: PerChannel::from_fn(|_| zero()),
+                held: PerChannel::default(),
                 poses: poses.len(),
             };
             for c in Channel::ALL {
                 let (a, b) = (matrix(&sums.jtj[c]), vector(&sums.jtr[c]));
-                if tool.contains(&c) {
-                    let s2 = fit.noise_of(c).powi(2);
-                    fold.held_a += &a * s2;
-                    fold.held_b += &b * s2;
-                    fold.held_rtr += sums.rtr[c] * s2;
+                if c != Channel::Orientation && sums.rows[c] > 0 {
+                    let s2 = fit.row_scale(c).powi(2);
+                    fold.held[c] = Some(HeldRows {
+                        a: &a * s2,
+                        b: &b * s2,
+                        rtr: sums.rtr[c] * s2,
+                        poses: poses.iter().filter(|o| o.channel() == c).count(),
+                    });
                 }
-                if c == Channel::Orientation {
-                    fold.orientation = (a.clone(), b.clone());
-                }
-                fold.a += a;
-                fold.b += b;
+                fold.a += &a;
+                fold.b += &b;
+                fold.shares[c] = (a, b);
             }
             fold
         })
         .collect();
     let distances = DistanceRows::of(&model, &unknowns);
     let mut all = (matrix(&distances.jtj), vector(&distances.jtr));
-    let mut orientation = (DMatrix::zeros(p, p), DVector::zeros(p));
+    let mut shares = PerChannel::from_fn(|_| zero());
     for fold in &folds {
         all.0 += &fold.a;
         all.1 += &fold.b;
-        orientation.0 += &fold.orientation.0;
-        orientation.1 += &fold.orientation.1;
+        for c in Channel::ALL {
+            shares[c].0 += &fold.shares[c].0;
+            shares[c].1 += &fold.shares[c].1;
+        }
     }
     FoldNormals {
         folds,
         all,
-        orientation,
+        shares,
+        fitted: fit.weights,
         precision,
         offset,
     }

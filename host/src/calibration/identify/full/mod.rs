@@ -83,6 +83,7 @@ use nalgebra::{Matrix3, Point3, Rotation3, Vector3};
 
 use super::noise::{Channel, Noise, NoiseEstimate, NoiseSource, PerChannel, Weights};
 use super::prior::{Geometry, PRIOR_FACTORS, Prior};
+use crate::session::channel::WeightFactors;
 pub use crate::session::registration::{FrameSharing, Registrations, Sharing};
 
 mod fit;
@@ -374,14 +375,13 @@ pub struct FullOptions {
     pub geometry: Geometry,
     /// With several sessions, which frames are each session's own.
     pub sessions: FrameSharing,
-    /// The weight of the orientation rows relative to what their noise
-    /// gives them (`1/σ_r²`): 1 as the noise says, 0.1, 0.01, or 0 — not
-    /// used, the geometry from the positions alone
-    /// ([`crate::calibration::identify::channel_weight`]).
-    /// Below 1 the orientation noise is held where these options put it
-    /// (the estimate at full weight), not estimated again: variance
-    /// components would restore the weight.
-    pub orientation_weight: f64,
+    /// The weight of each kind of row but the positions relative to what
+    /// its noise gives it (`1/σ²`): 1 as the noise says, 0.1, 0.01, or 0 —
+    /// not used ([`crate::calibration::identify::channel_weight`]).
+    /// Below 1 a channel's noise is held where these options put it (the
+    /// estimate at full weight), not estimated again: variance components
+    /// would restore the weight.
+    pub weights: WeightFactors,
 }
 
 impl FullOptions {
@@ -471,7 +471,7 @@ impl Default for FullOptions {
             prior: Prior::default(),
             geometry: Geometry::Full,
             sessions: FrameSharing::default(),
-            orientation_weight: 1.0,
+            weights: WeightFactors::NOISE,
         }
     }
 }
@@ -546,9 +546,9 @@ pub struct FullFit {
     pub redundancy: f64,
     /// The noise of each channel: used and shown by the residuals.
     pub noise: NoiseEstimate,
-    /// The orientation rows' weight relative to their noise's
-    /// ([`FullOptions::orientation_weight`]): 1 unless down-weighted.
-    pub orientation_weight: f64,
+    /// Each weighed kind's weight relative to its noise's
+    /// ([`FullOptions::weights`]): 1 unless down-weighted.
+    pub weights: WeightFactors,
     /// How much another scale of the prior (a factor of [`PRIOR_FACTORS`])
     /// could change the sum of squares of the held-out residuals, in units
     /// of its sampling error (the first-order change of the fit between
@@ -614,16 +614,23 @@ impl FullFit {
     /// The weights of the rows of each channel at the noise the fit used (1
     /// for a channel without rows).
     pub fn weights(&self) -> Weights {
-        channel_weights(
-            &PerChannel::from_fn(|c| self.noise_of(c)),
-            self.orientation_weight,
-        )
+        channel_weights(&PerChannel::from_fn(|c| self.noise_of(c)), &self.weights)
     }
 
     /// The noise the fit divided channel `c`'s rows by (1 for a channel
     /// without rows).
     pub fn noise_of(&self, c: Channel) -> f64 {
         self.noise.channel(c).map_or(1.0, |n| n.used)
+    }
+
+    /// What channel `c`'s rows were divided by in the fit: its noise over
+    /// the square root of its weight's factor (m or rad per axis; 1 for a
+    /// channel without rows). A row times it is back in m or rad.
+    pub fn row_scale(&self, c: Channel) -> f64 {
+        match self.weights.fitted_channel(c) {
+            0.0 => self.noise_of(c),
+            factor => self.noise_of(c) / factor.sqrt(),
+        }
     }
 
     /// The fitted effects, with their identified parameters.
@@ -846,13 +853,11 @@ fn prior_reach(
         .fold(0.0, f64::max)
 }
 
-/// The weight of each channel's rows at the noises `noise`: `1/σ_c`, the
-/// orientation rows' times `√orientation_weight` (a factor on `1/σ_r²`).
-pub(crate) fn channel_weights(noise: &PerChannel<f64>, orientation_weight: f64) -> Weights {
-    noise.map(|c, s| match c {
-        Channel::Orientation => orientation_weight.sqrt() / s,
-        Channel::Position | Channel::Point | Channel::Plane => 1.0 / s,
-    })
+/// The weight of each channel's rows at the noises `noise`: `1/σ_c`, a
+/// weighed kind's times the square root of the factor it is fitted at
+/// ([`WeightFactors::fitted`]; a factor on `1/σ_c²`).
+pub(crate) fn channel_weights(noise: &PerChannel<f64>, factors: &WeightFactors) -> Weights {
+    noise.map(|c, s| factors.fitted_channel(c).sqrt() / s)
 }
 
 /// Most rounds of the variance-component iteration (each a fit from the last);
