@@ -214,7 +214,7 @@ fn load_torques_give_the_drive_torques_calibration() {
         let request = diagnose_cmd::Request {
             folds: None,
             scales: Default::default(),
-            orientation_weight: Default::default(),
+            channel_weights: Default::default(),
             targets: armcal_shared::TargetFrame::World,
             frames: armcal::session::registration::FrameSharing::stated(false, false),
             torque_sign: sign,

@@ -69,7 +69,7 @@ fn identified(
         params: armcal::calibration::identify::ParamSet::Full,
         scales: Default::default(),
         prior_scale: Default::default(),
-        orientation_weight: Default::default(),
+        channel_weights: Default::default(),
         targets: TargetFrame::World,
         frames: FrameSharing::default(),
         torque_sign: None,

@@ -93,7 +93,7 @@ fn identify_session(
         params: ParamSet::Full,
         scales: StatedScales::default(),
         prior_scale: PriorScale::default(),
-        orientation_weight: Default::default(),
+        channel_weights: Default::default(),
         targets: TargetFrame::World,
         frames: FrameSharing::default(),
         torque_sign: None,
