@@ -489,3 +489,157 @@ fn a_plan_for_compliance_identifies_it_better_than_random_poses() {
         );
     }
 }
+
+/// A D-optimal design of `n` poses among `candidates` by the convex
+/// relaxation most tools solve (FIGAROH's SOCP among them): the weights
+/// `λ_c ≥ 0`, `Σ λ_c = 1`, that maximise `ln det(n Σ_c λ_c J_cᵀ J_c / σ² + Π)`
+/// (`J_c` candidate `c`'s position rows over every parameter of the model,
+/// by central differences; `Π` `identify`'s default prior, 1 mm / 1 mrad on
+/// the D-H parameters, and a ridge of 10⁻⁹ of the mean information on every
+/// column, for the directions no pose sees), found by the multiplicative
+/// algorithm (Silvey, Titterington & Torsney 1978: `λ_c ← λ_c d_c / Σ λ d`,
+/// `d_c = tr(J_c M⁻¹ J_cᵀ)`) in 300 steps; then the `n` candidates of
+/// largest weight, as the relaxation's designs are rounded. Written apart
+/// from `plan`'s own code: another implementation.
+fn d_optimal_relaxed(robot: &Robot<f64>, candidates: &[Vec<f64>], n: usize) -> Vec<Vec<f64>> {
+    use nalgebra::DMatrix;
+    let params: Vec<Param> = robot.params().collect();
+    let p = params.len();
+    let h = 1e-7;
+    let point = |r: &Robot<f64>, q: &[f64]| r.forward(q).unwrap().translation.vector;
+    let rows: Vec<DMatrix<f64>> = candidates
+        .iter()
+        .map(|q| {
+            let mut j = DMatrix::zeros(3, p);
+            for (k, &param) in params.iter().enumerate() {
+                let (mut up, mut down) = (robot.clone(), robot.clone());
+                *up.param_mut(param).unwrap() += h;
+                *down.param_mut(param).unwrap() -= h;
+                let d = (point(&up, q) - point(&down, q)) / (2.0 * h * NOISE);
+                j.column_mut(k).copy_from(&d);
+            }
+            j
+        })
+        .collect();
+    let information: Vec<DMatrix<f64>> = rows.iter().map(|j| j.transpose() * j).collect();
+    let prior = armcal::session::prior::Prior::default();
+    let mean = information.iter().fold(DMatrix::zeros(p, p), |m, i| m + i) / rows.len() as f64;
+    let ridge = 1e-9 * mean.trace() / p as f64;
+    let base = DMatrix::from_diagonal(&nalgebra::DVector::from_iterator(
+        p,
+        params.iter().map(|&q| prior.precision(q) + ridge),
+    ));
+    let mut weights = vec![1.0 / rows.len() as f64; rows.len()];
+    for _ in 0..300 {
+        let m = information
+            .iter()
+            .zip(&weights)
+            .fold(base.clone(), |m, (i, &w)| m + i * (w * n as f64));
+        let inverse = m.cholesky().expect("the prior determines M").inverse();
+        let d: Vec<f64> = rows
+            .iter()
+            .map(|j| (j * &inverse * j.transpose()).trace())
+            .collect();
+        let total: f64 = weights.iter().zip(&d).map(|(w, d)| w * d).sum();
+        for (w, d) in weights.iter_mut().zip(&d) {
+            *w *= d / total;
+        }
+    }
+    let mut order: Vec<usize> = (0..rows.len()).collect();
+    order.sort_by(|&a, &b| weights[b].total_cmp(&weights[a]));
+    order[..n].iter().map(|&c| candidates[c].clone()).collect()
+}
+
+/// The plan (I-optimal) of 20 poses for `model` beside the D-optimal designs
+/// of as many from the same 2,000 candidates — the exchange (`--criterion
+/// d-optimal`, DETMAX's, which the report compares) and the convex
+/// relaxation ([`d_optimal_relaxed`]) — on `robots` true robots off nominal
+/// by up to `sizes`, calibrated by `identify`'s default, judged on 200
+/// held-out poses. What the report claims of the D-optimal exchange must
+/// hold: its predicted RMS within ±30 % of the median RMS it delivers, as
+/// the plan's own is. The figures of all three are printed.
+fn planned_against_d_optimal(
+    name: &str,
+    model: RobotModel,
+    sizes: &armcal::calibration::simulate::ErrorSizes,
+    robots: u64,
+) {
+    use armcal::calibration::plan::{Optimality, within_limits};
+    let nominal = &model.robot;
+    let candidates = within_limits(nominal, 2000, 0.05, 3);
+    let options = PlanOptions {
+        poses: 20,
+        ..PlanOptions::default()
+    };
+    let i_plan = plan(nominal, Some(&candidates), None, &options).unwrap();
+    let d_options = PlanOptions {
+        criterion: Optimality::D,
+        ..options.clone()
+    };
+    let d_plan = plan(nominal, Some(&candidates), None, &d_options).unwrap();
+    let relaxed = d_optimal_relaxed(nominal, &candidates, 20);
+    let params: Vec<Param> = nominal.params().collect();
+    let designs = [
+        ("plan", &i_plan.q),
+        ("d-exchange", &d_plan.q),
+        ("d-relaxed", &relaxed),
+    ];
+    let mut found: Vec<Vec<(f64, f64)>> = vec![Vec::new(); designs.len()];
+    for seed in 1..=robots {
+        let mut r = rng(300 + seed);
+        let (truth, _) =
+            armcal::calibration::simulate::with_error_sizes(nominal, &params, sizes, &mut r);
+        let targets = random_configurations(nominal, 200, &mut r);
+        for (k, (_, q)) in designs.iter().enumerate() {
+            let calibrated = calibrate(&model, &truth, q, seed);
+            found[k].push(held_out(&calibrated, &truth, &targets, 0.0));
+        }
+    }
+    let rms = |v: &[(f64, f64)]| median(v.iter().map(|x| x.0).collect());
+    let worst = |v: &[(f64, f64)]| median(v.iter().map(|x| x.1).collect());
+    for ((what, _), f) in designs.iter().zip(&found) {
+        eprintln!(
+            "{name}, {what}: median RMS {:.4} mm, median worst {:.4} mm",
+            rms(f) * 1e3,
+            worst(f) * 1e3
+        );
+    }
+    // The plan's report of the D-optimal exchange (its own compared plan,
+    // chosen from the same candidates) is the design measured here.
+    let compared = i_plan.compared.predicted.as_ref().expect("identifies");
+    assert_eq!(i_plan.compared.criterion, Optimality::D);
+    for (predicted, delivered) in [
+        (i_plan.predicted.rms, rms(&found[0])),
+        (compared.rms, rms(&found[1])),
+    ] {
+        eprintln!(
+            "{name}: predicted {:.4} mm, delivered {:.4} mm",
+            predicted * 1e3,
+            delivered * 1e3
+        );
+        assert!(
+            (0.7..=1.3).contains(&(predicted / delivered)),
+            "{name}: predicted {predicted} against {delivered}"
+        );
+    }
+}
+
+#[test]
+fn d_optimal_designs_are_predicted_as_they_deliver_on_a_ur10e() {
+    planned_against_d_optimal(
+        "ur10e",
+        with_smr("ur10e"),
+        &armcal::calibration::simulate::ErrorSizes::default(),
+        15,
+    );
+}
+
+#[test]
+fn d_optimal_designs_are_predicted_as_they_deliver_on_a_puma_560() {
+    planned_against_d_optimal(
+        "puma560",
+        with_smr("puma560"),
+        &armcal::calibration::simulate::ErrorSizes::default(),
+        15,
+    );
+}

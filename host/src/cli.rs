@@ -8,6 +8,7 @@ use armcal::calibration::gravity::TorqueSign;
 use armcal::calibration::identify::channel_weight::{ChannelWeight, ChannelWeights, Weighed};
 use armcal::calibration::identify::prior_scale::PriorScale;
 use armcal::calibration::identify::{ParamSet, StatedScales};
+use armcal::calibration::plan::Optimality;
 use armcal::commands::tool::Tool;
 use armcal::commands::{diagnose, export, holdout, identify, plan, simulate};
 use armcal::io::input_error::InputError;
@@ -163,9 +164,33 @@ pub(crate) struct PlanArgs {
     /// configurations to seat it in each at.
     #[arg(long, value_name = "S.csv")]
     pub(crate) sockets: Option<String>,
+    /// What the poses are chosen for: `i-optimal`, the calibrated robot's
+    /// predicted error over the workspace; `d-optimal`, the volume of the
+    /// parameters' confidence region (as most tools choose). The report
+    /// gives the other's plan of as many poses beside.
+    #[arg(long, value_enum, default_value = "i-optimal")]
+    pub(crate) criterion: CriterionArg,
     /// Seed of every random draw.
     #[arg(long, default_value_t = 1)]
     pub(crate) seed: u64,
+}
+
+/// `--criterion`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub(crate) enum CriterionArg {
+    /// The calibrated robot's predicted error over the workspace.
+    IOptimal,
+    /// The volume of the parameters' confidence region.
+    DOptimal,
+}
+
+impl From<CriterionArg> for Optimality {
+    fn from(a: CriterionArg) -> Self {
+        match a {
+            CriterionArg::IOptimal => Optimality::I,
+            CriterionArg::DOptimal => Optimality::D,
+        }
+    }
 }
 
 impl PlanArgs {
@@ -182,6 +207,7 @@ impl PlanArgs {
             candidates: self.candidates,
             effects: self.effects.clone(),
             sockets: None,
+            criterion: self.criterion.into(),
             seed: self.seed,
         }
     }

@@ -321,6 +321,7 @@ pub mod args {
         orientation_bias_growth: Option<f64> = "orientation_bias_growth", "an angle per length in the model's units, or None";
         targets: String = "targets", "\"world\" or \"base\"";
         select: String = "select", "\"stated\", \"prior\" or \"diagnose\"";
+        criterion: String = "criterion", "\"i-optimal\" or \"d-optimal\"";
         torque_sign: Option<String> = "torque_sign", "\"drive\", \"load\" or None";
         simulated_torque_sign: String = "torque_sign", "\"drive\" or \"load\"";
     }

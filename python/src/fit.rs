@@ -343,7 +343,9 @@ fn channel_weights(py: Python<'_>, texts: [&str; 3]) -> PyResult<ChannelWeights>
             errors::argument(
                 py,
                 &format!("{}_weight", kind.key()),
-                format!("{text:?}: expected \"chosen\", \"estimated\", \"0.1\", \"0.01\" or \"none\""),
+                format!(
+                    "{text:?}: expected \"chosen\", \"estimated\", \"0.1\", \"0.01\" or \"none\""
+                ),
             )
         })?;
     }

@@ -6,7 +6,7 @@
 //! the plan is SI.
 
 use super::Front;
-use crate::calibration::plan::{Plan, PlanOptions, Visits, plan_cancellable};
+use crate::calibration::plan::{Optimality, Plan, PlanOptions, Visits, plan_cancellable};
 use crate::io::input_error::InputError;
 use crate::io::model_file::RobotModel;
 use crate::io::sockets::Sockets;
@@ -47,6 +47,8 @@ pub struct Request {
     /// For a session without a tracker: the sockets the ball is seated in
     /// (SI, as read).
     pub sockets: Option<Sockets>,
+    /// What the poses are chosen for (I-optimal by default).
+    pub criterion: Optimality,
     /// Seed of every draw.
     pub seed: u64,
 }
@@ -74,6 +76,7 @@ impl Request {
         let mut options = PlanOptions {
             poses: self.poses,
             orientation: self.orientation,
+            criterion: self.criterion,
             seed: self.seed,
             ..PlanOptions::default()
         };

@@ -59,6 +59,7 @@ use crate::io::measurements::Contact;
 use crate::io::sockets::Sockets;
 use crate::session::prior::Prior;
 use design::Candidates;
+pub use design::Optimality;
 
 /// A box the tool point must stay in, measurement frame, m.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -116,6 +117,10 @@ pub struct PlanOptions {
     /// For a session without a tracker: the sockets the ball is seated in
     /// ([`sockets`]); `None`: an instrument measures the tool point.
     pub sockets: Option<Sockets>,
+    /// What the poses are chosen for: the workspace's predicted error
+    /// (I-optimal, the default) or the parameters' confidence region
+    /// (D-optimal).
+    pub criterion: Optimality,
     /// Seed of every draw.
     pub seed: u64,
 }
@@ -136,6 +141,7 @@ impl Default for PlanOptions {
             visits: Visits::Once,
             compliance: false,
             sockets: None,
+            criterion: Optimality::I,
             seed: 1,
         }
     }
@@ -193,6 +199,9 @@ pub struct Plan {
     /// As many random candidates' (`None` when they do not identify every
     /// parameter the plan does, with the ones they miss).
     pub random: Result<Prediction, Vec<String>>,
+    /// The plan of as many poses the other criterion chooses from the same
+    /// candidates, and its predicted accuracy.
+    pub compared: Compared,
     /// The parameters the plan identifies.
     pub identified: Vec<Param>,
     /// The parameters no choice of poses identifies, with why (`identify`'s
@@ -216,6 +225,16 @@ pub struct Plan {
     pub target_points: Vec<Point3<f64>>,
     /// The nominal tool point of each planned pose, in measurement order.
     pub points: Vec<Point3<f64>>,
+}
+
+/// Another criterion's plan, for comparison.
+#[derive(Clone, Debug)]
+pub struct Compared {
+    /// The criterion it was chosen by.
+    pub criterion: Optimality,
+    /// Its predicted accuracy (`Err` with what it misses when it does not
+    /// identify every parameter the plan does).
+    pub predicted: Result<Prediction, Vec<String>>,
 }
 
 /// Why a plan cannot be made.
@@ -610,7 +629,7 @@ pub fn plan_cancellable(
         None => vec![0; options.poses],
     };
     let chosen = criterion
-        .choose(robot, &pool, &slots, cancelled)
+        .choose(robot, (&pool, options.criterion), &slots, cancelled)
         .ok_or(PlanError::Cancelled)?;
     let socket_at = |picked: &[usize]| {
         pool.socket_of
@@ -648,6 +667,33 @@ pub fn plan_cancellable(
     } else {
         Err(random_missed)
     };
+    // The other criterion's plan of as many poses, for comparison.
+    let other = match options.criterion {
+        Optimality::I => Optimality::D,
+        Optimality::D => Optimality::I,
+    };
+    let other_picked = criterion
+        .choose(robot, (&pool, other), &slots, cancelled)
+        .ok_or(PlanError::Cancelled)?;
+    let other_q: Vec<Vec<f64>> = other_picked.iter().map(|&c| pool.q[c].clone()).collect();
+    let other_at = socket_at(&other_picked);
+    let other_missed = all.missed_by(&identifiable(
+        robot,
+        &other_q,
+        other_at.as_deref(),
+        &compliance,
+        options,
+    ));
+    let compared = Compared {
+        criterion: other,
+        predicted: if other_missed.is_empty() {
+            criterion
+                .predict(robot, &other_q, other_at.as_deref(), &free)
+                .ok_or(other_missed)
+        } else {
+            Err(other_missed)
+        },
+    };
     let path = order::path(&poses, &middle(&pool.q, robot.dof()));
     let ordered: Vec<Vec<f64>> = path.iter().map(|&i| poses[i].clone()).collect();
     let socket_of: Vec<usize> =
@@ -676,6 +722,7 @@ pub fn plan_cancellable(
         one_sided,
         predicted,
         random,
+        compared,
         identified: all.params,
         held: all.held,
         compliance: all.compliance,
@@ -935,7 +982,7 @@ impl Criterion {
     fn choose(
         &self,
         robot: &Robot<f64>,
-        pool: &Pool,
+        (pool, optimality): (&Pool, Optimality),
         slots: &[usize],
         cancelled: &(dyn Fn() -> bool + Sync),
     ) -> Option<Vec<usize>> {
@@ -964,6 +1011,7 @@ impl Criterion {
             .unwrap_or_else(|| vec![0; pool.q.len()]);
         design::choose(
             &candidates,
+            optimality,
             &(&d * &w * &d),
             &(&d * &self.prior * &d),
             slots,

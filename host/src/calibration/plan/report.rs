@@ -99,13 +99,19 @@ impl Plan {
         out["candidates"] = json!(self.candidates);
         out["targets"] = json!(self.targets);
         out["path"] = json!(self.path);
-        out["random"] = match &self.random {
+        let other = |predicted: &Result<Prediction, Vec<String>>| match predicted {
             Ok(p) => prediction_json(p, &self.identified, u),
             Err(missed) => json!({
                 "identifies": false,
                 "missed": missed.iter().map(ToString::to_string).collect::<Vec<_>>(),
             }),
         };
+        out["random"] = other(&self.random);
+        out["criterion"] = json!(options.criterion.name());
+        out["compared"] = json!({
+            "criterion": self.compared.criterion.name(),
+            "predicted": other(&self.compared.predicted),
+        });
         out["held"] = json!(
             self.held
                 .iter()
@@ -186,28 +192,16 @@ impl Plan {
             out,
             "predicted at {} mm noise per axis: the calibrated robot off by {:.4} mm RMS over the \
              workspace, {:.4} mm at its worst target ({:.4} mm RMS against new measurements, \
-             their noise added); {} random poses: {}",
+             their noise added), chosen {}; {} random poses: {}; the {} plan of as many: {}",
             significant_mm(options.position_noise),
             mm(self.predicted.rms),
             mm(self.predicted.max),
             mm(self.predicted.measured_rms),
+            options.criterion.name(),
             self.points.len(),
-            match &self.random {
-                Ok(p) => format!(
-                    "{:.4} mm, {:.4} mm ({:.4} mm)",
-                    mm(p.rms),
-                    mm(p.max),
-                    mm(p.measured_rms)
-                ),
-                Err(missed) => format!(
-                    "do not identify {}",
-                    missed
-                        .iter()
-                        .map(ToString::to_string)
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                ),
-            }
+            figures(&self.random),
+            self.compared.criterion.name(),
+            figures(&self.compared.predicted),
         );
         if options.visits == super::Visits::BothSides {
             let _ = writeln!(
@@ -358,14 +352,23 @@ impl Plan {
             mm(self.predicted.max),
             mm(self.predicted.measured_rms)
         );
-        if let Ok(r) = &self.random {
-            let _ = write!(
-                s,
-                "<tr><td>as many random</td><td>{:.4}</td><td>{:.4}</td><td>{:.4}</td></tr>",
-                mm(r.rms),
-                mm(r.max),
-                mm(r.measured_rms)
-            );
+        let others = [
+            ("as many random".to_string(), &self.random),
+            (
+                format!("as many, {}", self.compared.criterion.name()),
+                &self.compared.predicted,
+            ),
+        ];
+        for (what, predicted) in others {
+            if let Ok(r) = predicted {
+                let _ = write!(
+                    s,
+                    "<tr><td>{what}</td><td>{:.4}</td><td>{:.4}</td><td>{:.4}</td></tr>",
+                    mm(r.rms),
+                    mm(r.max),
+                    mm(r.measured_rms)
+                );
+            }
         }
         let _ = write!(
             s,
@@ -380,4 +383,25 @@ impl Plan {
 /// A noise in mm, without trailing zeros.
 fn significant_mm(m: f64) -> String {
     crate::calibration::diagnose::significant(m * 1e3)
+}
+
+/// Another set of poses' predicted figures for the summary (RMS, worst, RMS
+/// against new measurements, mm), or what it does not identify.
+fn figures(predicted: &Result<Prediction, Vec<String>>) -> String {
+    match predicted {
+        Ok(p) => format!(
+            "{:.4} mm, {:.4} mm ({:.4} mm)",
+            p.rms * 1e3,
+            p.max * 1e3,
+            p.measured_rms * 1e3
+        ),
+        Err(missed) => format!(
+            "do not identify {}",
+            missed
+                .iter()
+                .map(ToString::to_string)
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    }
 }
