@@ -164,6 +164,13 @@ pub(crate) struct PlanArgs {
     /// configurations to seat it in each at.
     #[arg(long, value_name = "S.csv")]
     pub(crate) sockets: Option<String>,
+    /// The least conditioning of a planned pose (the smallest singular value
+    /// of its manipulator Jacobian over the largest, rotation rows scaled by
+    /// the reach): candidates nearer a singularity are not planned. Default
+    /// 0: every candidate kept, a planned pose below 0.005 named (a UR10e's
+    /// wrist within about 1.5° of q5 = 0).
+    #[arg(long, value_name = "C")]
+    pub(crate) singularity_margin: Option<f64>,
     /// What the poses are chosen for: `i-optimal`, the calibrated robot's
     /// predicted error over the workspace; `d-optimal`, the volume of the
     /// parameters' confidence region (as most tools choose). The report
@@ -207,6 +214,7 @@ impl PlanArgs {
             candidates: self.candidates,
             effects: self.effects.clone(),
             sockets: None,
+            singularity_margin: self.singularity_margin,
             criterion: self.criterion.into(),
             seed: self.seed,
         }

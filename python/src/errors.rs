@@ -322,6 +322,7 @@ pub mod args {
         targets: String = "targets", "\"world\" or \"base\"";
         select: String = "select", "\"stated\", \"prior\" or \"diagnose\"";
         criterion: String = "criterion", "\"i-optimal\" or \"d-optimal\"";
+        singularity_margin: Option<f64> = "singularity_margin", "a conditioning from 0 to below 1, or None";
         torque_sign: Option<String> = "torque_sign", "\"drive\", \"load\" or None";
         simulated_torque_sign: String = "torque_sign", "\"drive\" or \"load\"";
     }

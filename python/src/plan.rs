@@ -36,7 +36,8 @@ fn joint_rows(
 /// from both sides, `effects=["compliance"]` spreads the joints' gravity
 /// torques and identifies each compliance; `sockets` (the path of a sockets
 /// file) plans a session seating a ball in them (the report's `socket_of`
-/// names each row's socket); `criterion`: `"i-optimal"` (the default) or
+/// names each row's socket); `singularity_margin`: the least conditioning of
+/// a planned pose (as `--singularity-margin`); `criterion`: `"i-optimal"` (the default) or
 /// `"d-optimal"`, as `--criterion` (the report's `compared` gives the other's
 /// plan of as many poses). Returns the poses, an `(poses, M)` array in the
 /// model's units in measurement order, and the report (`--json`'s) as a dict.
@@ -44,7 +45,7 @@ fn joint_rows(
 /// Ctrl-C stops the plan within a step of its loops (a pass over the
 /// candidates) and raises `KeyboardInterrupt`.
 #[pyfunction]
-#[pyo3(signature = (model, poses = 30, *, orientation = false, noise = None, orientation_noise = None, within = None, above = None, margin = None, candidates = None, targets = None, effects = Vec::new(), sockets = None, criterion = String::from("i-optimal"), seed = 1))]
+#[pyo3(signature = (model, poses = 30, *, orientation = false, noise = None, orientation_noise = None, within = None, above = None, margin = None, candidates = None, targets = None, effects = Vec::new(), sockets = None, singularity_margin = None, criterion = String::from("i-optimal"), seed = 1))]
 #[expect(
     clippy::too_many_arguments,
     reason = "a parameter per Python keyword argument, as the signature above lists them"
@@ -63,6 +64,7 @@ pub fn plan<'py>(
     targets: Option<ArrayLike<'py>>,
     #[pyo3(from_py_with = args::plan_effects)] effects: Vec<String>,
     #[pyo3(from_py_with = args::sockets)] sockets: Option<String>,
+    #[pyo3(from_py_with = args::singularity_margin)] singularity_margin: Option<f64>,
     #[pyo3(from_py_with = args::criterion)] criterion: String,
     #[pyo3(from_py_with = args::seed)] seed: u64,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
@@ -81,6 +83,7 @@ pub fn plan<'py>(
             .map(|path| armcal::io::sockets::load_sockets(&path, &m.units))
             .transpose()
             .map_err(|e| errors::input(py, &e, true))?,
+        singularity_margin,
         criterion: match criterion.as_str() {
             "i-optimal" => Optimality::I,
             "d-optimal" => Optimality::D,

@@ -47,6 +47,9 @@ pub struct Request {
     /// For a session without a tracker: the sockets the ball is seated in
     /// (SI, as read).
     pub sockets: Option<Sockets>,
+    /// The least conditioning of a planned pose (0 to below 1); `None`: 0,
+    /// every candidate kept.
+    pub singularity_margin: Option<f64>,
     /// What the poses are chosen for (I-optimal by default).
     pub criterion: Optimality,
     /// Seed of every draw.
@@ -98,6 +101,19 @@ impl Request {
                 ));
             }
             options.margin = m;
+        }
+        if let Some(c) = self.singularity_margin {
+            if !(0.0..1.0).contains(&c) {
+                return Err(refuse(
+                    "--singularity-margin",
+                    format!(
+                        "{}: the least conditioning of a pose (the smallest singular value of its \
+                         manipulator Jacobian over the largest), from 0 to below 1",
+                        number(c)
+                    ),
+                ));
+            }
+            options.singularity_margin = c;
         }
         if self.poses > MAX_CANDIDATES {
             return Err(refuse(

@@ -117,6 +117,12 @@ pub struct PlanOptions {
     /// For a session without a tracker: the sockets the ball is seated in
     /// ([`sockets`]); `None`: an instrument measures the tool point.
     pub sockets: Option<Sockets>,
+    /// The least [`conditioning`] a candidate may have: poses nearer a
+    /// singularity of the arm are not planned (0, the default, keeps every
+    /// candidate and names a planned pose below [`NEAR_SINGULAR`]: near a
+    /// singularity a pose is informative, and a controller may still
+    /// drive it slowly).
+    pub singularity_margin: f64,
     /// What the poses are chosen for: the workspace's predicted error
     /// (I-optimal, the default) or the parameters' confidence region
     /// (D-optimal).
@@ -141,6 +147,7 @@ impl Default for PlanOptions {
             visits: Visits::Once,
             compliance: false,
             sockets: None,
+            singularity_margin: 0.0,
             criterion: Optimality::I,
             seed: 1,
         }
@@ -811,10 +818,14 @@ struct Bounds<'a> {
     tool_in_base: armcal_shared::Prepared<f64>,
     cell: &'a Cell,
     above_base: bool,
+    /// The robot, for the conditioning of a pose.
+    robot: &'a Robot<f64>,
+    /// The least conditioning a pose may have.
+    singularity_margin: f64,
 }
 
 impl<'a> Bounds<'a> {
-    fn new(robot: &Robot<f64>, options: &'a PlanOptions) -> Self {
+    fn new(robot: &'a Robot<f64>, options: &'a PlanOptions) -> Self {
         let in_base = Robot {
             base: armcal_shared::Frame::identity(),
             ..robot.clone()
@@ -829,6 +840,8 @@ impl<'a> Bounds<'a> {
             tool_in_base: in_base.prepare(),
             cell: &options.cell,
             above_base: options.above_base,
+            robot,
+            singularity_margin: options.singularity_margin,
         }
     }
 
@@ -841,7 +854,13 @@ impl<'a> Bounds<'a> {
         let above = |k: &armcal_shared::Prepared<f64>| {
             k.forward(q).is_ok_and(|t| t.translation.vector.z >= 0.0)
         };
-        in_cell && (!self.above_base || (above(&self.flange) && above(&self.tool_in_base)))
+        let away = || {
+            self.singularity_margin <= 0.0
+                || conditioning(self.robot, q).is_some_and(|c| c >= self.singularity_margin)
+        };
+        in_cell
+            && (!self.above_base || (above(&self.flange) && above(&self.tool_in_base)))
+            && away()
     }
 }
 
@@ -1378,5 +1397,42 @@ mod tests {
             at(2f64.to_radians())
         );
         assert!(at(1.2) > 10.0 * NEAR_SINGULAR, "{}", at(1.2));
+    }
+
+    /// A plan can be kept safe to drive: among candidates with the UR10e's
+    /// wrist within 1° of its singularity (`q5` forced into ±1° in every
+    /// fourth candidate, where the controller would spin joints 4 and 6),
+    /// none is planned at the margin [`NEAR_SINGULAR`], and none is named
+    /// near a singularity; with the default margin 0 they are kept.
+    #[test]
+    fn no_pose_is_planned_near_a_singularity() {
+        let robot = crate::io::model_file::load_model("ur10e").unwrap().robot;
+        let mut candidates = within_limits(&robot, 2000, 0.05, 9);
+        for q in candidates.iter_mut().step_by(4) {
+            q[4] = q[4].rem_euclid(2f64.to_radians()) - 1f64.to_radians();
+        }
+        let options = PlanOptions {
+            poses: 20,
+            singularity_margin: NEAR_SINGULAR,
+            ..PlanOptions::default()
+        };
+        let p = plan(&robot, Some(&candidates), None, &options).unwrap();
+        assert!(p.near_singular.is_empty(), "{:?}", p.near_singular);
+        for q in &p.q {
+            assert!(conditioning(&robot, q).unwrap() >= NEAR_SINGULAR, "{q:?}");
+        }
+        let unguarded = PlanOptions {
+            singularity_margin: 0.0,
+            ..options
+        };
+        let all = plan(&robot, Some(&candidates), None, &unguarded).unwrap();
+        // Every forced candidate out (and those the arm's other
+        // singularities put near one).
+        assert!(
+            all.candidates - p.candidates >= candidates.len().div_ceil(4),
+            "{} kept of {}",
+            p.candidates,
+            all.candidates
+        );
     }
 }
