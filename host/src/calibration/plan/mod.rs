@@ -232,6 +232,52 @@ pub struct Plan {
     pub target_points: Vec<Point3<f64>>,
     /// The nominal tool point of each planned pose, in measurement order.
     pub points: Vec<Point3<f64>>,
+    /// With the tool point on the last joint's axis, what an SMR off it
+    /// would gain (a tracker plan; `None` otherwise).
+    pub off_axis: Option<OffAxis>,
+}
+
+/// What measuring a point off the last joint's axis would gain, when the
+/// tool point is on it ([`ON_AXIS`]): a turn of that joint does not move the
+/// point, so the parameters of the wrist's last link are held by the prior.
+#[derive(Clone, Debug)]
+pub struct OffAxis {
+    /// How far the tool point is from the last joint's axis, m.
+    pub distance: f64,
+    /// The point tried instead: the tool point moved [`OFF_AXIS`] square to
+    /// that axis, flange frame, m.
+    pub tool: nalgebra::Vector3<f64>,
+    /// What the same poses would identify there and do not here.
+    pub gained: Vec<Param>,
+    /// The same poses' predicted accuracy at that point (`None` when they
+    /// would not determine it).
+    pub predicted: Option<Prediction>,
+}
+
+/// A tool point nearer the last joint's axis than this is on it, m.
+pub const ON_AXIS: f64 = 0.005;
+
+/// How far off the last joint's axis [`OffAxis`] tries the point, m: an SMR
+/// nest on a 60 mm arm.
+pub const OFF_AXIS: f64 = 0.06;
+
+/// The tool point's distance from the last joint's axis (m) and a unit
+/// vector square to that axis (flange frame), at `q`: rigid, the same at
+/// every configuration.
+fn from_last_axis(robot: &Robot<f64>, q: &[f64]) -> Option<(f64, nalgebra::Vector3<f64>)> {
+    let chain = robot.chain(q).ok()?;
+    let last = chain.axes.last()?;
+    let w = last.w.normalize();
+    let d = chain.point() - last.rho;
+    let distance = d.cross(&w).norm();
+    // The axis in the flange frame, and a direction square to it.
+    let axis = chain.flange.rotation.inverse() * w;
+    let helper = if axis.x.abs() < 0.9 {
+        nalgebra::Vector3::x()
+    } else {
+        nalgebra::Vector3::y()
+    };
+    Some((distance, axis.cross(&helper).normalize()))
 }
 
 /// Another criterion's plan, for comparison.
@@ -723,6 +769,10 @@ pub fn plan_cancellable(
         near_singular,
         target_points: workspace.iter().map(tool_point).collect(),
         points: ordered.iter().map(tool_point).collect(),
+        off_axis: match &pool.socket_of {
+            Some(_) => None,
+            None => off_axis(robot, (&poses, workspace), options, &separated),
+        },
         path: order::length(&rows, &all_rows),
         q: rows,
         socket_of,
@@ -736,6 +786,41 @@ pub fn plan_cancellable(
         compliance_held: all.compliance_held,
         candidates: pool.q.len(),
         targets: workspace.len(),
+    })
+}
+
+/// With `robot`'s tool point on its last joint's axis, what the same
+/// `poses` would identify and predict of a point [`OFF_AXIS`] off it, over
+/// the targets `workspace` (`here`: what they separate at the tool point).
+fn off_axis(
+    robot: &Robot<f64>,
+    (poses, workspace): (&[Vec<f64>], &[Vec<f64>]),
+    options: &PlanOptions,
+    here: &Separable,
+) -> Option<OffAxis> {
+    let (distance, square) = from_last_axis(robot, poses.first()?)?;
+    if distance >= ON_AXIS {
+        return None;
+    }
+    let mut moved = robot.clone();
+    moved.tool.xyz += square * OFF_AXIS;
+    let pool = Pool {
+        q: poses.to_vec(),
+        socket_of: None,
+    };
+    let there = identifiable(&moved, poses, None, &[], options);
+    let criterion = Criterion::of(&moved, workspace, options, &pool, &there);
+    let free = criterion.observable(&there);
+    Some(OffAxis {
+        distance,
+        tool: moved.tool.xyz,
+        gained: there
+            .params
+            .iter()
+            .filter(|p| !here.params.contains(p))
+            .copied()
+            .collect(),
+        predicted: criterion.predict(&moved, poses, None, &free),
     })
 }
 
@@ -1434,5 +1519,33 @@ mod tests {
             p.candidates,
             all.candidates
         );
+    }
+
+    /// A tool point on the last joint's axis (the UR10e's nominal flange
+    /// point) is named with what an SMR 60 mm off it would gain: the same
+    /// poses identify the wrist's parameters the axis hides (the UR10e's
+    /// a5 and α5 at least) and predict that point as well as a plan does.
+    /// A tool point already off the axis (60 mm) is not.
+    #[test]
+    fn a_tool_point_on_the_last_axis_is_told_what_an_smr_off_it_would_gain() {
+        let mut robot = crate::io::model_file::load_model("ur10e").unwrap().robot;
+        let options = PlanOptions {
+            poses: 20,
+            candidates: 2000,
+            ..PlanOptions::default()
+        };
+        let p = plan(&robot, None, None, &options).unwrap();
+        let o = p.off_axis.expect("on the axis");
+        assert!(o.distance < 1e-9, "{}", o.distance);
+        assert!((o.tool.norm() - OFF_AXIS).abs() < 1e-12);
+        for gained in [Param::A(4), Param::Alpha(4)] {
+            assert!(o.gained.contains(&gained), "{:?}", o.gained);
+            assert!(p.held.iter().any(|(h, _)| *h == gained));
+        }
+        let there = o.predicted.expect("determined");
+        assert!(there.rms < 2.0 * p.predicted.rms, "{there:?}");
+        robot.tool.xyz = o.tool;
+        let off = plan(&robot, None, None, &options).unwrap();
+        assert!(off.off_axis.is_none());
     }
 }

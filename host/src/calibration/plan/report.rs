@@ -14,7 +14,7 @@ use serde_json::json;
 
 use armcal_shared::Param;
 
-use super::{Plan, PlanOptions, Prediction};
+use super::{OFF_AXIS, Plan, PlanOptions, Prediction};
 use crate::apply::compensate;
 use armcal_shared::Calibration;
 
@@ -118,6 +118,14 @@ impl Plan {
                 .map(|(p, why)| json!({"name": p.to_string(), "reason": why}))
                 .collect::<Vec<_>>()
         );
+        if let Some(o) = &self.off_axis {
+            out["off_axis"] = json!({
+                "distance": u.length_from_si(o.distance),
+                "tool": o.tool.iter().map(|&x| u.length_from_si(x)).collect::<Vec<_>>(),
+                "gained": o.gained.iter().map(ToString::to_string).collect::<Vec<_>>(),
+                "predicted": o.predicted.as_ref().map(|p| prediction_json(p, &self.identified, u)),
+            });
+        }
         out["units"] = json!({"length": u.length.to_string(), "angle": u.angle.to_string()});
         out
     }
@@ -243,6 +251,34 @@ impl Plan {
         );
         for (p, why) in &self.held {
             let _ = writeln!(out, "  {p}: no plan identifies it: {why}");
+        }
+        if let Some(o) = &self.off_axis {
+            let gained: Vec<String> = o.gained.iter().map(ToString::to_string).collect();
+            let _ = writeln!(
+                out,
+                "the tool point is {:.1} mm from the last joint's axis: a turn of that joint does \
+                 not move it. Measured {:.0} mm off that axis (tool at {:.1}, {:.1}, {:.1} mm, \
+                 flange frame), the same poses would identify {}{}",
+                mm(o.distance),
+                mm(OFF_AXIS),
+                mm(o.tool.x),
+                mm(o.tool.y),
+                mm(o.tool.z),
+                if gained.is_empty() {
+                    "nothing more".to_string()
+                } else {
+                    format!("{} too", gained.join(", "))
+                },
+                match &o.predicted {
+                    Some(p) => format!(
+                        ", and predict that point to {:.4} mm RMS over the workspace, {:.4} mm at \
+                         its worst target",
+                        mm(p.rms),
+                        mm(p.max)
+                    ),
+                    None => String::new(),
+                }
+            );
         }
         out
     }
