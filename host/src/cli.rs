@@ -458,7 +458,12 @@ pub(crate) struct ServeArgs {
     pub(crate) rsi: Option<String>,
     /// Serve ABB EGM on this UDP address (the controller's UDPUC device),
     /// streaming --joints.
-    #[arg(long, value_name = "HOST:PORT", group = "interface", requires = "joints")]
+    #[arg(
+        long,
+        value_name = "HOST:PORT",
+        group = "interface",
+        requires = "joints"
+    )]
     pub(crate) egm: Option<String>,
     /// EGM: the trajectory, a CSV with q1..qM in the model's units (and
     /// optionally temp, load), one row per controller cycle.
@@ -469,7 +474,12 @@ pub(crate) struct ServeArgs {
     #[arg(long, value_enum, default_value = "absolute", conflicts_with = "egm")]
     pub(crate) rsi_mode: RsiModeArg,
     /// RSI: the `Type` of the answer's `<Sen>` (the ETHERNET object's SENTYPE).
-    #[arg(long, value_name = "NAME", default_value = "ImFree", conflicts_with = "egm")]
+    #[arg(
+        long,
+        value_name = "NAME",
+        default_value = "ImFree",
+        conflicts_with = "egm"
+    )]
     pub(crate) rsi_type: String,
     /// The temperature of every cycle, °C (EGM: of the rows without a temp column).
     #[arg(long, value_name = "CELSIUS", allow_hyphen_values = true, value_parser = args::finite)]

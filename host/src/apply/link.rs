@@ -28,11 +28,11 @@ use std::net::{TcpStream, ToSocketAddrs};
 use std::time::{Duration, Instant};
 
 use armcal_shared::Calibration;
-use armcal_shared::ranges::Outside;
 use armcal_shared::link::{
     self, CHUNK_LEN, Command, Context, Corrected, FrameBuffer, MAX_FRAME, RangeReport, Rejection,
     Request, Response, StatusReport, TickStatus,
 };
+use armcal_shared::ranges::Outside;
 
 use crate::apply::compensate;
 use crate::io::measurements::JointRows;

@@ -12,5 +12,5 @@ pub mod link;
 pub mod predict;
 pub mod ranges;
 pub mod read_back;
-pub mod working_tool;
 pub mod serve;
+pub mod working_tool;

@@ -215,7 +215,12 @@ fn sen(bytes: &[u8]) -> (String, Vec<f64>, u64) {
     assert_eq!(root.tag_name().name(), "Sen");
     let ak = root.children().find(|n| n.has_tag_name("AK")).unwrap();
     let values = (1..=6)
-        .map(|m| ak.attribute(format!("A{m}").as_str()).unwrap().parse().unwrap())
+        .map(|m| {
+            ak.attribute(format!("A{m}").as_str())
+                .unwrap()
+                .parse()
+                .unwrap()
+        })
         .collect();
     let ipoc = root
         .children()
@@ -258,7 +263,14 @@ fn serve_rsi_agrees_with_compensate_servo() {
     let expected = servo_corrections(dir.path(), &rows);
     let server = Server::start(
         dir.path(),
-        &["--rsi", "127.0.0.1:0", "--max-step", "10", "--timeout-ms", "300"],
+        &[
+            "--rsi",
+            "127.0.0.1:0",
+            "--max-step",
+            "10",
+            "--timeout-ms",
+            "300",
+        ],
     );
     let socket = controller(&server.address);
     let (mut worst, mut slowest) = (0.0_f64, Duration::ZERO);
@@ -283,7 +295,10 @@ fn serve_rsi_agrees_with_compensate_servo() {
     assert_eq!(stat(&stderr, "late"), 0, "{stderr}");
     assert_eq!(stat(&stderr, "malformed"), 0, "{stderr}");
     assert_eq!(stat(&stderr, "ramped"), 0, "{stderr}");
-    assert!(stderr.contains("the controller silent for 300 ms"), "{stderr}");
+    assert!(
+        stderr.contains("the controller silent for 300 ms"),
+        "{stderr}"
+    );
 }
 
 /// In relative mode the AK are increments whose running sum is the
@@ -340,7 +355,14 @@ fn serve_rsi_handles_each_fault() {
     let dir = setup(&cal);
     let server = Server::start(
         dir.path(),
-        &["--rsi", "127.0.0.1:0", "--max-step", "10", "--timeout-ms", "300"],
+        &[
+            "--rsi",
+            "127.0.0.1:0",
+            "--max-step",
+            "10",
+            "--timeout-ms",
+            "300",
+        ],
     );
     let socket = controller(&server.address);
     let answer = |datagram: &[u8]| exchange(&socket, datagram).map(|(b, _)| sen(&b));
@@ -372,7 +394,10 @@ fn serve_rsi_handles_each_fault() {
     // Truncated after its IPOC: held; before it: no answer.
     let whole = good(24, ipoc + 4);
     let cut = &whole[..whole.find("</Rob>").unwrap()];
-    assert_eq!(sent_with(cut).map(|a| (a.1, a.2)), Some((held.clone(), ipoc + 4)));
+    assert_eq!(
+        sent_with(cut).map(|a| (a.1, a.2)),
+        Some((held.clone(), ipoc + 4))
+    );
     assert_eq!(sent_with(&whole[..whole.find("<IPOC>").unwrap()]), None);
     // Oversized (8 KiB in a comment) and an entity bomb: held, their IPOC
     // read; answered within the cycle.
@@ -384,7 +409,11 @@ fn serve_rsi_handles_each_fault() {
         (b'b'..=b'j')
             .map(|c| {
                 let prev = (c - 1) as char;
-                format!("<!ENTITY {} \"{}\">", c as char, format!("&{prev};").repeat(10))
+                format!(
+                    "<!ENTITY {} \"{}\">",
+                    c as char,
+                    format!("&{prev};").repeat(10)
+                )
             })
             .collect::<String>(),
         whole.replace("A1=\"", "A1=\"&j;")
@@ -416,10 +445,16 @@ fn serve_rsi_handles_each_fault() {
     assert_eq!(stat(&stderr, "cycles"), 20 + 1 + 1 + 376, "{stderr}");
     // Truncated ×2, oversized, bomb, NaN, five axes, noise.
     assert_eq!(stat(&stderr, "malformed"), 7, "{stderr}");
-    assert!(stderr.contains("(1 oversized, 2 without a readable stamp"), "{stderr}");
+    assert!(
+        stderr.contains("(1 oversized, 2 without a readable stamp"),
+        "{stderr}"
+    );
     assert_eq!(stat(&stderr, "repeated"), 2, "{stderr}");
     assert_eq!(stat(&stderr, "outside"), beyond as u64, "{stderr}");
-    assert!(stderr.contains("cycles outside the identified ranges (q1"), "{stderr}");
+    assert!(
+        stderr.contains("cycles outside the identified ranges (q1"),
+        "{stderr}"
+    );
 }
 
 /// A controller whose first message has another joint count than the
@@ -434,7 +469,9 @@ fn serve_rsi_refuses_another_joint_count() {
     let (code, stderr) = server.finish();
     assert_eq!(code, Some(2), "{stderr}");
     assert!(
-        stderr.contains("--rsi: the controller sends 7 axes (ASPos A1..An) and the calibration has 6 joints"),
+        stderr.contains(
+            "--rsi: the controller sends 7 axes (ASPos A1..An) and the calibration has 6 joints"
+        ),
         "{stderr}"
     );
 }
@@ -446,7 +483,10 @@ fn serve_rsi_refuses_another_joint_count() {
 #[test]
 fn serve_rsi_ramps_in_and_to_none_on_ctrl_c() {
     let dir = setup(&calibration());
-    let server = Server::start(dir.path(), &["--rsi", "127.0.0.1:0", "--timeout-ms", "2000"]);
+    let server = Server::start(
+        dir.path(),
+        &["--rsi", "127.0.0.1:0", "--timeout-ms", "2000"],
+    );
     let socket = controller(&server.address);
     let rows = set_points(1000);
     let step = 0.01 + PRINTED * 2.0;
@@ -458,7 +498,10 @@ fn serve_rsi_ramps_in_and_to_none_on_ctrl_c() {
         let (_, ak, _) = exchange(&socket, rob(&rows[*t % rows.len()], ipoc).as_bytes())
             .map(|(b, _)| sen(&b))?;
         for m in 0..6 {
-            assert!((ak[m] - before[m]).abs() <= step, "cycle {t}: {ak:?} after {before:?}");
+            assert!(
+                (ak[m] - before[m]).abs() <= step,
+                "cycle {t}: {ak:?} after {before:?}"
+            );
         }
         *before = ak.clone();
         *t += 1;
@@ -479,8 +522,14 @@ fn serve_rsi_ramps_in_and_to_none_on_ctrl_c() {
         assert!(ramp < 1000, "still answering");
     }
     let (code, stderr) = server.finish();
-    assert!(before.iter().all(|a| *a == 0.0), "the last answer {before:?}: {stderr}");
-    assert!(ramp as f64 >= largest / 0.01, "{ramp} cycles for {largest}°");
+    assert!(
+        before.iter().all(|a| *a == 0.0),
+        "the last answer {before:?}: {stderr}"
+    );
+    assert!(
+        ramp as f64 >= largest / 0.01,
+        "{ramp} cycles for {largest}°"
+    );
     assert_eq!(code, Some(130), "{stderr}");
     assert!(stderr.contains("stopped by signal 2"), "{stderr}");
     assert!(stat(&stderr, "ramped") > 0, "{stderr}");
@@ -698,7 +747,9 @@ fn serve_egm_streams_the_corrected_trajectory() {
     drop(socket);
     let (code, stderr) = server.finish();
     assert_eq!(code, Some(0), "{stderr}");
-    eprintln!("worst |reference − compensate --servo| {worst:.2e} deg, slowest round trip {slowest:?}");
+    eprintln!(
+        "worst |reference − compensate --servo| {worst:.2e} deg, slowest round trip {slowest:?}"
+    );
     assert!(worst <= 1e-9, "{worst}");
     assert!(slowest < CYCLE, "{slowest:?}");
     assert_eq!(stat(&stderr, "cycles"), 10_050, "{stderr}");

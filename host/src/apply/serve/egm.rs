@@ -383,15 +383,15 @@ mod tests {
             motor_as_double,
             good[..good.len() - 3].to_vec(),
         ] {
-            assert!(
-                matches!(parse(&bad), Err(RobotError::Decode(_))),
-                "{bad:?}"
-            );
+            assert!(matches!(parse(&bad), Err(RobotError::Decode(_))), "{bad:?}");
         }
         // Field 99, a varint: unknown, skipped.
         let mut unknown = good.clone();
         unknown.extend([0x98, 0x06, 0x01]);
         assert_eq!(parse(&unknown).unwrap().seqno, Some(1));
-        assert_eq!(parse(&vec![0; MAX_DATAGRAM + 1]), Err(RobotError::Oversized));
+        assert_eq!(
+            parse(&vec![0; MAX_DATAGRAM + 1]),
+            Err(RobotError::Oversized)
+        );
     }
 }

@@ -191,9 +191,12 @@ pub fn serve(
         ..Stats::default()
     };
     let mut protocol: Box<dyn Protocol> = match interface {
-        Interface::Rsi { mode, sen_type } => {
-            Box::new(RsiServer::new(mode, sen_type, cycle.dof(), options.conditions))
-        }
+        Interface::Rsi { mode, sen_type } => Box::new(RsiServer::new(
+            mode,
+            sen_type,
+            cycle.dof(),
+            options.conditions,
+        )),
         Interface::Egm { rows } => Box::new(EgmServer::new(rows, options.conditions)),
     };
     let mut buf = vec![0u8; rsi::MAX_DATAGRAM.max(egm::MAX_DATAGRAM) + 1];
@@ -399,8 +402,7 @@ impl Protocol for RsiServer {
 
     fn settled(&self, cycle: &Cycle) -> bool {
         cycle.is_zero()
-            && (self.mode == RsiMode::Absolute
-                || self.sent.iter().all(|s| s.abs() < 0.5e-6))
+            && (self.mode == RsiMode::Absolute || self.sent.iter().all(|s| s.abs() < 0.5e-6))
     }
 
     fn started(&self) -> bool {

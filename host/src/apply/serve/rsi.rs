@@ -214,7 +214,10 @@ fn axes(e: &BytesStart<'_>) -> Result<Vec<f64>, RobError> {
         let attribute = key.to_owned();
         values[m - 1] = Some(number("ASPos", attribute, &a.value)?);
     }
-    let n = values.iter().rposition(Option::is_some).map_or(0, |i| i + 1);
+    let n = values
+        .iter()
+        .rposition(Option::is_some)
+        .map_or(0, |i| i + 1);
     if n == 0 {
         return Err(RobError::Structure("an ASPos without axes"));
     }
@@ -330,7 +333,10 @@ mod tests {
                 }
             }),
             (
-                ROB.replace("A3=\"90.0\" A4=\"0.0\" A5=\"90.0\" A6=\"-3.125\"", "A6=\"1\""),
+                ROB.replace(
+                    "A3=\"90.0\" A4=\"0.0\" A5=\"90.0\" A6=\"-3.125\"",
+                    "A6=\"1\"",
+                ),
                 RobError::Structure("an ASPos with an axis missing"),
             ),
             (ROB.replace("Rob", "Sen"), RobError::NotRob),

@@ -198,7 +198,9 @@ impl Stats {
             ));
         }
         if let Some(d) = self.controller_delay {
-            line(format!("controller delay {d} (its own count of late answers)"));
+            line(format!(
+                "controller delay {d} (its own count of late answers)"
+            ));
         }
         line(format!(
             "latency p50 {} us, p99 {} us, max {} us (datagram in to answer out, {} answers)",
