@@ -41,6 +41,22 @@ use crate::succeeds;
 /// The cycle of RSI's IPO_FAST and of EGM by default.
 const CYCLE: Duration = Duration::from_millis(4);
 
+/// `armcal serve --rsi` with a step of 10° a cycle, more than the stream's
+/// largest correction (0.1 rad): the ramp never engages; the controller's
+/// silence ends the run after 300 ms.
+const WIDE_RSI: [&str; 6] = [
+    "--rsi",
+    "127.0.0.1:0",
+    "--max-step",
+    "10",
+    "--timeout-ms",
+    "300",
+];
+
+/// Held by the two tests that time 10⁴ answers against the cycle, so that
+/// they do not share the machine's two cores with each other.
+static TIMED: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 /// Half a unit of the sixth decimal (`AK` as armcal and rsi_command.h print it).
 const PRINTED: f64 = 0.5e-6;
 
@@ -258,20 +274,13 @@ fn setup(cal: &Calibration) -> tempfile::TempDir {
 /// the ramp out of the comparison; the ramp has its own tests.
 #[test]
 fn serve_rsi_agrees_with_compensate_servo() {
+    let _timed = TIMED
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
     let dir = setup(&calibration());
     let rows = set_points(10_000);
     let expected = servo_corrections(dir.path(), &rows);
-    let server = Server::start(
-        dir.path(),
-        &[
-            "--rsi",
-            "127.0.0.1:0",
-            "--max-step",
-            "10",
-            "--timeout-ms",
-            "300",
-        ],
-    );
+    let server = Server::start(dir.path(), &WIDE_RSI);
     let socket = controller(&server.address);
     let (mut worst, mut slowest) = (0.0_f64, Duration::ZERO);
     for (t, (q, want)) in rows.iter().zip(&expected).enumerate() {
@@ -353,17 +362,7 @@ fn serve_rsi_handles_each_fault() {
     let hi: Vec<f64> = rows[0].iter().map(|d| (d + 2.0).to_radians()).collect();
     cal.ranges = Some(Ranges::of([(&lo[..], None, None), (&hi[..], None, None)]));
     let dir = setup(&cal);
-    let server = Server::start(
-        dir.path(),
-        &[
-            "--rsi",
-            "127.0.0.1:0",
-            "--max-step",
-            "10",
-            "--timeout-ms",
-            "300",
-        ],
-    );
+    let server = Server::start(dir.path(), &WIDE_RSI);
     let socket = controller(&server.address);
     let answer = |datagram: &[u8]| exchange(&socket, datagram).map(|(b, _)| sen(&b));
     let mut ipoc = 1000;
@@ -695,6 +694,9 @@ fn egm_sensor(bytes: &[u8]) -> (u64, u64, Vec<f64>) {
 /// held.
 #[test]
 fn serve_egm_streams_the_corrected_trajectory() {
+    let _timed = TIMED
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
     let dir = setup(&calibration());
     let rows = set_points(10_000);
     let servo = {

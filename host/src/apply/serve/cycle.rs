@@ -125,6 +125,18 @@ impl Cycle {
         }
     }
 
+    /// One cycle: of the set-point `q_cmd` in its conditions
+    /// ([`Self::correct`]), or with none, towards no correction (at the end).
+    pub fn next(&mut self, set_point: Option<(&[f64], &Conditions<f64>)>) -> Step {
+        match set_point {
+            Some((q_cmd, conditions)) => self.correct(q_cmd, conditions),
+            None => Step {
+                ramped: self.toward_zero(),
+                ..Step::default()
+            },
+        }
+    }
+
     /// One cycle towards no correction (at the end): true while ramping.
     pub fn toward_zero(&mut self) -> bool {
         let zero = vec![0.0; self.dof()];
@@ -206,8 +218,8 @@ mod tests {
         for t in 0..400 {
             let s = cycle.correct(&q(t), &Conditions::default());
             wide.correct(&q(t), &Conditions::default());
-            for m in 0..6 {
-                assert!((cycle.offset()[m] - before[m]).abs() <= step * (1.0 + 1e-12));
+            for (now, before) in cycle.offset().iter().zip(&before) {
+                assert!((now - before).abs() <= step * (1.0 + 1e-12));
             }
             before = cycle.offset().to_vec();
             if !s.ramped && joined.is_none() {

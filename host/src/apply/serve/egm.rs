@@ -57,9 +57,10 @@ pub struct EgmHeader {
     pub mtype: Option<i32>,
 }
 
-/// `EgmCartesian`, mm.
+/// `EgmCartesian` (a position, mm) and `EgmEuler` (an orientation,
+/// degrees): the same layout.
 #[derive(Clone, PartialEq, Message)]
-pub struct EgmCartesian {
+pub struct EgmXyz {
     /// x.
     #[prost(double, required, tag = "1")]
     pub x: f64,
@@ -88,20 +89,6 @@ pub struct EgmQuaternion {
     pub u3: f64,
 }
 
-/// `EgmEuler`, degrees.
-#[derive(Clone, PartialEq, Message)]
-pub struct EgmEuler {
-    /// x.
-    #[prost(double, required, tag = "1")]
-    pub x: f64,
-    /// y.
-    #[prost(double, required, tag = "2")]
-    pub y: f64,
-    /// z.
-    #[prost(double, required, tag = "3")]
-    pub z: f64,
-}
-
 /// `EgmClock`: since 1 Jan 1970.
 #[derive(Clone, PartialEq, Message)]
 pub struct EgmClock {
@@ -118,13 +105,13 @@ pub struct EgmClock {
 pub struct EgmPose {
     /// Position.
     #[prost(message, optional, tag = "1")]
-    pub pos: Option<EgmCartesian>,
+    pub pos: Option<EgmXyz>,
     /// Orientation as a quaternion.
     #[prost(message, optional, tag = "2")]
     pub orient: Option<EgmQuaternion>,
     /// Orientation as Euler angles.
     #[prost(message, optional, tag = "3")]
-    pub euler: Option<EgmEuler>,
+    pub euler: Option<EgmXyz>,
 }
 
 /// `EgmJoints` (also `EgmExternalJoints`, the same layout): degrees.
@@ -152,14 +139,6 @@ pub struct EgmPlanned {
     pub time: Option<EgmClock>,
 }
 
-/// `EgmCartesianSpeed`.
-#[derive(Clone, PartialEq, Message)]
-pub struct EgmCartesianSpeed {
-    /// mm/s or degrees/s.
-    #[prost(double, repeated, packed = "false", tag = "1")]
-    pub value: Vec<f64>,
-}
-
 /// `EgmSpeedRef`.
 #[derive(Clone, PartialEq, Message)]
 pub struct EgmSpeedRef {
@@ -168,7 +147,7 @@ pub struct EgmSpeedRef {
     pub joints: Option<EgmJoints>,
     /// Cartesian speeds.
     #[prost(message, optional, tag = "2")]
-    pub cartesians: Option<EgmCartesianSpeed>,
+    pub cartesians: Option<EgmValues>,
     /// External axes' speeds.
     #[prost(message, optional, tag = "3")]
     pub external_joints: Option<EgmJoints>,
@@ -183,7 +162,8 @@ pub struct EgmState {
     pub state: i32,
 }
 
-/// `EgmTestSignals` and `EgmMeasuredForce`: repeated doubles.
+/// `EgmTestSignals`, `EgmMeasuredForce` and `EgmCartesianSpeed` (mm/s or
+/// degrees/s): repeated doubles.
 #[derive(Clone, PartialEq, Message)]
 pub struct EgmValues {
     /// The values.

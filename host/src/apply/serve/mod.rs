@@ -386,17 +386,9 @@ impl Protocol for RsiServer {
         }
         self.last_ipoc = Some(rob.ipoc);
         self.started = true;
-        if stopping {
-            let step = cycle::Step {
-                ramped: cycle.toward_zero(),
-                ..cycle::Step::default()
-            };
-            stats.corrected(&step, cycle.offset());
-        } else {
-            let q: Vec<f64> = rob.aspos.iter().map(|d| d.to_radians()).collect();
-            let step = cycle.correct(&q, &self.conditions);
-            stats.corrected(&step, cycle.offset());
-        }
+        let q: Vec<f64> = rob.aspos.iter().map(|d| d.to_radians()).collect();
+        let step = cycle.next((!stopping).then_some((&q[..], &self.conditions)));
+        stats.corrected(&step, cycle.offset());
         Ok(Some(self.corrected(cycle, rob.ipoc)))
     }
 
@@ -494,20 +486,12 @@ impl Protocol for EgmServer {
         let Some((q, conditions)) = self.rows.get(row) else {
             return Ok(None);
         };
-        if stopping {
-            let step = cycle::Step {
-                ramped: cycle.toward_zero(),
-                ..cycle::Step::default()
-            };
-            stats.corrected(&step, cycle.offset());
-        } else {
-            let conditions = Conditions {
-                temperature: conditions.temperature.or(self.defaults.temperature),
-                payload: conditions.payload.or(self.defaults.payload),
-            };
-            let step = cycle.correct(q, &conditions);
-            stats.corrected(&step, cycle.offset());
-        }
+        let conditions = Conditions {
+            temperature: conditions.temperature.or(self.defaults.temperature),
+            payload: conditions.payload.or(self.defaults.payload),
+        };
+        let step = cycle.next((!stopping).then_some((&q[..], &conditions)));
+        stats.corrected(&step, cycle.offset());
         let reference = q
             .iter()
             .zip(cycle.offset())

@@ -132,10 +132,8 @@ pub fn parse(datagram: &[u8]) -> Result<Rob, RobError> {
                     in_ipoc = element(&e, &mut aspos, &mut delay, &mut ipoc)?;
                 }
             }
-            Event::Empty(e) => {
-                if depth == 1 {
-                    element(&e, &mut aspos, &mut delay, &mut ipoc)?;
-                }
+            Event::Empty(e) if depth == 1 => {
+                element(&e, &mut aspos, &mut delay, &mut ipoc)?;
             }
             Event::End(_) => {
                 depth = depth.saturating_sub(1);
