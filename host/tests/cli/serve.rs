@@ -11,9 +11,13 @@
 //! - each RSI `AK` equals `armcal compensate --servo` on the same set-points
 //!   to half a unit of the sixth decimal armcal prints (5·10⁻⁷ degree: the
 //!   computation is the same code in the same order, so the only difference
-//!   is the printing), each `IPOC` echoed, every answer back within the 4 ms
-//!   cycle; the same for EGM's references, to 10⁻⁹ degree (doubles on the
-//!   wire);
+//!   is the printing), each `IPOC` echoed, every datagram answered; the same
+//!   for EGM's references, to 10⁻⁹ degree (doubles on the wire). The slowest
+//!   round trip is printed; the deadline (no answer later than the 4 ms
+//!   cycle) is gated by `scripts/serve-latency.py` on the release build in CI
+//!   section 8, where nothing else runs: here the suite's other tests share
+//!   the two cores, and a preemption of a few milliseconds is the machine's,
+//!   not the answer's (docs/controllers.md has both figures);
 //! - dropped, duplicated, reordered, truncated, oversized, entity-bomb, NaN
 //!   and wrong-axis-count datagrams each answered with the held correction
 //!   (or not at all when no IPOC can be read), and counted;
@@ -38,9 +42,6 @@ use armcal_shared::ranges::Ranges;
 use crate::link::{calibration, read_commands};
 use crate::succeeds;
 
-/// The cycle of RSI's IPO_FAST and of EGM by default.
-const CYCLE: Duration = Duration::from_millis(4);
-
 /// `armcal serve --rsi` with a step of 10° a cycle, more than the stream's
 /// largest correction (0.1 rad): the ramp never engages; the controller's
 /// silence ends the run after 300 ms.
@@ -53,8 +54,8 @@ const WIDE_RSI: [&str; 6] = [
     "300",
 ];
 
-/// Held by the two tests that time 10⁴ answers against the cycle, so that
-/// they do not share the machine's two cores with each other.
+/// Held by the two tests that exchange 10⁴ cycles, so that they do not
+/// share the machine's two cores with each other.
 static TIMED: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
 /// Half a unit of the sixth decimal (`AK` as armcal and rsi_command.h print it).
@@ -171,11 +172,14 @@ impl Server {
         (status.code(), stderr)
     }
 
-    /// Sends SIGINT, as Ctrl-C.
-    fn interrupt(&self) {
+    /// Sends `signal` (`INT`: as Ctrl-C).
+    fn signal(&self, signal: &str) {
         let pid = self.child.id().to_string();
-        let killed = Command::new("kill").args(["-INT", &pid]).status().unwrap();
-        assert!(killed.success());
+        let sent = Command::new("kill")
+            .args([&format!("-{signal}"), &pid])
+            .status()
+            .unwrap();
+        assert!(sent.success());
     }
 }
 
@@ -269,7 +273,7 @@ fn setup(cal: &Calibration) -> tempfile::TempDir {
 
 /// 10⁴ cycles of a smooth motion: each AK equals `compensate --servo`'s
 /// correction at that set-point to the printed precision, each IPOC is
-/// echoed and each answer is back within the 4 ms cycle. `--max-step 10`
+/// echoed, every datagram answered (the deadline: the module's header). `--max-step 10`
 /// (10° a cycle, more than the stream's largest correction, 0.1 rad) keeps
 /// the ramp out of the comparison; the ramp has its own tests.
 #[test]
@@ -299,7 +303,6 @@ fn serve_rsi_agrees_with_compensate_servo() {
     assert_eq!(code, Some(0), "{stderr}");
     eprintln!("worst |AK − compensate --servo| {worst:.2e} deg, slowest round trip {slowest:?}");
     assert!(worst <= PRINTED + 1e-12, "{worst}");
-    assert!(slowest < CYCLE, "{slowest:?}");
     assert_eq!(stat(&stderr, "cycles"), 10_000, "{stderr}");
     assert_eq!(stat(&stderr, "late"), 0, "{stderr}");
     assert_eq!(stat(&stderr, "malformed"), 0, "{stderr}");
@@ -399,7 +402,7 @@ fn serve_rsi_handles_each_fault() {
     );
     assert_eq!(sent_with(&whole[..whole.find("<IPOC>").unwrap()]), None);
     // Oversized (8 KiB in a comment) and an entity bomb: held, their IPOC
-    // read; answered within the cycle.
+    // read; the bomb never expanded.
     let oversized = whole.replace("</Rob>", &format!("<!--{}--></Rob>", "x".repeat(8192)));
     let started = Instant::now();
     assert_eq!(sent_with(&oversized).map(|a| a.1), Some(held.clone()));
@@ -418,7 +421,13 @@ fn serve_rsi_handles_each_fault() {
         whole.replace("A1=\"", "A1=\"&j;")
     );
     assert_eq!(sent_with(&bomb).map(|a| a.1), Some(held.clone()));
-    assert!(started.elapsed() < 2 * CYCLE, "{:?}", started.elapsed());
+    // Expanded, the bomb's `&j;` would be 10¹⁰ characters: seconds and
+    // gigabytes, where reading it unexpanded takes microseconds.
+    assert!(
+        started.elapsed() < Duration::from_secs(1),
+        "{:?}",
+        started.elapsed()
+    );
     // A NaN set-point and five axes: held. Binary noise: no answer.
     let nan = whole.replace(&format!("A3=\"{:.4}\"", rows[24][2]), "A3=\"NaN\"");
     assert_ne!(nan, whole);
@@ -509,9 +518,14 @@ fn serve_rsi_ramps_in_and_to_none_on_ctrl_c() {
     for _ in 0..300 {
         cycle(&mut before, &mut t).unwrap();
     }
+    // The statistics on request, the run going on.
+    server.signal("USR1");
+    for _ in 0..20 {
+        cycle(&mut before, &mut t).unwrap();
+    }
     let largest = before.iter().fold(0.0_f64, |a, b| a.max(b.abs()));
     assert!(largest > 0.05, "a correction of {largest}° to ramp");
-    server.interrupt();
+    server.signal("INT");
     // The signal is read within the loop's poll (20 ms): cycles until then
     // are corrected; then the ramp, then silence.
     // Answers until the server has stopped (no answer within 200 ms).
@@ -531,6 +545,10 @@ fn serve_rsi_ramps_in_and_to_none_on_ctrl_c() {
     );
     assert_eq!(code, Some(130), "{stderr}");
     assert!(stderr.contains("stopped by signal 2"), "{stderr}");
+    assert!(
+        stderr.contains("127.0.0.1") && stderr.contains(": so far\n  cycles "),
+        "{stderr}"
+    );
     assert!(stat(&stderr, "ramped") > 0, "{stderr}");
 }
 
@@ -687,8 +705,8 @@ fn egm_sensor(bytes: &[u8]) -> (u64, u64, Vec<f64>) {
 
 /// 10⁴ EGM cycles streaming a joint file: each reference is `compensate
 /// --servo`'s row (degrees, to 10⁻⁹°), in order, one row per controller
-/// message, the sensor's sequence numbers from 0, `MSGTYPE_CORRECTION`,
-/// each answer within the 4 ms cycle; a message with a field of the wrong
+/// message, the sensor's sequence numbers from 0, `MSGTYPE_CORRECTION`;
+/// a message with a field of the wrong
 /// type (the header as a number) is answered with the held reference and
 /// does not advance the trajectory; after the last row its reference is
 /// held.
@@ -753,7 +771,6 @@ fn serve_egm_streams_the_corrected_trajectory() {
         "worst |reference − compensate --servo| {worst:.2e} deg, slowest round trip {slowest:?}"
     );
     assert!(worst <= 1e-9, "{worst}");
-    assert!(slowest < CYCLE, "{slowest:?}");
     assert_eq!(stat(&stderr, "cycles"), 10_050, "{stderr}");
     assert_eq!(stat(&stderr, "malformed"), 1, "{stderr}");
     assert_eq!(stat(&stderr, "held at end"), 50, "{stderr}");
@@ -774,5 +791,46 @@ fn serve_egm_refuses_another_joint_count() {
     assert!(
         stderr.contains("--egm: the controller sends 7 axes (feedBack.joints)"),
         "{stderr}"
+    );
+}
+
+/// What armcal serve cannot serve is refused before a socket is bound or a
+/// datagram answered: an address that is not one, EGM without its
+/// trajectory, a calibration with a prismatic joint (RSI's and EGM's joints
+/// are degrees of rotary axes): exit status 2, the flag or file named.
+#[test]
+fn serve_refuses_what_it_cannot_serve() {
+    let dir = setup(&calibration());
+    let args = |more: &[&'static str]| -> Vec<&'static str> {
+        let mut a = vec!["serve", "--calibration", "cal.bin"];
+        a.extend(more);
+        a
+    };
+    crate::refused(
+        dir.path(),
+        &args(&["--rsi", "no-port"]),
+        &["--rsi: no-port: not a HOST:PORT address"],
+    );
+    crate::refused(dir.path(), &args(&["--egm", "127.0.0.1:0"]), &["--joints"]);
+    crate::refused(
+        dir.path(),
+        &args(&["--rsi", "127.0.0.1:0", "--max-step", "0"]),
+        &["--max-step", "must be a positive number"],
+    );
+    let model = armcal::io::model_file::load_model("ur10e").unwrap();
+    let mut robot = model.robot.clone();
+    robot.links[1].joint = armcal_shared::JointType::Prismatic;
+    let cal = Calibration::nominal(robot, true, model.units);
+    std::fs::write(dir.path().join("prismatic.cal"), cal.to_bytes().unwrap()).unwrap();
+    crate::refused(
+        dir.path(),
+        &[
+            "serve",
+            "--calibration",
+            "prismatic.cal",
+            "--rsi",
+            "127.0.0.1:0",
+        ],
+        &["prismatic.cal", "joint 2 is prismatic"],
     );
 }
