@@ -368,15 +368,9 @@ impl Protocol for RsiServer {
                 });
             }
             refused => {
-                stats.malformed += 1;
-                stats.oversized += u64::from(refused == Err(rsi::RobError::Oversized));
-                return Ok(match rsi::scan_ipoc(datagram) {
-                    Some(ipoc) => Some(self.held(cycle, ipoc)),
-                    None => {
-                        stats.unanswered += 1;
-                        None
-                    }
-                });
+                let ipoc = rsi::scan_ipoc(datagram);
+                stats.refused(refused == Err(rsi::RobError::Oversized), ipoc.is_some());
+                return Ok(ipoc.map(|ipoc| self.held(cycle, ipoc)));
             }
         };
         stats.controller_delay = rob.delay.or(stats.controller_delay);
@@ -461,9 +455,8 @@ impl Protocol for EgmServer {
                 });
             }
             refused => {
-                stats.malformed += 1;
-                stats.oversized += u64::from(refused == Err(egm::RobotError::Oversized));
-                stats.unanswered += u64::from(self.reference.is_none());
+                let oversized = refused == Err(egm::RobotError::Oversized);
+                stats.refused(oversized, self.reference.is_some());
                 return Ok(self.send());
             }
         };

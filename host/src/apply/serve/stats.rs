@@ -149,6 +149,14 @@ impl Stats {
         }
     }
 
+    /// Counts one refused datagram: `oversized` or not, `answered` (with
+    /// the held correction) or not.
+    pub fn refused(&mut self, oversized: bool, answered: bool) {
+        self.malformed += 1;
+        self.oversized += u64::from(oversized);
+        self.unanswered += u64::from(!answered);
+    }
+
     /// The statistics for standard error, one `name value` per line after
     /// `heading`; `cycle` is the controller's cycle.
     pub fn text(&self, heading: &str, cycle: Duration) -> String {
