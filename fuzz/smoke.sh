@@ -39,6 +39,8 @@ for target in $(cargo +nightly fuzz list); do
         # stream that loads one through the link.
         calibration_decode) max_len=5200 ;;
         device) max_len=8192 ;;
+        # One datagram, a little more than the 4 KiB read.
+        rsi_rob | egm_robot) max_len=4200 ;;
         *) max_len=4096 ;;
     esac
     mkdir -p "$scratch/$target"

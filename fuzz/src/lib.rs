@@ -18,9 +18,11 @@ use armcal_shared::Calibration;
 
 pub mod calibration;
 pub mod device;
+pub mod egm_robot;
 pub mod link_frames;
 pub mod measurements;
 pub mod model_toml;
+pub mod rsi_rob;
 pub mod seeds;
 
 /// Counts the heap allocations of each thread, so that a harness can check

@@ -17,12 +17,14 @@ use crate::device::{file_of, load_requests};
 pub type Seed = (String, Vec<u8>);
 
 /// The targets, as named in `Cargo.toml` and `corpus/`.
-pub const TARGETS: [&str; 5] = [
+pub const TARGETS: [&str; 7] = [
     "measurements_csv",
     "model_toml",
     "calibration_decode",
     "link_frames",
     "device",
+    "rsi_rob",
+    "egm_robot",
 ];
 
 /// The seeds of `target`.
@@ -33,8 +35,60 @@ pub fn seeds(target: &str) -> Vec<Seed> {
         "calibration_decode" => calibrations(),
         "link_frames" => frames(),
         "device" => streams(),
+        "rsi_rob" => robs(),
+        "egm_robot" => egm_robots(),
         _ => panic!("no target {target}"),
     }
+}
+
+/// A KUKA controller's `<Rob>` datagrams: one line, and pretty-printed with
+/// CR LF as a controller prints it.
+fn robs() -> Vec<Seed> {
+    let rob = r#"<Rob Type="KUKA"><RIst X="445.0" Y="0.0" Z="890.0" A="0.0" B="90.0" C="0.0"/><RSol X="445.0" Y="0.0" Z="890.0" A="0.0" B="90.0" C="0.0"/><AIPos A1="0.0" A2="-90.0" A3="90.0" A4="0.0" A5="90.0" A6="0.0"/><ASPos A1="0.0" A2="-90.0" A3="90.0" A4="0.0" A5="90.0" A6="0.0"/><Delay D="0"/><IPOC>4208163</IPOC></Rob>"#;
+    vec![
+        ("seed-rob".into(), rob.as_bytes().to_vec()),
+        (
+            "seed-rob-pretty".into(),
+            rob.replace("><", ">\r\n<").into_bytes(),
+        ),
+    ]
+}
+
+/// An ABB controller's `EgmRobot` messages: header, feedback and planned
+/// joints, the states; and a header alone.
+fn egm_robots() -> Vec<Seed> {
+    use armcal::apply::serve::egm::{EgmHeader, EgmJoints, EgmPlanned, EgmRobot, EgmState};
+    use prost::Message;
+    let joints = EgmPlanned {
+        joints: Some(EgmJoints {
+            joints: vec![0.0, -30.0, 30.0, 0.0, 90.0, 0.0],
+        }),
+        ..EgmPlanned::default()
+    };
+    let header = EgmHeader {
+        seqno: Some(12),
+        tm: Some(48),
+        mtype: Some(2),
+    };
+    let full = EgmRobot {
+        header: Some(header.clone()),
+        feed_back: Some(joints.clone()),
+        planned: Some(joints),
+        motor_state: Some(EgmState { state: 1 }),
+        mci_state: Some(EgmState { state: 3 }),
+        mci_convergence_met: Some(true),
+        rapid_exec_state: Some(EgmState { state: 2 }),
+        utilization_rate: Some(10.0),
+        ..EgmRobot::default()
+    };
+    let bare = EgmRobot {
+        header: Some(header),
+        ..EgmRobot::default()
+    };
+    vec![
+        ("seed-egm-robot".into(), full.encode_to_vec()),
+        ("seed-egm-header".into(), bare.encode_to_vec()),
+    ]
 }
 
 /// The header, comments and first `rows` data rows of a built-in data set.
@@ -370,6 +424,8 @@ mod tests {
             "calibration_decode" => drop(crate::calibration::run(bytes)),
             "link_frames" => drop(crate::link_frames::run(bytes)),
             "device" => drop(crate::device::run(bytes)),
+            "rsi_rob" => drop(crate::rsi_rob::run(bytes)),
+            "egm_robot" => drop(crate::egm_robot::run(bytes)),
             _ => panic!("no target {target}"),
         }
     }
@@ -401,6 +457,15 @@ mod tests {
         }
         for (name, bytes) in seeds("calibration_decode") {
             assert!(crate::calibration::run(&bytes), "{name} is accepted");
+        }
+        for target in ["rsi_rob", "egm_robot"] {
+            for (name, bytes) in seeds(target) {
+                let read = match target {
+                    "rsi_rob" => crate::rsi_rob::run(&bytes),
+                    _ => crate::egm_robot::run(&bytes),
+                };
+                assert!(read, "{name} is read");
+            }
         }
         let decoded: Vec<usize> = seeds("link_frames")
             .iter()

@@ -19,6 +19,14 @@ pub(crate) fn positive(text: &str) -> Result<f64, String> {
     }
 }
 
+/// A finite number: a temperature, °C.
+pub(crate) fn finite(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        _ => Err("must be a finite number".into()),
+    }
+}
+
 /// A finite number, zero or more: a simulated noise (zero simulates exact data).
 pub(crate) fn non_negative(text: &str) -> Result<f64, String> {
     match text.trim().parse::<f64>() {

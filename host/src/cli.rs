@@ -57,6 +57,16 @@ pub(crate) enum Command {
     /// (exit status 2).
     #[command(group = clap::ArgGroup::new("port").required(true).multiple(false))]
     Stream(StreamArgs),
+    /// Online compensation through a controller's real-time sensor
+    /// interface over UDP: KUKA RSI (`--rsi`: each `<Rob>`'s set-point axes
+    /// answered with their correction `AK`, degrees, `IPOC` echoed) or ABB
+    /// EGM (`--egm`: each `EgmRobot` answered with the next row of
+    /// `--joints`, corrected). The same correction as `compensate --servo`
+    /// and the controller's firmware; ramped, counted, and to none on
+    /// Ctrl-C; statistics and the answer's latency printed at the end
+    /// (docs/controllers.md).
+    #[command(group = clap::ArgGroup::new("interface").required(true).multiple(false))]
+    Serve(ServeArgs),
     /// Fit the geometry, show what it gets wrong, name the cause, extend the model
     /// and measure the gain on held-out poses.
     Diagnose(DiagnoseArgs),
@@ -462,6 +472,69 @@ pub(crate) struct StreamArgs {
     pub(crate) tool: ToolArgs,
     #[command(flatten)]
     pub(crate) tool_model: ToolModelArgs,
+}
+
+/// The flags of `armcal serve`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct ServeArgs {
+    /// The calibration file written by `armcal identify --out` or `armcal diagnose --out`.
+    #[arg(long, value_name = "CAL")]
+    pub(crate) calibration: String,
+    /// Serve KUKA RSI on this UDP address (the ETHERNET object's
+    /// IP_NUMBER and PORT).
+    #[arg(long, value_name = "HOST:PORT", group = "interface")]
+    pub(crate) rsi: Option<String>,
+    /// Serve ABB EGM on this UDP address (the controller's UDPUC device),
+    /// streaming --joints.
+    #[arg(
+        long,
+        value_name = "HOST:PORT",
+        group = "interface",
+        requires = "joints"
+    )]
+    pub(crate) egm: Option<String>,
+    /// EGM: the trajectory, a CSV with q1..qM in the model's units (and
+    /// optionally temp, load), one row per controller cycle.
+    #[arg(long, value_name = "J.csv", conflicts_with = "rsi")]
+    pub(crate) joints: Option<String>,
+    /// RSI: the AXISCORR object's mode: `absolute` (the whole correction
+    /// each cycle, RSI_ON(#ABSOLUTE)) or `relative` (each cycle's increment).
+    #[arg(long, value_enum, default_value = "absolute", conflicts_with = "egm")]
+    pub(crate) rsi_mode: RsiModeArg,
+    /// RSI: the `Type` of the answer's `<Sen>` (the ETHERNET object's SENTYPE).
+    #[arg(
+        long,
+        value_name = "NAME",
+        default_value = "ImFree",
+        conflicts_with = "egm"
+    )]
+    pub(crate) rsi_type: String,
+    /// The temperature of every cycle, °C (EGM: of the rows without a temp column).
+    #[arg(long, value_name = "CELSIUS", allow_hyphen_values = true, value_parser = args::finite)]
+    pub(crate) temperature: Option<f64>,
+    /// The payload of every cycle, kg (EGM: of the rows without a load column).
+    #[arg(long, value_name = "KG", value_parser = args::non_negative)]
+    pub(crate) payload: Option<f64>,
+    /// The largest change of a joint's correction sent per cycle, degrees:
+    /// a larger one (the first cycle, after a fault, at the end) is ramped.
+    #[arg(long, value_name = "DEG", default_value_t = 0.01, value_parser = args::positive)]
+    pub(crate) max_step: f64,
+    /// The controller's cycle, ms: an answer later than it is counted late.
+    #[arg(long, value_name = "MS", default_value_t = 4.0, value_parser = args::positive)]
+    pub(crate) cycle_ms: f64,
+    /// After this long without a datagram (ms) the controller is taken to
+    /// have stopped, and the run ends with its statistics.
+    #[arg(long, value_name = "MS", default_value_t = 1000.0, value_parser = args::positive)]
+    pub(crate) timeout_ms: f64,
+}
+
+/// `--rsi-mode`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub(crate) enum RsiModeArg {
+    /// The whole correction each cycle.
+    Absolute,
+    /// Each cycle's increment.
+    Relative,
 }
 
 /// The flags of `armcal diagnose`.

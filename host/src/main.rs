@@ -48,8 +48,12 @@ fn on_interrupt() {
 }
 
 fn main() -> ExitCode {
-    on_interrupt();
     let cli = Cli::parse();
+    // `serve` answers its controller until the correction has ramped to
+    // none: it reads the signals itself.
+    if !matches!(cli.command, Command::Serve(_)) {
+        on_interrupt();
+    }
     match run(cli.command) {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
@@ -87,6 +91,7 @@ fn run(command: Command) -> anyhow::Result<()> {
         Command::Compensate(a) => verbs::compensate(a),
         Command::Predict(a) => verbs::predict(a),
         Command::Stream(a) => verbs::stream(a),
+        Command::Serve(a) => verbs::serve(a),
         Command::Export(a) => verbs::export(a),
         Command::Plan(a) => verbs::plan(a),
         Command::Models => verbs::models(),

@@ -5,7 +5,7 @@
 
 use armcal::apply::compensate::RowWarning;
 use armcal::apply::ranges::RowNames;
-use armcal::apply::{compensate, link, predict, ranges};
+use armcal::apply::{compensate, link, predict, ranges, serve as serve_apply};
 use armcal::calibration::identify::paper::PaperOptions;
 use armcal::calibration::{check, contact_check, reproduce};
 use armcal::commands::tool::Tool;
@@ -19,7 +19,7 @@ use armcal_shared::link::Request;
 
 use crate::cli::{
     CheckArgs, CompensateArgs, DemoArgs, DiagnoseArgs, ExportArgs, HoldoutArgs, IdentifyArgs,
-    PlanArgs, PredictArgs, SimulateArgs, StreamArgs, SweepArgs,
+    PlanArgs, PredictArgs, RsiModeArg, ServeArgs, SimulateArgs, StreamArgs, SweepArgs,
 };
 use crate::terminal::{
     CLI, Progress, accept, finish, finish_csv, joints_outputs, load_session, warn,
@@ -567,6 +567,118 @@ pub(crate) fn stream(args: StreamArgs) -> anyhow::Result<()> {
     warn_rows(&cal, &rows, &joints, &streamed.warnings(&cal));
     eprintln!("armcal: {}", streamed.summary());
     finish_csv(outputs, csv)?;
+    Ok(())
+}
+
+/// The stop (SIGINT, SIGTERM) and report (SIGUSR1) signals of `armcal
+/// serve`, as flags its loop reads: a stop ramps the correction to none
+/// before the run ends.
+#[cfg(unix)]
+fn serve_signals() -> anyhow::Result<serve_apply::Signals> {
+    use signal_hook::consts::{SIGINT, SIGTERM, SIGUSR1};
+    let signals = serve_apply::Signals::default();
+    for signal in [SIGINT, SIGTERM] {
+        signal_hook::flag::register_usize(signal, signals.stop.clone(), signal as usize)?;
+    }
+    signal_hook::flag::register(SIGUSR1, signals.report.clone())?;
+    Ok(signals)
+}
+
+/// The stop signal (Ctrl-C) of `armcal serve`, as a flag its loop reads.
+#[cfg(not(unix))]
+fn serve_signals() -> anyhow::Result<serve_apply::Signals> {
+    let signals = serve_apply::Signals::default();
+    let stop = signals.stop.clone();
+    ctrlc::set_handler(move || stop.store(2, std::sync::atomic::Ordering::Relaxed))?;
+    Ok(signals)
+}
+
+/// `armcal serve`.
+pub(crate) fn serve(args: ServeArgs) -> anyhow::Result<()> {
+    use armcal_shared::compensation::Conditions;
+    use serve_apply::{Ending, Interface, RsiMode};
+    let cal = predict::load_calibration(&args.calibration)?;
+    serve_apply::cycle::served_joints(&cal)
+        .map_err(|reason| InputError::new(&args.calibration, 0, 0, reason))?;
+    let defaults = Conditions {
+        temperature: args.temperature,
+        payload: args.payload,
+    };
+    let (flag, address, interface, what) = match (&args.rsi, &args.egm, &args.joints) {
+        (Some(address), _, _) => {
+            let mode = match args.rsi_mode {
+                RsiModeArg::Absolute => RsiMode::Absolute,
+                RsiModeArg::Relative => RsiMode::Relative,
+            };
+            let interface = Interface::Rsi {
+                mode,
+                sen_type: args.rsi_type.clone(),
+            };
+            ("--rsi", address, interface, "KUKA RSI")
+        }
+        (None, Some(address), Some(joints)) => {
+            let rows = measurements::load_joints(joints, &cal.nominal, &cal.units)?;
+            if rows.rows.is_empty() {
+                return Err(InputError::new(joints, 0, 0, "no rows: nothing to stream").into());
+            }
+            warn_rows(&cal, &rows, joints, &[]);
+            let rows = rows
+                .rows
+                .iter()
+                .map(|r| (r.q.clone(), predict::row_conditions(r)))
+                .collect();
+            ("--egm", address, Interface::Egm { rows }, "ABB EGM")
+        }
+        _ => anyhow::bail!("give --rsi HOST:PORT, or --egm HOST:PORT with --joints J.csv"),
+    };
+    let socket = {
+        use std::net::ToSocketAddrs as _;
+        let addresses: Vec<_> = address
+            .to_socket_addrs()
+            .map_err(|e| {
+                InputError::argument(flag, format!("{address}: not a HOST:PORT address: {e}"))
+            })?
+            .collect();
+        std::net::UdpSocket::bind(&addresses[..])
+            .map_err(|e| anyhow::anyhow!("{flag} {address}: cannot bind a UDP socket: {e}"))?
+    };
+    let signals = serve_signals()?;
+    let options = serve_apply::Options {
+        cycle: std::time::Duration::from_secs_f64(args.cycle_ms / 1e3),
+        timeout: std::time::Duration::from_secs_f64(args.timeout_ms / 1e3),
+        max_step: args.max_step.to_radians(),
+        conditions: defaults,
+    };
+    let local = socket.local_addr()?;
+    eprintln!(
+        "armcal: serving {what} on {local} for {} ({} joints): waiting for the controller",
+        args.calibration,
+        cal.nominal.links.len()
+    );
+    let heading = |ending: &str| format!("serve: {what} on {local}: {ending}");
+    let served = serve_apply::serve(&socket, &cal, interface, &options, &signals, &mut |s| {
+        eprint!("{}", s.text(&heading("so far"), options.cycle));
+    });
+    let served = match served {
+        Ok(served) => served,
+        Err(e @ serve_apply::ServeError::JointCount { .. }) => {
+            return Err(InputError::argument(flag, e.to_string()).into());
+        }
+        Err(e) => return Err(e.into()),
+    };
+    let ending = match served.ending {
+        Ending::Silent => format!(
+            "ended, the controller silent for {} ms",
+            options.timeout.as_millis()
+        ),
+        Ending::Interrupted(signal) => {
+            format!("stopped by signal {signal}, the correction ramped to none")
+        }
+    };
+    eprint!("{}", served.stats.text(&heading(&ending), options.cycle));
+    if let Ending::Interrupted(signal) = served.ending {
+        std::process::exit(128 + i32::try_from(signal).unwrap_or(0));
+    }
     Ok(())
 }
 

@@ -32,6 +32,7 @@ use armcal_shared::link::{
     self, CHUNK_LEN, Command, Context, Corrected, FrameBuffer, MAX_FRAME, RangeReport, Rejection,
     Request, Response, StatusReport, TickStatus,
 };
+use armcal_shared::ranges::Outside;
 
 use crate::apply::compensate;
 use crate::io::measurements::JointRows;
@@ -441,24 +442,7 @@ impl Streamed {
                 ticks_outside,
                 outside,
                 ..
-            }) => {
-                let mut which: Vec<String> = (0..16)
-                    .filter(|&m| outside.joint(m))
-                    .map(|m| format!("q{}", m + 1))
-                    .collect();
-                if outside.temperature {
-                    which.push("temp".into());
-                }
-                if outside.load {
-                    which.push("load".into());
-                }
-                let which = if which.is_empty() {
-                    String::new()
-                } else {
-                    format!(" ({})", which.join(", "))
-                };
-                format!("{ticks_outside} ticks outside the identified ranges{which}")
-            }
+            }) => outside_text(u64::from(ticks_outside), outside, "ticks"),
         }
     }
 
@@ -486,4 +470,26 @@ impl Streamed {
             self.ranges_summary()
         )
     }
+}
+
+/// `count` of `what` (ticks, cycles) outside the identified ranges, with the
+/// values that were (`q2`, `temp`, `load`), as the controller and `armcal
+/// serve` report them.
+pub fn outside_text(count: u64, outside: Outside, what: &str) -> String {
+    let mut which: Vec<String> = (0..16)
+        .filter(|&m| outside.joint(m))
+        .map(|m| format!("q{}", m + 1))
+        .collect();
+    if outside.temperature {
+        which.push("temp".into());
+    }
+    if outside.load {
+        which.push("load".into());
+    }
+    let which = if which.is_empty() {
+        String::new()
+    } else {
+        format!(" ({})", which.join(", "))
+    };
+    format!("{count} {what} outside the identified ranges{which}")
 }

@@ -3,7 +3,8 @@
 //! warnings where a calibration is used outside the ranges it was identified
 //! on, what an export that cannot carry effects holds and how it reads back
 //! as its target reads it, and the working tool that replaces the measured
-//! one.
+//! one, and `armcal serve`, the online compensation through a controller's
+//! real-time sensor interface (KUKA RSI, ABB EGM).
 
 pub mod compensate;
 pub mod export;
@@ -11,4 +12,5 @@ pub mod link;
 pub mod predict;
 pub mod ranges;
 pub mod read_back;
+pub mod serve;
 pub mod working_tool;

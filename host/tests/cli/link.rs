@@ -62,7 +62,7 @@ fn controller(drop_first: usize) -> (String, JoinHandle<StatusReport>) {
 }
 
 /// The UR10e (m, rad) with joint errors of a few millimetres and milliradians.
-fn calibration() -> Calibration {
+pub(crate) fn calibration() -> Calibration {
     let model = load_model("ur10e").unwrap();
     let mut cal = Calibration::nominal(model.robot.clone(), true, model.units);
     for (name, error) in [
@@ -104,7 +104,7 @@ fn write_joints(path: &std::path::Path, rows: &[[f64; 6]]) {
 }
 
 /// The joint rows of a commands CSV (a comment line, a header, numbers).
-fn read_commands(path: &std::path::Path) -> Vec<Vec<f64>> {
+pub(crate) fn read_commands(path: &std::path::Path) -> Vec<Vec<f64>> {
     let text = std::fs::read_to_string(path).unwrap();
     let mut lines = text.lines();
     assert!(lines.next().unwrap().starts_with("# "));

@@ -16,6 +16,7 @@ mod predict;
 mod ranges;
 mod refusals;
 mod replicates;
+mod serve;
 mod sessions;
 mod time_order;
 mod torques;

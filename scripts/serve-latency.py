@@ -1,0 +1,104 @@
+#!/usr/bin/env python3
+"""The latency of `armcal serve --rsi`: a KUKA controller's side, in Python.
+
+Simulates a UR10e session (`armcal simulate`), identifies it (`armcal
+identify --out`), starts `armcal serve --calibration CAL --rsi 127.0.0.1:0`
+and plays the controller: a `<Rob Type="KUKA">` datagram per cycle (RIst,
+RSol, AIPos, ASPos of a smooth motion in degrees, Delay, IPOC), each sent
+when the previous answer came (unpaced; `--paced` waits for the 4 ms
+tick), every answer's IPOC checked. Then it stops sending: serve ends after
+its timeout and prints its statistics, with the distribution of the time
+from a datagram in to its answer out (p50, p99, max), which this script
+prints with the controller's own round trip. Exits 1 when an answer is
+missing, carries another IPOC, or serve counted a late answer (unless
+`--report-only`, as CI runs it, whose machines vary).
+
+Run from the repository root after `cargo build --release -p armcal`:
+
+    python3 scripts/serve-latency.py [--armcal target/release/armcal] [--cycles 100000] [--paced] [--report-only]
+"""
+
+import argparse
+import math
+import os
+import re
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+
+
+def rob(q, ipoc):
+    axes = "".join(f' A{m + 1}="{v:.4f}"' for m, v in enumerate(q))
+    pose = 'X="445.0000" Y="0.0000" Z="890.0000" A="0.0000" B="90.0000" C="0.0000"'
+    return (
+        f'<Rob Type="KUKA">\r\n<RIst {pose} />\r\n<RSol {pose} />\r\n<AIPos{axes} />\r\n'
+        f'<ASPos{axes} />\r\n<Delay D="0" />\r\n<IPOC>{ipoc}</IPOC>\r\n</Rob>\r\n'
+    ).encode()
+
+
+def quantile(sorted_values, p):
+    return sorted_values[max(0, math.ceil(p * len(sorted_values)) - 1)]
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    default = os.path.join(os.environ.get("CARGO_TARGET_DIR", "target"), "release", "armcal")
+    parser.add_argument("--armcal", default=default)
+    parser.add_argument("--cycles", type=int, default=100_000)
+    parser.add_argument("--paced", action="store_true")
+    parser.add_argument("--report-only", action="store_true")
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        data, cal = os.path.join(tmp, "d.csv"), os.path.join(tmp, "cal.bin")
+        subprocess.run([args.armcal, "simulate", "--model", "ur10e", "--out", data], check=True,
+                       capture_output=True)
+        subprocess.run([args.armcal, "identify", "--model", "ur10e", "--data", data, "--out", cal,
+                        "--quiet"], check=True, capture_output=True)
+        server = subprocess.Popen(
+            [args.armcal, "serve", "--calibration", cal, "--rsi", "127.0.0.1:0",
+             "--timeout-ms", "300"], stderr=subprocess.PIPE, text=True)
+        first = server.stderr.readline()
+        address = re.search(r" on (\S+):(\d+) ", first)
+        if not address:
+            sys.exit(f"serve did not start: {first}")
+        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        sock.connect((address.group(1), int(address.group(2))))
+        sock.settimeout(1.0)
+        q0 = [91.0, 33.1, -96.0, 20.1, 102.2, 127.9]
+        rtts, failures = [], 0
+        next_tick = time.perf_counter()
+        for t in range(args.cycles):
+            q = [q0[j] + 15.0 * math.sin(2 * math.pi * t / 5000 + j) for j in range(6)]
+            ipoc = 4208163 + 4 * t
+            if args.paced:
+                next_tick += 0.004
+                time.sleep(max(0.0, next_tick - time.perf_counter()))
+            sent = time.perf_counter()
+            sock.send(rob(q, ipoc))
+            try:
+                answer = sock.recv(2048).decode()
+            except socket.timeout:
+                failures += 1
+                continue
+            rtts.append(time.perf_counter() - sent)
+            if f"<IPOC>{ipoc}</IPOC>" not in answer:
+                failures += 1
+        sock.close()
+        stats = server.stderr.read()
+        server.wait()
+    print(stats, end="")
+    rtts.sort()
+    us = lambda s: f"{s * 1e6:.0f} us"
+    print(f"controller's round trip ({'paced at 4 ms' if args.paced else 'unpaced'}, "
+          f"{len(rtts)} answers): p50 {us(quantile(rtts, 0.5))}, p99 {us(quantile(rtts, 0.99))}, "
+          f"max {us(rtts[-1])}; {failures} missing or wrong")
+    late = re.search(r"  late (\d+)", stats)
+    bad = failures > 0 or server.returncode != 0 or not late or int(late.group(1)) > 0
+    if bad and not args.report_only:
+        sys.exit(1)
+
+
+if __name__ == "__main__":
+    main()
