@@ -4,6 +4,7 @@
 
 use std::path::PathBuf;
 
+use armcal::calibration::cancel::Cancel;
 use armcal::calibration::gravity::TorqueSign;
 use armcal::calibration::identify::channel_weight::OrientationWeight;
 use armcal::calibration::identify::prior_scale::PriorScale;
@@ -929,6 +930,8 @@ impl IdentifyArgs {
             targets: self.targets.into(),
             frames: self.sessions.sharing(),
             torque_sign: self.torques.sign(),
+            // SIGINT ends the process: nothing to cancel.
+            cancel: Cancel::NEVER,
         }
     }
 }
@@ -943,6 +946,7 @@ impl DiagnoseArgs {
             targets: self.targets.into(),
             frames: self.sessions.sharing(),
             torque_sign: self.torques.sign(),
+            cancel: Cancel::NEVER,
         }
     }
 }
@@ -958,6 +962,7 @@ impl HoldoutArgs {
         holdout::Request {
             calibrate,
             scales: self.weights.scales(),
+            cancel: Cancel::NEVER,
         }
     }
 }

@@ -9,6 +9,7 @@ use armcal_shared::{Calibration, TargetFrame};
 
 use super::{Front, fit_options, folds};
 use crate::calibration::acceptance::{FailedCalibration, diagnosis_refusal};
+use crate::calibration::cancel::Cancel;
 use crate::calibration::diagnose::Choice;
 use crate::calibration::diagnose::RowPlaces;
 use crate::calibration::diagnose::{DiagnoseOptions, Diagnosis, diagnose_with_progress};
@@ -40,6 +41,10 @@ pub struct Request {
     /// The sign of the session's `tau` columns; `None`: read from the data
     /// ([`crate::calibration::gravity`]).
     pub torque_sign: Option<TorqueSign>,
+    /// The caller's request to stop, asked at the computation's step
+    /// boundaries ([`crate::calibration::cancel`]); [`Cancel::NEVER`] on the
+    /// command line, which SIGINT ends.
+    pub cancel: Cancel,
 }
 
 /// What `diagnose` found.
@@ -89,6 +94,7 @@ pub fn run(
         folds,
         fit: FullOptions {
             sessions: request.frames,
+            cancel: request.cancel,
             ..fit_options(front, model, &request.scales)?
         },
         ..Default::default()
@@ -121,6 +127,7 @@ pub fn run(
         &options,
         progress,
     )?;
+    request.cancel.check()?;
     data.require_fit_supported(model, diagnosis.reference.position_rms, || {
         super::nominal_worst_row(model, data)
     })?;
@@ -129,6 +136,7 @@ pub fn run(
     calibration.targets = request.targets;
     calibration.flange = model.flange;
     let sessions_held_out = sessions_held_out(model, observations, &diagnosis, &options);
+    request.cancel.check()?;
     Ok(Diagnosed {
         orientation_weight,
         sessions_held_out,

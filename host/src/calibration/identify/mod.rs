@@ -362,6 +362,10 @@ fn fit_full(
         )
     };
     let mut fit = fit_at(1.0, options)?;
+    // Each choice below is a pass over the rows (its folds' normal
+    // equations): none starts once the caller asked to stop.
+    let asked_to_stop = || options.cancel.check().map_err(full::FullError::from);
+    asked_to_stop()?;
     if data.has_orientation() {
         // The weight chosen (or stated) with the prior's factor; the
         // orientation noise held at its estimate at full weight.
@@ -389,6 +393,7 @@ fn fit_full(
             }
             (None, _) => None,
         };
+        asked_to_stop()?;
         let factor = prior_choice.as_ref().map_or(1.0, PriorChoice::factor);
         if factor != 1.0 || choice.weight() != 1.0 {
             let weighted = if choice.weight() == 1.0 {
@@ -412,6 +417,7 @@ fn fit_full(
             &options.prior,
             folds,
         );
+        asked_to_stop()?;
         if choice.factor() != 1.0 {
             fit = fit_at(choice.factor(), options)?;
         }
