@@ -247,20 +247,20 @@ impl Diagnosed {
         (!joints.is_empty() && data.times.iter().any(Option::is_none)).then(|| joints.join(", "))
     }
 
-    /// The HTML page of the diagnosis of `data` (`--html`).
+    /// The HTML page of the diagnosis of `data` (`--html`): the masses' fit
+    /// to the measured torques first, if any, as the summary gives it.
     pub fn html(&self, data: &Measurements) -> String {
+        let gravity = self.gravity.as_ref().map(GravityFit::html);
+        let sessions = sessions::html(&self.diagnosis.fit, &self.sessions_held_out, data);
+        let weight = self.orientation_weight.as_ref();
+        let weight = weight.map(|w| w.html(self.diagnosis.fit.orientation_rms));
         crate::calibration::report::html(
             &self.model,
             &data.file,
             &self.diagnosis,
             identify::observations(data),
             &self.options,
-            &(sessions::html(&self.diagnosis.fit, &self.sessions_held_out, data)
-                + &self
-                    .orientation_weight
-                    .as_ref()
-                    .map(|w| w.html(self.diagnosis.fit.orientation_rms))
-                    .unwrap_or_default()),
+            &(gravity.unwrap_or_default() + &sessions + &weight.unwrap_or_default()),
         )
     }
 
