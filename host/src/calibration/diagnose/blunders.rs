@@ -120,7 +120,7 @@ const CANCEL_ROWS: usize = 8192;
 /// `T_i = r_iᵀ (I − H_ii)⁻¹ r_i`; one left out is predicted, and its residual
 /// has the covariance `I + H_ii`: `T_i = r_iᵀ (I + H_ii)⁻¹ r_i`. `None` when
 /// the fit's normal matrix is singular, or once the caller asked to stop
-/// ([`Linearization::cancel`], asked every [`CANCEL_ROWS`] rows).
+/// ([`Linearization::cancel`], asked every 8,192 rows).
 pub fn deleted_residuals(lin: &Linearization, excluded: &[bool]) -> Option<Deleted> {
     let p = lin.j.ncols();
     let n = lin.poses();
@@ -165,14 +165,14 @@ pub fn deleted_residuals(lin: &Linearization, excluded: &[bool]) -> Option<Delet
     }
     let omega = rf.squared_norm_l2();
     let mut stats = Vec::with_capacity(n);
-    for i in 0..n {
+    for (i, &out) in excluded.iter().enumerate().take(n) {
         if i % CANCEL_ROWS == 0 && asked_to_stop() {
             return None;
         }
         stats.push({
             let rows = lin.rows_of(i);
             let k = rows.len();
-            let sign = if excluded[i] { 1.0 } else { -1.0 };
+            let sign = if out { 1.0 } else { -1.0 };
             let m = DMatrix::from_fn(k, k, |r, s| {
                 let h: f64 = (0..p)
                     .map(|c| b[(c, rows.start + r)] * b[(c, rows.start + s)])
