@@ -9,26 +9,27 @@
 
 use crate::{refused, succeeds};
 
+/// A simulated UR10e session (`s.csv`): 60 positions, a compliance of joint 2,
+/// the joint torques measured with 0.05 N·m of noise.
+const SIMULATE_TORQUES: [&str; 11] = [
+    "simulate",
+    "--model",
+    "ur10e",
+    "--poses",
+    "60",
+    "--effect",
+    "joint_compliance:2",
+    "--torque-noise",
+    "0.05",
+    "--out",
+    "s.csv",
+];
+
 #[test]
 fn torques_are_read_fitted_and_reported() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    succeeds(
-        d,
-        &[
-            "simulate",
-            "--model",
-            "ur10e",
-            "--poses",
-            "60",
-            "--effect",
-            "joint_compliance:2",
-            "--torque-noise",
-            "0.05",
-            "--out",
-            "s.csv",
-        ],
-    );
+    succeeds(d, &SIMULATE_TORQUES);
     let header = std::fs::read_to_string(d.join("s.csv")).unwrap();
     assert!(
         header.contains("load,tau1,tau2,tau3,tau4,tau5,tau6\n"),
@@ -305,20 +306,7 @@ fn swapped_torque_columns_give_no_negative_mass() {
 fn the_html_report_gives_the_residuals_and_the_torque_fit_the_summary_gives() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let simulate = [
-        "simulate",
-        "--model",
-        "ur10e",
-        "--poses",
-        "60",
-        "--effect",
-        "joint_compliance:2",
-        "--torque-noise",
-        "0.05",
-        "--out",
-        "s.csv",
-    ];
-    succeeds(d, &simulate);
+    succeeds(d, &SIMULATE_TORQUES);
     let out = succeeds(
         d,
         &[
