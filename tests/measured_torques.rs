@@ -218,6 +218,7 @@ fn load_torques_give_the_drive_torques_calibration() {
             targets: armcal_shared::TargetFrame::World,
             frames: armcal::session::registration::FrameSharing::stated(false, false),
             torque_sign: sign,
+            cancel: Default::default(),
         };
         diagnose_cmd::run(
             Front::CommandLine,

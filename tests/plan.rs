@@ -73,6 +73,7 @@ fn identified(
         targets: TargetFrame::World,
         frames: FrameSharing::default(),
         torque_sign: None,
+        cancel: Default::default(),
     };
     let identified = identify::run(Front::CommandLine, model, &data, &request).unwrap();
     identified.result.calibration.calibrated()

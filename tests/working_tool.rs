@@ -97,6 +97,7 @@ fn identify_session(
         targets: TargetFrame::World,
         frames: FrameSharing::default(),
         torque_sign: None,
+        cancel: Default::default(),
     };
     let identified = identify::run(Front::CommandLine, model, &data, &request).unwrap();
     assert!(identified.failed.is_none(), "{:?}", identified.failed);

@@ -4,6 +4,7 @@
 
 use std::path::PathBuf;
 
+use armcal::calibration::cancel::Cancel;
 use armcal::calibration::gravity::TorqueSign;
 use armcal::calibration::identify::channel_weight::{ChannelWeight, ChannelWeights, Weighed};
 use armcal::calibration::identify::prior_scale::PriorScale;
@@ -1061,6 +1062,8 @@ impl IdentifyArgs {
             targets: self.targets.into(),
             frames: self.sessions.sharing(),
             torque_sign: self.torques.sign(),
+            // SIGINT ends the process: nothing to cancel.
+            cancel: Cancel::NEVER,
         }
     }
 }
@@ -1075,6 +1078,7 @@ impl DiagnoseArgs {
             targets: self.targets.into(),
             frames: self.sessions.sharing(),
             torque_sign: self.torques.sign(),
+            cancel: Cancel::NEVER,
         }
     }
 }
@@ -1090,6 +1094,7 @@ impl HoldoutArgs {
         holdout::Request {
             calibrate,
             scales: self.weights.scales(),
+            cancel: Cancel::NEVER,
         }
     }
 }

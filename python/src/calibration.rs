@@ -16,7 +16,7 @@ use pyo3::exceptions::PyUserWarning;
 use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 
-use crate::errors::{self, ArrayLike, Owned};
+use crate::errors::{self, ArrayLike, Owned, args};
 use crate::fit::{OnInterrupt, interruptible};
 use crate::model::{joints_in_units, pose_values};
 
@@ -79,7 +79,11 @@ impl Calibration {
 /// Reads and checks the calibration file at `path` (as `armcal predict
 /// --calibration` does).
 #[pyfunction]
-pub fn load_calibration(py: Python<'_>, path: &str) -> PyResult<Calibration> {
+pub fn load_calibration(
+    py: Python<'_>,
+    #[pyo3(from_py_with = args::path)] path: String,
+) -> PyResult<Calibration> {
+    let path = path.as_str();
     pred::load_calibration(path)
         .map(Calibration::from)
         .map_err(|e| errors::input(py, &e, false))
@@ -127,13 +131,17 @@ fn warn_all(py: Python<'_>, messages: impl IntoIterator<Item = String>) -> PyRes
 impl Calibration {
     /// Reads and checks the calibration file at `path`.
     #[staticmethod]
-    fn read(py: Python<'_>, path: &str) -> PyResult<Self> {
+    fn read(py: Python<'_>, #[pyo3(from_py_with = args::path)] path: String) -> PyResult<Self> {
         load_calibration(py, path)
     }
 
     /// Decodes and checks calibration bytes (postcard, as on file).
     #[staticmethod]
-    fn from_bytes(py: Python<'_>, data: &[u8]) -> PyResult<Self> {
+    fn from_bytes(
+        py: Python<'_>,
+        #[pyo3(from_py_with = args::bytes)] data: Vec<u8>,
+    ) -> PyResult<Self> {
+        let data = data.as_slice();
         Cal::decode(data).map(Self::from).map_err(|e| {
             errors::input(
                 py,
@@ -148,7 +156,11 @@ impl Calibration {
     /// worse than the nominal model (`failure`), raises `ArmcalError` with
     /// the reason unless `write_failed=True`.
     #[pyo3(signature = (*, write_failed = false))]
-    fn to_bytes<'py>(&self, py: Python<'py>, write_failed: bool) -> PyResult<Bound<'py, PyBytes>> {
+    fn to_bytes<'py>(
+        &self,
+        py: Python<'py>,
+        #[pyo3(from_py_with = args::write_failed)] write_failed: bool,
+    ) -> PyResult<Bound<'py, PyBytes>> {
         Ok(PyBytes::new(py, &self.bytes(write_failed)?))
     }
 
@@ -168,7 +180,12 @@ impl Calibration {
     /// `to_bytes` are the working tool's; `held_out` is None (it was the
     /// measured tool's).
     #[pyo3(signature = (xyz, rpy = None))]
-    fn with_tool(&self, py: Python<'_>, xyz: [f64; 3], rpy: Option<[f64; 3]>) -> PyResult<Self> {
+    fn with_tool(
+        &self,
+        py: Python<'_>,
+        #[pyo3(from_py_with = args::xyz)] xyz: [f64; 3],
+        #[pyo3(from_py_with = args::rpy)] rpy: Option<[f64; 3]>,
+    ) -> PyResult<Self> {
         let rpy = rpy.unwrap_or([0.0; 3]);
         if xyz.iter().chain(&rpy).any(|v| !v.is_finite()) {
             return Err(errors::argument(
@@ -188,14 +205,14 @@ impl Calibration {
     fn with_tool_link(
         &self,
         py: Python<'_>,
-        model: &str,
-        tool_link: &str,
-        base_link: Option<String>,
+        #[pyo3(from_py_with = args::urdf)] model: String,
+        #[pyo3(from_py_with = args::tool_link)] tool_link: String,
+        #[pyo3(from_py_with = args::base_link)] base_link: Option<String>,
     ) -> PyResult<Self> {
         let tool = Tool::Link {
-            model: model.to_owned(),
+            model,
             base_link,
-            link: tool_link.to_owned(),
+            link: tool_link,
         };
         self.working_with(py, &tool)
     }
@@ -217,7 +234,12 @@ impl Calibration {
 
     /// Writes the calibration file `path` (its bytes); refused as `to_bytes`.
     #[pyo3(signature = (path, *, write_failed = false))]
-    fn write(&self, path: &str, write_failed: bool) -> PyResult<()> {
+    fn write(
+        &self,
+        #[pyo3(from_py_with = args::path)] path: String,
+        #[pyo3(from_py_with = args::write_failed)] write_failed: bool,
+    ) -> PyResult<()> {
+        let path = path.as_str();
         let bytes = self.bytes(write_failed)?;
         std::fs::write(path, bytes)
             .map_err(|e| errors::failure(format!("{path}: cannot write the calibration: {e}")))
@@ -270,7 +292,7 @@ impl Calibration {
         q: ArrayLike<'py>,
         temp: Option<ArrayLike<'py>>,
         load: Option<ArrayLike<'py>>,
-        servo: bool,
+        #[pyo3(from_py_with = args::servo)] servo: bool,
     ) -> PyResult<Bound<'py, PyAny>> {
         let (rows, single, resolutions) = joint_rows(py, &self.cal, &q, temp, load)?;
         let pacing = if servo {

@@ -27,9 +27,11 @@ pub struct Measurements {
 /// that says so when the caller gave the other argument first.
 fn model_first<'a, 'py>(model: &'a Bound<'py, PyAny>, call: &str) -> PyResult<PyRef<'py, Model>> {
     model.extract::<PyRef<'py, Model>>().map_err(|_| {
-        pyo3::exceptions::PyTypeError::new_err(format!(
-            "{call} takes the model first, as every armcal call does: {call}(model, ...)"
-        ))
+        errors::argument(
+            model.py(),
+            "model",
+            format!("{call} takes the model first, as every armcal call does: {call}(model, ...)"),
+        )
     })
 }
 
@@ -42,7 +44,7 @@ pub fn load_measurements(
     name_or_path: &Bound<'_, PyAny>,
 ) -> PyResult<Measurements> {
     let model = model_first(model, "load_measurements")?;
-    read(py, &model, &name_or_path.extract::<String>()?)
+    read(py, &model, &args::name_or_path(name_or_path)?)
 }
 
 /// The measurements `name_or_path` names (a built-in set or a CSV file),
@@ -56,17 +58,17 @@ pub(crate) fn read(py: Python<'_>, model: &Model, name_or_path: &str) -> PyResul
 /// Parses the text of a measurement CSV read against `model`; `file` names it
 /// in error messages.
 #[pyfunction]
-#[pyo3(signature = (model, text, file = "<string>"))]
+#[pyo3(signature = (model, text, file = String::from("<string>")))]
 pub fn parse_measurements(
     py: Python<'_>,
     model: &Bound<'_, PyAny>,
     text: &Bound<'_, PyAny>,
-    file: &str,
+    #[pyo3(from_py_with = args::file)] file: String,
 ) -> PyResult<Measurements> {
     let model = model_first(model, "parse_measurements")?;
     let model = &*model;
-    let text: String = text.extract()?;
-    measurements::parse_measurements(&text, file, &model.inner)
+    let text = args::text(text)?;
+    measurements::parse_measurements(&text, &file, &model.inner)
         .map(|data| Measurements::from_file(data, model))
         .map_err(|e| errors::input(py, &e, false))
 }
@@ -85,7 +87,7 @@ pub fn parse_measurements(
 )]
 pub fn from_arrays<'py>(
     py: Python<'py>,
-    model: &Model,
+    #[pyo3(from_py_with = args::model)] model: Bound<'py, Model>,
     q: ArrayLike<'py>,
     xyz: ArrayLike<'py>,
     quat: Option<ArrayLike<'py>>,
@@ -94,6 +96,7 @@ pub fn from_arrays<'py>(
     load: Option<ArrayLike<'py>>,
     tau: Option<ArrayLike<'py>>,
 ) -> PyResult<Measurements> {
+    let model = model.get();
     let q = Owned::rows(py, "q", &q)?;
     let xyz = Owned::rows(py, "xyz", &xyz)?;
     let quat = quat.map(|a| Owned::rows(py, "quat", &a)).transpose()?;
@@ -154,7 +157,7 @@ pub fn from_arrays<'py>(
 )]
 pub fn simulate<'py>(
     py: Python<'py>,
-    model: &Model,
+    #[pyo3(from_py_with = args::model)] model: Bound<'py, Model>,
     #[pyo3(from_py_with = args::poses)] poses: usize,
     #[pyo3(from_py_with = args::seed)] seed: u64,
     #[pyo3(from_py_with = args::noise)] noise: Option<f64>,
@@ -171,6 +174,7 @@ pub fn simulate<'py>(
     #[pyo3(from_py_with = args::orientation_bias)] orientation_bias: Option<f64>,
     #[pyo3(from_py_with = args::orientation_bias_growth)] orientation_bias_growth: Option<f64>,
 ) -> PyResult<(Measurements, Bound<'py, PyAny>)> {
+    let model = model.get();
     let m = &model.inner;
     let u = m.units;
     let request = simulate_cmd::Request {

@@ -323,8 +323,56 @@ pub mod args {
         select: String = "select", "\"stated\", \"prior\" or \"diagnose\"";
         criterion: String = "criterion", "\"i-optimal\" or \"d-optimal\"";
         singularity_margin: Option<f64> = "singularity_margin", "a conditioning from 0 to below 1, or None";
+        name_or_path: String = "name_or_path", "a path or a built-in name";
+        base_link: Option<String> = "base_link", "a link's name, or None";
+        tip_link: Option<String> = "tip_link", "a link's name, or None";
+        tool_link: String = "tool_link", "a link's name";
+        urdf: String = "model", "the path of the URDF the calibration's model was read from";
+        tip_point: Option<[f64; 3]> = "tip_point", "three numbers (x, y, z) in m, or None";
+        xyz: [f64; 3] = "xyz", "three numbers (x, y, z) in the model's length unit";
+        rpy: Option<[f64; 3]> = "rpy", "three angles (roll, pitch, yaw) in the model's angle unit, or None";
+        text: String = "text", "the text of a file";
+        file: String = "file", "the name errors give the text";
+        path: String = "path", "a path";
+        bytes: Vec<u8> = "data", "the bytes of a calibration file";
+        write_failed: bool = "write_failed", "True or False";
+        servo: bool = "servo", "True or False";
         torque_sign: Option<String> = "torque_sign", "\"drive\", \"load\" or None";
         simulated_torque_sign: String = "torque_sign", "\"drive\" or \"load\"";
+    }
+
+    /// The argument `model`: a model (`armcal.load_model`), as the calls
+    /// that take one first refuse anything else.
+    pub fn model<'py>(ob: &Bound<'py, PyAny>) -> PyResult<Bound<'py, crate::model::Model>> {
+        reference(ob, "model")
+    }
+
+    /// The argument `reference`: a model, or None.
+    pub fn reference_model<'py>(
+        ob: &Bound<'py, PyAny>,
+    ) -> PyResult<Option<Bound<'py, crate::model::Model>>> {
+        if ob.is_none() {
+            Ok(None)
+        } else {
+            reference(ob, "reference").map(Some)
+        }
+    }
+
+    /// The model `ob`, the argument `name`.
+    fn reference<'py>(
+        ob: &Bound<'py, PyAny>,
+        name: &str,
+    ) -> PyResult<Bound<'py, crate::model::Model>> {
+        ob.cast::<crate::model::Model>().cloned().map_err(|_| {
+            let shown = ob
+                .repr()
+                .map_or_else(|_| "the value".to_owned(), |r| r.to_string());
+            super::argument(
+                ob.py(),
+                name,
+                format!("{shown}: expected a Model (armcal.load_model)"),
+            )
+        })
     }
 
     /// The argument `sessions`: a list of sessions ([`super::extract`]).

@@ -13,6 +13,10 @@ use armcal::session::registration::FrameSharing;
 use armcal_shared::TargetFrame;
 use pyo3::prelude::*;
 
+use std::sync::{Arc, OnceLock};
+
+use armcal::calibration::cancel::{Cancel, Interrupt};
+
 use crate::calibration::Calibration;
 use crate::data::Measurements;
 use crate::errors::{self, args};
@@ -44,7 +48,17 @@ pub struct Identification {
 /// The outcome of `diagnose` (see `Outcome`), with the HTML page.
 #[pyclass(module = "armcal", frozen, extends = Outcome)]
 pub struct Diagnosis {
-    html: String,
+    /// What the page is made of.
+    page: Arc<Page>,
+    /// The page, made when first asked for (seconds and hundreds of MB for
+    /// 10⁵ rows: a point per row in each of its two dozen plots).
+    html: OnceLock<String>,
+}
+
+/// What the HTML page of a diagnosis is made of: the diagnosis and its data.
+struct Page {
+    diagnosed: diagnose_cmd::Diagnosed,
+    data: Arc<measurements::Measurements>,
 }
 
 /// The data of a fit: given, or loaded from a path or built-in name against
@@ -138,8 +152,8 @@ const SIGNAL_POLL: std::time::Duration = std::time::Duration::from_millis(10);
 /// What an interrupted computation does.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum OnInterrupt {
-    /// It polls its `cancelled` check between its steps and stops: the
-    /// exception is raised once it has, so that nothing runs on after it.
+    /// It asks its [`Cancel`] between its steps and stops: the exception is
+    /// raised once it has, so that nothing runs on after it.
     Stops,
     /// It has no way to stop: it finishes in the background and its result
     /// is dropped; the exception is raised at once.
@@ -148,19 +162,20 @@ pub(crate) enum OnInterrupt {
 
 /// Runs `work` on a thread of its own while this one, Python's main thread,
 /// keeps handling its signals every [`SIGNAL_POLL`]. When a handler raises
-/// (Ctrl-C: `KeyboardInterrupt`), `work`'s `cancelled` check turns true and
-/// the exception is raised as `on_interrupt` says: for work that stops,
-/// within its longest step between two checks.
+/// (Ctrl-C: `KeyboardInterrupt`), `work`'s [`Cancel`] is requested and the
+/// exception is raised as `on_interrupt` says: for work that stops, within
+/// its longest step between two checks.
 pub(crate) fn interruptible<T: Send + 'static>(
     py: Python<'_>,
     on_interrupt: OnInterrupt,
-    work: impl FnOnce(&(dyn Fn() -> bool + Sync)) -> T + Send + 'static,
+    work: impl FnOnce(Cancel) -> T + Send + 'static,
 ) -> PyResult<T> {
     use std::sync::Arc;
-    use std::sync::atomic::{AtomicBool, Ordering};
-    let stop = Arc::new(AtomicBool::new(false));
-    let asked = stop.clone();
-    let handle = std::thread::spawn(move || work(&|| asked.load(Ordering::Relaxed)));
+    // The thread holds the interrupt as long as it runs: its flag is not
+    // given to another call while the thread may read it.
+    let interrupt = Arc::new(Interrupt::new());
+    let held = interrupt.clone();
+    let handle = std::thread::spawn(move || work(held.cancel()));
     let joined = |handle: std::thread::JoinHandle<T>| {
         handle
             .join()
@@ -170,31 +185,33 @@ pub(crate) fn interruptible<T: Send + 'static>(
         if handle.is_finished() {
             return joined(handle);
         }
-        if let Err(interrupt) = py.check_signals() {
-            stop.store(true, Ordering::Relaxed);
+        if let Err(interrupt_error) = py.check_signals() {
+            interrupt.raise();
             if on_interrupt == OnInterrupt::Stops {
                 // Its result (a cancellation, or what it finished) is dropped.
                 let _ = py.detach(|| handle.join());
             }
-            return Err(interrupt);
+            return Err(interrupt_error);
         }
         py.detach(|| std::thread::sleep(SIGNAL_POLL));
     }
 }
 
 /// `work` on `model` and the session's `rows` on a thread of its own
-/// ([`interruptible`]; it runs on when interrupted); its result and the
-/// rows, back.
+/// ([`interruptible`]; it stops at its next step boundary when interrupted,
+/// asking the [`Cancel`] it is given); its result and the rows, back.
 fn on_rows<T: Send + 'static>(
     py: Python<'_>,
     model: &Model,
     rows: measurements::Measurements,
-    work: impl FnOnce(&RobotModel, &measurements::Measurements) -> T + Send + 'static,
-) -> PyResult<(T, measurements::Measurements)> {
-    let (m, rows) = (model.inner.clone(), std::sync::Arc::new(rows));
+    work: impl FnOnce(&RobotModel, &measurements::Measurements, Cancel) -> T + Send + 'static,
+) -> PyResult<(T, Arc<measurements::Measurements>)> {
+    let (m, rows) = (model.inner.clone(), Arc::new(rows));
     let shared = rows.clone();
-    let result = interruptible(py, OnInterrupt::RunsOn, move |_| work(&m, &shared))?;
-    Ok((result, std::sync::Arc::unwrap_or_clone(rows)))
+    let result = interruptible(py, OnInterrupt::Stops, move |cancel| {
+        work(&m, &shared, cancel)
+    })?;
+    Ok((result, rows))
 }
 
 /// The sign of the `tau` columns `torque_sign` names: `"drive"`, `"load"`,
@@ -251,9 +268,9 @@ fn targets(py: Python<'_>, targets: &str) -> PyResult<TargetFrame> {
     clippy::too_many_arguments,
     reason = "a parameter per Python keyword argument, as the signature above lists them"
 )]
-pub fn identify_py(
-    py: Python<'_>,
-    model: &Model,
+pub fn identify_py<'py>(
+    py: Python<'py>,
+    #[pyo3(from_py_with = args::model)] model: Bound<'py, Model>,
     data: &Bound<'_, PyAny>,
     #[pyo3(from_py_with = args::params)] params: String,
     #[pyo3(from_py_with = args::position_noise)] position_noise: Option<f64>,
@@ -271,6 +288,7 @@ pub fn identify_py(
     #[pyo3(from_py_with = args::same_tool)] same_tool: bool,
     #[pyo3(from_py_with = args::torque_sign)] torque_sign: Option<String>,
 ) -> PyResult<Py<Identification>> {
+    let model = model.get();
     let prior_scale = match prior_scale.as_str() {
         "chosen" => PriorScale::default(),
         "stated" => PriorScale::Stated,
@@ -311,23 +329,29 @@ pub fn identify_py(
         targets: self::targets(py, &targets)?,
         frames: FrameSharing::stated(same_base, same_tool),
         torque_sign: self::torque_sign(py, torque_sign.as_deref())?,
+        // The computation's own, given on its thread ([`on_rows`]).
+        cancel: Cancel::NEVER,
     };
     let (data, arrays) = session(py, model, data, request.frames)?;
-    let (identified, data) = on_rows(py, model, data.data, move |m, rows| {
-        identify_cmd::run(PYTHON, m, rows, &request)
+    // The reports composed on the computation's thread too: Ctrl-C is
+    // answered while they are.
+    let (outcome, _) = on_rows(py, model, data.data, move |m, rows, cancel| {
+        let request = identify_cmd::Request { cancel, ..request };
+        let identified = identify_cmd::run(PYTHON, m, rows, &request)?;
+        let (m, result) = (&identified.model, identified.result);
+        let outcome = Outcome {
+            report: result.to_json(&m.units, rows),
+            summary: result.summary(m, rows),
+            calibration: result.calibration.clone(),
+            failed: identified.failed.map(|f| f.to_string()),
+        };
+        let identification = Identification {
+            position_rms: m.units.length_from_si(result.position_rms),
+            orientation_rms: m.units.angle_from_si(result.orientation_rms),
+        };
+        anyhow::Ok((outcome, identification))
     })?;
-    let identified = identified.map_err(|e| errors::command(py, e, arrays))?;
-    let (m, result) = (&identified.model, identified.result);
-    let outcome = Outcome {
-        report: result.to_json(&m.units, &data),
-        summary: result.summary(m, &data),
-        calibration: result.calibration.clone(),
-        failed: identified.failed.map(|f| f.to_string()),
-    };
-    let identification = Identification {
-        position_rms: m.units.length_from_si(result.position_rms),
-        orientation_rms: m.units.angle_from_si(result.orientation_rms),
-    };
+    let (outcome, identification) = outcome.map_err(|e| errors::command(py, e, arrays))?;
     Py::new(
         py,
         PyClassInitializer::from(outcome).add_subclass(identification),
@@ -364,9 +388,9 @@ fn channel_weights(py: Python<'_>, texts: [&str; 3]) -> PyResult<ChannelWeights>
     clippy::too_many_arguments,
     reason = "a parameter per Python keyword argument, as the signature above lists them"
 )]
-pub fn diagnose(
-    py: Python<'_>,
-    model: &Model,
+pub fn diagnose<'py>(
+    py: Python<'py>,
+    #[pyo3(from_py_with = args::model)] model: Bound<'py, Model>,
     data: &Bound<'_, PyAny>,
     #[pyo3(from_py_with = args::folds)] folds: Option<usize>,
     #[pyo3(from_py_with = args::position_noise)] position_noise: Option<f64>,
@@ -383,6 +407,7 @@ pub fn diagnose(
     #[pyo3(from_py_with = args::same_tool)] same_tool: bool,
     #[pyo3(from_py_with = args::torque_sign)] torque_sign: Option<String>,
 ) -> PyResult<Py<Diagnosis>> {
+    let model = model.get();
     let request = diagnose_cmd::Request {
         folds,
         scales: StatedScales {
@@ -400,26 +425,32 @@ pub fn diagnose(
         targets: self::targets(py, &targets)?,
         frames: FrameSharing::stated(same_base, same_tool),
         torque_sign: self::torque_sign(py, torque_sign.as_deref())?,
+        // The computation's own, given on its thread ([`on_rows`]).
+        cancel: Cancel::NEVER,
     };
     let (data, arrays) = session(py, model, data, request.frames)?;
-    let (diagnosed, data) = on_rows(py, model, data.data, move |m, rows| {
-        diagnose_cmd::run(PYTHON, m, rows, &request, &mut |_, _, _| {})
+    // The reports composed on the computation's thread too: Ctrl-C is
+    // answered while they are.
+    let (outcome, data) = on_rows(py, model, data.data, move |m, rows, cancel| {
+        let request = diagnose_cmd::Request { cancel, ..request };
+        let mut diagnosed = diagnose_cmd::run(PYTHON, m, rows, &request, &mut |_, _, _| {})?;
+        // Arrays name their rows from 0, files by line.
+        let from = usize::from(arrays);
+        let lines: Vec<usize> = rows.lines.iter().map(|line| line - from).collect();
+        let outcome = Outcome {
+            report: diagnosed.json(rows, &lines),
+            summary: diagnosed.summary(rows, &lines),
+            calibration: diagnosed.calibration.clone(),
+            failed: diagnosed.failed.take().map(|f| f.to_string()),
+        };
+        anyhow::Ok((outcome, diagnosed))
     })?;
-    let mut diagnosed = diagnosed.map_err(|e| errors::command(py, e, arrays))?;
-    // Arrays name their rows from 0, files by line.
-    let from = usize::from(arrays);
-    let lines: Vec<usize> = data.lines.iter().map(|line| line - from).collect();
-    let outcome = Outcome {
-        report: diagnosed.json(&data, &lines),
-        summary: diagnosed.summary(&data, &lines),
-        calibration: diagnosed.calibration.clone(),
-        failed: diagnosed.failed.take().map(|f| f.to_string()),
+    let (outcome, diagnosed) = outcome.map_err(|e| errors::command(py, e, arrays))?;
+    let page = Diagnosis {
+        page: Arc::new(Page { diagnosed, data }),
+        html: OnceLock::new(),
     };
-    let html = diagnosed.html(&data);
-    Py::new(
-        py,
-        PyClassInitializer::from(outcome).add_subclass(Diagnosis { html }),
-    )
+    Py::new(py, PyClassInitializer::from(outcome).add_subclass(page))
 }
 
 #[pymethods]
@@ -503,17 +534,34 @@ impl Identification {
     }
 }
 
+impl Diagnosis {
+    /// The page, made on first asking on a thread of its own: Ctrl-C raises
+    /// at once (the page has no steps to stop at: it is made on in the
+    /// background and dropped).
+    fn page(&self, py: Python<'_>) -> PyResult<&str> {
+        if let Some(html) = self.html.get() {
+            return Ok(html);
+        }
+        let page = self.page.clone();
+        let html = interruptible(py, OnInterrupt::RunsOn, move |_| {
+            page.diagnosed.html(&page.data)
+        })?;
+        Ok(self.html.get_or_init(|| html))
+    }
+}
+
 #[pymethods]
 impl Diagnosis {
-    /// The self-contained HTML page of `armcal diagnose --html`.
+    /// The self-contained HTML page of `armcal diagnose --html` (made when
+    /// first asked for).
     #[getter]
-    fn html(&self) -> &str {
-        &self.html
+    fn html(&self, py: Python<'_>) -> PyResult<&str> {
+        self.page(py)
     }
 
     /// Jupyter shows the HTML page.
-    fn _repr_html_(&self) -> &str {
-        &self.html
+    fn _repr_html_(&self, py: Python<'_>) -> PyResult<&str> {
+        self.page(py)
     }
 
     fn __repr__(slf: &Bound<'_, Self>) -> String {

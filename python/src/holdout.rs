@@ -9,6 +9,7 @@
 //! Both in the model's length unit, in the model's base frame, which they do
 //! not depend on.
 
+use armcal::calibration::cancel::Cancel;
 use armcal::calibration::contact_check::{self, ContactCheck};
 use armcal::calibration::identify::StatedScales;
 use armcal::commands::holdout::{Calibrate, Request, Sessions, run};
@@ -17,7 +18,7 @@ use pyo3::prelude::*;
 use serde_json::json;
 
 use crate::errors::{self, args};
-use crate::fit::{PYTHON, measurements_of};
+use crate::fit::{OnInterrupt, PYTHON, interruptible, measurements_of};
 use crate::model::Model;
 
 /// Leaves each of `sessions` (Measurements, or paths, of sessions without a
@@ -55,10 +56,10 @@ use crate::model::Model;
 )]
 pub fn holdout<'py>(
     py: Python<'py>,
-    model: &Model,
+    #[pyo3(from_py_with = args::model)] model: Bound<'py, Model>,
     #[pyo3(from_py_with = args::sessions_list)] sessions: Vec<Bound<'py, PyAny>>,
     #[pyo3(from_py_with = args::train_list)] train: Option<Vec<Bound<'py, PyAny>>>,
-    reference: Option<&Model>,
+    #[pyo3(from_py_with = args::reference_model)] reference: Option<Bound<'py, Model>>,
     #[pyo3(from_py_with = args::select)] select: String,
     #[pyo3(from_py_with = args::position_noise)] position_noise: Option<f64>,
     #[pyo3(from_py_with = args::point_noise)] point_noise: Option<f64>,
@@ -66,6 +67,7 @@ pub fn holdout<'py>(
     #[pyo3(from_py_with = args::prior_length)] prior_length: Option<f64>,
     #[pyo3(from_py_with = args::prior_angle)] prior_angle: Option<f64>,
 ) -> PyResult<Vec<Bound<'py, PyAny>>> {
+    let model = model.get();
     let m = &model.inner;
     let calibrate = match select.as_str() {
         "stated" => Calibrate::Stated,
@@ -89,6 +91,8 @@ pub fn holdout<'py>(
             prior_length,
             prior_angle,
         },
+        // The computation's own, given on its thread.
+        cancel: Cancel::NEVER,
     };
     let load = |argument: &str, list: &[Bound<'py, PyAny>]| {
         list.iter()
@@ -102,14 +106,17 @@ pub fn holdout<'py>(
     };
     let sessions = load("sessions", &sessions)?;
     let training = load("train", train.as_deref().unwrap_or(&[]))?;
-    let given = Sessions {
-        held_out: &sessions,
-        training: &training,
-        reference: reference.map(|r| &r.inner),
-    };
-    let rows = py
-        .detach(|| run(PYTHON, m, given, &request))
-        .map_err(|e| errors::command(py, e, false))?;
+    // On a thread of its own: Ctrl-C stops it at its next fit's step.
+    let (of_run, reference) = (m.clone(), reference.map(|r| r.get().inner.clone()));
+    let rows = interruptible(py, OnInterrupt::Stops, move |cancel| {
+        let given = Sessions {
+            held_out: &sessions,
+            training: &training,
+            reference: reference.as_ref(),
+        };
+        run(PYTHON, &of_run, given, &Request { cancel, ..request })
+    })?
+    .map_err(|e| errors::command(py, e, false))?;
     let length = |v: f64| m.units.length_from_si(v);
     let check = |c: &ContactCheck| {
         json!({

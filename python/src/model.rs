@@ -6,7 +6,7 @@ use armcal_shared::{JointType, Robot, units::Units};
 use nalgebra::{IsometryMatrix3, UnitQuaternion};
 use pyo3::prelude::*;
 
-use crate::errors::{self, ArrayLike, Owned};
+use crate::errors::{self, ArrayLike, Owned, args};
 
 /// A robot model: its name, units and nominal geometry. Lengths and angles in
 /// and out are in its units (`length_unit`, `angle_unit`).
@@ -26,10 +26,10 @@ pub struct Model {
 #[pyo3(signature = (name_or_path, *, base_link = None, tip_link = None, tip_point = None))]
 pub fn load_model(
     py: Python<'_>,
-    name_or_path: &str,
-    base_link: Option<String>,
-    tip_link: Option<String>,
-    tip_point: Option<[f64; 3]>,
+    #[pyo3(from_py_with = args::name_or_path)] name_or_path: String,
+    #[pyo3(from_py_with = args::base_link)] base_link: Option<String>,
+    #[pyo3(from_py_with = args::tip_link)] tip_link: Option<String>,
+    #[pyo3(from_py_with = args::tip_point)] tip_point: Option<[f64; 3]>,
 ) -> PyResult<Model> {
     if tip_point.is_some_and(|p| p.iter().any(|v| !v.is_finite())) {
         return Err(errors::argument(
@@ -43,16 +43,20 @@ pub fn load_model(
         tip_link,
         tip_point: tip_point.map(nalgebra::Vector3::from),
     };
-    model_file::load_model_with(name_or_path, &spec)
+    model_file::load_model_with(&name_or_path, &spec)
         .map(|inner| Model { inner })
         .map_err(|e| errors::input(py, &e, false))
 }
 
 /// Parses the text of a model file (TOML); `file` names it in error messages.
 #[pyfunction]
-#[pyo3(signature = (text, file = "<string>"))]
-pub fn parse_model(py: Python<'_>, text: &str, file: &str) -> PyResult<Model> {
-    model_file::parse_model(text, file)
+#[pyo3(signature = (text, file = String::from("<string>")))]
+pub fn parse_model(
+    py: Python<'_>,
+    #[pyo3(from_py_with = args::text)] text: String,
+    #[pyo3(from_py_with = args::file)] file: String,
+) -> PyResult<Model> {
+    model_file::parse_model(&text, &file)
         .map(|inner| Model { inner })
         .map_err(|e| errors::input(py, &e, false))
 }
@@ -129,7 +133,7 @@ impl Model {
         &self,
         py: Python<'py>,
         q: ArrayLike<'py>,
-        orientation: bool,
+        #[pyo3(from_py_with = args::orientation)] orientation: bool,
     ) -> PyResult<Bound<'py, PyAny>> {
         let q = Owned::rows(py, "q", &q)?;
         let rows = armcal::io::arrays::joints(

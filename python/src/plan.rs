@@ -52,7 +52,7 @@ fn joint_rows(
 )]
 pub fn plan<'py>(
     py: Python<'py>,
-    model: &Model,
+    #[pyo3(from_py_with = args::model)] model: Bound<'py, Model>,
     #[pyo3(from_py_with = args::poses)] poses: usize,
     #[pyo3(from_py_with = args::orientation)] orientation: bool,
     #[pyo3(from_py_with = args::noise)] noise: Option<f64>,
@@ -68,6 +68,7 @@ pub fn plan<'py>(
     #[pyo3(from_py_with = args::criterion)] criterion: String,
     #[pyo3(from_py_with = args::seed)] seed: u64,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+    let model = model.get();
     let m = &model.inner;
     let request = Request {
         poses,
@@ -108,14 +109,14 @@ pub fn plan<'py>(
         .map(|a| joint_rows(py, model, "targets", &a))
         .transpose()?;
     let model_of_run = m.clone();
-    let (plan, options) = interruptible(py, OnInterrupt::Stops, move |cancelled| {
+    let (plan, options) = interruptible(py, OnInterrupt::Stops, move |cancel| {
         run(
             PYTHON,
             &model_of_run,
             &request,
             from.as_deref(),
             targets.as_deref(),
-            cancelled,
+            &|| cancel.requested(),
         )
     })?
     .map_err(|e| errors::command(py, e, true))?;

@@ -517,12 +517,13 @@ def test_torques_from_arrays_read_as_from_a_file():
 def test_every_call_takes_the_model_first():
     """`load_measurements(model, path)` and `parse_measurements(model, text)`
     take the model first, as `identify(model, data)` and `measurements(model,
-    q, xyz)` do; the other order is refused saying so."""
+    q, xyz)` do; the other order is refused saying so, an InputError naming
+    the argument `model` as every argument error is (issue 46)."""
     model = armcal.load_model("figaroh-ur10e-camera")
     assert armcal.load_measurements(model, "figaroh-ur10e-camera").q.shape == (23, 6)
-    with pytest.raises(TypeError, match=r"takes the model first.*load_measurements\(model"):
+    with pytest.raises(armcal.InputError, match=r"^model: load_measurements takes the model first.*load_measurements\(model"):
         armcal.load_measurements("figaroh-ur10e-camera", model)
-    with pytest.raises(TypeError, match="parse_measurements takes the model first"):
+    with pytest.raises(armcal.InputError, match="^model: parse_measurements takes the model first"):
         armcal.parse_measurements("q1\n", model)
 
 

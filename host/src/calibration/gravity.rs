@@ -869,6 +869,25 @@ impl GravityFit {
         })
     }
 
+    /// The section of `diagnose`'s HTML page: the [`GravityFit::summary`]
+    /// the terminal prints, and each joint's residual RMS beside the spread
+    /// of its torques.
+    pub fn html(&self) -> String {
+        use crate::calibration::report::html_escape;
+        let mut s = format!(
+            "<h2>Joint torques</h2><p>{}</p><table><tr><th>joint</th><th>residual RMS [N·m]</th><th>spread of the torques [N·m]</th></tr>",
+            html_escape(&self.summary()).replace('\n', "<br>")
+        );
+        for (j, (r, spread)) in self.residual.iter().zip(&self.spread).enumerate() {
+            s.push_str(&format!(
+                "<tr><td>{}</td><td>{r:.3}</td><td>{spread:.3}</td></tr>",
+                j + 1
+            ));
+        }
+        s.push_str("</table>");
+        s
+    }
+
     /// The summary's lines: how the torques were read, and where the
     /// compliance's torques come from.
     pub fn summary(&self) -> String {

@@ -5,6 +5,7 @@
 //! file of its own (the HTML page of [`report`] is returned as text).
 
 pub mod acceptance;
+pub mod cancel;
 pub mod check;
 pub mod contact_check;
 pub mod demo;

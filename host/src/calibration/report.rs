@@ -256,19 +256,22 @@ pub(crate) fn html_escape(t: &str) -> String {
         .replace('>', "&gt;")
 }
 
-/// The whole page; `sessions`: the section on several sessions
-/// ([`crate::calibration::identify::sessions::html`]), empty for one.
+/// The whole page; `sections`: what goes before the diagnosis' own, as the
+/// terminal's summary gives it first (the masses' fit to the measured
+/// torques, [`crate::calibration::gravity::GravityFit::html`]; several
+/// sessions, [`crate::calibration::identify::sessions::html`]; the
+/// orientation weight), empty when there is none.
 pub fn html(
     model: &RobotModel,
     data_file: &str,
     d: &Diagnosis,
     data: &[Observation],
     options: &DiagnoseOptions,
-    sessions: &str,
+    sections: &str,
 ) -> String {
     let mut s = String::new();
     html_head(&mut s, model, data_file, data.len());
-    s.push_str(sessions);
+    s.push_str(sections);
     html_models(&mut s, model, d);
     html_findings(&mut s, model, d, data);
     html_holdout(&mut s, d, options);
@@ -308,21 +311,7 @@ fn html_models(s: &mut String, model: &RobotModel, d: &Diagnosis) {
         );
     }
     let _ = write!(s, "</table><p>");
-    // One figure per channel, in the model's unit (and mm for a length).
-    let units = &model.units;
-    for n in d.noise_rows(units) {
-        let (what, unit, source) = (n.what, &n.unit, n.source_name());
-        let (used, shown) = (significant(n.used), significant(n.shown));
-        let in_mm = if *unit == units.length.name() && units.length.name() != "mm" {
-            format!(" ({} mm)", significant(units.length_to_si(n.used) * 1e3))
-        } else {
-            String::new()
-        };
-        let _ = write!(
-            s,
-            "Noise of the {what}s: <b>{used} {unit}</b>{in_mm} per axis ({source}; the geometric calibration's residuals show {shown} {unit}). "
-        );
-    }
+    html_residuals(s, model, d);
     let (held, moved) = d.prior_role();
     let list = crate::calibration::diagnose::parameter_list;
     let _ = write!(
@@ -331,6 +320,41 @@ fn html_models(s: &mut String, model: &RobotModel, d: &Diagnosis) {
         list(&moved),
         list(&held)
     );
+}
+
+/// The noise of each channel, in the model's unit (and mm for a length), as
+/// the terminal's summary gives it: an estimated noise is what the geometric
+/// calibration's residuals show (the instrument's noise and what the geometry
+/// does not model), named so, with what the extended calibration leaves
+/// beside it when it extends the geometry; a stated noise is the noise.
+fn html_residuals(s: &mut String, model: &RobotModel, d: &Diagnosis) {
+    let units = &model.units;
+    for n in d.noise_rows(units) {
+        let (what, unit) = (n.what, &n.unit);
+        let (used, shown) = (significant(n.used), significant(n.shown));
+        let in_mm = if *unit == units.length.name() && units.length.name() != "mm" {
+            format!(" ({} mm)", significant(units.length_to_si(n.used) * 1e3))
+        } else {
+            String::new()
+        };
+        let _ = match n.source_name() {
+            "stated" => write!(
+                s,
+                "Noise of the {what}s: <b>{used} {unit}</b>{in_mm} per axis (stated); the geometric calibration's residuals show {shown} {unit}. "
+            ),
+            source => write!(
+                s,
+                "The geometric calibration's residuals, {what}s: <b>{used} {unit}</b>{in_mm} per axis ({source} from them as the {what} noise every fit weighs the rows by: the instrument's noise and whatever the geometry does not model). "
+            ),
+        };
+    }
+    if d.extends_the_geometry() {
+        let _ = write!(
+            s,
+            "The extended calibration's residuals, positions: <b>{} mm</b> per axis (what the calibration chosen leaves). ",
+            significant(d.noise * 1e3)
+        );
+    }
 }
 
 /// What the geometric model gets wrong: the findings, the plots, the

@@ -9,6 +9,7 @@ use armcal_shared::{Calibration, TargetFrame};
 
 use super::{Front, fit_options, folds};
 use crate::calibration::acceptance::{FailedCalibration, diagnosis_refusal};
+use crate::calibration::cancel::Cancel;
 use crate::calibration::diagnose::Choice;
 use crate::calibration::diagnose::RowPlaces;
 use crate::calibration::diagnose::{DiagnoseOptions, Diagnosis, diagnose_with_progress};
@@ -41,6 +42,10 @@ pub struct Request {
     /// The sign of the session's `tau` columns; `None`: read from the data
     /// ([`crate::calibration::gravity`]).
     pub torque_sign: Option<TorqueSign>,
+    /// The caller's request to stop, asked at the computation's step
+    /// boundaries ([`crate::calibration::cancel`]); [`Cancel::NEVER`] on the
+    /// command line, which SIGINT ends.
+    pub cancel: Cancel,
 }
 
 /// What `diagnose` found.
@@ -90,6 +95,7 @@ pub fn run(
         folds,
         fit: FullOptions {
             sessions: request.frames,
+            cancel: request.cancel,
             ..fit_options(front, model, &request.scales)?
         },
         ..Default::default()
@@ -113,6 +119,7 @@ pub fn run(
         &options,
         progress,
     )?;
+    request.cancel.check()?;
     data.require_fit_supported(model, diagnosis.reference.position_rms, || {
         super::nominal_worst_row(model, data)
     })?;
@@ -121,6 +128,7 @@ pub fn run(
     calibration.targets = request.targets;
     calibration.flange = model.flange;
     let sessions_held_out = sessions_held_out(model, observations, &diagnosis, &options);
+    request.cancel.check()?;
     Ok(Diagnosed {
         weighting,
         sessions_held_out,
@@ -230,16 +238,19 @@ impl Diagnosed {
         (!joints.is_empty() && data.times.iter().any(Option::is_none)).then(|| joints.join(", "))
     }
 
-    /// The HTML page of the diagnosis of `data` (`--html`).
+    /// The HTML page of the diagnosis of `data` (`--html`): the masses' fit
+    /// to the measured torques first, if any, as the summary gives it.
     pub fn html(&self, data: &Measurements) -> String {
+        let gravity = self.gravity.as_ref().map(GravityFit::html);
+        let sessions = sessions::html(&self.diagnosis.fit, &self.sessions_held_out, data);
+        let weight = self.weighting.html(&self.diagnosis.fit);
         crate::calibration::report::html(
             &self.model,
             &data.file,
             &self.diagnosis,
             identify::observations(data),
             &self.options,
-            &(sessions::html(&self.diagnosis.fit, &self.sessions_held_out, data)
-                + &self.weighting.html(&self.diagnosis.fit)),
+            &(gravity.unwrap_or_default() + &sessions + &weight),
         )
     }
 

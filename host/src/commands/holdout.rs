@@ -7,9 +7,11 @@
 //! SI.
 
 use super::{Argument, Front, fit_options};
+use crate::calibration::cancel::Cancel;
 use crate::calibration::contact_check::{self, HeldOut, Selection};
 use crate::calibration::diagnose::cross_validation::DEFAULT_FOLDS;
 use crate::calibration::identify::StatedScales;
+use crate::calibration::identify::full::FullOptions;
 use crate::io::input_error::InputError;
 use crate::io::model_file::RobotModel;
 use crate::session::measurements::Measurements;
@@ -45,6 +47,10 @@ pub struct Request {
     pub calibrate: Calibrate,
     /// The noise and prior scales stated (model units).
     pub scales: StatedScales,
+    /// The caller's request to stop, asked at the computation's step
+    /// boundaries ([`crate::calibration::cancel`]); [`Cancel::NEVER`] on the
+    /// command line, which SIGINT ends.
+    pub cancel: Cancel,
 }
 
 /// The sessions of a `holdout`, each read and accepted as a session without
@@ -68,16 +74,22 @@ pub fn run(
     request: &Request,
 ) -> anyhow::Result<Vec<HeldOut>> {
     require_sessions(front, model, sessions)?;
-    let options = fit_options(front, model, &request.scales)?;
+    let options = FullOptions {
+        cancel: request.cancel,
+        ..fit_options(front, model, &request.scales)?
+    };
     let reference = sessions.reference.map(|r| &r.robot);
-    Ok(contact_check::held_out(
+    let held_out = contact_check::held_out(
         model,
         sessions.held_out,
         sessions.training,
         reference,
         &options,
         request.calibrate.selection(),
-    )?)
+    )?;
+    // What a computation asked to stop part way found is not returned.
+    request.cancel.check()?;
+    Ok(held_out)
 }
 
 /// `holdout`'s sessions: two or more to leave out in turn unless training

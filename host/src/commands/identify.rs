@@ -9,6 +9,7 @@ use armcal_shared::TargetFrame;
 
 use super::{Front, fit_options};
 use crate::calibration::acceptance::FailedCalibration;
+use crate::calibration::cancel::Cancel;
 use crate::calibration::gravity::{TorqueSign, with_measured_gravity};
 use crate::calibration::identify::channel_weight::ChannelWeights;
 use crate::calibration::identify::full::{FullOptions, Observation, identify_with_effects};
@@ -40,6 +41,10 @@ pub struct Request {
     /// The sign of the session's `tau` columns; `None`: read from the data
     /// ([`crate::calibration::gravity`]).
     pub torque_sign: Option<TorqueSign>,
+    /// The caller's request to stop, asked at the computation's step
+    /// boundaries ([`crate::calibration::cancel`]); [`Cancel::NEVER`] on the
+    /// command line, which SIGINT ends.
+    pub cancel: Cancel,
 }
 
 /// What `identify` found.
@@ -72,6 +77,7 @@ pub fn run(
     let model = &fitted;
     let options = FullOptions {
         sessions: request.frames,
+        cancel: request.cancel,
         ..fit_options(front, model, &request.scales)?
     };
     if request.params == ParamSet::Paper && data.session_count() > 1 {
@@ -108,6 +114,8 @@ pub fn run(
         result.sessions_held_out =
             held_out_by_session(&data.poses, &calibrate, request.frames, &at);
     }
+    // Each stage below is a pass over the rows or more: none starts once asked to stop.
+    request.cancel.check()?;
     if let Some(fit) = &result.full {
         let factor = result.prior.as_ref().map_or(1.0, |p| p.factor());
         result.suspect_rows = suspect_rows::of_fit(
@@ -117,6 +125,7 @@ pub fn run(
             &options.prior.scaled(factor),
         );
     }
+    request.cancel.check()?;
     data.require_fit_supported(model, result.position_rms, || {
         super::nominal_worst_row(model, data)
     })?;

@@ -256,15 +256,21 @@ pub fn fit_options(
 /// `armcal.InputError` in Python. Anything else is a failure of the program
 /// or the machine.
 pub fn is_refusal(err: &anyhow::Error) -> bool {
+    use crate::calibration::plan::PlanError;
     err.downcast_ref::<InputError>().is_some()
-        || err.downcast_ref::<FullError>().is_some()
+        || err
+            .downcast_ref::<FullError>()
+            .is_some_and(|e| !matches!(e, FullError::Cancelled(_)))
         || err.downcast_ref::<PaperError>().is_some()
         || err
-            .downcast_ref::<crate::calibration::plan::PlanError>()
-            .is_some_and(|e| !matches!(e, crate::calibration::plan::PlanError::Cancelled))
-        || err
-            .downcast_ref::<IdentifyError>()
-            .is_some_and(|e| !matches!(e, IdentifyError::Calibration(_)))
+            .downcast_ref::<PlanError>()
+            .is_some_and(|e| !matches!(e, PlanError::Cancelled))
+        || err.downcast_ref::<IdentifyError>().is_some_and(|e| {
+            !matches!(
+                e,
+                IdentifyError::Calibration(_) | IdentifyError::Full(FullError::Cancelled(_))
+            )
+        })
 }
 
 #[cfg(test)]

@@ -492,10 +492,15 @@ fn diagnose_html_is_self_contained_and_renders_in_chromium() {
         page.contains("<tr><td>g3.sin1</td><td>rad</td>"),
         "a gear amplitude in rad"
     );
-    // One noise figure for the positions, in the model's unit and in mm.
-    assert_eq!(page.matches("Noise of the positions: <b>").count(), 1);
+    // One estimated noise figure for the positions, named for what it is
+    // (the geometric calibration's residual), in the model's unit and in mm.
+    assert_eq!(
+        page.matches("The geometric calibration's residuals, positions: <b>")
+            .count(),
+        1
+    );
     assert!(
-        page.contains(" mm) per axis (estimated;"),
+        page.contains(" mm) per axis (estimated from them"),
         "the noise in mm too"
     );
     assert!(

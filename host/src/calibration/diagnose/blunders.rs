@@ -111,10 +111,16 @@ pub struct Deleted {
     pub omega: f64,
 }
 
+/// The rows [`deleted_residuals`] solves between two questions to the
+/// caller's request to stop (a few ms).
+const CANCEL_ROWS: usize = 8192;
+
 /// Each pose's deleted residual about the fit `lin` linearises, which was
 /// fitted to the poses not `excluded`. A pose in the fit has
 /// `T_i = r_iᵀ (I − H_ii)⁻¹ r_i`; one left out is predicted, and its residual
-/// has the covariance `I + H_ii`: `T_i = r_iᵀ (I + H_ii)⁻¹ r_i`.
+/// has the covariance `I + H_ii`: `T_i = r_iᵀ (I + H_ii)⁻¹ r_i`. `None` when
+/// the fit's normal matrix is singular, or once the caller asked to stop
+/// ([`Linearization::cancel`], asked every 8,192 rows).
 pub fn deleted_residuals(lin: &Linearization, excluded: &[bool]) -> Option<Deleted> {
     let p = lin.j.ncols();
     let n = lin.poses();
@@ -122,8 +128,20 @@ pub fn deleted_residuals(lin: &Linearization, excluded: &[bool]) -> Option<Delet
     let fitted: Vec<usize> = (0..lin.first_rows.len())
         .filter(|&i| i >= n || !excluded[i])
         .collect();
+    // Each product below is a pass over the rows: none starts once the
+    // caller asked to stop.
+    let asked_to_stop = || lin.cancel.requested();
+    if asked_to_stop() {
+        return None;
+    }
     let (jf, rf) = lin.gathered(&fitted);
+    if asked_to_stop() {
+        return None;
+    }
     let a = jf.transpose() * &jf;
+    if asked_to_stop() {
+        return None;
+    }
     let scale = unit_diagonal_scale(&a);
     let normal = Mat::from_fn(p, p, |i, j| {
         (a[(i, j)] + if i == j { lin.precision[i] } else { 0.0 }) * scale[i] * scale[j]
@@ -133,13 +151,28 @@ pub fn deleted_residuals(lin: &Linearization, excluded: &[bool]) -> Option<Delet
     // pose's block H_ii from its own columns of B.
     let llt = normal.llt(Side::Lower).ok()?;
     let mut b = Mat::from_fn(p, lin.j.nrows(), |c, row| lin.j[(row, c)] * scale[c]);
-    solve_lower_triangular_in_place(llt.L(), b.as_mut(), Par::Seq);
+    // Each row's column solved alone: in blocks, so that the caller's
+    // request to stop is asked between them (`None` once it is).
+    let columns = b.ncols();
+    for start in (0..columns).step_by(CANCEL_ROWS) {
+        if asked_to_stop() {
+            return None;
+        }
+        let block = b
+            .as_mut()
+            .subcols_mut(start, CANCEL_ROWS.min(columns - start));
+        solve_lower_triangular_in_place(llt.L(), block, Par::Seq);
+    }
     let omega = rf.squared_norm_l2();
-    let stats = (0..n)
-        .map(|i| {
+    let mut stats = Vec::with_capacity(n);
+    for (i, &out) in excluded.iter().enumerate().take(n) {
+        if i % CANCEL_ROWS == 0 && asked_to_stop() {
+            return None;
+        }
+        stats.push({
             let rows = lin.rows_of(i);
             let k = rows.len();
-            let sign = if excluded[i] { 1.0 } else { -1.0 };
+            let sign = if out { 1.0 } else { -1.0 };
             let m = DMatrix::from_fn(k, k, |r, s| {
                 let h: f64 = (0..p)
                     .map(|c| b[(c, rows.start + r)] * b[(c, rows.start + s)])
@@ -152,8 +185,8 @@ pub fn deleted_residuals(lin: &Linearization, excluded: &[bool]) -> Option<Delet
                 .cholesky()
                 .map_or(f64::INFINITY, |f| ri.dot(&f.solve(&ri)));
             (t, k)
-        })
-        .collect();
+        });
+    }
     Some(Deleted { stats, omega })
 }
 
@@ -315,6 +348,10 @@ pub fn judge(lin: &Linearization, k: usize, flagged: &[Suspect], level: f64) -> 
     flagged
         .iter()
         .filter_map(|s| {
+            // Not judged once the caller asked to stop: its next check drops them.
+            if lin.cancel.requested() {
+                return None;
+            }
             let with = of_others(&without_all.adding(s.pose))?;
             Some(Blunder {
                 pose: s.pose,

@@ -75,6 +75,7 @@ pub fn cross_validate(
     let k = options.folds.max(2);
     let mut errors = Vec::with_capacity(data.len());
     for fold in 0..k {
+        options.fit.cancel.check()?;
         let (train, test): (Vec<_>, Vec<_>) =
             data.iter().enumerate().partition(|(i, _)| i % k != fold);
         let train: Vec<Observation> = train.into_iter().map(|(_, o)| o.clone()).collect();
@@ -262,9 +263,16 @@ impl<'a> Folds<'a> {
         };
         // Each fold's, then the poses trained on in every fold; on every core
         // when the poses are many (see `SPREAD_POSES`).
+        // Once the caller asked to stop (`lin.cancel`), the groups not started
+        // are left empty: the caller's next check drops the folds.
         let groups: Vec<Role> = (0..k).map(Role::Fold).chain([Role::Train]).collect();
-        let mut parts =
-            parallel::map_if(fold.len() >= SPREAD_POSES, &groups, |&g| normal(group(g)));
+        let mut parts = parallel::map_if(fold.len() >= SPREAD_POSES, &groups, |&g| {
+            normal(if lin.cancel.requested() {
+                Vec::new()
+            } else {
+                group(g)
+            })
+        });
         let (mut all, _) = parts.pop().expect("the poses trained on in every fold");
         for ((a, b), _) in &parts {
             all.0 += a;

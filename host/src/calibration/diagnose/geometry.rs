@@ -102,6 +102,10 @@ pub fn score(
         })
         .collect();
     let scored = parallel::map_if(folds.spread(), &groups, |(factor, models)| {
+        // Not scored once the caller asked to stop: its next check drops them.
+        if lin.cancel.requested() {
+            return vec![None; models.len()];
+        }
         let subsets: Vec<Subset> = models
             .iter()
             .map(|&g| Subset {

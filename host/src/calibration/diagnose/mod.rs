@@ -465,6 +465,7 @@ fn diagnose_distinct(
 ) -> Result<Diagnosis, FullError> {
     let first = diagnose_once(nominal, data, constraints, options, progress)?;
     let late = late_blunders(&first, data, constraints, options);
+    options.fit.cancel.check()?;
     if !late.iter().any(|b| b.set_aside) {
         let mut d = first;
         d.suspects.extend(late);
@@ -553,13 +554,22 @@ fn diagnose_once(
         constraints,
         options,
     };
+    // Each stage is a pass over the poses or more: none starts once the
+    // caller asked to stop.
+    let cancel = options.fit.cancel;
     let screen = pass.screen(data)?;
+    cancel.check()?;
     let mut geo = pass.geometric_model(&screen)?;
+    cancel.check()?;
     let mut search = Search::from(&geo, candidates(nominal, &screen.clean));
     if geo.best.geometry.is_some() {
-        while search.round(&pass, &geo, &screen.clean, progress) {}
+        while search.round(&pass, &geo, &screen.clean, progress) {
+            cancel.check()?;
+        }
     }
+    cancel.check()?;
     pass.geometry_again(&screen, &mut geo, &mut search);
+    cancel.check()?;
     Ok(pass.conclude(screen, geo, search))
 }
 
@@ -1081,8 +1091,13 @@ impl Search {
         let extensions = folds.extensions(&base_subset);
         // Every separable candidate's F statistic from its fit to all poses
         // (the candidates on every core when the poses are many).
+        // A candidate asked to stop is not scored: the caller's check after
+        // the round ends the diagnosis.
+        let cancel = options.fit.cancel;
         let objectives = parallel::map_if(folds.spread(), &own, |(_, own)| {
-            if extensions.separable(own, options.fit.separability) {
+            if cancel.requested() {
+                None
+            } else if extensions.separable(own, options.fit.separability) {
                 extensions.objective(own)
             } else {
                 None
@@ -1109,7 +1124,7 @@ impl Search {
         }
         let validated = strongest(tests);
         let evaluations = parallel::map_if(folds.spread(), &validated, |(_, own, _, _)| {
-            extensions.evaluate(own)
+            (!cancel.requested()).then(|| extensions.evaluate(own))?
         });
         let mut scored = Vec::new();
         for ((candidate, own, f, threshold), e) in validated.into_iter().zip(evaluations) {

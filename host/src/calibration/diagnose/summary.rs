@@ -173,6 +173,13 @@ impl Diagnosis {
         }
     }
 
+    /// Whether the calibration chosen extends the geometry with effects:
+    /// its residuals are then not the geometric calibration's, and the
+    /// reports give both.
+    pub fn extends_the_geometry(&self) -> bool {
+        !self.fit.effects.is_empty() && self.choice != Choice::Nominal
+    }
+
     /// The noise of each channel, in the model's units, for reports: (what,
     /// used, shown by the residuals, source, unit).
     pub fn noise_rows(
@@ -464,7 +471,7 @@ impl Diagnosis {
             };
         }
         // With effects, what the extended calibration's residuals leave.
-        if !self.fit.effects.is_empty() && self.choice != Choice::Nominal {
+        if self.extends_the_geometry() {
             let _ = writeln!(
                 out,
                 "the extended calibration's residuals show {} mm per axis",

@@ -362,6 +362,10 @@ fn fit_full(
         )
     };
     let mut fit = fit_at(1.0, options)?;
+    // Each choice below is a pass over the rows (its folds' normal
+    // equations): none starts once the caller asked to stop.
+    let asked_to_stop = || options.cancel.check().map_err(full::FullError::from);
+    asked_to_stop()?;
     let observed = observations(data);
     let kinds = channel_weight::weighed_kinds(observed);
     let scale_chosen = matches!(scale, PriorScale::Chosen { .. }) && options.prior.has_scale();
@@ -380,6 +384,7 @@ fn fit_full(
             folds,
             (scale, weights),
         );
+        asked_to_stop()?;
         let factor = prior_choice.as_ref().map_or(1.0, PriorChoice::factor);
         if factor != 1.0 || chosen.factors() != channel_weight::WeightFactors::NOISE {
             let weighted = chosen.options(options, &fit);

@@ -83,6 +83,9 @@ pub fn of_fit(
     let scale = blunders::scale(Some(&deleted), fit.redundancy);
     // The residuals about identify's fit, before any fit without suspects.
     let fitted = lin.r.clone();
+    if fit.cancel.requested() {
+        return SuspectRows::default();
+    }
     let flagged = confirmed(
         &mut lin,
         &deleted,

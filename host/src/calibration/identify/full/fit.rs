@@ -430,7 +430,8 @@ impl<'a> Fit<'a> {
         let system = match system {
             Some(system) => system,
             None => {
-                accumulated = NormalEquations::accumulate(robot, data, params, weights);
+                accumulated =
+                    NormalEquations::accumulate(robot, data, params, weights, options.cancel);
                 &accumulated
             }
         };
@@ -440,8 +441,15 @@ impl<'a> Fit<'a> {
     /// One round's selection at `weights`, the held unknowns put back, and
     /// the fit of the free ones.
     fn select_and_solve(&mut self, weights: &Weights) -> Result<Solution, FullError> {
-        let system =
-            NormalEquations::accumulate(&self.robot, self.data, &self.unknowns.params, weights);
+        // Each round starts with a pass over the rows: the caller may stop it.
+        self.options.cancel.check()?;
+        let system = NormalEquations::accumulate(
+            &self.robot,
+            self.data,
+            &self.unknowns.params,
+            weights,
+            self.options.cancel,
+        );
         // The first round of a fit from the nominal model linearises where
         // the selection is made.
         let at_structure = self.start_is_structure && self.round == 1;
@@ -462,7 +470,13 @@ impl<'a> Fit<'a> {
         // The linearisation of every parameter serves the first iteration unless a
         // held parameter was just moved back.
         let first = if moved {
-            NormalEquations::accumulate(&self.robot, self.data, &free_params, weights)
+            NormalEquations::accumulate(
+                &self.robot,
+                self.data,
+                &free_params,
+                weights,
+                self.options.cancel,
+            )
         } else {
             system.select_columns(&free)
         };
@@ -874,6 +888,7 @@ impl<'a> Fit<'a> {
             noise,
             weights: self.options.weights,
             prior_reach: stats.prior_reach,
+            cancel: self.options.cancel,
         })
     }
 

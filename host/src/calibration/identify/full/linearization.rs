@@ -10,6 +10,7 @@ use nalgebra::{DMatrix, DVector, Point3};
 
 use super::rows::{DistanceRows, LinearSystem, NormalEquations};
 use super::{Constraints, FullFit, Model, Observation, PlaneEstimate, Status, Unknown};
+use crate::calibration::cancel::Cancel;
 use crate::calibration::dense;
 use crate::calibration::identify::noise::Channel;
 use crate::calibration::identify::prior::Prior;
@@ -151,7 +152,7 @@ pub fn linearize(
         offset,
     } = AtFit::of(fit, effects, extra, constraints, prior);
     let weights = fit.weights();
-    let sys = LinearSystem::build(&model, data, &unknowns, &weights);
+    let sys = LinearSystem::build(&model, data, &unknowns, &weights, fit.cancel);
     let distances = DistanceRows::rows(&model, &unknowns);
     let poses_rows = sys.j.nrows();
     let (j, r) = if distances.is_empty() {
@@ -196,6 +197,7 @@ pub fn linearize(
         unknowns,
         precision,
         offset,
+        cancel: fit.cancel,
     }
 }
 
@@ -228,6 +230,9 @@ pub struct Linearization {
     pub precision: Vec<f64>,
     /// Each column's value less its nominal value (its prior's centre), SI.
     pub offset: Vec<f64>,
+    /// The fit's request to stop ([`FullFit::cancel`]): what is computed
+    /// from the linearisation asks it too.
+    pub cancel: Cancel,
 }
 
 impl Linearization {
@@ -363,7 +368,7 @@ pub fn fold_normals(
                 .filter(|&(_, &g)| g == f)
                 .map(|(o, _)| o)
                 .collect();
-            let sums = NormalEquations::accumulate(&model, &poses, &unknowns, &weights);
+            let sums = NormalEquations::accumulate(&model, &poses, &unknowns, &weights, fit.cancel);
             let mut fold = FoldNormal {
                 a: DMatrix::zeros(p, p),
                 b: DVector::zeros(p),

@@ -83,6 +83,7 @@ use nalgebra::{Matrix3, Point3, Rotation3, Vector3};
 
 use super::noise::{Channel, Noise, NoiseEstimate, NoiseSource, PerChannel, Weights};
 use super::prior::{Geometry, PRIOR_FACTORS, Prior};
+use crate::calibration::cancel::{Cancel, Cancelled};
 use crate::session::channel::WeightFactors;
 pub use crate::session::registration::{FrameSharing, Registrations, Sharing};
 
@@ -382,6 +383,10 @@ pub struct FullOptions {
     /// estimate at full weight), not estimated again: variance components
     /// would restore the weight.
     pub weights: WeightFactors,
+    /// The caller's request to stop, asked before each pass over the rows
+    /// ([`crate::calibration::cancel`]): a fit asked to stop ends with
+    /// [`FullError::Cancelled`]. Never raised by default.
+    pub cancel: Cancel,
 }
 
 impl FullOptions {
@@ -472,6 +477,7 @@ impl Default for FullOptions {
             geometry: Geometry::Full,
             sessions: FrameSharing::default(),
             weights: WeightFactors::NOISE,
+            cancel: Cancel::NEVER,
         }
     }
 }
@@ -567,6 +573,10 @@ pub struct FullFit {
     pub registrations: Registrations,
     /// Each session's figures and own frames, in order (empty for one session).
     pub sessions: Vec<SessionFit>,
+    /// The caller's request to stop the computation this fit is part of
+    /// ([`FullOptions::cancel`]): what is computed about the fit (its
+    /// linearisation, its folds, its deleted residuals) asks it too.
+    pub cancel: Cancel,
 }
 
 /// One session of several, as the fit leaves it.
@@ -690,6 +700,9 @@ pub enum FullError {
         /// 1-based pose index.
         pose: usize,
     },
+    /// The caller asked the computation to stop ([`FullOptions::cancel`]).
+    #[error(transparent)]
+    Cancelled(#[from] Cancelled),
 }
 
 /// The count of independent geometric parameters of a full calibration of
@@ -784,10 +797,14 @@ pub fn identify_constrained(
     constraints: &Constraints,
     options: &FullOptions,
 ) -> Result<FullFit, FullError> {
+    options.cancel.check()?;
     check_inputs(nominal, effects, data, constraints)?;
     let unknowns = Unknowns::of(nominal, effects, extra, data, constraints, options)?;
     let model = unknowns.initial_model(nominal, start, effects, data, constraints, options);
-    Fit::new(nominal, data, constraints, options, unknowns, model).run()
+    let fit = Fit::new(nominal, data, constraints, options, unknowns, model).run()?;
+    // A fit asked to stop in its last pass is not returned as found.
+    options.cancel.check()?;
+    Ok(fit)
 }
 
 /// How much another scale of the prior could change the fit's held-out

@@ -52,7 +52,7 @@ pub fn register_session(
         .map(Unknown::Param)
         .collect();
     let weights = Weights::of(&PerChannel::from_fn(|c| options.noise(c).sigma));
-    let mut sys = NormalEquations::accumulate(&model, data, &frames, &weights);
+    let mut sys = NormalEquations::accumulate(&model, data, &frames, &weights, options.cancel);
     if !frames.is_empty() {
         let prior = vec![(0.0, 0.0); frames.len()];
         (_, _, _, sys) =

@@ -16,6 +16,7 @@ use nalgebra::{Point3, Vector3};
 
 use super::solve::unit_diagonal_scale;
 use super::{Model, Observation, PlaneEstimate, Unknown, rms_pair};
+use crate::calibration::cancel::Cancel;
 use crate::calibration::identify::noise::{Channel, PerChannel, Weights};
 use crate::calibration::parallel;
 
@@ -36,17 +37,20 @@ impl LinearSystem {
 
     /// The linearisation at `model`: per pose its 3 position rows, then its 3
     /// orientation rows when measured ([`for_each_pose_rows`]); the poses in
-    /// one piece per core, each piece filling its own rows.
+    /// one piece per core (of at most [`BLOCK_POSES`]: a few ms of rows
+    /// between two questions to `cancel`), each piece filling its own rows. Once `cancel` is requested the pieces not started are
+    /// left zero: the caller's next check drops the whole.
     pub(super) fn build(
         model: &Model,
         data: &[Observation],
         params: &[Unknown],
         weights: &Weights,
+        cancel: Cancel,
     ) -> Self {
         let rows = Self::rows(data);
         let mut j = Mat::zeros(rows, params.len());
         let mut r = Mat::zeros(rows, 1);
-        let piece = parallel::piece_len(data.len(), MIN_PIECE_POSES);
+        let piece = parallel::piece_len(data.len(), MIN_PIECE_POSES).min(BLOCK_POSES);
         let mut pieces = Vec::new();
         let (mut j_rest, mut r_rest) = (j.as_mut(), r.as_mut());
         for poses in data.chunks(piece) {
@@ -57,6 +61,9 @@ impl LinearSystem {
             (j_rest, r_rest) = (j_after, r_after);
         }
         parallel::each(pieces, |(poses, mut j, mut r)| {
+            if cancel.requested() {
+                return;
+            }
             let mut row = 0;
             for_each_pose_rows(model, poses, params, weights, |pose| {
                 let orientation = if pose.orientation { 3..6 } else { 0..0 };
@@ -562,15 +569,18 @@ impl NormalEquations {
     /// chunks of [`CHUNK_POSES`], each chunk's sums accumulated alone
     /// ([`NormalEquations::accumulate_chunk`]), on as many threads as the machine
     /// has, then added in pose order — the same sums whatever the number of
-    /// threads.
+    /// threads. Once `cancel` is requested the chunks not started add
+    /// nothing: the caller's next check drops the sums.
     pub(super) fn accumulate<O: Borrow<Observation> + Sync>(
         model: &Model,
         data: &[O],
         params: &[Unknown],
         weights: &Weights,
+        cancel: Cancel,
     ) -> Self {
         let chunks: Vec<&[O]> = data.chunks(CHUNK_POSES).collect();
         let partials = parallel::map(&chunks, |c| {
+            let c = if cancel.requested() { &c[..0] } else { c };
             Self::accumulate_chunk(model, c, params, weights)
         });
         let mut partials = partials.into_iter();

@@ -122,7 +122,7 @@ pub(super) fn constrained_subset(
         )
         .chain(params[points..].iter().copied())
         .collect();
-    let system = NormalEquations::accumulate(robot, data, &selection, weights);
+    let system = NormalEquations::accumulate(robot, data, &selection, weights, options.cancel);
     let (kept, fixed) = separable_subset(&system, &selection, robot, data, options, noise_scale);
     let is_base = |u: &Unknown| matches!(u, Unknown::Param(Param::Base(_)));
     let free = kept

@@ -91,7 +91,10 @@ pub(super) fn levenberg_marquardt(
             }
             let mut trial = robot.clone();
             apply(&mut trial, free_params, &step);
-            let trial_sys = NormalEquations::accumulate(&trial, data, free_params, weights);
+            // A trial is a pass over the rows: the caller may stop it.
+            options.cancel.check()?;
+            let trial_sys =
+                NormalEquations::accumulate(&trial, data, free_params, weights, options.cancel);
             let trial_cost = trial_sys.cost() + prior_cost(&trial, free_params, prior);
             if trial_cost <= cost {
                 // Converged when the step no longer matters: below 1e-10 of the
