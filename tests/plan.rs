@@ -503,50 +503,49 @@ fn a_plan_for_compliance_identifies_it_better_than_random_poses() {
 /// largest weight, as the relaxation's designs are rounded. Written apart
 /// from `plan`'s own code: another implementation.
 fn d_optimal_relaxed(robot: &Robot<f64>, candidates: &[Vec<f64>], n: usize) -> Vec<Vec<f64>> {
-    use nalgebra::DMatrix;
+    use nalgebra::{DMatrix, DVector};
     let params: Vec<Param> = robot.params().collect();
-    let p = params.len();
+    let (p, count) = (params.len(), candidates.len());
     let h = 1e-7;
     let point = |r: &Robot<f64>, q: &[f64]| r.forward(q).unwrap().translation.vector;
-    let rows: Vec<DMatrix<f64>> = candidates
-        .iter()
-        .map(|q| {
-            let mut j = DMatrix::zeros(3, p);
-            for (k, &param) in params.iter().enumerate() {
-                let (mut up, mut down) = (robot.clone(), robot.clone());
-                *up.param_mut(param).unwrap() += h;
-                *down.param_mut(param).unwrap() -= h;
-                let d = (point(&up, q) - point(&down, q)) / (2.0 * h * NOISE);
-                j.column_mut(k).copy_from(&d);
+    // Every candidate's 3 rows, stacked (3·count × p), over the noise.
+    let mut j = DMatrix::zeros(3 * count, p);
+    for (k, &param) in params.iter().enumerate() {
+        let (mut up, mut down) = (robot.clone(), robot.clone());
+        *up.param_mut(param).unwrap() += h;
+        *down.param_mut(param).unwrap() -= h;
+        for (c, q) in candidates.iter().enumerate() {
+            let d = (point(&up, q) - point(&down, q)) / (2.0 * h * NOISE);
+            for axis in 0..3 {
+                j[(3 * c + axis, k)] = d[axis];
             }
-            j
-        })
-        .collect();
-    let information: Vec<DMatrix<f64>> = rows.iter().map(|j| j.transpose() * j).collect();
+        }
+    }
     let prior = armcal::session::prior::Prior::default();
-    let mean = information.iter().fold(DMatrix::zeros(p, p), |m, i| m + i) / rows.len() as f64;
-    let ridge = 1e-9 * mean.trace() / p as f64;
-    let base = DMatrix::from_diagonal(&nalgebra::DVector::from_iterator(
+    let ridge = 1e-9 * j.norm_squared() / (count * p) as f64;
+    let base = DMatrix::from_diagonal(&DVector::from_iterator(
         p,
         params.iter().map(|&q| prior.precision(q) + ridge),
     ));
-    let mut weights = vec![1.0 / rows.len() as f64; rows.len()];
+    let mut weights = vec![1.0 / count as f64; count];
     for _ in 0..300 {
-        let m = information
-            .iter()
-            .zip(&weights)
-            .fold(base.clone(), |m, (i, &w)| m + i * (w * n as f64));
+        // M = n Σ λ_c J_cᵀ J_c + Π, from the rows weighed by √(n λ_c).
+        let mut weighed = j.clone();
+        for (c, w) in weights.iter().enumerate() {
+            weighed.rows_mut(3 * c, 3).scale_mut((w * n as f64).sqrt());
+        }
+        // (A transposed copy: the product then goes to the optimised gemm.)
+        let m = weighed.transpose() * &weighed + &base;
         let inverse = m.cholesky().expect("the prior determines M").inverse();
-        let d: Vec<f64> = rows
-            .iter()
-            .map(|j| (j * &inverse * j.transpose()).trace())
-            .collect();
+        // d_c = tr(J_c M⁻¹ J_cᵀ): the rows of J M⁻¹ dotted with J's.
+        let x = (&j * &inverse).component_mul(&j);
+        let d: Vec<f64> = (0..count).map(|c| x.rows(3 * c, 3).sum()).collect();
         let total: f64 = weights.iter().zip(&d).map(|(w, d)| w * d).sum();
         for (w, d) in weights.iter_mut().zip(&d) {
             *w *= d / total;
         }
     }
-    let mut order: Vec<usize> = (0..rows.len()).collect();
+    let mut order: Vec<usize> = (0..count).collect();
     order.sort_by(|&a, &b| weights[b].total_cmp(&weights[a]));
     order[..n].iter().map(|&c| candidates[c].clone()).collect()
 }

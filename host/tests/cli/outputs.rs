@@ -475,30 +475,26 @@ fn a_file_s_header_is_the_command_that_makes_it_again() {
     }
 }
 
-/// A stream of measurement rows on standard input, shorter than any real
-/// row (so that the 1 GiB cap would let some forty million in, held as poses
-/// of a few hundred bytes each), is refused at the first row past three
-/// million, as it is read: the rows, not only the bytes, bound the memory.
-#[test]
-fn a_stream_of_rows_is_refused_past_the_row_cap() {
+/// Feeds `header` then `row` repeated, on standard input of `armcal args`
+/// run in `dir`, until it stops reading or twice `cap` rows are sent; asserts
+/// the run refused the first row past `cap` (exit 2, naming its line) and
+/// stopped reading there.
+fn refused_past_the_cap(args: &[&str], dir: &Path, (header, row): (&str, &str), cap: usize) {
     use std::io::Write as _;
-    let dir = tempfile::tempdir().unwrap();
     let mut child = Command::new(env!("CARGO_BIN_EXE_armcal"))
-        .args(["check", "--model", "ur5e", "--data", "/dev/stdin"])
-        .current_dir(dir.path())
+        .args(args)
+        .current_dir(dir)
         .stdin(Stdio::piped())
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
     let mut stdin = child.stdin.take().unwrap();
-    let rows = armcal::io::measurements::MAX_MEASURED_ROWS;
+    let (mut block, row) = (header.to_string(), row.to_string());
     let feeder = std::thread::spawn(move || {
-        let mut block = String::from("q1,q2,q3,q4,q5,q6,x,y,z\n");
-        let row = "0.1,0.2,0.3,0.4,0.5,0.6,0.1,0.2,0.3\n";
         let mut sent = 0;
         // Twice the cap at most; armcal stops reading at the cap.
-        while sent < 2 * rows {
+        while sent < 2 * cap {
             block.push_str(&row.repeat(10_000));
             if stdin.write_all(block.as_bytes()).is_err() {
                 return sent;
@@ -514,10 +510,55 @@ fn a_stream_of_rows_is_refused_past_the_row_cap() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
         stderr.contains(&format!(
-            "/dev/stdin:{}:1: more than {rows} data rows",
-            rows + 2
+            "/dev/stdin:{}:1: more than {cap} data rows",
+            cap + 2
         )),
         "{stderr}"
     );
-    assert!(sent < 2 * rows, "read to the end: {sent} rows");
+    assert!(sent < 2 * cap, "read to the end: {sent} rows");
+}
+
+/// A stream of measurement rows on standard input, shorter than any real
+/// row (so that the 1 GiB cap would let some forty million in, held as poses
+/// of a few hundred bytes each), is refused at the first row past three
+/// million, as it is read: the rows, not only the bytes, bound the memory.
+#[test]
+fn a_stream_of_rows_is_refused_past_the_row_cap() {
+    let dir = tempfile::tempdir().unwrap();
+    refused_past_the_cap(
+        &["check", "--model", "ur5e", "--data", "/dev/stdin"],
+        dir.path(),
+        (
+            "q1,q2,q3,q4,q5,q6,x,y,z\n",
+            "0.1,0.2,0.3,0.4,0.5,0.6,0.1,0.2,0.3\n",
+        ),
+        armcal::io::measurements::MAX_MEASURED_ROWS,
+    );
+}
+
+/// A stream of joint rows on standard input to `predict` (12 bytes a row:
+/// the 1 GiB cap would let some ninety million in, 48 B of joints each and
+/// their prediction) is refused at the first row past ten million, as it is
+/// read.
+#[test]
+fn a_stream_of_joint_rows_is_refused_past_the_row_cap() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = armcal::io::model_file::load_model("ur5e").unwrap();
+    let cal = armcal_shared::Calibration::nominal(model.robot.clone(), false, model.units);
+    std::fs::write(dir.path().join("nominal.cal"), cal.to_bytes().unwrap()).unwrap();
+    refused_past_the_cap(
+        &[
+            "predict",
+            "--calibration",
+            "nominal.cal",
+            "--joints",
+            "/dev/stdin",
+            "--out",
+            "p.csv",
+        ],
+        dir.path(),
+        ("q1,q2,q3,q4,q5,q6\n", "0,0,0,0,0,0\n"),
+        armcal::io::measurements::MAX_JOINT_ROWS,
+    );
+    assert!(!dir.path().join("p.csv").exists(), "nothing written");
 }

@@ -304,7 +304,8 @@ fn serve_rsi_agrees_with_compensate_servo() {
     eprintln!("worst |AK − compensate --servo| {worst:.2e} deg, slowest round trip {slowest:?}");
     assert!(worst <= PRINTED + 1e-12, "{worst}");
     assert_eq!(stat(&stderr, "cycles"), 10_000, "{stderr}");
-    assert_eq!(stat(&stderr, "late"), 0, "{stderr}");
+    // No `late` count asserted here: the suite shares the cores, and the
+    // deadline is gated by scripts/serve-latency.py alone on the machine.
     assert_eq!(stat(&stderr, "malformed"), 0, "{stderr}");
     assert_eq!(stat(&stderr, "ramped"), 0, "{stderr}");
     assert!(
@@ -774,7 +775,6 @@ fn serve_egm_streams_the_corrected_trajectory() {
     assert_eq!(stat(&stderr, "cycles"), 10_050, "{stderr}");
     assert_eq!(stat(&stderr, "malformed"), 1, "{stderr}");
     assert_eq!(stat(&stderr, "held at end"), 50, "{stderr}");
-    assert_eq!(stat(&stderr, "late"), 0, "{stderr}");
 }
 
 /// An ABB controller with 7 joints against a 6-joint calibration: refused,
