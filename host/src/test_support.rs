@@ -1,4 +1,4 @@
-//! Helpers shared by the unit tests (file parsers, outputs).
+//! Helpers shared by the unit tests (file parsers, outputs, calibrations).
 
 /// Applies random edits to `text`: each `(pos, op, pick)` inserts, removes or
 /// replaces the character at `pos` (modulo the length) with `alphabet[pick]`, so
@@ -49,4 +49,23 @@ pub fn device(
         .status()
         .is_ok_and(|s| s.success());
     made.then_some(node)
+}
+
+/// The RMS distance between `calibrated`'s and `truth`'s tool points at the
+/// configurations `held`, m: what a calibration predicts of poses it never
+/// saw, without measurement noise.
+pub fn true_error(
+    calibrated: &armcal_shared::Robot<f64>,
+    truth: &armcal_shared::Robot<f64>,
+    held: &[Vec<f64>],
+) -> f64 {
+    let sum: f64 = held
+        .iter()
+        .map(|q| {
+            (calibrated.forward(q).unwrap().translation.vector
+                - truth.forward(q).unwrap().translation.vector)
+                .norm_squared()
+        })
+        .sum();
+    (sum / held.len() as f64).sqrt()
 }

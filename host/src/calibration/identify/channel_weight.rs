@@ -759,6 +759,7 @@ mod tests {
     use crate::calibration::simulate::{OrientationBias, Scenario, simulate};
     use crate::io::measurements::{Measurements, parse_measurements};
     use crate::io::model_file::{RobotModel, load_model};
+    use crate::test_support::true_error;
     use armcal_shared::Robot;
 
     /// Full poses of a UR5e off nominal by ±1 mm / ±1 mrad, measured as an
@@ -787,21 +788,6 @@ mod tests {
             .map(|o| o.q)
             .collect();
         (model, data, s.truth, held)
-    }
-
-    /// The RMS distance between the calibrated and the true tool points at
-    /// the configurations `held`, m: what the calibration predicts of poses
-    /// it never saw, without measurement noise.
-    fn true_error(calibrated: &Robot<f64>, truth: &Robot<f64>, held: &[Vec<f64>]) -> f64 {
-        let sum: f64 = held
-            .iter()
-            .map(|q| {
-                (calibrated.forward(q).unwrap().translation.vector
-                    - truth.forward(q).unwrap().translation.vector)
-                    .norm_squared()
-            })
-            .sum();
-        (sum / held.len() as f64).sqrt()
     }
 
     /// The true held-out error of the calibration of `data` with the

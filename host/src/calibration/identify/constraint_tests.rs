@@ -680,15 +680,10 @@ fn delivered(
     eprintln!("{}", fit.weighting.summary(fit.full.as_ref().unwrap()));
     let mut rng = simulate::rng(99);
     let held = simulate::random_configurations(truth, 200, &mut rng);
-    let sum: f64 = held
-        .iter()
-        .map(|q| {
-            (calibrated.forward(q).unwrap().translation.vector
-                - truth.forward(q).unwrap().translation.vector)
-                .norm_squared()
-        })
-        .sum();
-    ((sum / held.len() as f64).sqrt(), fit.weighting.factors())
+    (
+        crate::test_support::true_error(&calibrated, truth, &held),
+        fit.weighting.factors(),
+    )
 }
 
 /// `data` without its plane and its touches: the sockets alone.
