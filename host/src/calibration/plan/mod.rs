@@ -703,23 +703,27 @@ pub fn plan_cancellable(
     let predicted = criterion
         .predict(robot, &poses, at.as_deref(), &free)
         .expect("the plan identifies every parameter");
-    let random_picked = random_picks(&pool, &slots, options.seed ^ 0x5eed);
-    let random_q: Vec<Vec<f64>> = random_picked.iter().map(|&c| pool.q[c].clone()).collect();
-    let random_at = socket_at(&random_picked);
-    let random_missed = all.missed_by(&identifiable(
-        robot,
-        &random_q,
-        random_at.as_deref(),
-        &compliance,
-        options,
-    ));
-    let random = if random_missed.is_empty() {
-        criterion
-            .predict(robot, &random_q, random_at.as_deref(), &free)
-            .ok_or(random_missed)
-    } else {
-        Err(random_missed)
+    // Another set of the candidates' poses judged as the plan is: what it
+    // misses of what the plan identifies, else its predicted accuracy.
+    let judged = |picked: &[usize]| -> Result<Prediction, Vec<String>> {
+        let q: Vec<Vec<f64>> = picked.iter().map(|&c| pool.q[c].clone()).collect();
+        let at = socket_at(picked);
+        let missed = all.missed_by(&identifiable(
+            robot,
+            &q,
+            at.as_deref(),
+            &compliance,
+            options,
+        ));
+        if missed.is_empty() {
+            criterion
+                .predict(robot, &q, at.as_deref(), &free)
+                .ok_or(missed)
+        } else {
+            Err(missed)
+        }
     };
+    let random = judged(&random_picks(&pool, &slots, options.seed ^ 0x5eed));
     // The other criterion's plan of as many poses, for comparison.
     let other = match options.criterion {
         Optimality::I => Optimality::D,
@@ -728,24 +732,9 @@ pub fn plan_cancellable(
     let other_picked = criterion
         .choose(robot, (&pool, other), &slots, cancelled)
         .ok_or(PlanError::Cancelled)?;
-    let other_q: Vec<Vec<f64>> = other_picked.iter().map(|&c| pool.q[c].clone()).collect();
-    let other_at = socket_at(&other_picked);
-    let other_missed = all.missed_by(&identifiable(
-        robot,
-        &other_q,
-        other_at.as_deref(),
-        &compliance,
-        options,
-    ));
     let compared = Compared {
         criterion: other,
-        predicted: if other_missed.is_empty() {
-            criterion
-                .predict(robot, &other_q, other_at.as_deref(), &free)
-                .ok_or(other_missed)
-        } else {
-            Err(other_missed)
-        },
+        predicted: judged(&other_picked),
     };
     let path = order::path(&poses, &middle(&pool.q, robot.dof()));
     let ordered: Vec<Vec<f64>> = path.iter().map(|&i| poses[i].clone()).collect();
