@@ -18,7 +18,7 @@
 //! is named as a gear transmission.
 
 use armcal::calibration::diagnose::{DiagnoseOptions, Diagnosis, diagnose};
-use armcal::calibration::identify::full::{Observation, Status};
+use armcal::calibration::fit::{Observation, Status};
 use armcal::calibration::simulate::{Scenario, parse_effect, simulate_visiting};
 use armcal::io::model_file::load_model;
 use armcal_shared::effects::Effect;

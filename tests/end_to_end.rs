@@ -140,7 +140,7 @@ mod bundled_data {
 mod identification {
     //! `--params full` recovers errors built into a simulated robot.
 
-    use armcal::calibration::identify::full::{FullOptions, Status, full_params, identify_full};
+    use armcal::calibration::fit::{FullOptions, Status, full_params, identify_full};
     use armcal::io::model_file::{load_model, parse_model};
     use armcal_shared::{FrameAxis, Param, Robot};
     use armcal_tests::{measure, random_configurations, rng, with_random_errors};
@@ -286,7 +286,7 @@ mod identification_noise {
     //! With measurement noise the estimates scatter about the truth exactly as
     //! their standard errors say.
 
-    use armcal::calibration::identify::full::{FullOptions, Status, full_params, identify_full};
+    use armcal::calibration::fit::{FullOptions, Status, full_params, identify_full};
     use armcal::io::model_file::load_model;
     use armcal_shared::{Param, Robot};
     use armcal_tests::{measure, random_configurations, rng, with_random_errors};
@@ -455,7 +455,7 @@ mod compensation {
     //! Closed loop on the host: a simulated true robot, a calibration identified
     //! from its noisy measurements, and the compensation the controller runs.
 
-    use armcal::calibration::identify::full::{FullOptions, Status, full_params, identify_full};
+    use armcal::calibration::fit::{FullOptions, Status, full_params, identify_full};
     use armcal::io::model_file::load_model;
     use armcal_shared::calibration::ParamError;
     use armcal_shared::compensation::{Compensator, Conditions, Fault, Limits};
@@ -590,7 +590,7 @@ mod compensation_of_effects {
     //! compensated tick by tick in its conditions, as the controller does.
 
     use armcal::calibration::diagnose::{DiagnoseOptions, diagnose};
-    use armcal::calibration::identify::full::FullOptions;
+    use armcal::calibration::fit::FullOptions;
     use armcal::calibration::simulate::{Scenario, simulate};
     use armcal::io::model_file::load_model;
     use armcal_shared::compensation::{Compensator, Conditions, Limits, Pacing, Stream};
@@ -717,7 +717,7 @@ mod extended_fit {
     //! The geometry refitted together with a hidden effect's parameters recovers
     //! the effect and brings the residual down to the noise.
 
-    use armcal::calibration::identify::full::{
+    use armcal::calibration::fit::{
         FullFit, FullOptions, Observation, Status, identify_full, identify_with_effects,
     };
     use armcal::calibration::identify::observations;
@@ -1145,7 +1145,7 @@ mod diagnosis_random {
     //! the noise after a geometric fit, a random seed.
 
     use armcal::calibration::diagnose::{cross_validate, diagnose};
-    use armcal::calibration::identify::full::identify_full;
+    use armcal::calibration::fit::identify_full;
     use armcal::calibration::simulate::{rng, simulate};
     use armcal::calibration::sweep::{hidden_case, tracker_diagnosis};
     use armcal::io::model_file::load_model;
@@ -1374,7 +1374,7 @@ mod replicates {
     //! the model's residuals at the configurations' means are tested against it.
 
     use armcal::calibration::diagnose::{DiagnoseOptions, diagnose};
-    use armcal::calibration::identify::full::full_params;
+    use armcal::calibration::fit::full_params;
     use armcal::io::model_file::load_model;
     use armcal_tests::{measure, random_configurations, rng, with_random_errors};
 

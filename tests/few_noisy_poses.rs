@@ -13,7 +13,7 @@
 //!   poses (the estimate's own scatter is `1/√(2r)` ≈ 4 % at r ≈ 300 rows).
 
 use armcal::calibration::diagnose::{Choice, DiagnoseOptions, diagnose};
-use armcal::calibration::identify::full::{FullOptions, identify_full};
+use armcal::calibration::fit::{FullOptions, identify_full};
 use armcal::calibration::simulate::{Scenario, simulate};
 use armcal::io::model_file::load_model;
 use armcal_shared::Robot;

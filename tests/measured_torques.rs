@@ -23,7 +23,7 @@
 
 use armcal::calibration::diagnose::{DiagnoseOptions, Diagnosis, diagnose};
 use armcal::calibration::gravity::{MassesUsed, TorqueSign, with_measured_gravity};
-use armcal::calibration::identify::full::Status;
+use armcal::calibration::fit::Status;
 use armcal::calibration::simulate::{Scenario, parse_effect, simulate};
 use armcal::io::measurements::parse_measurements;
 use armcal::io::model_file::{RobotModel, load_model};

@@ -50,7 +50,7 @@ fn calibrate(model: &RobotModel, truth: &Robot<f64>, q: &[Vec<f64>], seed: u64) 
 /// for a session of contacts).
 fn identified(
     model: &RobotModel,
-    poses: Vec<armcal::calibration::identify::full::Observation>,
+    poses: Vec<armcal::calibration::fit::Observation>,
     constraints: armcal::session::constraints::Constraints,
 ) -> Robot<f64> {
     let n = poses.len();
@@ -416,7 +416,7 @@ fn planned_socket_seatings_beat_random_ones() {
 /// estimate an RMS to about ±20 %).
 #[test]
 fn a_plan_for_compliance_identifies_it_better_than_random_poses() {
-    use armcal::calibration::identify::full::{FullOptions, identify_with_effects};
+    use armcal::calibration::fit::{FullOptions, identify_with_effects};
     use armcal::calibration::simulate::{Scenario, parse_effect, simulate_visiting};
     use armcal_shared::effects::Effect;
     let model = with_smr("ur10e");

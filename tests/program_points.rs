@@ -24,7 +24,7 @@
 use armcal::apply::compensate::compensate;
 use armcal::apply::ranges::RowNames;
 use armcal::calibration::diagnose::{DiagnoseOptions, diagnose};
-use armcal::calibration::identify::full::FullOptions;
+use armcal::calibration::fit::FullOptions;
 use armcal::calibration::simulate::{Scenario, parse_effect, simulate};
 use armcal::io::measurements::JointRows;
 use armcal::io::model_file::{RobotModel, load_model, parse_model};

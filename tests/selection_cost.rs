@@ -3,7 +3,7 @@
 //! `cargo test --release -p armcal-tests --test selection_cost`.
 
 use armcal::calibration::diagnose::{DiagnoseOptions, diagnose};
-use armcal::calibration::identify::full::{FullOptions, identify_full};
+use armcal::calibration::fit::{FullOptions, identify_full};
 use armcal::calibration::simulate::{Scenario, simulate};
 use armcal::io::model_file::load_model;
 

@@ -8,7 +8,7 @@
 //! Run: `cargo bench -p armcal --bench diagnose`.
 
 use armcal::calibration::diagnose::{DiagnoseOptions, diagnose};
-use armcal::calibration::identify::full::FullOptions;
+use armcal::calibration::fit::FullOptions;
 use armcal::calibration::simulate::{Scenario, simulate};
 use armcal::io::model_file::load_model;
 use armcal_shared::effects::Effect;

@@ -6,7 +6,7 @@
 //! Run: `cargo bench -p armcal --bench identify` (single-threaded: faer is built
 //! without rayon).
 
-use armcal::calibration::identify::full::{FullOptions, identify_full};
+use armcal::calibration::fit::{FullOptions, identify_full};
 use armcal::calibration::simulate::{measure, random_configurations, rng, with_random_errors};
 use armcal::io::model_file::load_model;
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};

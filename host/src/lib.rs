@@ -76,6 +76,7 @@ pub mod apply;
 pub mod calibration;
 pub mod commands;
 pub mod io;
+pub mod report;
 pub mod session;
 
 #[cfg(test)]

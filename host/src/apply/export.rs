@@ -23,7 +23,7 @@ use armcal_shared::Calibration;
 use armcal_shared::effects::Effect;
 use armcal_shared::units::{LengthUnit, Units};
 
-use crate::calibration::diagnose::significant;
+use crate::report::format::significant;
 
 /// The calibration a format without effects holds, and what to say of it.
 #[derive(Clone, Debug, PartialEq)]

@@ -27,7 +27,7 @@ use armcal_shared::pose_error::rotation_error;
 
 use crate::calibration::contact_check::{contact_check, geometric};
 use crate::calibration::diagnose::{Choice, Diagnosis};
-use crate::calibration::identify::full::{Registrations, session_registrations};
+use crate::calibration::fit::{Registrations, session_registrations};
 use crate::calibration::parallel;
 use crate::io::measurements::{Measurements, Observation};
 use crate::io::model_file::{RobotModel, Units};
@@ -146,7 +146,7 @@ pub struct Ending {
     pub converged: bool,
     /// The share of the weighted sum of squares the last iteration removed,
     /// `Some(None)` when no step lowered it
-    /// ([`crate::calibration::identify::full::FullFit::last_decrease`]); `None` when the
+    /// ([`crate::calibration::fit::FullFit::last_decrease`]); `None` when the
     /// method does not say (`--params paper`).
     pub last_decrease: Option<Option<f64>>,
 }
@@ -418,7 +418,8 @@ mod tests {
     /// second pass over the rows): the same figure [`residual`] computes.
     #[test]
     fn the_fits_own_residual_is_the_calibrations() {
-        use crate::calibration::identify::{ParamSet, full::FullOptions, identify};
+        use crate::calibration::fit::FullOptions;
+        use crate::calibration::identify::{ParamSet, identify};
         let (model, data) = session();
         let options = FullOptions::default();
         let fit = identify(&model, &data, ParamSet::Full, &options, Default::default()).unwrap();

@@ -24,7 +24,7 @@
 //! [`Interrupt`] takes one from a pool and gives it back, lowered, when it is
 //! dropped, so the flags are as many as the interrupts ever alive at once.
 //!
-//! [`FullOptions::cancel`]: crate::calibration::identify::full::FullOptions::cancel
+//! [`FullOptions::cancel`]: crate::calibration::fit::FullOptions::cancel
 
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, Ordering};

@@ -18,10 +18,10 @@ use std::fmt::Write as _;
 
 use armcal_shared::JointType;
 
-pub use crate::calibration::identify::full::independent_parameter_count;
+pub use crate::calibration::fit::independent_parameter_count;
 use nalgebra::UnitQuaternion;
 
-use crate::calibration::identify::full::{FrameSharing, Registrations, session_registrations};
+use crate::calibration::fit::{FrameSharing, Registrations, session_registrations};
 use crate::io::measurements::Measurements;
 use crate::io::model_file::RobotModel;
 use crate::session::registration::in_session;

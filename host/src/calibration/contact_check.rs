@@ -24,7 +24,7 @@ use armcal_shared::effects::EffectModel;
 use nalgebra::{Point3, Vector3};
 
 use crate::calibration::diagnose::{DiagnoseOptions, diagnose_session};
-use crate::calibration::identify::full::{FullOptions, PlaneEstimate};
+use crate::calibration::fit::{FullOptions, PlaneEstimate};
 use crate::calibration::identify::prior_scale::PriorScale;
 use crate::calibration::identify::{self, IdentifyError, ParamSet};
 use crate::io::input_error::InputError;

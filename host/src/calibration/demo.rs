@@ -36,7 +36,7 @@ use armcal_shared::{Calibration, JointType, Robot};
 use rand::RngExt;
 
 use crate::calibration::diagnose::{DiagnoseOptions, Diagnosis, HeldOut, diagnose};
-use crate::calibration::identify::full::{effect_parameter_name, identify_full};
+use crate::calibration::fit::{effect_parameter_name, identify_full};
 use crate::calibration::simulate::{Session, random_configuration, rng, simulate};
 use crate::calibration::sweep::{hidden_case, tracker_diagnosis};
 use crate::io::measurements::JointRows;
@@ -327,7 +327,7 @@ impl Demo {
 
     /// The HTML page of `armcal diagnose --html` for the simulated session.
     pub fn html(&self) -> String {
-        crate::calibration::report::html(
+        crate::calibration::diagnose::html::html(
             &self.model,
             &format!("simulated by armcal demo --seed {}", self.seed),
             &self.diagnosis,

@@ -873,7 +873,7 @@ impl GravityFit {
     /// the terminal prints, and each joint's residual RMS beside the spread
     /// of its torques.
     pub fn html(&self) -> String {
-        use crate::calibration::report::html_escape;
+        use crate::report::html::html_escape;
         let mut s = format!(
             "<h2>Joint torques</h2><p>{}</p><table><tr><th>joint</th><th>residual RMS [N·m]</th><th>spread of the torques [N·m]</th></tr>",
             html_escape(&self.summary()).replace('\n', "<br>")

@@ -2,7 +2,7 @@
 //! measurement, simulation and the papers.
 //!
 //! These modules work on SI values read by [`crate::io`]; none of them opens a
-//! file of its own (the HTML page of [`report`] is returned as text).
+//! file of its own (the HTML pages are returned as text).
 
 pub mod acceptance;
 pub mod cancel;
@@ -11,14 +11,13 @@ pub mod contact_check;
 pub mod demo;
 pub mod dense;
 pub mod diagnose;
+pub mod fit;
 pub mod gravity;
 pub mod identify;
 pub mod parallel;
 pub mod plan;
 pub mod replicates;
-pub mod report;
 pub mod reproduce;
 pub mod simulate;
 pub mod stats;
-pub mod svg;
 pub mod sweep;

@@ -25,7 +25,7 @@ use armcal_shared::effects::Effect;
 use rand::RngExt;
 
 use crate::calibration::diagnose::{DiagnoseOptions, diagnose};
-use crate::calibration::identify::full::FullOptions;
+use crate::calibration::fit::FullOptions;
 use crate::calibration::simulate::{ErrorSizes, Scenario, rng, simulate};
 
 /// One case of the sweep and its outcome.
@@ -155,7 +155,7 @@ pub fn hidden_case_in(
     let noise_rms = scenario.position_noise * 3f64.sqrt();
     let trial = simulate(nominal, &scenario).ok()?;
     let geometric =
-        crate::calibration::identify::full::identify_full(nominal, &trial.observations, fit)
+        crate::calibration::fit::identify_full(nominal, &trial.observations, fit)
             .ok()?;
     let effect_rms = (geometric.position_rms.powi(2) - noise_rms.powi(2))
         .max(1e-18)

@@ -15,7 +15,7 @@ use crate::calibration::diagnose::RowPlaces;
 use crate::calibration::diagnose::{DiagnoseOptions, Diagnosis, diagnose_with_progress};
 use crate::calibration::gravity::{GravityFit, TorqueSign, with_measured_gravity};
 use crate::calibration::identify::channel_weight::{self, ChannelWeights, Weighting};
-use crate::calibration::identify::full::{FullOptions, Observation, identify_with_effects};
+use crate::calibration::fit::{FullOptions, Observation, identify_with_effects};
 use crate::calibration::identify::sessions::{SessionHeldOut, Trained, held_out_by_session};
 use crate::calibration::identify::{self, StatedScales, sessions};
 use crate::io::model_file::RobotModel;
@@ -244,7 +244,7 @@ impl Diagnosed {
         let gravity = self.gravity.as_ref().map(GravityFit::html);
         let sessions = sessions::html(&self.diagnosis.fit, &self.sessions_held_out, data);
         let weight = self.weighting.html(&self.diagnosis.fit);
-        crate::calibration::report::html(
+        crate::calibration::diagnose::html::html(
             &self.model,
             &data.file,
             &self.diagnosis,

@@ -11,7 +11,7 @@ use crate::calibration::cancel::Cancel;
 use crate::calibration::contact_check::{self, HeldOut, Selection};
 use crate::calibration::diagnose::cross_validation::DEFAULT_FOLDS;
 use crate::calibration::identify::StatedScales;
-use crate::calibration::identify::full::FullOptions;
+use crate::calibration::fit::FullOptions;
 use crate::io::input_error::InputError;
 use crate::io::model_file::RobotModel;
 use crate::session::measurements::Measurements;

@@ -12,7 +12,7 @@ use crate::calibration::acceptance::FailedCalibration;
 use crate::calibration::cancel::Cancel;
 use crate::calibration::gravity::{TorqueSign, with_measured_gravity};
 use crate::calibration::identify::channel_weight::ChannelWeights;
-use crate::calibration::identify::full::{FullOptions, Observation, identify_with_effects};
+use crate::calibration::fit::{FullOptions, Observation, identify_with_effects};
 use crate::calibration::identify::prior_scale::PriorScale;
 use crate::calibration::identify::sessions::{Trained, held_out_by_session};
 use crate::calibration::identify::{self, Identification, ParamSet, StatedScales, suspect_rows};

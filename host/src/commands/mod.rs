@@ -33,7 +33,7 @@ pub mod tool;
 
 use crate::calibration::check::independent_parameter_count;
 use crate::calibration::diagnose::cross_validation::DEFAULT_FOLDS;
-use crate::calibration::identify::full::{FullError, FullOptions};
+use crate::calibration::fit::{FullError, FullOptions};
 use crate::calibration::identify::paper::PaperError;
 use crate::calibration::identify::{IdentifyError, StatedScales};
 use crate::io::input_error::InputError;

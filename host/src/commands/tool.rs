@@ -25,7 +25,7 @@ use nalgebra::{IsometryMatrix3, Matrix3, Vector3};
 
 use super::Front;
 use crate::apply::working_tool::{ToolChange, WorkingTool};
-use crate::calibration::diagnose::significant;
+use crate::report::format::significant;
 use crate::io::input_error::InputError;
 use crate::io::model_file::load_model_with;
 use crate::io::urdf::ChainSpec;

@@ -2,7 +2,7 @@
 //! position, a measured orientation, a tool point at an unknown fixed point,
 //! a tool point on an unknown plane), which has its own noise, and a value
 //! per channel ([`PerChannel`]). The noise itself is estimated by
-//! [`crate::calibration::identify::noise`].
+//! [`crate::calibration::fit::noise`].
 
 use std::ops::{Index, IndexMut};
 

@@ -1,6 +1,6 @@
 //! The prior on the D-H parameter errors: the scale a real arm is built to,
 //! as the model file's `[prior]` or the flags state it. What the fit does with
-//! it is [`crate::calibration::identify::prior`]'s (the MAP estimate) and
+//! it is [`crate::calibration::fit::prior`]'s (the MAP estimate) and
 //! [`crate::calibration::identify::prior_scale`]'s (the scale chosen on
 //! held-out poses).
 //!

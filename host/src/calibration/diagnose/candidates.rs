@@ -8,7 +8,7 @@
 use armcal_shared::effects::{Effect, gravity_torques};
 use armcal_shared::{Convention, JointType, Param, Robot};
 
-use crate::calibration::identify::full::Observation;
+use crate::calibration::fit::Observation;
 
 /// A candidate extension of the geometric model.
 #[derive(Clone, Debug, PartialEq)]
@@ -50,7 +50,7 @@ impl Candidate {
 /// Each candidate's own columns in a linearisation whose columns after the
 /// fit's `fitted` ones are every candidate's extra parameters, then every
 /// candidate's effect parameters, both in the order of `candidates` (as
-/// [`crate::calibration::identify::full::linearize`] lays out its `extra` and
+/// [`crate::calibration::fit::linearize`] lays out its `extra` and
 /// `effects`, given those of every candidate in turn).
 pub fn own_columns(candidates: &[&Candidate], fitted: usize) -> Vec<Vec<usize>> {
     let extras: usize = candidates.iter().map(|c| c.extra.len()).sum();

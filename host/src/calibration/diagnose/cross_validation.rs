@@ -32,7 +32,7 @@ use nalgebra::{DMatrix, DVector};
 
 use super::{DiagnoseOptions, position_errors};
 use crate::calibration::dense::{column, normal_equations};
-use crate::calibration::identify::full::{
+use crate::calibration::fit::{
     FullError, Linearization, Observation, identify_with_effects, unit_scale,
 };
 use crate::calibration::parallel;

@@ -15,15 +15,15 @@
 use armcal_shared::{Param, Robot};
 
 use super::cross_validation::{Folds, HeldOut, Subset};
-use crate::calibration::identify::full::{Linearization, Unknown};
-use crate::calibration::identify::prior::Geometry;
+use crate::calibration::fit::{Linearization, Unknown};
+use crate::calibration::fit::prior::Geometry;
 use crate::calibration::parallel;
 use crate::calibration::stats::significantly_smaller;
 
 /// The level of the paired test a calibrated model must pass against nominal.
 pub const LEVEL: f64 = 0.05;
 
-pub use crate::calibration::identify::prior::PRIOR_FACTORS;
+pub use crate::calibration::fit::prior::PRIOR_FACTORS;
 
 /// One candidate geometric model and its held-out error.
 #[derive(Clone, Debug, PartialEq)]

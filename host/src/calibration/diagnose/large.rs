@@ -32,7 +32,7 @@ use armcal_shared::Robot;
 use armcal_shared::units::Units;
 
 use super::{ALPHA, Choice, DiagnoseOptions, Diagnosis};
-use crate::calibration::identify::full::{
+use crate::calibration::fit::{
     FullError, FullOptions, Observation, identify_constrained,
 };
 use crate::calibration::stats::f_quantile;

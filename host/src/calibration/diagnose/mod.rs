@@ -3,8 +3,8 @@
 //! never worse held-out than the nominal model.
 //!
 //! 1. **Reference fit**: every D-H parameter, base and tool, with the prior on
-//!    the D-H errors ([`crate::calibration::identify::prior`]) and the noise of each channel
-//!    estimated from the residuals ([`crate::calibration::identify::noise`]).
+//!    the D-H errors ([`crate::calibration::fit::prior`]) and the noise of each channel
+//!    estimated from the residuals ([`crate::calibration::fit::noise`]).
 //! 2. **Blunders** ([`blunders`]): a pose is set aside only when its deleted
 //!    residual exceeds the 1 % Bonferroni threshold over all poses at the
 //!    estimated noise, and setting it aside significantly improves the other
@@ -52,12 +52,13 @@ pub mod blunders;
 pub mod candidates;
 pub mod cross_validation;
 pub mod geometry;
+pub mod html;
 pub mod large;
 mod summary;
 pub use summary::RowPlaces;
 
 pub use summary::parameter_list;
-pub(crate) use summary::{effect_unit, effect_value, significant};
+pub(crate) use summary::{effect_unit, effect_value};
 
 use armcal_shared::calibration::MAX_PARAMS;
 use armcal_shared::effects::{Effect, EffectModel};
@@ -66,11 +67,11 @@ use armcal_shared::units::Units;
 use armcal_shared::{Calibration, GeometricCalibration, Param, ParamError, Robot};
 use nalgebra::Vector3;
 
-use crate::calibration::identify::full::{
+use crate::calibration::fit::{
     FullError, FullFit, FullOptions, Linearization, Observation, PlaneEstimate, Status,
     identify_constrained, linearize, session_registrations,
 };
-use crate::calibration::identify::prior::{Geometry, Prior};
+use crate::calibration::fit::prior::{Geometry, Prior};
 use crate::calibration::parallel;
 use crate::calibration::replicates::{Configurations, LackOfFit};
 use crate::calibration::stats::f_quantile;
@@ -1315,7 +1316,7 @@ impl Diagnosis {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calibration::identify::full::identify_with_effects;
+    use crate::calibration::fit::identify_with_effects;
     use crate::calibration::simulate::{Scenario, simulate};
     use crate::io::model_file::load_model;
 
@@ -1400,7 +1401,7 @@ mod tests {
     /// of the truth (no other error, so nothing else can bias it).
     #[test]
     fn a_fit_from_an_estimate_frees_what_the_nominal_structure_separates() {
-        use crate::calibration::identify::full::identify_from;
+        use crate::calibration::fit::identify_from;
         let nominal = load_model("puma560").expect("built-in").robot;
         let scenario = Scenario {
             errors: crate::calibration::simulate::ErrorSizes::uniform(0.0, 0.0),

@@ -1,15 +1,16 @@
 //! The diagnosis as its reports give it: the summary `armcal diagnose`
 //! prints, the JSON of `--json` (`docs/file-formats.md` §6), and the labels,
-//! noise rows and held-out rows the HTML page (`calibration::report`) shares
+//! noise rows and held-out rows the HTML page ([`super::html`]) shares
 //! with them. Nothing here computes; it reads a [`Diagnosis`].
 
 use armcal_shared::effects::Effect;
 use armcal_shared::{Calibration, JointType, Param, Robot};
 
 use super::{Choice, DiagnoseOptions, Diagnosis, HeldOut, HeldOutModels, Shortfall};
-use crate::calibration::identify::full::{Observation, Status};
-use crate::calibration::identify::prior::Geometry;
+use crate::calibration::fit::{Observation, Status};
+use crate::calibration::fit::prior::Geometry;
 use crate::io::measurements::Measurements;
+use crate::report::format::significant;
 
 /// How the reports name a pose: its row's line (a file's; an array's row,
 /// from 0) and, with several sessions, its session's file.
@@ -57,16 +58,6 @@ impl<'a> RowPlaces<'a> {
             None => format!("data line {}", self.line(i)),
         }
     }
-}
-
-/// `x` to four significant digits, in fixed notation (`0.02000` mm, `0.0001081` m).
-pub(crate) fn significant(x: f64) -> String {
-    let decimals = if x.is_normal() {
-        (3 - x.abs().log10().floor() as i32).max(0) as usize
-    } else {
-        4
-    };
-    format!("{x:.decimals$}")
 }
 
 /// `a2, theta3`, or `none`: parameters as reports list them.
@@ -330,7 +321,7 @@ impl Diagnosis {
                     for i in 0..e.parameter_count() {
                         let v = e.parameter(i).unwrap_or(0.0);
                         parameters.insert(
-                            crate::calibration::identify::full::effect_parameter_name(e, i),
+                            crate::calibration::fit::effect_parameter_name(e, i),
                             json!(effect_value(&model.robot, e, units, v)),
                         );
                     }

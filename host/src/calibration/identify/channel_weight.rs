@@ -34,7 +34,7 @@
 //!
 //! Which weight predicts best is measured, as the prior's scale is
 //! ([`super::prior_scale`]): about the fit at the weights the noise gives
-//! (`w = 1`), the folds' normal equations ([`fold_normals`](crate::calibration::identify::full::fold_normals)) give, for
+//! (`w = 1`), the folds' normal equations ([`fold_normals`](crate::calibration::fit::fold_normals)) give, for
 //! kind `c`'s rows weighed `w` times as much and the prior `f` times as
 //! wide, fold `k`'s MAP step
 //!
@@ -77,8 +77,8 @@
 use nalgebra::DVector;
 use serde_json::{Value, json};
 
-use super::full::{Constraints, FoldNormals, FullFit, Observation};
-use super::prior::Prior;
+use crate::calibration::fit::{Constraints, FoldNormals, FullFit, Observation};
+use crate::calibration::fit::prior::Prior;
 use super::prior_scale::{
     PriorChoice, PriorScale, fold_steps, fold_sums, held_out_squares, immaterial,
 };
@@ -453,18 +453,18 @@ pub fn for_diagnosis(
     nominal: &armcal_shared::Robot<f64>,
     data: &[Observation],
     constraints: &Constraints,
-    options: &super::full::FullOptions,
+    options: &crate::calibration::fit::FullOptions,
     request: &ChannelWeights,
-) -> Result<(Weighting, super::full::FullOptions), super::full::FullError> {
+) -> Result<(Weighting, crate::calibration::fit::FullOptions), crate::calibration::fit::FullError> {
     if weighed_kinds(data).is_empty() {
         return Ok((Weighting::default(), *options));
     }
-    let reference_options = super::full::FullOptions {
-        geometry: super::prior::Geometry::Full,
+    let reference_options = crate::calibration::fit::FullOptions {
+        geometry: crate::calibration::fit::prior::Geometry::Full,
         weights: WeightFactors::NOISE,
         ..*options
     };
-    let reference = super::full::identify_constrained(
+    let reference = crate::calibration::fit::identify_constrained(
         nominal,
         None,
         &[],
@@ -518,14 +518,14 @@ impl Weighting {
     /// 1; `options` themselves otherwise.
     pub fn options(
         &self,
-        options: &super::full::FullOptions,
+        options: &crate::calibration::fit::FullOptions,
         reference: &FullFit,
-    ) -> super::full::FullOptions {
+    ) -> crate::calibration::fit::FullOptions {
         let factors = self.factors();
         if factors == WeightFactors::NOISE {
             *options
         } else {
-            super::full::FullOptions {
+            crate::calibration::fit::FullOptions {
                 weights: factors,
                 ..options.at_noise_of(reference)
             }
@@ -744,7 +744,7 @@ impl WeightChoice {
         for line in self.summary(kind, residual).lines() {
             s.push_str(&format!(
                 "<p>{}</p>\n",
-                crate::calibration::report::html_escape(line.trim())
+                crate::report::html::html_escape(line.trim())
             ));
         }
         s
@@ -754,7 +754,7 @@ impl WeightChoice {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calibration::identify::full::FullOptions;
+    use crate::calibration::fit::FullOptions;
     use crate::calibration::identify::{ParamSet, identify_weighted};
     use crate::calibration::simulate::{OrientationBias, Scenario, simulate};
     use crate::io::measurements::{Measurements, parse_measurements};

@@ -8,7 +8,7 @@ use armcal_shared::effects::{Effect, EffectModel};
 use armcal_shared::{Param, Robot};
 use nalgebra::{Point3, Vector3};
 
-use super::full::{FullFit, FullOptions, Status, full_params, identify_constrained};
+use crate::calibration::fit::{FullFit, FullOptions, Status, full_params, identify_constrained};
 use crate::calibration::simulate::{self, SocketSession};
 use crate::io::model_file::load_model;
 use crate::session::constraints::{
@@ -293,8 +293,8 @@ fn tool_point_rms(fit: &FullFit, truth: &Robot<f64>) -> f64 {
 /// its level does not move the estimate).
 #[test]
 fn each_kind_of_contact_gets_its_own_noise() {
-    use super::noise::NoiseSource;
-    use super::prior::Prior;
+    use crate::calibration::fit::noise::NoiseSource;
+    use crate::calibration::fit::prior::Prior;
     let kinds = Kinds {
         per_socket: 40,
         point_noise: 2e-5,
@@ -477,7 +477,7 @@ fn a_session_visiting_its_sockets_in_turn_locates_each_in_every_fold() {
     let session = simulate::socket_session(&truth, &sockets, 3, 5e-5, &mut rng)
         .expect("every socket is reached");
     // Round by round: socket 0, 1, …, 9, then again.
-    let rows: Vec<super::full::Observation> = (0..3)
+    let rows: Vec<crate::calibration::fit::Observation> = (0..3)
         .flat_map(|round| (0..10).map(move |k| (k, round)))
         .map(|(k, round)| session.observations[3 * k + round].clone())
         .collect();
@@ -659,9 +659,9 @@ fn delivered(
         request[w] = c;
     }
     let options = FullOptions {
-        plane_noise: Some(super::noise::Noise {
+        plane_noise: Some(crate::calibration::fit::noise::Noise {
             sigma: plane_noise,
-            source: super::noise::NoiseSource::Stated,
+            source: crate::calibration::fit::noise::NoiseSource::Stated,
         }),
         ..super::StatedScales::default()
             .options(model)

@@ -17,10 +17,7 @@
 //! fields excepted).
 
 pub mod channel_weight;
-pub mod full;
-pub mod noise;
 pub mod paper;
-pub mod prior;
 pub mod prior_scale;
 pub mod sessions;
 mod summary;
@@ -38,9 +35,10 @@ use crate::calibration::acceptance::Judgement;
 use crate::io::measurements::Measurements;
 use crate::io::model_file::RobotModel;
 use channel_weight::{ChannelWeights, Weighting};
-use full::{FullFit, FullOptions, Observation, Registrations, Status};
+use crate::calibration::fit::{FullFit, FullOptions, Observation, Registrations, Status};
 use paper::{PaperOptions, PaperPose};
-use prior::Prior;
+use crate::calibration::fit::noise;
+use crate::calibration::fit::prior::Prior;
 use prior_scale::{PriorChoice, PriorScale};
 
 /// Which model to identify.
@@ -194,7 +192,7 @@ pub struct Identification {
 pub enum IdentifyError {
     /// The full model failed.
     #[error(transparent)]
-    Full(#[from] full::FullError),
+    Full(#[from] crate::calibration::fit::FullError),
     /// The paper's model failed.
     #[error(transparent)]
     Paper(#[from] paper::PaperError),
@@ -276,7 +274,7 @@ pub fn identify_weighted(
         // (for a constraint session, of each tool point's distance to its
         // estimated fixed point or plane).
         Some(f) => (f.position_rms, f.orientation_rms),
-        None => full::residual_rms(&calibrated, observations(data)),
+        None => crate::calibration::fit::residual_rms(&calibrated, observations(data)),
     };
     let mut calibration = Calibration::nominal(nominal.clone(), orientation, model.units);
     calibration.flange = model.flange;
@@ -348,7 +346,7 @@ fn fit_full(
     // The model's own tilts (a URDF's parallel axes) beside its D-H parameters.
     let tilts: Vec<Param> = model.tilted.iter().map(|&k| Param::Beta(k)).collect();
     let fit_at = |factor: f64, options: &FullOptions| {
-        full::identify_constrained(
+        crate::calibration::fit::identify_constrained(
             nominal,
             None,
             &[],
@@ -364,7 +362,7 @@ fn fit_full(
     let mut fit = fit_at(1.0, options)?;
     // Each choice below is a pass over the rows (its folds' normal
     // equations): none starts once the caller asked to stop.
-    let asked_to_stop = || options.cancel.check().map_err(full::FullError::from);
+    let asked_to_stop = || options.cancel.check().map_err(crate::calibration::fit::FullError::from);
     asked_to_stop()?;
     let observed = observations(data);
     let kinds = channel_weight::weighed_kinds(observed);

@@ -39,8 +39,8 @@
 //! error ([`immaterial`]: a PUMA 560 tracker session from 10³ positions on), no cross-validation
 //! could tell the scales apart, and the stated one is kept without one.
 
-use super::full::{Constraints, FoldNormals, FullFit, Observation, fold_normals, unit_scale};
-use super::prior::{PRIOR_FACTORS, Prior};
+use crate::calibration::fit::{Constraints, FoldNormals, FullFit, Observation, fold_normals, unit_scale};
+use crate::calibration::fit::prior::{PRIOR_FACTORS, Prior};
 pub use crate::calibration::diagnose::cross_validation::DEFAULT_FOLDS;
 use crate::calibration::diagnose::cross_validation::interleaved_folds;
 use crate::session::channel::{Channel, UNUSED, Weighed, WeightFactors};
@@ -313,7 +313,7 @@ pub(crate) fn held_out_squares(
 mod tests {
     use super::*;
     use crate::calibration::diagnose::cross_validation::{Folds, Subset};
-    use crate::calibration::identify::full::{FullOptions, identify_constrained, linearize};
+    use crate::calibration::fit::{FullOptions, identify_constrained, linearize};
     use crate::calibration::identify::{ParamSet, identify};
     use crate::calibration::simulate::{Scenario, simulate};
     use crate::io::measurements::{Measurements, load_measurements, parse_measurements};

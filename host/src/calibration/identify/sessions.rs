@@ -25,10 +25,10 @@ use std::fmt::Write as _;
 use armcal_shared::Frame;
 use serde_json::json;
 
-use super::full::{
+use crate::calibration::fit::{
     FrameSharing, FullError, FullFit, FullOptions, Observation, Status, register_session,
 };
-use super::summary::length_and_mm;
+use crate::report::format::length_and_mm;
 use crate::calibration::stats::f_quantile;
 use crate::io::measurements::Measurements;
 use crate::io::model_file::Units;
@@ -431,7 +431,7 @@ pub fn summary(
 /// table of each session's file, poses, residual, left-out figure and
 /// frames' shift from the first's; empty for one session.
 pub fn html(fit: &FullFit, held_out: &[SessionHeldOut], data: &Measurements) -> String {
-    use crate::calibration::report::html_escape;
+    use crate::report::html::html_escape;
     let mut s = String::new();
     if fit.sessions.len() < 2 {
         return s;
@@ -536,7 +536,7 @@ pub fn json(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calibration::identify::full::identify_full;
+    use crate::calibration::fit::identify_full;
     use crate::calibration::simulate::{measure, random_configurations, rng};
     use crate::io::model_file::load_model;
 

@@ -9,10 +9,11 @@ use std::fmt::Write as _;
 use armcal_shared::Param;
 use serde_json::json;
 
-use super::prior::PRIOR_FACTORS;
+use crate::calibration::fit::prior::PRIOR_FACTORS;
 use super::prior_scale::{self, PriorChoice};
-use super::{Identification, noise};
-use crate::calibration::diagnose::significant;
+use super::Identification;
+use crate::calibration::fit::noise;
+use crate::report::format::{length_and_mm, significant};
 use crate::io::measurements::Measurements;
 use crate::io::model_file::{RobotModel, Units};
 
@@ -87,16 +88,6 @@ fn in_units(units: &Units, param: Param, si: f64) -> f64 {
     } else {
         units.length_from_si(si)
     }
-}
-
-/// A length `x` (m) as the summaries give it: in the model's unit, then in mm.
-pub fn length_and_mm(u: &Units, x: f64) -> String {
-    format!(
-        "{:.6} {} ({:.4} mm)",
-        u.length_from_si(x),
-        u.length,
-        x * 1e3
-    )
 }
 
 impl Identification {

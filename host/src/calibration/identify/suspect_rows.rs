@@ -25,7 +25,7 @@
 
 use crate::calibration::diagnose::blunders::{self, ALPHA, Deleted, Scale, Suspect};
 use crate::calibration::diagnose::large::SELECTION_POSES;
-use crate::calibration::identify::full::{
+use crate::calibration::fit::{
     FullFit, Linearization, Observation, linearize, unit_diagonal_scale,
 };
 use crate::session::constraints::Constraints;
@@ -177,7 +177,7 @@ pub fn quantile_name(tested: usize) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calibration::identify::full::{FullOptions, identify_full};
+    use crate::calibration::fit::{FullOptions, identify_full};
     use crate::calibration::simulate::{measure, random_configurations, rng};
     use crate::io::model_file::load_model;
 

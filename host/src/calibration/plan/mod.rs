@@ -21,7 +21,7 @@
 //! makes inseparable from others, as `θ1` beside the base's turn about a
 //! vertical first axis) is found as `identify` finds it: by identifying the
 //! model from exact measurements at every candidate
-//! ([`crate::calibration::identify::full`], its rank-revealing selection and
+//! ([`crate::calibration::fit`], its rank-revealing selection and
 //! its reasons). The plan is made for the others, and checked the same way:
 //! `identify` on exact measurements at the plan's poses must separate every
 //! one of them, else the plan is refused with the parameters it misses.
@@ -50,7 +50,7 @@ use armcal_shared::{Param, Robot};
 use nalgebra::{DMatrix, Point3, UnitQuaternion};
 use rand::RngExt;
 
-use crate::calibration::identify::full::{
+use crate::calibration::fit::{
     FullOptions, Observation, Status, full_params, identify_constrained, identify_with_effects,
     independent_parameter_count,
 };
@@ -1261,13 +1261,13 @@ fn random_picks(pool: &Pool, slots: &[usize], seed: u64) -> Vec<usize> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calibration::identify::full::identify_full;
+    use crate::calibration::fit::identify_full;
     use crate::calibration::simulate::{measure, reach_point, with_random_errors};
     use crate::io::model_file::load_model;
 
     /// Asserts that `fit` identifies each of `params` (`what` names the case).
     fn assert_identified(
-        fit: &crate::calibration::identify::full::FullFit,
+        fit: &crate::calibration::fit::FullFit,
         params: &[Param],
         what: &str,
     ) {

@@ -329,8 +329,8 @@ impl Plan {
     /// The HTML page of `--html`: the summary's figures, then where in the
     /// workspace the calibration from the plan is predicted to miss most.
     pub fn html(&self, model_name: &str, options: &PlanOptions, u: &Units) -> String {
-        use crate::calibration::report::html_escape;
-        use crate::calibration::svg::{Point, Scatter, Series};
+        use crate::report::html::{html_escape, page_head};
+        use crate::report::svg::{Point, Scatter, Series};
         let mm = |x: f64| x * 1e3;
         let length = |x: f64| u.length_from_si(x);
         let view = |title: &str, axes: (usize, usize), names: (&str, &str)| {
@@ -377,8 +377,8 @@ impl Plan {
         let mut s = String::new();
         let _ = write!(
             s,
-            "<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>armcal plan: {name}</title><style>body{{font-family:sans-serif;max-width:1200px;margin:2em auto;color:#222}}table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}}th{{background:#f4f4f4}}td:first-child,th:first-child{{text-align:left}}.plots{{display:flex;flex-wrap:wrap;gap:12px}}</style></head><body><h1>armcal plan</h1><pre>{summary}</pre>",
-            name = html_escape(model_name),
+            "{head}<pre>{summary}</pre>",
+            head = page_head("plan", model_name),
             summary = html_escape(&self.summary(model_name, options)),
         );
         let _ = write!(
@@ -418,7 +418,7 @@ impl Plan {
 
 /// A noise in mm, without trailing zeros.
 fn significant_mm(m: f64) -> String {
-    crate::calibration::diagnose::significant(m * 1e3)
+    crate::report::format::significant(m * 1e3)
 }
 
 /// Another set of poses' predicted figures for the summary (RMS, worst, RMS

@@ -17,7 +17,7 @@
 //! A session of contacts measures no coordinate: `identify` estimates the
 //! sockets in the robot's base frame and holds the base, and every joint
 //! parameter that moves the arm as the base would (`θ1` about a first axis
-//! along the base z), at nominal ([`crate::calibration::identify::full`]). The
+//! along the base z), at nominal ([`crate::calibration::fit`]). The
 //! plan predicts the calibrated robot's tool point in that frame, so those
 //! parameters ([`gauge`]: their columns over the candidates within the span of
 //! the base's and the sockets') are not among its unknowns; every other
@@ -28,7 +28,7 @@ use armcal_shared::{FrameAxis, Param, Robot};
 use nalgebra::DMatrix;
 
 use super::{Column, PlanError, jacobian, within_limits};
-use crate::calibration::identify::full::Observation;
+use crate::calibration::fit::Observation;
 use crate::calibration::parallel;
 use crate::calibration::simulate::reach_point;
 use crate::io::measurements::Contact;

@@ -6,7 +6,7 @@
 //! Units are SI (m, rad). Random draws come from a seeded `StdRng`, so every run
 //! is repeatable.
 
-use crate::calibration::identify::full::Observation;
+use crate::calibration::fit::Observation;
 use crate::io::measurements::Contact;
 use armcal_shared::{Frame, JointType, Param, Robot};
 use nalgebra::{Point3, UnitQuaternion, Vector3};

@@ -7,7 +7,7 @@ use faer::{Mat, Side};
 
 use super::rows::NormalEquations;
 use super::{FullError, FullOptions, Model, Observation, Unknown, prior_cost};
-use crate::calibration::identify::noise::Weights;
+use crate::calibration::fit::noise::Weights;
 
 /// The damping Levenberg–Marquardt starts from, on the normal equations
 /// scaled to a unit diagonal: Nielsen's `τ = 1e-6` for a start near the

@@ -16,10 +16,10 @@ use armcal_shared::{FrameAxis, Param, Robot};
 use faer::Side;
 use nalgebra::{Matrix3, Point3, Rotation3, Vector3};
 
-use super::super::noise::{
+use super::noise::{
     Channel, ChannelNoise, NoiseEstimate, NoiseSource, PerChannel, SETTLED, Weights,
 };
-use super::super::prior::Prior;
+use super::prior::Prior;
 use super::initial::{initial_base_tool, initial_points_tool, session_registrations};
 use super::rows::{LinearSystem, NormalEquations};
 use super::selection::{constrained_subset, separable_subset};

@@ -10,7 +10,7 @@ use nalgebra::Vector3;
 
 use super::rows::NormalEquations;
 use super::{FullOptions, Model, Observation, Unknown};
-use crate::calibration::identify::noise::Weights;
+use crate::calibration::fit::noise::Weights;
 
 /// The rank-revealing Cholesky of the scaled normal matrix in the order of
 /// preference: the indices of the separable parameters, and the others with the

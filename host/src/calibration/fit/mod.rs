@@ -1,4 +1,7 @@
-//! `--params full`: every identifiable geometric parameter, base and tool included.
+//! The least-squares fit under every identification (`--params full`, the
+//! default): every identifiable geometric parameter, base and tool included,
+//! with the effects a diagnosis adds; the noise of each channel ([`noise`])
+//! and the prior on the parameter errors ([`prior`]) it weighs by.
 //!
 //! ## Model
 //! The unknowns are, for every joint, the joint offset and the three link
@@ -81,8 +84,8 @@ use faer::linalg::solvers::{DenseSolveCore, Solve};
 use faer::{Mat, Side};
 use nalgebra::{Matrix3, Point3, Rotation3, Vector3};
 
-use super::noise::{Channel, Noise, NoiseEstimate, NoiseSource, PerChannel, Weights};
-use super::prior::{Geometry, PRIOR_FACTORS, Prior};
+use noise::{Channel, Noise, NoiseEstimate, NoiseSource, PerChannel, Weights};
+use prior::{Geometry, PRIOR_FACTORS, Prior};
 use crate::calibration::cancel::{Cancel, Cancelled};
 use crate::session::channel::WeightFactors;
 pub use crate::session::registration::{FrameSharing, Registrations, Sharing};
@@ -90,6 +93,8 @@ pub use crate::session::registration::{FrameSharing, Registrations, Sharing};
 mod fit;
 mod initial;
 mod linearization;
+pub mod noise;
+pub mod prior;
 mod register;
 mod rows;
 mod selection;

@@ -19,10 +19,12 @@ use armcal_shared::{Param, Twist};
 use nalgebra::Vector3;
 
 use crate::calibration::diagnose::{
-    DiagnoseOptions, Diagnosis, effect_unit, effect_value, residuals, significant,
+    DiagnoseOptions, Diagnosis, effect_unit, effect_value, residuals,
 };
-use crate::calibration::identify::full::{Observation, Status};
+use crate::calibration::fit::{Observation, Status};
 use crate::io::model_file::RobotModel;
+use crate::report::format::significant;
+use crate::report::html::{html_escape, page_head};
 use crate::session::registration::in_session;
 
 /// One scatter plot: points `(x, y)` in two series (before: the geometric
@@ -37,9 +39,9 @@ struct Plot {
     after: Vec<(f64, f64)>,
 }
 
-/// The plot as SVG, `w × h` px, with real axes ([`crate::calibration::svg`]).
+/// The plot as SVG, `w × h` px, with real axes ([`crate::report::svg`]).
 fn svg(plot: &Plot, w: f64, h: f64) -> String {
-    use crate::calibration::svg::{Point, Scatter, Series};
+    use crate::report::svg::{Point, Scatter, Series};
     let series = |name: &str, colour, points: &[(f64, f64)]| Series {
         name: name.into(),
         colour,
@@ -249,13 +251,6 @@ fn panels(model: &RobotModel, d: &Diagnosis, data: &[Observation]) -> Vec<Plot> 
     out
 }
 
-/// Text made safe for HTML.
-pub(crate) fn html_escape(t: &str) -> String {
-    t.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-}
-
 /// The whole page; `sections`: what goes before the diagnosis' own, as the
 /// terminal's summary gives it first (the masses' fit to the measured
 /// torques, [`crate::calibration::gravity::GravityFit::html`]; several
@@ -283,8 +278,10 @@ pub fn html(
 fn html_head(s: &mut String, model: &RobotModel, data_file: &str, poses: usize) {
     let _ = write!(
         s,
-        "<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>armcal diagnose: {name}</title><style>body{{font-family:sans-serif;max-width:1200px;margin:2em auto;color:#222}}table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}}th{{background:#f4f4f4}}td:first-child,th:first-child{{text-align:left}}.plots{{display:flex;flex-wrap:wrap;gap:12px}}</style></head><body><h1>armcal diagnose</h1><p>Model <b>{name}</b>, data <b>{data_file}</b>: {n} poses.</p>",
-        name = model.name,
+        "{head}<p>Model <b>{name}</b>, data <b>{data_file}</b>: {n} poses.</p>",
+        head = page_head("diagnose", &model.name),
+        name = html_escape(&model.name),
+        data_file = html_escape(data_file),
         n = poses,
     );
 }
@@ -494,7 +491,7 @@ fn html_parameters(s: &mut String, model: &RobotModel, d: &Diagnosis) {
             let _ = write!(
                 s,
                 "<tr><td>{}</td><td>{unit}</td><td>0</td><td>{v:.4e}</td><td>{std}</td><td style=\"text-align:left\">{}</td></tr>",
-                crate::calibration::identify::full::effect_parameter_name(&e.effect, i),
+                crate::calibration::fit::effect_parameter_name(&e.effect, i),
                 e.effect.name()
             );
         }

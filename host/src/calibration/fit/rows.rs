@@ -17,7 +17,7 @@ use nalgebra::{Point3, Vector3};
 use super::solve::unit_diagonal_scale;
 use super::{Model, Observation, PlaneEstimate, Unknown, rms_pair};
 use crate::calibration::cancel::Cancel;
-use crate::calibration::identify::noise::{Channel, PerChannel, Weights};
+use crate::calibration::fit::noise::{Channel, PerChannel, Weights};
 use crate::calibration::parallel;
 
 /// The weighted Jacobian and residual of one linearisation, stored whole (rows ×

@@ -14,7 +14,7 @@ use super::initial::initial_base_tool;
 use super::rows::NormalEquations;
 use super::solve::levenberg_marquardt;
 use super::{FrameSharing, FullError, FullOptions, Model, Observation, Sharing, Unknown};
-use crate::calibration::identify::noise::{PerChannel, Weights};
+use crate::calibration::fit::noise::{PerChannel, Weights};
 
 /// `robot` with `effects`, its base and tool (those `sharing` gives each
 /// session; the others held at `robot`'s) registered to `data` (one

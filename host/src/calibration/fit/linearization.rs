@@ -1,7 +1,7 @@
 //! The linearisation about a fit's solution: the stored Jacobian and residual
 //! of every unknown ([`linearize`]) and the normal equations summed fold by
 //! fold ([`fold_normals`]), what the cross-validations of `diagnose` and of
-//! the prior's scale ([`super::super::prior_scale`]) step from.
+//! the prior's scale ([`crate::calibration::identify::prior_scale`]) step from.
 
 use armcal_shared::effects::Effect;
 use armcal_shared::{FrameAxis, Param};
@@ -12,8 +12,8 @@ use super::rows::{DistanceRows, LinearSystem, NormalEquations};
 use super::{Constraints, FullFit, Model, Observation, PlaneEstimate, Status, Unknown};
 use crate::calibration::cancel::Cancel;
 use crate::calibration::dense;
-use crate::calibration::identify::noise::Channel;
-use crate::calibration::identify::prior::Prior;
+use crate::calibration::fit::noise::Channel;
+use crate::calibration::fit::prior::Prior;
 use crate::io::measurements::Contact;
 use crate::session::channel::{PerChannel, Weighed, WeightFactors};
 use crate::session::configurations::Configurations;
