@@ -1,6 +1,8 @@
 //! faer's owned matrices (the fit's Jacobians and their products) read a
 //! column at a time: as contiguous slices, and copied into nalgebra's dense
-//! matrices for the small solves of the diagnosis. Both store by columns.
+//! matrices for the small solves of the diagnosis (both store by columns);
+//! and the scale of a normal matrix to a unit diagonal, which the fit, the
+//! folds and the deleted residuals all solve in.
 
 use faer::linalg::matmul::triangular::{self, BlockStructure};
 use faer::{Accum, Mat, Par};
@@ -47,4 +49,16 @@ pub fn normal_equations(j: &Mat<f64>, r: &Mat<f64>) -> (DMatrix<f64>, DVector<f6
     a.fill_upper_triangle_with_lower_triangle();
     let b = j.transpose() * r;
     (a, to_vector(&b))
+}
+
+/// The factors `1/√G_kk` that scale a normal matrix `G = JᵀJ` to a unit diagonal
+/// (its columns of `J` to unit norm); 0 for a zero column, which cannot move anything.
+pub fn unit_diagonal_scale(g: &Mat<f64>) -> Vec<f64> {
+    (0..g.nrows()).map(|k| unit_scale(g[(k, k)])).collect()
+}
+
+/// The factor `1/√d` that scales a normal matrix's diagonal entry `d` to 1; 0
+/// for a zero column.
+pub fn unit_scale(d: f64) -> f64 {
+    if d > 0.0 { 1.0 / d.sqrt() } else { 0.0 }
 }

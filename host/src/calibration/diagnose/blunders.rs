@@ -46,7 +46,8 @@ use faer::{Mat, Par, Side};
 use nalgebra::{DMatrix, DVector};
 
 use super::cross_validation::{Folds, HeldOut, Role, Subset, interleaved_folds};
-use crate::calibration::fit::{Linearization, unit_diagonal_scale};
+use crate::calibration::dense::unit_diagonal_scale;
+use crate::calibration::fit::Linearization;
 use crate::calibration::stats::{f_quantile, significantly_smaller};
 use crate::io::measurements::Contact;
 

@@ -31,9 +31,9 @@ use faer::Mat;
 use nalgebra::{DMatrix, DVector};
 
 use super::{DiagnoseOptions, position_errors};
-use crate::calibration::dense::{column, normal_equations};
+use crate::calibration::dense::{column, normal_equations, unit_scale};
 use crate::calibration::fit::{
-    FullError, Linearization, Observation, identify_with_effects, unit_scale,
+    FullError, Linearization, Observation, identify_with_effects,
 };
 use crate::calibration::parallel;
 use crate::io::measurements::Contact;

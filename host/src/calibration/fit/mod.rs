@@ -105,7 +105,6 @@ pub use initial::session_registrations;
 pub use linearization::{FoldNormal, FoldNormals, Linearization, fold_normals, linearize};
 pub use register::register_session;
 use rows::NormalEquations;
-pub(crate) use solve::{unit_diagonal_scale, unit_scale};
 
 /// One unknown of the fit: a geometric parameter, or parameter `component` of
 /// effect `effect` of the model's effect list.

@@ -14,7 +14,7 @@ use faer::linalg::matmul::{self, triangular, triangular::BlockStructure};
 use faer::{Accum, Mat, Par};
 use nalgebra::{Point3, Vector3};
 
-use super::solve::unit_diagonal_scale;
+use crate::calibration::dense::unit_diagonal_scale;
 use super::{Model, Observation, PlaneEstimate, Unknown, rms_pair};
 use crate::calibration::cancel::Cancel;
 use crate::calibration::fit::noise::{Channel, PerChannel, Weights};

@@ -161,15 +161,3 @@ pub(super) fn apply(robot: &mut Model, params: &[Unknown], step: &[f64]) {
         }
     }
 }
-
-/// The factors `1/√G_kk` that scale a normal matrix `G = JᵀJ` to a unit diagonal
-/// (its columns of `J` to unit norm); 0 for a zero column, which cannot move anything.
-pub(crate) fn unit_diagonal_scale(g: &Mat<f64>) -> Vec<f64> {
-    (0..g.nrows()).map(|k| unit_scale(g[(k, k)])).collect()
-}
-
-/// The factor `1/√d` that scales a normal matrix's diagonal entry `d` to 1; 0
-/// for a zero column.
-pub(crate) fn unit_scale(d: f64) -> f64 {
-    if d > 0.0 { 1.0 / d.sqrt() } else { 0.0 }
-}

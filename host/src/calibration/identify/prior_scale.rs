@@ -39,7 +39,8 @@
 //! error ([`immaterial`]: a PUMA 560 tracker session from 10³ positions on), no cross-validation
 //! could tell the scales apart, and the stated one is kept without one.
 
-use crate::calibration::fit::{Constraints, FoldNormals, FullFit, Observation, fold_normals, unit_scale};
+use crate::calibration::fit::{Constraints, FoldNormals, FullFit, Observation, fold_normals};
+use crate::calibration::dense::unit_scale;
 use crate::calibration::fit::prior::{PRIOR_FACTORS, Prior};
 pub use crate::calibration::diagnose::cross_validation::DEFAULT_FOLDS;
 use crate::calibration::diagnose::cross_validation::interleaved_folds;

@@ -25,8 +25,9 @@
 
 use crate::calibration::diagnose::blunders::{self, ALPHA, Deleted, Scale, Suspect};
 use crate::calibration::diagnose::large::SELECTION_POSES;
+use crate::calibration::dense::unit_diagonal_scale;
 use crate::calibration::fit::{
-    FullFit, Linearization, Observation, linearize, unit_diagonal_scale,
+    FullFit, Linearization, Observation, linearize,
 };
 use crate::session::constraints::Constraints;
 use crate::session::prior::Prior;
