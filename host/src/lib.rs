@@ -46,10 +46,10 @@
 //! | [`calibration::check`] | `armcal check`: what was read, and the error of the nominal model against the data |
 //! | [`calibration::identify`] | `armcal identify`: the paper's iterative regression and the full model, report and calibration |
 //! | [`calibration::diagnose`] | `armcal diagnose`: the model chosen on held-out poses (geometry, prior, effects), never worse than nominal; blunders; held-out gain |
-//! | [`calibration::replicates`] | repeated configurations (the partition itself is [`session::configurations`]): the instrument noise the repeats show, the lack-of-fit test |
+//! | [`calibration::validation::replicates`] | repeated configurations (the partition itself is [`session::configurations`]): the instrument noise the repeats show, the lack-of-fit test |
 //! | [`calibration::report`] | the self-contained HTML page of `armcal diagnose --html` (inline SVG) |
 //! | [`calibration::sweep`] | `armcal sweep`: detection and false-positive rates of the diagnosis over many simulated sessions |
-//! | [`calibration::stats`] | Fisher's F distribution and its quantiles, for the diagnosis' tests |
+//! | [`calibration::validation::stats`] | Fisher's F distribution and its quantiles, for the diagnosis' tests |
 //! | [`calibration::simulate`] | true robots with built-in errors and their noisy measurements |
 //! | [`calibration::reproduce`] | `armcal reproduce`: the seed papers' examples |
 //! | [`calibration::demo`] | `armcal demo`: a simulated PUMA with a hidden effect, diagnosed, compensated, reported |

@@ -3,7 +3,7 @@
 //! written all or none (`armcal::io::output::Outputs`), a failed calibration
 //! refused unless `--write-failed`.
 
-use armcal::calibration::acceptance::FailedCalibration;
+use armcal::calibration::validation::acceptance::FailedCalibration;
 use armcal::commands::{self, Front};
 use armcal::io::input_error::InputError;
 use armcal::io::measurements::{self, Measurements};

@@ -7,7 +7,7 @@ use armcal::apply::compensate::RowWarning;
 use armcal::apply::ranges::RowNames;
 use armcal::apply::{compensate, link, predict, ranges, serve as serve_apply};
 use armcal::calibration::identify::paper::PaperOptions;
-use armcal::calibration::{check, contact_check, reproduce};
+use armcal::calibration::{check, reproduce};
 use armcal::commands::tool::Tool;
 use armcal::commands::{diagnose as diagnose_cmd, export as export_cmd, holdout as holdout_cmd};
 use armcal::commands::{identify as identify_cmd, plan as plan_cmd, simulate as simulate_cmd};
@@ -52,7 +52,7 @@ pub(crate) fn holdout(args: HoldoutArgs) -> anyhow::Result<()> {
     let model = args.model.load()?;
     let load = |file: &String| -> anyhow::Result<measurements::Measurements> {
         let d = measurements::load_measurements(file, &model)?;
-        contact_check::require_session(&d)?;
+        d.require_contacts()?;
         warn(&d.warnings);
         Ok(d)
     };
@@ -80,7 +80,7 @@ pub(crate) fn holdout(args: HoldoutArgs) -> anyhow::Result<()> {
     progress.finish();
     print!(
         "{}",
-        contact_check::holdout_table(&rows, reference.as_ref().map(|_| "reference"))
+        holdout_cmd::holdout_table(&rows, reference.as_ref().map(|_| "reference"))
     );
     Ok(())
 }

@@ -10,7 +10,7 @@
 //! not depend on.
 
 use armcal::calibration::cancel::Cancel;
-use armcal::calibration::contact_check::{self, ContactCheck};
+use armcal::calibration::validation::contact_check::ContactCheck;
 use armcal::calibration::identify::StatedScales;
 use armcal::commands::holdout::{Calibrate, Request, Sessions, run};
 use armcal::io::measurements;
@@ -98,7 +98,7 @@ pub fn holdout<'py>(
         list.iter()
             .map(|d| {
                 let d = measurements_of(py, model, d, argument)?;
-                contact_check::require_session(&d.data)
+                d.data.require_contacts()
                     .map_err(|e| errors::input(py, &e, d.arrays))?;
                 Ok(d.data)
             })

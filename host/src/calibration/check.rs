@@ -258,8 +258,8 @@ fn write_constraint_check(out: &mut String, model: &RobotModel, data: &Measureme
     let robot = &model.robot;
     // No coordinate to compare with: how well the nominal model keeps the
     // rows of each point together and the known distances.
-    let c = crate::calibration::contact_check::contact_check(
-        &crate::calibration::contact_check::geometric(robot),
+    let c = crate::calibration::validation::contact_check::contact_check(
+        &crate::calibration::validation::contact_check::geometric(robot),
         data,
     );
     let _ = writeln!(

@@ -35,7 +35,8 @@ use armcal_shared::jacobian::at_point;
 use armcal_shared::{Calibration, JointType, Robot};
 use rand::RngExt;
 
-use crate::calibration::diagnose::{DiagnoseOptions, Diagnosis, HeldOut, diagnose};
+use crate::calibration::diagnose::{DiagnoseOptions, Diagnosis, diagnose};
+use crate::calibration::validation::folds::HeldOut;
 use crate::calibration::fit::{effect_parameter_name, identify_full};
 use crate::calibration::simulate::{Session, random_configuration, rng, simulate};
 use crate::calibration::sweep::{hidden_case, tracker_diagnosis};

@@ -4,20 +4,18 @@
 //! These modules work on SI values read by [`crate::io`]; none of them opens a
 //! file of its own (the HTML pages are returned as text).
 
-pub mod acceptance;
 pub mod cancel;
 pub mod check;
-pub mod contact_check;
 pub mod demo;
 pub mod dense;
 pub mod diagnose;
 pub mod fit;
 pub mod gravity;
+pub mod holdout;
 pub mod identify;
 pub mod parallel;
 pub mod plan;
-pub mod replicates;
 pub mod reproduce;
 pub mod simulate;
-pub mod stats;
 pub mod sweep;
+pub mod validation;

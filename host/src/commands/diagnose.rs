@@ -8,7 +8,7 @@
 use armcal_shared::{Calibration, TargetFrame};
 
 use super::{Front, fit_options, folds};
-use crate::calibration::acceptance::{FailedCalibration, diagnosis_refusal};
+use crate::calibration::validation::acceptance::FailedCalibration;
 use crate::calibration::cancel::Cancel;
 use crate::calibration::diagnose::Choice;
 use crate::calibration::diagnose::RowPlaces;
@@ -123,7 +123,7 @@ pub fn run(
     data.require_fit_supported(model, diagnosis.reference.position_rms, || {
         super::nominal_worst_row(model, data)
     })?;
-    let failed = diagnosis_refusal(model, data, &diagnosis, front.write_failed());
+    let failed = diagnosis.refusal(model, data, front.write_failed());
     let mut calibration = diagnosis.calibration(&model.robot, data.has_orientation(), model.units);
     calibration.targets = request.targets;
     calibration.flange = model.flange;

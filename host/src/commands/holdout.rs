@@ -1,6 +1,6 @@
 //! `holdout`: sessions without a tracker, each left out in turn (or each
 //! predicted from training sessions), as
-//! [`crate::calibration::contact_check::held_out`] computes it, with the
+//! [`crate::calibration::holdout::held_out`] computes it, with the
 //! sessions checked the same way whichever front end asks.
 //!
 //! Scales are in the model's units as the user states them; the figures are
@@ -8,8 +8,9 @@
 
 use super::{Argument, Front, fit_options};
 use crate::calibration::cancel::Cancel;
-use crate::calibration::contact_check::{self, HeldOut, Selection};
-use crate::calibration::diagnose::cross_validation::DEFAULT_FOLDS;
+use crate::calibration::holdout::{self, HeldOut, Selection};
+use crate::calibration::validation::contact_check::ContactCheck;
+use crate::calibration::validation::folds::DEFAULT_FOLDS;
 use crate::calibration::identify::StatedScales;
 use crate::calibration::fit::FullOptions;
 use crate::io::input_error::InputError;
@@ -28,7 +29,7 @@ pub enum Calibrate {
 }
 
 impl Calibrate {
-    /// The selection of [`contact_check::held_out`], with the default folds
+    /// The selection of [`holdout::held_out`], with the default folds
     /// of the cross-validations.
     pub fn selection(self) -> Selection {
         let folds = DEFAULT_FOLDS;
@@ -54,7 +55,7 @@ pub struct Request {
 }
 
 /// The sessions of a `holdout`, each read and accepted as a session without
-/// a tracker ([`contact_check::require_session`]).
+/// a tracker ([`Measurements::require_contacts`]).
 #[derive(Clone, Copy, Debug)]
 pub struct Sessions<'a> {
     /// The sessions left out (or predicted), each in turn.
@@ -79,7 +80,7 @@ pub fn run(
         ..fit_options(front, model, &request.scales)?
     };
     let reference = sessions.reference.map(|r| &r.robot);
-    let held_out = contact_check::held_out(
+    let held_out = holdout::held_out(
         model,
         sessions.held_out,
         sessions.training,
@@ -105,9 +106,9 @@ pub fn require_sessions(
         training,
         reference,
     } = sessions;
-    contact_check::require_distinct(
+    crate::session::distinct::require_distinct(
         &held_out.iter().chain(training).collect::<Vec<_>>(),
-        contact_check::HOLDOUT_TWICE,
+        crate::session::distinct::HOLDOUT_TWICE,
     )?;
     if training.is_empty() && held_out.len() < 2 {
         return Err(Argument::Sessions.refused(
@@ -131,4 +132,69 @@ pub fn require_sessions(
         ));
     }
     Ok(())
+}
+
+/// The table of [`crate::calibration::holdout::held_out`], in mm: per held-out session, the spread
+/// (RMS over its points) and the worst distance error of each model, and the
+/// flatness (RMS over its planes) when a session has planes; `–` where a
+/// session has none of that kind.
+pub fn holdout_table(rows: &[HeldOut], reference: Option<&str>) -> String {
+    use std::fmt::Write as _;
+    let planes = rows.iter().any(|r| !r.nominal.planes.is_empty());
+    let mut out = String::new();
+    let _ = write!(
+        out,
+        "held-out session: spread of the predicted points (RMS distance to their mean, RMS over the points) \
+         and distance error (predicted minus stated)"
+    );
+    if planes {
+        let _ = write!(
+            out,
+            ", flatness of the predicted touches (RMS distance to their least-squares plane, RMS over the planes)"
+        );
+    }
+    let _ = writeln!(out, ", mm");
+    let mut models = vec!["nominal"];
+    models.extend(reference);
+    models.push("armcal");
+    let kinds: &[&str] = if planes {
+        &["spread", "distance", "flatness"]
+    } else {
+        &["spread", "distance"]
+    };
+    let mut header = format!("  {:<40}", "held out");
+    let mut sub = format!("  {:<40}", "");
+    for model in models {
+        for (i, kind) in kinds.iter().enumerate() {
+            let _ = write!(header, " {:>16}", if i == 0 { model } else { "" });
+            let _ = write!(sub, " {kind:>16}");
+        }
+    }
+    let _ = writeln!(out, "{header}");
+    let _ = writeln!(out, "{sub}");
+    let mm = |v: Option<f64>, signed: bool| match v {
+        Some(v) if signed => format!(" {:>+16.3}", v * 1e3),
+        Some(v) => format!(" {:>16.3}", v * 1e3),
+        None => format!(" {:>16}", "–"),
+    };
+    let figures = |c: &ContactCheck| {
+        let mut f = mm(c.spread_rms(), false) + &mm(c.worst_distance_error(), true);
+        if planes {
+            f.push_str(&mm(c.flatness_rms(), false));
+        }
+        f
+    };
+    for r in rows {
+        let mut line = format!("  {:<40}", r.file);
+        line.push_str(&figures(&r.nominal));
+        if let Some(c) = &r.reference {
+            line.push_str(&figures(c));
+        }
+        line.push_str(&figures(&r.calibrated));
+        if !r.choice.is_empty() {
+            let _ = write!(line, "   ({})", r.choice);
+        }
+        let _ = writeln!(out, "{line}");
+    }
+    out
 }

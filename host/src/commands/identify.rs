@@ -8,7 +8,7 @@
 use armcal_shared::TargetFrame;
 
 use super::{Front, fit_options};
-use crate::calibration::acceptance::FailedCalibration;
+use crate::calibration::validation::acceptance::FailedCalibration;
 use crate::calibration::cancel::Cancel;
 use crate::calibration::gravity::{TorqueSign, with_measured_gravity};
 use crate::calibration::identify::channel_weight::ChannelWeights;

@@ -32,7 +32,7 @@ pub mod simulate;
 pub mod tool;
 
 use crate::calibration::check::independent_parameter_count;
-use crate::calibration::diagnose::cross_validation::DEFAULT_FOLDS;
+use crate::calibration::validation::folds::DEFAULT_FOLDS;
 use crate::calibration::fit::{FullError, FullOptions};
 use crate::calibration::identify::paper::PaperError;
 use crate::calibration::identify::{IdentifyError, StatedScales};
@@ -225,9 +225,9 @@ pub fn nominal_worst_row(model: &RobotModel, data: &Measurements) -> Option<Wors
 
 /// Several sessions of one robot as one calibration's rows
 /// ([`Measurements::sessions`]), refused when one is given twice (the same
-/// file, or the same rows: [`crate::calibration::contact_check::require_distinct`]).
+/// file, or the same rows: [`crate::session::distinct::require_distinct`]).
 pub fn sessions(parts: Vec<Measurements>) -> Result<Measurements, InputError> {
-    use crate::calibration::contact_check::{SESSION_TWICE, require_distinct};
+    use crate::session::distinct::{SESSION_TWICE, require_distinct};
     require_distinct(&parts.iter().collect::<Vec<_>>(), SESSION_TWICE)?;
     Measurements::sessions(parts)
 }

@@ -5,7 +5,7 @@
 //! same side and the temperature and payload agree. A repeat adds no
 //! geometry: every data-sufficiency rule counts configurations. The repeats'
 //! spread about their configuration's mean is the pure error, which
-//! [`crate::calibration::replicates`] tests the model's lack of fit against.
+//! [`crate::calibration::validation::replicates`] tests the model's lack of fit against.
 //!
 //! Units: SI (m, rad, °C, kg).
 

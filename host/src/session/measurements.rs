@@ -573,6 +573,24 @@ pub fn reach<'q>(robot: &Robot<f64>, readings: impl Iterator<Item = &'q [f64]>) 
 }
 
 impl Measurements {
+    /// Refuses this session unless it is one without a tracker (its rows
+    /// name the fixed point or plane their tool point is held to), as
+    /// `armcal holdout` needs: its held-out figures need no coordinate, and a
+    /// file of coordinates has none of them.
+    pub fn require_contacts(&self) -> Result<(), InputError> {
+        if self.is_constrained() {
+            return Ok(());
+        }
+        Err(InputError::new(
+            &self.file,
+            self.lines.first().copied().unwrap_or(1),
+            1,
+            "holdout checks sessions without a tracker: the rows must name the unknown fixed \
+             point or plane their tool point is held to (a `point` or `plane` column; \
+             docs/file-formats.md)",
+        ))
+    }
+
     /// Refuses data that cannot be measurements of `robot`'s tool point: a
     /// position column with the same value on every row (a degenerate column: no
     /// instrument sees a moving arm so), or a point farther from the median of the

@@ -15,6 +15,7 @@
 //! | [`measurements`] | the measured rows ([`measurements::Observation`]), the session ([`measurements::Measurements`]) and its `require_*` checks |
 //! | [`joints`] | rows of joint readings alone ([`joints::JointRows`]) |
 //! | [`constraints`] | unknown fixed points and planes, known distances |
+//! | [`distinct`] | one session given once among several ([`distinct::require_distinct`]) |
 //! | [`configurations`] | the distinct configurations the rows repeat, and the pure error of the repeats |
 //! | [`channel`] | the kinds of measurement row, each with its own noise |
 //! | [`prior`] | the prior scale of the D-H parameter errors |
@@ -25,6 +26,7 @@
 pub mod channel;
 pub mod configurations;
 pub mod constraints;
+pub mod distinct;
 pub mod input_error;
 pub mod joints;
 pub mod measurements;

@@ -2,7 +2,7 @@
 //! [`Geometry`] (registration, offsets, lengths, every D-H parameter), each
 //! with the prior's scale a factor of [`PRIOR_FACTORS`] times the stated one,
 //! scored by the linearised k-fold cross-validation of the tool point
-//! ([`super::cross_validation`]) about the fit of every parameter.
+//! ([`crate::calibration::validation::folds`]) about the fit of every parameter.
 //!
 //! The nominal model competes too, scored on the poses themselves (it fits
 //! nothing, so every pose is held out). The calibrated model of least held-out
@@ -14,11 +14,11 @@
 
 use armcal_shared::{Param, Robot};
 
-use super::cross_validation::{Folds, HeldOut, Subset};
+use crate::calibration::validation::folds::{Folds, HeldOut, Subset};
 use crate::calibration::fit::{Linearization, Unknown};
 use crate::calibration::fit::prior::Geometry;
 use crate::calibration::parallel;
-use crate::calibration::stats::significantly_smaller;
+use crate::calibration::validation::stats::significantly_smaller;
 
 /// The level of the paired test a calibrated model must pass against nominal.
 pub const LEVEL: f64 = 0.05;

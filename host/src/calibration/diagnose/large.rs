@@ -3,7 +3,7 @@
 //!
 //! A laser tracker streaming 1,000 points a second measures 10⁶ positions in
 //! a quarter of an hour. Which geometric model, prior and effects the robot
-//! needs is settled long before that: the held-out RMS of [`SELECTION_POSES`]
+//! needs is settled long before that: the held-out RMS of [`SELECTION_POSES`](crate::calibration::validation::folds::SELECTION_POSES)
 //! poses is known to about 0.2 % (its standard error is `1/√(2n)` of it), and
 //! the rows of a streamed session are consecutive points of a few paths, far
 //! from independent. So a session of more rows is diagnosed, as any other
@@ -17,7 +17,7 @@
 //!   residual `e` gives `F = (e²/σ²)/3` above the `1 − α/n` quantile of `F(3,
 //!   R)` (`σ` and its redundancy `R` the sample fit's, estimated on poses
 //!   already screened for blunders, which the rest therefore cannot inflate;
-//!   α = 1 %, Bonferroni over the rows) is set aside: what [`super::blunders`]
+//!   α = 1 %, Bonferroni over the rows) is set aside: what [`crate::calibration::validation::blunders`]
 //!   does about a fit, without its held-out judgement, which a row among 10⁵
 //!   others cannot change.
 //! - **Refit.** The chosen geometry, prior, effects and tilts, fitted to the
@@ -35,12 +35,8 @@ use super::{ALPHA, Choice, DiagnoseOptions, Diagnosis};
 use crate::calibration::fit::{
     FullError, FullOptions, Observation, identify_constrained,
 };
-use crate::calibration::stats::f_quantile;
+use crate::calibration::validation::stats::f_quantile;
 use crate::session::constraints::Constraints;
-
-/// The most poses the model is chosen on by default (see the module header;
-/// [`DiagnoseOptions::selection_poses`]).
-pub const SELECTION_POSES: usize = 100_000;
 
 /// How a long session was diagnosed: on a sample, the calibration on all.
 #[derive(Clone, Copy, Debug, PartialEq)]

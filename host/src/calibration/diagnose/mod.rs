@@ -48,9 +48,7 @@
 //! Units: SI inside; `_mm` fields in millimetres.
 
 pub mod alike;
-pub mod blunders;
 pub mod candidates;
-pub mod cross_validation;
 pub mod geometry;
 pub mod html;
 pub mod large;
@@ -69,21 +67,22 @@ use nalgebra::Vector3;
 
 use crate::calibration::fit::{
     FullError, FullFit, FullOptions, Linearization, Observation, PlaneEstimate, Status,
-    identify_constrained, linearize, session_registrations,
+    identify_constrained, identify_with_effects, linearize, session_registrations,
 };
 use crate::calibration::fit::prior::{Geometry, Prior};
 use crate::calibration::parallel;
-use crate::calibration::replicates::{Configurations, LackOfFit};
-use crate::calibration::stats::f_quantile;
+use crate::calibration::validation::acceptance::{Ending, FailedCalibration, Judged, verdict};
+use crate::calibration::validation::blunders::{self, Blunder, Scale};
+use crate::calibration::validation::folds::{Folds, HeldOut, SELECTION_POSES, Subset};
+use crate::calibration::validation::replicates::{Configurations, LackOfFit};
+use crate::calibration::validation::stats::f_quantile;
 use crate::io::measurements::Contact;
 use crate::session::constraints::{Constraints, MIN_PLANE_TOUCHES};
+use crate::session::measurements::Measurements;
+use crate::session::model::RobotModel;
 use crate::session::registration::in_session;
 use alike::Alike;
-pub use blunders::Blunder;
-use blunders::Scale;
 pub use candidates::{Candidate, candidates, own_columns};
-use cross_validation::{Folds, Subset};
-pub use cross_validation::{HeldOut, cross_validate};
 pub use geometry::ModelScore;
 
 /// The family-wise error rate of the effect search.
@@ -117,10 +116,10 @@ pub struct DiagnoseOptions {
 impl Default for DiagnoseOptions {
     fn default() -> Self {
         Self {
-            folds: cross_validation::DEFAULT_FOLDS,
+            folds: crate::calibration::validation::folds::DEFAULT_FOLDS,
             min_gain: 1.05,
             fit: FullOptions::default(),
-            selection_poses: large::SELECTION_POSES,
+            selection_poses: SELECTION_POSES,
         }
     }
 }
@@ -157,6 +156,30 @@ pub fn residuals(fit: &FullFit, data: &[Observation]) -> Vec<Vector3<f64>> {
         .collect()
 }
 
+/// k-fold cross-validation of the model of `options.fit` with `effects` and
+/// `extra`, every fold fitted from scratch: the held-out position errors of
+/// every pose.
+pub fn cross_validate(
+    nominal: &Robot<f64>,
+    effects: &[Effect<f64>],
+    extra: &[armcal_shared::Param],
+    data: &[Observation],
+    options: &DiagnoseOptions,
+) -> Result<HeldOut, FullError> {
+    let k = options.folds.max(2);
+    let mut errors = Vec::with_capacity(data.len());
+    for fold in 0..k {
+        options.fit.cancel.check()?;
+        let (train, test): (Vec<_>, Vec<_>) =
+            data.iter().enumerate().partition(|(i, _)| i % k != fold);
+        let train: Vec<Observation> = train.into_iter().map(|(_, o)| o.clone()).collect();
+        let test: Vec<Observation> = test.into_iter().map(|(_, o)| o.clone()).collect();
+        let fit = identify_with_effects(nominal, effects, extra, &train, &options.fit)?;
+        errors.extend(position_errors(&fit, &test));
+    }
+    Ok(HeldOut::of(&errors))
+}
+
 /// Position errors (m) of a fitted model at the observations.
 pub(crate) fn position_errors(fit: &FullFit, data: &[Observation]) -> Vec<f64> {
     residuals(fit, data).iter().map(|r| r.norm()).collect()
@@ -175,7 +198,7 @@ fn nominal_errors(nominal: &[Robot<f64>], data: &[Observation], k: usize) -> Vec
     let k = k.clamp(2, data.len().max(2));
     let contacts: Vec<Contact> = data.iter().map(|o| o.contact).collect();
     let configurations = Configurations::of_robot(&nominal[0], data).index(data.len());
-    let fold = cross_validation::interleaved_folds(&contacts, &configurations, k);
+    let fold = crate::calibration::validation::folds::interleaved_folds(&contacts, &configurations, k);
     let tool: Vec<Vector3<f64>> = data
         .iter()
         .map(|o| {
@@ -330,7 +353,7 @@ pub struct Diagnosis {
     pub fitted: Option<HeldOut>,
     /// The session's repeated configurations, when it has some.
     pub replicates: Option<Replicates>,
-    /// For a session of more rows than [`large::SELECTION_POSES`]: the
+    /// For a session of more rows than [`SELECTION_POSES`]: the
     /// sample the model was chosen on and the rows the calibration's screen
     /// set aside ([`large`]).
     pub selection: Option<large::Selection>,
@@ -1264,6 +1287,42 @@ fn linearize_candidates(
 }
 
 impl Diagnosis {
+    /// The refusal ([`verdict`]) of the calibration `diagnose --out` writes from
+    /// this diagnosis of `model` on `data`: `None` for the nominal model (nothing beat it
+    /// held-out: written as it is); for a calibrated one, its final fit's ending
+    /// and its residuals on the rows it was fitted to (blunders set aside).
+    pub fn refusal(
+        &self,
+        model: &RobotModel,
+        data: &Measurements,
+        flag: &'static str,
+    ) -> Option<FailedCalibration> {
+        let diagnosis = self;
+        if diagnosis.choice == Choice::Nominal {
+            return None;
+        }
+        let cal = diagnosis.calibration(&model.robot, data.has_orientation(), model.units);
+        let ending = Ending {
+            iterations: diagnosis.fit.iterations,
+            converged: diagnosis.fit.converged,
+            last_decrease: Some(diagnosis.fit.last_decrease),
+        };
+        verdict(
+            &model.robot,
+            Judged {
+                model: &cal.model(),
+                registrations: &diagnosis.fit.registrations,
+                residual: None,
+            },
+            data,
+            &diagnosis.blunders,
+            ending,
+            &model.units,
+            flag,
+        )
+        .refusal
+    }
+
     /// The calibration of the chosen model: its geometric errors (Hayati tilts
     /// included), its effects, the ranges its poses span and its held-out
     /// error (the chosen model's, [`Diagnosis::holdout`]); nothing changed

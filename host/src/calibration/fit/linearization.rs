@@ -211,7 +211,7 @@ pub struct Linearization {
     /// rows if measured), then of each known distance.
     pub first_rows: Vec<usize>,
     /// What each pose's tool point is held to, one per pose (its folds follow it:
-    /// [`crate::calibration::diagnose::cross_validation::interleaved_folds`]).
+    /// [`crate::calibration::validation::folds::interleaved_folds`]).
     pub contacts: Vec<Contact>,
     /// The robot configuration of each pose: its index among the joint
     /// configurations of the poses, whatever point or session measured them

@@ -82,7 +82,7 @@ use crate::calibration::fit::prior::Prior;
 use super::prior_scale::{
     PriorChoice, PriorScale, fold_steps, fold_sums, held_out_squares, immaterial,
 };
-pub use crate::calibration::diagnose::cross_validation::DEFAULT_FOLDS;
+pub use crate::calibration::validation::folds::DEFAULT_FOLDS;
 pub use crate::session::channel::{Channel, PerWeighed, UNUSED, Weighed, WeightFactors};
 
 /// The weights scored, relative to what the noise gives: as estimated, a

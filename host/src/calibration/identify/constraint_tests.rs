@@ -457,7 +457,7 @@ fn diagnose_names_a_compliance_hidden_in_a_socket_session() {
 /// held-out than the nominal model.
 #[test]
 fn a_session_visiting_its_sockets_in_turn_locates_each_in_every_fold() {
-    use crate::calibration::diagnose::cross_validation::interleaved_folds;
+    use crate::calibration::validation::folds::interleaved_folds;
     use crate::calibration::diagnose::{Choice, DiagnoseOptions, diagnose_session};
     use crate::io::measurements::Contact;
     let nominal = load_model("puma560").expect("built-in model").robot;
@@ -536,7 +536,8 @@ fn a_session_visiting_its_sockets_in_turn_locates_each_in_every_fold() {
 /// such a session has not).
 #[test]
 fn a_probed_block_held_out_is_judged_by_its_flatness() {
-    use crate::calibration::contact_check::{Selection, holdout_table, leave_one_out};
+    use crate::calibration::holdout::{Selection, leave_one_out};
+    use crate::commands::holdout::holdout_table;
     use crate::io::measurements::Measurements;
     use nalgebra::Rotation3;
 

@@ -31,7 +31,7 @@ mod constraint_tests;
 use armcal_shared::calibration::ParamError;
 use armcal_shared::{Calibration, Param, Robot};
 
-use crate::calibration::acceptance::Judgement;
+use crate::calibration::validation::acceptance::Judgement;
 use crate::io::measurements::Measurements;
 use crate::io::model_file::RobotModel;
 use channel_weight::{ChannelWeights, Weighting};
@@ -482,16 +482,16 @@ impl Identification {
 
     /// Why this calibration of `model` from `data` must not be written (it
     /// did not converge, or fits `data` worse than the nominal model:
-    /// [`crate::calibration::acceptance`]); `flag` names the way to write it
+    /// [`crate::calibration::validation::acceptance`]); `flag` names the way to write it
     /// anyway. `None` when it may be; with the residuals it judged by.
     pub fn verdict(
         &self,
         model: &RobotModel,
         data: &Measurements,
         flag: &'static str,
-    ) -> crate::calibration::acceptance::Verdict {
-        use crate::calibration::acceptance::{Ending, Judged, Residual, verdict};
-        use crate::calibration::contact_check::geometric;
+    ) -> crate::calibration::validation::acceptance::Verdict {
+        use crate::calibration::validation::acceptance::{Ending, Judged, Residual, verdict};
+        use crate::calibration::validation::contact_check::geometric;
         let ending = Ending {
             iterations: self.iterations,
             converged: self.converged,

@@ -42,8 +42,8 @@
 use crate::calibration::fit::{Constraints, FoldNormals, FullFit, Observation, fold_normals};
 use crate::calibration::dense::unit_scale;
 use crate::calibration::fit::prior::{PRIOR_FACTORS, Prior};
-pub use crate::calibration::diagnose::cross_validation::DEFAULT_FOLDS;
-use crate::calibration::diagnose::cross_validation::interleaved_folds;
+pub use crate::calibration::validation::folds::DEFAULT_FOLDS;
+use crate::calibration::validation::folds::interleaved_folds;
 use crate::session::channel::{Channel, UNUSED, Weighed, WeightFactors};
 use crate::session::configurations::Configurations;
 use nalgebra::{DMatrix, DVector};
@@ -313,7 +313,7 @@ pub(crate) fn held_out_squares(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calibration::diagnose::cross_validation::{Folds, Subset};
+    use crate::calibration::validation::folds::{Folds, Subset};
     use crate::calibration::fit::{FullOptions, identify_constrained, linearize};
     use crate::calibration::identify::{ParamSet, identify};
     use crate::calibration::simulate::{Scenario, simulate};

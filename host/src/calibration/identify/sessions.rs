@@ -29,7 +29,7 @@ use crate::calibration::fit::{
     FrameSharing, FullError, FullFit, FullOptions, Observation, Status, register_session,
 };
 use crate::report::format::length_and_mm;
-use crate::calibration::stats::f_quantile;
+use crate::calibration::validation::stats::f_quantile;
 use crate::io::measurements::Measurements;
 use crate::io::model_file::Units;
 use crate::session::channel::Channel;

@@ -7,7 +7,7 @@
 //! linearised (the identified unknowns, each session's own frames and the
 //! fitted points and planes among them, at the prior it was fitted at) and
 //! every pose's deleted residual tested as `diagnose` tests it
-//! ([`crate::calibration::diagnose::blunders`]: `F_i` against the `1 −
+//! ([`crate::calibration::validation::blunders`]: `F_i` against the `1 −
 //! α/n` quantile of `F(k, R − k)`, α = 1 % over the poses, at the robust
 //! scale when the fit's mean square is inflated, a suspect there confirmed
 //! at the fit's scale without the suspects). The poses that fail are
@@ -23,8 +23,8 @@
 //! ([`crate::calibration::diagnose::large`]), while `identify` stays as
 //! fast as its fit. Units: SI.
 
-use crate::calibration::diagnose::blunders::{self, ALPHA, Deleted, Scale, Suspect};
-use crate::calibration::diagnose::large::SELECTION_POSES;
+use crate::calibration::validation::blunders::{self, ALPHA, Deleted, Scale, Suspect};
+use crate::calibration::validation::folds::SELECTION_POSES;
 use crate::calibration::dense::unit_diagonal_scale;
 use crate::calibration::fit::{
     FullFit, Linearization, Observation, linearize,

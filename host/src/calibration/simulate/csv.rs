@@ -12,7 +12,7 @@ use armcal_shared::{JointType, Robot};
 use rand::rngs::StdRng;
 
 use super::{Draw, Scenario, Session, random_configuration};
-use crate::calibration::fit::Observation;
+use crate::session::measurements::Observation;
 
 impl Session {
     /// The measurements as a measurement CSV (`docs/file-formats.md` §2) in `units`, with `t`, `temp`, `load`.

@@ -6,8 +6,8 @@
 //! Units are SI (m, rad). Random draws come from a seeded `StdRng`, so every run
 //! is repeatable.
 
-use crate::calibration::fit::Observation;
-use crate::io::measurements::Contact;
+use crate::session::measurements::Observation;
+use crate::session::measurements::Contact;
 use armcal_shared::{Frame, JointType, Param, Robot};
 use nalgebra::{Point3, UnitQuaternion, Vector3};
 use rand::rngs::StdRng;

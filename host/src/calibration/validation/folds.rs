@@ -22,18 +22,15 @@
 //! folds' optima lie within a fraction of a standard error of `x*` for the
 //! effects and within the parameter errors (mm, mrad) for the geometry, and
 //! the step reaches them to second order in that distance (µm on a metre arm).
-//! [`cross_validate`] refits every fold from scratch: the reference the tests
-//! hold the linearisation to.
+//! [`crate::calibration::diagnose::cross_validate`] refits every fold from
+//! scratch: the reference the tests hold the linearisation to.
 
-use armcal_shared::Robot;
-use armcal_shared::effects::Effect;
 use faer::Mat;
 use nalgebra::{DMatrix, DVector};
 
-use super::{DiagnoseOptions, position_errors};
 use crate::calibration::dense::{column, normal_equations, unit_scale};
 use crate::calibration::fit::{
-    FullError, Linearization, Observation, identify_with_effects,
+    Linearization,
 };
 use crate::calibration::parallel;
 use crate::io::measurements::Contact;
@@ -62,29 +59,11 @@ impl HeldOut {
     }
 }
 
-/// k-fold cross-validation of the model of `options.fit` with `effects` and
-/// `extra`, every fold fitted from scratch: the held-out position errors of
-/// every pose.
-pub fn cross_validate(
-    nominal: &Robot<f64>,
-    effects: &[Effect<f64>],
-    extra: &[armcal_shared::Param],
-    data: &[Observation],
-    options: &DiagnoseOptions,
-) -> Result<HeldOut, FullError> {
-    let k = options.folds.max(2);
-    let mut errors = Vec::with_capacity(data.len());
-    for fold in 0..k {
-        options.fit.cancel.check()?;
-        let (train, test): (Vec<_>, Vec<_>) =
-            data.iter().enumerate().partition(|(i, _)| i % k != fold);
-        let train: Vec<Observation> = train.into_iter().map(|(_, o)| o.clone()).collect();
-        let test: Vec<Observation> = test.into_iter().map(|(_, o)| o.clone()).collect();
-        let fit = identify_with_effects(nominal, effects, extra, &train, &options.fit)?;
-        errors.extend(position_errors(&fit, &test));
-    }
-    Ok(HeldOut::of(&errors))
-}
+/// The most poses a model is chosen on, and the deleted residuals screened
+/// on, by default: the held-out RMS of this many poses is known to about
+/// 0.2 % (its standard error is `1/√(2n)` of it), and a longer session is
+/// sampled ([`crate::calibration::diagnose::large`]).
+pub const SELECTION_POSES: usize = 100_000;
 
 /// The fold of each pose of `contacts` (what each pose's tool point is held
 /// to) in `k` interleaved folds, the poses of one robot configuration

@@ -35,8 +35,8 @@
 //!
 //! A suspect is set aside only when the model fitted without it predicts the
 //! poses no test flagged significantly better held-out
-//! ([`super::cross_validation`], the paired test of
-//! [`crate::calibration::stats::significantly_smaller`] at 5 %) than the model
+//! ([`crate::calibration::validation::folds`], the paired test of
+//! [`crate::calibration::validation::stats::significantly_smaller`] at 5 %) than the model
 //! fitted with it, the other suspects left out of both: on a small real set a
 //! pose far from the others can be the one that carries the information. Either
 //! way the summary gives both figures.
@@ -45,10 +45,10 @@ use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::{Mat, Par, Side};
 use nalgebra::{DMatrix, DVector};
 
-use super::cross_validation::{Folds, HeldOut, Role, Subset, interleaved_folds};
+use crate::calibration::validation::folds::{Folds, HeldOut, Role, Subset, interleaved_folds};
 use crate::calibration::dense::unit_diagonal_scale;
 use crate::calibration::fit::Linearization;
-use crate::calibration::stats::{f_quantile, significantly_smaller};
+use crate::calibration::validation::stats::{f_quantile, significantly_smaller};
 use crate::io::measurements::Contact;
 
 /// The family-wise error rate of the test over all poses.

@@ -25,12 +25,11 @@ use armcal_shared::Robot;
 use armcal_shared::effects::EffectModel;
 use armcal_shared::pose_error::rotation_error;
 
-use crate::calibration::contact_check::{contact_check, geometric};
-use crate::calibration::diagnose::{Choice, Diagnosis};
+use crate::calibration::validation::contact_check::{contact_check, geometric};
 use crate::calibration::fit::{Registrations, session_registrations};
 use crate::calibration::parallel;
 use crate::io::measurements::{Measurements, Observation};
-use crate::io::model_file::{RobotModel, Units};
+use crate::io::model_file::Units;
 use crate::session::registration::in_session;
 
 /// RMS residuals of one model on a session's rows.
@@ -284,47 +283,13 @@ fn refused(
     })
 }
 
-/// The refusal ([`verdict`]) of the calibration `diagnose --out` writes from `diagnosis`
-/// of `model` on `data`: `None` for the nominal model (nothing beat it
-/// held-out: written as it is); for a calibrated one, its final fit's ending
-/// and its residuals on the rows it was fitted to (blunders set aside).
-pub fn diagnosis_refusal(
-    model: &RobotModel,
-    data: &Measurements,
-    diagnosis: &Diagnosis,
-    flag: &'static str,
-) -> Option<FailedCalibration> {
-    if diagnosis.choice == Choice::Nominal {
-        return None;
-    }
-    let cal = diagnosis.calibration(&model.robot, data.has_orientation(), model.units);
-    let ending = Ending {
-        iterations: diagnosis.fit.iterations,
-        converged: diagnosis.fit.converged,
-        last_decrease: Some(diagnosis.fit.last_decrease),
-    };
-    verdict(
-        &model.robot,
-        Judged {
-            model: &cal.model(),
-            registrations: &diagnosis.fit.registrations,
-            residual: None,
-        },
-        data,
-        &diagnosis.blunders,
-        ending,
-        &model.units,
-        flag,
-    )
-    .refusal
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::calibration::simulate::{Scenario, simulate};
     use crate::io::measurements::parse_measurements;
     use crate::io::model_file::load_model;
+    use crate::session::model::RobotModel;
 
     /// The registrations of one session: none.
     static NONE: Registrations = Registrations {

@@ -33,7 +33,7 @@
 //!
 //! Units: SI (m, rad, °C, kg).
 
-use crate::calibration::stats::f_cdf;
+use crate::calibration::validation::stats::f_cdf;
 
 pub use crate::session::configurations::{
     Configurations, PAYLOAD_RESOLUTION, PRISMATIC_RESOLUTION, PureError, REVOLUTE_RESOLUTION,
@@ -76,7 +76,7 @@ impl LackOfFit {
             shown,
             expected,
             f,
-            threshold: crate::calibration::stats::f_quantile(1.0 - alpha, d1, d2),
+            threshold: crate::calibration::validation::stats::f_quantile(1.0 - alpha, d1, d2),
             p: 1.0 - f_cdf(f, d1, d2),
         }
     }
