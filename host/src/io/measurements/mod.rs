@@ -69,6 +69,7 @@
 mod assemble;
 mod csv_reader;
 mod record;
+mod row;
 mod schema;
 pub use schema::{MAX_JOINT_ROWS, MAX_MEASURED_ROWS};
 mod source;

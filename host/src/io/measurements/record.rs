@@ -7,7 +7,7 @@
 use armcal_shared::JointType;
 use nalgebra::{Quaternion, UnitQuaternion};
 
-use super::csv_reader::Row;
+use super::row::Row;
 use super::schema::{Place, QUAT, Record, Role};
 use super::table::Table;
 use crate::io::input_error::InputError;

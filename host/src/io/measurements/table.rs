@@ -6,7 +6,7 @@
 
 use std::sync::mpsc::{Receiver, SyncSender};
 
-use super::csv_reader::{Batch, Row, trim};
+use super::row::{Batch, Row, trim};
 use super::schema::{
     Item, Kind, LimitTally, Place, QUAT, Role, Schema, case_hint, joint_index, role_of,
     torque_index,
