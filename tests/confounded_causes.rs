@@ -18,9 +18,10 @@
 //! is named as a gear transmission.
 
 use armcal::calibration::diagnose::{DiagnoseOptions, Diagnosis, diagnose};
-use armcal::calibration::fit::{Observation, Status};
+use armcal::calibration::fit::Status;
 use armcal::calibration::simulate::{Scenario, parse_effect, simulate_visiting};
 use armcal::io::model_file::load_model;
+use armcal::session::observation::Observation;
 use armcal_shared::effects::Effect;
 use armcal_tests::random_configurations;
 

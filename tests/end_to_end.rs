@@ -718,7 +718,7 @@ mod extended_fit {
     //! the effect and brings the residual down to the noise.
 
     use armcal::calibration::fit::{
-        FullFit, FullOptions, Observation, Status, identify_full, identify_with_effects,
+        FullFit, FullOptions, Status, identify_full, identify_with_effects,
     };
     use armcal::calibration::identify::observations;
     use armcal::calibration::simulate::{
@@ -726,6 +726,7 @@ mod extended_fit {
     };
     use armcal::io::measurements::parse_measurements;
     use armcal::io::model_file::load_model;
+    use armcal::session::observation::Observation;
     use armcal_shared::Param;
     use armcal_shared::effects::Effect;
 

@@ -22,11 +22,12 @@
 //!   the drives' sign, the masses fitted to them are not used.
 
 use armcal::calibration::diagnose::{DiagnoseOptions, Diagnosis, diagnose};
-use armcal::calibration::gravity::{MassesUsed, TorqueSign, with_measured_gravity};
 use armcal::calibration::fit::Status;
+use armcal::calibration::gravity::{MassesUsed, TorqueSign, with_measured_gravity};
 use armcal::calibration::simulate::{Scenario, parse_effect, simulate};
 use armcal::io::measurements::parse_measurements;
-use armcal::io::model_file::{RobotModel, load_model};
+use armcal::io::model_file::load_model;
+use armcal::session::model::RobotModel;
 use armcal_shared::effects::Effect;
 
 /// The true compliances: (joint, rad/(N·m)).

@@ -17,8 +17,9 @@
 
 use armcal::calibration::plan::{PlanOptions, plan};
 use armcal::commands::{Front, identify};
-use armcal::io::measurements::Measurements;
-use armcal::io::model_file::{RobotModel, load_model};
+use armcal::io::model_file::load_model;
+use armcal::session::measurements::Measurements;
+use armcal::session::model::RobotModel;
 use armcal::session::registration::FrameSharing;
 use armcal_shared::{Param, Robot, TargetFrame};
 use armcal_tests::{measure, random_configurations, rng, with_random_errors};
@@ -50,7 +51,7 @@ fn calibrate(model: &RobotModel, truth: &Robot<f64>, q: &[Vec<f64>], seed: u64) 
 /// for a session of contacts).
 fn identified(
     model: &RobotModel,
-    poses: Vec<armcal::calibration::fit::Observation>,
+    poses: Vec<armcal::session::observation::Observation>,
     constraints: armcal::session::constraints::Constraints,
 ) -> Robot<f64> {
     let n = poses.len();

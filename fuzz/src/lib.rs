@@ -13,7 +13,8 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::sync::OnceLock;
 
-use armcal::io::model_file::{RobotModel, parse_model};
+use armcal::io::model_file::parse_model;
+use armcal::session::model::RobotModel;
 use armcal_shared::Calibration;
 
 pub mod calibration;

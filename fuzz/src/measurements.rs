@@ -20,9 +20,11 @@
 //! state are the rows'), and every distance joins two different points with a
 //! finite positive length and uncertainty.
 
-use armcal::io::input_error::{InputError, ends_line};
-use armcal::io::measurements::{Contact, Measurements, parse_joints, parse_measurements};
+use armcal::io::measurements::{parse_joints, parse_measurements};
 use armcal::session::constraints::MIN_PLANE_TOUCHES;
+use armcal::session::input_error::{InputError, ends_line};
+use armcal::session::measurements::Measurements;
+use armcal::session::observation::Contact;
 
 /// The harness; see [the module](self). Returns whether both readers
 /// accepted the file (for the tests of the seeds).
@@ -142,7 +144,7 @@ pub fn check_place(e: &InputError, text: &str) {
 }
 
 /// The lines of `text`, without their ends, as the readers count them
-/// (`armcal::io::input_error::ends_line`: at `\n`, or at a `\r` that no `\n`
+/// (`armcal::session::input_error::ends_line`: at `\n`, or at a `\r` that no `\n`
 /// follows).
 pub fn lines(text: &str) -> Vec<&str> {
     let bytes = text.as_bytes();

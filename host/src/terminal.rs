@@ -5,10 +5,11 @@
 
 use armcal::calibration::validation::acceptance::FailedCalibration;
 use armcal::commands::{self, Front};
-use armcal::io::input_error::InputError;
-use armcal::io::measurements::{self, Measurements};
-use armcal::io::model_file::RobotModel;
+use armcal::io::measurements;
 use armcal::io::output::Outputs;
+use armcal::session::input_error::InputError;
+use armcal::session::measurements::Measurements;
+use armcal::session::model::RobotModel;
 use armcal::session::registration::FrameSharing;
 
 use crate::cli::ModelArgs;

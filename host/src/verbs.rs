@@ -11,8 +11,10 @@ use armcal::calibration::{check, reproduce};
 use armcal::commands::tool::Tool;
 use armcal::commands::{diagnose as diagnose_cmd, export as export_cmd, holdout as holdout_cmd};
 use armcal::commands::{identify as identify_cmd, plan as plan_cmd, simulate as simulate_cmd};
-use armcal::io::input_error::InputError;
 use armcal::io::{builtin, measurements, model_file, output};
+use armcal::session::input_error::InputError;
+use armcal::session::joints::JointRows;
+use armcal::session::measurements::Measurements;
 use armcal_shared::Calibration;
 use armcal_shared::compensation::Pacing;
 use armcal_shared::link::Request;
@@ -50,7 +52,7 @@ pub(crate) fn check(args: CheckArgs) -> anyhow::Result<()> {
 pub(crate) fn holdout(args: HoldoutArgs) -> anyhow::Result<()> {
     let chain = args.model.chain.spec();
     let model = args.model.load()?;
-    let load = |file: &String| -> anyhow::Result<measurements::Measurements> {
+    let load = |file: &String| -> anyhow::Result<Measurements> {
         let d = measurements::load_measurements(file, &model)?;
         d.require_contacts()?;
         warn(&d.warnings);
@@ -408,12 +410,7 @@ pub(crate) fn sweep(args: SweepArgs) -> anyhow::Result<()> {
 /// The warnings of a joints file used with `cal`: the reader's, the rows
 /// outside the ranges the calibration was identified on ([`ranges::check`]),
 /// then `rows_reported` (what the computation said of the rows of `joints`).
-fn warn_rows(
-    cal: &Calibration,
-    rows: &measurements::JointRows,
-    joints: &str,
-    rows_reported: &[RowWarning],
-) {
+fn warn_rows(cal: &Calibration, rows: &JointRows, joints: &str, rows_reported: &[RowWarning]) {
     let outside = ranges::check(cal, rows, RowNames::FileLines);
     let reported: Vec<String> = rows_reported
         .iter()
@@ -445,7 +442,7 @@ pub(crate) fn compensate(args: CompensateArgs) -> anyhow::Result<()> {
     } = args;
     let outputs = joints_outputs(&calibration, &joints, &out)?;
     let cal = with_tool(
-        predict::load_calibration(&calibration)?,
+        armcal::io::calibration_file::load_calibration(&calibration)?,
         tool_model.tool(&tool),
     )?;
     let rows = measurements::load_joints(&joints, &cal.nominal, &cal.units)?;
@@ -472,7 +469,7 @@ pub(crate) fn predict(args: PredictArgs) -> anyhow::Result<()> {
     } = args;
     let outputs = joints_outputs(&calibration, &joints, &out)?;
     let cal = with_tool(
-        predict::load_calibration(&calibration)?,
+        armcal::io::calibration_file::load_calibration(&calibration)?,
         tool_model.tool(&tool),
     )?;
     let rows = measurements::load_joints(&joints, &cal.nominal, &cal.units)?;
@@ -503,7 +500,7 @@ pub(crate) fn stream(args: StreamArgs) -> anyhow::Result<()> {
         tool_model,
     } = args;
     let outputs = joints_outputs(&calibration, &joints, &out)?;
-    let mut bytes = predict::read_calibration(&calibration)?;
+    let mut bytes = armcal::io::calibration_file::read_calibration(&calibration)?;
     // Read locally first, so that a bad joints file is refused before the
     // controller is touched; a calibration this armcal refuses is still
     // sent, and the controller says why it refuses it too. With a working
@@ -597,7 +594,7 @@ fn serve_signals() -> anyhow::Result<serve_apply::Signals> {
 pub(crate) fn serve(args: ServeArgs) -> anyhow::Result<()> {
     use armcal_shared::compensation::Conditions;
     use serve_apply::{Ending, Interface, RsiMode};
-    let cal = predict::load_calibration(&args.calibration)?;
+    let cal = armcal::io::calibration_file::load_calibration(&args.calibration)?;
     serve_apply::cycle::served_joints(&cal)
         .map_err(|reason| InputError::new(&args.calibration, 0, 0, reason))?;
     let defaults = Conditions {

@@ -8,8 +8,7 @@ use armcal::apply::{compensate as comp, predict as pred};
 use armcal::commands::Front;
 use armcal::commands::tool::Tool;
 use armcal::io::arrays::{self, Conditions};
-use armcal::io::input_error;
-use armcal::io::measurements::JointRows;
+use armcal::session::joints::JointRows;
 use armcal_shared::compensation::Pacing;
 use armcal_shared::{Calibration as Cal, TargetFrame};
 use pyo3::exceptions::PyUserWarning;
@@ -84,7 +83,7 @@ pub fn load_calibration(
     #[pyo3(from_py_with = args::path)] path: String,
 ) -> PyResult<Calibration> {
     let path = path.as_str();
-    pred::load_calibration(path)
+    armcal::io::calibration_file::load_calibration(path)
         .map(Calibration::from)
         .map_err(|e| errors::input(py, &e, false))
 }
@@ -145,7 +144,7 @@ impl Calibration {
         Cal::decode(data).map(Self::from).map_err(|e| {
             errors::input(
                 py,
-                &input_error::InputError::new("bytes", 0, 0, e.to_string()),
+                &armcal::session::input_error::InputError::new("bytes", 0, 0, e.to_string()),
                 false,
             )
         })

@@ -4,7 +4,8 @@
 use armcal::calibration::gravity::TorqueSign;
 use armcal::commands::simulate as simulate_cmd;
 use armcal::io::arrays::{self, Conditions, PoseArrays};
-use armcal::io::measurements::{self, Contact};
+use armcal::io::measurements;
+use armcal::session::observation::Contact;
 use pyo3::prelude::*;
 
 use crate::errors::{self, ArrayLike, Owned, args};
@@ -15,9 +16,9 @@ use crate::model::{Model, joints_in_units, pose_values};
 /// read back are in the model's units.
 #[pyclass(module = "armcal", frozen)]
 pub struct Measurements {
-    pub(crate) data: measurements::Measurements,
+    pub(crate) data: armcal::session::measurements::Measurements,
     /// The model the data were read against.
-    pub(crate) model: armcal::io::model_file::RobotModel,
+    pub(crate) model: armcal::session::model::RobotModel,
     /// Whether the rows came from arrays (rows numbered from 0) rather than a
     /// file (rows named by their line).
     pub(crate) arrays: bool,
@@ -203,7 +204,7 @@ pub fn simulate<'py>(
     })?
     .map_err(|e| errors::command(py, e, false))?;
     let n = session.observations.len();
-    let data = measurements::Measurements {
+    let data = armcal::session::measurements::Measurements {
         file: arrays::DATA.to_owned(),
         lines: (1..=n).collect(),
         times: (0..n).map(|i| session.t.get(i).copied()).collect(),
@@ -233,7 +234,7 @@ pub fn simulate<'py>(
 }
 
 impl Measurements {
-    fn from_file(data: measurements::Measurements, model: &Model) -> Self {
+    fn from_file(data: armcal::session::measurements::Measurements, model: &Model) -> Self {
         Self {
             data,
             model: model.inner.clone(),

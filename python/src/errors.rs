@@ -8,7 +8,6 @@
 use armcal::apply::ranges;
 use armcal::commands;
 use armcal::io::arrays;
-use armcal::io::input_error;
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray2, PyArrayDyn, PyArrayMethods};
 use pyo3::conversion::FromPyObjectOwned;
@@ -29,7 +28,7 @@ pyo3::create_exception!(
 
 /// A refused input as an `armcal.InputError`; with `arrays`, an error of data
 /// read from arrays ([`arrays::DATA`], [`arrays::JOINTS`]) names the row.
-pub fn input(py: Python<'_>, e: &input_error::InputError, arrays: bool) -> PyErr {
+pub fn input(py: Python<'_>, e: &armcal::session::input_error::InputError, arrays: bool) -> PyErr {
     let from_arrays = arrays && (e.file == arrays::DATA || e.file == arrays::JOINTS);
     let message = if from_arrays {
         arrays::describe(e)
@@ -49,7 +48,7 @@ pub fn refused(py: Python<'_>, message: impl std::fmt::Display) -> PyErr {
 fn refusal(
     py: Python<'_>,
     message: String,
-    place: Option<&input_error::InputError>,
+    place: Option<&armcal::session::input_error::InputError>,
     row: Option<usize>,
 ) -> PyErr {
     let err = InputError::new_err(message);
@@ -71,7 +70,7 @@ fn refusal(
 /// (naming the array row of data read from arrays, with `arrays`), anything
 /// else an `armcal.ArmcalError`.
 pub fn command(py: Python<'_>, e: anyhow::Error, arrays: bool) -> PyErr {
-    match e.downcast_ref::<input_error::InputError>() {
+    match e.downcast_ref::<armcal::session::input_error::InputError>() {
         Some(place) => input(py, place, arrays),
         None if commands::is_refusal(&e) => refused(py, e),
         None => failure(e),
@@ -85,7 +84,11 @@ pub fn failure(e: impl std::fmt::Display) -> PyErr {
 
 /// A refused argument (`name`: the Python parameter).
 pub fn argument(py: Python<'_>, name: &str, message: impl Into<String>) -> PyErr {
-    input(py, &input_error::InputError::argument(name, message), false)
+    input(
+        py,
+        &armcal::session::input_error::InputError::argument(name, message),
+        false,
+    )
 }
 
 /// A numpy array, or anything numpy turns into one (a list of numbers): an

@@ -3,12 +3,12 @@
 //! same report (the JSON of `docs/file-formats.md` §6, as Python dicts), the same refusals.
 
 use armcal::calibration::gravity::TorqueSign;
-use armcal::calibration::identify::channel_weight::{ChannelWeight, ChannelWeights, Weighed};
+use armcal::calibration::identify::channel_weight::{ChannelWeight, ChannelWeights};
 use armcal::calibration::identify::prior_scale::PriorScale;
 use armcal::calibration::identify::{ParamSet, StatedScales};
 use armcal::commands::{self, Front, diagnose as diagnose_cmd, identify as identify_cmd};
-use armcal::io::measurements;
-use armcal::io::model_file::RobotModel;
+use armcal::session::channel::Weighed;
+use armcal::session::model::RobotModel;
 use armcal::session::registration::FrameSharing;
 use armcal_shared::TargetFrame;
 use pyo3::prelude::*;
@@ -58,7 +58,7 @@ pub struct Diagnosis {
 /// What the HTML page of a diagnosis is made of: the diagnosis and its data.
 struct Page {
     diagnosed: diagnose_cmd::Diagnosed,
-    data: Arc<measurements::Measurements>,
+    data: Arc<armcal::session::measurements::Measurements>,
 }
 
 /// The data of a fit: given, or loaded from a path or built-in name against
@@ -203,9 +203,11 @@ pub(crate) fn interruptible<T: Send + 'static>(
 fn on_rows<T: Send + 'static>(
     py: Python<'_>,
     model: &Model,
-    rows: measurements::Measurements,
-    work: impl FnOnce(&RobotModel, &measurements::Measurements, Cancel) -> T + Send + 'static,
-) -> PyResult<(T, Arc<measurements::Measurements>)> {
+    rows: armcal::session::measurements::Measurements,
+    work: impl FnOnce(&RobotModel, &armcal::session::measurements::Measurements, Cancel) -> T
+    + Send
+    + 'static,
+) -> PyResult<(T, Arc<armcal::session::measurements::Measurements>)> {
     let (m, rows) = (model.inner.clone(), Arc::new(rows));
     let shared = rows.clone();
     let result = interruptible(py, OnInterrupt::Stops, move |cancel| {

@@ -10,10 +10,9 @@
 //! not depend on.
 
 use armcal::calibration::cancel::Cancel;
-use armcal::calibration::validation::contact_check::ContactCheck;
 use armcal::calibration::identify::StatedScales;
+use armcal::calibration::validation::contact_check::ContactCheck;
 use armcal::commands::holdout::{Calibrate, Request, Sessions, run};
-use armcal::io::measurements;
 use pyo3::prelude::*;
 use serde_json::json;
 
@@ -98,11 +97,12 @@ pub fn holdout<'py>(
         list.iter()
             .map(|d| {
                 let d = measurements_of(py, model, d, argument)?;
-                d.data.require_contacts()
+                d.data
+                    .require_contacts()
                     .map_err(|e| errors::input(py, &e, d.arrays))?;
                 Ok(d.data)
             })
-            .collect::<PyResult<Vec<measurements::Measurements>>>()
+            .collect::<PyResult<Vec<armcal::session::measurements::Measurements>>>()
     };
     let sessions = load("sessions", &sessions)?;
     let training = load("train", train.as_deref().unwrap_or(&[]))?;

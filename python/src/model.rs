@@ -12,7 +12,7 @@ use crate::errors::{self, ArrayLike, Owned, args};
 /// and out are in its units (`length_unit`, `angle_unit`).
 #[pyclass(module = "armcal", frozen)]
 pub struct Model {
-    pub(crate) inner: model_file::RobotModel,
+    pub(crate) inner: armcal::session::model::RobotModel,
 }
 
 /// Loads a robot model: a built-in one (`builtin_models()`) or the file at

@@ -43,7 +43,7 @@ use armcal_shared::{Calibration, JointType, Param};
 
 use crate::apply::predict::row_conditions;
 use crate::apply::ranges::{ROWS_NAMED, RowNames};
-use crate::io::measurements::JointRows;
+use crate::session::joints::JointRows;
 
 /// A CSV of joint commands `q1..qM` (SI in, the calibration's model units out,
 /// shortest round-trip formatting) after a `#` comment line.

@@ -35,7 +35,7 @@ use armcal_shared::link::{
 use armcal_shared::ranges::Outside;
 
 use crate::apply::compensate;
-use crate::io::measurements::JointRows;
+use crate::session::joints::JointRows;
 use armcal_shared::compensation::{Compensator, Limits};
 
 /// How often `Hello` is repeated until answered.

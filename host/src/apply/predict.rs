@@ -33,12 +33,11 @@ use armcal_shared::calibration::model_hash;
 use armcal_shared::units::Units;
 use nalgebra::{Point3, UnitQuaternion};
 
-pub use crate::io::calibration_file::{CALIBRATION_FILE, load_calibration, read_calibration};
-use crate::io::input_error::InputError;
+use crate::session::input_error::InputError;
 use armcal_shared::compensation::Conditions;
 use armcal_shared::effects::{Approach, Context};
 
-use crate::io::measurements::{JointRow, JointRows};
+use crate::session::joints::{JointRow, JointRows};
 
 /// The predicted pose of one row.
 #[derive(Clone, Debug, PartialEq)]

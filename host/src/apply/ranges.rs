@@ -32,7 +32,7 @@ use armcal_shared::Calibration;
 use armcal_shared::effects::Effect;
 use armcal_shared::ranges::Interval;
 
-use crate::io::measurements::{JointRow, JointRows};
+use crate::session::joints::{JointRow, JointRows};
 
 /// How many rows a warning names before `…`.
 pub const ROWS_NAMED: usize = 5;

@@ -18,13 +18,14 @@ use std::fmt::Write as _;
 
 use armcal_shared::JointType;
 
-pub use crate::calibration::fit::independent_parameter_count;
+use crate::calibration::fit::independent_parameter_count;
 use nalgebra::UnitQuaternion;
 
-use crate::calibration::fit::{FrameSharing, Registrations, session_registrations};
-use crate::io::measurements::Measurements;
-use crate::io::model_file::RobotModel;
+use crate::calibration::fit::session_registrations;
+use crate::session::measurements::Measurements;
+use crate::session::model::RobotModel;
 use crate::session::registration::in_session;
+use crate::session::registration::{FrameSharing, Registrations};
 
 /// Error statistics of the nominal model over all poses.
 #[derive(Clone, Debug, PartialEq)]

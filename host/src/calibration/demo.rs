@@ -36,12 +36,13 @@ use armcal_shared::{Calibration, JointType, Robot};
 use rand::RngExt;
 
 use crate::calibration::diagnose::{DiagnoseOptions, Diagnosis, diagnose};
-use crate::calibration::validation::folds::HeldOut;
 use crate::calibration::fit::{effect_parameter_name, identify_full};
 use crate::calibration::simulate::{Session, random_configuration, rng, simulate};
 use crate::calibration::sweep::{hidden_case, tracker_diagnosis};
-use crate::io::measurements::JointRows;
-use crate::io::model_file::{RobotModel, load_model};
+use crate::calibration::validation::folds::HeldOut;
+use crate::io::model_file::load_model;
+use crate::session::joints::JointRows;
+use crate::session::model::RobotModel;
 
 /// Targets the compensation is checked at.
 pub const TARGETS: usize = 50;

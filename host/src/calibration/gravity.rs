@@ -71,8 +71,9 @@ use armcal_shared::{JointType, LinkMass, Robot};
 use nalgebra::{DMatrix, DVector, Vector3};
 
 use crate::session::input_error::InputError;
-use crate::session::measurements::{Measurements, Observation, session_count};
+use crate::session::measurements::Measurements;
 use crate::session::model::RobotModel;
+use crate::session::observation::{Observation, session_count};
 
 /// The regularisation towards the model's masses, relative to the normal
 /// matrix's largest diagonal: far below what any pose shows.

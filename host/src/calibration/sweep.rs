@@ -155,8 +155,7 @@ pub fn hidden_case_in(
     let noise_rms = scenario.position_noise * 3f64.sqrt();
     let trial = simulate(nominal, &scenario).ok()?;
     let geometric =
-        crate::calibration::fit::identify_full(nominal, &trial.observations, fit)
-            .ok()?;
+        crate::calibration::fit::identify_full(nominal, &trial.observations, fit).ok()?;
     let effect_rms = (geometric.position_rms.powi(2) - noise_rms.powi(2))
         .max(1e-18)
         .sqrt();

@@ -8,18 +8,19 @@
 use armcal_shared::{Calibration, TargetFrame};
 
 use super::{Front, fit_options, folds};
-use crate::calibration::validation::acceptance::FailedCalibration;
 use crate::calibration::cancel::Cancel;
 use crate::calibration::diagnose::Choice;
 use crate::calibration::diagnose::RowPlaces;
 use crate::calibration::diagnose::{DiagnoseOptions, Diagnosis, diagnose_with_progress};
+use crate::calibration::fit::{FullOptions, identify_with_effects};
 use crate::calibration::gravity::{GravityFit, TorqueSign, with_measured_gravity};
 use crate::calibration::identify::channel_weight::{self, ChannelWeights, Weighting};
-use crate::calibration::fit::{FullOptions, Observation, identify_with_effects};
 use crate::calibration::identify::sessions::{SessionHeldOut, Trained, held_out_by_session};
 use crate::calibration::identify::{self, StatedScales, sessions};
-use crate::io::model_file::RobotModel;
+use crate::calibration::validation::acceptance::FailedCalibration;
 use crate::session::measurements::Measurements;
+use crate::session::model::RobotModel;
+use crate::session::observation::Observation;
 use crate::session::registration::FrameSharing;
 use armcal_shared::Param;
 

@@ -11,13 +11,14 @@ use armcal_shared::{Calibration, Frame, JointType};
 use super::tool::Tool;
 use super::{Argument, Front};
 use crate::apply::export::{GeometryExport, geometry_only};
-use crate::apply::predict::load_calibration;
 use crate::apply::read_back;
 use crate::apply::working_tool::{ToolChange, WorkingTool};
-use crate::io::input_error::{InputError, MODEL_FILE, read_text};
+use crate::io::calibration_file::load_calibration;
+use crate::io::input_error::{MODEL_FILE, read_text};
 use crate::io::model_file::{load_model_with, urdf_chain};
 use crate::io::ur;
 use crate::io::urdf::{self, ChainSpec};
+use crate::session::input_error::InputError;
 
 /// The format written.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -8,14 +8,14 @@
 
 use super::{Argument, Front, fit_options};
 use crate::calibration::cancel::Cancel;
+use crate::calibration::fit::FullOptions;
 use crate::calibration::holdout::{self, HeldOut, Selection};
+use crate::calibration::identify::StatedScales;
 use crate::calibration::validation::contact_check::ContactCheck;
 use crate::calibration::validation::folds::DEFAULT_FOLDS;
-use crate::calibration::identify::StatedScales;
-use crate::calibration::fit::FullOptions;
-use crate::io::input_error::InputError;
-use crate::io::model_file::RobotModel;
+use crate::session::input_error::InputError;
 use crate::session::measurements::Measurements;
+use crate::session::model::RobotModel;
 
 /// How each training set is calibrated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -8,17 +8,18 @@
 use armcal_shared::TargetFrame;
 
 use super::{Front, fit_options};
-use crate::calibration::validation::acceptance::FailedCalibration;
 use crate::calibration::cancel::Cancel;
+use crate::calibration::fit::{FullOptions, identify_with_effects};
 use crate::calibration::gravity::{TorqueSign, with_measured_gravity};
 use crate::calibration::identify::channel_weight::ChannelWeights;
-use crate::calibration::fit::{FullOptions, Observation, identify_with_effects};
 use crate::calibration::identify::prior_scale::PriorScale;
 use crate::calibration::identify::sessions::{Trained, held_out_by_session};
 use crate::calibration::identify::{self, Identification, ParamSet, StatedScales, suspect_rows};
-use crate::io::input_error::InputError;
-use crate::io::model_file::RobotModel;
+use crate::calibration::validation::acceptance::FailedCalibration;
+use crate::session::input_error::InputError;
 use crate::session::measurements::Measurements;
+use crate::session::model::RobotModel;
+use crate::session::observation::Observation;
 use crate::session::registration::FrameSharing;
 use armcal_shared::Param;
 

@@ -31,14 +31,14 @@ pub mod plan;
 pub mod simulate;
 pub mod tool;
 
-use crate::calibration::check::independent_parameter_count;
-use crate::calibration::validation::folds::DEFAULT_FOLDS;
+use crate::calibration::fit::independent_parameter_count;
 use crate::calibration::fit::{FullError, FullOptions};
 use crate::calibration::identify::paper::PaperError;
 use crate::calibration::identify::{IdentifyError, StatedScales};
-use crate::io::input_error::InputError;
-use crate::io::model_file::RobotModel;
+use crate::calibration::validation::folds::DEFAULT_FOLDS;
+use crate::session::input_error::InputError;
 use crate::session::measurements::{Measurements, WorstRow};
+use crate::session::model::RobotModel;
 use crate::session::registration::FrameSharing;
 
 /// Which front end asked.

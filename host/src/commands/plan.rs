@@ -7,10 +7,10 @@
 
 use super::Front;
 use crate::calibration::plan::{Optimality, Plan, PlanOptions, Visits, plan_cancellable};
-use crate::io::input_error::InputError;
-use crate::io::model_file::RobotModel;
 use crate::io::sockets::Sockets;
+use crate::session::input_error::InputError;
 use crate::session::input_error::number;
+use crate::session::model::RobotModel;
 
 /// The most candidates a plan chooses from, drawn (`--candidates`) or given
 /// (`--from`): what the plan holds of each (its configuration and its rows of

@@ -10,10 +10,10 @@
 use super::{Argument, Front};
 use crate::calibration::gravity::TorqueSign;
 use crate::calibration::simulate::{self, ErrorSizes, Scenario, Session, SessionWriter};
-use crate::io::input_error::InputError;
-use crate::io::model_file::RobotModel;
+use crate::session::input_error::InputError;
 use crate::session::input_error::number;
-use crate::session::measurements::PAYLOAD_RANGE;
+use crate::session::model::RobotModel;
+use crate::session::observation::PAYLOAD_RANGE;
 
 /// What `simulate` is asked.
 #[derive(Clone, Debug)]

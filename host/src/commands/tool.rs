@@ -25,10 +25,10 @@ use nalgebra::{IsometryMatrix3, Matrix3, Vector3};
 
 use super::Front;
 use crate::apply::working_tool::{ToolChange, WorkingTool};
-use crate::report::format::significant;
-use crate::io::input_error::InputError;
 use crate::io::model_file::load_model_with;
 use crate::io::urdf::ChainSpec;
+use crate::report::format::significant;
+use crate::session::input_error::InputError;
 use crate::session::measurements::reach;
 
 /// How far the link's frame in the flange frame may move between

@@ -19,12 +19,13 @@ use armcal_shared::effects::Approach;
 use armcal_shared::units::Units;
 use nalgebra::{Point3, Quaternion, UnitQuaternion};
 
-use crate::io::input_error::InputError;
-use crate::io::measurements::{
-    JointRow, JointRows, MAX_TORQUE, Measurements, Observation, PAYLOAD_RANGE,
-    QUATERNION_NORM_TOLERANCE, TEMPERATURE_RANGE,
+use crate::session::input_error::InputError;
+use crate::session::joints::{JointRow, JointRows};
+use crate::session::measurements::Measurements;
+use crate::session::model::RobotModel;
+use crate::session::observation::{
+    MAX_TORQUE, Observation, PAYLOAD_RANGE, QUATERNION_NORM_TOLERANCE, TEMPERATURE_RANGE,
 };
-use crate::io::model_file::RobotModel;
 
 /// The name measurements from arrays carry in place of a file name.
 pub const DATA: &str = "data";

@@ -13,7 +13,7 @@
 //! [`crate::io::measurements::load_measurements`] look a name up here before trying it
 //! as a path.
 
-use crate::io::input_error::InputError;
+use crate::session::input_error::InputError;
 
 /// One built-in file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

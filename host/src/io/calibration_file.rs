@@ -9,7 +9,8 @@
 use armcal_shared::Calibration;
 use armcal_shared::calibration::MAX_FILE_LEN;
 
-use crate::io::input_error::{InputError, SizeLimit, read_bounded};
+use crate::io::input_error::{SizeLimit, read_bounded};
+use crate::session::input_error::InputError;
 
 /// The bytes of the calibration file at `path`, not decoded.
 ///

@@ -7,7 +7,7 @@
 //! [`calibration_file`](crate::io::calibration_file::CALIBRATION_FILE)): at most the limit and one
 //! byte is read, and a larger file is refused naming the limit.
 
-pub use crate::session::input_error::{InputError, ends_line, line_col};
+use crate::session::input_error::InputError;
 
 /// How much of one kind of input file armcal reads: files larger than `bytes`
 /// are refused (status 2) without being read whole.

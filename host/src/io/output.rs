@@ -58,7 +58,7 @@ use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard};
 
 use crate::io::builtin;
-use crate::io::input_error::InputError;
+use crate::session::input_error::InputError;
 
 /// Symbolic links followed from one output path before giving up (as the kernel's `ELOOP`).
 const MAX_SYMLINKS: usize = 40;

@@ -24,8 +24,9 @@
 use armcal_shared::units::Units;
 use nalgebra::{Point3, Vector3};
 
-use crate::io::input_error::{InputError, MODEL_FILE, read_text};
+use crate::io::input_error::{MODEL_FILE, read_text};
 use crate::session::constraints::{DEFAULT_DISTANCE_STD, Distance};
+use crate::session::input_error::InputError;
 
 /// The half-angle of the cone about a socket's approach direction the stem
 /// from the ball to the flange keeps within, degrees: a plate's socket is

@@ -52,12 +52,13 @@ use armcal_shared::{Frame, JointType, Link, dh::link_transform};
 use nalgebra::{Point3, Vector3};
 use saphyr::{LoadableYamlNode, MarkedYaml, Scalar, YamlData};
 
-use crate::io::input_error::{InputError, MODEL_FILE, read_text};
-use crate::io::model_file::RobotModel;
+use crate::io::input_error::{MODEL_FILE, read_text};
 use crate::io::urdf::{
     ChainSpec, Inertial, JointKind, Pose, Urdf, UrdfJoint, UrdfLink,
     convert::{Converted, to_frame},
 };
+use crate::session::input_error::InputError;
+use crate::session::model::RobotModel;
 
 /// The number of joints of a UR arm.
 pub const JOINTS: usize = 6;

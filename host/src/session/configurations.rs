@@ -12,7 +12,7 @@
 use armcal_shared::{JointType, Robot};
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 
-use crate::session::measurements::{Contact, Observation};
+use crate::session::observation::{Contact, Observation};
 
 /// Two readings of a revolute joint closer than this (rad) are one reading:
 /// a 17-bit encoder's count is 4.8·10⁻⁵ rad, a 20-bit one's 6·10⁻⁶ rad.

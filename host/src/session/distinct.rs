@@ -5,7 +5,8 @@
 //! in-sample figures as held-out ones. Positions in m, joints in rad or m.
 
 use crate::session::input_error::InputError;
-use crate::session::measurements::{Contact, Measurements};
+use crate::session::measurements::Measurements;
+use crate::session::observation::Contact;
 
 /// Why a holdout's session is given once ([`require_distinct`]).
 pub const HOLDOUT_TWICE: &str =

@@ -1,191 +1,22 @@
-//! The measured rows of a session, in SI: each pose's joint readings, what
-//! its tool point is held to (a measured position, an unknown fixed point or
-//! plane), its orientation and context; the session's constraints; and the
+//! A session of measured rows ([`Measurements`], its rows are
+//! [`crate::session::observation`]'s), in SI: the rows, their lines and times,
+//! the session's constraints and sessions; and the
 //! checks that the rows can carry a calibration of a model (`require_*`):
 //! enough distinct configurations, points that can be measurements of the
 //! model, known distances the nominal model does not contradict, a fit that
 //! reaches them. [`crate::io::measurements`] reads the CSV
 //! of `docs/file-formats.md` §2 into them, [`crate::io::arrays`] arrays.
 
-use armcal_shared::effects::{Approach, Context};
-use armcal_shared::ranges::Ranges;
 use armcal_shared::units::Units;
 use armcal_shared::{JointType, Robot};
-use nalgebra::{Point3, UnitQuaternion};
+use nalgebra::Point3;
 
-use crate::session::channel::Channel;
 use crate::session::configurations::{Configurations, distinct_equations_reach};
 use crate::session::constraints::{Constraints, DistanceLine, merge_named};
 use crate::session::input_error::InputError;
 use crate::session::model::RobotModel;
+use crate::session::observation::{Contact, Observation};
 use crate::session::registration::{FrameSharing, Sharing};
-
-/// The temperatures (°C) a working robot may be measured at: below it a `temp`
-/// is refused as a unit or a typo (−273.15 °C, a value in K or °F).
-pub const TEMPERATURE_RANGE: [f64; 2] = [-50.0, 150.0];
-
-/// The payloads (kg) a robot may carry: none is negative, and the heaviest
-/// industrial arms carry about 2.3 t.
-pub const PAYLOAD_RANGE: [f64; 2] = [0.0, 5000.0];
-
-/// The largest joint torque a `tau` cell may hold, N·m (N for a prismatic
-/// joint): the shoulders of the heaviest industrial arms carry under 10⁵ N·m.
-pub const MAX_TORQUE: f64 = 1e5;
-
-/// How far from 1 the norm of a measured quaternion may be; within it the
-/// quaternion is normalised, beyond it the file is refused.
-pub const QUATERNION_NORM_TOLERANCE: f64 = 1e-3;
-
-/// One measured pose, SI: the joint readings, what the instrument saw, and
-/// what non-geometric effects depend on at it.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Observation {
-    /// Joint readings: rad for a revolute joint, m for a prismatic one.
-    pub q: Vec<f64>,
-    /// Measured position of the tool point in the measurement frame, m.
-    pub position: Point3<f64>,
-    /// Measured orientation of the tool frame, if the row has one (normalised).
-    pub orientation: Option<UnitQuaternion<f64>>,
-    /// The row's temperature (`temp`, °C) and payload (`load`, kg), and the
-    /// direction each joint approached the pose from (the sign of its last
-    /// change in row order, held while the joint holds:
-    /// [`Approach`]).
-    pub context: Context<f64>,
-    /// The joints' torques the robot reported at the pose (`tau1..tauM`: the
-    /// torque each joint's drive exerts on its link, N·m, N for a prismatic
-    /// joint), when the session has them.
-    pub torque: Option<Vec<f64>>,
-    /// What the row's tool point is held to: its measured `position`, or
-    /// (a row of a constraint file, `position` not measured and 0) an unknown
-    /// fixed point or plane.
-    pub contact: Contact,
-    /// The session the row was measured in: an index into
-    /// [`Measurements::sessions`] (0 for a single session). Each session has
-    /// its own registration unless told it shares one
-    /// ([`crate::session::registration`]).
-    pub session: usize,
-}
-
-/// The ranges of `poses` (SI: each joint, the temperature and the payload
-/// where the rows give them), recorded in a calibration identified from them.
-pub fn ranges<'a>(poses: impl IntoIterator<Item = &'a Observation>) -> Ranges<f64> {
-    Ranges::of(
-        poses
-            .into_iter()
-            .map(|o| (&o.q[..], o.context.temperature, o.context.payload)),
-    )
-}
-
-/// The number of sessions `poses` were measured in (1 for none or one).
-pub fn session_count(poses: &[Observation]) -> usize {
-    poses.iter().map(|o| o.session + 1).max().unwrap_or(1)
-}
-
-/// What a pose's tool point is held to.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum Contact {
-    /// The position measured on the row.
-    #[default]
-    Measured,
-    /// The unknown fixed point it sits at: an index into
-    /// [`Measurements::constraints`]' points.
-    Point(usize),
-    /// The unknown plane it touches: an index into
-    /// [`Measurements::constraints`]' planes.
-    Plane(usize),
-}
-
-impl Observation {
-    /// A row of a session without a tracker: joints `q` (SI), the tool point
-    /// at the unknown point or on the unknown plane `contact` names; no
-    /// coordinate measured.
-    pub fn at_contact(q: Vec<f64>, contact: Contact) -> Self {
-        Self {
-            q,
-            position: Point3::origin(),
-            orientation: None,
-            context: Context::default(),
-            torque: None,
-            contact,
-            session: 0,
-        }
-    }
-
-    /// The pose of one row, in the order of the rows: joints `q` (SI), the
-    /// measured point (m) and orientation, the row's temperature (°C) and
-    /// payload (kg); `approach` carries the joints' approach directions from
-    /// row to row.
-    pub fn of_row(
-        q: Vec<f64>,
-        position: Point3<f64>,
-        orientation: Option<UnitQuaternion<f64>>,
-        (temperature, payload): (Option<f64>, Option<f64>),
-        torque: Option<Vec<f64>>,
-        approach: &mut Approach,
-    ) -> Self {
-        let context = Context {
-            temperature,
-            payload,
-            approach: approach.next(&q),
-        };
-        Self {
-            q,
-            position,
-            orientation,
-            context,
-            torque,
-            contact: Contact::Measured,
-            session: 0,
-        }
-    }
-
-    /// The unknown fixed point the tool point sits at, if it does.
-    pub fn fixed_point(&self) -> Option<usize> {
-        match self.contact {
-            Contact::Point(k) => Some(k),
-            _ => None,
-        }
-    }
-
-    /// The unknown plane the tool point touches, if it does.
-    pub fn on_plane(&self) -> Option<usize> {
-        match self.contact {
-            Contact::Plane(k) => Some(k),
-            _ => None,
-        }
-    }
-
-    /// The noise channel of the rows that locate its tool point: a measured
-    /// position, or the kind of its contact.
-    pub fn channel(&self) -> Channel {
-        match self.contact {
-            Contact::Measured => Channel::Position,
-            Contact::Point(_) => Channel::Point,
-            Contact::Plane(_) => Channel::Plane,
-        }
-    }
-
-    /// The scalar equations this pose gives an identification: its position
-    /// rows and its orientation rows.
-    pub fn equations(&self) -> usize {
-        self.position_rows() + self.orientation_rows()
-    }
-
-    /// The rows that locate its tool point: 3, or 1 for a touch of a plane
-    /// (its distance along the normal).
-    pub fn position_rows(&self) -> usize {
-        if self.on_plane().is_some() { 1 } else { 3 }
-    }
-
-    /// Its orientation rows: 3 when measured (a touch of a plane has none).
-    pub fn orientation_rows(&self) -> usize {
-        if self.orientation.is_some() && self.on_plane().is_none() {
-            3
-        } else {
-            0
-        }
-    }
-}
 
 /// A measurement file read against a model.
 #[derive(Clone, Debug, PartialEq)]

@@ -12,7 +12,8 @@
 //!
 //! | module | idea |
 //! | --- | --- |
-//! | [`measurements`] | the measured rows ([`measurements::Observation`]), the session ([`measurements::Measurements`]) and its `require_*` checks |
+//! | [`observation`] | one measured row ([`observation::Observation`]): joint readings, what its tool point is held to, orientation, context |
+//! | [`measurements`] | the session of rows ([`measurements::Measurements`]) and its `require_*` checks |
 //! | [`joints`] | rows of joint readings alone ([`joints::JointRows`]) |
 //! | [`constraints`] | unknown fixed points and planes, known distances |
 //! | [`distinct`] | one session given once among several ([`distinct::require_distinct`]) |
@@ -31,6 +32,7 @@ pub mod input_error;
 pub mod joints;
 pub mod measurements;
 pub mod model;
+pub mod observation;
 pub mod prior;
 pub mod registration;
 

@@ -4,7 +4,8 @@
 //! with exit status 2, naming the file and the reason, and nothing is written.
 
 use crate::{armcal, assert_success};
-use armcal::io::model_file::{RobotModel, load_model, parse_model};
+use armcal::io::model_file::{load_model, parse_model};
+use armcal::session::model::RobotModel;
 use armcal_shared::ranges::Ranges;
 use armcal_shared::{Calibration, Param, ParamError};
 

@@ -13,8 +13,9 @@
 use std::path::{Path, PathBuf};
 
 use armcal::apply::working_tool::WorkingTool;
-use armcal::io::model_file::{RobotModel, load_model};
+use armcal::io::model_file::load_model;
 use armcal::io::ur;
+use armcal::session::model::RobotModel;
 use armcal_shared::{Calibration, Frame, Robot};
 use nalgebra::Matrix4;
 use saphyr::{LoadableYamlNode, Yaml};
@@ -303,9 +304,10 @@ fn ur_factory_identify_then_export_deltas() {
     for j in ur::UR_DESCRIPTION_JOINTS {
         assert!(doc[j]["yaw"].as_floating_point().is_some(), "{written}");
     }
-    let loaded =
-        armcal::apply::predict::load_calibration(dir.path().join("fit.cal").to_str().unwrap())
-            .unwrap();
+    let loaded = armcal::io::calibration_file::load_calibration(
+        dir.path().join("fit.cal").to_str().unwrap(),
+    )
+    .unwrap();
     let cal = loaded.calibrated();
     let nominal = load_model("ur10e").unwrap();
     let back =
@@ -661,9 +663,10 @@ fn ur_export_puts_the_measured_point_in_the_tcp() {
             std::array::from_fn(|i| v[i].as_floating_point().unwrap())
         });
         let tcp = comment_pose(&text, "# measured frame (TCP) in the flange:").to_homogeneous();
-        let cal =
-            armcal::apply::predict::load_calibration(dir.path().join("smr.cal").to_str().unwrap())
-                .unwrap();
+        let cal = armcal::io::calibration_file::load_calibration(
+            dir.path().join("smr.cal").to_str().unwrap(),
+        )
+        .unwrap();
         let chain = |r: &Robot<f64>| -> Vec<Matrix4<f64>> {
             qs.iter()
                 .map(|q| r.forward(q).unwrap().to_homogeneous())

@@ -420,8 +420,8 @@ fn round_trip(file: &str, base: &str, tip: &str, point: [f64; 3], poses: &str) {
     let truth: serde_json::Value =
         serde_json::from_slice(&std::fs::read(d.join("t.json")).unwrap()).unwrap();
     let true_robot = with_errors(&nominal.robot, &truth["errors"]);
-    let cal =
-        armcal::apply::predict::load_calibration(d.join("cal.bin").to_str().unwrap()).unwrap();
+    let cal = armcal::io::calibration_file::load_calibration(d.join("cal.bin").to_str().unwrap())
+        .unwrap();
     let calibrated = cal.calibrated();
     let (mut recovered, mut nominal_error) = (0.0f64, 0.0f64);
     for q in configurations(&nominal.robot) {
@@ -626,8 +626,8 @@ fn export_of_a_diagnosis_with_an_effect_holds_the_geometry_refitted_without_it()
 
     // The URDF's forward kinematics: the fallback's, not the geometry fitted
     // with the effect.
-    let cal =
-        armcal::apply::predict::load_calibration(d.join("arm.cal").to_str().unwrap()).unwrap();
+    let cal = armcal::io::calibration_file::load_calibration(d.join("arm.cal").to_str().unwrap())
+        .unwrap();
     let geometric = cal.geometric_only().expect("a fallback").calibrated();
     let fitted_with = cal.calibrated();
     let text = std::fs::read_to_string(d.join("arm.urdf")).unwrap();
@@ -943,7 +943,7 @@ fn a_working_tool_of_a_urdf_model_is_in_its_tip_links_frame() {
         ],
     );
     let written =
-        armcal::apply::predict::load_calibration(d.join("s.cal").to_str().unwrap()).unwrap();
+        armcal::io::calibration_file::load_calibration(d.join("s.cal").to_str().unwrap()).unwrap();
     assert_eq!(written.flange, model.flange);
     // The nominal calibration with that flange, predicted with working tools.
     let mut cal = armcal_shared::Calibration::nominal(model.robot.clone(), false, model.units);

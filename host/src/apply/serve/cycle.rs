@@ -164,8 +164,8 @@ impl Cycle {
 mod tests {
     use super::*;
     use crate::apply::compensate::compensate;
-    use crate::io::measurements::JointRows;
     use crate::io::model_file::load_model;
+    use crate::session::joints::JointRows;
     use armcal_shared::{Param, ParamError};
 
     fn calibration() -> Calibration {

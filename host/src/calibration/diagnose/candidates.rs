@@ -8,7 +8,7 @@
 use armcal_shared::effects::{Effect, gravity_torques};
 use armcal_shared::{Convention, JointType, Param, Robot};
 
-use crate::calibration::fit::Observation;
+use crate::session::observation::Observation;
 
 /// A candidate extension of the geometric model.
 #[derive(Clone, Debug, PartialEq)]

@@ -14,16 +14,16 @@
 
 use armcal_shared::{Param, Robot};
 
-use crate::calibration::validation::folds::{Folds, HeldOut, Subset};
-use crate::calibration::fit::{Linearization, Unknown};
 use crate::calibration::fit::prior::Geometry;
+use crate::calibration::fit::{Linearization, Unknown};
 use crate::calibration::parallel;
+use crate::calibration::validation::folds::{Folds, HeldOut, Subset};
 use crate::calibration::validation::stats::significantly_smaller;
 
 /// The level of the paired test a calibrated model must pass against nominal.
 pub const LEVEL: f64 = 0.05;
 
-pub use crate::calibration::fit::prior::PRIOR_FACTORS;
+use crate::session::prior::PRIOR_FACTORS;
 
 /// One candidate geometric model and its held-out error.
 #[derive(Clone, Debug, PartialEq)]

@@ -21,10 +21,11 @@ use nalgebra::Vector3;
 use crate::calibration::diagnose::{
     DiagnoseOptions, Diagnosis, effect_unit, effect_value, residuals,
 };
-use crate::calibration::fit::{Observation, Status};
-use crate::io::model_file::RobotModel;
+use crate::calibration::fit::Status;
 use crate::report::format::significant;
 use crate::report::html::{html_escape, page_head};
+use crate::session::model::RobotModel;
+use crate::session::observation::Observation;
 use crate::session::registration::in_session;
 
 /// One scatter plot: points `(x, y)` in two series (before: the geometric

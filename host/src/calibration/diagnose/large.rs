@@ -32,11 +32,10 @@ use armcal_shared::Robot;
 use armcal_shared::units::Units;
 
 use super::{ALPHA, Choice, DiagnoseOptions, Diagnosis};
-use crate::calibration::fit::{
-    FullError, FullOptions, Observation, identify_constrained,
-};
+use crate::calibration::fit::{FullError, FullOptions, identify_constrained};
 use crate::calibration::validation::stats::f_quantile;
 use crate::session::constraints::Constraints;
+use crate::session::observation::Observation;
 
 /// How a long session was diagnosed: on a sample, the calibration on all.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -117,7 +116,7 @@ pub(super) fn diagnose_large(
         d.noise = d.fit.noise.tool_point().shown;
     }
     d.blunders = blunders;
-    d.ranges = crate::io::measurements::ranges(&kept);
+    d.ranges = crate::session::observation::ranges(&kept);
     d.fitted = d.fitted_at(nominal, &kept);
     d.selection = Some(Selection {
         rows: data.len(),
@@ -144,7 +143,7 @@ impl Diagnosis {
         let models = self.fit.registrations.effect_models(&model);
         data.iter()
             .map(|o| {
-                (o.contact == crate::io::measurements::Contact::Measured).then(|| {
+                (o.contact == crate::session::observation::Contact::Measured).then(|| {
                     crate::session::registration::in_session(&models, o.session)
                         .forward(&o.q, &o.context)
                         .map_or(f64::INFINITY, |t| {

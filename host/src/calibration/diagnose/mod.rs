@@ -65,21 +65,24 @@ use armcal_shared::units::Units;
 use armcal_shared::{Calibration, GeometricCalibration, Param, ParamError, Robot};
 use nalgebra::Vector3;
 
+use crate::calibration::fit::prior::Geometry;
 use crate::calibration::fit::{
-    FullError, FullFit, FullOptions, Linearization, Observation, PlaneEstimate, Status,
-    identify_constrained, identify_with_effects, linearize, session_registrations,
+    FullError, FullFit, FullOptions, Linearization, PlaneEstimate, Status, identify_constrained,
+    identify_with_effects, linearize, session_registrations,
 };
-use crate::calibration::fit::prior::{Geometry, Prior};
 use crate::calibration::parallel;
 use crate::calibration::validation::acceptance::{Ending, FailedCalibration, Judged, verdict};
 use crate::calibration::validation::blunders::{self, Blunder, Scale};
 use crate::calibration::validation::folds::{Folds, HeldOut, SELECTION_POSES, Subset};
-use crate::calibration::validation::replicates::{Configurations, LackOfFit};
+use crate::calibration::validation::replicates::LackOfFit;
 use crate::calibration::validation::stats::f_quantile;
-use crate::io::measurements::Contact;
+use crate::session::configurations::Configurations;
 use crate::session::constraints::{Constraints, MIN_PLANE_TOUCHES};
 use crate::session::measurements::Measurements;
 use crate::session::model::RobotModel;
+use crate::session::observation::Contact;
+use crate::session::observation::Observation;
+use crate::session::prior::Prior;
 use crate::session::registration::in_session;
 use alike::Alike;
 pub use candidates::{Candidate, candidates, own_columns};
@@ -198,7 +201,8 @@ fn nominal_errors(nominal: &[Robot<f64>], data: &[Observation], k: usize) -> Vec
     let k = k.clamp(2, data.len().max(2));
     let contacts: Vec<Contact> = data.iter().map(|o| o.contact).collect();
     let configurations = Configurations::of_robot(&nominal[0], data).index(data.len());
-    let fold = crate::calibration::validation::folds::interleaved_folds(&contacts, &configurations, k);
+    let fold =
+        crate::calibration::validation::folds::interleaved_folds(&contacts, &configurations, k);
     let tool: Vec<Vector3<f64>> = data
         .iter()
         .map(|o| {
@@ -428,7 +432,7 @@ pub fn diagnose_with_progress(
         .filter(|i| d.blunders.binary_search(i).is_err())
         .map(|i| data[i].clone())
         .collect();
-    d.ranges = crate::io::measurements::ranges(&kept);
+    d.ranges = crate::session::observation::ranges(&kept);
     d.fitted = d.fitted_at(nominal, &kept);
     // A blunder is a whole configuration: the others are those kept.
     let kept_configurations = configurations.without(&d.blunders);
@@ -983,7 +987,7 @@ impl Pass<'_> {
             fitted: None,
             replicates: None,
             selection: None,
-            ranges: crate::io::measurements::ranges(&screen.clean),
+            ranges: crate::session::observation::ranges(&screen.clean),
         };
         d.fitted = d.fitted_at(self.nominal, &screen.clean);
         d

@@ -7,10 +7,11 @@ use armcal_shared::effects::Effect;
 use armcal_shared::{Calibration, JointType, Param, Robot};
 
 use super::{Choice, DiagnoseOptions, Diagnosis, HeldOut, HeldOutModels, Shortfall};
-use crate::calibration::fit::{Observation, Status};
+use crate::calibration::fit::Status;
 use crate::calibration::fit::prior::Geometry;
-use crate::io::measurements::Measurements;
 use crate::report::format::significant;
+use crate::session::measurements::Measurements;
+use crate::session::observation::Observation;
 
 /// How the reports name a pose: its row's line (a file's; an array's row,
 /// from 0) and, with several sessions, its session's file.
@@ -216,7 +217,7 @@ impl Diagnosis {
     /// first-round gain.
     pub fn to_json(
         &self,
-        model: &crate::io::model_file::RobotModel,
+        model: &crate::session::model::RobotModel,
         rows: RowPlaces<'_>,
         options: &DiagnoseOptions,
     ) -> serde_json::Value {
@@ -306,7 +307,7 @@ impl Diagnosis {
     /// calibration `written` holds them (in the model's units), its evidence.
     fn effects_json(
         &self,
-        model: &crate::io::model_file::RobotModel,
+        model: &crate::session::model::RobotModel,
         written: &Calibration,
         options: &DiagnoseOptions,
     ) -> Vec<serde_json::Value> {

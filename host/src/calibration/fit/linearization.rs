@@ -12,11 +12,11 @@ use super::rows::{DistanceRows, LinearSystem, NormalEquations};
 use super::{Constraints, FullFit, Model, Observation, PlaneEstimate, Status, Unknown};
 use crate::calibration::cancel::Cancel;
 use crate::calibration::dense;
-use crate::calibration::fit::noise::Channel;
-use crate::calibration::fit::prior::Prior;
-use crate::io::measurements::Contact;
+use crate::session::channel::Channel;
 use crate::session::channel::{PerChannel, Weighed, WeightFactors};
 use crate::session::configurations::Configurations;
+use crate::session::observation::Contact;
+use crate::session::prior::Prior;
 
 /// The model at a fit's solution and the unknowns of a linearisation about
 /// it ([`linearize`], [`fold_normals`]): the fit's identified parameters, its

@@ -84,26 +84,28 @@ use faer::linalg::solvers::{DenseSolveCore, Solve};
 use faer::{Mat, Side};
 use nalgebra::{Matrix3, Point3, Rotation3, Vector3};
 
-use noise::{Channel, Noise, NoiseEstimate, NoiseSource, PerChannel, Weights};
-use prior::{Geometry, PRIOR_FACTORS, Prior};
 use crate::calibration::cancel::{Cancel, Cancelled};
 use crate::session::channel::WeightFactors;
-pub use crate::session::registration::{FrameSharing, Registrations, Sharing};
+use crate::session::channel::{Channel, PerChannel};
+use crate::session::prior::{PRIOR_FACTORS, Prior};
+use crate::session::registration::{FrameSharing, Registrations, Sharing};
+use noise::{Noise, NoiseEstimate, NoiseSource, Weights};
+use prior::Geometry;
 
-mod fit;
 mod initial;
 mod linearization;
 pub mod noise;
 pub mod prior;
 mod register;
+mod rounds;
 mod rows;
 mod selection;
 mod solve;
 
-use fit::{Fit, Unknowns, check_inputs};
 pub use initial::session_registrations;
 pub use linearization::{FoldNormal, FoldNormals, Linearization, fold_normals, linearize};
 pub use register::register_session;
+use rounds::{Fit, Unknowns, check_inputs};
 use rows::NormalEquations;
 
 /// One unknown of the fit: a geometric parameter, or parameter `component` of
@@ -343,8 +345,8 @@ pub fn effect_parameter_name(effect: &Effect<f64>, component: usize) -> String {
     }
 }
 
-pub use crate::io::measurements::Observation;
-pub use crate::session::constraints::Constraints;
+use crate::session::constraints::Constraints;
+use crate::session::observation::Observation;
 
 /// Settings of the full identification.
 #[derive(Clone, Copy, Debug)]

@@ -34,7 +34,7 @@
 //! noise their residuals show, `σ̄ √(Ω_d / r_d)` with `σ̄` the RMS of the stated
 //! uncertainties, is reported beside it.
 
-pub use crate::session::channel::{Channel, PerChannel};
+use crate::session::channel::{Channel, PerChannel};
 
 /// The weight of each channel's rows, `1/σ_c`.
 pub type Weights = PerChannel<f64>;

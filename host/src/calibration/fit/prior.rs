@@ -32,8 +32,6 @@
 
 use armcal_shared::{JointType, Param, Robot};
 
-pub use crate::session::prior::{PRIOR_FACTORS, Prior};
-
 /// The nested geometric models, from the fewest parameters to the most; each
 /// adds to the one before it. The base and the tool are free in all of them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]

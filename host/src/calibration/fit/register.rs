@@ -14,7 +14,8 @@ use super::initial::initial_base_tool;
 use super::rows::NormalEquations;
 use super::solve::levenberg_marquardt;
 use super::{FrameSharing, FullError, FullOptions, Model, Observation, Sharing, Unknown};
-use crate::calibration::fit::noise::{PerChannel, Weights};
+use crate::calibration::fit::noise::Weights;
+use crate::session::channel::PerChannel;
 
 /// `robot` with `effects`, its base and tool (those `sharing` gives each
 /// session; the others held at `robot`'s) registered to `data` (one

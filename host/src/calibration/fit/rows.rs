@@ -14,11 +14,12 @@ use faer::linalg::matmul::{self, triangular, triangular::BlockStructure};
 use faer::{Accum, Mat, Par};
 use nalgebra::{Point3, Vector3};
 
-use crate::calibration::dense::unit_diagonal_scale;
 use super::{Model, Observation, PlaneEstimate, Unknown, rms_pair};
 use crate::calibration::cancel::Cancel;
-use crate::calibration::fit::noise::{Channel, PerChannel, Weights};
+use crate::calibration::dense::unit_diagonal_scale;
+use crate::calibration::fit::noise::Weights;
 use crate::calibration::parallel;
+use crate::session::channel::{Channel, PerChannel};
 
 /// The weighted Jacobian and residual of one linearisation, stored whole (rows ×
 /// unknowns): what [`linearize`] hands the diagnosis, which solves on subsets of

@@ -77,13 +77,15 @@
 use nalgebra::DVector;
 use serde_json::{Value, json};
 
-use crate::calibration::fit::{Constraints, FoldNormals, FullFit, Observation};
-use crate::calibration::fit::prior::Prior;
 use super::prior_scale::{
     PriorChoice, PriorScale, fold_steps, fold_sums, held_out_squares, immaterial,
 };
-pub use crate::calibration::validation::folds::DEFAULT_FOLDS;
-pub use crate::session::channel::{Channel, PerWeighed, UNUSED, Weighed, WeightFactors};
+use crate::calibration::fit::{FoldNormals, FullFit};
+use crate::calibration::validation::folds::DEFAULT_FOLDS;
+use crate::session::channel::{Channel, PerWeighed, Weighed, WeightFactors};
+use crate::session::constraints::Constraints;
+use crate::session::observation::Observation;
+use crate::session::prior::Prior;
 
 /// The weights scored, relative to what the noise gives: as estimated, a
 /// tenth, a hundredth, not used.
@@ -757,8 +759,10 @@ mod tests {
     use crate::calibration::fit::FullOptions;
     use crate::calibration::identify::{ParamSet, identify_weighted};
     use crate::calibration::simulate::{OrientationBias, Scenario, simulate};
-    use crate::io::measurements::{Measurements, parse_measurements};
-    use crate::io::model_file::{RobotModel, load_model};
+    use crate::io::measurements::parse_measurements;
+    use crate::io::model_file::load_model;
+    use crate::session::measurements::Measurements;
+    use crate::session::model::RobotModel;
     use crate::test_support::true_error;
     use armcal_shared::Robot;
 

@@ -294,7 +294,7 @@ fn tool_point_rms(fit: &FullFit, truth: &Robot<f64>) -> f64 {
 #[test]
 fn each_kind_of_contact_gets_its_own_noise() {
     use crate::calibration::fit::noise::NoiseSource;
-    use crate::calibration::fit::prior::Prior;
+    use crate::session::prior::Prior;
     let kinds = Kinds {
         per_socket: 40,
         point_noise: 2e-5,
@@ -457,9 +457,9 @@ fn diagnose_names_a_compliance_hidden_in_a_socket_session() {
 /// held-out than the nominal model.
 #[test]
 fn a_session_visiting_its_sockets_in_turn_locates_each_in_every_fold() {
-    use crate::calibration::validation::folds::interleaved_folds;
     use crate::calibration::diagnose::{Choice, DiagnoseOptions, diagnose_session};
-    use crate::io::measurements::Contact;
+    use crate::calibration::validation::folds::interleaved_folds;
+    use crate::session::observation::Contact;
     let nominal = load_model("puma560").expect("built-in model").robot;
     let mut rng = simulate::rng(41);
     let (truth, _) = simulate::with_random_errors(
@@ -477,7 +477,7 @@ fn a_session_visiting_its_sockets_in_turn_locates_each_in_every_fold() {
     let session = simulate::socket_session(&truth, &sockets, 3, 5e-5, &mut rng)
         .expect("every socket is reached");
     // Round by round: socket 0, 1, …, 9, then again.
-    let rows: Vec<crate::calibration::fit::Observation> = (0..3)
+    let rows: Vec<crate::session::observation::Observation> = (0..3)
         .flat_map(|round| (0..10).map(move |k| (k, round)))
         .map(|(k, round)| session.observations[3 * k + round].clone())
         .collect();
@@ -538,7 +538,7 @@ fn a_session_visiting_its_sockets_in_turn_locates_each_in_every_fold() {
 fn a_probed_block_held_out_is_judged_by_its_flatness() {
     use crate::calibration::holdout::{Selection, leave_one_out};
     use crate::commands::holdout::holdout_table;
-    use crate::io::measurements::Measurements;
+    use crate::session::measurements::Measurements;
     use nalgebra::Rotation3;
 
     let model = load_model("ur5e").expect("built-in model");
@@ -623,9 +623,9 @@ fn a_probed_block_held_out_is_judged_by_its_flatness() {
 }
 
 /// The measurements a file of session `s` under constraints `c` would give.
-fn measurements(s: &SocketSession, c: &Constraints) -> crate::io::measurements::Measurements {
+fn measurements(s: &SocketSession, c: &Constraints) -> crate::session::measurements::Measurements {
     let n = s.observations.len();
-    crate::io::measurements::Measurements {
+    crate::session::measurements::Measurements {
         file: "contacts.csv".into(),
         poses: s.observations.clone(),
         lines: (2..2 + n).collect(),
@@ -645,16 +645,17 @@ fn measurements(s: &SocketSession, c: &Constraints) -> crate::io::measurements::
 /// random configurations (m: what it predicts of poses it never saw, without
 /// measurement noise), and the factors it was fitted at.
 fn delivered(
-    model: &crate::io::model_file::RobotModel,
-    data: &crate::io::measurements::Measurements,
+    model: &crate::session::model::RobotModel,
+    data: &crate::session::measurements::Measurements,
     weights: &[(
-        super::channel_weight::Weighed,
+        crate::session::channel::Weighed,
         super::channel_weight::ChannelWeight,
     )],
     plane_noise: f64,
     truth: &Robot<f64>,
-) -> (f64, super::channel_weight::WeightFactors) {
-    use super::channel_weight::{ChannelWeights, DEFAULT_FOLDS};
+) -> (f64, crate::session::channel::WeightFactors) {
+    use super::channel_weight::ChannelWeights;
+    use crate::calibration::validation::folds::DEFAULT_FOLDS;
     let mut request = ChannelWeights::chosen(DEFAULT_FOLDS);
     for &(w, c) in weights {
         request[w] = c;
@@ -689,8 +690,8 @@ fn delivered(
 
 /// `data` without its plane and its touches: the sockets alone.
 fn sockets_alone(
-    data: &crate::io::measurements::Measurements,
-) -> crate::io::measurements::Measurements {
+    data: &crate::session::measurements::Measurements,
+) -> crate::session::measurements::Measurements {
     let mut alone = data.clone();
     alone.poses.retain(|o| o.on_plane().is_none());
     let n = alone.poses.len();
@@ -713,7 +714,8 @@ fn sockets_alone(
 /// made with the ball itself are kept at their noise's weight every time.
 #[test]
 fn a_probe_off_the_ball_is_weighed_down_beside_the_sockets() {
-    use super::channel_weight::{ChannelWeight, Weighed};
+    use super::channel_weight::ChannelWeight;
+    use crate::session::channel::Weighed;
     let model = load_model("ur5e").expect("built-in model");
     let noise = 2e-5;
     let kinds = Kinds::alike(20, noise);

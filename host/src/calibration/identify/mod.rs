@@ -31,14 +31,16 @@ mod constraint_tests;
 use armcal_shared::calibration::ParamError;
 use armcal_shared::{Calibration, Param, Robot};
 
-use crate::calibration::validation::acceptance::Judgement;
-use crate::io::measurements::Measurements;
-use crate::io::model_file::RobotModel;
-use channel_weight::{ChannelWeights, Weighting};
-use crate::calibration::fit::{FullFit, FullOptions, Observation, Registrations, Status};
-use paper::{PaperOptions, PaperPose};
 use crate::calibration::fit::noise;
-use crate::calibration::fit::prior::Prior;
+use crate::calibration::fit::{FullFit, FullOptions, Status};
+use crate::calibration::validation::acceptance::Judgement;
+use crate::session::measurements::Measurements;
+use crate::session::model::RobotModel;
+use crate::session::observation::Observation;
+use crate::session::prior::Prior;
+use crate::session::registration::Registrations;
+use channel_weight::{ChannelWeights, Weighting};
+use paper::{PaperOptions, PaperPose};
 use prior_scale::{PriorChoice, PriorScale};
 
 /// Which model to identify.
@@ -239,7 +241,7 @@ pub fn identify(
         set,
         options,
         scale,
-        &ChannelWeights::chosen(channel_weight::DEFAULT_FOLDS),
+        &ChannelWeights::chosen(crate::calibration::validation::folds::DEFAULT_FOLDS),
     )
 }
 
@@ -278,7 +280,7 @@ pub fn identify_weighted(
     };
     let mut calibration = Calibration::nominal(nominal.clone(), orientation, model.units);
     calibration.flange = model.flange;
-    calibration.ranges = Some(crate::io::measurements::ranges(&data.poses));
+    calibration.ranges = Some(crate::session::observation::ranges(&data.poses));
     // What the prior's cross-validation measured of the fit written.
     calibration.held_out = prior.as_ref().and_then(PriorChoice::held_out);
     for row in parameters
@@ -362,7 +364,12 @@ fn fit_full(
     let mut fit = fit_at(1.0, options)?;
     // Each choice below is a pass over the rows (its folds' normal
     // equations): none starts once the caller asked to stop.
-    let asked_to_stop = || options.cancel.check().map_err(crate::calibration::fit::FullError::from);
+    let asked_to_stop = || {
+        options
+            .cancel
+            .check()
+            .map_err(crate::calibration::fit::FullError::from)
+    };
     asked_to_stop()?;
     let observed = observations(data);
     let kinds = channel_weight::weighed_kinds(observed);
@@ -372,7 +379,7 @@ fn fit_full(
         // weighed-down kind's noise held at its estimate at full weight.
         let folds = match scale {
             PriorScale::Chosen { folds } => folds,
-            PriorScale::Stated => channel_weight::DEFAULT_FOLDS,
+            PriorScale::Stated => crate::calibration::validation::folds::DEFAULT_FOLDS,
         };
         let (chosen, prior_choice) = channel_weight::choose(
             &fit,
@@ -384,7 +391,7 @@ fn fit_full(
         );
         asked_to_stop()?;
         let factor = prior_choice.as_ref().map_or(1.0, PriorChoice::factor);
-        if factor != 1.0 || chosen.factors() != channel_weight::WeightFactors::NOISE {
+        if factor != 1.0 || chosen.factors() != crate::session::channel::WeightFactors::NOISE {
             let weighted = chosen.options(options, &fit);
             fit = fit_at(factor, &weighted)?;
         }

@@ -39,13 +39,15 @@
 //! error ([`immaterial`]: a PUMA 560 tracker session from 10³ positions on), no cross-validation
 //! could tell the scales apart, and the stated one is kept without one.
 
-use crate::calibration::fit::{Constraints, FoldNormals, FullFit, Observation, fold_normals};
 use crate::calibration::dense::unit_scale;
-use crate::calibration::fit::prior::{PRIOR_FACTORS, Prior};
-pub use crate::calibration::validation::folds::DEFAULT_FOLDS;
+use crate::calibration::fit::{FoldNormals, FullFit, fold_normals};
+use crate::calibration::validation::folds::DEFAULT_FOLDS;
 use crate::calibration::validation::folds::interleaved_folds;
 use crate::session::channel::{Channel, UNUSED, Weighed, WeightFactors};
 use crate::session::configurations::Configurations;
+use crate::session::constraints::Constraints;
+use crate::session::observation::Observation;
+use crate::session::prior::{PRIOR_FACTORS, Prior};
 use nalgebra::{DMatrix, DVector};
 
 /// How the identification sets the prior's scale.
@@ -313,13 +315,15 @@ pub(crate) fn held_out_squares(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calibration::validation::folds::{Folds, Subset};
     use crate::calibration::fit::{FullOptions, identify_constrained, linearize};
     use crate::calibration::identify::{ParamSet, identify};
     use crate::calibration::simulate::{Scenario, simulate};
-    use crate::io::measurements::{Measurements, load_measurements, parse_measurements};
-    use crate::io::model_file::{RobotModel, load_model, load_model_with};
+    use crate::calibration::validation::folds::{Folds, Subset};
+    use crate::io::measurements::{load_measurements, parse_measurements};
+    use crate::io::model_file::{load_model, load_model_with};
     use crate::io::urdf::ChainSpec;
+    use crate::session::measurements::Measurements;
+    use crate::session::model::RobotModel;
 
     /// A simulated tracker session of `model`: `poses` positions of a robot
     /// off nominal by up to `errors` (m, rad) on every parameter.

@@ -25,18 +25,18 @@ use std::fmt::Write as _;
 use armcal_shared::Frame;
 use serde_json::json;
 
-use crate::calibration::fit::{
-    FrameSharing, FullError, FullFit, FullOptions, Observation, Status, register_session,
-};
-use crate::report::format::length_and_mm;
+use crate::calibration::fit::{FullError, FullFit, FullOptions, Status, register_session};
 use crate::calibration::validation::stats::f_quantile;
-use crate::io::measurements::Measurements;
-use crate::io::model_file::Units;
+use crate::report::format::length_and_mm;
 use crate::session::channel::Channel;
-use crate::session::measurements::session_count;
+use crate::session::measurements::Measurements;
+use crate::session::observation::Observation;
+use crate::session::observation::session_count;
+use crate::session::registration::FrameSharing;
 use crate::session::registration::Sharing;
 use armcal_shared::Robot;
 use armcal_shared::effects::Effect;
+use armcal_shared::units::Units;
 
 /// One session left out (see the module header).
 #[derive(Clone, Debug, PartialEq)]

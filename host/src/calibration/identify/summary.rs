@@ -9,13 +9,14 @@ use std::fmt::Write as _;
 use armcal_shared::Param;
 use serde_json::json;
 
-use crate::calibration::fit::prior::PRIOR_FACTORS;
-use super::prior_scale::{self, PriorChoice};
 use super::Identification;
+use super::prior_scale::{self, PriorChoice};
 use crate::calibration::fit::noise;
 use crate::report::format::{length_and_mm, significant};
-use crate::io::measurements::Measurements;
-use crate::io::model_file::{RobotModel, Units};
+use crate::session::measurements::Measurements;
+use crate::session::model::RobotModel;
+use crate::session::prior::PRIOR_FACTORS;
+use armcal_shared::units::Units;
 
 /// One channel's noise as the reports show it, in the model's units.
 #[derive(Clone, Debug, PartialEq)]
@@ -51,13 +52,13 @@ pub fn noise_rows(noise: &noise::NoiseEstimate, units: &Units) -> Vec<NoiseRow> 
         .into_iter()
         .map(|(channel, n)| {
             let (in_units, unit): (fn(&Units, f64) -> f64, String) =
-                if channel == Some(noise::Channel::Orientation) {
+                if channel == Some(crate::session::channel::Channel::Orientation) {
                     (Units::angle_from_si, units.angle.to_string())
                 } else {
                     (Units::length_from_si, units.length.to_string())
                 };
             NoiseRow {
-                what: channel.map_or("distance", noise::Channel::name),
+                what: channel.map_or("distance", crate::session::channel::Channel::name),
                 used: in_units(units, n.used),
                 shown: in_units(units, n.shown),
                 source: n.source,

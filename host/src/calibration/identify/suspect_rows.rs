@@ -23,13 +23,12 @@
 //! ([`crate::calibration::diagnose::large`]), while `identify` stays as
 //! fast as its fit. Units: SI.
 
+use crate::calibration::dense::unit_diagonal_scale;
+use crate::calibration::fit::{FullFit, Linearization, linearize};
 use crate::calibration::validation::blunders::{self, ALPHA, Deleted, Scale, Suspect};
 use crate::calibration::validation::folds::SELECTION_POSES;
-use crate::calibration::dense::unit_diagonal_scale;
-use crate::calibration::fit::{
-    FullFit, Linearization, Observation, linearize,
-};
 use crate::session::constraints::Constraints;
+use crate::session::observation::Observation;
 use crate::session::prior::Prior;
 use faer::Mat;
 use nalgebra::{DMatrix, DVector};

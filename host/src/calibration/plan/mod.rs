@@ -51,12 +51,13 @@ use nalgebra::{DMatrix, Point3, UnitQuaternion};
 use rand::RngExt;
 
 use crate::calibration::fit::{
-    FullOptions, Observation, Status, full_params, identify_constrained, identify_with_effects,
+    FullOptions, Status, full_params, identify_constrained, identify_with_effects,
     independent_parameter_count,
 };
 use crate::calibration::simulate::rng;
-use crate::io::measurements::Contact;
 use crate::io::sockets::Sockets;
+use crate::session::observation::Contact;
+use crate::session::observation::Observation;
 use crate::session::prior::Prior;
 use design::Candidates;
 pub use design::Optimality;
@@ -1266,11 +1267,7 @@ mod tests {
     use crate::io::model_file::load_model;
 
     /// Asserts that `fit` identifies each of `params` (`what` names the case).
-    fn assert_identified(
-        fit: &crate::calibration::fit::FullFit,
-        params: &[Param],
-        what: &str,
-    ) {
+    fn assert_identified(fit: &crate::calibration::fit::FullFit, params: &[Param], what: &str) {
         for param in params {
             let status = &fit
                 .params

@@ -28,12 +28,12 @@ use armcal_shared::{FrameAxis, Param, Robot};
 use nalgebra::DMatrix;
 
 use super::{Column, PlanError, jacobian, within_limits};
-use crate::calibration::fit::Observation;
 use crate::calibration::parallel;
 use crate::calibration::simulate::reach_point;
-use crate::io::measurements::Contact;
 use crate::io::sockets::{APPROACH_CONE_DEG, Sockets};
 use crate::session::constraints::{Constraints, Named};
+use crate::session::observation::Contact;
+use crate::session::observation::Observation;
 
 /// The candidates of a socket plan: about `count` configurations in all,
 /// shared among `plate`'s sockets, each reaching its socket (see the module

@@ -287,7 +287,7 @@ pub fn invert_series(
         if r % 6 < 3 {
             ops
         } else {
-            ops * crate::io::measurements::reach(nominal, std::iter::empty())
+            ops * crate::session::measurements::reach(nominal, std::iter::empty())
         }
     };
     let mut floor = vec![0.0; params.len()];

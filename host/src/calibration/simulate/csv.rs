@@ -12,7 +12,7 @@ use armcal_shared::{JointType, Robot};
 use rand::rngs::StdRng;
 
 use super::{Draw, Scenario, Session, random_configuration};
-use crate::session::measurements::Observation;
+use crate::session::observation::Observation;
 
 impl Session {
     /// The measurements as a measurement CSV (`docs/file-formats.md` §2) in `units`, with `t`, `temp`, `load`.

@@ -6,8 +6,8 @@
 //! Units are SI (m, rad). Random draws come from a seeded `StdRng`, so every run
 //! is repeatable.
 
-use crate::session::measurements::Observation;
-use crate::session::measurements::Contact;
+use crate::session::observation::Contact;
+use crate::session::observation::Observation;
 use armcal_shared::{Frame, JointType, Param, Robot};
 use nalgebra::{Point3, UnitQuaternion, Vector3};
 use rand::rngs::StdRng;

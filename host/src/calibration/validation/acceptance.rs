@@ -25,12 +25,14 @@ use armcal_shared::Robot;
 use armcal_shared::effects::EffectModel;
 use armcal_shared::pose_error::rotation_error;
 
-use crate::calibration::validation::contact_check::{contact_check, geometric};
-use crate::calibration::fit::{Registrations, session_registrations};
+use crate::calibration::fit::session_registrations;
 use crate::calibration::parallel;
-use crate::io::measurements::{Measurements, Observation};
-use crate::io::model_file::Units;
+use crate::calibration::validation::contact_check::{contact_check, geometric};
+use crate::session::measurements::Measurements;
+use crate::session::observation::Observation;
+use crate::session::registration::Registrations;
 use crate::session::registration::in_session;
+use armcal_shared::units::Units;
 
 /// RMS residuals of one model on a session's rows.
 #[derive(Clone, Copy, Debug, PartialEq)]

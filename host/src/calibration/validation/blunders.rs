@@ -45,11 +45,11 @@ use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::{Mat, Par, Side};
 use nalgebra::{DMatrix, DVector};
 
-use crate::calibration::validation::folds::{Folds, HeldOut, Role, Subset, interleaved_folds};
 use crate::calibration::dense::unit_diagonal_scale;
 use crate::calibration::fit::Linearization;
+use crate::calibration::validation::folds::{Folds, HeldOut, Role, Subset, interleaved_folds};
 use crate::calibration::validation::stats::{f_quantile, significantly_smaller};
-use crate::io::measurements::Contact;
+use crate::session::observation::Contact;
 
 /// The family-wise error rate of the test over all poses.
 pub const ALPHA: f64 = 0.01;

@@ -20,8 +20,8 @@ use armcal_shared::effects::EffectModel;
 use nalgebra::{Point3, Vector3};
 
 use crate::calibration::fit::PlaneEstimate;
-use crate::session::measurements::Contact;
 use crate::session::measurements::Measurements;
+use crate::session::observation::Contact;
 
 /// One point's figures.
 #[derive(Clone, Debug)]

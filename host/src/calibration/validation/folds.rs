@@ -29,11 +29,9 @@ use faer::Mat;
 use nalgebra::{DMatrix, DVector};
 
 use crate::calibration::dense::{column, normal_equations, unit_scale};
-use crate::calibration::fit::{
-    Linearization,
-};
+use crate::calibration::fit::Linearization;
 use crate::calibration::parallel;
-use crate::io::measurements::Contact;
+use crate::session::observation::Contact;
 use std::collections::HashMap;
 
 /// Held-out statistics: RMS, mean and max of the position error, m.

@@ -35,10 +35,7 @@
 
 use crate::calibration::validation::stats::f_cdf;
 
-pub use crate::session::configurations::{
-    Configurations, PAYLOAD_RESOLUTION, PRISMATIC_RESOLUTION, PureError, REVOLUTE_RESOLUTION,
-    TEMPERATURE_RESOLUTION,
-};
+use crate::session::configurations::PureError;
 
 /// The lack-of-fit test of a model fitted to the configurations' means.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -89,9 +86,9 @@ impl LackOfFit {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use crate::calibration::simulate::{Scenario, simulate};
     use crate::io::model_file::load_model;
+    use crate::session::configurations::Configurations;
     use nalgebra::Vector3;
 
     /// Each of 12 poses repeated five times, each repeat read with its own

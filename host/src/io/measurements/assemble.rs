@@ -10,15 +10,15 @@ use armcal_shared::effects::Approach;
 use nalgebra::Point3;
 
 use super::schema::{Columns, Item, Place, Schema, ignored_warning};
-use crate::io::input_error::InputError;
-use crate::io::model_file::RobotModel;
 use crate::session::constraints::{
     Constraints, Distance, DistanceLine, MIN_PLANE_TOUCHES, Named, merge_named,
 };
+use crate::session::input_error::InputError;
 use crate::session::measurements::{
-    Contact, Measurements, Observation, nominal_point_means, plural, reach,
-    require_plausible_distance,
+    Measurements, nominal_point_means, plural, reach, require_plausible_distance,
 };
+use crate::session::model::RobotModel;
+use crate::session::observation::{Contact, Observation};
 
 // What a row says beside its joints: its line, where it measures x, y, z
 // (the column of its first coordinate), and the point and plane it names.

@@ -14,11 +14,12 @@
 
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 
+use super::row::{Batch, Row, place_after};
 use super::schema::{Columns, Item, Role, Schema, ignored_warning};
 use super::source::{Source, Stop};
-use super::row::{Batch, Row, place_after};
 use super::table::Table;
-use crate::io::input_error::{DATA_FILE, InputError, SizeLimit};
+use crate::io::input_error::{DATA_FILE, SizeLimit};
+use crate::session::input_error::InputError;
 
 /// Records a batch holds.
 const BATCH: usize = 512;

@@ -83,11 +83,12 @@ use self::csv_reader::read_table;
 use self::schema::{Item, Kind, Schema};
 use self::source::Source;
 use crate::io::builtin;
-use crate::io::input_error::{DATA_FILE, InputError, open_bounded};
-use crate::io::model_file::RobotModel;
+use crate::io::input_error::{DATA_FILE, open_bounded};
+use crate::session::input_error::InputError;
+use crate::session::model::RobotModel;
 
-pub use crate::session::joints::{JointRow, JointRows};
-pub use crate::session::measurements::*;
+use crate::session::joints::{JointRow, JointRows};
+use crate::session::measurements::*;
 
 /// Loads measurements: a built-in set if `name_or_path` is the name of one (see
 /// [`builtin::DATA`]), otherwise the file at that path, read against `model`.

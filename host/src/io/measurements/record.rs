@@ -10,10 +10,11 @@ use nalgebra::{Quaternion, UnitQuaternion};
 use super::row::Row;
 use super::schema::{Place, QUAT, Record, Role};
 use super::table::Table;
-use crate::io::input_error::InputError;
 use crate::session::constraints::RESERVED;
-use crate::session::measurements::{
-    MAX_TORQUE, PAYLOAD_RANGE, POSITION, QUATERNION_NORM_TOLERANCE, TEMPERATURE_RANGE, plural,
+use crate::session::input_error::InputError;
+use crate::session::measurements::{POSITION, plural};
+use crate::session::observation::{
+    MAX_TORQUE, PAYLOAD_RANGE, QUATERNION_NORM_TOLERANCE, TEMPERATURE_RANGE,
 };
 
 impl Table<'_> {

@@ -4,7 +4,7 @@
 //! from the reader's thread to the parser's.
 
 use super::schema::Place;
-use crate::io::input_error::InputError;
+use crate::session::input_error::InputError;
 
 /// One record: its fields (untrimmed: [`Row::field`] trims), its text as the
 /// file has it (for the places of its fields), its line, and its joint

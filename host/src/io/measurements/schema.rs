@@ -86,7 +86,7 @@ impl Schema<'_> {
 }
 
 /// One data row as read, in SI, before it becomes an
-/// [`Observation`](crate::session::measurements::Observation) or a
+/// [`Observation`](crate::session::observation::Observation) or a
 /// [`JointRow`](crate::session::joints::JointRow)
 /// (a joints file leaves `position` at 0 and `orientation` empty).
 pub(super) struct Record {

@@ -11,8 +11,8 @@ use super::schema::{
     Item, Kind, LimitTally, Place, QUAT, Role, Schema, case_hint, joint_index, role_of,
     torque_index,
 };
-use crate::io::input_error::InputError;
 use crate::session::constraints::{DEFAULT_DISTANCE_STD, DistanceLine};
+use crate::session::input_error::InputError;
 use crate::session::measurements::POSITION;
 
 /// What the data lines of a file are read against: its name (for

@@ -836,10 +836,10 @@ fn a_long_file_keeps_its_places() {
     }
     let m = parse_measurements(&text, "data.csv", &model).unwrap();
     assert_eq!(m.len(), rows);
-    let expected = crate::io::input_error::line_col(&text, text.len()).0 - 1;
+    let expected = crate::session::input_error::line_col(&text, text.len()).0 - 1;
     assert_eq!(*m.lines.last().unwrap(), expected);
     text.push_str("0.1,0.2,0.3,0.4,0.5,0.6,1.0,€x,3.0\r\n");
-    let (line, column) = crate::io::input_error::line_col(&text, text.rfind('€').unwrap());
+    let (line, column) = crate::session::input_error::line_col(&text, text.rfind('€').unwrap());
     refused(&model, &text, line, column, &["column 'y'"]);
     assert!(text.len() > 16 << 16, "sixteen times what the reader keeps");
 }
@@ -941,7 +941,7 @@ proptest! {
         let text = crate::test_support::mutate(d.text, &edits, CSV_ALPHABET);
         match parse_measurements(&text, "fuzz.csv", &model) {
             Err(e) => {
-                let lines = crate::io::input_error::line_col(&text, text.len()).0;
+                let lines = crate::session::input_error::line_col(&text, text.len()).0;
                 prop_assert!(e.line >= 1 && e.line <= lines, "{e}");
                 prop_assert!(e.column >= 1, "{e}");
             }

@@ -9,7 +9,7 @@ use toml::de::{DeTable, DeValue};
 
 use super::keys::{JOINT_KEYS, JOINT_TYPES, Value, a_type, quoted_list};
 use super::reader::ModelReader;
-use crate::io::input_error::InputError;
+use crate::session::input_error::InputError;
 
 impl ModelReader<'_> {
     pub(super) fn joints(

@@ -36,15 +36,16 @@
 //! | `prior` | the `[prior]` table |
 //! | `keys` | the allowed keys and values, and the words of the messages about them |
 
-pub use armcal_shared::units::{AngleUnit, LengthUnit, Units};
+use armcal_shared::units::Units;
 use toml::de::DeTable;
 
 use crate::io::builtin;
-use crate::io::input_error::{InputError, MODEL_FILE, read_text};
+use crate::io::input_error::{MODEL_FILE, read_text};
 use crate::io::urdf::{self, ChainSpec};
+use crate::session::input_error::InputError;
 use crate::session::prior::Prior;
 
-pub use crate::session::model::RobotModel;
+use crate::session::model::RobotModel;
 
 mod joints;
 mod keys;

@@ -7,7 +7,7 @@ use toml::de::{DeTable, DeValue};
 
 use super::keys::{PRIOR_KEYS, a_type};
 use super::reader::ModelReader;
-use crate::io::input_error::InputError;
+use crate::session::input_error::InputError;
 use crate::session::prior::Prior;
 
 impl ModelReader<'_> {

@@ -12,7 +12,7 @@ use nalgebra::Vector3;
 use toml::de::{DeTable, DeValue};
 
 use super::keys::{CONVENTIONS, FRAME_KEYS, Key, TOP_KEYS, Value, a_type, closest, quoted_list};
-use crate::io::input_error::InputError;
+use crate::session::input_error::InputError;
 use crate::session::model::RobotModel;
 
 /// Walks the spanned TOML document; every error is placed by a span of `text`.

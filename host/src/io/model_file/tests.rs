@@ -3,6 +3,7 @@
 
 use super::*;
 use crate::io::builtin::MODELS;
+use armcal_shared::units::{AngleUnit, LengthUnit};
 use armcal_shared::{Convention, Frame, JointType, Link, MAX_JOINTS};
 use nalgebra::Vector3;
 use proptest::prelude::*;
@@ -587,7 +588,7 @@ proptest! {
     ) {
         let text = crate::test_support::mutate(MODELS[which].text, &edits, TOML_ALPHABET);
         if let Err(e) = parse_model(&text, "fuzz.toml") {
-            let lines = crate::io::input_error::line_col(&text, text.len()).0;
+            let lines = crate::session::input_error::line_col(&text, text.len()).0;
             prop_assert!(e.line >= 1 && e.line <= lines, "{e}");
             prop_assert!(e.column >= 1, "{e}");
         }

@@ -43,7 +43,7 @@
 //! parallelism (UR arms; URDF rounding leaves 1e-10 rad) the foot is undefined.
 //! There Hayati's tilt `β` replaces the redundant offset: every parameter then
 //! moves by about `r` per radian, and `--params full` identifies `β` with the
-//! other four ([`crate::io::model_file::RobotModel::tilted`]). Above the threshold Craig's four parameters
+//! other four ([`crate::session::model::RobotModel::tilted`]). Above the threshold Craig's four parameters
 //! span every small motion of the next axis (`--params full` identifies those
 //! four; β is added by `armcal diagnose`'s `parallel_axis_tilt`), so the tilt
 //! is not used where it is not needed. Real arms have consecutive axes either
@@ -65,7 +65,7 @@ use armcal_shared::{Convention, Frame, JointType, Link, LinkMass, Robot};
 use nalgebra::{Point3, Rotation3, Translation3, Vector3};
 
 use super::{ChainSpec, JointKind, Pose, Urdf, UrdfChain, rpy};
-use crate::io::input_error::InputError;
+use crate::session::input_error::InputError;
 
 /// Below this sine of the angle between consecutive axes, Hayati's tilt is used
 /// instead of Craig's common normal (see the module header).

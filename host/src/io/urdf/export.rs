@@ -56,7 +56,7 @@ use nalgebra::{Rotation3, Translation3, Vector3};
 
 use super::convert::{Converted, link_at_zero, pre_joint};
 use super::{Pose, Urdf, rpy};
-use crate::io::input_error::InputError;
+use crate::session::input_error::InputError;
 
 /// The link added at the calibrated measured frame.
 pub const MEASURED_POINT: &str = "armcal_measured_point";

@@ -42,7 +42,7 @@ use std::collections::HashMap;
 use armcal_shared::MAX_JOINTS;
 use nalgebra::{IsometryMatrix3, Rotation3, Translation3, Unit, Vector3};
 
-use crate::io::input_error::InputError;
+use crate::session::input_error::InputError;
 
 pub mod convert;
 pub mod export;
@@ -352,7 +352,7 @@ impl Reader<'_> {
     }
 
     fn line(&self, offset: usize) -> usize {
-        crate::io::input_error::line_col(self.text, offset).0
+        crate::session::input_error::line_col(self.text, offset).0
     }
 
     /// The `name` attribute of an element, required.
@@ -639,7 +639,7 @@ impl Urdf {
     }
 
     fn line(&self, offset: usize) -> usize {
-        crate::io::input_error::line_col(&self.text, offset).0
+        crate::session::input_error::line_col(&self.text, offset).0
     }
 
     /// The chain that `spec` names, checked: moving joints only revolute,

@@ -16,11 +16,8 @@ use armcal_shared::{FrameAxis, Param, Robot};
 use faer::Side;
 use nalgebra::{Matrix3, Point3, Rotation3, Vector3};
 
-use super::noise::{
-    Channel, ChannelNoise, NoiseEstimate, NoiseSource, PerChannel, SETTLED, Weights,
-};
-use super::prior::Prior;
 use super::initial::{initial_base_tool, initial_points_tool, session_registrations};
+use super::noise::{ChannelNoise, NoiseEstimate, NoiseSource, SETTLED, Weights};
 use super::rows::{LinearSystem, NormalEquations};
 use super::selection::{constrained_subset, separable_subset};
 use super::solve::{levenberg_marquardt, wrap_angle};
@@ -30,7 +27,9 @@ use super::{
     Unknown, channel_weights, full_params, independent_parameter_count, prior_reach, prior_terms,
 };
 use crate::session::channel::Weighed;
-use crate::session::measurements::session_count;
+use crate::session::channel::{Channel, PerChannel};
+use crate::session::observation::session_count;
+use crate::session::prior::Prior;
 
 /// Refuses data the fit cannot read: rows at points or planes the
 /// constraints do not name, effects on joints the model lacks, poses with
