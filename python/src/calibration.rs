@@ -16,7 +16,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 
 use crate::errors::{self, ArrayLike, Owned, args};
-use crate::fit::{OnInterrupt, interruptible};
+use crate::interrupt::{OnInterrupt, interruptible};
 use crate::model::{joints_in_units, pose_values};
 
 /// A calibration: the nominal model, its identified errors and effects, in

@@ -8,8 +8,9 @@ use armcal::io::measurements;
 use armcal::session::observation::Contact;
 use pyo3::prelude::*;
 
+use crate::errors::PYTHON;
 use crate::errors::{self, ArrayLike, Owned, args};
-use crate::fit::{OnInterrupt, PYTHON, interruptible};
+use crate::interrupt::{OnInterrupt, interruptible};
 use crate::model::{Model, joints_in_units, pose_values};
 
 /// Measured poses read against a model. Rows are in measurement order; values
@@ -88,7 +89,7 @@ pub fn parse_measurements(
 )]
 pub fn from_arrays<'py>(
     py: Python<'py>,
-    #[pyo3(from_py_with = args::model)] model: Bound<'py, Model>,
+    #[pyo3(from_py_with = crate::model::argument)] model: Bound<'py, Model>,
     q: ArrayLike<'py>,
     xyz: ArrayLike<'py>,
     quat: Option<ArrayLike<'py>>,
@@ -158,7 +159,7 @@ pub fn from_arrays<'py>(
 )]
 pub fn simulate<'py>(
     py: Python<'py>,
-    #[pyo3(from_py_with = args::model)] model: Bound<'py, Model>,
+    #[pyo3(from_py_with = crate::model::argument)] model: Bound<'py, Model>,
     #[pyo3(from_py_with = args::poses)] poses: usize,
     #[pyo3(from_py_with = args::seed)] seed: u64,
     #[pyo3(from_py_with = args::noise)] noise: Option<f64>,
@@ -186,7 +187,8 @@ pub fn simulate<'py>(
         orientation_bias,
         orientation_bias_growth,
         torque_noise,
-        torque_sign: crate::fit::torque_sign(py, Some(&torque_sign))?.unwrap_or(TorqueSign::Drive),
+        torque_sign: crate::errors::torque_sign(py, Some(&torque_sign))?
+            .unwrap_or(TorqueSign::Drive),
         effects,
         tilts,
         payloads,

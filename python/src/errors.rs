@@ -6,7 +6,9 @@
 //! type ([`args`]: a negative count, a string where a list is taken).
 
 use armcal::apply::ranges;
+use armcal::calibration::gravity::TorqueSign;
 use armcal::commands;
+use armcal::commands::Front;
 use armcal::io::arrays;
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray2, PyArrayDyn, PyArrayMethods};
@@ -25,6 +27,28 @@ pyo3::create_exception!(
     ArmcalError,
     "A refused input (a file, an argument, arrays): the message names the file, line and column, or the array and row, as the command line does. Attributes: file, line, column (0 when there is no place), row (the array row, for arrays; else None)."
 );
+
+/// The Python package's front end, as the command layer names its
+/// arguments.
+pub(crate) const PYTHON: Front = Front::Python;
+
+/// The sign of the `tau` columns `torque_sign` names: `"drive"`, `"load"`,
+/// or `None` (read from the data).
+pub(crate) fn torque_sign(
+    py: Python<'_>,
+    torque_sign: Option<&str>,
+) -> PyResult<Option<TorqueSign>> {
+    match torque_sign {
+        None => Ok(None),
+        Some(name) => TorqueSign::from_name(name).map(Some).ok_or_else(|| {
+            argument(
+                py,
+                "torque_sign",
+                format!("{name:?}: expected \"drive\", \"load\" or None (read from the data)"),
+            )
+        }),
+    }
+}
 
 /// A refused input as an `armcal.InputError`; with `arrays`, an error of data
 /// read from arrays ([`arrays::DATA`], [`arrays::JOINTS`]) names the row.
@@ -342,40 +366,6 @@ pub mod args {
         servo: bool = "servo", "True or False";
         torque_sign: Option<String> = "torque_sign", "\"drive\", \"load\" or None";
         simulated_torque_sign: String = "torque_sign", "\"drive\" or \"load\"";
-    }
-
-    /// The argument `model`: a model (`armcal.load_model`), as the calls
-    /// that take one first refuse anything else.
-    pub fn model<'py>(ob: &Bound<'py, PyAny>) -> PyResult<Bound<'py, crate::model::Model>> {
-        reference(ob, "model")
-    }
-
-    /// The argument `reference`: a model, or None.
-    pub fn reference_model<'py>(
-        ob: &Bound<'py, PyAny>,
-    ) -> PyResult<Option<Bound<'py, crate::model::Model>>> {
-        if ob.is_none() {
-            Ok(None)
-        } else {
-            reference(ob, "reference").map(Some)
-        }
-    }
-
-    /// The model `ob`, the argument `name`.
-    fn reference<'py>(
-        ob: &Bound<'py, PyAny>,
-        name: &str,
-    ) -> PyResult<Bound<'py, crate::model::Model>> {
-        ob.cast::<crate::model::Model>().cloned().map_err(|_| {
-            let shown = ob
-                .repr()
-                .map_or_else(|_| "the value".to_owned(), |r| r.to_string());
-            super::argument(
-                ob.py(),
-                name,
-                format!("{shown}: expected a Model (armcal.load_model)"),
-            )
-        })
     }
 
     /// The argument `sessions`: a list of sessions ([`super::extract`]).

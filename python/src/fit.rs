@@ -2,11 +2,10 @@
 //! diagnose` compose them: the same checks of the data, the same options, the
 //! same report (the JSON of `docs/file-formats.md` §6, as Python dicts), the same refusals.
 
-use armcal::calibration::gravity::TorqueSign;
 use armcal::calibration::identify::channel_weight::{ChannelWeight, ChannelWeights};
 use armcal::calibration::identify::prior_scale::PriorScale;
 use armcal::calibration::identify::{ParamSet, StatedScales};
-use armcal::commands::{self, Front, diagnose as diagnose_cmd, identify as identify_cmd};
+use armcal::commands::{self, diagnose as diagnose_cmd, identify as identify_cmd};
 use armcal::session::channel::Weighed;
 use armcal::session::model::RobotModel;
 use armcal::session::registration::FrameSharing;
@@ -15,16 +14,13 @@ use pyo3::prelude::*;
 
 use std::sync::{Arc, OnceLock};
 
-use armcal::calibration::cancel::{Cancel, Interrupt};
+use armcal::calibration::cancel::Cancel;
 
 use crate::calibration::Calibration;
 use crate::data::Measurements;
-use crate::errors::{self, args};
+use crate::errors::{self, PYTHON, args};
+use crate::interrupt::{OnInterrupt, interruptible};
 use crate::model::Model;
-
-/// The Python package's front end, as the command layer names its
-/// arguments.
-pub(crate) const PYTHON: Front = Front::Python;
 
 /// What `identify` and `diagnose` give: the report of `--json` as a dict
 /// (`report`), the human summary the command prints (`summary`) and the
@@ -145,58 +141,6 @@ pub(crate) fn measurements_of(
     }
 }
 
-/// How often Python's main thread runs its signal handlers while a
-/// computation runs: the latency of Ctrl-C, less the computation's own.
-const SIGNAL_POLL: std::time::Duration = std::time::Duration::from_millis(10);
-
-/// What an interrupted computation does.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum OnInterrupt {
-    /// It asks its [`Cancel`] between its steps and stops: the exception is
-    /// raised once it has, so that nothing runs on after it.
-    Stops,
-    /// It has no way to stop: it finishes in the background and its result
-    /// is dropped; the exception is raised at once.
-    RunsOn,
-}
-
-/// Runs `work` on a thread of its own while this one, Python's main thread,
-/// keeps handling its signals every [`SIGNAL_POLL`]. When a handler raises
-/// (Ctrl-C: `KeyboardInterrupt`), `work`'s [`Cancel`] is requested and the
-/// exception is raised as `on_interrupt` says: for work that stops, within
-/// its longest step between two checks.
-pub(crate) fn interruptible<T: Send + 'static>(
-    py: Python<'_>,
-    on_interrupt: OnInterrupt,
-    work: impl FnOnce(Cancel) -> T + Send + 'static,
-) -> PyResult<T> {
-    use std::sync::Arc;
-    // The thread holds the interrupt as long as it runs: its flag is not
-    // given to another call while the thread may read it.
-    let interrupt = Arc::new(Interrupt::new());
-    let held = interrupt.clone();
-    let handle = std::thread::spawn(move || work(held.cancel()));
-    let joined = |handle: std::thread::JoinHandle<T>| {
-        handle
-            .join()
-            .map_err(|_| errors::failure("the computation stopped on an internal error"))
-    };
-    loop {
-        if handle.is_finished() {
-            return joined(handle);
-        }
-        if let Err(interrupt_error) = py.check_signals() {
-            interrupt.raise();
-            if on_interrupt == OnInterrupt::Stops {
-                // Its result (a cancellation, or what it finished) is dropped.
-                let _ = py.detach(|| handle.join());
-            }
-            return Err(interrupt_error);
-        }
-        py.detach(|| std::thread::sleep(SIGNAL_POLL));
-    }
-}
-
 /// `work` on `model` and the session's `rows` on a thread of its own
 /// ([`interruptible`]; it stops at its next step boundary when interrupted,
 /// asking the [`Cancel`] it is given); its result and the rows, back.
@@ -214,24 +158,6 @@ fn on_rows<T: Send + 'static>(
         work(&m, &shared, cancel)
     })?;
     Ok((result, rows))
-}
-
-/// The sign of the `tau` columns `torque_sign` names: `"drive"`, `"load"`,
-/// or `None` (read from the data).
-pub(crate) fn torque_sign(
-    py: Python<'_>,
-    torque_sign: Option<&str>,
-) -> PyResult<Option<TorqueSign>> {
-    match torque_sign {
-        None => Ok(None),
-        Some(name) => TorqueSign::from_name(name).map(Some).ok_or_else(|| {
-            errors::argument(
-                py,
-                "torque_sign",
-                format!("{name:?}: expected \"drive\", \"load\" or None (read from the data)"),
-            )
-        }),
-    }
 }
 
 /// `world` or `base`: the frame the compensation's targets are given in.
@@ -272,7 +198,7 @@ fn targets(py: Python<'_>, targets: &str) -> PyResult<TargetFrame> {
 )]
 pub fn identify_py<'py>(
     py: Python<'py>,
-    #[pyo3(from_py_with = args::model)] model: Bound<'py, Model>,
+    #[pyo3(from_py_with = crate::model::argument)] model: Bound<'py, Model>,
     data: &Bound<'_, PyAny>,
     #[pyo3(from_py_with = args::params)] params: String,
     #[pyo3(from_py_with = args::position_noise)] position_noise: Option<f64>,
@@ -330,7 +256,7 @@ pub fn identify_py<'py>(
         )?,
         targets: self::targets(py, &targets)?,
         frames: FrameSharing::stated(same_base, same_tool),
-        torque_sign: self::torque_sign(py, torque_sign.as_deref())?,
+        torque_sign: errors::torque_sign(py, torque_sign.as_deref())?,
         // The computation's own, given on its thread ([`on_rows`]).
         cancel: Cancel::NEVER,
     };
@@ -392,7 +318,7 @@ fn channel_weights(py: Python<'_>, texts: [&str; 3]) -> PyResult<ChannelWeights>
 )]
 pub fn diagnose<'py>(
     py: Python<'py>,
-    #[pyo3(from_py_with = args::model)] model: Bound<'py, Model>,
+    #[pyo3(from_py_with = crate::model::argument)] model: Bound<'py, Model>,
     data: &Bound<'_, PyAny>,
     #[pyo3(from_py_with = args::folds)] folds: Option<usize>,
     #[pyo3(from_py_with = args::position_noise)] position_noise: Option<f64>,
@@ -426,7 +352,7 @@ pub fn diagnose<'py>(
         )?,
         targets: self::targets(py, &targets)?,
         frames: FrameSharing::stated(same_base, same_tool),
-        torque_sign: self::torque_sign(py, torque_sign.as_deref())?,
+        torque_sign: errors::torque_sign(py, torque_sign.as_deref())?,
         // The computation's own, given on its thread ([`on_rows`]).
         cancel: Cancel::NEVER,
     };

@@ -16,8 +16,10 @@ use armcal::commands::holdout::{Calibrate, Request, Sessions, run};
 use pyo3::prelude::*;
 use serde_json::json;
 
+use crate::errors::PYTHON;
 use crate::errors::{self, args};
-use crate::fit::{OnInterrupt, PYTHON, interruptible, measurements_of};
+use crate::fit::measurements_of;
+use crate::interrupt::{OnInterrupt, interruptible};
 use crate::model::Model;
 
 /// Leaves each of `sessions` (Measurements, or paths, of sessions without a
@@ -55,10 +57,10 @@ use crate::model::Model;
 )]
 pub fn holdout<'py>(
     py: Python<'py>,
-    #[pyo3(from_py_with = args::model)] model: Bound<'py, Model>,
+    #[pyo3(from_py_with = crate::model::argument)] model: Bound<'py, Model>,
     #[pyo3(from_py_with = args::sessions_list)] sessions: Vec<Bound<'py, PyAny>>,
     #[pyo3(from_py_with = args::train_list)] train: Option<Vec<Bound<'py, PyAny>>>,
-    #[pyo3(from_py_with = args::reference_model)] reference: Option<Bound<'py, Model>>,
+    #[pyo3(from_py_with = crate::model::reference_argument)] reference: Option<Bound<'py, Model>>,
     #[pyo3(from_py_with = args::select)] select: String,
     #[pyo3(from_py_with = args::position_noise)] position_noise: Option<f64>,
     #[pyo3(from_py_with = args::point_noise)] point_noise: Option<f64>,

@@ -22,6 +22,7 @@ mod data;
 mod errors;
 mod fit;
 mod holdout;
+mod interrupt;
 mod model;
 mod plan;
 

@@ -201,3 +201,32 @@ pub fn joints_in_units(q: &[f64], robot: &Robot<f64>, units: &Units) -> Vec<f64>
         .map(|(v, l)| units.joint_from_si(l.joint, *v))
         .collect()
 }
+
+/// The argument `model`: a model (`armcal.load_model`), as the calls
+/// that take one first refuse anything else.
+pub fn argument<'py>(ob: &Bound<'py, PyAny>) -> PyResult<Bound<'py, Model>> {
+    reference(ob, "model")
+}
+
+/// The argument `reference`: a model, or None.
+pub fn reference_argument<'py>(ob: &Bound<'py, PyAny>) -> PyResult<Option<Bound<'py, Model>>> {
+    if ob.is_none() {
+        Ok(None)
+    } else {
+        reference(ob, "reference").map(Some)
+    }
+}
+
+/// The model `ob`, the argument `name`.
+fn reference<'py>(ob: &Bound<'py, PyAny>, name: &str) -> PyResult<Bound<'py, Model>> {
+    ob.cast::<Model>().cloned().map_err(|_| {
+        let shown = ob
+            .repr()
+            .map_or_else(|_| "the value".to_owned(), |r| r.to_string());
+        errors::argument(
+            ob.py(),
+            name,
+            format!("{shown}: expected a Model (armcal.load_model)"),
+        )
+    })
+}

@@ -6,8 +6,9 @@ use armcal::commands::plan::{Request, run, within_limits};
 use armcal::io::arrays;
 use pyo3::prelude::*;
 
+use crate::errors::PYTHON;
 use crate::errors::{self, ArrayLike, Owned, args};
-use crate::fit::{OnInterrupt, PYTHON, interruptible};
+use crate::interrupt::{OnInterrupt, interruptible};
 use crate::model::Model;
 
 /// The joint rows of the array `a` (named `name`), SI.
@@ -52,7 +53,7 @@ fn joint_rows(
 )]
 pub fn plan<'py>(
     py: Python<'py>,
-    #[pyo3(from_py_with = args::model)] model: Bound<'py, Model>,
+    #[pyo3(from_py_with = crate::model::argument)] model: Bound<'py, Model>,
     #[pyo3(from_py_with = args::poses)] poses: usize,
     #[pyo3(from_py_with = args::orientation)] orientation: bool,
     #[pyo3(from_py_with = args::noise)] noise: Option<f64>,
