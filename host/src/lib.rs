@@ -80,4 +80,6 @@ pub mod report;
 pub mod session;
 
 #[cfg(test)]
+mod layers;
+#[cfg(test)]
 mod test_support;

@@ -6,9 +6,9 @@
 //! against, and the refusal every layer gives for an input it cannot take.
 //!
 //! [`crate::io`] parses files into these types and [`crate::calibration`]
-//! reads them; nothing here computes a calibration or reads a file: nothing
-//! in `io` imports `calibration`, and nothing here imports `io` or
-//! `calibration` (the tests below check both).
+//! reads them; nothing here computes a calibration or reads a file. The
+//! session is the ground floor: it imports no other module of armcal (the
+//! test `layers::no_import_runs_back_up` checks every floor).
 //!
 //! | module | idea |
 //! | --- | --- |
@@ -35,59 +35,3 @@ pub mod model;
 pub mod observation;
 pub mod prior;
 pub mod registration;
-
-#[cfg(test)]
-mod tests {
-    /// Asserts that no source file under `src/<dir>` names any of `layers`
-    /// (`crate::<layer>` or `super::super::<layer>`) outside a comment.
-    fn imports_none_of(dir: &str, layers: &[&str]) {
-        fn sources(dir: &std::path::Path, out: &mut Vec<std::path::PathBuf>) {
-            for entry in std::fs::read_dir(dir).unwrap() {
-                let path = entry.unwrap().path();
-                if path.is_dir() {
-                    sources(&path, out);
-                } else if path.extension().is_some_and(|e| e == "rs") {
-                    out.push(path);
-                }
-            }
-        }
-        let mut files = Vec::new();
-        sources(
-            &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-                .join("src")
-                .join(dir),
-            &mut files,
-        );
-        assert!(files.len() > 5, "{files:?}");
-        for file in files {
-            let text = std::fs::read_to_string(&file).unwrap();
-            for (n, line) in text.lines().enumerate() {
-                let code = line.split("//").next().unwrap_or("");
-                for layer in layers {
-                    assert!(
-                        !code.contains(&format!("crate::{layer}"))
-                            && !code.contains(&format!("super::super::{layer}")),
-                        "{}:{}: {line}",
-                        file.display(),
-                        n + 1
-                    );
-                }
-            }
-        }
-    }
-
-    /// The layers' one rule: `io` reads and writes files into the session's
-    /// types and knows no calibration, so no source file under `src/io`
-    /// names `crate::calibration` outside a comment.
-    #[test]
-    fn io_does_not_import_calibration() {
-        imports_none_of("io", &["calibration"]);
-    }
-
-    /// The session sits under both: no source file under `src/session`
-    /// names `crate::io` or `crate::calibration` outside a comment.
-    #[test]
-    fn session_imports_neither_io_nor_calibration() {
-        imports_none_of("session", &["io", "calibration"]);
-    }
-}

@@ -11,8 +11,8 @@
 //! | [`acceptance`] | whether a calibration may be written: it converged and fits its own rows no worse than nominal |
 //!
 //! Everything here reads a fit ([`crate::calibration::fit`]) and the session's
-//! rows; nothing here chooses a model or identifies one (the layering test in
-//! [`crate::session`] keeps it so).
+//! rows; nothing here chooses a model or identifies one (the test `layers::no_import_runs_back_up`
+//! keeps it so).
 
 pub mod acceptance;
 pub mod blunders;
