@@ -1,6 +1,6 @@
 //! # armcal: the robot calibrator (library part of the `armcal` binary)
 //!
-//! The library is in five layers, in the order data flows through a session;
+//! The library is in six layers, in the order data flows through a session;
 //! a newcomer looking for a verb's science starts in [`calibration`], for a file
 //! format in [`io`], for what a verb is asked in [`commands`]. The command line
 //! is in the binary: `host/src/cli.rs` (the flags, turned into the requests of
@@ -15,9 +15,9 @@
 //!
 //! | module | idea |
 //! | --- | --- |
-//! | [`io::input_error`] | [`InputError`](io::input_error::InputError): a refused file, `file:line:column: message` |
-//! | [`io::model_file`] | the robot model TOML (§1) into an SI [`armcal_shared::Robot`], with the file's [`Units`](io::model_file::Units) |
-//! | [`io::measurements`] | the measurement CSV (§2), read against a model, into the SI [`Observation`](session::measurements::Observation)s of a [`Measurements`](session::measurements::Measurements); joint readings alone into [`JointRows`](session::joints::JointRows) |
+//! | [`io::input_error`] | [`InputError`](session::input_error::InputError): a refused file, `file:line:column: message` |
+//! | [`io::model_file`] | the robot model TOML (§1) into an SI [`armcal_shared::Robot`], with the file's [`Units`](armcal_shared::units::Units) |
+//! | [`io::measurements`] | the measurement CSV (§2), read against a model, into the SI [`Observation`](session::observation::Observation)s of a [`Measurements`](session::measurements::Measurements); joint readings alone into [`JointRows`](session::joints::JointRows) |
 //! | [`io::arrays`] | measurements and joint readings given as arrays (the Python package's numpy input), checked as the CSV reader checks its file |
 //! | [`io::builtin`] | the models of `models/` and the real data sets of `data/`, built into the binary |
 //! | [`io::urdf`] | URDF chains in (modified D-H with Hayati's tilt, exact) and calibrations out (`armcal export`) |
@@ -39,20 +39,25 @@
 //! ([`session`]'s table). [`io`] parses into them and imports nothing of
 //! [`calibration`]; [`calibration`] reads them.
 //!
-//! ## [`calibration`]: the science
+//! ## [`calibration`]: the science, in floors
 //!
-//! | module | idea |
-//! | --- | --- |
-//! | [`calibration::check`] | `armcal check`: what was read, and the error of the nominal model against the data |
-//! | [`calibration::identify`] | `armcal identify`: the paper's iterative regression and the full model, report and calibration |
-//! | [`calibration::diagnose`] | `armcal diagnose`: the model chosen on held-out poses (geometry, prior, effects), never worse than nominal; blunders; held-out gain |
-//! | [`calibration::validation::replicates`] | repeated configurations (the partition itself is [`session::configurations`]): the instrument noise the repeats show, the lack-of-fit test |
-//! | [`calibration::report`] | the self-contained HTML page of `armcal diagnose --html` (inline SVG) |
-//! | [`calibration::sweep`] | `armcal sweep`: detection and false-positive rates of the diagnosis over many simulated sessions |
-//! | [`calibration::validation::stats`] | Fisher's F distribution and its quantiles, for the diagnosis' tests |
-//! | [`calibration::simulate`] | true robots with built-in errors and their noisy measurements |
-//! | [`calibration::reproduce`] | `armcal reproduce`: the seed papers' examples |
-//! | [`calibration::demo`] | `armcal demo`: a simulated PUMA with a hidden effect, diagnosed, compensated, reported |
+//! Each floor uses only the floors under it (the test `layers` checks it):
+//!
+//! | floor | module | idea |
+//! | --- | --- | --- |
+//! | ground | [`calibration::gravity`], [`calibration::cancel`], [`calibration::dense`], [`calibration::parallel`] | the arm's masses from measured torques; stopping a long computation; faer's matrices; independent pieces on every core |
+//! | simulator | [`calibration::simulate`] | true robots with built-in errors and their noisy measurements |
+//! | fit | [`calibration::fit`] | the weighted least-squares fit of the full model (Mirman & Gupta's columns, the prior, each channel's noise) |
+//! | validation | [`calibration::validation`] | cross-validation folds, deleted residuals, the F tests, the repeats' lack of fit, a session without a tracker's figures, whether a calibration may be written |
+//! | verbs | [`calibration::identify`], [`calibration::check`], [`calibration::plan`] | `armcal identify` (the paper's regression and the full model, its prior's scale and channel weights chosen held-out), `check`, `plan` |
+//! | | [`calibration::diagnose`], [`calibration::reproduce`] | `armcal diagnose` (the model chosen held-out, blunders, effects, its HTML page); the seed papers' examples |
+//! | | [`calibration::holdout`], [`calibration::sweep`], [`calibration::demo`] | sessions left out in turn; the diagnosis' rates over simulated sessions; the demo |
+//!
+//! ## [`report`]: how reports are written
+//!
+//! Numbers as the summaries give them, the HTML pages' head and escaping, and
+//! the scatter plots as inline SVG with real axes; under both [`calibration`]
+//! and [`apply`].
 //!
 //! ## [`apply`]: using a calibration
 //!

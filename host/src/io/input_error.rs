@@ -1,6 +1,7 @@
 //! Reading an input file within the limit of its kind, and the refusal it
-//! gives ([`InputError`], [`crate::session::input_error`]'s, re-exported here
-//! with [`line_col`] and [`ends_line`]).
+//! gives ([`InputError`], defined in [`crate::session::input_error`] with
+//! [`line_col`](crate::session::input_error::line_col) and
+//! [`ends_line`](crate::session::input_error::ends_line)).
 //!
 //! Every input file is read through [`read_bounded`] with the limit of its kind
 //! ([`MODEL_FILE`]: 1 MiB, [`DATA_FILE`]: 1 GiB; a calibration's 5 KiB in

@@ -1,10 +1,10 @@
 //! How armcal's reports are written, whatever they report: numbers as the
-//! summaries give them ([`format`]), the HTML pages' head, style and escaping
+//! summaries give them ([`self::format`]), the HTML pages' head, style and escaping
 //! ([`html`]), and the scatter plots they draw as inline SVG ([`svg`]).
 //!
 //! Nothing here knows a calibration: [`crate::calibration`] and
 //! [`crate::apply`] both write with it, so it stands under both (the
-//! layering test in [`crate::session`] keeps it so).
+//! test `layers::no_import_runs_back_up` keeps it so).
 
 pub mod format;
 pub mod html;

@@ -50,7 +50,7 @@ pub struct Observation {
     /// fixed point or plane.
     pub contact: Contact,
     /// The session the row was measured in: an index into
-    /// [`Measurements::sessions`] (0 for a single session). Each session has
+    /// [`Measurements::sessions`](crate::session::measurements::Measurements::sessions) (0 for a single session). Each session has
     /// its own registration unless told it shares one
     /// ([`crate::session::registration`]).
     pub session: usize,
@@ -78,10 +78,10 @@ pub enum Contact {
     #[default]
     Measured,
     /// The unknown fixed point it sits at: an index into
-    /// [`Measurements::constraints`]' points.
+    /// [`Measurements::constraints`](crate::session::measurements::Measurements::constraints)' points.
     Point(usize),
     /// The unknown plane it touches: an index into
-    /// [`Measurements::constraints`]' planes.
+    /// [`Measurements::constraints`](crate::session::measurements::Measurements::constraints)' planes.
     Plane(usize),
 }
 

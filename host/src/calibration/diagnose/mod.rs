@@ -11,7 +11,7 @@
 //!    poses held-out.
 //! 3. **Geometric model** ([`geometry`]): nominal, registration, offsets,
 //!    lengths and every parameter, each at five prior scales, compared by the
-//!    k-fold cross-validated tool-point error ([`cross_validation`]); the least
+//!    k-fold cross-validated tool-point error ([`crate::calibration::validation::folds`]); the least
 //!    held-out RMS is chosen if it beats the nominal model significantly, pose
 //!    by pose, and it is refitted.
 //! 4. **Effects** ([`candidates`](mod@candidates)): forward selection. Each round tests every

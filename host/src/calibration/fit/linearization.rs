@@ -308,7 +308,7 @@ pub struct FoldNormal {
     pub b: DVector<f64>,
     /// Each channel's share of `a` and `b` (zero for a channel without
     /// rows): what another weight of the channel scales
-    /// ([`super::super::channel_weight`]).
+    /// ([`crate::calibration::identify::channel_weight`]).
     pub shares: PerChannel<Normal>,
     /// Each tool-point channel's rows, in m (`None` for the orientations
     /// and for a channel without rows in the fold).

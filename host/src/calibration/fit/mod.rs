@@ -17,7 +17,7 @@
 //! rows `dP = dη + νdφ × P`, eq. 8) and, when measured, the orientation residual:
 //! the rotation vector of `R_meas R_modelᵀ` (3 rows, with the rotation part
 //! `νdφ` of the columns). Rows are divided by the noise of their channel
-//! ([`super::noise::Channel`]): `σ_p` for measured positions, `σ_r` for
+//! ([`crate::session::channel::Channel`]): `σ_p` for measured positions, `σ_r` for
 //! orientations, and in a session without a tracker the noise of the kind of
 //! contact (a tool point at a fixed point, on a plane), so that all are in
 //! units of their noise and the fit is a weighted least-squares one.

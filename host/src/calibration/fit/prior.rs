@@ -10,7 +10,7 @@
 //! `Σ_rows (r / σ)² + Σ_params ((x − x_nominal) / τ)²`
 //!
 //! with the measurement noise `σ` of each row's channel and the prior scale `τ`
-//! of each D-H parameter ([`Prior::length`] for `s` and `a`, [`Prior::angle`]
+//! of each D-H parameter ([`Prior::length`](crate::session::prior::Prior::length) for `s` and `a`, [`Prior::angle`](crate::session::prior::Prior::angle)
 //! for `θ`, `α` and the Hayati tilts `β`). The base and the tool have no prior:
 //! they are where the instrument and the tool happen to be, not built to a
 //! drawing. Effect parameters have none either; the diagnosis admits an effect

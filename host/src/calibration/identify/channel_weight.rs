@@ -43,7 +43,7 @@
 //! (`A_c`, `b_c` the kind's share) and its held-out rows' sum of squares
 //! `S(w, f)` (m²). The weights [`WEIGHTS`] (×1, ×0.1, ×0.01 and none) are
 //! each scored at every prior factor; a weight's score is its best
-//! factor's. Not used (`w = 0`) is scored at `w = 10⁻⁹` ([`UNUSED`]): its
+//! factor's. Not used (`w = 0`) is scored at `w = 10⁻⁹` ([`UNUSED`](crate::session::channel::UNUSED)): its
 //! limit, the geometry from the other rows and what only the kind's own
 //! rows see (the tool's rotation, a socket's centre, a plane) still from
 //! them. Contacts not used are fitted at that limit too; orientations not

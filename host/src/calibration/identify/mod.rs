@@ -2,9 +2,9 @@
 //!
 //! | module | model |
 //! | --- | --- |
-//! | [`full`] | `--params full` (the default): joint offsets, every `s, a, α`, base and tool, weighted Levenberg–Marquardt with a rank-revealing Cholesky, standard errors and observability |
+//! | [`crate::calibration::fit`] | `--params full` (the default): joint offsets, every `s, a, α`, base and tool, weighted Levenberg–Marquardt with a rank-revealing Cholesky, standard errors and observability |
 //! | [`paper`] | `--params paper`: the 3M position-independent model and the Iterative Regression Algorithm of Mirman & Gupta (1992), as the paper gives them |
-//! | [`prior`] | the prior on the D-H errors and the nested geometric models |
+//! | [`crate::calibration::fit::prior`] | the prior on the D-H errors and the nested geometric models |
 //! | [`prior_scale`] | the prior's scale chosen on held-out poses (`--prior-scale chosen`, the default) |
 //! | [`channel_weight`] | the orientation rows' weight chosen on held-out positions (`--orientation-weight chosen`, the default) |
 //! | [`noise`] | each channel's noise, estimated from the residuals as variance components |

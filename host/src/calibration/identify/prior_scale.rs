@@ -1,7 +1,7 @@
 //! The prior's scale, chosen on held-out poses: what `armcal identify` fits
 //! by default.
 //!
-//! The prior on the D-H parameter errors ([`super::prior`]) states a scale
+//! The prior on the D-H parameter errors ([`crate::calibration::fit::prior`]) states a scale
 //! (1 mm and 1 mrad unless the model file or the flags say otherwise), the
 //! tolerances of an industrial arm. A real arm can be off by more — a joint
 //! mastered 20 mrad off, a link machined for another variant — or by less.

@@ -16,7 +16,7 @@
 //! session without a tracker, the distance of each row's predicted tool
 //! point to the mean of the predicted points at its fixed point, or to the
 //! least-squares plane of the predicted touches of its plane
-//! ([`crate::calibration::contact_check`]), each model placing its own
+//! ([`crate::calibration::validation::contact_check`]), each model placing its own
 //! points. A full-pose calibration is worse when both its position and its
 //! orientation residual are above the nominal's (the fit weighs one against
 //! the other). SI inside; the message is in the model's units.

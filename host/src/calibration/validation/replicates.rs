@@ -4,9 +4,9 @@
 //! the repeatability, so a session often holds the same configuration several
 //! times. Two rows are one configuration when they are held to the same
 //! contact, every joint reads the same within the encoder's resolution
-//! ([`REVOLUTE_RESOLUTION`], [`PRISMATIC_RESOLUTION`]), each joint approached
+//! ([`REVOLUTE_RESOLUTION`](crate::session::configurations::REVOLUTE_RESOLUTION), [`PRISMATIC_RESOLUTION`](crate::session::configurations::PRISMATIC_RESOLUTION)), each joint approached
 //! from the same side (backlash) and the temperature and payload agree
-//! ([`TEMPERATURE_RESOLUTION`], [`PAYLOAD_RESOLUTION`]).
+//! ([`TEMPERATURE_RESOLUTION`](crate::session::configurations::TEMPERATURE_RESOLUTION), [`PAYLOAD_RESOLUTION`](crate::session::configurations::PAYLOAD_RESOLUTION)).
 //!
 //! A repeat adds no geometry: what the data can determine, how many poses
 //! they hold for every data-sufficiency rule, and which rows a held-out fold
@@ -57,7 +57,7 @@ pub struct LackOfFit {
 impl LackOfFit {
     /// The test of residuals showing `shown` per axis with redundancy
     /// `redundancy` against `pure` (`mean_inverse_count`:
-    /// [`Configurations::mean_inverse_count`]) at level `alpha`.
+    /// [`Configurations::mean_inverse_count`](crate::session::configurations::Configurations::mean_inverse_count)) at level `alpha`.
     pub fn test(
         pure: PureError,
         shown: f64,

@@ -11,12 +11,12 @@
 //!
 //! | column | required | unit on file | read into |
 //! | --- | --- | --- | --- |
-//! | `q1` … `qM` | yes | model angle unit (revolute) or length unit (prismatic) | [`Observation::q`], rad or m |
-//! | `x`, `y`, `z` | yes | model length unit, measurement frame | [`Observation::position`], m |
-//! | `qw`, `qx`, `qy`, `qz` | no, all four or none | unit quaternion, scalar first | [`Observation::orientation`], normalised |
+//! | `q1` … `qM` | yes | model angle unit (revolute) or length unit (prismatic) | [`Observation::q`](crate::session::observation::Observation::q), rad or m |
+//! | `x`, `y`, `z` | yes | model length unit, measurement frame | [`Observation::position`](crate::session::observation::Observation::position), m |
+//! | `qw`, `qx`, `qy`, `qz` | no, all four or none | unit quaternion, scalar first | [`Observation::orientation`](crate::session::observation::Observation::orientation), normalised |
 //! | `t` | no | s | [`Measurements::times`] |
-//! | `temp` | no | °C | [`Observation::context`] |
-//! | `load` | no | kg | [`Observation::context`] |
+//! | `temp` | no | °C | [`Observation::context`](crate::session::observation::Observation::context) |
+//! | `load` | no | kg | [`Observation::context`](crate::session::observation::Observation::context) |
 //!
 //! Other columns (an id, a comment) are kept out of the computation, listed in
 //! [`Measurements::columns_ignored`] and named in a warning. An empty cell of an
@@ -28,8 +28,8 @@
 //! `q` column beyond the model's joint count or a missing one (joint-count
 //! mismatch), a duplicate column name, a row with the wrong number of fields, a
 //! value that is not a finite number, a partial quaternion, a quaternion whose norm
-//! differs from 1 by more than [`QUATERNION_NORM_TOLERANCE`], a `temp` outside
-//! [`TEMPERATURE_RANGE`] or a `load` outside [`PAYLOAD_RANGE`], no data rows, and —
+//! differs from 1 by more than [`QUATERNION_NORM_TOLERANCE`](crate::session::observation::QUATERNION_NORM_TOLERANCE), a `temp` outside
+//! [`TEMPERATURE_RANGE`](crate::session::observation::TEMPERATURE_RANGE) or a `load` outside [`PAYLOAD_RANGE`](crate::session::observation::PAYLOAD_RANGE), no data rows, and —
 //! once the caller knows how many parameters it identifies — fewer equations
 //! than unknowns ([`Measurements::require_poses`]).
 //!
@@ -44,7 +44,7 @@
 //!
 //! The `csv` crate splits the records; the column of a field is found by scanning
 //! the record's text for commas outside double quotes. A file is read as a
-//! stream, one record at a time, into [`Observation`]s (one copy of each pose,
+//! stream, one record at a time, into [`Observation`](crate::session::observation::Observation)s (one copy of each pose,
 //! which the identification then reads in place): memory grows with the poses,
 //! not with the text. Two threads share the reading: one splits the records
 //! and converts the joint readings, the other reads the rest of each row and
