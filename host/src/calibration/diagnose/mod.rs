@@ -1148,14 +1148,28 @@ impl Search {
             let dof = (self.current_fit.redundancy - parameters).max(1.0);
             let f = ((base.objective - objective) / parameters)
                 / (objective / dof).max(f64::MIN_POSITIVE);
-            tests.push((c.clone(), own, f, dof));
+            tests.push(Tested {
+                candidate: c.clone(),
+                own,
+                f,
+                dof,
+            });
         }
         let validated = strongest(tests);
-        let evaluations = parallel::map_if(folds.spread(), &validated, |(_, own, _, _)| {
-            (!cancel.requested()).then(|| extensions.evaluate(own))?
+        let evaluations = parallel::map_if(folds.spread(), &validated, |t| {
+            (!cancel.requested()).then(|| extensions.evaluate(&t.own))?
         });
         let mut scored = Vec::new();
-        for ((candidate, own, f, threshold), e) in validated.into_iter().zip(evaluations) {
+        for (
+            ToValidate {
+                candidate,
+                own,
+                f,
+                threshold,
+            },
+            e,
+        ) in validated.into_iter().zip(evaluations)
+        {
             let Some(e) = e else {
                 continue;
             };
@@ -1184,34 +1198,57 @@ impl Search {
     }
 }
 
-/// The candidates to cross-validate of `tests` (candidate, own columns, F
-/// statistic, degrees of freedom): each with its family-wise threshold in
-/// place of its degrees of freedom, strongest by the test first, the
-/// [`CROSS_VALIDATED`] strongest and every one that passes.
-fn strongest(
-    tests: Vec<(Candidate, Vec<usize>, f64, f64)>,
-) -> Vec<(Candidate, Vec<usize>, f64, f64)> {
+/// A candidate's F test of its own columns against the model without them.
+struct Tested {
+    candidate: Candidate,
+    /// Its own columns in the linearisation.
+    own: Vec<usize>,
+    /// The F statistic of its fit to all poses.
+    f: f64,
+    /// The test's degrees of freedom in the residual.
+    dof: f64,
+}
+
+/// A candidate chosen to cross-validate ([`strongest`]): its test's F
+/// statistic beside the family-wise threshold of its parameter count.
+struct ToValidate {
+    candidate: Candidate,
+    own: Vec<usize>,
+    f: f64,
+    /// The `1 − α/m` quantile of `F(k, dof)`, `m` candidates tested.
+    threshold: f64,
+}
+
+/// The candidates of `tests` to cross-validate, strongest by the test
+/// first (F over its threshold): the [`CROSS_VALIDATED`] strongest and
+/// every one that passes.
+fn strongest(tests: Vec<Tested>) -> Vec<ToValidate> {
     let m = tests.len().max(1) as f64;
     // The same for every candidate of as many parameters (its `dof` too).
     let mut thresholds = std::collections::BTreeMap::new();
     // The held-out gain of the strongest by the test (and of every one that
     // passes it): no other can be chosen.
-    let mut tests: Vec<_> = tests
+    let mut tests: Vec<ToValidate> = tests
         .into_iter()
-        .map(|(c, own, f, dof)| {
-            let k = c.parameter_count();
-            let t = *thresholds
+        .map(|t| {
+            let k = t.candidate.parameter_count();
+            let threshold = *thresholds
                 .entry(k)
-                .or_insert_with(|| f_quantile(1.0 - ALPHA / m, k as f64, dof));
-            (c, own, f, t)
+                .or_insert_with(|| f_quantile(1.0 - ALPHA / m, k as f64, t.dof));
+            ToValidate {
+                candidate: t.candidate,
+                own: t.own,
+                f: t.f,
+                threshold,
+            }
         })
         .collect();
-    tests.sort_by(|a, b| (b.2 / b.3).total_cmp(&(a.2 / a.3)));
+    tests.sort_by(|a, b| (b.f / b.threshold).total_cmp(&(a.f / a.threshold)));
     tests
         .into_iter()
         .enumerate()
-        .take_while(|(i, (_, _, f, t))| *i < CROSS_VALIDATED || f > t)
-        .map(|(_, test)| test)
+        .take_while(|(i, t)| *i < CROSS_VALIDATED || t.f > t.threshold)
+        .map(|(_, t)| t)
         .collect()
 }
 

@@ -104,7 +104,7 @@ mod solve;
 
 pub use initial::session_registrations;
 pub use linearization::{FoldNormal, FoldNormals, Linearization, fold_normals, linearize};
-pub use register::register_session;
+pub use register::{Registered, register_session};
 use rounds::{Fit, Unknowns, check_inputs};
 use rows::NormalEquations;
 

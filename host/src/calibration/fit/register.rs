@@ -17,17 +17,27 @@ use super::{FrameSharing, FullError, FullOptions, Model, Observation, Sharing, U
 use crate::calibration::fit::noise::Weights;
 use crate::session::channel::PerChannel;
 
+/// A session registered ([`register_session`]).
+#[derive(Clone, Debug)]
+pub struct Registered {
+    /// The robot with the session's own base and tool.
+    pub robot: Robot<f64>,
+    /// The RMS of the rows' position residuals, m.
+    pub position_rms: f64,
+    /// The RMS of the rows' orientation residuals, rad (0 without orientations).
+    pub orientation_rms: f64,
+}
+
 /// `robot` with `effects`, its base and tool (those `sharing` gives each
 /// session; the others held at `robot`'s) registered to `data` (one
-/// session's rows): the registered robot and the RMS of the rows' position
-/// (m) and orientation (rad) residuals.
+/// session's rows).
 pub fn register_session(
     robot: &Robot<f64>,
     effects: &[Effect<f64>],
     data: &[Observation],
     sharing: FrameSharing,
     options: &FullOptions,
-) -> Result<(Robot<f64>, f64, f64), FullError> {
+) -> Result<Registered, FullError> {
     let mut seen = robot.clone();
     initial_base_tool(&mut seen, data);
     if sharing.base == Sharing::Shared {
@@ -60,5 +70,9 @@ pub fn register_session(
             levenberg_marquardt(&mut model, data, &frames, &weights, options, sys, &prior)?;
     }
     let (position, orientation) = sys.residual_rms(&weights);
-    Ok((model.robot, position, orientation))
+    Ok(Registered {
+        robot: model.robot,
+        position_rms: position,
+        orientation_rms: orientation,
+    })
 }

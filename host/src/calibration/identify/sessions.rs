@@ -201,7 +201,7 @@ pub fn held_out_by_session(
                     sharing,
                     options,
                 )
-                .map(|(_, position, orientation)| (trained.noise, position, orientation))
+                .map(|r| (trained.noise, r.position_rms, r.orientation_rms))
             });
             match figure {
                 Ok((noise, position_rms, orientation)) => SessionHeldOut::Predicted(LeftOut {
