@@ -16,6 +16,7 @@ mod predict;
 mod ranges;
 mod refusals;
 mod replicates;
+mod report_schema;
 mod serve;
 mod sessions;
 mod time_order;
