@@ -104,7 +104,7 @@ fn undocumented(
                 .iter()
                 .any(|n| n.starts_with('_') && key.ends_with(n.as_str()));
             if !named.contains(&key) && !by_name && !suffix {
-                missing.push(format!("{at}"));
+                missing.push(at);
             }
         }
     }
