@@ -1,5 +1,5 @@
 //! `holdout`: sessions without a tracker, each left out in turn, as `armcal
-//! holdout` composes it (`armcal::calibration::contact_check`).
+//! holdout` composes it (`armcal::calibration::holdout`).
 //!
 //! A session without a tracker measures no coordinate, so a calibration is
 //! judged on one it was not fitted to by what needs none: the *spread* of the
