@@ -36,7 +36,16 @@
 //! pose out in turn and puts back the best candidate, until a pass improves
 //! the criterion by less than [`SETTLED`] of it or [`PASSES`] passes. Columns are
 //! scaled to a unit mean square per candidate, so that `ε` means the same
-//! for every unit.
+//! for every unit. An exchange settles in a local optimum: the plan runs it
+//! again from the other criterion's plan ([`exchange`]) and keeps the better.
+//!
+//! ## How far from the best
+//! The I-criterion of a tracker's plan varies little between its local
+//! optima: for a UR10e and a PUMA 560 at their flange's origin, 20 poses of
+//! 2,000 candidates, the exchange's plans from the greedy start, from the
+//! D-optimal plan and from random ones are predicted within 1.5 % of each
+//! other, 4 % above the certified lower bound of every design of 20 poses
+//! (the convex relaxation's), and the D-optimal plan 4.5 % above it.
 
 use nalgebra::DMatrix;
 
