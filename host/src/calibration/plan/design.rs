@@ -36,8 +36,8 @@
 //! pose out in turn and puts back the best candidate, until a pass improves
 //! the criterion by less than [`SETTLED`] of it or [`PASSES`] passes. Columns are
 //! scaled to a unit mean square per candidate, so that `ε` means the same
-//! for every unit. An exchange settles in a local optimum: the plan runs it
-//! again from the other criterion's plan ([`exchange`]) and keeps the better.
+//! for every unit. An exchange settles in a local optimum: the I-optimal plan
+//! runs it again from the D-optimal plan ([`exchange`]) and keeps the better.
 //!
 //! ## How far from the best
 //! The I-criterion of a tracker's plan varies little between its local

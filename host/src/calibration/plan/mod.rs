@@ -689,7 +689,7 @@ pub fn plan_cancellable(
     };
     let (chosen, other_picked) = choose(
         &criterion.design(robot, &pool),
-        (options.criterion, other),
+        options.criterion,
         &slots,
         cancelled,
     )
@@ -781,44 +781,48 @@ pub fn plan_cancellable(
 }
 
 /// The candidates of `d` the plan measures, by `criterion`, and those the
-/// `other` criterion chooses, for comparison: one for each of `slots` (the
+/// other criterion chooses, for comparison: one for each of `slots` (the
 /// socket of each pose of a socket plan; all 0 otherwise), in the order
-/// chosen; `None` once `cancelled`. Each criterion's exchange from the greedy
-/// start ([`design::choose`]); the plan's is then run again from the other
-/// criterion's plan, and the one better on its own criterion kept: an
-/// exchange settles in a local optimum, and the other criterion's is another
-/// start, as good as any (the I-criterion's landscape is flat: a UR10e's
-/// plans of 20 poses from the greedy start, from the D-optimal plan and from
-/// random ones end within 1.5 % of each other in predicted RMS), which it
-/// so never ends worse than.
+/// chosen; `None` once `cancelled`. The D-optimal plan is the exchange's from
+/// the greedy start ([`design::choose`], DETMAX's). The I-optimal plan is the
+/// better of the I-optimal exchange's from the greedy start and from the
+/// D-optimal plan: an exchange settles in a local optimum, and the D-optimal
+/// plan is another start, as good as any (the I-criterion's landscape is
+/// flat: a UR10e's plans of 20 poses from the greedy start, from the
+/// D-optimal plan and from random ones end within 1.5 % of each other in
+/// predicted RMS), which the I-optimal plan so never ends worse than.
 fn choose(
     d: &Design,
-    (criterion, other): (Optimality, Optimality),
+    criterion: Optimality,
     slots: &[usize],
     cancelled: &(dyn Fn() -> bool + Sync),
 ) -> Option<(Vec<usize>, Vec<usize>)> {
     let by = |o| design::choose(&d.candidates, o, &d.w, &d.prior, slots, &d.group, cancelled);
-    let (own, theirs) = (by(criterion)?, by(other)?);
-    let again = design::exchange(
+    let d_optimal = by(Optimality::D)?;
+    let greedy = by(Optimality::I)?;
+    let from_d = design::exchange(
         &d.candidates,
-        criterion,
+        Optimality::I,
         (&d.w, &d.prior),
-        theirs.clone(),
+        d_optimal.clone(),
         (slots, &d.group),
         (design::PASSES, design::SETTLED),
         cancelled,
     )?;
     let value = |p: &[usize]| {
-        criterion
+        Optimality::I
             .criterion(&(&d.prior + d.candidates.information(p)), &d.w)
             .unwrap_or(f64::INFINITY)
     };
-    let chosen = if value(&again) < value(&own) {
-        again
+    let i_optimal = if value(&from_d) < value(&greedy) {
+        from_d
     } else {
-        own
+        greedy
     };
-    Some((chosen, theirs))
+    Some(match criterion {
+        Optimality::I => (i_optimal, d_optimal),
+        Optimality::D => (d_optimal, i_optimal),
+    })
 }
 
 /// With `robot`'s tool point on its last joint's axis, what the same
