@@ -644,3 +644,315 @@ fn d_optimal_designs_are_predicted_as_they_deliver_on_a_puma_560() {
         15,
     );
 }
+
+/// The true robots' error sizes of issue 45's acceptance, those of the
+/// independent simulator: D-H angles ±2 mrad, lengths ±0.5 mm, base ±2 mm /
+/// ±2 mrad, tool ±1 mm / ±2 mrad (uniform): the angles beyond `identify`'s
+/// stated prior (1 mm, 1 mrad), the base and tool without one.
+fn larger_errors() -> armcal::calibration::simulate::ErrorSizes {
+    armcal::calibration::simulate::ErrorSizes {
+        link_length: 0.5e-3,
+        link_angle: 2e-3,
+        base_length: 2e-3,
+        base_angle: 2e-3,
+        tool_length: 1e-3,
+        tool_angle: 2e-3,
+    }
+}
+
+/// Median (RMS, worst) held-out errors, m, of each design of the
+/// acceptance, and the plan's predicted RMS over the RMS it delivers.
+struct Acceptance {
+    plan: (f64, f64),
+    random: (f64, f64),
+    d_exchange: (f64, f64),
+    d_relaxed: (f64, f64),
+    predicted: f64,
+}
+
+impl Acceptance {
+    /// The better of the two D-optimal designs, RMS and worst each.
+    fn d_best(&self) -> (f64, f64) {
+        (
+            self.d_exchange.0.min(self.d_relaxed.0),
+            self.d_exchange.1.min(self.d_relaxed.1),
+        )
+    }
+}
+
+/// The candidates of the acceptance: as many as `plan` draws by default.
+const CANDIDATES: usize = 10_000;
+
+/// Issue 45's acceptance case for the built-in model `name` at its nominal
+/// tool point (the flange's origin, on the last joint's axis): `robots` true
+/// robots off nominal by [`larger_errors`], a tracker (σ = 20 µm per axis)
+/// measuring 20 poses of each design chosen from the same [`CANDIDATES`]
+/// candidates (within the joint limits less 5 %): the plan (`plan`'s default,
+/// I-optimal), the D-optimal exchange (`--criterion d-optimal`, DETMAX's),
+/// the D-optimal convex relaxation rounded ([`d_optimal_relaxed`], another
+/// implementation), and 20 candidates drawn at random for each robot.
+/// `identify` (its defaults: the prior's scale chosen by cross-validation)
+/// calibrates from each; the calibration predicts 200 random held-out
+/// configurations of the true robot. Prints every figure. The prior's scale
+/// and what `identify` holds do not limit the plan here: from exact
+/// measurements at the same poses, each calibration is exact
+/// ([`the_noise_alone_limits_the_acceptance_case`]).
+fn acceptance(name: &str, robots: u64) -> Acceptance {
+    use armcal::calibration::plan::{Optimality, within_limits};
+    use rand::RngExt;
+    let model = load_model(name).unwrap();
+    let nominal = &model.robot;
+    let candidates = within_limits(nominal, CANDIDATES, 0.05, 3);
+    let options = PlanOptions {
+        poses: 20,
+        ..PlanOptions::default()
+    };
+    let i_plan = plan(nominal, Some(&candidates), None, &options).unwrap();
+    let d_options = PlanOptions {
+        criterion: Optimality::D,
+        ..options.clone()
+    };
+    let d_plan = plan(nominal, Some(&candidates), None, &d_options).unwrap();
+    let relaxed = d_optimal_relaxed(nominal, &candidates, 20);
+    let params: Vec<Param> = nominal.params().collect();
+    let sizes = larger_errors();
+    // plan, random, D-exchange, D-relaxed.
+    let mut found: Vec<Vec<(f64, f64)>> = vec![Vec::new(); 4];
+    for seed in 1..=robots {
+        let mut r = rng(4500 + seed);
+        let (truth, _) =
+            armcal::calibration::simulate::with_error_sizes(nominal, &params, &sizes, &mut r);
+        let targets = random_configurations(nominal, 200, &mut r);
+        let random_q: Vec<Vec<f64>> = (0..20)
+            .map(|_| candidates[r.random_range(0..candidates.len())].clone())
+            .collect();
+        for (k, q) in [&i_plan.q, &random_q, &d_plan.q, &relaxed]
+            .into_iter()
+            .enumerate()
+        {
+            let calibrated = calibrate(&model, &truth, q, seed);
+            found[k].push(held_out(&calibrated, &truth, &targets, 0.0));
+        }
+        eprintln!(
+            "{name} robot {seed}: RMS / worst mm: plan {:.4} / {:.4}, random {:.4} / {:.4}, \
+             D-exchange {:.4} / {:.4}, D-relaxed {:.4} / {:.4}",
+            found[0][found[0].len() - 1].0 * 1e3,
+            found[0][found[0].len() - 1].1 * 1e3,
+            found[1][found[1].len() - 1].0 * 1e3,
+            found[1][found[1].len() - 1].1 * 1e3,
+            found[2][found[2].len() - 1].0 * 1e3,
+            found[2][found[2].len() - 1].1 * 1e3,
+            found[3][found[3].len() - 1].0 * 1e3,
+            found[3][found[3].len() - 1].1 * 1e3,
+        );
+    }
+    let medians = |v: &[(f64, f64)]| {
+        (
+            median(v.iter().map(|x| x.0).collect()),
+            median(v.iter().map(|x| x.1).collect()),
+        )
+    };
+    let a = Acceptance {
+        plan: medians(&found[0]),
+        random: medians(&found[1]),
+        d_exchange: medians(&found[2]),
+        d_relaxed: medians(&found[3]),
+        predicted: 0.0,
+    };
+    let a = Acceptance {
+        predicted: i_plan.predicted.rms / a.plan.0,
+        ..a
+    };
+    // The expected squared error the criteria predict, over the robots.
+    let quadratic =
+        |v: &[(f64, f64)]| (v.iter().map(|x| x.0 * x.0).sum::<f64>() / v.len() as f64).sqrt() * 1e3;
+    eprintln!(
+        "{name}: root mean square over the robots of the RMS, mm: plan {:.4}, random {:.4}, \
+         D-exchange {:.4}, D-relaxed {:.4}; predicted: plan {:.4}, D-exchange {:.4}",
+        quadratic(&found[0]),
+        quadratic(&found[1]),
+        quadratic(&found[2]),
+        quadratic(&found[3]),
+        i_plan.predicted.rms * 1e3,
+        d_plan.predicted.rms * 1e3,
+    );
+    let d = a.d_best();
+    eprintln!(
+        "{name} (nominal tool, larger errors, {robots} robots): median RMS / worst mm: plan \
+         {:.4} / {:.4}, random {:.4} / {:.4}, D-exchange {:.4} / {:.4}, D-relaxed {:.4} / {:.4}; \
+         plan/random {:.3} / {:.3} (goal 0.8), plan/best D {:.3} / {:.3} (goal 0.95), \
+         predicted/found {:.3} (goal 0.7–1.3)",
+        a.plan.0 * 1e3,
+        a.plan.1 * 1e3,
+        a.random.0 * 1e3,
+        a.random.1 * 1e3,
+        a.d_exchange.0 * 1e3,
+        a.d_exchange.1 * 1e3,
+        a.d_relaxed.0 * 1e3,
+        a.d_relaxed.1 * 1e3,
+        a.plan.0 / a.random.0,
+        a.plan.1 / a.random.1,
+        a.plan.0 / d.0,
+        a.plan.1 / d.1,
+        a.predicted,
+    );
+    a
+}
+
+/// True robots of the acceptance: 100 estimate a median of their RMS errors
+/// to about ±3 % (the RMS of one robot's calibration varies by about ±20 %).
+const ROBOTS: u64 = 100;
+
+/// Asserts that the plan's predicted RMS is within ±30 % of the median RMS
+/// it delivers in [`acceptance`].
+fn predicted_as_delivered(name: &str, a: &Acceptance) {
+    assert!(
+        (0.7..=1.3).contains(&a.predicted),
+        "{name}: predicted/found {}",
+        a.predicted
+    );
+}
+
+/// Asserts that the plan's median RMS and worst error in [`acceptance`]
+/// are at most `share` of `of`'s (`what`).
+fn at_most(name: &str, a: &Acceptance, share: f64, (what, of): (&str, (f64, f64))) {
+    assert!(
+        a.plan.0 <= share * of.0 && a.plan.1 <= share * of.1,
+        "{name}: plan {:?} against {what} {of:?}: {:.3} / {:.3} of it, goal {share}",
+        a.plan,
+        a.plan.0 / of.0,
+        a.plan.1 / of.1,
+    );
+}
+
+/// Issue 45's acceptance on a UR10e: what holds. The plan's predicted RMS
+/// within ±30 % of what it delivers. Its goals against random poses (0.8)
+/// and the D-optimal designs (0.95) are not met: [`issue_45_goals_on_a_ur10e`].
+#[test]
+fn larger_errors_at_the_nominal_tool_point_on_a_ur10e() {
+    let a = acceptance("ur10e", ROBOTS);
+    predicted_as_delivered("ur10e", &a);
+}
+
+/// Issue 45's acceptance on a PUMA 560: what holds. The plan's predicted
+/// RMS within ±30 % of what it delivers; its median RMS and worst error at
+/// most 0.8 of 20 random candidates'. Its goal against the D-optimal
+/// designs (0.95) is not met: [`issue_45_goals_on_a_puma_560`].
+#[test]
+fn larger_errors_at_the_nominal_tool_point_on_a_puma_560() {
+    let a = acceptance("puma560", ROBOTS);
+    predicted_as_delivered("puma560", &a);
+    at_most("puma560", &a, 0.8, ("random", a.random));
+}
+
+/// Issue 45's goals on a UR10e, not met: the plan's median RMS and worst
+/// error at most 0.8 of random candidates' and 0.95 of the better D-optimal
+/// design's. No design of 20 poses from 2,000 such candidates can be
+/// predicted 4.5 % better than the D-optimal exchange (the relaxation's
+/// bound, `armcal --lib a_plan_is_within_five_per_cent`), and the
+/// predictions are what `identify` delivers here (within 3 %).
+#[test]
+#[ignore = "issue 45's goals, not met on a UR10e: plan/random 0.85 / 0.82, plan/better D-optimal 1.04 / 1.05 (RMS / worst)"]
+fn issue_45_goals_on_a_ur10e() {
+    let a = acceptance("ur10e", ROBOTS);
+    at_most("ur10e", &a, 0.8, ("random", a.random));
+    at_most(
+        "ur10e",
+        &a,
+        0.95,
+        ("the better D-optimal design", a.d_best()),
+    );
+}
+
+/// Issue 45's goal against the D-optimal designs on a PUMA 560, not met
+/// (see [`issue_45_goals_on_a_ur10e`]).
+#[test]
+#[ignore = "issue 45's goal, not met on a PUMA 560: plan/better D-optimal 1.02 / 0.99 (RMS / worst)"]
+fn issue_45_goals_on_a_puma_560() {
+    let a = acceptance("puma560", ROBOTS);
+    at_most(
+        "puma560",
+        &a,
+        0.95,
+        ("the better D-optimal design", a.d_best()),
+    );
+}
+
+/// What limits the plan in [`acceptance`]'s case is the instrument's noise,
+/// not what the plan assumes of `identify`: on 25 of its true robots, the
+/// plan's poses measured exactly (no noise) give calibrations that predict
+/// 200 held-out poses to within 1 µm RMS (what the data do not separate
+/// moves no tool point; the prior pulls nothing the data determine), and
+/// measured with the noise, the calibration at the prior's scale as stated
+/// (which the plan predicts with) and at the scale `identify` chooses by
+/// cross-validation deliver median RMS errors within 5 % of each other.
+#[test]
+fn the_noise_alone_limits_the_acceptance_case() {
+    use armcal::calibration::identify::full::FullOptions;
+    use armcal::calibration::identify::prior_scale::PriorScale;
+    use armcal::calibration::identify::{ParamSet, identify};
+    use armcal::calibration::plan::within_limits;
+    for name in ["ur10e", "puma560"] {
+        let model = load_model(name).unwrap();
+        let nominal = &model.robot;
+        let candidates = within_limits(nominal, CANDIDATES, 0.05, 3);
+        let options = PlanOptions {
+            poses: 20,
+            ..PlanOptions::default()
+        };
+        let p = plan(nominal, Some(&candidates), None, &options).unwrap();
+        let params: Vec<Param> = nominal.params().collect();
+        let (mut exact, mut stated, mut chosen) = (Vec::new(), Vec::new(), Vec::new());
+        for seed in 1..=25 {
+            let mut r = rng(4500 + seed);
+            let (truth, _) = armcal::calibration::simulate::with_error_sizes(
+                nominal,
+                &params,
+                &larger_errors(),
+                &mut r,
+            );
+            let targets = random_configurations(nominal, 200, &mut r);
+            let fitted = |noise: f64, scale: PriorScale| {
+                let poses = measure(&truth, &p.q, noise, None, &mut rng(seed));
+                let n = poses.len();
+                let data = Measurements {
+                    file: "session.csv".into(),
+                    poses,
+                    lines: (2..2 + n).collect(),
+                    times: vec![None; n],
+                    columns_used: Vec::new(),
+                    columns_ignored: Vec::new(),
+                    warnings: Vec::new(),
+                    constraints: Default::default(),
+                    sessions: Vec::new(),
+                };
+                let id = identify(
+                    &model,
+                    &data,
+                    ParamSet::Full,
+                    &FullOptions::default(),
+                    scale,
+                )
+                .unwrap();
+                held_out(&id.calibration.calibrated(), &truth, &targets, 0.0).0
+            };
+            exact.push(fitted(0.0, PriorScale::default()));
+            stated.push(fitted(NOISE, PriorScale::Stated));
+            chosen.push(fitted(NOISE, PriorScale::default()));
+        }
+        let worst_exact = exact.iter().copied().fold(0.0, f64::max);
+        let (stated, chosen) = (median(stated), median(chosen));
+        eprintln!(
+            "{name}: exact measurements: worst RMS {:.2e} mm; median RMS mm: prior as stated \
+             {:.4}, chosen {:.4}",
+            worst_exact * 1e3,
+            stated * 1e3,
+            chosen * 1e3
+        );
+        assert!(worst_exact < 1e-6, "{name}: {worst_exact}");
+        assert!(
+            (chosen / stated - 1.0).abs() <= 0.05,
+            "{name}: {chosen} {stated}"
+        );
+    }
+}

@@ -682,9 +682,19 @@ pub fn plan_cancellable(
         Some(_) => sockets::slots(options.poses, sockets),
         None => vec![0; options.poses],
     };
-    let chosen = criterion
-        .choose(robot, (&pool, options.criterion), &slots, cancelled)
-        .ok_or(PlanError::Cancelled)?;
+    // The plan, and the other criterion's of as many poses for comparison
+    // ([`choose`]).
+    let other = match options.criterion {
+        Optimality::I => Optimality::D,
+        Optimality::D => Optimality::I,
+    };
+    let (chosen, other_picked) = choose(
+        &criterion.design(robot, &pool),
+        options.criterion,
+        &slots,
+        cancelled,
+    )
+    .ok_or(PlanError::Cancelled)?;
     let socket_at = |picked: &[usize]| {
         pool.socket_of
             .as_ref()
@@ -725,14 +735,6 @@ pub fn plan_cancellable(
         }
     };
     let random = judged(&random_picks(&pool, &slots, options.seed ^ 0x5eed));
-    // The other criterion's plan of as many poses, for comparison.
-    let other = match options.criterion {
-        Optimality::I => Optimality::D,
-        Optimality::D => Optimality::I,
-    };
-    let other_picked = criterion
-        .choose(robot, (&pool, other), &slots, cancelled)
-        .ok_or(PlanError::Cancelled)?;
     let compared = Compared {
         criterion: other,
         predicted: judged(&other_picked),
@@ -776,6 +778,51 @@ pub fn plan_cancellable(
         compliance_held: all.compliance_held,
         candidates: pool.q.len(),
         targets: workspace.len(),
+    })
+}
+
+/// The candidates of `d` the plan measures, by `criterion`, and those the
+/// other criterion chooses, for comparison: one for each of `slots` (the
+/// socket of each pose of a socket plan; all 0 otherwise), in the order
+/// chosen; `None` once `cancelled`. The D-optimal plan is the exchange's from
+/// the greedy start ([`design::choose`], DETMAX's). The I-optimal plan is the
+/// better of the I-optimal exchange's from the greedy start and from the
+/// D-optimal plan: an exchange settles in a local optimum, and the D-optimal
+/// plan is another start, as good as any (the I-criterion's landscape is
+/// flat: a UR10e's plans of 20 poses from the greedy start, from the
+/// D-optimal plan and from random ones end within 1.5 % of each other in
+/// predicted RMS), which the I-optimal plan so never ends worse than.
+fn choose(
+    d: &Design,
+    criterion: Optimality,
+    slots: &[usize],
+    cancelled: &(dyn Fn() -> bool + Sync),
+) -> Option<(Vec<usize>, Vec<usize>)> {
+    let by = |o| design::choose(&d.candidates, o, &d.w, &d.prior, slots, &d.group, cancelled);
+    let d_optimal = by(Optimality::D)?;
+    let greedy = by(Optimality::I)?;
+    let from_d = design::exchange(
+        &d.candidates,
+        Optimality::I,
+        (&d.w, &d.prior),
+        d_optimal.clone(),
+        (slots, &d.group),
+        (design::PASSES, design::SETTLED),
+        cancelled,
+    )?;
+    let value = |p: &[usize]| {
+        Optimality::I
+            .criterion(&(&d.prior + d.candidates.information(p)), &d.w)
+            .unwrap_or(f64::INFINITY)
+    };
+    let i_optimal = if value(&from_d) < value(&greedy) {
+        from_d
+    } else {
+        greedy
+    };
+    Some(match criterion {
+        Optimality::I => (i_optimal, d_optimal),
+        Optimality::D => (d_optimal, i_optimal),
     })
 }
 
@@ -998,6 +1045,15 @@ struct Criterion {
     noise: (f64, Option<f64>),
 }
 
+/// The candidates, targets and prior [`design`] chooses by, in scaled
+/// columns ([`Criterion::design`]).
+struct Design {
+    candidates: Candidates,
+    w: DMatrix<f64>,
+    prior: DMatrix<f64>,
+    group: Vec<usize>,
+}
+
 impl Criterion {
     /// The criterion of `robot` over the targets `workspace`, for the poses
     /// of `pool`, of which `all` separate what they do.
@@ -1070,16 +1126,10 @@ impl Criterion {
             .collect()
     }
 
-    /// The candidates of `pool` the exchange chooses ([`design::choose`]),
-    /// one for each of `slots` (the socket of each pose of a socket plan;
-    /// all 0 otherwise), in the order chosen; `None` once `cancelled`.
-    fn choose(
-        &self,
-        robot: &Robot<f64>,
-        (pool, optimality): (&Pool, Optimality),
-        slots: &[usize],
-        cancelled: &(dyn Fn() -> bool + Sync),
-    ) -> Option<Vec<usize>> {
+    /// What [`design`] chooses among: `pool`'s candidates' weighted rows,
+    /// the targets' `W` and the prior, in columns scaled to a unit mean
+    /// square per candidate, and each candidate's group.
+    fn design(&self, robot: &Robot<f64>, pool: &Pool) -> Design {
         let rows = if self.noise.1.is_some() { 6 } else { 3 };
         let j = jacobian(
             robot,
@@ -1098,20 +1148,15 @@ impl Criterion {
             .collect();
         let d = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(scale));
         let w = (self.g.transpose() * &self.g) / (self.g.nrows() / 3).max(1) as f64;
-        let candidates = Candidates::of(rows, &(&j * &d));
-        let group = pool
-            .socket_of
-            .clone()
-            .unwrap_or_else(|| vec![0; pool.q.len()]);
-        design::choose(
-            &candidates,
-            optimality,
-            &(&d * &w * &d),
-            &(&d * &self.prior * &d),
-            slots,
-            &group,
-            cancelled,
-        )
+        Design {
+            candidates: Candidates::of(rows, &(&j * &d)),
+            w: &d * &w * &d,
+            prior: &d * &self.prior * &d,
+            group: pool
+                .socket_of
+                .clone()
+                .unwrap_or_else(|| vec![0; pool.q.len()]),
+        }
     }
 
     /// The predicted accuracy of measuring `q` (at the sockets `socket_of`
@@ -1533,5 +1578,84 @@ mod tests {
         robot.tool.xyz = o.tool;
         let off = plan(&robot, None, None, &options).unwrap();
         assert!(off.off_axis.is_none());
+    }
+
+    /// A certified lower bound of the predicted RMS (m) of every design of
+    /// `n` poses among `d`'s candidates, fractional ones included: the convex
+    /// relaxation of the I-criterion `f(λ) = tr(W M(λ)⁻¹)`, `M(λ) = Π + n
+    /// Σ_c λ_c J_cᵀ J_c`, `λ ≥ 0`, `Σ λ = 1`, by the multiplicative
+    /// algorithm (`λ_c ← λ_c √d_c / Σ λ √d`, `d_c = tr(J_c M⁻¹ W M⁻¹ J_cᵀ)`)
+    /// in `steps` steps; `f` is convex, so every step's `f(λ) − n (max_c d_c
+    /// − Σ_c λ_c d_c)` (its linearisation's least over the simplex) is below
+    /// the least `f`, and the largest is returned.
+    fn relaxed_bound(d: &Design, n: f64, steps: usize) -> f64 {
+        let (count, r) = (d.candidates.count(), d.candidates.rows);
+        let jt = &d.candidates.jt;
+        let mut lambda = vec![1.0 / count as f64; count];
+        let mut bound = 0.0_f64;
+        for _ in 0..steps {
+            let mut weighed = jt.clone();
+            for (c, l) in lambda.iter().enumerate() {
+                weighed.columns_mut(c * r, r).scale_mut((n * l).sqrt());
+            }
+            let m = &d.prior + &weighed * weighed.transpose();
+            let a = m
+                .cholesky()
+                .expect("the prior and the candidates determine M")
+                .inverse();
+            let value = (&a * &d.w).trace();
+            let x = (&a * &d.w * &a * jt).component_mul(jt);
+            let dc: Vec<f64> = (0..count).map(|c| x.columns(c * r, r).sum()).collect();
+            let mean: f64 = lambda.iter().zip(&dc).map(|(l, d)| l * d).sum();
+            let largest = dc.iter().copied().fold(0.0, f64::max);
+            bound = bound.max(value - n * (largest - mean));
+            let total: f64 = lambda.iter().zip(&dc).map(|(l, d)| l * d.sqrt()).sum();
+            for (l, dc) in lambda.iter_mut().zip(&dc) {
+                *l *= dc.sqrt() / total;
+            }
+        }
+        bound.max(0.0).sqrt()
+    }
+
+    /// How near the best possible a plan is, and the D-optimal exchange
+    /// beside it: for a UR10e and a PUMA 560 at their nominal tool point (on
+    /// the last joint's axis), 20 poses among 2,000 candidates, the plan's
+    /// predicted RMS is at most the D-optimal exchange's (its exchange is
+    /// also run from that plan, [`choose`]), and within 5 % of the certified
+    /// lower bound of every design of 20 poses from these candidates, even
+    /// one of fractional poses ([`relaxed_bound`]); the D-optimal exchange
+    /// is within 5 % of it too (4.7 % and 4.5 %: no choice of 20 poses from
+    /// these candidates can be predicted 5 % better than it, and the
+    /// prediction is the error `identify` delivers, `tests/plan.rs`).
+    #[test]
+    fn a_plan_is_within_five_per_cent_of_the_best_any_design_can_do() {
+        for name in ["ur10e", "puma560"] {
+            let robot = load_model(name).unwrap().robot;
+            let options = PlanOptions {
+                poses: 20,
+                ..PlanOptions::default()
+            };
+            let candidates = within_limits(&robot, 2000, 0.05, 3);
+            let p = plan(&robot, Some(&candidates), None, &options).unwrap();
+            let d_optimal = p.compared.predicted.as_ref().unwrap().rms;
+            let pool = pool(&robot, Some(&candidates), &options).unwrap();
+            let all = identifiable(&robot, &pool.q, None, &[], &options);
+            let workspace = within_limits(&robot, options.workspace, 0.0, options.seed ^ 0x7a7);
+            let criterion = Criterion::of(&robot, &workspace, &options, &pool, &all);
+            let bound = relaxed_bound(&criterion.design(&robot, &pool), 20.0, 300);
+            eprintln!(
+                "{name}: predicted RMS µm: plan {:.3}, D-optimal exchange {:.3}, lower bound \
+                 {:.3}: plan/bound {:.3}, D/bound {:.3}, bound/D {:.3}",
+                p.predicted.rms * 1e6,
+                d_optimal * 1e6,
+                bound * 1e6,
+                p.predicted.rms / bound,
+                d_optimal / bound,
+                bound / d_optimal,
+            );
+            assert!(p.predicted.rms <= d_optimal, "{name}");
+            assert!(p.predicted.rms <= 1.05 * bound, "{name}");
+            assert!(d_optimal <= 1.05 * bound, "{name}");
+        }
     }
 }
