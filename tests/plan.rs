@@ -888,7 +888,7 @@ fn issue_45_goals_on_a_puma_560() {
 /// cross-validation deliver median RMS errors within 5 % of each other.
 #[test]
 fn the_noise_alone_limits_the_acceptance_case() {
-    use armcal::calibration::identify::full::FullOptions;
+    use armcal::calibration::fit::FullOptions;
     use armcal::calibration::identify::prior_scale::PriorScale;
     use armcal::calibration::identify::{ParamSet, identify};
     use armcal::calibration::plan::within_limits;
