@@ -15,7 +15,7 @@
 //! the held-out poses (their noise, 35 µm RMS in 3-D, added) the plan's
 //! predicted figure must hold as well.
 
-use armcal::calibration::plan::{PlanOptions, plan};
+use armcal::calibration::plan::{Optimality, Plan, PlanOptions, plan};
 use armcal::commands::{Front, identify};
 use armcal::io::model_file::load_model;
 use armcal::session::measurements::Measurements;
@@ -551,6 +551,23 @@ fn d_optimal_relaxed(robot: &Robot<f64>, candidates: &[Vec<f64>], n: usize) -> V
     order[..n].iter().map(|&c| candidates[c].clone()).collect()
 }
 
+/// The three designs of 20 poses from `candidates` the D-optimal
+/// comparisons judge: the plan's, the D-optimal exchange's (`--criterion
+/// d-optimal`) and the rounded convex relaxation's ([`d_optimal_relaxed`]).
+fn three_designs(nominal: &Robot<f64>, candidates: &[Vec<f64>]) -> (Plan, Plan, Vec<Vec<f64>>) {
+    let options = PlanOptions {
+        poses: 20,
+        ..PlanOptions::default()
+    };
+    let i_plan = plan(nominal, Some(candidates), None, &options).unwrap();
+    let d_options = PlanOptions {
+        criterion: Optimality::D,
+        ..options
+    };
+    let d_plan = plan(nominal, Some(candidates), None, &d_options).unwrap();
+    (i_plan, d_plan, d_optimal_relaxed(nominal, candidates, 20))
+}
+
 /// The plan (I-optimal) of 20 poses for `model` beside the D-optimal designs
 /// of as many from the same 2,000 candidates — the exchange (`--criterion
 /// d-optimal`, DETMAX's, which the report compares) and the convex
@@ -565,20 +582,10 @@ fn planned_against_d_optimal(
     sizes: &armcal::calibration::simulate::ErrorSizes,
     robots: u64,
 ) {
-    use armcal::calibration::plan::{Optimality, within_limits};
+    use armcal::calibration::plan::within_limits;
     let nominal = &model.robot;
     let candidates = within_limits(nominal, 2000, 0.05, 3);
-    let options = PlanOptions {
-        poses: 20,
-        ..PlanOptions::default()
-    };
-    let i_plan = plan(nominal, Some(&candidates), None, &options).unwrap();
-    let d_options = PlanOptions {
-        criterion: Optimality::D,
-        ..options.clone()
-    };
-    let d_plan = plan(nominal, Some(&candidates), None, &d_options).unwrap();
-    let relaxed = d_optimal_relaxed(nominal, &candidates, 20);
+    let (i_plan, d_plan, relaxed) = three_designs(nominal, &candidates);
     let params: Vec<Param> = nominal.params().collect();
     let designs = [
         ("plan", &i_plan.q),
@@ -698,22 +705,12 @@ const CANDIDATES: usize = 10_000;
 /// measurements at the same poses, each calibration is exact
 /// ([`the_noise_alone_limits_the_acceptance_case`]).
 fn acceptance(name: &str, robots: u64) -> Acceptance {
-    use armcal::calibration::plan::{Optimality, within_limits};
+    use armcal::calibration::plan::within_limits;
     use rand::RngExt;
     let model = load_model(name).unwrap();
     let nominal = &model.robot;
     let candidates = within_limits(nominal, CANDIDATES, 0.05, 3);
-    let options = PlanOptions {
-        poses: 20,
-        ..PlanOptions::default()
-    };
-    let i_plan = plan(nominal, Some(&candidates), None, &options).unwrap();
-    let d_options = PlanOptions {
-        criterion: Optimality::D,
-        ..options.clone()
-    };
-    let d_plan = plan(nominal, Some(&candidates), None, &d_options).unwrap();
-    let relaxed = d_optimal_relaxed(nominal, &candidates, 20);
+    let (i_plan, d_plan, relaxed) = three_designs(nominal, &candidates);
     let params: Vec<Param> = nominal.params().collect();
     let sizes = larger_errors();
     // plan, random, D-exchange, D-relaxed.
