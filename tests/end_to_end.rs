@@ -140,7 +140,7 @@ mod bundled_data {
 mod identification {
     //! `--params full` recovers errors built into a simulated robot.
 
-    use armcal::calibration::fit::{FullOptions, Status, full_params, identify_full};
+    use armcal::calibration::fit::{FitRequest, FullOptions, Status, full_params};
     use armcal::io::model_file::{load_model, parse_model};
     use armcal_shared::{FrameAxis, Param, Robot};
     use armcal_tests::{measure, random_configurations, rng, with_random_errors};
@@ -240,7 +240,9 @@ rpy = [0, 0, 120]
                 // Which parameters these data cannot separate: ask the identification,
                 // then take their errors out of the truth.
                 let probe = measure(&truth, &configs, 0.0, orientation.then_some(0.0), &mut r);
-                let fit = identify_full(&nominal, &probe, &FullOptions::least_squares()).unwrap();
+                let fit = FitRequest::new(&nominal, &probe, &FullOptions::least_squares())
+                    .run()
+                    .unwrap();
                 let fixed: Vec<Param> = fit
                     .params
                     .iter()
@@ -251,7 +253,9 @@ rpy = [0, 0, 120]
                     *truth.param_mut(*p).unwrap() = nominal.param(*p).unwrap();
                 }
                 let data = measure(&truth, &configs, 0.0, orientation.then_some(0.0), &mut r);
-                let fit = identify_full(&nominal, &data, &FullOptions::least_squares()).unwrap();
+                let fit = FitRequest::new(&nominal, &data, &FullOptions::least_squares())
+                    .run()
+                    .unwrap();
                 assert!(
                     fit.converged,
                     "{name}: not converged after {} iterations",
@@ -286,7 +290,7 @@ mod identification_noise {
     //! With measurement noise the estimates scatter about the truth exactly as
     //! their standard errors say.
 
-    use armcal::calibration::fit::{FullOptions, Status, full_params, identify_full};
+    use armcal::calibration::fit::{FitRequest, FullOptions, Status, full_params};
     use armcal::io::model_file::load_model;
     use armcal_shared::{Param, Robot};
     use armcal_tests::{measure, random_configurations, rng, with_random_errors};
@@ -295,7 +299,8 @@ mod identification_noise {
     fn not_separable(nominal: &Robot<f64>, configs: &[Vec<f64>], orientation: bool) -> Vec<Param> {
         let mut r = rng(0);
         let exact = measure(nominal, configs, 0.0, orientation.then_some(0.0), &mut r);
-        identify_full(nominal, &exact, &FullOptions::least_squares())
+        FitRequest::new(nominal, &exact, &FullOptions::least_squares())
+            .run()
             .unwrap()
             .params
             .iter()
@@ -330,7 +335,7 @@ mod identification_noise {
         let (mut sum_z2, mut count, mut worst) = (0.0, 0usize, 0.0f64);
         for _ in 0..30 {
             let data = measure(&truth, &configs, noise, None, &mut r);
-            let fit = identify_full(&nominal, &data, &options).unwrap();
+            let fit = FitRequest::new(&nominal, &data, &options).run().unwrap();
             assert!(fit.converged);
             for p in &fit.params {
                 if let Status::Identified { std } = p.status {
@@ -384,7 +389,7 @@ mod identification_noise {
                     orientation_noise: noise,
                     ..FullOptions::least_squares()
                 };
-                let fit = identify_full(&nominal, &data, &options).unwrap();
+                let fit = FitRequest::new(&nominal, &data, &options).run().unwrap();
                 for p in &fit.params {
                     if let Status::Identified { std } = p.status {
                         let want = truth.param(p.param).unwrap() - nominal.param(p.param).unwrap();
@@ -407,7 +412,9 @@ mod identification_noise {
         let mut r = rng(5);
         let configs = random_configurations(&nominal, 6, &mut r);
         let data = measure(&nominal, &configs, 0.0, None, &mut r);
-        let err = identify_full(&nominal, &data, &FullOptions::least_squares()).unwrap_err();
+        let err = FitRequest::new(&nominal, &data, &FullOptions::least_squares())
+            .run()
+            .unwrap_err();
         let text = err.to_string();
         assert!(text.contains("18 equations"), "{text}");
         assert!(text.contains("measure more poses"), "{text}");
@@ -425,7 +432,9 @@ mod identification_noise {
             let mut r = rng(3);
             let configs = random_configurations(&nominal, 50, &mut r);
             let data = measure(&nominal, &configs, 0.0, Some(0.0), &mut r);
-            let fit = identify_full(&nominal, &data, &FullOptions::least_squares()).unwrap();
+            let fit = FitRequest::new(&nominal, &data, &FullOptions::least_squares())
+                .run()
+                .unwrap();
             for want in expected {
                 let p = fit.params.iter().find(|p| p.param == want).unwrap();
                 match &p.status {
@@ -455,7 +464,7 @@ mod compensation {
     //! Closed loop on the host: a simulated true robot, a calibration identified
     //! from its noisy measurements, and the compensation the controller runs.
 
-    use armcal::calibration::fit::{FullOptions, Status, full_params, identify_full};
+    use armcal::calibration::fit::{FitRequest, FullOptions, Status, full_params};
     use armcal::io::model_file::load_model;
     use armcal_shared::calibration::ParamError;
     use armcal_shared::compensation::{Compensator, Conditions, Fault, Limits};
@@ -477,7 +486,7 @@ mod compensation {
             orientation_noise: 20e-6,
             ..FullOptions::default()
         };
-        let fit = identify_full(&nominal, &data, &options).unwrap();
+        let fit = FitRequest::new(&nominal, &data, &options).run().unwrap();
         let mut cal = Calibration::nominal(nominal.clone(), true, Units::SI);
         for p in fit
             .params
@@ -717,9 +726,7 @@ mod extended_fit {
     //! The geometry refitted together with a hidden effect's parameters recovers
     //! the effect and brings the residual down to the noise.
 
-    use armcal::calibration::fit::{
-        FullFit, FullOptions, Status, identify_full, identify_with_effects,
-    };
+    use armcal::calibration::fit::{Extension, FitRequest, FullFit, FullOptions, Status};
     use armcal::calibration::identify::observations;
     use armcal::calibration::simulate::{
         Scenario, one_joint_at_a_time, random_configurations, simulate, simulate_visiting,
@@ -770,7 +777,9 @@ mod extended_fit {
                 position_noise: 20e-6,
                 ..FullOptions::default().stated()
             };
-            let geometric = identify_full(&nominal, &session.observations, &options).unwrap();
+            let geometric = FitRequest::new(&nominal, &session.observations, &options)
+                .run()
+                .unwrap();
             assert!(
                 geometric.variance_factor > 2.0,
                 "{}: geometry alone already fits ({})",
@@ -783,9 +792,13 @@ mod extended_fit {
             for i in 0..start.parameter_count() {
                 *start.parameter_mut(i).unwrap() = 0.0;
             }
-            let fit =
-                identify_with_effects(&nominal, &[start], &[], &session.observations, &options)
-                    .unwrap();
+            let fit = FitRequest::new(&nominal, &session.observations, &options)
+                .extended(Extension {
+                    effects: &[start],
+                    extra: &[],
+                })
+                .run()
+                .unwrap();
             let dof = fit.equations as f64 - 40.0;
             assert!(
                 (fit.variance_factor - 1.0).abs() < 5.0 * (2.0 / dof).sqrt(),
@@ -883,9 +896,17 @@ mod extended_fit {
         let mut start = effect;
         *start.parameter_mut(0).unwrap() = 0.0;
         let fit = |data: &[Observation]| {
-            identify_with_effects(&nominal, &[start], &[], data, &options).unwrap()
+            FitRequest::new(&nominal, data, &options)
+                .extended(Extension {
+                    effects: &[start],
+                    extra: &[],
+                })
+                .run()
+                .unwrap()
         };
-        let geometric = identify_full(&nominal, observations, &options).unwrap();
+        let geometric = FitRequest::new(&nominal, observations, &options)
+            .run()
+            .unwrap();
         assert!(
             geometric.variance_factor > 2.0,
             "geometry alone already fits ({})",
@@ -936,14 +957,13 @@ mod extended_fit {
             position_noise: 20e-6,
             ..FullOptions::default().stated()
         };
-        let fit = identify_with_effects(
-            &nominal,
-            &[],
-            &[Param::Beta(1)],
-            &session.observations,
-            &options,
-        )
-        .unwrap();
+        let fit = FitRequest::new(&nominal, &session.observations, &options)
+            .extended(Extension {
+                effects: &[],
+                extra: &[Param::Beta(1)],
+            })
+            .run()
+            .unwrap();
         let beta = fit
             .params
             .iter()
@@ -1146,7 +1166,7 @@ mod diagnosis_random {
     //! the noise after a geometric fit, a random seed.
 
     use armcal::calibration::diagnose::{cross_validate, diagnose};
-    use armcal::calibration::fit::identify_full;
+    use armcal::calibration::fit::FitRequest;
     use armcal::calibration::simulate::{rng, simulate};
     use armcal::calibration::sweep::{hidden_case, tracker_diagnosis};
     use armcal::io::model_file::load_model;
@@ -1186,8 +1206,9 @@ mod diagnosis_random {
                     continue;
                 };
                 let session = simulate(nominal, &scenario).unwrap();
-                let geometric =
-                    identify_full(nominal, &session.observations, &options.fit).unwrap();
+                let geometric = FitRequest::new(nominal, &session.observations, &options.fit)
+                    .run()
+                    .unwrap();
                 if geometric.position_rms / noise_rms >= 5.0 {
                     drawn = Some((name, nominal, scenario, hidden.unwrap(), joints, session));
                     break;

@@ -13,7 +13,7 @@
 //!   poses (the estimate's own scatter is `1/√(2r)` ≈ 4 % at r ≈ 300 rows).
 
 use armcal::calibration::diagnose::{Choice, DiagnoseOptions, diagnose};
-use armcal::calibration::fit::{FullOptions, identify_full};
+use armcal::calibration::fit::{FitRequest, FullOptions};
 use armcal::calibration::simulate::{Scenario, simulate};
 use armcal::io::model_file::load_model;
 use armcal_shared::Robot;
@@ -63,7 +63,8 @@ fn few_noisy_poses_never_make_the_robot_worse() {
                     let full_pose = data[0].orientation.is_some();
                     let d = diagnose(&nominal, data, &DiagnoseOptions::default()).unwrap();
                     let chosen = d.calibration(&nominal, full_pose, Units::SI).calibrated();
-                    let full = identify_full(&nominal, data, &FullOptions::least_squares())
+                    let full = FitRequest::new(&nominal, data, &FullOptions::least_squares())
+                        .run()
                         .unwrap()
                         .calibrated;
                     let configs = random_configurations(&nominal, 300, &mut rng(seed + 9));
@@ -120,7 +121,9 @@ fn each_channel_noise_is_recovered() {
         scenario.position_noise = position;
         scenario.orientation_noise = Some(orientation);
         let session = simulate(&nominal, &scenario).unwrap();
-        let fit = identify_full(&nominal, &session.observations, &FullOptions::default()).unwrap();
+        let fit = FitRequest::new(&nominal, &session.observations, &FullOptions::default())
+            .run()
+            .unwrap();
         let p = fit.noise.position.used;
         let r = fit.noise.orientation.unwrap().used;
         eprintln!(

@@ -417,7 +417,7 @@ fn planned_socket_seatings_beat_random_ones() {
 /// estimate an RMS to about ±20 %).
 #[test]
 fn a_plan_for_compliance_identifies_it_better_than_random_poses() {
-    use armcal::calibration::fit::{FullOptions, identify_with_effects};
+    use armcal::calibration::fit::{Extension, FitRequest, FullOptions};
     use armcal::calibration::simulate::{Scenario, parse_effect, simulate_visiting};
     use armcal_shared::effects::Effect;
     let model = with_smr("ur10e");
@@ -449,14 +449,13 @@ fn a_plan_for_compliance_identifies_it_better_than_random_poses() {
                 compliance: 0.0,
             })
             .collect();
-        let fit = identify_with_effects(
-            nominal,
-            &effects,
-            &[],
-            &session.observations,
-            &FullOptions::default(),
-        )
-        .unwrap();
+        let fit = FitRequest::new(nominal, &session.observations, &FullOptions::default())
+            .extended(Extension {
+                effects: &effects,
+                extra: &[],
+            })
+            .run()
+            .unwrap();
         fit.effects
             .iter()
             .map(|e| match e.effect {

@@ -3,7 +3,7 @@
 //! `cargo test --release -p armcal-tests --test selection_cost`.
 
 use armcal::calibration::diagnose::{DiagnoseOptions, diagnose};
-use armcal::calibration::fit::{FullOptions, identify_full};
+use armcal::calibration::fit::{FitRequest, FullOptions};
 use armcal::calibration::simulate::{Scenario, simulate};
 use armcal::io::model_file::load_model;
 
@@ -46,7 +46,9 @@ fn the_selection_costs_at_most_ten_fits() {
         fit = fit.min(
             best(&mut || {
                 for _ in 0..fits {
-                    identify_full(&nominal, &data, &FullOptions::default()).unwrap();
+                    FitRequest::new(&nominal, &data, &FullOptions::default())
+                        .run()
+                        .unwrap();
                 }
             }) / fits as f64,
         );

@@ -6,7 +6,7 @@
 //! Run: `cargo bench -p armcal --bench identify` (single-threaded: faer is built
 //! without rayon).
 
-use armcal::calibration::fit::{FullOptions, identify_full};
+use armcal::calibration::fit::{FitRequest, FullOptions};
 use armcal::calibration::simulate::{measure, random_configurations, rng, with_random_errors};
 use armcal::io::model_file::load_model;
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
@@ -39,7 +39,11 @@ fn full(c: &mut Criterion) {
                 "positions"
             };
             group.bench_with_input(BenchmarkId::new(label, n), &data, |b, data| {
-                b.iter(|| identify_full(&nominal, data, &options).expect("converges"))
+                b.iter(|| {
+                    FitRequest::new(&nominal, data, &options)
+                        .run()
+                        .expect("converges")
+                })
             });
         }
     }

@@ -36,7 +36,7 @@ use armcal_shared::{Calibration, JointType, Robot};
 use rand::RngExt;
 
 use crate::calibration::diagnose::{DiagnoseOptions, Diagnosis, diagnose};
-use crate::calibration::fit::{effect_parameter_name, identify_full};
+use crate::calibration::fit::{FitRequest, effect_parameter_name};
 use crate::calibration::simulate::{Session, random_configuration, rng, simulate};
 use crate::calibration::sweep::{hidden_case, tracker_diagnosis};
 use crate::calibration::validation::folds::HeldOut;
@@ -126,7 +126,7 @@ pub fn demo(seed: u64) -> anyhow::Result<Demo> {
             continue;
         };
         let session = simulate(nominal, &scenario)?;
-        let geometric = identify_full(nominal, &session.observations, &options.fit)?;
+        let geometric = FitRequest::new(nominal, &session.observations, &options.fit).run()?;
         if geometric.position_rms >= 5.0 * noise_limit {
             let mut parameters: Vec<String> = session
                 .effects

@@ -154,8 +154,9 @@ pub fn hidden_case_in(
     // effect's share of the residual, √(rms² − 3σ²), is linear in its size.
     let noise_rms = scenario.position_noise * 3f64.sqrt();
     let trial = simulate(nominal, &scenario).ok()?;
-    let geometric =
-        crate::calibration::fit::identify_full(nominal, &trial.observations, fit).ok()?;
+    let geometric = crate::calibration::fit::FitRequest::new(nominal, &trial.observations, fit)
+        .run()
+        .ok()?;
     let effect_rms = (geometric.position_rms.powi(2) - noise_rms.powi(2))
         .max(1e-18)
         .sqrt();

@@ -12,7 +12,7 @@ use crate::calibration::cancel::Cancel;
 use crate::calibration::diagnose::Choice;
 use crate::calibration::diagnose::RowPlaces;
 use crate::calibration::diagnose::{DiagnoseOptions, Diagnosis, diagnose_with_progress};
-use crate::calibration::fit::{FullOptions, identify_with_effects};
+use crate::calibration::fit::{Extension, FitRequest, FullOptions};
 use crate::calibration::gravity::{GravityFit, TorqueSign, with_measured_gravity};
 use crate::calibration::identify::channel_weight::{self, ChannelWeights, Weighting};
 use crate::calibration::identify::sessions::{SessionHeldOut, Trained, held_out_by_session};
@@ -179,7 +179,12 @@ fn sessions_held_out(
                 prior,
                 ..at
             };
-            identify_with_effects(&model.robot, &effects, &extra, rows, &chosen)
+            FitRequest::new(&model.robot, rows, &chosen)
+                .extended(Extension {
+                    effects: &effects,
+                    extra: &extra,
+                })
+                .run()
                 .map(|f| Trained::of(&f))
         }
     };

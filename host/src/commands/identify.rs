@@ -9,7 +9,7 @@ use armcal_shared::TargetFrame;
 
 use super::{Front, fit_options};
 use crate::calibration::cancel::Cancel;
-use crate::calibration::fit::{FullOptions, identify_with_effects};
+use crate::calibration::fit::{Extension, FitRequest, FullOptions};
 use crate::calibration::gravity::{TorqueSign, with_measured_gravity};
 use crate::calibration::identify::channel_weight::ChannelWeights;
 use crate::calibration::identify::prior_scale::PriorScale;
@@ -107,10 +107,16 @@ pub fn run(
         };
         let tilts: Vec<Param> = model.tilted.iter().map(|&k| Param::Beta(k)).collect();
         let calibrate = |rows: &[Observation]| {
-            identify_with_effects(&model.robot, &[], &tilts, rows, &at).map(|f| Trained {
-                effects: Vec::new(),
-                ..Trained::of(&f)
-            })
+            FitRequest::new(&model.robot, rows, &at)
+                .extended(Extension {
+                    effects: &[],
+                    extra: &tilts,
+                })
+                .run()
+                .map(|f| Trained {
+                    effects: Vec::new(),
+                    ..Trained::of(&f)
+                })
         };
         result.sessions_held_out =
             held_out_by_session(&data.poses, &calibrate, request.frames, &at);

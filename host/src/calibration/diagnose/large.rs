@@ -32,7 +32,7 @@ use armcal_shared::Robot;
 use armcal_shared::units::Units;
 
 use super::{ALPHA, Choice, DiagnoseOptions, Diagnosis};
-use crate::calibration::fit::{FullError, FullOptions, identify_constrained};
+use crate::calibration::fit::{Extension, FitRequest, FullError, FullOptions};
 use crate::calibration::validation::stats::f_quantile;
 use crate::session::constraints::Constraints;
 use crate::session::observation::Observation;
@@ -104,15 +104,14 @@ pub(super) fn diagnose_large(
             .iter()
             .flat_map(|f| f.candidate.extra.iter().copied())
             .collect();
-        d.fit = identify_constrained(
-            nominal,
-            Some(&d.fit.calibrated),
-            &d.fit.fitted_effects(),
-            &extra,
-            &kept,
-            &Constraints::default(),
-            &fit_options,
-        )?;
+        d.fit = FitRequest::new(nominal, &kept, &fit_options)
+            .extended(Extension {
+                effects: &d.fit.fitted_effects(),
+                extra: &extra,
+            })
+            .starting_from(Some(&d.fit.calibrated))
+            .constrained(&Constraints::default())
+            .run()?;
         d.noise = d.fit.noise.tool_point().shown;
     }
     d.blunders = blunders;

@@ -67,8 +67,8 @@ use nalgebra::Vector3;
 
 use crate::calibration::fit::prior::Geometry;
 use crate::calibration::fit::{
-    FullError, FullFit, FullOptions, Linearization, PlaneEstimate, Status, identify_constrained,
-    identify_with_effects, linearize, session_registrations,
+    Extension, FitRequest, FullError, FullFit, FullOptions, Linearization, PlaneEstimate, Status,
+    linearize, session_registrations,
 };
 use crate::calibration::parallel;
 use crate::calibration::validation::acceptance::{Ending, FailedCalibration, Judged, verdict};
@@ -177,7 +177,9 @@ pub fn cross_validate(
             data.iter().enumerate().partition(|(i, _)| i % k != fold);
         let train: Vec<Observation> = train.into_iter().map(|(_, o)| o.clone()).collect();
         let test: Vec<Observation> = test.into_iter().map(|(_, o)| o.clone()).collect();
-        let fit = identify_with_effects(nominal, effects, extra, &train, &options.fit)?;
+        let fit = FitRequest::new(nominal, &train, &options.fit)
+            .extended(Extension { effects, extra })
+            .run()?;
         errors.extend(position_errors(&fit, &test));
     }
     Ok(HeldOut::of(&errors))
@@ -546,7 +548,7 @@ fn late_blunders(
         .filter(|i| !d.blunders.contains(i))
         .collect();
     let clean: Vec<Observation> = kept.iter().map(|&i| data[i].clone()).collect();
-    let lin = linearize(&d.fit, &[], &[], &clean, constraints, &prior);
+    let lin = linearize(&d.fit, Extension::NONE, &clean, constraints, &prior);
     let none = vec![false; clean.len()];
     let Some(deleted) = blunders::deleted_residuals(&lin, &none) else {
         return Vec::new();
@@ -694,24 +696,20 @@ struct Scored {
 }
 
 impl Pass<'_> {
-    /// Every fit of the session, from the nominal model or from `start`.
+    /// Every fit of the session, `extension` freed with the geometry, from
+    /// the nominal model or from `start`.
     fn fit(
         &self,
         start: Option<&Robot<f64>>,
-        effects: &[Effect<f64>],
-        extra: &[Param],
+        extension: Extension<'_>,
         data: &[Observation],
         options: &FullOptions,
     ) -> Result<FullFit, FullError> {
-        identify_constrained(
-            self.nominal,
-            start,
-            effects,
-            extra,
-            data,
-            self.constraints,
-            options,
-        )
+        FitRequest::new(self.nominal, data, options)
+            .extended(extension)
+            .starting_from(start)
+            .constrained(self.constraints)
+            .run()
     }
 
     /// The options of the reference fit: every D-H parameter.
@@ -729,12 +727,12 @@ impl Pass<'_> {
         let subset = |kept: &[usize]| -> Vec<Observation> {
             kept.iter().map(|&i| data[i].clone()).collect()
         };
-        let mut reference = self.fit(None, &[], &[], data, &self.reference_options())?;
+        let mut reference = self.fit(None, Extension::NONE, data, &self.reference_options())?;
         // Every later fit starts from the noise the reference shows (an estimated
         // noise then settles in a round or two; a stated one stays as stated).
         let reference_options = self.reference_options().at_noise_of(&reference);
         let n = data.len();
-        let all_lin = linearize(&reference, &[], &[], data, constraints, &prior);
+        let all_lin = linearize(&reference, Extension::NONE, data, constraints, &prior);
         let Suspects {
             flagged,
             screen,
@@ -757,14 +755,14 @@ impl Pass<'_> {
             _ if blunders.is_empty() => all_lin,
             Some((f, _)) if set_aside == excluded => {
                 reference = f;
-                linearize(&reference, &[], &[], &clean, constraints, &prior)
+                linearize(&reference, Extension::NONE, &clean, constraints, &prior)
             }
             screen => {
                 let start = screen
                     .as_ref()
                     .map_or(&reference.calibrated, |(f, _)| &f.calibrated);
-                reference = self.fit(Some(start), &[], &[], &clean, &reference_options)?;
-                linearize(&reference, &[], &[], &clean, constraints, &prior)
+                reference = self.fit(Some(start), Extension::NONE, &clean, &reference_options)?;
+                linearize(&reference, Extension::NONE, &clean, constraints, &prior)
             }
         };
         Ok(Screen {
@@ -819,12 +817,12 @@ impl Pass<'_> {
             // From the reference, which lies near. Leaving them out can leave a
             // fixed point too few rows: keep them then.
             let start = Some(&reference.calibrated);
-            let Ok(f) = self.fit(start, &[], &[], &kept, reference_options) else {
+            let Ok(f) = self.fit(start, Extension::NONE, &kept, reference_options) else {
                 flagged.clear();
                 break;
             };
             excluded = next;
-            let lin = linearize(&f, &[], &[], data, self.constraints, &prior);
+            let lin = linearize(&f, Extension::NONE, data, self.constraints, &prior);
             flagged = blunders::deleted_residuals(&lin, &excluded)
                 .map(|d| blunders::suspects(&d, &excluded, Scale::Fitted, f.redundancy))
                 .unwrap_or_default();
@@ -861,7 +859,12 @@ impl Pass<'_> {
         let geometric = if geo_options.geometry == Geometry::Full && prior_factor == 1.0 {
             reference.clone()
         } else {
-            self.fit(Some(&reference.calibrated), &[], &[], clean, &geo_options)?
+            self.fit(
+                Some(&reference.calibrated),
+                Extension::NONE,
+                clean,
+                &geo_options,
+            )?
         };
         // The held-out figures of the step to it from the reference, which the
         // refit reaches to second order.
@@ -906,8 +909,10 @@ impl Pass<'_> {
             .collect();
         let lin = linearize(
             &search.current_fit,
-            &[],
-            &missing,
+            Extension {
+                effects: &[],
+                extra: &missing,
+            },
             clean,
             self.constraints,
             &prior,
@@ -928,8 +933,10 @@ impl Pass<'_> {
             if again.held.rms < search.current.rms
                 && let Ok(refit) = self.fit(
                     Some(&search.current_fit.calibrated),
-                    &effects,
-                    &search.extra,
+                    Extension {
+                        effects: &effects,
+                        extra: &search.extra,
+                    },
                     clean,
                     &options,
                 )
@@ -1062,7 +1069,11 @@ impl Search {
         // At the noise the geometric model shows: the weights stay those the
         // candidates were scored with.
         let start = Some(&self.current_fit.calibrated);
-        let Ok(refit) = pass.fit(start, &e, &x, clean, &geo.effect_options) else {
+        let extension = Extension {
+            effects: &e,
+            extra: &x,
+        };
+        let Ok(refit) = pass.fit(start, extension, clean, &geo.effect_options) else {
             return false;
         };
         // What is reported found is what the calibration holds: a candidate
@@ -1324,7 +1335,16 @@ fn linearize_candidates(
 ) -> Linearization {
     let extra: Vec<Param> = candidates.iter().flat_map(|c| c.extra.clone()).collect();
     let effects: Vec<Effect<f64>> = candidates.iter().filter_map(|c| c.effect).collect();
-    linearize(fit, &effects, &extra, data, constraints, prior)
+    linearize(
+        fit,
+        Extension {
+            effects: &effects,
+            extra: &extra,
+        },
+        data,
+        constraints,
+        prior,
+    )
 }
 
 impl Diagnosis {
@@ -1416,7 +1436,7 @@ impl Diagnosis {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calibration::fit::identify_with_effects;
+    use crate::calibration::fit::{Extension, FitRequest};
     use crate::calibration::simulate::{Scenario, simulate};
     use crate::io::model_file::load_model;
 
@@ -1449,7 +1469,9 @@ mod tests {
             },
             ..DiagnoseOptions::default()
         };
-        let fit = identify_with_effects(&nominal, &[], &[], &data, &options.fit).expect("fits");
+        let fit = FitRequest::new(&nominal, &data, &options.fit)
+            .run()
+            .expect("fits");
         let fresh = Effect::JointCompliance {
             joint: 1,
             compliance: 0.0,
@@ -1457,8 +1479,10 @@ mod tests {
         for effects in [vec![], vec![fresh]] {
             let lin = linearize(
                 &fit,
-                &effects,
-                &[],
+                Extension {
+                    effects: &effects,
+                    extra: &[],
+                },
                 &data,
                 &Constraints::default(),
                 &options.fit.prior,
@@ -1501,7 +1525,7 @@ mod tests {
     /// of the truth (no other error, so nothing else can bias it).
     #[test]
     fn a_fit_from_an_estimate_frees_what_the_nominal_structure_separates() {
-        use crate::calibration::fit::identify_from;
+        use crate::calibration::fit::{Extension, FitRequest};
         let nominal = load_model("puma560").expect("built-in").robot;
         let scenario = Scenario {
             errors: crate::calibration::simulate::ErrorSizes::uniform(0.0, 0.0),
@@ -1525,21 +1549,22 @@ mod tests {
                 .expect("a parameter of the fit")
         };
         let identified = |s: &Status| matches!(s, Status::Identified { .. });
-        let geometric = identify_from(&nominal, None, &[], &[], &data, &options).expect("fits");
+        let geometric = FitRequest::new(&nominal, &data, &options)
+            .run()
+            .expect("fits");
         assert!(!identified(&status(&geometric, Param::S(2))));
         assert!(
             (geometric.calibrated.links[1].alpha - 2e-3).abs() < 5e-4,
             "the geometric fit's twist is off nominal by about 2 mrad"
         );
-        let refit = identify_from(
-            &nominal,
-            Some(&geometric.calibrated),
-            &[],
-            &[Param::Beta(1)],
-            &data,
-            &options,
-        )
-        .expect("fits");
+        let refit = FitRequest::new(&nominal, &data, &options)
+            .extended(Extension {
+                effects: &[],
+                extra: &[Param::Beta(1)],
+            })
+            .starting_from(Some(&geometric.calibrated))
+            .run()
+            .expect("fits");
         assert_eq!(
             identified(&status(&refit, Param::S(2))),
             identified(&status(&geometric, Param::S(2))),
@@ -1644,15 +1669,19 @@ mod tests {
             position_noise: 20e-6,
             ..FullOptions::default()
         };
-        let fit = identify_with_effects(&nominal, &[], &[], &data, &options).expect("fits");
+        let fit = FitRequest::new(&nominal, &data, &options)
+            .run()
+            .expect("fits");
         let scale = Effect::EncoderScale {
             joint: 5,
             scale: 0.0,
         };
         let lin = linearize(
             &fit,
-            &[scale],
-            &[],
+            Extension {
+                effects: &[scale],
+                extra: &[],
+            },
             &data,
             &Constraints::default(),
             &options.prior,
@@ -1683,7 +1712,9 @@ mod tests {
             .expect("simulates")
             .observations;
         let options = DiagnoseOptions::default();
-        let fit = identify_with_effects(&nominal, &[], &[], &data, &options.fit).expect("fits");
+        let fit = FitRequest::new(&nominal, &data, &options.fit)
+            .run()
+            .expect("fits");
         let all = candidates(&nominal, &data);
         let all: Vec<&Candidate> = all.iter().collect();
         let lin = linearize_candidates(

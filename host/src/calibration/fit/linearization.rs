@@ -3,13 +3,12 @@
 //! fold ([`fold_normals`]), what the cross-validations of `diagnose` and of
 //! the prior's scale ([`crate::calibration::identify::prior_scale`]) step from.
 
-use armcal_shared::effects::Effect;
 use armcal_shared::{FrameAxis, Param};
 use faer::Mat;
 use nalgebra::{DMatrix, DVector, Point3};
 
 use super::rows::{DistanceRows, LinearSystem, NormalEquations};
-use super::{Constraints, FullFit, Model, Observation, PlaneEstimate, Status, Unknown};
+use super::{Constraints, Extension, FullFit, Model, Observation, PlaneEstimate, Status, Unknown};
 use crate::calibration::cancel::Cancel;
 use crate::calibration::dense;
 use crate::session::channel::Channel;
@@ -32,8 +31,7 @@ pub(super) struct AtFit {
 impl AtFit {
     pub(super) fn of(
         fit: &FullFit,
-        effects: &[Effect<f64>],
-        extra: &[Param],
+        Extension { effects, extra }: Extension<'_>,
         constraints: &Constraints,
         prior: &Prior,
     ) -> Self {
@@ -138,8 +136,7 @@ impl AtFit {
 /// by one Gauss–Newton step per fold.
 pub fn linearize(
     fit: &FullFit,
-    effects: &[Effect<f64>],
-    extra: &[Param],
+    extension: Extension<'_>,
     data: &[Observation],
     constraints: &Constraints,
     prior: &Prior,
@@ -150,7 +147,7 @@ pub fn linearize(
         fitted,
         precision,
         offset,
-    } = AtFit::of(fit, effects, extra, constraints, prior);
+    } = AtFit::of(fit, extension, constraints, prior);
     let weights = fit.weights();
     let sys = LinearSystem::build(&model, data, &unknowns, &weights, fit.cancel);
     let distances = DistanceRows::rows(&model, &unknowns);
@@ -355,7 +352,7 @@ pub fn fold_normals(
         precision,
         offset,
         ..
-    } = AtFit::of(fit, &[], &[], constraints, prior);
+    } = AtFit::of(fit, Extension::NONE, constraints, prior);
     let weights = fit.weights();
     let p = unknowns.len();
     let (matrix, vector) = (dense::to_nalgebra, dense::to_vector);

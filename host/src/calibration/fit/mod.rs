@@ -70,7 +70,7 @@
 //! | module | part |
 //! | --- | --- |
 //! | this one | the unknowns, the options and the result ([`FullFit`]), the posterior and the prior's reach |
-//! | `fit` | the fit itself ([`identify_constrained`]): the unknowns of one fit, its state through the noise rounds and selections, the statistics and the result |
+//! | `fit` | the fit itself ([`FitRequest::run`]): the unknowns of one fit, its state through the noise rounds and selections, the statistics and the result |
 //! | `rows` | residuals and weights: each pose's rows, the normal equations per channel |
 //! | `initial` | the initial estimate of base, tool, points and planes |
 //! | `selection` | identifiability: what the data separate, and why the others are held |
@@ -741,76 +741,105 @@ pub fn full_params(robot: &Robot<f64>, orientation: bool) -> Vec<Param> {
         .collect()
 }
 
-/// Identifies every identifiable geometric parameter of `nominal` from `data`.
-pub fn identify_full(
-    nominal: &Robot<f64>,
-    data: &[Observation],
-    options: &FullOptions,
-) -> Result<FullFit, FullError> {
-    identify_with_effects(nominal, &[], &[], data, options)
+/// What a fit frees beyond the model's own geometry, after it in the order
+/// of preference: the parameters of `effects` (their values the start,
+/// usually zero) and the `extra` geometric parameters (Hayati tilts
+/// `Param::Beta` between nominally parallel axes): the extended model of
+/// `armcal diagnose`.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Extension<'a> {
+    /// The effects whose parameters are fitted.
+    pub effects: &'a [Effect<f64>],
+    /// The extra geometric parameters.
+    pub extra: &'a [Param],
 }
 
-/// Identifies the geometry of `nominal` together with the parameters of
-/// `effects` (their starting values are the initial guesses, usually zero) and
-/// the `extra` geometric parameters (Hayati tilts `Param::Beta` between nominally
-/// parallel axes): the extended model of `armcal diagnose`. They come after the
-/// model's own parameters in the order of preference.
-pub fn identify_with_effects(
-    nominal: &Robot<f64>,
-    effects: &[Effect<f64>],
-    extra: &[Param],
-    data: &[Observation],
-    options: &FullOptions,
-) -> Result<FullFit, FullError> {
-    identify_from(nominal, None, effects, extra, data, options)
+impl Extension<'_> {
+    /// The geometry alone.
+    pub const NONE: Extension<'static> = Extension {
+        effects: &[],
+        extra: &[],
+    };
 }
 
-/// [`identify_with_effects`] from the geometry of `start` (a fit of the same
-/// data) instead of the nominal model and the closed-form base and tool: the
-/// extended model's refit converges in a few iterations from the fit it extends.
-pub fn identify_from(
-    nominal: &Robot<f64>,
-    start: Option<&Robot<f64>>,
-    effects: &[Effect<f64>],
-    extra: &[Param],
-    data: &[Observation],
-    options: &FullOptions,
-) -> Result<FullFit, FullError> {
-    identify_constrained(
-        nominal,
-        start,
-        effects,
-        extra,
-        data,
-        &Constraints::default(),
-        options,
-    )
+/// One fit of the full model, as asked: every identifiable geometric
+/// parameter of `nominal` from `data` with `options`, and as the builder
+/// says, the parameters of an [`Extension`], a start from a fit's geometry,
+/// and the unknown points, planes and known distances of a session without
+/// a tracker. [`FitRequest::run`] fits it.
+#[derive(Clone, Copy, Debug)]
+pub struct FitRequest<'a> {
+    nominal: &'a Robot<f64>,
+    data: &'a [Observation],
+    options: &'a FullOptions,
+    extension: Extension<'a>,
+    start: Option<&'a Robot<f64>>,
+    constraints: Option<&'a Constraints>,
 }
 
-/// [`identify_from`] for a session whose rows may sit at unknown fixed points
-/// tied by known distances (`constraints`, see [`crate::session::constraints`])
-/// instead of measuring coordinates: each point's three coordinates are
-/// unknowns of the same fit (first in the order of preference), each distance
-/// one more row weighted by its stated uncertainty. The base is then not
-/// observable and is held at nominal with that reason. With no points this is
-/// [`identify_from`].
-pub fn identify_constrained(
-    nominal: &Robot<f64>,
-    start: Option<&Robot<f64>>,
-    effects: &[Effect<f64>],
-    extra: &[Param],
-    data: &[Observation],
-    constraints: &Constraints,
-    options: &FullOptions,
-) -> Result<FullFit, FullError> {
-    options.cancel.check()?;
-    check_inputs(nominal, effects, data, constraints)?;
-    let unknowns = Unknowns::of(nominal, effects, extra, data, constraints, options)?;
-    let model = unknowns.initial_model(nominal, start, effects, data, constraints, options);
-    let fit = Fit::new(nominal, data, constraints, options, unknowns, model).run()?;
-    // A fit asked to stop in its last pass is not returned as found.
-    options.cancel.check()?;
-    Ok(fit)
+impl<'a> FitRequest<'a> {
+    /// Every identifiable geometric parameter of `nominal` from `data`,
+    /// from the nominal model and the closed-form base and tool.
+    pub fn new(nominal: &'a Robot<f64>, data: &'a [Observation], options: &'a FullOptions) -> Self {
+        Self {
+            nominal,
+            data,
+            options,
+            extension: Extension::NONE,
+            start: None,
+            constraints: None,
+        }
+    }
+
+    /// The geometry fitted together with `extension`'s parameters.
+    pub fn extended(self, extension: Extension<'a>) -> Self {
+        Self { extension, ..self }
+    }
+
+    /// From the geometry of `start` (a fit of the same data), when given,
+    /// instead of the nominal model and the closed-form base and tool: the
+    /// extended model's refit converges in a few iterations from the fit it
+    /// extends.
+    pub fn starting_from(self, start: Option<&'a Robot<f64>>) -> Self {
+        Self { start, ..self }
+    }
+
+    /// For a session whose rows may sit at unknown fixed points or planes
+    /// tied by known distances (`constraints`, see
+    /// [`crate::session::constraints`]) instead of measuring coordinates: each
+    /// point's three coordinates (a plane's normal and offset) are unknowns
+    /// of the same fit, first in the order of preference, each distance one
+    /// more row weighted by its stated uncertainty. The base is then not
+    /// observable and is held at nominal with that reason. With no points
+    /// this changes nothing.
+    pub fn constrained(self, constraints: &'a Constraints) -> Self {
+        Self {
+            constraints: Some(constraints),
+            ..self
+        }
+    }
+
+    /// The fit.
+    pub fn run(self) -> Result<FullFit, FullError> {
+        let Self {
+            nominal,
+            data,
+            options,
+            extension: Extension { effects, extra },
+            start,
+            constraints,
+        } = self;
+        let none = Constraints::default();
+        let constraints = constraints.unwrap_or(&none);
+        options.cancel.check()?;
+        check_inputs(nominal, effects, data, constraints)?;
+        let unknowns = Unknowns::of(nominal, effects, extra, data, constraints, options)?;
+        let model = unknowns.initial_model(nominal, start, effects, data, constraints, options);
+        let fit = Fit::new(nominal, data, constraints, options, unknowns, model).run()?;
+        // A fit asked to stop in its last pass is not returned as found.
+        options.cancel.check()?;
+        Ok(fit)
+    }
 }
 
 /// How much another scale of the prior could change the fit's held-out

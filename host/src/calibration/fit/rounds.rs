@@ -1,4 +1,4 @@
-//! The fit itself, as [`super::identify_constrained`] runs it: the unknowns of
+//! The fit itself, as [`super::FitRequest::run`] runs it: the unknowns of
 //! one fit ([`Unknowns`]: what the model frees, what it holds and why, the
 //! equation count), the start, then the fit's state ([`Fit`]: the model, the
 //! noise of each channel, the counters) stepped through its rounds —

@@ -80,7 +80,7 @@ use serde_json::{Value, json};
 use super::prior_scale::{
     PriorChoice, PriorScale, fold_steps, fold_sums, held_out_squares, immaterial,
 };
-use crate::calibration::fit::{FoldNormals, FullFit};
+use crate::calibration::fit::{FitRequest, FoldNormals, FullFit};
 use crate::calibration::validation::folds::DEFAULT_FOLDS;
 use crate::session::channel::{Channel, PerWeighed, Weighed, WeightFactors};
 use crate::session::constraints::Constraints;
@@ -466,15 +466,9 @@ pub fn for_diagnosis(
         weights: WeightFactors::NOISE,
         ..*options
     };
-    let reference = crate::calibration::fit::identify_constrained(
-        nominal,
-        None,
-        &[],
-        &[],
-        data,
-        constraints,
-        &reference_options,
-    )?;
+    let reference = FitRequest::new(nominal, data, &reference_options)
+        .constrained(constraints)
+        .run()?;
     let folds = match Weighed::ALL
         .map(|w| request[w])
         .into_iter()

@@ -8,7 +8,7 @@ use armcal_shared::effects::{Effect, EffectModel};
 use armcal_shared::{Param, Robot};
 use nalgebra::{Point3, Vector3};
 
-use crate::calibration::fit::{FullFit, FullOptions, Status, full_params, identify_constrained};
+use crate::calibration::fit::{FitRequest, FullFit, FullOptions, Status, full_params};
 use crate::calibration::simulate::{self, SocketSession};
 use crate::io::model_file::load_model;
 use crate::session::constraints::{
@@ -170,7 +170,10 @@ fn draw_kinds(
 }
 
 fn fit(nominal: &Robot<f64>, s: &SocketSession, c: &Constraints, options: &FullOptions) -> FullFit {
-    identify_constrained(nominal, None, &[], &[], &s.observations, c, options).expect("fits")
+    FitRequest::new(nominal, &s.observations, options)
+        .constrained(c)
+        .run()
+        .expect("fits")
 }
 
 /// Every identified parameter's error against the truth, in its standard errors.

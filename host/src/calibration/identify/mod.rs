@@ -32,7 +32,7 @@ use armcal_shared::calibration::ParamError;
 use armcal_shared::{Calibration, Param, Robot};
 
 use crate::calibration::fit::noise;
-use crate::calibration::fit::{FullFit, FullOptions, Status};
+use crate::calibration::fit::{Extension, FitRequest, FullFit, FullOptions, Status};
 use crate::calibration::validation::acceptance::Judgement;
 use crate::session::measurements::Measurements;
 use crate::session::model::RobotModel;
@@ -348,18 +348,20 @@ fn fit_full(
     // The model's own tilts (a URDF's parallel axes) beside its D-H parameters.
     let tilts: Vec<Param> = model.tilted.iter().map(|&k| Param::Beta(k)).collect();
     let fit_at = |factor: f64, options: &FullOptions| {
-        crate::calibration::fit::identify_constrained(
+        FitRequest::new(
             nominal,
-            None,
-            &[],
-            &tilts,
             observations(data),
-            &data.constraints,
             &FullOptions {
                 prior: options.prior.scaled(factor),
                 ..*options
             },
         )
+        .extended(Extension {
+            effects: &[],
+            extra: &tilts,
+        })
+        .constrained(&data.constraints)
+        .run()
     };
     let mut fit = fit_at(1.0, options)?;
     // Each choice below is a pass over the rows (its folds' normal

@@ -315,7 +315,7 @@ pub(crate) fn held_out_squares(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calibration::fit::{FullOptions, identify_constrained, linearize};
+    use crate::calibration::fit::{Extension, FitRequest, FullOptions, linearize};
     use crate::calibration::identify::{ParamSet, identify};
     use crate::calibration::simulate::{Scenario, simulate};
     use crate::calibration::validation::folds::{Folds, Subset};
@@ -361,13 +361,14 @@ mod tests {
         for (model, data) in [tracker("ur5e", 60, 1e-3, 3), mukca_front()] {
             let options = FullOptions::default();
             let (poses, constraints) = (&data.poses, &data.constraints);
-            let fit =
-                identify_constrained(&model.robot, None, &[], &[], poses, constraints, &options)
-                    .unwrap();
+            let fit = FitRequest::new(&model.robot, poses, &options)
+                .constrained(constraints)
+                .run()
+                .unwrap();
             let (k, sums) = fold_sums(&fit, poses, constraints, &options.prior, 10);
             let scores = scores(&sums, &WeightFactors::NOISE);
             assert_eq!(scores.len(), PRIOR_FACTORS.len(), "{}", data.file);
-            let lin = linearize(&fit, &[], &[], poses, constraints, &options.prior);
+            let lin = linearize(&fit, Extension::NONE, poses, constraints, &options.prior);
             let folds = Folds::interleaved(&lin, k);
             for s in &scores {
                 let subset = Subset {

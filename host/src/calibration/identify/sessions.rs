@@ -536,7 +536,7 @@ pub fn json(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calibration::fit::identify_full;
+    use crate::calibration::fit::FitRequest;
     use crate::calibration::simulate::{measure, random_configurations, rng};
     use crate::io::model_file::load_model;
 
@@ -561,12 +561,15 @@ mod tests {
         rows
     }
 
-    /// Each session of `rows` left out, `nominal` calibrated as `identify_full`
+    /// Each session of `rows` left out, `nominal` calibrated as `FitRequest::run`
     /// calibrates it, each session in its own frames.
     fn each_left_out(nominal: &Robot<f64>, rows: &[Observation]) -> Vec<SessionHeldOut> {
         let options = FullOptions::default();
-        let calibrate =
-            |rows: &[Observation]| identify_full(nominal, rows, &options).map(|f| Trained::of(&f));
+        let calibrate = |rows: &[Observation]| {
+            FitRequest::new(nominal, rows, &options)
+                .run()
+                .map(|f| Trained::of(&f))
+        };
         held_out_by_session(rows, &calibrate, FrameSharing::default(), &options)
     }
 

@@ -24,7 +24,7 @@
 //! fast as its fit. Units: SI.
 
 use crate::calibration::dense::unit_diagonal_scale;
-use crate::calibration::fit::{FullFit, Linearization, linearize};
+use crate::calibration::fit::{Extension, FullFit, Linearization, linearize};
 use crate::calibration::validation::blunders::{self, ALPHA, Deleted, Scale, Suspect};
 use crate::calibration::validation::folds::SELECTION_POSES;
 use crate::session::constraints::Constraints;
@@ -75,7 +75,7 @@ pub fn of_fit(
     if data.len() > SELECTION_POSES || data.is_empty() {
         return SuspectRows::default();
     }
-    let mut lin = linearize(fit, &[], &[], data, constraints, prior);
+    let mut lin = linearize(fit, Extension::NONE, data, constraints, prior);
     let none = vec![false; data.len()];
     let Some(deleted) = blunders::deleted_residuals(&lin, &none) else {
         return SuspectRows::default();
@@ -177,7 +177,7 @@ pub fn quantile_name(tested: usize) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calibration::fit::{FullOptions, identify_full};
+    use crate::calibration::fit::{FitRequest, FullOptions};
     use crate::calibration::simulate::{measure, random_configurations, rng};
     use crate::io::model_file::load_model;
 
@@ -197,7 +197,7 @@ mod tests {
         let clean = measure(&truth, &q, 20e-6, None, &mut r);
         let options = FullOptions::default();
         let test = |rows: &[Observation]| {
-            let fit = identify_full(&nominal, rows, &options).unwrap();
+            let fit = FitRequest::new(&nominal, rows, &options).run().unwrap();
             of_fit(&fit, rows, &Constraints::default(), &options.prior)
         };
         let none = test(&clean);

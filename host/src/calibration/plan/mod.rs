@@ -51,8 +51,7 @@ use nalgebra::{DMatrix, Point3, UnitQuaternion};
 use rand::RngExt;
 
 use crate::calibration::fit::{
-    FullOptions, Status, full_params, identify_constrained, identify_with_effects,
-    independent_parameter_count,
+    Extension, FitRequest, FullOptions, Status, full_params, independent_parameter_count,
 };
 use crate::calibration::simulate::rng;
 use crate::io::sockets::Sockets;
@@ -477,22 +476,21 @@ fn identifiable(
         })
         .collect();
     let fit = match (socket_of, &options.sockets) {
-        (Some(socket_of), Some(plate)) => identify_constrained(
-            robot,
-            None,
-            &effects,
-            &[],
-            &sockets::exact(q, socket_of),
-            &sockets::constraints(plate, socket_of),
-            &fit_options,
-        ),
-        _ => identify_with_effects(
-            robot,
-            &effects,
-            &[],
-            &exact(robot, q, options.orientation),
-            &fit_options,
-        ),
+        (Some(socket_of), Some(plate)) => {
+            FitRequest::new(robot, &sockets::exact(q, socket_of), &fit_options)
+                .extended(Extension {
+                    effects: &effects,
+                    extra: &[],
+                })
+                .constrained(&sockets::constraints(plate, socket_of))
+                .run()
+        }
+        _ => FitRequest::new(robot, &exact(robot, q, options.orientation), &fit_options)
+            .extended(Extension {
+                effects: &effects,
+                extra: &[],
+            })
+            .run(),
     };
     let Ok(fit) = fit else {
         return Separable {
@@ -1307,7 +1305,7 @@ fn random_picks(pool: &Pool, slots: &[usize], seed: u64) -> Vec<usize> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calibration::fit::identify_full;
+    use crate::calibration::fit::FitRequest;
     use crate::calibration::simulate::{measure, reach_point, with_random_errors};
     use crate::io::model_file::load_model;
 
@@ -1363,7 +1361,9 @@ mod tests {
             let (truth, _) = with_random_errors(&robot, &params, 1e-3, 1e-3, &mut r);
             let noise = orientation.then_some(20e-6);
             let data = measure(&truth, &p.q, 20e-6, noise, &mut r);
-            let fit = identify_full(&robot, &data, &FullOptions::least_squares()).unwrap();
+            let fit = FitRequest::new(&robot, &data, &FullOptions::least_squares())
+                .run()
+                .unwrap();
             assert_identified(
                 &fit,
                 &p.identified,
@@ -1479,15 +1479,13 @@ mod tests {
                     reach_point(&truth, q.clone(), &seat).unwrap()
                 })
                 .collect();
-        let fit = identify_constrained(
+        let fit = FitRequest::new(
             &robot,
-            None,
-            &[],
-            &[],
             &sockets::exact(&reached, &p.socket_of),
-            &sockets::constraints(&plate, &p.socket_of),
             &FullOptions::least_squares(),
         )
+        .constrained(&sockets::constraints(&plate, &p.socket_of))
+        .run()
         .unwrap();
         assert_identified(&fit, &p.identified, &format!("{fewest} poses"));
     }
