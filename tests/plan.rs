@@ -46,16 +46,14 @@ fn calibrate(model: &RobotModel, truth: &Robot<f64>, q: &[Vec<f64>], seed: u64) 
     identified(model, poses, Default::default())
 }
 
-/// The calibrated robot `armcal identify` (its default options) makes of
-/// `model` from the rows `poses` (at the unknown points of `constraints`,
-/// for a session of contacts).
-fn identified(
-    model: &RobotModel,
+/// The rows `poses` (held to the unknown points of `constraints`, for a
+/// session of contacts) as the session a file of them would give.
+fn session(
     poses: Vec<armcal::session::observation::Observation>,
     constraints: armcal::session::constraints::Constraints,
-) -> Robot<f64> {
+) -> Measurements {
     let n = poses.len();
-    let data = Measurements {
+    Measurements {
         file: "session.csv".into(),
         poses,
         lines: (2..2 + n).collect(),
@@ -65,7 +63,18 @@ fn identified(
         warnings: Vec::new(),
         constraints,
         sessions: Vec::new(),
-    };
+    }
+}
+
+/// The calibrated robot `armcal identify` (its default options) makes of
+/// `model` from the rows `poses` (at the unknown points of `constraints`,
+/// for a session of contacts).
+fn identified(
+    model: &RobotModel,
+    poses: Vec<armcal::session::observation::Observation>,
+    constraints: armcal::session::constraints::Constraints,
+) -> Robot<f64> {
+    let data = session(poses, constraints);
     let request = identify::Request {
         params: armcal::calibration::identify::ParamSet::Full,
         scales: Default::default(),
@@ -910,18 +919,7 @@ fn the_noise_alone_limits_the_acceptance_case() {
             let targets = random_configurations(nominal, 200, &mut r);
             let fitted = |noise: f64, scale: PriorScale| {
                 let poses = measure(&truth, &p.q, noise, None, &mut rng(seed));
-                let n = poses.len();
-                let data = Measurements {
-                    file: "session.csv".into(),
-                    poses,
-                    lines: (2..2 + n).collect(),
-                    times: vec![None; n],
-                    columns_used: Vec::new(),
-                    columns_ignored: Vec::new(),
-                    warnings: Vec::new(),
-                    constraints: Default::default(),
-                    sessions: Vec::new(),
-                };
+                let data = session(poses, Default::default());
                 let id = identify(
                     &model,
                     &data,
