@@ -9,9 +9,15 @@ when the previous answer came (unpaced; `--paced` waits for the 4 ms
 tick), every answer's IPOC checked. Then it stops sending: serve ends after
 its timeout and prints its statistics, with the distribution of the time
 from a datagram in to its answer out (p50, p99, max), which this script
-prints with the controller's own round trip. Exits 1 when an answer is
-missing, carries another IPOC, or serve counted a late answer (unless
-`--report-only`, as CI runs it, whose machines vary).
+prints with the controller's own round trip. Exits 1 (unless
+`--report-only`) when an answer is missing or carries another IPOC, when
+serve's p99 from datagram in to answer out is above a quarter of the 4 ms
+cycle (the answer's own work is microseconds: a p99 that high is armcal's
+slowness), or when more than one answer in 10^4 was late. A machine that is
+not real-time (CI's shared virtual machines) preempts a process now and then
+for some milliseconds: that single late answer is printed, not failed, as a
+KUKA controller tolerates a configured number of late answers; a
+deployment removes it with a real-time priority (docs/controllers.md).
 
 Run from the repository root after `cargo build --release -p armcal`:
 
@@ -27,6 +33,11 @@ import subprocess
 import sys
 import tempfile
 import time
+
+# The RSI cycle (serve's --cycle-ms default) and the late answers tolerated:
+# at most one in LATE_PER.
+CYCLE_US = 4000
+LATE_PER = 10_000
 
 
 def rob(q, ipoc):
@@ -95,9 +106,19 @@ def main():
           f"{len(rtts)} answers): p50 {us(quantile(rtts, 0.5))}, p99 {us(quantile(rtts, 0.99))}, "
           f"max {us(rtts[-1])}; {failures} missing or wrong")
     late = re.search(r"  late (\d+)", stats)
-    bad = failures > 0 or server.returncode != 0 or not late or int(late.group(1)) > 0
-    if bad and not args.report_only:
-        sys.exit(1)
+    p99 = re.search(r"p99 (\d+) us", stats)
+    reasons = []
+    if failures > 0 or server.returncode != 0:
+        reasons.append(f"{failures} answers missing or wrong, serve's exit status {server.returncode}")
+    if not late or not p99:
+        reasons.append("serve printed no late count or no p99")
+    else:
+        if int(p99.group(1)) > CYCLE_US // 4:
+            reasons.append(f"p99 {p99.group(1)} us, above a quarter of the {CYCLE_US} us cycle")
+        if int(late.group(1)) * LATE_PER > args.cycles:
+            reasons.append(f"{late.group(1)} late answers, more than 1 in {LATE_PER}")
+    if reasons and not args.report_only:
+        sys.exit("serve-latency: " + "; ".join(reasons))
 
 
 if __name__ == "__main__":
