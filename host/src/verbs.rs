@@ -230,7 +230,9 @@ pub(crate) fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
     let writer = simulate_cmd::writer(CLI, &model, &args.request())?;
     let description = command_line(Some(args.seed));
     if args.truth.is_some() {
-        let json = serde_json::to_string_pretty(&writer.truth().truth_json(&model.robot, &u))?;
+        let json = serde_json::to_string_pretty(&serde_json::to_value(
+            writer.truth().truth(&model.robot, &u),
+        )?)?;
         outputs.set("--truth", json.into_bytes());
     }
     // The rows are drawn as they are written, session after session: the
@@ -335,7 +337,7 @@ pub(crate) fn demo(args: DemoArgs) -> anyhow::Result<()> {
 /// `armcal sweep`.
 pub(crate) fn sweep(args: SweepArgs) -> anyhow::Result<()> {
     use armcal::calibration::simulate::ErrorSizes;
-    use armcal::calibration::sweep::{KINDS, ROBOTS, Settings};
+    use armcal::calibration::sweep::{Case, KINDS, ROBOTS, Settings};
     let SweepArgs {
         cases,
         seed,
@@ -393,14 +395,10 @@ pub(crate) fn sweep(args: SweepArgs) -> anyhow::Result<()> {
         );
     }
     if json.is_some() {
-        let rows: Vec<serde_json::Value> = results
-            .iter()
-            .map(|c| serde_json::json!({
-                "robot": c.robot, "hidden": c.hidden, "joints": c.joints.iter().map(|j| j + 1).collect::<Vec<_>>(),
-                "signal": c.signal, "found": c.found.as_ref().map(|f| f.0), "named": c.named, "seconds": c.seconds,
-                "detected": c.detected(),
-            }))
-            .collect();
+        // Through a JSON value: its keys in the alphabetical order of the
+        // other reports.
+        let rows: Vec<_> = results.iter().map(Case::report).collect();
+        let rows = serde_json::to_value(rows)?;
         outputs.set("--json", serde_json::to_string_pretty(&rows)?.into_bytes());
         outputs.commit()?;
     }

@@ -224,7 +224,7 @@ pub fn simulate<'py>(
             Vec::new()
         },
     };
-    let truth = errors::to_python(py, &session.truth_json(&m.robot, &u))?;
+    let truth = errors::to_python(py, &session.truth(&m.robot, &u))?;
     Ok((
         Measurements {
             data,

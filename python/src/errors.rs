@@ -273,10 +273,15 @@ pub fn to_numpy<'py>(
     Ok(array.into_any())
 }
 
-/// A JSON value (a report) as Python objects: dicts, lists, floats, None.
-pub fn to_python<'py>(py: Python<'py>, value: &serde_json::Value) -> PyResult<Bound<'py, PyAny>> {
-    let text = serde_json::to_string(value).map_err(failure)?;
-    py.import("json")?.call_method1("loads", (text,))
+/// A report as Python objects: dicts, lists, floats, None, made from the
+/// value itself (no JSON text between), as `--json` serialises it: a float
+/// that is not finite is None, as JSON's `null`.
+pub fn to_python<'py>(
+    py: Python<'py>,
+    value: &impl serde::Serialize,
+) -> PyResult<Bound<'py, PyAny>> {
+    let value = serde_json::to_value(value).map_err(failure)?;
+    pythonize::pythonize(py, &value).map_err(failure)
 }
 
 /// The value of the argument `name` as `T`, refused with an

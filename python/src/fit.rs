@@ -2,8 +2,10 @@
 //! diagnose` compose them: the same checks of the data, the same options, the
 //! same report (the JSON of `docs/file-formats.md` §6, as Python dicts), the same refusals.
 
+use armcal::calibration::diagnose::report::DiagnoseReport;
 use armcal::calibration::identify::channel_weight::{ChannelWeight, ChannelWeights};
 use armcal::calibration::identify::prior_scale::PriorScale;
+use armcal::calibration::identify::report::IdentifyReport;
 use armcal::calibration::identify::{ParamSet, StatedScales};
 use armcal::commands::{self, diagnose as diagnose_cmd, identify as identify_cmd};
 use armcal::session::channel::Weighed;
@@ -27,11 +29,37 @@ use crate::model::Model;
 /// calibration (what `--out` writes).
 #[pyclass(module = "armcal", frozen, subclass)]
 pub struct Outcome {
-    report: serde_json::Value,
+    report: Report,
     summary: String,
     calibration: armcal_shared::Calibration,
     /// Why the calibration must not be written, as the command line says.
     failed: Option<String>,
+}
+
+/// The report of `identify` or `diagnose`: the value `--json` serialises.
+enum Report {
+    /// `identify`'s.
+    Identify(Box<IdentifyReport>),
+    /// `diagnose`'s.
+    Diagnose(Box<DiagnoseReport>),
+}
+
+impl Report {
+    /// `identify`'s report (the `Identification`'s own).
+    fn identify(&self) -> Option<&IdentifyReport> {
+        match self {
+            Self::Identify(r) => Some(r),
+            Self::Diagnose(_) => None,
+        }
+    }
+
+    /// `diagnose`'s report (the `Diagnosis`'s own).
+    fn diagnose(&self) -> Option<&DiagnoseReport> {
+        match self {
+            Self::Diagnose(r) => Some(r),
+            Self::Identify(_) => None,
+        }
+    }
 }
 
 /// The outcome of `identify` (see `Outcome`), with its residuals.
@@ -268,7 +296,7 @@ pub fn identify_py<'py>(
         let identified = identify_cmd::run(PYTHON, m, rows, &request)?;
         let (m, result) = (&identified.model, identified.result);
         let outcome = Outcome {
-            report: result.to_json(&m.units, rows),
+            report: Report::Identify(Box::new(result.report(&m.units, rows))),
             summary: result.summary(m, rows),
             calibration: result.calibration.clone(),
             failed: identified.failed.map(|f| f.to_string()),
@@ -366,7 +394,7 @@ pub fn diagnose<'py>(
         let from = usize::from(arrays);
         let lines: Vec<usize> = rows.lines.iter().map(|line| line - from).collect();
         let outcome = Outcome {
-            report: diagnosed.json(rows, &lines),
+            report: Report::Diagnose(Box::new(diagnosed.report(rows, &lines))),
             summary: diagnosed.summary(rows, &lines),
             calibration: diagnosed.calibration.clone(),
             failed: diagnosed.failed.take().map(|f| f.to_string()),
@@ -390,7 +418,10 @@ impl Outcome {
     /// (file lines, or rows from 0 for arrays) and more.
     #[getter]
     fn report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        errors::to_python(py, &self.report)
+        match &self.report {
+            Report::Identify(r) => errors::to_python(py, r),
+            Report::Diagnose(r) => errors::to_python(py, r),
+        }
     }
 
     /// The human summary the command prints.
@@ -423,21 +454,25 @@ impl Identification {
     /// model units; parameters held at nominal are left out.
     #[getter]
     fn errors(slf: &Bound<'_, Self>) -> std::collections::BTreeMap<String, f64> {
-        slf.as_super().get().report["parameters"]
-            .as_array()
+        slf.as_super()
+            .get()
+            .report
+            .identify()
             .into_iter()
-            .flatten()
-            .filter(|p| p["status"] == "identified")
-            .filter_map(|p| Some((p["name"].as_str()?.to_owned(), p["error"].as_f64()?)))
+            .flat_map(|r| &r.parameters)
+            .filter(|p| p.status == "identified")
+            .map(|p| (p.name.clone(), p.error))
             .collect()
     }
 
     /// Whether the iterations converged.
     #[getter]
     fn converged(slf: &Bound<'_, Self>) -> bool {
-        slf.as_super().get().report["converged"]
-            .as_bool()
-            .unwrap_or(false)
+        slf.as_super()
+            .get()
+            .report
+            .identify()
+            .is_some_and(|r| r.converged)
     }
 
     /// RMS position residual of the calibrated model, model length unit.
@@ -455,7 +490,11 @@ impl Identification {
     fn __repr__(slf: &Bound<'_, Self>) -> String {
         format!(
             "Identification(params={}, converged={}, position_rms={})",
-            slf.as_super().get().report["params"],
+            slf.as_super()
+                .get()
+                .report
+                .identify()
+                .map_or("?", |r| r.params),
             Self::converged(slf),
             slf.get().position_rms
         )
@@ -493,11 +532,13 @@ impl Diagnosis {
     }
 
     fn __repr__(slf: &Bound<'_, Self>) -> String {
-        let effects: Vec<&str> = slf.as_super().get().report["effects"]
-            .as_array()
+        let outcome = slf.as_super().get();
+        let effects: Vec<&str> = outcome
+            .report
+            .diagnose()
             .into_iter()
-            .flatten()
-            .filter_map(|e| e["name"].as_str())
+            .flat_map(|r| &r.diagnosis.effects)
+            .map(|e| e.name)
             .collect();
         format!("Diagnosis(effects={effects:?})")
     }

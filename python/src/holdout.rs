@@ -11,10 +11,8 @@
 
 use armcal::calibration::cancel::Cancel;
 use armcal::calibration::identify::StatedScales;
-use armcal::calibration::validation::contact_check::ContactCheck;
 use armcal::commands::holdout::{Calibrate, Request, Sessions, run};
 use pyo3::prelude::*;
-use serde_json::json;
 
 use crate::errors::PYTHON;
 use crate::errors::{self, args};
@@ -119,43 +117,7 @@ pub fn holdout<'py>(
         run(PYTHON, &of_run, given, &Request { cancel, ..request })
     })?
     .map_err(|e| errors::command(py, e, false))?;
-    let length = |v: f64| m.units.length_from_si(v);
-    let check = |c: &ContactCheck| {
-        json!({
-            "spread": c.spread_rms().map(length),
-            "distance_error": c.worst_distance_error().map(length),
-            "flatness": c.flatness_rms().map(length),
-            "points": c.points.iter().map(|p| json!({
-                "name": p.name,
-                "rows": p.rows,
-                "centre": p.centre.iter().map(|&x| length(x)).collect::<Vec<_>>(),
-                "spread": length(p.spread),
-            })).collect::<Vec<_>>(),
-            "planes": c.planes.iter().map(|p| json!({
-                "name": p.name,
-                "rows": p.rows,
-                "normal": p.plane.normal().iter().copied().collect::<Vec<_>>(),
-                "offset": length(p.plane.offset),
-                "flatness": length(p.flatness),
-            })).collect::<Vec<_>>(),
-            "distances": c.distances.iter().map(|d| json!({
-                "points": d.points,
-                "stated": length(d.stated),
-                "error": length(d.error),
-            })).collect::<Vec<_>>(),
-        })
-    };
     rows.iter()
-        .map(|h| {
-            let item = json!({
-                "file": h.file,
-                "choice": h.choice,
-                "training_rms": length(h.training_rms),
-                "nominal": check(&h.nominal),
-                "reference": h.reference.as_ref().map(check),
-                "calibrated": check(&h.calibrated),
-            });
-            errors::to_python(py, &item)
-        })
+        .map(|h| errors::to_python(py, &h.report(&m.units)))
         .collect()
 }

@@ -174,6 +174,59 @@ pub enum SignSource {
     },
 }
 
+/// The reports' `gravity` (docs/file-formats.md §6): the masses' fit to
+/// the measured torques, as [`GravityFit::report`] gives it.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct GravityReport {
+    /// Always `measured joint torques`.
+    pub source: &'static str,
+    /// `drive` or `load`: the sign the `tau` columns were read with.
+    pub torque_sign: &'static str,
+    /// How that sign was settled.
+    pub torque_sign_source: SignSourceReport,
+    /// The summary's sentence on the sign.
+    pub reading: String,
+    /// The poses fitted.
+    pub poses: usize,
+    /// Whether the model had masses.
+    pub model_had_masses: bool,
+    /// `fitted` or `model`.
+    pub masses_used: &'static str,
+    /// Why the fitted masses are not used (empty when they are).
+    pub not_used_because: Vec<String>,
+    /// Each joint's RMS torque residual, N·m.
+    pub residual_nm: Vec<f64>,
+    /// Each joint's torque noise, N·m.
+    pub noise_nm: Vec<f64>,
+    /// Each joint's RMS measured torque about its mean, N·m.
+    pub spread_nm: Vec<f64>,
+    /// Each session's offset of each joint, N·m.
+    pub offset_nm: Vec<Vec<f64>>,
+}
+
+/// How the torques' sign was settled, as the reports give it: `stated`,
+/// and for a sign found, `by` (`fit` or `model gravity`) with its figures.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct SignSourceReport {
+    /// Whether `--torque-sign` stated it.
+    pub stated: bool,
+    /// `fit` or `model gravity`, for a sign found.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub by: Option<&'static str>,
+    /// By fit: the other sign's worst joint, from 1.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub joint: Option<usize>,
+    /// By fit: the other sign's misfit there, N·m RMS beyond the noise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub other_sign_misfit_nm: Option<f64>,
+    /// By fit: this sign's misfit there.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub misfit_nm: Option<f64>,
+    /// By the model's gravity: the torques' correlation with it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub correlation: Option<f64>,
+}
+
 /// Whether the fitted masses are used.
 #[derive(Clone, Debug, PartialEq)]
 pub enum MassesUsed {
@@ -834,40 +887,43 @@ impl GravityFit {
     }
 
     /// The reports' `gravity`: where the compliance's torques come from.
-    pub fn to_json(&self) -> serde_json::Value {
-        let source = match &self.sign_source {
-            SignSource::Stated => serde_json::json!({"stated": true}),
-            SignSource::Fit { joint, other, this } => serde_json::json!({
-                "stated": false,
-                "by": "fit",
-                "joint": joint + 1,
-                "other_sign_misfit_nm": other,
-                "misfit_nm": this,
-            }),
-            SignSource::ModelGravity { correlation } => serde_json::json!({
-                "stated": false,
-                "by": "model gravity",
-                "correlation": correlation,
-            }),
+    pub fn report(&self) -> GravityReport {
+        let torque_sign_source = match &self.sign_source {
+            SignSource::Stated => SignSourceReport {
+                stated: true,
+                ..SignSourceReport::default()
+            },
+            SignSource::Fit { joint, other, this } => SignSourceReport {
+                by: Some("fit"),
+                joint: Some(joint + 1),
+                other_sign_misfit_nm: Some(*other),
+                misfit_nm: Some(*this),
+                ..SignSourceReport::default()
+            },
+            SignSource::ModelGravity { correlation } => SignSourceReport {
+                by: Some("model gravity"),
+                correlation: Some(*correlation),
+                ..SignSourceReport::default()
+            },
         };
-        let (used, reasons) = match &self.used {
+        let (masses_used, not_used_because) = match &self.used {
             MassesUsed::Fitted => ("fitted", Vec::new()),
             MassesUsed::ModelMasses(r) => ("model", r.clone()),
         };
-        serde_json::json!({
-            "source": "measured joint torques",
-            "torque_sign": self.sign.name(),
-            "torque_sign_source": source,
-            "reading": self.sign_summary(),
-            "poses": self.poses,
-            "model_had_masses": self.model_had_masses,
-            "masses_used": used,
-            "not_used_because": reasons,
-            "residual_nm": self.residual,
-            "noise_nm": self.noise,
-            "spread_nm": self.spread,
-            "offset_nm": self.offset,
-        })
+        GravityReport {
+            source: "measured joint torques",
+            torque_sign: self.sign.name(),
+            torque_sign_source,
+            reading: self.sign_summary(),
+            poses: self.poses,
+            model_had_masses: self.model_had_masses,
+            masses_used,
+            not_used_because,
+            residual_nm: self.residual.clone(),
+            noise_nm: self.noise.clone(),
+            spread_nm: self.spread.clone(),
+            offset_nm: self.offset.clone(),
+        }
     }
 
     /// The section of `diagnose`'s HTML page: the [`GravityFit::summary`]

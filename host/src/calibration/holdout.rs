@@ -13,12 +13,15 @@
 
 use armcal_shared::Robot;
 use armcal_shared::effects::EffectModel;
+use armcal_shared::units::Units;
 
 use crate::calibration::diagnose::{DiagnoseOptions, diagnose_session};
 use crate::calibration::fit::FullOptions;
 use crate::calibration::identify::prior_scale::PriorScale;
 use crate::calibration::identify::{self, IdentifyError, ParamSet};
-use crate::calibration::validation::contact_check::{ContactCheck, contact_check, geometric};
+use crate::calibration::validation::contact_check::{
+    ContactCheck, ContactCheckReport, contact_check, geometric,
+};
 use crate::session::measurements::Measurements;
 use crate::session::model::RobotModel;
 
@@ -115,6 +118,38 @@ pub struct HeldOut {
     pub training_rms: f64,
     /// What the calibration chose ([`Calibrated::choice`]).
     pub choice: String,
+}
+
+/// A session held out as the reports give it ([`HeldOut::report`]),
+/// lengths in the model's unit.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct HeldOutReport {
+    /// The session's file.
+    pub file: String,
+    /// How its training set was calibrated.
+    pub choice: String,
+    /// The calibration's residual RMS on its training rows.
+    pub training_rms: f64,
+    /// The nominal model's figures on the session.
+    pub nominal: ContactCheckReport,
+    /// The reference model's, when given.
+    pub reference: Option<ContactCheckReport>,
+    /// The calibration's.
+    pub calibrated: ContactCheckReport,
+}
+
+impl HeldOut {
+    /// The session's figures, lengths in `units`.
+    pub fn report(&self, units: &Units) -> HeldOutReport {
+        HeldOutReport {
+            file: self.file.clone(),
+            choice: self.choice.clone(),
+            training_rms: units.length_from_si(self.training_rms),
+            nominal: self.nominal.report(units),
+            reference: self.reference.as_ref().map(|c| c.report(units)),
+            calibrated: self.calibrated.report(units),
+        }
+    }
 }
 
 impl HeldOut {

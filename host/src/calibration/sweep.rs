@@ -55,6 +55,44 @@ impl Case {
     }
 }
 
+/// One case in the report of `armcal sweep --json`: the case with its joints
+/// from 1 and whether the hidden effect was detected.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct CaseReport {
+    /// The robot's built-in name.
+    pub robot: &'static str,
+    /// The hidden effect's name (`null`: pure geometry).
+    pub hidden: Option<&'static str>,
+    /// Its joints, from 1.
+    pub joints: Vec<usize>,
+    /// Geometric held-out RMS over the noise-limited RMS.
+    pub signal: f64,
+    /// The effect the diagnosis named first.
+    pub found: Option<&'static str>,
+    /// Number of effects named.
+    pub named: usize,
+    /// Seconds the diagnosis took.
+    pub seconds: f64,
+    /// Whether the hidden effect was named first, on its joints.
+    pub detected: bool,
+}
+
+impl Case {
+    /// The case as `armcal sweep --json` reports it.
+    pub fn report(&self) -> CaseReport {
+        CaseReport {
+            robot: self.robot,
+            hidden: self.hidden,
+            joints: self.joints.iter().map(|j| j + 1).collect(),
+            signal: self.signal,
+            found: self.found.as_ref().map(|f| f.0),
+            named: self.named,
+            seconds: self.seconds,
+            detected: self.detected(),
+        }
+    }
+}
+
 /// The names of the hidden effects of a case's `kind` (see [`hidden_case`]), in order.
 pub const KINDS: [&str; 6] = [
     "joint_compliance",

@@ -11,6 +11,7 @@ use super::{Front, fit_options, folds};
 use crate::calibration::cancel::Cancel;
 use crate::calibration::diagnose::Choice;
 use crate::calibration::diagnose::RowPlaces;
+use crate::calibration::diagnose::report::DiagnoseReport;
 use crate::calibration::diagnose::{DiagnoseOptions, Diagnosis, diagnose_with_progress};
 use crate::calibration::fit::{Extension, FitRequest, FullOptions};
 use crate::calibration::gravity::{GravityFit, TorqueSign, with_measured_gravity};
@@ -260,35 +261,35 @@ impl Diagnosed {
         )
     }
 
-    /// The JSON report of the diagnosis of `data`: the diagnosis' own, with
-    /// `gravity`, the masses' fit to the measured torques, when the session
-    /// has them, and `sessions` when there are several.
-    pub fn json(&self, data: &Measurements, lines: &[usize]) -> serde_json::Value {
+    /// The report of the diagnosis of `data` (`lines`: each pose's line or
+    /// row): the diagnosis' own, with `gravity`, the masses' fit to the
+    /// measured torques, when the session has them, the weights, and
+    /// `sessions` and each outlier's file when there are several.
+    pub fn report(&self, data: &Measurements, lines: &[usize]) -> DiagnoseReport {
         let rows = RowPlaces::of(lines, data);
-        let mut report = self.diagnosis.to_json(&self.model, rows, &self.options);
-        if rows.sessions.is_some() {
+        let fit = &self.diagnosis.fit;
+        DiagnoseReport {
+            diagnosis: self.diagnosis.report(&self.model, rows, &self.options),
             // Each outlier's file: a line is its own file's.
-            report["outlier_files"] = self
-                .diagnosis
-                .blunders
-                .iter()
-                .map(|&i| rows.file(i))
-                .collect();
+            outlier_files: rows.sessions.is_some().then(|| {
+                let file = |i: usize| rows.file(i).map(str::to_string);
+                self.diagnosis.blunders.iter().map(|&i| file(i)).collect()
+            }),
+            gravity: self.gravity.as_ref().map(GravityFit::report),
+            approach_order: if data.times.iter().all(Option::is_some) {
+                "times"
+            } else {
+                "rows"
+            },
+            weights: self.weighting.reports(fit),
+            sessions: sessions::reports(fit, &self.sessions_held_out, data, &self.model.units),
         }
-        if let Some(g) = &self.gravity {
-            report["gravity"] = g.to_json();
-        }
-        report["approach_order"] = if data.times.iter().all(Option::is_some) {
-            "times"
-        } else {
-            "rows"
-        }
-        .into();
-        self.weighting.insert_json(&mut report, &self.diagnosis.fit);
-        let held_out = &self.sessions_held_out;
-        if let Some(s) = sessions::json(&self.diagnosis.fit, held_out, data, &self.model.units) {
-            report["sessions"] = s;
-        }
-        report
+    }
+
+    /// The JSON report of the diagnosis of `data`: [`Diagnosed::report`]
+    /// serialised.
+    pub fn json(&self, data: &Measurements, lines: &[usize]) -> serde_json::Value {
+        serde_json::to_value(self.report(data, lines))
+            .expect("a report of numbers, strings and lists serialises")
     }
 }

@@ -1,6 +1,7 @@
 //! How armcal's reports are written, whatever they report: numbers as the
 //! summaries give them ([`self::format`]), the HTML pages' head, style and escaping
-//! ([`html`]), and the scatter plots they draw as inline SVG ([`svg`]).
+//! ([`html`]), the scatter plots they draw as inline SVG ([`svg`]), and the
+//! units every JSON report states ([`units`]).
 //!
 //! Nothing here knows a calibration: [`crate::calibration`] and
 //! [`crate::apply`] both write with it, so it stands under both (the
@@ -9,3 +10,4 @@
 pub mod format;
 pub mod html;
 pub mod svg;
+pub mod units;

@@ -367,15 +367,7 @@ fn html_findings(s: &mut String, model: &RobotModel, d: &Diagnosis, data: &[Obse
     }
     let _ = write!(s, "<ul>");
     for f in &d.findings {
-        let _ = write!(
-            s,
-            "<li><b>{}</b> (joints {}): held-out RMS ×{:.2} better; F = {:.1} above the {:.1} of a 1 % family-wise test",
-            f.candidate.name,
-            f.candidate.joints_label(),
-            f.gain,
-            f.f_test.0,
-            f.f_test.1
-        );
+        let _ = write!(s, "<li>{}", html_escape(&f.sentence()));
         for a in &f.alike {
             let _ = write!(s, "<br>{}", html_escape(&a.sentence(&f.candidate)));
         }

@@ -52,6 +52,7 @@ pub mod candidates;
 pub mod geometry;
 pub mod html;
 pub mod large;
+pub mod report;
 mod summary;
 pub use summary::RowPlaces;
 
@@ -256,6 +257,32 @@ pub struct Finding {
     /// The other candidates that reproduce what the data show of it
     /// ([`alike`](mod@alike)): causes these data cannot tell from it.
     pub alike: Vec<Alike>,
+}
+
+impl Finding {
+    /// The finding as the summary and the HTML page state it: the effect,
+    /// its joints, its held-out gain and its F test.
+    pub fn sentence(&self) -> String {
+        format!(
+            "found {} (joints {}): held-out gain ×{:.2}, F {:.1} > {:.1} (1% family-wise)",
+            self.candidate.name,
+            self.candidate.joints_label(),
+            self.gain,
+            self.f_test.0,
+            self.f_test.1
+        )
+    }
+
+    /// The report's `evidence` (docs/file-formats.md §6): the held-out gain
+    /// as a percentage over `folds` folds and the F test.
+    pub fn evidence(&self, folds: usize) -> String {
+        format!(
+            "held-out RMS {:.1}% lower with it ({folds}-fold); F = {:.1} against the {:.1} of a 1% family-wise test",
+            100.0 * (1.0 - 1.0 / self.gain),
+            self.f_test.0,
+            self.f_test.1
+        )
+    }
 }
 
 /// A candidate that gained held-out but was not chosen, and why.

@@ -4,9 +4,9 @@
 //! with them. Nothing here computes; it reads a [`Diagnosis`].
 
 use armcal_shared::effects::Effect;
-use armcal_shared::{Calibration, JointType, Param, Robot};
+use armcal_shared::{JointType, Param, Robot};
 
-use super::{Choice, DiagnoseOptions, Diagnosis, HeldOut, HeldOutModels, Shortfall};
+use super::{Choice, DiagnoseOptions, Diagnosis, HeldOut, Shortfall};
 use crate::calibration::fit::Status;
 use crate::calibration::fit::prior::Geometry;
 use crate::report::format::significant;
@@ -177,8 +177,8 @@ impl Diagnosis {
     pub fn noise_rows(
         &self,
         units: &armcal_shared::units::Units,
-    ) -> Vec<crate::calibration::identify::NoiseRow> {
-        crate::calibration::identify::noise_rows(&self.geometric.noise, units)
+    ) -> Vec<crate::calibration::identify::report::NoiseRow> {
+        crate::calibration::identify::report::noise_rows(&self.geometric.noise, units)
     }
 
     /// The held-out statistics of the nominal model, the geometric and the
@@ -209,220 +209,6 @@ impl Diagnosis {
             }
         }
         (held, moved)
-    }
-
-    /// The JSON of `docs/file-formats.md` §6 (`noise_estimate_mm`, `holdout`, `effects`,
-    /// `outlier_rows`), plus the chosen model, every model's held-out error, the
-    /// noise of each channel, the prior's role and every candidate's
-    /// first-round gain.
-    pub fn to_json(
-        &self,
-        model: &crate::session::model::RobotModel,
-        rows: RowPlaces<'_>,
-        options: &DiagnoseOptions,
-    ) -> serde_json::Value {
-        use serde_json::json;
-        let mm = |x: f64| x * 1e3;
-        let line = |i: usize| rows.line(i);
-        let units = &model.units;
-        // The effects' values as the calibration written holds them.
-        let written = self.calibration(&model.robot, false, *units);
-        let effects = self.effects_json(model, &written, options);
-        let (held, moved) = self.prior_role();
-        let names = |v: &[Param]| v.iter().map(|p| p.to_string()).collect::<Vec<_>>();
-        let (prior, factor) = match self.choice {
-            Choice::Calibrated {
-                prior,
-                prior_factor,
-                ..
-            } => (prior, prior_factor),
-            Choice::Nominal => (options.fit.prior, 1.0),
-        };
-        json!({
-            "noise_estimate_mm": mm(self.noise),
-            "noise": crate::calibration::identify::noise_json(&self.geometric.noise, units),
-            "chosen": {
-                "model": match self.choice {
-                    Choice::Nominal => "nominal",
-                    Choice::Calibrated { geometry, .. } => geometry.name(),
-                },
-                "label": self.chosen_label(),
-                "prior_factor": factor,
-                "prior": {"length": units.length_from_si(prior.length), "angle": units.angle_from_si(prior.angle)},
-                "calibration_changes_nothing": self.choice == Choice::Nominal,
-            },
-            "models": self.models.iter().map(|m| json!({
-                "model": m.label(),
-                "parameters": m.parameters,
-                "rms_mm": mm(m.held.rms), "mean_mm": mm(m.held.mean), "max_mm": mm(m.held.max),
-            })).collect::<Vec<_>>(),
-            "models_with_effects": self.models_with_effects && !self.findings.is_empty(),
-            "prior_role": {
-                "held_by_prior": names(&held),
-                "moved_by_data": names(&moved),
-                "data_share": self.fit.params.iter()
-                    .filter(|p| matches!(p.status, Status::Identified { .. }))
-                    .map(|p| json!({"name": p.param.to_string(), "data_share": p.data_share}))
-                    .collect::<Vec<_>>(),
-            },
-            "holdout": self.holdout_json(options),
-            "effects": effects,
-            "written": {
-                "held_out_rms_mm": written.held_out.map(mm),
-                "geometric_fallback": written.geometric.as_ref().map(|g| json!({
-                    "held_out_rms_mm": g.held_out.map(mm),
-                    "parameters": g.errors.len(),
-                })),
-            },
-            "replicates": self.replicates_json(),
-            "selection": self.selection.map(|s| json!({
-                "rows": s.rows, "every": s.every, "poses": s.poses, "set_aside": s.set_aside,
-            })),
-            "fitted": self.fitted.map(|h| json!({
-                "rms_mm": mm(h.rms), "mean_mm": mm(h.mean), "max_mm": mm(h.max),
-            })),
-            "outlier_rows": self.blunders.iter().map(|&i| line(i)).collect::<Vec<_>>(),
-            "suspect_rows": self.suspects.iter().map(|b| {
-                let mut row = json!({
-                    "row": line(b.pose), "f": b.f, "threshold": b.threshold,
-                    "others_held_out_rms_mm_with": mm(b.held_with),
-                    "others_held_out_rms_mm_without": mm(b.held_without),
-                    "set_aside": b.set_aside,
-                });
-                if let Some(file) = rows.file(b.pose) {
-                    row["file"] = json!(file);
-                }
-                row
-            }).collect::<Vec<_>>(),
-            "candidates": self.tried.iter().map(|(c, g)| json!({
-                "name": c.name,
-                "joints": c.joints.iter().map(|j| j + 1).collect::<Vec<_>>(),
-                "gain": g,
-            })).collect::<Vec<_>>(),
-            "unsettled": self.unsettled_json(),
-        })
-    }
-
-    /// The JSON's `effects`: each effect found, its parameters as the
-    /// calibration `written` holds them (in the model's units), its evidence.
-    fn effects_json(
-        &self,
-        model: &crate::session::model::RobotModel,
-        written: &Calibration,
-        options: &DiagnoseOptions,
-    ) -> Vec<serde_json::Value> {
-        use serde_json::json;
-        let units = &model.units;
-        self
-            .findings
-            .iter()
-            .map(|f| {
-                let mut parameters = serde_json::Map::new();
-                if let Some(e) = written.effects.iter().find(|e| f.candidate.is(e)) {
-                    for i in 0..e.parameter_count() {
-                        let v = e.parameter(i).unwrap_or(0.0);
-                        parameters.insert(
-                            crate::calibration::fit::effect_parameter_name(e, i),
-                            json!(effect_value(&model.robot, e, units, v)),
-                        );
-                    }
-                }
-                for p in &f.candidate.extra {
-                    let error = written
-                        .errors
-                        .iter()
-                        .find(|r| r.param == *p)
-                        .map_or(0.0, |r| r.error);
-                    parameters.insert(p.to_string(), json!(units.angle_from_si(error)));
-                }
-                let alike: Vec<serde_json::Value> = f
-                    .alike
-                    .iter()
-                    .map(|a| {
-                        json!({
-                            "name": a.candidate.name,
-                            "joints": a.candidate.joints.iter().map(|j| j + 1).collect::<Vec<_>>(),
-                            "unexplained_sigma": a.unexplained,
-                            "separated_by": a.separated_by(&f.candidate),
-                        })
-                    })
-                    .collect();
-                json!({
-                    "name": f.candidate.name,
-                    "joints": f.candidate.joints.iter().map(|j| j + 1).collect::<Vec<_>>(),
-                    "parameters": parameters,
-                    "gain": f.gain,
-                    "alike": alike,
-                    "evidence": format!(
-                        "held-out RMS {:.1}% lower with it ({}-fold); F = {:.1} against the {:.1} of a 1% family-wise test",
-                        100.0 * (1.0 - 1.0 / f.gain), options.folds, f.f_test.0, f.f_test.1
-                    ),
-                })
-            })
-            .collect()
-    }
-
-    /// The JSON's `holdout`: the held-out errors of the three models, mm.
-    fn holdout_json(&self, options: &DiagnoseOptions) -> serde_json::Value {
-        use serde_json::json;
-        let mm = |x: f64| x * 1e3;
-        let HeldOutModels {
-            nominal,
-            geometric,
-            extended,
-        } = self.holdout;
-        json!({
-            "method": format!("{}-fold", options.folds),
-            "nominal_rms_mm": mm(nominal.rms),
-            "geometric_rms_mm": mm(geometric.rms),
-            "extended_rms_mm": mm(extended.rms),
-            "nominal_mean_mm": mm(nominal.mean), "nominal_max_mm": mm(nominal.max),
-            "geometric_mean_mm": mm(geometric.mean), "geometric_max_mm": mm(geometric.max),
-            "extended_mean_mm": mm(extended.mean), "extended_max_mm": mm(extended.max),
-        })
-    }
-
-    /// The JSON's `replicates`: the repeated configurations and the lack-of-fit test.
-    fn replicates_json(&self) -> Option<serde_json::Value> {
-        use serde_json::json;
-        let mm = |x: f64| x * 1e3;
-        self.replicates.map(|r| {
-            json!({
-                "rows": r.rows,
-                "configurations": r.configurations,
-                "robot_configurations": r.robot_configurations,
-                "copies": r.copies,
-                "pure_error_mm": r.lack_of_fit.map(|l| mm(l.pure.sigma)),
-                "pure_error_dof": r.lack_of_fit.map(|l| l.pure.dof),
-                "repeated_configurations": r.lack_of_fit.map(|l| l.pure.repeated),
-                "residual_at_means_mm": r.lack_of_fit.map(|l| mm(l.shown)),
-                "expected_at_means_mm": r.lack_of_fit.map(|l| mm(l.expected)),
-                "lack_of_fit_f": r.lack_of_fit.map(|l| l.f),
-                "lack_of_fit_threshold": r.lack_of_fit.map(|l| l.threshold),
-                "lack_of_fit_p": r.lack_of_fit.map(|l| l.p),
-                "lack_of_fit": r.lack_of_fit.map(|l| l.significant()),
-            })
-        })
-    }
-
-    /// The JSON's `unsettled`: the candidate the search stopped on.
-    fn unsettled_json(&self) -> Option<serde_json::Value> {
-        use serde_json::json;
-        self.unsettled.as_ref().map(|u| {
-            json!({
-                "name": u.candidate.name,
-                "joints": u.candidate.joints.iter().map(|j| j + 1).collect::<Vec<_>>(),
-                "gain": u.gain, "f": u.f_test.0, "threshold": u.f_test.1,
-                "shortfall": match u.shortfall {
-                    Shortfall::Significance { .. } => "significance",
-                    Shortfall::Gain { .. } => "gain",
-                },
-                "poses_needed": match u.shortfall {
-                    Shortfall::Significance { poses_needed } => Some(poses_needed),
-                    Shortfall::Gain { .. } => None,
-                },
-            })
-        })
     }
 
     /// The human summary.
@@ -589,15 +375,7 @@ impl Diagnosis {
             let _ = writeln!(out, "nothing beyond geometry survives the test");
         }
         for f in &self.findings {
-            let _ = writeln!(
-                out,
-                "found {} (joints {}): held-out gain ×{:.2}, F {:.1} > {:.1} (1% family-wise)",
-                f.candidate.name,
-                f.candidate.joints_label(),
-                f.gain,
-                f.f_test.0,
-                f.f_test.1
-            );
+            let _ = writeln!(out, "{}", f.sentence());
             for a in &f.alike {
                 let _ = writeln!(out, "  {}", a.sentence(&f.candidate));
             }

@@ -75,7 +75,7 @@
 //! Units: SI inside (m, rad); the scores are RMS held-out tool-point errors, m.
 
 use nalgebra::DVector;
-use serde_json::{Value, json};
+use std::collections::BTreeMap;
 
 use super::prior_scale::{
     PriorChoice, PriorScale, fold_steps, fold_sums, held_out_squares, immaterial,
@@ -537,22 +537,22 @@ impl Weighting {
             .collect()
     }
 
-    /// Sets the JSON report's `orientation_weight` and `contact_weights`
-    /// (docs/file-formats.md §6) in `report`, the residuals from `fit`.
-    pub fn insert_json(&self, report: &mut Value, fit: &FullFit) {
-        let mut contacts = serde_json::Map::new();
+    /// The reports' `orientation_weight` and `contact_weights`
+    /// (docs/file-formats.md §6), the residuals from `fit`.
+    pub fn reports(&self, fit: &FullFit) -> WeightReports {
+        let mut out = WeightReports::default();
         for w in &self.0 {
-            let value = w.choice.to_json(w.kind, residual(fit, w.kind));
+            let report = w.choice.report(w.kind, residual(fit, w.kind));
             match w.kind {
-                Weighed::Orientation => report["orientation_weight"] = value,
+                Weighed::Orientation => out.orientation_weight = Some(report),
                 kind => {
-                    contacts.insert(kind.key().into(), value);
+                    out.contact_weights
+                        .get_or_insert_with(BTreeMap::new)
+                        .insert(kind.key(), report);
                 }
             }
         }
-        if !contacts.is_empty() {
-            report["contact_weights"] = Value::Object(contacts);
-        }
+        out
     }
 
     /// The HTML report's sections, one a kind ([`WeightChoice::html`]).
@@ -572,6 +572,61 @@ fn residual(fit: &FullFit, kind: Weighed) -> f64 {
         Weighed::Point => fit.noise.point.map_or(0.0, |n| n.shown),
         Weighed::Plane => fit.noise.plane.map_or(0.0, |n| n.shown),
     }
+}
+
+/// The reports' weights: `orientation_weight` and `contact_weights`, each
+/// present when that kind was weighed ([`Weighting::reports`]).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct WeightReports {
+    /// The orientations' weight.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orientation_weight: Option<WeightReport>,
+    /// The contacts' weights, by kind (`point`, `plane`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub contact_weights: Option<BTreeMap<&'static str, WeightReport>>,
+}
+
+/// One kind's weight as the reports give it ([`WeightChoice::report`]).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct WeightReport {
+    /// The factor fitted at.
+    pub weight: f64,
+    /// Its name (`estimated`, `0.1`, …).
+    pub name: String,
+    /// `stated`, `undetermined` or `cross-validation`.
+    pub chosen_by: &'static str,
+    /// The cross-validation's folds.
+    pub folds: Option<usize>,
+    /// Each weight's held-out score.
+    pub held_out: Vec<WeightScoreReport>,
+    /// The kind's disagreement with the other rows, when found.
+    pub disagreement: Option<Disagreement>,
+}
+
+/// One weight's held-out score in the reports.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct WeightScoreReport {
+    /// The factor on the weight the noise gives.
+    pub weight: f64,
+    /// Its name.
+    pub name: String,
+    /// The prior's factor it scores best at.
+    pub prior_factor: f64,
+    /// The RMS of the held-out tool-point errors, mm.
+    pub held_out_rms_mm: f64,
+}
+
+/// A kind's disagreement with the other rows: the significance and the
+/// kind's noise at full weight and residual at the weight chosen, keyed by
+/// the kind's unit (`orientation_noise_at_full_weight_mrad`,
+/// `residual_rms_mm`, …).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Disagreement {
+    /// In standard errors of the paired difference.
+    pub significance: Option<f64>,
+    /// The noise and residual, named with their unit.
+    #[serde(flatten)]
+    pub figures: BTreeMap<String, Option<f64>>,
 }
 
 /// How a kind's values read in the reports: the unit, its factor from SI,
@@ -656,11 +711,11 @@ impl WeightChoice {
         out
     }
 
-    /// The JSON report's entry for kind `kind` (docs/file-formats.md §6):
-    /// the weight, how it was chosen, each weight's held-out RMS (mm) and
-    /// the disagreement found, with the kind's residual RMS at the weight
-    /// chosen (`residual`, rad or m; given in mrad or mm).
-    pub fn to_json(&self, kind: Weighed, residual: f64) -> Value {
+    /// The reports' entry for kind `kind` (docs/file-formats.md §6): the
+    /// weight, how it was chosen, each weight's held-out RMS (mm) and the
+    /// disagreement found, with the kind's residual RMS at the weight chosen
+    /// (`residual`, rad or m; given in mrad or mm).
+    pub fn report(&self, kind: Weighed, residual: f64) -> WeightReport {
         let (chosen_by, folds, scores, significance, noise) = match self {
             Self::Stated { .. } => ("stated", None, &[][..], None, None),
             Self::Undetermined { folds } => ("undetermined", Some(*folds), &[][..], None, None),
@@ -680,7 +735,6 @@ impl WeightChoice {
         };
         let (unit, to, _) = reading(kind);
         let disagreement = self.disagrees().then(|| {
-            let mut d = json!({ "significance": significance.filter(|s| s.is_finite()) });
             let (noise_key, residual_key) = match kind {
                 Weighed::Orientation => (
                     "orientation_noise_at_full_weight_mrad".to_string(),
@@ -691,23 +745,30 @@ impl WeightChoice {
                     format!("residual_rms_{unit}"),
                 ),
             };
-            d[noise_key] = json!(noise.map(|n| n * to));
-            d[residual_key] = json!(residual * to);
-            d
+            Disagreement {
+                significance: significance.filter(|s| s.is_finite()),
+                figures: BTreeMap::from([
+                    (noise_key, noise.map(|n| n * to)),
+                    (residual_key, Some(residual * to)),
+                ]),
+            }
         });
-        json!({
-            "weight": self.weight(),
-            "name": ChannelWeight::name(self.weight()),
-            "chosen_by": chosen_by,
-            "folds": folds,
-            "held_out": scores.iter().map(|s| json!({
-                "weight": s.weight,
-                "name": ChannelWeight::name(s.weight),
-                "prior_factor": s.prior_factor,
-                "held_out_rms_mm": s.held_out * 1e3,
-            })).collect::<Vec<_>>(),
-            "disagreement": disagreement,
-        })
+        WeightReport {
+            weight: self.weight(),
+            name: ChannelWeight::name(self.weight()),
+            chosen_by,
+            folds,
+            held_out: scores
+                .iter()
+                .map(|s| WeightScoreReport {
+                    weight: s.weight,
+                    name: ChannelWeight::name(s.weight),
+                    prior_factor: s.prior_factor,
+                    held_out_rms_mm: s.held_out * 1e3,
+                })
+                .collect(),
+            disagreement,
+        }
     }
 
     /// The HTML report's section for kind `kind`: the summary's lines as a

@@ -19,11 +19,10 @@
 pub mod channel_weight;
 pub mod paper;
 pub mod prior_scale;
+pub mod report;
 pub mod sessions;
 mod summary;
 pub mod suspect_rows;
-
-pub use summary::{NoiseRow, noise_json, noise_rows};
 
 #[cfg(test)]
 mod constraint_tests;

@@ -23,11 +23,11 @@
 use std::fmt::Write as _;
 
 use armcal_shared::Frame;
-use serde_json::json;
 
 use crate::calibration::fit::{FullError, FullFit, FullOptions, Status, register_session};
 use crate::calibration::validation::stats::f_quantile;
 use crate::report::format::length_and_mm;
+use crate::report::units::FrameReport;
 use crate::session::channel::Channel;
 use crate::session::measurements::Measurements;
 use crate::session::observation::Observation;
@@ -472,25 +472,20 @@ pub fn html(fit: &FullFit, held_out: &[SessionHeldOut], data: &Measurements) -> 
     s
 }
 
-/// The JSON's `sessions`, when `data` has several: each session's file,
-/// poses, residual RMS and own frames (`null` where it shares the first's;
-/// x, y, z in the model's length unit, roll, pitch, yaw in its angle unit).
-pub fn json(
+/// The reports' `sessions` (docs/file-formats.md §6): each session's rows,
+/// residual and held-out figures, and its own frames against the first
+/// session's, in the model's units; `None` for one session.
+pub fn reports(
     fit: &FullFit,
     held_out: &[SessionHeldOut],
     data: &Measurements,
     u: &Units,
-) -> Option<serde_json::Value> {
+) -> Option<Vec<SessionReport>> {
     if fit.sessions.len() < 2 {
         return None;
     }
-    let frame = |f: &Frame<f64>| {
-        json!({
-            "xyz": f.xyz.iter().map(|x| u.length_from_si(*x)).collect::<Vec<_>>(),
-            "rpy": f.rpy.iter().map(|x| u.angle_from_si(*x)).collect::<Vec<_>>(),
-        })
-    };
-    let sessions: Vec<serde_json::Value> = fit
+    let frame = |f: &Frame<f64>| FrameReport::of(f, u);
+    let sessions = fit
         .sessions
         .iter()
         .enumerate()
@@ -501,36 +496,89 @@ pub fn json(
             let (base, tool) = (k == 0 || base, k == 0 || tool);
             let left_out = held_out.get(k).and_then(SessionHeldOut::figure);
             let reconciliation = left_out.and_then(|h| h.reconciliation);
-            let not_computed = match held_out.get(k) {
-                Some(SessionHeldOut::NotComputed { reason }) => Some(reason.as_str()),
+            let held_out_not_computed = match held_out.get(k) {
+                Some(SessionHeldOut::NotComputed { reason }) => Some(reason.clone()),
                 _ => None,
             };
-            json!({
-                "file": data.sessions.get(k),
-                "held_out_not_computed": not_computed,
-                "reconciled": reconciliation.map(|r| r.reconciled()),
-                "reconciliation": reconciliation.map(|r| json!({
-                    "others_rms_mm": r.others_rms * 1e3,
-                    "f": r.f,
-                    "threshold": r.threshold,
-                    "dof": r.dof,
-                    "others_dof": r.others_dof,
-                    "alpha": RECONCILE_ALPHA,
-                })),
-                "held_out_rms": left_out.map(|h| u.length_from_si(h.position_rms)),
-                "held_out_rms_mm": left_out.map(|h| h.position_rms * 1e3),
-                "held_out_orientation_rms": left_out.and_then(|h| h.orientation_rms).map(|o| u.angle_from_si(o)),
-                "poses": s.poses,
-                "position_rms": u.length_from_si(s.position_rms),
-                "position_rms_mm": s.position_rms * 1e3,
-                "orientation_rms": s.orientation_rms.map(|o| u.angle_from_si(o)),
-                "base": base.then(|| frame(&robot.base)),
-                "tool": tool.then(|| frame(&robot.tool)),
-                "written": k == 0,
-            })
+            SessionReport {
+                file: data.sessions.get(k).cloned(),
+                held_out_not_computed,
+                reconciled: reconciliation.map(|r| r.reconciled()),
+                reconciliation: reconciliation.map(|r| ReconciliationReport {
+                    others_rms_mm: r.others_rms * 1e3,
+                    f: r.f,
+                    threshold: r.threshold,
+                    dof: r.dof,
+                    others_dof: r.others_dof,
+                    alpha: RECONCILE_ALPHA,
+                }),
+                held_out_rms: left_out.map(|h| u.length_from_si(h.position_rms)),
+                held_out_rms_mm: left_out.map(|h| h.position_rms * 1e3),
+                held_out_orientation_rms: left_out
+                    .and_then(|h| h.orientation_rms)
+                    .map(|o| u.angle_from_si(o)),
+                poses: s.poses,
+                position_rms: u.length_from_si(s.position_rms),
+                position_rms_mm: s.position_rms * 1e3,
+                orientation_rms: s.orientation_rms.map(|o| u.angle_from_si(o)),
+                base: base.then(|| frame(&robot.base)),
+                tool: tool.then(|| frame(&robot.tool)),
+                written: k == 0,
+            }
         })
         .collect();
-    Some(json!(sessions))
+    Some(sessions)
+}
+
+/// One session as the reports give it ([`reports`]), lengths and angles in
+/// the model's units (`mm`-suffixed fields excepted).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct SessionReport {
+    /// Its file.
+    pub file: Option<String>,
+    /// Why it was not left out, when it was not.
+    pub held_out_not_computed: Option<String>,
+    /// Whether its left-out figure agrees with the others' residuals.
+    pub reconciled: Option<bool>,
+    /// The test of that agreement.
+    pub reconciliation: Option<ReconciliationReport>,
+    /// Its RMS position error left out.
+    pub held_out_rms: Option<f64>,
+    /// The same, mm.
+    pub held_out_rms_mm: Option<f64>,
+    /// Its RMS orientation error left out.
+    pub held_out_orientation_rms: Option<f64>,
+    /// Its poses.
+    pub poses: usize,
+    /// Its RMS position residual in the fit.
+    pub position_rms: f64,
+    /// The same, mm.
+    pub position_rms_mm: f64,
+    /// Its RMS orientation residual in the fit.
+    pub orientation_rms: Option<f64>,
+    /// Its own base frame, when it has one.
+    pub base: Option<FrameReport>,
+    /// Its own tool, when it has one.
+    pub tool: Option<FrameReport>,
+    /// Whether the calibration written holds its registration (the first).
+    pub written: bool,
+}
+
+/// The F test of a left-out session against the others' residuals.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct ReconciliationReport {
+    /// The others' residual RMS, mm.
+    pub others_rms_mm: f64,
+    /// The statistic.
+    pub f: f64,
+    /// Its threshold at `alpha`.
+    pub threshold: f64,
+    /// The left-out session's degrees of freedom.
+    pub dof: f64,
+    /// The others'.
+    pub others_dof: f64,
+    /// The test's level.
+    pub alpha: f64,
 }
 
 #[cfg(test)]

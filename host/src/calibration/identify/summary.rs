@@ -7,80 +7,16 @@
 use std::fmt::Write as _;
 
 use armcal_shared::Param;
-use serde_json::json;
 
 use super::Identification;
 use super::prior_scale::{self, PriorChoice};
+use super::report::{NoiseRow, noise_rows};
 use crate::calibration::fit::noise;
 use crate::report::format::{length_and_mm, significant};
 use crate::session::measurements::Measurements;
 use crate::session::model::RobotModel;
 use crate::session::prior::PRIOR_FACTORS;
 use armcal_shared::units::Units;
-
-/// One channel's noise as the reports show it, in the model's units.
-#[derive(Clone, Debug, PartialEq)]
-pub struct NoiseRow {
-    /// The channel's name (`position`, `point contact`, … `distance`).
-    pub what: &'static str,
-    /// The noise the rows were weighed by.
-    pub used: f64,
-    /// The noise the residuals show.
-    pub shown: f64,
-    /// Stated or estimated.
-    pub source: noise::NoiseSource,
-    /// The unit of both (the model's length unit, its angle unit for
-    /// orientations).
-    pub unit: String,
-}
-
-impl NoiseRow {
-    /// `stated` or `estimated`, as the reports say it.
-    pub fn source_name(&self) -> &'static str {
-        match self.source {
-            noise::NoiseSource::Stated => "stated",
-            noise::NoiseSource::Estimated => "estimated",
-        }
-    }
-}
-
-/// The noise of each channel the data have ([`noise::NoiseEstimate::rows`]),
-/// in the model's units, for reports.
-pub fn noise_rows(noise: &noise::NoiseEstimate, units: &Units) -> Vec<NoiseRow> {
-    noise
-        .rows()
-        .into_iter()
-        .map(|(channel, n)| {
-            let (in_units, unit): (fn(&Units, f64) -> f64, String) =
-                if channel == Some(crate::session::channel::Channel::Orientation) {
-                    (Units::angle_from_si, units.angle.to_string())
-                } else {
-                    (Units::length_from_si, units.length.to_string())
-                };
-            NoiseRow {
-                what: channel.map_or("distance", crate::session::channel::Channel::name),
-                used: in_units(units, n.used),
-                shown: in_units(units, n.shown),
-                source: n.source,
-                unit,
-            }
-        })
-        .collect()
-}
-
-/// [`noise_rows`] as the reports' JSON list: `channel`, `used`,
-/// `shown_by_residuals`, `source`, `unit`.
-pub fn noise_json(noise: &noise::NoiseEstimate, units: &Units) -> serde_json::Value {
-    noise_rows(noise, units)
-        .into_iter()
-        .map(|n| {
-            json!({
-                "channel": n.what, "used": n.used, "shown_by_residuals": n.shown,
-                "source": n.source_name(), "unit": n.unit,
-            })
-        })
-        .collect()
-}
 
 /// A parameter value in the model file's units.
 fn in_units(units: &Units, param: Param, si: f64) -> f64 {
@@ -92,140 +28,6 @@ fn in_units(units: &Units, param: Param, si: f64) -> f64 {
 }
 
 impl Identification {
-    /// The JSON of `docs/file-formats.md` §6 of an identification from
-    /// `data`, values in the model's units.
-    pub fn to_json(&self, units: &Units, data: &Measurements) -> serde_json::Value {
-        let parameters: Vec<serde_json::Value> = self
-            .parameters
-            .iter()
-            .map(|r| {
-                let mut v = json!({
-                    "name": r.param.to_string(),
-                    "nominal": in_units(units, r.param, r.nominal),
-                    "error": in_units(units, r.param, r.error),
-                    "std": r.std.map(|s| in_units(units, r.param, s)),
-                    "status": if r.fixed.is_some() { "fixed" } else { "identified" },
-                });
-                if let Some(reason) = &r.fixed {
-                    v["reason"] = json!(reason);
-                }
-                v
-            })
-            .collect();
-        let mut out = json!({
-            "params": self.params.name(),
-            "iterations": self.iterations,
-            "converged": self.converged,
-            "parameters": parameters,
-            "residual": {
-                "position_rms": units.length_from_si(self.position_rms),
-                "orientation_rms": units.angle_from_si(self.orientation_rms),
-                "position_rms_mm": self.position_rms * 1e3,
-            },
-            "units": {"length": units.length.to_string(), "angle": units.angle.to_string()},
-        });
-        if let Some(g) = &self.gravity {
-            out["gravity"] = g.to_json();
-        }
-        out["warnings"] = json!(self.warnings(data, units));
-        out["suspect_rows"] = json!(
-            self.suspect_rows
-                .named
-                .iter()
-                .map(|r| json!({
-                    "file": data.file_of(r.pose),
-                    "line": data.lines[r.pose],
-                    "residual": units.length_from_si(r.residual),
-                    "residual_mm": r.residual * 1e3,
-                    "f": r.f,
-                    "threshold": r.threshold,
-                }))
-                .collect::<Vec<_>>()
-        );
-        if let Some(j) = &self.judgement {
-            out["nominal_residual"] = json!({
-                "position_rms": units.length_from_si(j.nominal.position),
-                "position_rms_mm": j.nominal.position * 1e3,
-            });
-        }
-        if let Some(fit) = &self.full {
-            if let Some(sessions) = super::sessions::json(fit, &self.sessions_held_out, data, units)
-            {
-                out["sessions"] = sessions;
-            }
-            out["condition_number"] = json!(fit.condition_number);
-            out["observability_index"] = json!(fit.observability);
-            out["variance_factor"] = json!(fit.variance_factor);
-            out["equations"] = json!(fit.equations);
-            out["noise"] = noise_json(&fit.noise, units);
-            out["prior"] = self.prior_json(units);
-            self.weighting.insert_json(&mut out, fit);
-            out["correlations"] = json!(
-                fit.correlations
-                    .iter()
-                    .map(|(a, b, r)| json!({"a": a.to_string(), "b": b.to_string(), "r": r}))
-                    .collect::<Vec<_>>()
-            );
-            if !fit.points.is_empty() || !fit.planes.is_empty() {
-                let length = |x: f64| units.length_from_si(x);
-                out["points"] = json!(
-                    fit.points
-                        .iter()
-                        .map(|p| json!({
-                            "name": p.name,
-                            "xyz": [length(p.position.x), length(p.position.y), length(p.position.z)],
-                            "std": p.std.iter().map(|s| s.is_finite().then(|| length(*s))).collect::<Vec<_>>(),
-                        }))
-                        .collect::<Vec<_>>()
-                );
-                out["planes"] = json!(
-                    fit.planes
-                        .iter()
-                        .map(|p| json!({
-                            "name": p.name,
-                            "normal": [p.normal.x, p.normal.y, p.normal.z],
-                            "offset": length(p.offset),
-                        }))
-                        .collect::<Vec<_>>()
-                );
-                out["distance_residuals"] = json!(
-                    fit.distance_residuals
-                        .iter()
-                        .map(|d| length(*d))
-                        .collect::<Vec<_>>()
-                );
-            }
-        }
-        out
-    }
-
-    /// The JSON's `prior`: the scale fitted at (model units; `null` for
-    /// none), the factor on the stated one, and how it was chosen.
-    fn prior_json(&self, units: &Units) -> serde_json::Value {
-        let factor = self.prior.as_ref().map_or(1.0, PriorChoice::factor);
-        let scaled = self.stated_prior.scaled(factor);
-        let finite = |x: f64| x.is_finite().then_some(x);
-        let (chosen_by, scores) = match &self.prior {
-            None => ("stated", None),
-            Some(PriorChoice::Immaterial) => ("stated: immaterial to the data", None),
-            Some(PriorChoice::Undetermined { .. }) => ("stated: folds undetermined", None),
-            Some(PriorChoice::CrossValidated { scores, .. }) => {
-                ("cross-validation", Some(scores.as_slice()))
-            }
-        };
-        json!({
-            "length": finite(units.length_from_si(scaled.length)),
-            "angle": finite(units.angle_from_si(scaled.angle)),
-            "factor": factor,
-            "chosen_by": chosen_by,
-            "reach": self.full.as_ref().map(|f| f.prior_reach),
-            "held_out": scores.map(|s| s.iter().map(|s| json!({
-                "factor": s.factor,
-                "rms_mm": s.held_out * 1e3,
-            })).collect::<Vec<_>>()),
-        })
-    }
-
     /// The summary's line on the prior: its scale, and how it was chosen.
     fn prior_line(&self, u: &Units) -> Option<String> {
         self.full.as_ref()?;

@@ -10,7 +10,9 @@ use crate::session::measurements::plural;
 use std::fmt::Write as _;
 
 use armcal_shared::units::Units;
-use serde_json::json;
+use serde::Serialize;
+
+use crate::report::units::UnitsReport;
 
 use armcal_shared::Param;
 
@@ -27,107 +29,321 @@ fn in_units(u: &Units, param: Param, si: f64) -> f64 {
     }
 }
 
-/// One prediction as JSON; `identified`: the parameters poses can identify
-/// (the others' standard errors are the prior's).
-fn prediction_json(p: &Prediction, identified: &[Param], u: &Units) -> serde_json::Value {
-    json!({
-        "predicted_rms_mm": p.rms * 1e3,
-        "predicted_max_mm": p.max * 1e3,
-        "predicted_measured_rms_mm": p.measured_rms * 1e3,
-        "std": p.std.iter().map(|(param, s)| json!({
-            "name": param.to_string(),
-            "std": in_units(u, *param, *s),
-            "unit": if param.is_angle() { u.angle.to_string() } else { u.length.to_string() },
-            "identified": identified.contains(param),
-        })).collect::<Vec<_>>(),
-        "observability": {
-            "O1": p.observability[0], "O2": p.observability[1], "O3": p.observability[2],
-            "O4": p.observability[3], "O5": p.observability[4],
+/// `armcal plan`'s report (docs/file-formats.md §7): the plan's predicted
+/// accuracy, its rows, and the designs it was compared with.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PlanReport {
+    /// The plan's predicted accuracy.
+    #[serde(flatten)]
+    pub predicted: PredictionReport,
+    /// The poses planned.
+    pub poses: usize,
+    /// The rows written (a pose visited from both sides is two).
+    pub rows: usize,
+    /// Whether each pose is visited from both sides.
+    pub both_sides: bool,
+    /// The poses that could be approached from one side only.
+    pub one_sided: usize,
+    /// The rows near a singularity, from 1, with their conditioning.
+    pub near_singular: Vec<NearSingular>,
+    /// The position noise planned for, mm.
+    pub noise_mm: f64,
+    /// Whether orientations are measured.
+    pub orientation: bool,
+    /// Each compliance's predicted standard error.
+    pub compliance: Vec<ComplianceStd>,
+    /// The compliances held, and why.
+    pub compliance_held: Vec<ComplianceHeld>,
+    /// Without a tracker: the sockets and how the rows seat in them.
+    #[serde(flatten)]
+    pub sockets: Option<SocketsReport>,
+    /// The candidate poses searched.
+    pub candidates: usize,
+    /// The target points the accuracy is predicted at.
+    pub targets: usize,
+    /// The length of the path through the poses, rad.
+    pub path: f64,
+    /// As many random poses.
+    pub random: Predicted,
+    /// The optimality criterion of the plan.
+    pub criterion: &'static str,
+    /// The best design of the other criterion.
+    pub compared: ComparedReport,
+    /// The parameters held, and why.
+    pub held: Vec<HeldReport>,
+    /// The tool point off the flange's axis that the plan suggests.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub off_axis: Option<OffAxisReport>,
+    /// The model file's units.
+    pub units: UnitsReport,
+}
+
+/// A design's predicted accuracy at the targets.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PredictionReport {
+    /// RMS of the predicted error at the targets, mm.
+    pub predicted_rms_mm: f64,
+    /// Its largest, mm.
+    pub predicted_max_mm: f64,
+    /// What a measurement at the targets would show, RMS, mm.
+    pub predicted_measured_rms_mm: f64,
+    /// Each parameter's predicted standard error.
+    pub std: Vec<ParameterStd>,
+    /// The observability indices O1 to O5.
+    pub observability: Observability,
+}
+
+/// A parameter's predicted standard error, in its own unit.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ParameterStd {
+    /// The parameter.
+    pub name: String,
+    /// Its standard error.
+    pub std: f64,
+    /// Its unit.
+    pub unit: String,
+    /// Whether poses can identify it (else the prior's).
+    pub identified: bool,
+}
+
+/// The observability indices of Sun & Hollerbach's survey.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[expect(
+    non_snake_case,
+    reason = "the indices' names, O1 to O5, are the report's keys"
+)]
+pub struct Observability {
+    /// Product of the singular values.
+    pub O1: f64,
+    /// Condition number's inverse.
+    pub O2: f64,
+    /// Smallest singular value.
+    pub O3: f64,
+    /// Noise amplification index.
+    pub O4: f64,
+    /// Inverse of the sum of the inverse singular values.
+    pub O5: f64,
+}
+
+/// A design's prediction, or what it misses.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum Predicted {
+    /// It identifies every parameter the plan does.
+    Identifies(PredictionReport),
+    /// It does not.
+    Misses {
+        /// Always false.
+        identifies: bool,
+        /// The parameters it does not identify.
+        missed: Vec<String>,
+    },
+}
+
+/// A row near a singularity.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct NearSingular {
+    /// The row, from 1.
+    pub row: usize,
+    /// Its conditioning.
+    pub conditioning: f64,
+}
+
+/// A compliance's predicted standard error, rad/(N·m).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ComplianceStd {
+    /// The joint, from 1.
+    pub joint: usize,
+    /// Its standard error.
+    pub std: f64,
+}
+
+/// A compliance held, and why.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ComplianceHeld {
+    /// The joint, from 1.
+    pub joint: usize,
+    /// Why.
+    pub reason: String,
+}
+
+/// The sockets of a plan without a tracker.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SocketsReport {
+    /// Each socket and its rows.
+    pub sockets: Vec<SocketRows>,
+    /// The known distances between them.
+    pub distances: usize,
+    /// Each row's socket.
+    pub socket_of: Vec<String>,
+}
+
+/// A socket and the rows seated in it.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SocketRows {
+    /// Its name.
+    pub name: String,
+    /// The rows seated in it.
+    pub poses: usize,
+}
+
+/// The best design of the other criterion.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ComparedReport {
+    /// Its criterion.
+    pub criterion: &'static str,
+    /// Its prediction.
+    pub predicted: Predicted,
+}
+
+/// A parameter held, and why.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct HeldReport {
+    /// The parameter.
+    pub name: String,
+    /// Why.
+    pub reason: String,
+}
+
+/// A tool point off the flange's axis and what it gains.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct OffAxisReport {
+    /// Its distance from the axis, the model's length unit.
+    pub distance: f64,
+    /// The tool point, the model's length unit.
+    pub tool: Vec<f64>,
+    /// The parameters it makes identifiable.
+    pub gained: Vec<String>,
+    /// The plan's prediction with it.
+    pub predicted: Option<PredictionReport>,
+}
+
+/// One prediction in the reports; `identified`: the parameters poses can
+/// identify (the others' standard errors are the prior's).
+fn prediction_report(p: &Prediction, identified: &[Param], u: &Units) -> PredictionReport {
+    PredictionReport {
+        predicted_rms_mm: p.rms * 1e3,
+        predicted_max_mm: p.max * 1e3,
+        predicted_measured_rms_mm: p.measured_rms * 1e3,
+        std: p
+            .std
+            .iter()
+            .map(|(param, s)| ParameterStd {
+                name: param.to_string(),
+                std: in_units(u, *param, *s),
+                unit: if param.is_angle() {
+                    u.angle.to_string()
+                } else {
+                    u.length.to_string()
+                },
+                identified: identified.contains(param),
+            })
+            .collect(),
+        observability: Observability {
+            O1: p.observability[0],
+            O2: p.observability[1],
+            O3: p.observability[2],
+            O4: p.observability[3],
+            O5: p.observability[4],
         },
-    })
+    }
 }
 
 impl Plan {
-    /// The JSON of `--json` (`docs/file-formats.md` §7).
-    pub fn to_json(&self, options: &PlanOptions, u: &Units) -> serde_json::Value {
-        let mut out = prediction_json(&self.predicted, &self.identified, u);
-        out["poses"] = json!(self.points.len());
-        out["rows"] = json!(self.q.len());
-        out["both_sides"] = json!(options.visits == super::Visits::BothSides);
-        out["one_sided"] = json!(self.one_sided);
-        out["near_singular"] = json!(
-            self.near_singular
+    /// The report of `--json` (docs/file-formats.md §7).
+    pub fn report(&self, options: &PlanOptions, u: &Units) -> PlanReport {
+        let other = |predicted: &Result<Prediction, Vec<String>>| match predicted {
+            Ok(p) => Predicted::Identifies(prediction_report(p, &self.identified, u)),
+            Err(missed) => Predicted::Misses {
+                identifies: false,
+                missed: missed.clone(),
+            },
+        };
+        PlanReport {
+            predicted: prediction_report(&self.predicted, &self.identified, u),
+            poses: self.points.len(),
+            rows: self.q.len(),
+            both_sides: options.visits == super::Visits::BothSides,
+            one_sided: self.one_sided,
+            near_singular: self
+                .near_singular
                 .iter()
-                .map(|(row, c)| json!({"row": row + 1, "conditioning": c}))
-                .collect::<Vec<_>>()
-        );
-        out["noise_mm"] = json!(options.position_noise * 1e3);
-        out["orientation"] = json!(options.orientation);
-        out["compliance"] = json!(
-            self.predicted
+                .map(|&(row, conditioning)| NearSingular {
+                    row: row + 1,
+                    conditioning,
+                })
+                .collect(),
+            noise_mm: options.position_noise * 1e3,
+            orientation: options.orientation,
+            compliance: self
+                .predicted
                 .compliance
                 .iter()
-                .map(|(joint, std)| json!({"joint": joint + 1, "std": std}))
-                .collect::<Vec<_>>()
-        );
-        out["compliance_held"] = json!(
-            self.compliance_held
+                .map(|&(joint, std)| ComplianceStd {
+                    joint: joint + 1,
+                    std,
+                })
+                .collect(),
+            compliance_held: self
+                .compliance_held
                 .iter()
-                .map(|(joint, why)| json!({"joint": joint + 1, "reason": why}))
-                .collect::<Vec<_>>()
-        );
-        if let Some(plate) = &options.sockets {
-            out["sockets"] = json!(
-                plate
+                .map(|(joint, why)| ComplianceHeld {
+                    joint: joint + 1,
+                    reason: why.clone(),
+                })
+                .collect(),
+            sockets: options.sockets.as_ref().map(|plate| SocketsReport {
+                sockets: plate
                     .sockets
                     .iter()
                     .enumerate()
-                    .map(|(k, s)| json!({
-                        "name": s.name,
-                        "poses": super::sockets::rows_at(&self.socket_of, k),
-                    }))
-                    .collect::<Vec<_>>()
-            );
-            out["distances"] = json!(plate.distances.len());
-            out["socket_of"] = json!(
-                self.socket_of
+                    .map(|(k, s)| SocketRows {
+                        name: s.name.clone(),
+                        poses: super::sockets::rows_at(&self.socket_of, k),
+                    })
+                    .collect(),
+                distances: plate.distances.len(),
+                socket_of: self
+                    .socket_of
                     .iter()
-                    .map(|&k| plate.sockets[k].name.as_str())
-                    .collect::<Vec<_>>()
-            );
-        }
-        out["candidates"] = json!(self.candidates);
-        out["targets"] = json!(self.targets);
-        out["path"] = json!(self.path);
-        let other = |predicted: &Result<Prediction, Vec<String>>| match predicted {
-            Ok(p) => prediction_json(p, &self.identified, u),
-            Err(missed) => json!({
-                "identifies": false,
-                "missed": missed.iter().map(ToString::to_string).collect::<Vec<_>>(),
+                    .map(|&k| plate.sockets[k].name.clone())
+                    .collect(),
             }),
-        };
-        out["random"] = other(&self.random);
-        out["criterion"] = json!(options.criterion.name());
-        out["compared"] = json!({
-            "criterion": self.compared.criterion.name(),
-            "predicted": other(&self.compared.predicted),
-        });
-        out["held"] = json!(
-            self.held
+            candidates: self.candidates,
+            targets: self.targets,
+            path: self.path,
+            random: other(&self.random),
+            criterion: options.criterion.name(),
+            compared: ComparedReport {
+                criterion: self.compared.criterion.name(),
+                predicted: other(&self.compared.predicted),
+            },
+            held: self
+                .held
                 .iter()
-                .map(|(p, why)| json!({"name": p.to_string(), "reason": why}))
-                .collect::<Vec<_>>()
-        );
-        if let Some(o) = &self.off_axis {
-            out["off_axis"] = json!({
-                "distance": u.length_from_si(o.distance),
-                "tool": o.tool.iter().map(|&x| u.length_from_si(x)).collect::<Vec<_>>(),
-                "gained": o.gained.iter().map(ToString::to_string).collect::<Vec<_>>(),
-                "predicted": o.predicted.as_ref().map(|p| prediction_json(p, &self.identified, u)),
-            });
+                .map(|(p, why)| HeldReport {
+                    name: p.to_string(),
+                    reason: why.clone(),
+                })
+                .collect(),
+            off_axis: self.off_axis.as_ref().map(|o| OffAxisReport {
+                distance: u.length_from_si(o.distance),
+                tool: o.tool.iter().map(|&x| u.length_from_si(x)).collect(),
+                gained: o.gained.iter().map(ToString::to_string).collect(),
+                predicted: o
+                    .predicted
+                    .as_ref()
+                    .map(|p| prediction_report(p, &self.identified, u)),
+            }),
+            units: UnitsReport::from(u),
         }
-        out["units"] = json!({"length": u.length.to_string(), "angle": u.angle.to_string()});
-        out
+    }
+
+    /// The JSON of `--json` (docs/file-formats.md §7): [`Plan::report`]
+    /// serialised.
+    pub fn to_json(&self, options: &PlanOptions, u: &Units) -> serde_json::Value {
+        serde_json::to_value(self.report(options, u))
+            .expect("a report of numbers, strings and lists serialises")
     }
 
     /// The summary `armcal plan` prints.

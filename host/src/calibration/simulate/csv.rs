@@ -155,7 +155,7 @@ impl SessionWriter {
     }
 
     /// The session's truth, effects and frames, without its rows (what
-    /// [`Session::truth_json`] reads).
+    /// [`Session::truth`] reads).
     pub fn truth(&self) -> Session {
         self.draw.session()
     }

@@ -6,6 +6,7 @@
 //! Units are SI (m, rad). Random draws come from a seeded `StdRng`, so every run
 //! is repeatable.
 
+use crate::report::units::{FrameReport, UnitsReport};
 use crate::session::observation::Contact;
 use crate::session::observation::Observation;
 use armcal_shared::{Frame, JointType, Param, Robot};
@@ -585,17 +586,49 @@ impl Draw {
     }
 }
 
+/// What `armcal simulate --truth` writes: every geometric error the session
+/// was simulated with (true minus nominal, by parameter name, the model's
+/// units; the zero ones left out), the hidden effects, and with several
+/// sessions each one's base frame and tool.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Truth {
+    /// Each non-zero error by parameter name.
+    pub errors: std::collections::BTreeMap<String, f64>,
+    /// The hidden effects.
+    pub effects: Vec<TruthEffect>,
+    /// The model file's units.
+    pub units: UnitsReport,
+    /// With several sessions, each one's frames.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sessions: Option<Vec<TruthFrames>>,
+}
+
+/// A hidden effect of the truth.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct TruthEffect {
+    /// Its name.
+    pub name: &'static str,
+    /// Its joint, from 1.
+    pub joint: Option<usize>,
+    /// The effect as the calibration file holds it, SI.
+    pub si: armcal_shared::effects::Effect<f64>,
+}
+
+/// One session's true base frame and tool.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct TruthFrames {
+    /// Its base frame.
+    pub base: FrameReport,
+    /// Its tool.
+    pub tool: FrameReport,
+}
+
 impl Session {
-    /// The truth: every geometric error (true minus nominal, in `units`) and the
-    /// hidden effects, as JSON.
-    pub fn truth_json(
-        &self,
-        nominal: &Robot<f64>,
-        units: &armcal_shared::units::Units,
-    ) -> serde_json::Value {
+    /// The truth ([`Truth`]), in `units`.
+    pub fn truth(&self, nominal: &Robot<f64>, units: &armcal_shared::units::Units) -> Truth {
         let mut params: Vec<Param> = nominal.params().collect();
         params.extend((0..nominal.dof()).map(Param::Beta));
-        let errors: serde_json::Map<String, serde_json::Value> = params
+        let errors = params
             .iter()
             .filter_map(|p| {
                 let e = self.truth.param(*p)? - nominal.param(*p)?;
@@ -604,29 +637,32 @@ impl Session {
                 } else {
                     units.length_from_si(e)
                 };
-                (e != 0.0).then(|| (p.to_string(), serde_json::json!(v)))
+                (e != 0.0).then(|| (p.to_string(), v))
             })
             .collect();
-        let effects: Vec<serde_json::Value> = self
-            .effects
-            .iter()
-            .map(|e| serde_json::json!({"name": e.name(), "joint": e.joint().map(|j| j + 1), "si": serde_json::to_value(e).unwrap_or_default()}))
-            .collect();
-        let mut truth = serde_json::json!({"errors": errors, "effects": effects, "units": {"length": units.length.to_string(), "angle": units.angle.to_string()}});
-        if self.frames.len() > 1 {
-            let frame = |f: &Frame<f64>| {
-                serde_json::json!({
-                    "xyz": f.xyz.iter().map(|x| units.length_from_si(*x)).collect::<Vec<_>>(),
-                    "rpy": f.rpy.iter().map(|x| units.angle_from_si(*x)).collect::<Vec<_>>(),
-                })
-            };
-            truth["sessions"] = self
-                .frames
+        let frame = |f: &Frame<f64>| FrameReport::of(f, units);
+        Truth {
+            errors,
+            effects: self
+                .effects
                 .iter()
-                .map(|(b, t)| serde_json::json!({"base": frame(b), "tool": frame(t)}))
-                .collect();
+                .map(|e| TruthEffect {
+                    name: e.name(),
+                    joint: e.joint().map(|j| j + 1),
+                    si: *e,
+                })
+                .collect(),
+            units: UnitsReport::from(units),
+            sessions: (self.frames.len() > 1).then(|| {
+                self.frames
+                    .iter()
+                    .map(|(b, t)| TruthFrames {
+                        base: frame(b),
+                        tool: frame(t),
+                    })
+                    .collect()
+            }),
         }
-        truth
     }
 }
 

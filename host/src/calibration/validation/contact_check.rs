@@ -17,6 +17,7 @@
 
 use armcal_shared::Robot;
 use armcal_shared::effects::EffectModel;
+use armcal_shared::units::Units;
 use nalgebra::{Point3, Vector3};
 
 use crate::calibration::fit::PlaneEstimate;
@@ -90,6 +91,106 @@ impl ContactCheck {
             .iter()
             .map(|d| d.error)
             .reduce(|a, e| if e.abs() > a.abs() { e } else { a })
+    }
+}
+
+/// A [`ContactCheck`] as the reports give it, lengths in the model's unit:
+/// the spreads', flatness' and distance errors' summaries and each point,
+/// plane and distance.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct ContactCheckReport {
+    /// [`ContactCheck::spread_rms`].
+    pub spread: Option<f64>,
+    /// [`ContactCheck::worst_distance_error`].
+    pub distance_error: Option<f64>,
+    /// [`ContactCheck::flatness_rms`].
+    pub flatness: Option<f64>,
+    /// Each point.
+    pub points: Vec<PointReport>,
+    /// Each plane.
+    pub planes: Vec<PlaneReport>,
+    /// Each known distance.
+    pub distances: Vec<DistanceReport>,
+}
+
+/// A point's figures in the reports.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct PointReport {
+    /// Its name.
+    pub name: String,
+    /// The rows naming it.
+    pub rows: usize,
+    /// The mean of the predicted tool points, base frame.
+    pub centre: Vec<f64>,
+    /// Their RMS distance to it.
+    pub spread: f64,
+}
+
+/// A plane's figures in the reports.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct PlaneReport {
+    /// Its name.
+    pub name: String,
+    /// The rows touching it.
+    pub rows: usize,
+    /// The least-squares plane's unit normal.
+    pub normal: Vec<f64>,
+    /// Its distance from the origin.
+    pub offset: f64,
+    /// The predicted tool points' RMS distance to it.
+    pub flatness: f64,
+}
+
+/// A known distance's figures in the reports.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct DistanceReport {
+    /// The two points' names.
+    pub points: [String; 2],
+    /// The stated distance.
+    pub stated: f64,
+    /// The predicted distance less the stated one.
+    pub error: f64,
+}
+
+impl ContactCheck {
+    /// The report of these figures, lengths in `units`.
+    pub fn report(&self, units: &Units) -> ContactCheckReport {
+        let length = |v: f64| units.length_from_si(v);
+        ContactCheckReport {
+            spread: self.spread_rms().map(length),
+            distance_error: self.worst_distance_error().map(length),
+            flatness: self.flatness_rms().map(length),
+            points: self
+                .points
+                .iter()
+                .map(|p| PointReport {
+                    name: p.name.clone(),
+                    rows: p.rows,
+                    centre: p.centre.iter().map(|&x| length(x)).collect(),
+                    spread: length(p.spread),
+                })
+                .collect(),
+            planes: self
+                .planes
+                .iter()
+                .map(|p| PlaneReport {
+                    name: p.name.clone(),
+                    rows: p.rows,
+                    normal: p.plane.normal().iter().copied().collect(),
+                    offset: length(p.plane.offset),
+                    flatness: length(p.flatness),
+                })
+                .collect(),
+            distances: self
+                .distances
+                .iter()
+                .map(|d| DistanceReport {
+                    points: d.points.clone(),
+                    stated: length(d.stated),
+                    error: length(d.error),
+                })
+                .collect(),
+        }
     }
 }
 
