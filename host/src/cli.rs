@@ -6,10 +6,11 @@ use std::path::PathBuf;
 
 use armcal::calibration::cancel::Cancel;
 use armcal::calibration::gravity::TorqueSign;
-use armcal::calibration::identify::channel_weight::{ChannelWeight, ChannelWeights};
-use armcal::calibration::identify::prior_scale::PriorScale;
-use armcal::calibration::identify::{ParamSet, StatedScales};
-use armcal::calibration::plan::Optimality;
+use armcal::calibration::identify::StatedScales;
+use armcal::calibration::identify::channel_weight::ChannelWeights;
+use armcal::commands::choices::{
+    CriterionArg, Params, PriorScaleArg, Targets, TorqueSignArg, WeightArg,
+};
 use armcal::commands::tool::Tool;
 use armcal::commands::{diagnose, export, holdout, identify, plan, simulate};
 use armcal::io::model_file;
@@ -18,7 +19,6 @@ use armcal::session::channel::Weighed;
 use armcal::session::input_error::InputError;
 use armcal::session::model::RobotModel;
 use armcal::session::registration::FrameSharing;
-use armcal_shared::TargetFrame;
 use clap::{Parser, Subcommand};
 
 use crate::args;
@@ -193,24 +193,6 @@ pub(crate) struct PlanArgs {
     /// Seed of every random draw.
     #[arg(long, default_value_t = 1)]
     pub(crate) seed: u64,
-}
-
-/// `--criterion`.
-#[derive(clap::ValueEnum, Clone, Copy, Debug)]
-pub(crate) enum CriterionArg {
-    /// The calibrated robot's predicted error over the workspace.
-    IOptimal,
-    /// The volume of the parameters' confidence region.
-    DOptimal,
-}
-
-impl From<CriterionArg> for Optimality {
-    fn from(a: CriterionArg) -> Self {
-        match a {
-            CriterionArg::IOptimal => Optimality::I,
-            CriterionArg::DOptimal => Optimality::D,
-        }
-    }
 }
 
 impl PlanArgs {
@@ -890,23 +872,6 @@ impl TorqueArgs {
     }
 }
 
-#[derive(clap::ValueEnum, Clone, Copy, Debug)]
-pub(crate) enum TorqueSignArg {
-    /// The torque each drive exerts on its link (armcal's tau).
-    Drive,
-    /// The load torque the joints' sensors read (the drive's negated).
-    Load,
-}
-
-impl From<TorqueSignArg> for TorqueSign {
-    fn from(a: TorqueSignArg) -> Self {
-        match a {
-            TorqueSignArg::Drive => TorqueSign::Drive,
-            TorqueSignArg::Load => TorqueSign::Load,
-        }
-    }
-}
-
 impl SessionArgs {
     /// The frames these flags share.
     pub(crate) fn sharing(self) -> FrameSharing {
@@ -924,23 +889,6 @@ impl Weights {
             plane_noise: self.plane_noise,
             prior_length: self.prior_length,
             prior_angle: self.prior_angle,
-        }
-    }
-}
-
-#[derive(clap::ValueEnum, Clone, Copy, Debug)]
-pub(crate) enum PriorScaleArg {
-    /// The stated scale times the factor that predicts held-out poses best.
-    Chosen,
-    /// The stated scale.
-    Stated,
-}
-
-impl From<PriorScaleArg> for PriorScale {
-    fn from(a: PriorScaleArg) -> Self {
-        match a {
-            PriorScaleArg::Chosen => PriorScale::default(),
-            PriorScaleArg::Stated => PriorScale::Stated,
         }
     }
 }
@@ -979,68 +927,6 @@ impl ChannelWeightArgs {
             }
             .into()
         })
-    }
-}
-
-#[derive(clap::ValueEnum, Clone, Copy, Debug)]
-pub(crate) enum WeightArg {
-    /// The weight that predicts held-out tool points best.
-    Chosen,
-    /// As the noise gives it.
-    Estimated,
-    /// A tenth of it.
-    #[value(name = "0.1")]
-    Tenth,
-    /// A hundredth of it.
-    #[value(name = "0.01")]
-    Hundredth,
-    /// Not used: the geometry from the other rows.
-    None,
-}
-
-impl From<WeightArg> for ChannelWeight {
-    fn from(a: WeightArg) -> Self {
-        match a {
-            WeightArg::Chosen => ChannelWeight::default(),
-            WeightArg::Estimated => ChannelWeight::Stated(1.0),
-            WeightArg::Tenth => ChannelWeight::Stated(0.1),
-            WeightArg::Hundredth => ChannelWeight::Stated(0.01),
-            WeightArg::None => ChannelWeight::Stated(0.0),
-        }
-    }
-}
-
-impl From<Params> for ParamSet {
-    fn from(p: Params) -> Self {
-        match p {
-            Params::Full => ParamSet::Full,
-            Params::Paper => ParamSet::Paper,
-        }
-    }
-}
-
-#[derive(clap::ValueEnum, Clone, Copy, Debug)]
-pub(crate) enum Params {
-    /// Every identifiable geometric parameter, base and tool included.
-    Full,
-    /// The 3M position-independent model of Mirman & Gupta.
-    Paper,
-}
-
-#[derive(clap::ValueEnum, Clone, Copy, Debug)]
-pub(crate) enum Targets {
-    /// The world (measurement) frame.
-    World,
-    /// The robot's own base frame.
-    Base,
-}
-
-impl From<Targets> for TargetFrame {
-    fn from(t: Targets) -> Self {
-        match t {
-            Targets::World => TargetFrame::World,
-            Targets::Base => TargetFrame::Base,
-        }
     }
 }
 

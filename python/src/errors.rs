@@ -9,6 +9,7 @@ use armcal::apply::ranges;
 use armcal::calibration::gravity::TorqueSign;
 use armcal::commands;
 use armcal::commands::Front;
+use armcal::commands::choices::{self, TorqueSignArg};
 use armcal::io::arrays;
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray2, PyArrayDyn, PyArrayMethods};
@@ -32,22 +33,38 @@ pyo3::create_exception!(
 /// arguments.
 pub(crate) const PYTHON: Front = Front::Python;
 
+/// The choice the keyword argument `name` names (`word`), as the command
+/// line's flag takes it ([`choices`]): `T` is the flag's words, `U` the
+/// library's type. Another word is an `armcal.InputError` naming `name`
+/// with the words it takes.
+pub(crate) fn choice<T, U: From<T>>(
+    py: Python<'_>,
+    name: &str,
+    word: &str,
+    parse: fn(&str) -> Result<T, String>,
+) -> PyResult<U> {
+    parse(word)
+        .map(U::from)
+        .map_err(|why| argument(py, name, why))
+}
+
 /// The sign of the `tau` columns `torque_sign` names: `"drive"`, `"load"`,
 /// or `None` (read from the data).
 pub(crate) fn torque_sign(
     py: Python<'_>,
     torque_sign: Option<&str>,
 ) -> PyResult<Option<TorqueSign>> {
-    match torque_sign {
-        None => Ok(None),
-        Some(name) => TorqueSign::from_name(name).map(Some).ok_or_else(|| {
-            argument(
-                py,
-                "torque_sign",
-                format!("{name:?}: expected \"drive\", \"load\" or None (read from the data)"),
-            )
-        }),
-    }
+    torque_sign
+        .map(|word| {
+            choice(py, "torque_sign", word, choices::parse::<TorqueSignArg>).map_err(|_| {
+                argument(
+                    py,
+                    "torque_sign",
+                    format!("{word:?}: expected \"drive\", \"load\" or None (read from the data)"),
+                )
+            })
+        })
+        .transpose()
 }
 
 /// A refused input as an `armcal.InputError`; with `arrays`, an error of data

@@ -3,15 +3,15 @@
 //! same report (the JSON of `docs/file-formats.md` §6, as Python dicts), the same refusals.
 
 use armcal::calibration::diagnose::report::DiagnoseReport;
-use armcal::calibration::identify::channel_weight::{ChannelWeight, ChannelWeights};
+use armcal::calibration::identify::channel_weight::ChannelWeights;
 use armcal::calibration::identify::prior_scale::PriorScale;
 use armcal::calibration::identify::report::IdentifyReport;
 use armcal::calibration::identify::{ParamSet, StatedScales};
+use armcal::commands::choices::{self, Params, PriorScaleArg, Targets, WeightArg};
 use armcal::commands::{self, diagnose as diagnose_cmd, identify as identify_cmd};
 use armcal::session::channel::Weighed;
 use armcal::session::model::RobotModel;
 use armcal::session::registration::FrameSharing;
-use armcal_shared::TargetFrame;
 use pyo3::prelude::*;
 
 use std::sync::{Arc, OnceLock};
@@ -188,19 +188,6 @@ fn on_rows<T: Send + 'static>(
     Ok((result, rows))
 }
 
-/// `world` or `base`: the frame the compensation's targets are given in.
-fn targets(py: Python<'_>, targets: &str) -> PyResult<TargetFrame> {
-    match targets {
-        "world" => Ok(TargetFrame::World),
-        "base" => Ok(TargetFrame::Base),
-        other => Err(errors::argument(
-            py,
-            "targets",
-            format!("{other:?}: expected \"world\" or \"base\""),
-        )),
-    }
-}
-
 /// Identifies the geometric errors of `model` from `data` (Measurements, or a
 /// CSV path or built-in data set name; a list of them: several sessions of
 /// one robot, each with its own base frame and tool unless `same_base`,
@@ -245,28 +232,13 @@ pub fn identify_py<'py>(
     #[pyo3(from_py_with = args::torque_sign)] torque_sign: Option<String>,
 ) -> PyResult<Py<Identification>> {
     let model = model.get();
-    let prior_scale = match prior_scale.as_str() {
-        "chosen" => PriorScale::default(),
-        "stated" => PriorScale::Stated,
-        other => {
-            return Err(errors::argument(
-                py,
-                "prior_scale",
-                format!("{other:?}: expected \"chosen\" or \"stated\""),
-            ));
-        }
-    };
-    let params = match params.as_str() {
-        "full" => ParamSet::Full,
-        "paper" => ParamSet::Paper,
-        other => {
-            return Err(errors::argument(
-                py,
-                "params",
-                format!("{other:?}: expected \"full\" or \"paper\""),
-            ));
-        }
-    };
+    let prior_scale: PriorScale = errors::choice(
+        py,
+        "prior_scale",
+        &prior_scale,
+        choices::parse::<PriorScaleArg>,
+    )?;
+    let params: ParamSet = errors::choice(py, "params", &params, choices::parse::<Params>)?;
     let request = identify_cmd::Request {
         params,
         scales: StatedScales {
@@ -282,7 +254,7 @@ pub fn identify_py<'py>(
             py,
             [&orientation_weight, &point_weight, &plane_weight],
         )?,
-        targets: self::targets(py, &targets)?,
+        targets: errors::choice(py, "targets", &targets, choices::parse::<Targets>)?,
         frames: FrameSharing::stated(same_base, same_tool),
         torque_sign: errors::torque_sign(py, torque_sign.as_deref())?,
         // The computation's own, given on its thread ([`on_rows`]).
@@ -318,16 +290,9 @@ pub fn identify_py<'py>(
 /// `plane_weight` name, in that order.
 fn channel_weights(py: Python<'_>, texts: [&str; 3]) -> PyResult<ChannelWeights> {
     let mut weights = ChannelWeights::default();
-    for (kind, text) in Weighed::ALL.into_iter().zip(texts) {
-        weights[kind] = ChannelWeight::parse(text).ok_or_else(|| {
-            errors::argument(
-                py,
-                &format!("{}_weight", kind.key()),
-                format!(
-                    "{text:?}: expected \"chosen\", \"estimated\", \"0.1\", \"0.01\" or \"none\""
-                ),
-            )
-        })?;
+    for (kind, word) in Weighed::ALL.into_iter().zip(texts) {
+        let name = format!("{}_weight", kind.key());
+        weights[kind] = errors::choice(py, &name, word, choices::parse::<WeightArg>)?;
     }
     Ok(weights)
 }
@@ -378,7 +343,7 @@ pub fn diagnose<'py>(
             py,
             [&orientation_weight, &point_weight, &plane_weight],
         )?,
-        targets: self::targets(py, &targets)?,
+        targets: errors::choice(py, "targets", &targets, choices::parse::<Targets>)?,
         frames: FrameSharing::stated(same_base, same_tool),
         torque_sign: errors::torque_sign(py, torque_sign.as_deref())?,
         // The computation's own, given on its thread ([`on_rows`]).

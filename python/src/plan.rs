@@ -1,7 +1,7 @@
 //! `plan`: the poses to measure, as `armcal plan` chooses them
 //! (`armcal::calibration::plan`), with numpy arrays in and out.
 
-use armcal::calibration::plan::Optimality;
+use armcal::commands::choices::{self, CriterionArg};
 use armcal::commands::plan::{Request, run, within_limits};
 use armcal::io::arrays;
 use pyo3::prelude::*;
@@ -86,17 +86,7 @@ pub fn plan<'py>(
             .transpose()
             .map_err(|e| errors::input(py, &e, true))?,
         singularity_margin,
-        criterion: match criterion.as_str() {
-            "i-optimal" => Optimality::I,
-            "d-optimal" => Optimality::D,
-            other => {
-                return Err(errors::argument(
-                    py,
-                    "criterion",
-                    format!("{other:?}: expected \"i-optimal\" or \"d-optimal\""),
-                ));
-            }
-        },
+        criterion: errors::choice(py, "criterion", &criterion, choices::parse::<CriterionArg>)?,
         seed,
     };
     let options = request

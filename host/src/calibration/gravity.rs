@@ -121,15 +121,6 @@ impl TorqueSign {
         }
     }
 
-    /// The sign named `name` (`drive` or `load`), if it is one.
-    pub fn from_name(name: &str) -> Option<Self> {
-        match name {
-            "drive" => Some(Self::Drive),
-            "load" => Some(Self::Load),
-            _ => None,
-        }
-    }
-
     /// The other sign.
     fn other(self) -> Self {
         match self {

@@ -23,6 +23,7 @@
 //! errors refuse the input (exit status 2) rather than fail
 //! ([`is_refusal`]).
 
+pub mod choices;
 pub mod diagnose;
 pub mod export;
 pub mod holdout;

@@ -129,19 +129,6 @@ impl ChannelWeight {
             format!("{weight}")
         }
     }
-
-    /// Parses `estimated`, `0.1`, `0.01`, `none` or `chosen` (the folds of
-    /// `chosen` are [`DEFAULT_FOLDS`]); `None` for anything else.
-    pub fn parse(text: &str) -> Option<Self> {
-        match text {
-            "chosen" => Some(Self::default()),
-            "estimated" => Some(Self::Stated(1.0)),
-            "none" => Some(Self::Stated(0.0)),
-            "0.1" => Some(Self::Stated(0.1)),
-            "0.01" => Some(Self::Stated(0.01)),
-            _ => None,
-        }
-    }
 }
 
 /// How each kind of row is to be weighed: a request.
