@@ -53,7 +53,7 @@ use rand::RngExt;
 use crate::calibration::fit::{
     Extension, FitRequest, FullOptions, Status, full_params, independent_parameter_count,
 };
-use crate::calibration::simulate::rng;
+use crate::calibration::simulate::{Stream, rng};
 use crate::io::sockets::Sockets;
 use crate::session::observation::Contact;
 use crate::session::observation::Observation;
@@ -669,7 +669,12 @@ pub fn plan_cancellable(
     let workspace = match targets {
         Some(t) => t,
         None => {
-            workspace_drawn = within_limits(robot, options.workspace, 0.0, options.seed ^ 0x7a7);
+            workspace_drawn = within_limits(
+                robot,
+                options.workspace,
+                0.0,
+                Stream::Workspace.seed(options.seed),
+            );
             &workspace_drawn
         }
     };
@@ -732,7 +737,11 @@ pub fn plan_cancellable(
             Err(missed)
         }
     };
-    let random = judged(&random_picks(&pool, &slots, options.seed ^ 0x5eed));
+    let random = judged(&random_picks(
+        &pool,
+        &slots,
+        Stream::RandomPoses.seed(options.seed),
+    ));
     let compared = Compared {
         criterion: other,
         predicted: judged(&other_picked),
@@ -1638,7 +1647,12 @@ mod tests {
             let d_optimal = p.compared.predicted.as_ref().unwrap().rms;
             let pool = pool(&robot, Some(&candidates), &options).unwrap();
             let all = identifiable(&robot, &pool.q, None, &[], &options);
-            let workspace = within_limits(&robot, options.workspace, 0.0, options.seed ^ 0x7a7);
+            let workspace = within_limits(
+                &robot,
+                options.workspace,
+                0.0,
+                Stream::Workspace.seed(options.seed),
+            );
             let criterion = Criterion::of(&robot, &workspace, &options, &pool, &all);
             let bound = relaxed_bound(&criterion.design(&robot, &pool), 20.0, 300);
             eprintln!(

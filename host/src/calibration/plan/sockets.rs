@@ -29,7 +29,7 @@ use nalgebra::DMatrix;
 
 use super::{Column, PlanError, jacobian, within_limits};
 use crate::calibration::parallel;
-use crate::calibration::simulate::reach_point;
+use crate::calibration::simulate::{Stream, reach_point};
 use crate::io::sockets::{APPROACH_CONE_DEG, Sockets};
 use crate::session::constraints::{Constraints, Named};
 use crate::session::observation::Contact;
@@ -58,7 +58,7 @@ pub fn candidates(
     let mut q = Vec::new();
     let mut socket_of = Vec::new();
     for (k, socket) in plate.sockets.iter().enumerate() {
-        let starts = within_limits(robot, per_socket, margin, seed ^ ((k as u64 + 1) << 20));
+        let starts = within_limits(robot, per_socket, margin, Stream::Socket(k).seed(seed));
         let pieces: Vec<&[Vec<f64>]> = starts
             .chunks(parallel::piece_len(starts.len(), 1))
             .collect();

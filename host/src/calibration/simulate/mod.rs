@@ -23,6 +23,38 @@ pub fn rng(seed: u64) -> StdRng {
     StdRng::seed_from_u64(seed)
 }
 
+/// A draw of its own made from one `--seed`, apart from the others: drawing
+/// more of one leaves every other the same (a session's rows are those of
+/// the same scenario with one session; a plan's random comparison does not
+/// move with its candidates).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stream {
+    /// The base frames and tools of the sessions after the first.
+    SessionFrames,
+    /// The axis of a growing orientation bias, when none is stated.
+    BiasAxis,
+    /// The targets a plan's accuracy is predicted at, drawn over the
+    /// workspace when none are given.
+    Workspace,
+    /// The random poses a plan is compared with.
+    RandomPoses,
+    /// The starting configurations of the seatings in socket `k` (from 0).
+    Socket(usize),
+}
+
+impl Stream {
+    /// The seed of this draw from `seed`.
+    pub fn seed(self, seed: u64) -> u64 {
+        seed ^ match self {
+            Self::SessionFrames => 0x5e55_10a5,
+            Self::BiasAxis => 0x0b1a_5ed0,
+            Self::Workspace => 0x7a7,
+            Self::RandomPoses => 0x5eed,
+            Self::Socket(k) => (k as u64 + 1) << 20,
+        }
+    }
+}
+
 /// How far the true robot is off its nominal model: each geometric parameter
 /// moved by a uniform draw within ± its size, SI (m, rad). The D-H links'
 /// lengths (`a`, `d`/`s`) and angles (the joint offsets `θ` and the twists
@@ -357,7 +389,7 @@ impl Scenario {
 /// the rows' draws, so that one session's rows are those of a scenario of
 /// one session).
 fn session_frames(truth: &Robot<f64>, sessions: usize, seed: u64) -> Vec<(Frame<f64>, Frame<f64>)> {
-    let mut r = rng(seed ^ 0x5e55_10a5);
+    let mut r = rng(Stream::SessionFrames.seed(seed));
     let mut uniform = |x: f64| r.random_range(-x..x);
     let pi = std::f64::consts::PI;
     (0..sessions.max(1))
@@ -484,7 +516,7 @@ impl Draw {
             bias_axis: scenario.orientation_bias.axis.map_or_else(
                 || {
                     // From its own generator: the rows' draws are the unbiased session's.
-                    let mut r = self::rng(scenario.seed ^ 0x0b1a_5ed0);
+                    let mut r = self::rng(Stream::BiasAxis.seed(scenario.seed));
                     let n = Normal::new(0.0, 1.0).expect("unit normal");
                     Vector3::from_fn(|_, _| n.sample(&mut r)).normalize()
                 },
