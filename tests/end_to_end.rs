@@ -487,7 +487,11 @@ mod compensation {
             ..FullOptions::default()
         };
         let fit = FitRequest::new(&nominal, &data, &options).run().unwrap();
-        let mut cal = Calibration::nominal(nominal.clone(), true, Units::SI);
+        let mut cal = Calibration::nominal(
+            nominal.clone(),
+            armcal_shared::compensation::Task::Pose,
+            Units::SI,
+        );
         for p in fit
             .params
             .iter()
@@ -641,7 +645,11 @@ mod compensation_of_effects {
             ..DiagnoseOptions::default()
         };
         let diagnosis = diagnose(&nominal, &session.observations, &options).unwrap();
-        let cal = diagnosis.calibration(&nominal, false, Units::SI);
+        let cal = diagnosis.calibration(
+            &nominal,
+            armcal_shared::compensation::Task::Position,
+            Units::SI,
+        );
         assert!(!cal.effects.is_empty(), "the diagnosis found effects");
         let truth = EffectModel::new(session.truth.clone(), &session.effects).unwrap();
         let model = cal.model();
@@ -1347,7 +1355,11 @@ mod blunders {
         let hidden: Vec<&str> = effects.iter().map(|e| e.name()).collect();
         assert_eq!(named, hidden);
         assert!((d.noise / 20e-6 - 1.0).abs() < 0.1, "noise {}", d.noise);
-        let cal = d.calibration(&nominal, false, Units::SI);
+        let cal = d.calibration(
+            &nominal,
+            armcal_shared::compensation::Task::Position,
+            Units::SI,
+        );
         let model = cal.model();
         let rms = (test
             .iter()

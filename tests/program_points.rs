@@ -29,6 +29,7 @@ use armcal::calibration::simulate::{Scenario, parse_effect, simulate};
 use armcal::io::model_file::{load_model, parse_model};
 use armcal::session::joints::JointRows;
 use armcal::session::model::RobotModel;
+use armcal_shared::compensation::Task;
 use armcal_shared::compensation::{Pacing, TargetFrame};
 use armcal_shared::effects::{Approach, Context, EffectModel};
 use armcal_shared::{Calibration, Robot};
@@ -183,7 +184,12 @@ fn program_points(
         ..DiagnoseOptions::default()
     };
     let diagnosis = diagnose(nominal, &session.observations, &options).unwrap();
-    let cal = diagnosis.calibration(nominal, full_pose, model.units);
+    let task = if full_pose {
+        Task::Pose
+    } else {
+        Task::Position
+    };
+    let cal = diagnosis.calibration(nominal, task, model.units);
     let truth = EffectModel::new(session.truth.clone(), &session.effects).unwrap();
     // 40 targets away from singularities, in a program's order.
     let mut r = rng(seed + 1000);
@@ -290,7 +296,7 @@ fn targets_in_the_base_frame_leave_the_registration_alone() {
     use armcal_shared::{FrameAxis, Param, ParamError};
     let model = robot("ur10e");
     let nominal = &model.robot;
-    let mut arm = Calibration::nominal(nominal.clone(), true, model.units);
+    let mut arm = Calibration::nominal(nominal.clone(), Task::Pose, model.units);
     for (param, error) in [
         (Param::Theta(1), 1e-3),
         (Param::A(2), -2e-3),

@@ -10,6 +10,7 @@
 //! the median or the worst tick exceeds its budget.
 
 use armcal_shared::calibration::MAX_FILE_LEN;
+use armcal_shared::compensation::Task;
 use armcal_shared::effects::one_of_each;
 use armcal_shared::link::{CHUNK_LEN, Command, Context, Device, Request, Response, TickStatus};
 use armcal_shared::ranges::Ranges;
@@ -46,7 +47,7 @@ fn calibration() -> Result<Calibration, ModelError> {
         *link = Link::new(JointType::Revolute, 0.0, s, a, alpha);
     }
     let robot = Robot::new(Convention::Dh, &links)?;
-    let mut cal = Calibration::nominal(robot, true, Units::default());
+    let mut cal = Calibration::nominal(robot, Task::Pose, Units::default());
     let errors = [
         (Param::A(0), -1.79e-5),
         (Param::Alpha(0), 1.031e-3),

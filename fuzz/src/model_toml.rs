@@ -10,6 +10,7 @@
 //! parameters (what `armcal identify --out` would write for it): the file
 //! encodes and decodes to the same calibration.
 
+use armcal_shared::compensation::Task;
 use armcal::io::model_file::parse_model;
 use armcal_shared::{Calibration, MAX_JOINTS};
 
@@ -52,7 +53,7 @@ pub fn run(data: &[u8]) -> bool {
     if let Some(g) = &robot.gravity {
         assert!(finite(g.as_slice()), "{g:?}");
     }
-    let cal = Calibration::nominal(robot.clone(), true, model.units);
+    let cal = Calibration::nominal(robot.clone(), Task::Pose, model.units);
     let file = match cal.to_bytes() {
         Ok(file) => file,
         Err(e) => panic!("an accepted model's calibration does not encode: {e}"),

@@ -1,6 +1,7 @@
 //! The seed inputs of each target: small valid files and streams, written to
 //! `corpus/<target>/seed-*` by `cargo test -- --ignored write_seeds`.
 
+use armcal_shared::compensation::Task;
 use armcal_shared::Calibration;
 use armcal_shared::calibration::{HEADER_LEN, MAGIC, OLDEST_VERSION, model_hash};
 use armcal_shared::link::{
@@ -183,7 +184,7 @@ fn older(cal: &Calibration, version: u16) -> Vec<u8> {
     let mut payload = postcard::to_stdvec(&PayloadV2 {
         nominal: &cal.nominal,
         errors: &cal.errors,
-        orientation: cal.orientation,
+        orientation: cal.task == Task::Pose,
         units: cal.units,
         effects: &cal.effects,
     })
@@ -208,8 +209,7 @@ fn calibrations() -> Vec<Seed> {
     let puma = calibration_of("puma560", true, false);
     let talos = calibration_of("figaroh-talos-left-arm", false, true);
     let mut lift = Calibration::nominal(
-        crate::models()[4].robot.clone(),
-        true,
+        crate::models()[4].robot.clone(), Task::Pose,
         crate::models()[4].units,
     );
     lift.targets = armcal_shared::TargetFrame::Base;

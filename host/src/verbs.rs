@@ -17,6 +17,7 @@ use armcal::session::joints::JointRows;
 use armcal::session::measurements::Measurements;
 use armcal_shared::Calibration;
 use armcal_shared::compensation::Pacing;
+use armcal_shared::compensation::Task;
 use armcal_shared::link::Request;
 
 use crate::cli::{
@@ -188,7 +189,7 @@ pub(crate) fn plan(args: PlanArgs) -> anyhow::Result<()> {
         targets.as_deref(),
         &|| false,
     )?;
-    let cal = Calibration::nominal(model.robot.clone(), false, model.units);
+    let cal = Calibration::nominal(model.robot.clone(), Task::Position, model.units);
     let comment = format!(
         "{}: the poses to measure, in this order",
         command_line(Some(args.seed))

@@ -9,7 +9,7 @@ use armcal::commands::Front;
 use armcal::commands::tool::Tool;
 use armcal::io::arrays::{self, Conditions};
 use armcal::session::joints::JointRows;
-use armcal_shared::compensation::Pacing;
+use armcal_shared::compensation::{Pacing, Task};
 use armcal_shared::{Calibration as Cal, TargetFrame};
 use pyo3::exceptions::PyUserWarning;
 use pyo3::prelude::*;
@@ -274,7 +274,12 @@ impl Calibration {
             .iter()
             .map(|p| pose_values(&p.position, p.orientation.as_ref(), &self.cal.units))
             .collect();
-        errors::to_numpy(py, out, if self.cal.orientation { 7 } else { 3 }, single)
+        errors::to_numpy(
+            py,
+            out,
+            if self.cal.task == Task::Pose { 7 } else { 3 },
+            single,
+        )
     }
 
     /// For joint commands `q` that the nominal model computed (`(N, M)` or one
@@ -335,7 +340,7 @@ impl Calibration {
     /// then have orientation).
     #[getter]
     fn orientation(&self) -> bool {
-        self.cal.orientation
+        self.cal.task == Task::Pose
     }
 
     /// The model's length unit.
@@ -411,7 +416,7 @@ impl Calibration {
             self.dof(),
             self.cal.errors.len(),
             self.effects(),
-            self.cal.orientation,
+            self.cal.task == Task::Pose,
             self.targets()
         )
     }

@@ -28,7 +28,7 @@
 //! version  field                                   Calibration::
 //!  2       nominal model                           nominal
 //!  2       identified errors (parameter, error)    errors
-//!  2       calibrated from full poses              orientation
+//!  2       calibrated from full poses (a bool)     task (Pose: true)
 //!  2       the model file's units                  units
 //!  2       the non-geometric effects               effects
 //!  3       the frame of the targets                targets
@@ -61,6 +61,7 @@ use core::fmt;
 use heapless::Vec;
 use serde::{Deserialize, Serialize};
 
+use crate::compensation::Task;
 use crate::effects::{Effect, EffectModel, MAX_EFFECTS};
 use crate::ranges::Ranges;
 use crate::units::Units;
@@ -122,8 +123,11 @@ pub struct Calibration {
     pub nominal: Robot<f64>,
     /// The identified errors; parameters not listed keep their nominal value.
     pub errors: Vec<ParamError, MAX_PARAMS>,
-    /// True if identified from full poses (the orientation is calibrated too).
-    pub orientation: bool,
+    /// What its corrections reach: [`Task::Pose`] when identified from full
+    /// poses (the orientation is calibrated too), [`Task::Position`] from
+    /// positions. On the wire the bool "from full poses" ([`task_as_bool`]).
+    #[serde(with = "task_as_bool")]
+    pub task: Task,
     /// The units of the model file, in which results are reported.
     pub units: Units,
     /// The non-geometric effects identified with the geometry (`armcal diagnose`).
@@ -182,6 +186,28 @@ pub enum TargetFrame {
 
 /// The fields every version's payload starts with: a version 2 payload, a
 /// [`Calibration`] without [`Calibration::targets`] and the later fields.
+/// A calibration's [`Task`] as the payload holds it since version 2: the bool
+/// "identified from full poses", `true` for [`Task::Pose`].
+mod task_as_bool {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    use crate::compensation::Task;
+
+    /// `true` for [`Task::Pose`].
+    pub fn serialize<S: Serializer>(task: &Task, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_bool(*task == Task::Pose)
+    }
+
+    /// [`Task::Pose`] for `true`.
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Task, D::Error> {
+        Ok(if bool::deserialize(d)? {
+            Task::Pose
+        } else {
+            Task::Position
+        })
+    }
+}
+
 /// Postcard writes a struct as its fields in order, so a version 3 payload is
 /// these and the targets, a version 4 payload these, the targets and the
 /// ranges, a version 5 payload these, the targets, the ranges and
@@ -192,7 +218,8 @@ pub enum TargetFrame {
 struct PayloadV2 {
     nominal: Robot<f64>,
     errors: Vec<ParamError, MAX_PARAMS>,
-    orientation: bool,
+    #[serde(with = "task_as_bool")]
+    task: Task,
     units: Units,
     effects: Vec<Effect<f64>, MAX_EFFECTS>,
 }
@@ -240,7 +267,7 @@ fn decode_payload(version: u16, payload: &[u8]) -> Result<(Calibration, &[u8]), 
     let cal = Calibration {
         nominal: v2.nominal,
         errors: v2.errors,
-        orientation: v2.orientation,
+        task: v2.task,
         units: v2.units,
         effects: v2.effects,
         targets,
@@ -440,12 +467,13 @@ pub fn model_hash(model: &Robot<f64>) -> u64 {
 }
 
 impl Calibration {
-    /// A calibration that identifies nothing: the nominal model itself.
-    pub fn nominal(nominal: Robot<f64>, orientation: bool, units: Units) -> Self {
+    /// A calibration that identifies nothing: the nominal model itself,
+    /// compensating `task`.
+    pub fn nominal(nominal: Robot<f64>, task: Task, units: Units) -> Self {
         Self {
             nominal,
             errors: Vec::new(),
-            orientation,
+            task,
             units,
             effects: Vec::new(),
             targets: TargetFrame::World,
@@ -465,7 +493,7 @@ impl Calibration {
         Some(Calibration {
             nominal: self.nominal.clone(),
             errors: g.errors.clone(),
-            orientation: self.orientation,
+            task: self.task,
             units: self.units,
             effects: Vec::new(),
             targets: self.targets,

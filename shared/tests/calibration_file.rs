@@ -5,6 +5,7 @@ use armcal_shared::calibration::{
     FORMAT_VERSION, HEADER_LEN, MAGIC, MAX_FILE_LEN, MAX_PARAMS, OLDEST_VERSION, TargetFrame,
     model_hash,
 };
+use armcal_shared::compensation::Task;
 use armcal_shared::effects::{Effect, MAX_EFFECTS};
 use armcal_shared::ranges::{Interval, Ranges};
 use armcal_shared::units::{AngleUnit, LengthUnit, Units};
@@ -41,7 +42,7 @@ fn sample() -> Calibration {
     nominal.gravity = Some(Vector3::new(0.0, 0.0, -9.81));
     let mut cal = Calibration::nominal(
         nominal,
-        false,
+        Task::Position,
         Units {
             length: LengthUnit::Mm,
             angle: AngleUnit::Deg,
@@ -311,7 +312,7 @@ fn v3_payload(cal: &Calibration) -> Vec<u8> {
     let payload = PayloadV3 {
         nominal: &cal.nominal,
         errors: &cal.errors,
-        orientation: cal.orientation,
+        orientation: cal.task == Task::Pose,
         units: cal.units,
         effects: &cal.effects,
         targets: cal.targets,
@@ -514,7 +515,7 @@ fn version_4_files() {
     let payload = PayloadV4 {
         nominal: &cal.nominal,
         errors: &cal.errors,
-        orientation: cal.orientation,
+        orientation: cal.task == Task::Pose,
         units: cal.units,
         effects: &cal.effects,
         targets: cal.targets,
@@ -544,7 +545,7 @@ fn version_5_files() {
     let payload = PayloadV5 {
         nominal: &cal.nominal,
         errors: &cal.errors,
-        orientation: cal.orientation,
+        orientation: cal.task == Task::Pose,
         units: cal.units,
         effects: &cal.effects,
         targets: cal.targets,

@@ -18,6 +18,15 @@ use proptest::prelude::*;
 mod common;
 use common::robot_strategy;
 
+/// The task of a calibration from full poses (`orientation`) or positions.
+fn task_of(orientation: bool) -> Task {
+    if orientation {
+        Task::Pose
+    } else {
+        Task::Position
+    }
+}
+
 /// `robot` with every parameter moved by `scale` times a draw in [−1, 1].
 fn calibrated(robot: &Robot<f64>, draws: &[f64], scale: f64) -> Robot<f64> {
     let mut out = robot.clone();
@@ -84,7 +93,7 @@ proptest! {
     ) {
         let cal = calibrated(&robot, &draws, scale);
         let limits = Limits::default();
-        let comp = Compensator::new(&robot, &cal, orientation, limits);
+        let comp = Compensator::new(&robot, &cal, task_of(orientation), limits);
         let q_cmd: Vec<f64> = q.iter().map(|x| x * far).collect();
         // The previous tick's command: up to 0.2 rad (50 mm) away.
         let q_prev: Vec<f64> = q_cmd
@@ -126,7 +135,7 @@ proptest! {
         which in 0usize..8,
         bad in prop_oneof![Just(f64::NAN), Just(f64::INFINITY), Just(f64::NEG_INFINITY)],
     ) {
-        let comp = Compensator::new(&robot, &robot, true, Limits::default());
+        let comp = Compensator::new(&robot, &robot, Task::Pose, Limits::default());
         let mut q_cmd = q.clone();
         let i = which % q_cmd.len();
         q_cmd[i] = bad;
@@ -167,7 +176,7 @@ fn wrong_joint_count_is_flagged() {
         &[Link::new(JointType::Revolute, 0.0, 0.3, 0.2, 1.0); 3],
     )
     .unwrap();
-    let comp = Compensator::new(&robot, &robot, false, Limits::default());
+    let comp = Compensator::new(&robot, &robot, Task::Position, Limits::default());
     let none = Conditions::default();
     let c = comp.correct(&[0.1, 0.2], &none);
     assert_eq!(c.fault, Some(Fault::JointCount));
@@ -225,7 +234,7 @@ proptest! {
     ) {
         let model = EffectModel::new(robot.clone(), &random_effects(robot.dof(), &draws)).unwrap();
         let limits = Limits::default();
-        let comp = Compensator::with_effects(&robot, model, true, limits);
+        let comp = Compensator::with_effects(&robot, model, Task::Pose, limits);
         let conditions = Conditions { temperature: Some(temperature), payload: Some(payload) };
         let mut stream = Stream::new(Pacing::Servo);
         let first = stream.tick(&comp, &q, &conditions);
@@ -410,12 +419,12 @@ fn effects_are_compensated_in_context() {
     let nominal = ur10e();
     let commands = trajectory();
     let limits = Limits::default();
-    let geometric = Compensator::new(&nominal, &calibrated_ur10e(), true, limits);
+    let geometric = Compensator::new(&nominal, &calibrated_ur10e(), Task::Pose, limits);
     let mut sets: Vec<Vec<Effect<f64>>> = one_of_each().iter().map(|e| vec![*e]).collect();
     sets.push(one_of_each().to_vec());
     for effects in sets {
         let model = EffectModel::new(calibrated_ur10e(), &effects).unwrap();
-        let comp = Compensator::with_effects(&nominal, model.clone(), true, limits);
+        let comp = Compensator::with_effects(&nominal, model.clone(), Task::Pose, limits);
         let corrected = run(&comp, &commands, WARM_LOADED);
         assert!(corrected.iter().all(|s| s.fault.is_none()), "{effects:?}");
         let miss = worst_miss(&nominal, &model, &commands, &corrected);
@@ -441,10 +450,10 @@ fn f32_with_effects_agrees_with_f64_within_two_micrometres() {
     let commands = trajectory();
     let effects = one_of_each();
     let model = EffectModel::new(calibrated_ur10e(), &effects).unwrap();
-    let c64 = Compensator::with_effects(&nominal, model.clone(), true, Limits::default());
+    let c64 = Compensator::with_effects(&nominal, model.clone(), Task::Pose, Limits::default());
     let effects32: Vec<Effect<f32>> = effects.iter().map(|e| e.cast()).collect();
     let model32 = EffectModel::new(calibrated_ur10e().cast(), &effects32).unwrap();
-    let c32 = Compensator::with_effects(&nominal.cast(), model32, true, Limits::default());
+    let c32 = Compensator::with_effects(&nominal.cast(), model32, Task::Pose, Limits::default());
     let a = run(&c64, &commands, WARM_LOADED);
     let b = run(&c32, &commands, WARM_LOADED);
     for (sa, sb) in a.iter().zip(&b) {
@@ -481,7 +490,7 @@ fn a_joint_within_its_lost_motion_is_held_and_flagged() {
     };
     let model = EffectModel::new(calibrated_ur10e(), &[backlash]).unwrap();
     let limits = Limits::default();
-    let comp = Compensator::with_effects(&nominal, model.clone(), true, limits);
+    let comp = Compensator::with_effects(&nominal, model.clone(), Task::Pose, limits);
     let mut commands = trajectory()[..4].to_vec();
     let reversal = 1e-5;
     let mut back = commands[3].clone();
@@ -590,7 +599,7 @@ fn a_holding_joint_keeps_its_flank() {
     ] {
         let commands = commands(others);
         let model = EffectModel::new(calibrated, &effects).unwrap();
-        let comp = Compensator::with_effects(&nominal, model.clone(), true, limits);
+        let comp = Compensator::with_effects(&nominal, model.clone(), Task::Pose, limits);
         let corrected = run(&comp, &commands, WARM_LOADED);
         let miss = misses(&nominal, &model, &commands, &corrected);
         let last_move = &corrected[moving - 1];
@@ -679,7 +688,7 @@ proptest! {
         let limits = Limits { tolerance: 1e-6, ..Limits::default() };
         let list = if effects { random_effects(robot.dof(), &effect_draws) } else { Vec::new() };
         let model = EffectModel::new(cal.clone(), &list).unwrap();
-        let comp = Compensator::with_effects(&robot, model, orientation, limits);
+        let comp = Compensator::with_effects(&robot, model, task_of(orientation), limits);
         let mut stream = Stream::new(Pacing::Servo);
         let mut ticks: Vec<(Vec<f64>, Correction<f64>)> = Vec::new();
         for t in 0..3 {
@@ -720,7 +729,7 @@ fn the_task_follows_the_calibration_and_the_arm() {
         )
         .unwrap();
         for orientation in [false, true] {
-            let comp = Compensator::new(&arm, &arm, orientation, Limits::default());
+            let comp = Compensator::new(&arm, &arm, task_of(orientation), Limits::default());
             let expected = if orientation {
                 Task::Pose
             } else {
@@ -982,8 +991,8 @@ proptest! {
         for (orientation, effects) in [(false, false), (true, false), (false, true), (true, true)] {
             let list = if effects { smooth_effects(n, &effect_draws) } else { Vec::new() };
             let model = EffectModel::new(cal.clone(), &list).unwrap();
-            let comp = Compensator::with_effects(&robot, model.clone(), orientation, Limits::default());
-            let program = Compensator::with_effects(&robot, model.clone(), orientation, Limits::of(Pacing::Program));
+            let comp = Compensator::with_effects(&robot, model.clone(), task_of(orientation), Limits::default());
+            let program = Compensator::with_effects(&robot, model.clone(), task_of(orientation), Limits::of(Pacing::Program));
             let conditions = if effects {
                 Conditions { temperature: Some(temperature), payload: Some(payload) }
             } else {
@@ -1052,12 +1061,16 @@ fn a_redundant_arm_streams_the_least_correction() {
         for with_effects in [false, true] {
             let list = if with_effects { &effects[..] } else { &[] };
             let model = EffectModel::new(cal.clone(), list).unwrap();
-            let comp =
-                Compensator::with_effects(&arm, model.clone(), orientation, Limits::default());
+            let comp = Compensator::with_effects(
+                &arm,
+                model.clone(),
+                task_of(orientation),
+                Limits::default(),
+            );
             let program = Compensator::with_effects(
                 &arm,
                 model.clone(),
-                orientation,
+                task_of(orientation),
                 Limits::of(Pacing::Program),
             );
             let conditions = if with_effects {

@@ -34,6 +34,7 @@
 //! commands are good but may not be the command's own least change: such rows
 //! are counted once ([`RowWarning::Unsettled`]).
 
+use armcal_shared::compensation::Task;
 use core::fmt::Write as _;
 
 use armcal_shared::compensation::{
@@ -310,7 +311,7 @@ pub fn compensate(cal: &Calibration, commands: &JointRows, pacing: Pacing) -> Co
         c.fault == Some(Fault::Limited)
             || (c.fault == Some(Fault::NotConverged) && c.residual > limits.tolerance)
     };
-    if pacing == Pacing::Program && !cal.orientation && corrections.iter().any(failed) {
+    if pacing == Pacing::Program && cal.task == Task::Position && corrections.iter().any(failed) {
         let least = Compensator::<f64>::from_calibration(
             cal,
             Limits {

@@ -116,6 +116,7 @@ pub fn geometry_only(cal: &Calibration, format: &str) -> GeometryExport {
 mod tests {
     use super::*;
     use armcal_shared::calibration::ParamError;
+    use armcal_shared::compensation::Task;
     use armcal_shared::units::AngleUnit;
     use armcal_shared::{GeometricCalibration, Param};
 
@@ -127,7 +128,7 @@ mod tests {
             length,
             angle: AngleUnit::Rad,
         };
-        let mut cal = Calibration::nominal(robot, false, units);
+        let mut cal = Calibration::nominal(robot, Task::Position, units);
         cal.errors
             .push(ParamError {
                 param: Param::Theta(1),

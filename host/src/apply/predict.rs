@@ -26,6 +26,7 @@
 //! row order (row order is motion order, as in `docs/file-formats.md` §2): the sign of its last
 //! change, held while the joint holds.
 
+use armcal_shared::compensation::Task;
 use core::fmt::Write as _;
 
 use armcal_shared::Calibration;
@@ -104,7 +105,7 @@ pub fn predict(cal: &Calibration, rows: &JointRows) -> Result<Predictions, Input
         let frame = model
             .forward(&row.q, &ctx)
             .map_err(|e| InputError::new(&rows.file, row.line, 1, e.to_string()))?;
-        let orientation = cal.orientation.then(|| {
+        let orientation = (cal.task == Task::Pose).then(|| {
             let q = UnitQuaternion::from_rotation_matrix(&frame.rotation);
             if q.w < 0.0 {
                 UnitQuaternion::new_unchecked(-q.into_inner())
@@ -131,7 +132,7 @@ pub fn predict(cal: &Calibration, rows: &JointRows) -> Result<Predictions, Input
             } else {
                 effects.join(" ")
             },
-            if cal.orientation {
+            if cal.task == Task::Pose {
                 "position and orientation"
             } else {
                 "position only"
@@ -139,7 +140,7 @@ pub fn predict(cal: &Calibration, rows: &JointRows) -> Result<Predictions, Input
         ),
         calibration_file: None,
         joints_file: rows.file.clone(),
-        orientation: cal.orientation,
+        orientation: cal.task == Task::Pose,
         rows: out,
     })
 }
@@ -233,7 +234,7 @@ mod tests {
     #[test]
     fn nominal_calibration_predicts_nominal_forward_kinematics() {
         let model = load_model("puma560").unwrap();
-        let cal = Calibration::nominal(model.robot.clone(), false, model.units);
+        let cal = Calibration::nominal(model.robot.clone(), Task::Position, model.units);
         let text = "# readings\nq1,q2,q3,q4,q5,q6,t\n0,0,0,0,0,0,1\n0.1,-0.2,0.3,-0.4,0.5,-0.6,\n";
         let rows = parse_joints(text, "j.csv", &cal.nominal, &cal.units).unwrap();
         let p = predict(&cal, &rows).unwrap();
@@ -270,7 +271,7 @@ mod tests {
             "rr.toml",
         )
         .unwrap();
-        let mut cal = Calibration::nominal(model.robot.clone(), true, model.units);
+        let mut cal = Calibration::nominal(model.robot.clone(), Task::Pose, model.units);
         for (param, error) in [(Param::Theta(0), 1e-3), (Param::A(1), 2e-4)] {
             cal.errors.push(ParamError { param, error }).unwrap();
         }
@@ -311,7 +312,7 @@ mod tests {
     #[test]
     fn refuses_rows_of_another_joint_count() {
         let model = load_model("puma560").unwrap();
-        let cal = Calibration::nominal(model.robot.clone(), false, model.units);
+        let cal = Calibration::nominal(model.robot.clone(), Task::Position, model.units);
         let ur = load_model("ur5e").unwrap();
         let mut rows = parse_joints(
             "q1,q2,q3,q4,q5,q6\n0,0,0,0,0,0\n",

@@ -375,6 +375,7 @@ mod tests {
     use super::*;
     use crate::io::measurements::parse_joints;
     use crate::io::model_file::parse_model;
+    use armcal_shared::compensation::Task;
     use armcal_shared::ranges::Ranges;
 
     /// A two-joint arm in mm and degrees (a revolute joint and a prismatic
@@ -389,7 +390,7 @@ mod tests {
             "rp.toml",
         )
         .unwrap();
-        let mut cal = Calibration::nominal(model.robot, false, model.units);
+        let mut cal = Calibration::nominal(model.robot, Task::Position, model.units);
         let deg = 30f64.to_radians();
         cal.ranges = Some(Ranges::of([
             (&[-deg, 0.0][..], Some(20.0), Some(0.0)),

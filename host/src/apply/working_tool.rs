@@ -49,6 +49,7 @@
 //! in the model's units ([`crate::commands::tool`]).
 
 use armcal_shared::calibration::{Calibration, ParamError};
+use armcal_shared::compensation::Task;
 use armcal_shared::{Convention, Frame, JointType, Param, Robot};
 
 use crate::io::urdf::convert::to_frame;
@@ -155,7 +156,7 @@ impl WorkingTool {
             measured_offset,
             confounded,
             // Orientations measure the last axis' turn whatever the point.
-            measured_from_axis: if cal.orientation {
+            measured_from_axis: if cal.task == Task::Pose {
                 None
             } else {
                 distance_from_last_axis(&cal.nominal)
@@ -268,7 +269,7 @@ mod tests {
     /// A calibration of `robot` whose errors are every parameter rigid with
     /// the tool, the tool's position, and one parameter the data separate.
     fn calibration(robot: Robot<f64>) -> Calibration {
-        let mut cal = Calibration::nominal(robot, false, Units::SI);
+        let mut cal = Calibration::nominal(robot, Task::Position, Units::SI);
         let separated = Param::Alpha(1);
         for (param, error) in flange_params(&cal.nominal)
             .into_iter()
@@ -362,11 +363,11 @@ mod tests {
         let on = distance_from_last_axis(&robot).unwrap();
         assert!(on < 1e-6, "{on}");
         let frame = Frame::identity();
-        let cal = Calibration::nominal(robot.clone(), false, Units::SI);
+        let cal = Calibration::nominal(robot.clone(), Task::Position, Units::SI);
         let note = WorkingTool { frame }.apply(&cal).note();
         assert!(note.contains("from the last joint's axis"), "{note}");
         // Full poses show the last joint's turn through the orientations.
-        let full = Calibration::nominal(robot, true, Units::SI);
+        let full = Calibration::nominal(robot, Task::Pose, Units::SI);
         let note = WorkingTool { frame }.apply(&full).note();
         assert!(!note.contains("from the last joint's axis"), "{note}");
     }

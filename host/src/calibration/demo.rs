@@ -30,6 +30,7 @@
 //! in SI); the HTML page is that of `armcal diagnose --html`.
 
 use armcal_shared::compensation::Pacing;
+use armcal_shared::compensation::Task;
 use armcal_shared::effects::{Approach, Context, Effect, EffectModel};
 use armcal_shared::jacobian::at_point;
 use armcal_shared::{Calibration, JointType, Robot};
@@ -146,7 +147,7 @@ pub fn demo(seed: u64) -> anyhow::Result<Demo> {
         }
     };
     let diagnosis = diagnose(nominal, &session.observations, &options)?;
-    let calibration = diagnosis.calibration(nominal, false, model.units);
+    let calibration = diagnosis.calibration(nominal, Task::Position, model.units);
     let moves = targets(nominal, TARGETS, &mut r)?;
     let targets = compensate_targets(&session, &calibration, &moves)?;
     Ok(Demo {

@@ -12,6 +12,7 @@
 //! diagnose` chooses (its effects applied in the prediction).
 
 use armcal_shared::Robot;
+use armcal_shared::compensation::Task;
 use armcal_shared::effects::EffectModel;
 use armcal_shared::units::Units;
 
@@ -93,7 +94,7 @@ pub fn calibrate(
             let d = diagnose_session(&model.robot, &data.poses, &data.constraints, &options)?;
             // The model of the calibration `diagnose --out` writes (the
             // nominal model when nothing beats it held-out).
-            let calibration = d.calibration(&model.robot, false, model.units);
+            let calibration = d.calibration(&model.robot, Task::Position, model.units);
             Ok(Calibrated {
                 model: calibration.model(),
                 training_rms: d.fit.position_rms,

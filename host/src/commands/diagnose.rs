@@ -126,7 +126,7 @@ pub fn run(
         super::nominal_worst_row(model, data)
     })?;
     let failed = diagnosis.refusal(model, data, front.write_failed());
-    let mut calibration = diagnosis.calibration(&model.robot, data.has_orientation(), model.units);
+    let mut calibration = diagnosis.calibration(&model.robot, data.task(), model.units);
     calibration.targets = request.targets;
     calibration.flange = model.flange;
     let sessions_held_out = sessions_held_out(model, observations, &diagnosis, &options);

@@ -42,13 +42,14 @@ pub fn load_calibration(path: &str) -> Result<Calibration, InputError> {
 mod tests {
     use super::*;
     use crate::io::model_file::load_model;
+    use armcal_shared::compensation::Task;
 
     /// A calibration file that cannot be used is refused at line 0, with the
     /// reason of the decoder; a good one reads back.
     #[test]
     fn load_calibration_names_the_file_and_the_reason() {
         let model = load_model("puma560").unwrap();
-        let cal = Calibration::nominal(model.robot, true, model.units);
+        let cal = Calibration::nominal(model.robot, Task::Pose, model.units);
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("cal.bin");
         let p = path.to_str().unwrap();

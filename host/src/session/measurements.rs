@@ -7,6 +7,7 @@
 //! reaches them. [`crate::io::measurements`] reads the CSV
 //! of `docs/file-formats.md` §2 into them, [`crate::io::arrays`] arrays.
 
+use armcal_shared::compensation::Task;
 use armcal_shared::units::Units;
 use armcal_shared::{JointType, Robot};
 use nalgebra::Point3;
@@ -197,6 +198,16 @@ impl Measurements {
     /// Whether every pose has a measured orientation.
     pub fn has_orientation(&self) -> bool {
         !self.poses.is_empty() && self.poses.iter().all(|p| p.orientation.is_some())
+    }
+
+    /// What a calibration from these poses compensates: [`Task::Pose`] when
+    /// every pose has a measured orientation ([`Self::has_orientation`]).
+    pub fn task(&self) -> Task {
+        if self.has_orientation() {
+            Task::Pose
+        } else {
+            Task::Position
+        }
     }
 
     /// The number of scalar equations the poses give: 3 per pose, 6 per pose with

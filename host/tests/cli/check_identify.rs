@@ -156,7 +156,7 @@ fn identify_writes_the_interface_json_and_a_calibration_the_firmware_format_read
     // The calibration file decodes and carries the identified errors.
     let bytes = std::fs::read(dir.path().join("ur10e.cal")).unwrap();
     let cal = armcal_shared::Calibration::decode(&bytes).unwrap();
-    assert!(cal.orientation);
+    assert_eq!(cal.task, armcal_shared::compensation::Task::Pose);
     let base_x = params.iter().find(|p| p["name"] == "base.x").unwrap();
     let err = cal
         .errors

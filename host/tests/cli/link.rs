@@ -6,6 +6,7 @@
 //! with the controller's reason, exit status 2 and nothing written; the
 //! controller in force is left as it was.
 
+use armcal_shared::compensation::Task;
 use std::io::{Read, Write};
 use std::net::TcpListener;
 use std::thread::JoinHandle;
@@ -64,7 +65,7 @@ fn controller(drop_first: usize) -> (String, JoinHandle<StatusReport>) {
 /// The UR10e (m, rad) with joint errors of a few millimetres and milliradians.
 pub(crate) fn calibration() -> Calibration {
     let model = load_model("ur10e").unwrap();
-    let mut cal = Calibration::nominal(model.robot.clone(), true, model.units);
+    let mut cal = Calibration::nominal(model.robot.clone(), Task::Pose, model.units);
     for (name, error) in [
         ("theta2", -6e-4),
         ("a2", -6e-3),

@@ -2,6 +2,7 @@
 //! output, all of a run's outputs or none, devices and FIFOs written into and
 //! never replaced, links followed; and inputs read only up to their limit.
 
+use armcal_shared::compensation::Task;
 use std::os::unix::fs::FileTypeExt as _;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
@@ -544,7 +545,7 @@ fn a_stream_of_rows_is_refused_past_the_row_cap() {
 fn a_stream_of_joint_rows_is_refused_past_the_row_cap() {
     let dir = tempfile::tempdir().unwrap();
     let model = armcal::io::model_file::load_model("ur5e").unwrap();
-    let cal = armcal_shared::Calibration::nominal(model.robot.clone(), false, model.units);
+    let cal = armcal_shared::Calibration::nominal(model.robot.clone(), Task::Position, model.units);
     std::fs::write(dir.path().join("nominal.cal"), cal.to_bytes().unwrap()).unwrap();
     refused_past_the_cap(
         &[

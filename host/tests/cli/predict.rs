@@ -6,14 +6,15 @@
 use crate::{armcal, assert_success};
 use armcal::io::model_file::{load_model, parse_model};
 use armcal::session::model::RobotModel;
+use armcal_shared::compensation::Task;
 use armcal_shared::ranges::Ranges;
 use armcal_shared::{Calibration, Param, ParamError};
 
 /// `model`'s nominal calibration with the given errors (SI), as if identified
 /// on every joint within a turn either way (m for a prismatic joint), at
 /// 15–40 °C and 0–5 kg: the rows of these tests lie inside.
-fn calibration(model: &RobotModel, orientation: bool, errors: &[(&str, f64)]) -> Calibration {
-    let mut cal = Calibration::nominal(model.robot.clone(), orientation, model.units);
+fn calibration(model: &RobotModel, task: Task, errors: &[(&str, f64)]) -> Calibration {
+    let mut cal = Calibration::nominal(model.robot.clone(), task, model.units);
     let turn = vec![std::f64::consts::TAU; model.dof()];
     let back: Vec<f64> = turn.iter().map(|x| -x).collect();
     cal.ranges = Some(Ranges::of([
@@ -107,7 +108,7 @@ fn predicts_the_calibrated_forward_kinematics(
     );
 
     let (header, rows) = read_predictions(&csv);
-    if cal.orientation {
+    if cal.task == Task::Pose {
         assert_eq!(header, "x,y,z,qw,qx,qy,qz");
     } else {
         assert_eq!(header, "x,y,z");
@@ -134,7 +135,7 @@ fn predicts_the_calibrated_forward_kinematics(
         // The errors move the point: this is not the nominal model.
         let moved = (nominal.measured_point(&q_si).unwrap().coords - t.translation.vector).norm();
         assert!(moved > 1e-5, "{moved}");
-        if cal.orientation {
+        if cal.task == Task::Pose {
             assert_eq!(row.len(), 7);
             let mut want = nalgebra::UnitQuaternion::from_rotation_matrix(&t.rotation);
             if want.w < 0.0 {
@@ -163,7 +164,7 @@ fn predicts_puma560_position_in_inches() {
     let model = load_model("puma560").unwrap();
     let cal = calibration(
         &model,
-        false,
+        Task::Position,
         &[
             ("theta2", 0.01),
             ("a3", 0.05 * 0.0254),
@@ -189,7 +190,7 @@ fn predicts_full_pose_of_a_mm_degree_arm() {
     .unwrap();
     let cal = calibration(
         &model,
-        true,
+        Task::Pose,
         &[
             ("theta1", 0.002),
             ("alpha2", -0.001),
@@ -234,7 +235,7 @@ fn refuses_calibration(bytes: &[u8], reason: &str) {
 #[test]
 fn refuses_damaged_truncated_and_foreign_calibrations() {
     let model = load_model("puma560").unwrap();
-    let bytes = calibration(&model, true, &[("theta2", 0.01)])
+    let bytes = calibration(&model, Task::Pose, &[("theta2", 0.01)])
         .to_bytes()
         .unwrap();
 
@@ -276,7 +277,7 @@ fn refuses_a_bad_joint_value_with_file_line_column() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(
         dir.path().join("cal.bin"),
-        calibration(&model, false, &[]).to_bytes().unwrap(),
+        calibration(&model, Task::Position, &[]).to_bytes().unwrap(),
     )
     .unwrap();
     std::fs::write(
@@ -389,7 +390,7 @@ fn compensate_makes_the_calibrated_robot_reach_the_nominal_pose() {
     let model = load_model("ur10e").unwrap();
     let cal = calibration(
         &model,
-        true,
+        Task::Pose,
         &[
             ("alpha2", 1.2e-3),
             ("a3", -0.8e-3),
@@ -430,7 +431,7 @@ fn compensate_makes_the_calibrated_robot_reach_the_nominal_pose() {
 fn compensate_applies_the_effects_in_each_rows_context() {
     use armcal_shared::effects::{Approach, Context, one_of_each};
     let model = load_model("ur10e").unwrap();
-    let mut cal = calibration(&model, true, &[("alpha2", 1.2e-3), ("a3", -0.8e-3)]);
+    let mut cal = calibration(&model, Task::Pose, &[("alpha2", 1.2e-3), ("a3", -0.8e-3)]);
     for effect in one_of_each() {
         cal.effects.push(effect).unwrap();
     }
@@ -543,7 +544,7 @@ fn compensate_names_the_rows_whose_flange_turns_near_a_singularity() {
     let model = load_model("ur10e").unwrap();
     let cal = calibration(
         &model,
-        false,
+        Task::Position,
         &[
             ("base.y", 5e-3),
             ("alpha2", 3e-3),

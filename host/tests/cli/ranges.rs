@@ -8,6 +8,7 @@
 use crate::{armcal, assert_success};
 use armcal_shared::Calibration;
 use armcal_shared::calibration::HEADER_LEN;
+use armcal_shared::compensation::Task;
 
 /// A UR10e in millimetres and degrees.
 const MODEL: &str = "name = \"ur10e_mm_deg\"\nconvention = \"dh\"\nlength_unit = \"mm\"\nangle_unit = \"deg\"\n\
@@ -169,7 +170,7 @@ fn crc32(bytes: &[u8]) -> u32 {
 fn a_version_3_calibration_still_predicts_with_one_note() {
     let dir = tempfile::tempdir().unwrap();
     let model = armcal::io::model_file::load_model("ur10e").unwrap();
-    let cal = Calibration::nominal(model.robot, false, model.units);
+    let cal = Calibration::nominal(model.robot, Task::Position, model.units);
     let v6 = cal.to_bytes().unwrap();
     let payload = u32::from_le_bytes(v6[20..24].try_into().unwrap()) as usize;
     // Version 3 is the version 6 payload without its last four fields: the

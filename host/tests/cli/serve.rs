@@ -30,6 +30,7 @@
 //! previous answer came): the answer's time does not depend on the pause
 //! before the datagram, and the test then takes a second rather than 40 s.
 
+use armcal_shared::compensation::Task;
 use std::io::{BufRead, BufReader, Read};
 use std::net::UdpSocket;
 use std::path::Path;
@@ -820,7 +821,7 @@ fn serve_refuses_what_it_cannot_serve() {
     let model = armcal::io::model_file::load_model("ur10e").unwrap();
     let mut robot = model.robot.clone();
     robot.links[1].joint = armcal_shared::JointType::Prismatic;
-    let cal = Calibration::nominal(robot, true, model.units);
+    let cal = Calibration::nominal(robot, Task::Pose, model.units);
     std::fs::write(dir.path().join("prismatic.cal"), cal.to_bytes().unwrap()).unwrap();
     crate::refused(
         dir.path(),

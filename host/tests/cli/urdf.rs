@@ -9,6 +9,7 @@
 //! to 1e-9 m (the bound; the export writes every number exactly, so
 //! the error is rounding again).
 
+use armcal_shared::compensation::Task;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -946,7 +947,8 @@ fn a_working_tool_of_a_urdf_model_is_in_its_tip_links_frame() {
         armcal::io::calibration_file::load_calibration(d.join("s.cal").to_str().unwrap()).unwrap();
     assert_eq!(written.flange, model.flange);
     // The nominal calibration with that flange, predicted with working tools.
-    let mut cal = armcal_shared::Calibration::nominal(model.robot.clone(), false, model.units);
+    let mut cal =
+        armcal_shared::Calibration::nominal(model.robot.clone(), Task::Position, model.units);
     cal.flange = model.flange;
     std::fs::write(d.join("n.cal"), cal.to_bytes().unwrap()).unwrap();
     let qs = configurations(&model.robot);

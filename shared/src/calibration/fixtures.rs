@@ -3,6 +3,7 @@
 
 extern crate std;
 
+use crate::compensation::Task;
 use std::vec::Vec;
 
 use crate::units::Units;
@@ -24,7 +25,7 @@ pub(crate) fn calibration() -> Calibration {
         .map(|&(s, a, alpha)| Link::new(JointType::Revolute, 0.0, s, a, alpha))
         .collect();
     let robot = Robot::new(Convention::Dh, &links).unwrap();
-    let mut cal = Calibration::nominal(robot, true, Units::default());
+    let mut cal = Calibration::nominal(robot, Task::Pose, Units::default());
     for (param, error) in [
         (Param::Theta(1), 1e-3),
         (Param::A(2), -2e-3),

@@ -482,21 +482,16 @@ pub(crate) fn larger<T: Real>(a: T, b: T) -> T {
 
 impl<T: Real> Compensator<T> {
     /// A compensator from the nominal model (the controller's) and the calibrated
-    /// one (the real robot's), compensated in full pose if `orientation` (a
-    /// calibration from full poses), else in position (see the module header).
-    pub fn new(
-        nominal: &Robot<T>,
-        calibrated: &Robot<T>,
-        orientation: bool,
-        limits: Limits<T>,
-    ) -> Self {
+    /// one (the real robot's), reaching `task`: the full pose (a calibration
+    /// from full poses) or the position (see the module header).
+    pub fn new(nominal: &Robot<T>, calibrated: &Robot<T>, task: Task, limits: Limits<T>) -> Self {
         Self::with_effects(
             nominal,
             EffectModel {
                 robot: calibrated.clone(),
                 effects: Vec::new(),
             },
-            orientation,
+            task,
             limits,
         )
     }
@@ -505,7 +500,7 @@ impl<T: Real> Compensator<T> {
     pub fn with_effects(
         nominal: &Robot<T>,
         calibrated: EffectModel<T>,
-        orientation: bool,
+        task: Task,
         limits: Limits<T>,
     ) -> Self {
         let robot = &calibrated.robot;
@@ -534,11 +529,6 @@ impl<T: Real> Compensator<T> {
             .enumerate()
             .filter(|(_, e)| e.compliance != T::zero())
             .fold(0u32, |m, (j, _)| m | 1 << j);
-        let task = if orientation {
-            Task::Pose
-        } else {
-            Task::Position
-        };
         let keeps =
             task == Task::Position && robot.dof() > task.rows() && limits.turn_scale > T::zero();
         Self {
@@ -602,12 +592,7 @@ impl<T: Real> Compensator<T> {
             robot,
             effects: Vec::new(),
         });
-        Self::with_effects(
-            &calibration.nominal.cast(),
-            model,
-            calibration.orientation,
-            limits,
-        )
+        Self::with_effects(&calibration.nominal.cast(), model, calibration.task, limits)
     }
 
     /// The number of joints.

@@ -206,7 +206,7 @@ impl Device {
                 self.status.loads = self.status.loads.wrapping_add(1);
                 Response::CalibrationAccepted {
                     joints,
-                    orientation: cal.orientation,
+                    orientation: cal.task == crate::compensation::Task::Pose,
                     model_hash,
                 }
             }

@@ -166,11 +166,12 @@ mod tests {
     use crate::apply::compensate::compensate;
     use crate::io::model_file::load_model;
     use crate::session::joints::JointRows;
+    use armcal_shared::compensation::Task;
     use armcal_shared::{Param, ParamError};
 
     fn calibration() -> Calibration {
         let model = load_model("ur10e").unwrap();
-        let mut cal = Calibration::nominal(model.robot.clone(), true, model.units);
+        let mut cal = Calibration::nominal(model.robot.clone(), Task::Pose, model.units);
         for (name, error) in [("theta2", -6e-4), ("a2", -6e-3), ("alpha3", -8e-3)] {
             let param: Param = name.parse().unwrap();
             cal.errors.push(ParamError { param, error }).unwrap();

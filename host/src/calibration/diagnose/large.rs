@@ -29,6 +29,7 @@
 //! never this long and is diagnosed whole. Units: SI.
 
 use armcal_shared::Robot;
+use armcal_shared::compensation::Task;
 use armcal_shared::units::Units;
 
 use super::{ALPHA, Choice, DiagnoseOptions, Diagnosis};
@@ -136,8 +137,12 @@ impl Diagnosis {
         nominal: &Robot<f64>,
         data: &[Observation],
     ) -> Vec<Option<f64>> {
-        let orientation = data.iter().all(|o| o.orientation.is_some());
-        let model = self.calibration(nominal, orientation, Units::SI).model();
+        let task = if data.iter().all(|o| o.orientation.is_some()) {
+            Task::Pose
+        } else {
+            Task::Position
+        };
+        let model = self.calibration(nominal, task, Units::SI).model();
         // Each session's rows as its own frames place the written model.
         let models = self.fit.registrations.effect_models(&model);
         data.iter()

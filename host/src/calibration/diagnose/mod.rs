@@ -60,6 +60,7 @@ pub use summary::parameter_list;
 pub(crate) use summary::{effect_unit, effect_value};
 
 use armcal_shared::calibration::MAX_PARAMS;
+use armcal_shared::compensation::Task;
 use armcal_shared::effects::{Effect, EffectModel};
 use armcal_shared::ranges::Ranges;
 use armcal_shared::units::Units;
@@ -1389,7 +1390,7 @@ impl Diagnosis {
         if diagnosis.choice == Choice::Nominal {
             return None;
         }
-        let cal = diagnosis.calibration(&model.robot, data.has_orientation(), model.units);
+        let cal = diagnosis.calibration(&model.robot, data.task(), model.units);
         let ending = Ending {
             iterations: diagnosis.fit.iterations,
             converged: diagnosis.fit.converged,
@@ -1420,13 +1421,8 @@ impl Diagnosis {
     /// its held-out error, for a format that cannot carry the effects. The
     /// one builder of what `diagnose` writes and of the figures it reports of
     /// it (the JSON's effect values, [`Diagnosis::fitted`]).
-    pub fn calibration(
-        &self,
-        nominal: &Robot<f64>,
-        orientation: bool,
-        units: Units,
-    ) -> Calibration {
-        let mut cal = Calibration::nominal(nominal.clone(), orientation, units);
+    pub fn calibration(&self, nominal: &Robot<f64>, task: Task, units: Units) -> Calibration {
+        let mut cal = Calibration::nominal(nominal.clone(), task, units);
         cal.ranges = Some(self.ranges.clone());
         let (geometric_held, held) = (self.holdout.geometric, self.holdout.extended);
         cal.held_out = Some(held.rms);

@@ -5,6 +5,7 @@
 //! computes; it reads a [`Diagnosis`] and what the command ran beside it
 //! (the torques' fit, the weights, the sessions).
 
+use armcal_shared::compensation::Task;
 use std::collections::BTreeMap;
 
 use armcal_shared::{Calibration, Param};
@@ -335,7 +336,7 @@ impl Diagnosis {
         let mm = |x: f64| x * 1e3;
         let units = &model.units;
         // The effects' values as the calibration written holds them.
-        let written = self.calibration(&model.robot, false, *units);
+        let written = self.calibration(&model.robot, Task::Position, *units);
         let (held, moved) = self.prior_role();
         let names = |v: &[Param]| v.iter().map(|p| p.to_string()).collect::<Vec<_>>();
         let (prior, factor) = match self.choice {

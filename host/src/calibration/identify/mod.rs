@@ -28,6 +28,7 @@ pub mod suspect_rows;
 mod constraint_tests;
 
 use armcal_shared::calibration::ParamError;
+use armcal_shared::compensation::Task;
 use armcal_shared::{Calibration, Param, Robot};
 
 use crate::calibration::fit::noise;
@@ -257,7 +258,13 @@ pub fn identify_weighted(
     weights: &ChannelWeights,
 ) -> Result<Identification, IdentifyError> {
     let nominal = &model.robot;
-    let orientation = data.poses.iter().any(|p| p.orientation.is_some());
+    // Full poses when any row has an orientation (the paper's model needs
+    // every one).
+    let task = if data.poses.iter().any(|p| p.orientation.is_some()) {
+        Task::Pose
+    } else {
+        Task::Position
+    };
     let Fitted {
         iterations,
         converged,
@@ -277,7 +284,7 @@ pub fn identify_weighted(
         Some(f) => (f.position_rms, f.orientation_rms),
         None => crate::calibration::fit::residual_rms(&calibrated, observations(data)),
     };
-    let mut calibration = Calibration::nominal(nominal.clone(), orientation, model.units);
+    let mut calibration = Calibration::nominal(nominal.clone(), task, model.units);
     calibration.flange = model.flange;
     calibration.ranges = Some(crate::session::observation::ranges(&data.poses));
     // What the prior's cross-validation measured of the fit written.

@@ -4,6 +4,7 @@
 //! `diagnose`'s reports share. Nothing here computes; it reads an
 //! [`Identification`].
 
+use armcal_shared::compensation::Task;
 use std::fmt::Write as _;
 
 use armcal_shared::Param;
@@ -87,7 +88,7 @@ impl Identification {
             model.robot.dof(),
             data.file,
             crate::session::measurements::plural(data.poses.len(), "pose"),
-            if self.calibration.orientation {
+            if self.calibration.task == Task::Pose {
                 ", full poses"
             } else {
                 ", positions"
@@ -105,7 +106,7 @@ impl Identification {
             u.length_from_si(self.position_rms),
             u.length,
             self.position_rms * 1e3,
-            if self.calibration.orientation {
+            if self.calibration.task == Task::Pose {
                 format!(
                     ", orientation rms {:.6} {}",
                     u.angle_from_si(self.orientation_rms),
