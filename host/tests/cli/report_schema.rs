@@ -1,10 +1,10 @@
-//! docs/file-formats.md §6 is the JSON reports' schema: every field
-//! `identify --json` and `diagnose --json` write is a row of its verb's table
-//! there, and every field of an object the report nests (`residual`,
-//! `parameters[]`, `holdout`, …) is named in that row. Run on sessions that
-//! write the optional parts too: several sessions with joint torques and an
-//! effect, full poses with orientations, and a ball in sockets without a
-//! tracker.
+//! docs/file-formats.md §6 (and §7 for `plan`) is the JSON reports' schema:
+//! every field `identify --json`, `diagnose --json` and `plan --json` write
+//! is a row of its verb's table there, and every field of an object the
+//! report nests (`residual`, `parameters[]`, `holdout`, …) is named in that
+//! row. Run on sessions that write the optional parts too: several sessions
+//! with joint torques and an effect, full poses with orientations, a ball in
+//! sockets without a tracker, and plans for compliance and for sockets.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
@@ -19,15 +19,22 @@ fn documented(verb: &str) -> BTreeMap<String, BTreeSet<String>> {
         Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/file-formats.md"),
     )
     .unwrap();
+    // `plan`'s table is §7's, after "`--json`"; the others' are §6's, each
+    // after "`verb`:".
+    let (heading, marker) = if verb == "plan" {
+        ("## §7 Plans", "\n`--json` (".to_string())
+    } else {
+        ("## §6 JSON reports", format!("\n`{verb}`:\n"))
+    };
     let section = doc
-        .split("## §6 JSON reports")
+        .split(heading)
         .nth(1)
         .and_then(|s| s.split("\n## ").next())
-        .expect("§6 in docs/file-formats.md");
+        .unwrap_or_else(|| panic!("{heading} in docs/file-formats.md"));
     let table = section
-        .split(&format!("\n`{verb}`:\n"))
+        .split(&marker)
         .nth(1)
-        .unwrap_or_else(|| panic!("no table of `{verb}` in §6"));
+        .unwrap_or_else(|| panic!("no table of `{verb}` in {heading}"));
     let ticked = |text: &str| -> Vec<String> {
         text.split('`')
             .skip(1)
@@ -36,6 +43,7 @@ fn documented(verb: &str) -> BTreeMap<String, BTreeSet<String>> {
             .collect()
     };
     let mut rows = BTreeMap::new();
+    let mut descriptions = Vec::new();
     for line in table
         .lines()
         .skip_while(|l| !l.starts_with('|'))
@@ -44,6 +52,9 @@ fn documented(verb: &str) -> BTreeMap<String, BTreeSet<String>> {
     {
         let cells: Vec<&str> = line.split(" | ").collect();
         let (fields, what) = (cells[0].trim_start_matches("| "), cells[1..].join(" | "));
+        for field in ticked(fields) {
+            descriptions.push((field, what.clone()));
+        }
         let mut names: BTreeSet<String> = ticked(&what).into_iter().collect();
         // `diagnose`'s row that says "as `identify`'s" names what that row does.
         let same_as_identify = verb != "identify" && what.contains("as `identify`'s");
@@ -54,6 +65,30 @@ fn documented(verb: &str) -> BTreeMap<String, BTreeSet<String>> {
             rows.entry(field)
                 .or_insert_with(BTreeSet::new)
                 .extend(names.clone());
+        }
+    }
+    // `plan`'s rows that say "the same figures" (`random`, `compared`,
+    // `off_axis`'s `predicted`) name what the plan's own prediction rows do.
+    if verb == "plan" {
+        let figures: BTreeSet<String> = [
+            "predicted_rms_mm",
+            "predicted_max_mm",
+            "predicted_measured_rms_mm",
+            "std",
+            "observability",
+        ]
+        .iter()
+        .flat_map(|f| {
+            let named = rows.get(*f).cloned().unwrap_or_default();
+            named.into_iter().chain([f.to_string()])
+        })
+        .collect();
+        for (field, what) in &descriptions {
+            if what.contains("the same figures")
+                && let Some(named) = rows.get_mut(field)
+            {
+                named.extend(figures.iter().cloned());
+            }
         }
     }
     assert!(rows.len() > 10, "{verb}: {rows:?}");
@@ -202,6 +237,22 @@ fn every_field_of_the_json_reports_is_documented() {
         );
         reports.push((verb, read(dir, "r.json")));
     }
+    // Plans: a tracker's with compliance (and the off-axis suggestion of a
+    // tool point on the flange's axis), and a ball's in sockets.
+    std::fs::write(
+        dir.join("s.csv"),
+        "point,x,y,z\ns0,0.45,-0.15,0.05\ns1,0.45,0.15,0.05\ns2,0.6,0,0.05\n",
+    )
+    .unwrap();
+    for extra in [&["--effects", "compliance"][..], &["--sockets", "s.csv"]] {
+        let mut args = vec![
+            "plan", "--model", "ur10e", "--poses", "24", "--out", "plan.csv", "--json", "r.json",
+            "--seed", "3",
+        ];
+        args.extend(extra);
+        run(dir, &args);
+        reports.push(("plan", read(dir, "r.json")));
+    }
     // The runs write the optional parts the module header names.
     let written: BTreeSet<&str> = reports
         .iter()
@@ -213,6 +264,10 @@ fn every_field_of_the_json_reports_is_documented() {
         "orientation_weight",
         "points",
         "effects",
+        "off_axis",
+        "compliance_held",
+        "socket_of",
+        "near_singular",
     ] {
         assert!(
             written.contains(part),
@@ -227,7 +282,7 @@ fn every_field_of_the_json_reports_is_documented() {
     }
     assert!(
         missing.is_empty(),
-        "fields the reports write that docs/file-formats.md §6 does not name:\n{}",
+        "fields the reports write that docs/file-formats.md §6 (§7 for plan) does not name:\n{}",
         missing.into_iter().collect::<Vec<_>>().join("\n")
     );
 }
