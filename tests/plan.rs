@@ -15,7 +15,7 @@
 //! the held-out poses (their noise, 35 µm RMS in 3-D, added) the plan's
 //! predicted figure must hold as well.
 
-use armcal::calibration::plan::{Optimality, Plan, PlanOptions, plan};
+use armcal::calibration::plan::{Instrument, Optimality, Plan, PlanOptions, plan};
 use armcal::commands::{Front, identify};
 use armcal::io::model_file::load_model;
 use armcal::session::measurements::Measurements;
@@ -341,7 +341,7 @@ fn planned_socket_seatings_beat_random_ones() {
     let plate = plate();
     let options = PlanOptions {
         poses: 24,
-        sockets: Some(plate.clone()),
+        instrument: Instrument::Sockets(plate.clone()),
         candidates: 3_000,
         ..PlanOptions::default()
     };

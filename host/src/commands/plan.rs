@@ -6,7 +6,9 @@
 //! the plan is SI.
 
 use super::Front;
-use crate::calibration::plan::{Optimality, Plan, PlanOptions, Visits, plan_cancellable};
+use crate::calibration::plan::{
+    Instrument, ORIENTATION_NOISE, Optimality, Plan, PlanOptions, Visits, plan_cancellable,
+};
 use crate::io::sockets::Sockets;
 use crate::session::input_error::InputError;
 use crate::session::input_error::number;
@@ -78,7 +80,6 @@ impl Request {
         }
         let mut options = PlanOptions {
             poses: self.poses,
-            orientation: self.orientation,
             criterion: self.criterion,
             seed: self.seed,
             ..PlanOptions::default()
@@ -87,8 +88,12 @@ impl Request {
         if let Some(n) = self.noise {
             options.position_noise = u.length_to_si(positive("--noise", n)?);
         }
-        if let Some(n) = self.orientation_noise {
-            options.orientation_noise = u.angle_to_si(positive("--orientation-noise", n)?);
+        let orientation_noise = match self.orientation_noise {
+            Some(n) => u.angle_to_si(positive("--orientation-noise", n)?),
+            None => ORIENTATION_NOISE,
+        };
+        if self.orientation {
+            options.instrument = Instrument::Poses { orientation_noise };
         }
         if let Some(m) = self.margin {
             if !(0.0..0.5).contains(&m) {
@@ -216,7 +221,7 @@ impl Request {
             if let Some((_, why)) = clash.iter().find(|(c, _)| *c) {
                 return Err(refuse("--sockets", format!("not with {why}")));
             }
-            options.sockets = Some(plate.clone());
+            options.instrument = Instrument::Sockets(plate.clone());
         }
         Ok(options)
     }
@@ -265,7 +270,7 @@ pub fn run(
     cancelled: &(dyn Fn() -> bool + Sync),
 ) -> anyhow::Result<(Plan, PlanOptions)> {
     let options = request.options(front, model)?;
-    if options.sockets.is_some() && from.is_some() {
+    if options.instrument.sockets().is_some() && from.is_some() {
         return Err(InputError::argument(
             front.flag("--sockets"),
             "not with --from: a socket plan's candidates are the configurations that reach its \

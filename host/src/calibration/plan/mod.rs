@@ -88,12 +88,11 @@ impl Cell {
 pub struct PlanOptions {
     /// Poses to measure.
     pub poses: usize,
-    /// Whether the instrument measures orientations too (full poses).
-    pub orientation: bool,
-    /// The position noise (m per axis) the plan is made and predicted for.
+    /// What measures them.
+    pub instrument: Instrument,
+    /// The position noise (m per axis) the plan is made and predicted for
+    /// (of the ball's centre in its sockets, without a tracker).
     pub position_noise: f64,
-    /// The orientation noise (rad per axis), when measured.
-    pub orientation_noise: f64,
     /// Random candidates drawn when none are given.
     pub candidates: usize,
     /// Random workspace configurations when no targets are given.
@@ -114,9 +113,6 @@ pub struct PlanOptions {
     /// joint's compliance under gravity with the geometry (the torques at its
     /// poses spread), and predicts with them.
     pub compliance: bool,
-    /// For a session without a tracker: the sockets the ball is seated in
-    /// ([`sockets`]); `None`: an instrument measures the tool point.
-    pub sockets: Option<Sockets>,
     /// The least [`conditioning`] a candidate may have: poses nearer a
     /// singularity of the arm are not planned (0, the default, keeps every
     /// candidate and names a planned pose below [`NEAR_SINGULAR`]: near a
@@ -135,9 +131,8 @@ impl Default for PlanOptions {
     fn default() -> Self {
         Self {
             poses: 30,
-            orientation: false,
+            instrument: Instrument::Positions,
             position_noise: 20e-6,
-            orientation_noise: 20e-6,
             candidates: 10_000,
             workspace: 2_000,
             margin: 0.05,
@@ -146,10 +141,53 @@ impl Default for PlanOptions {
             prior: Prior::default(),
             visits: Visits::Once,
             compliance: false,
-            sockets: None,
             singularity_margin: 0.0,
             criterion: Optimality::I,
             seed: 1,
+        }
+    }
+}
+
+/// The orientation noise a plan for full poses is made for unless stated,
+/// rad per axis.
+pub const ORIENTATION_NOISE: f64 = 20e-6;
+
+/// What measures a plan's poses: an instrument (of positions, or of full
+/// poses), or none, a ball seated in the sockets of a plate.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Instrument {
+    /// The tool point's position (a laser tracker's reflector).
+    Positions,
+    /// The full pose (a camera, a 6-D probe): the position and the
+    /// orientation, this one at `orientation_noise` (rad per axis).
+    Poses {
+        /// The orientation's noise, rad per axis.
+        orientation_noise: f64,
+    },
+    /// No instrument: a ball on the tool seated in the sockets of a plate
+    /// ([`sockets`]).
+    Sockets(Sockets),
+}
+
+impl Instrument {
+    /// Whether it measures orientations.
+    pub fn orientation(&self) -> bool {
+        matches!(self, Self::Poses { .. })
+    }
+
+    /// The orientation's noise (rad per axis), when it measures one.
+    pub fn orientation_noise(&self) -> Option<f64> {
+        match self {
+            Self::Poses { orientation_noise } => Some(*orientation_noise),
+            Self::Positions | Self::Sockets(_) => None,
+        }
+    }
+
+    /// The plate, without an instrument.
+    pub fn sockets(&self) -> Option<&Sockets> {
+        match self {
+            Self::Sockets(plate) => Some(plate),
+            Self::Positions | Self::Poses { .. } => None,
         }
     }
 }
@@ -461,11 +499,16 @@ fn identifiable(
     compliance: &[usize],
     options: &PlanOptions,
 ) -> Separable {
+    let defaults = FullOptions::default();
     let fit_options = FullOptions {
         position_noise: options.position_noise,
-        orientation_noise: options.orientation_noise,
+        // Without orientations there are no rows it weighs.
+        orientation_noise: options
+            .instrument
+            .orientation_noise()
+            .unwrap_or(defaults.orientation_noise),
         prior: Prior::NONE,
-        ..FullOptions::default()
+        ..defaults
     }
     .stated();
     let effects: Vec<Effect<f64>> = compliance
@@ -475,7 +518,7 @@ fn identifiable(
             compliance: 0.0,
         })
         .collect();
-    let fit = match (socket_of, &options.sockets) {
+    let fit = match (socket_of, options.instrument.sockets()) {
         (Some(socket_of), Some(plate)) => {
             FitRequest::new(robot, &sockets::exact(q, socket_of), &fit_options)
                 .extended(Extension {
@@ -485,16 +528,20 @@ fn identifiable(
                 .constrained(&sockets::constraints(plate, socket_of))
                 .run()
         }
-        _ => FitRequest::new(robot, &exact(robot, q, options.orientation), &fit_options)
-            .extended(Extension {
-                effects: &effects,
-                extra: &[],
-            })
-            .run(),
+        _ => FitRequest::new(
+            robot,
+            &exact(robot, q, options.instrument.orientation()),
+            &fit_options,
+        )
+        .extended(Extension {
+            effects: &effects,
+            extra: &[],
+        })
+        .run(),
     };
     let Ok(fit) = fit else {
         return Separable {
-            held: full_params(robot, options.orientation)
+            held: full_params(robot, options.instrument.orientation())
                 .into_iter()
                 .map(|p| (p, "not identified".into()))
                 .collect(),
@@ -629,7 +676,7 @@ pub fn plan_cancellable(
     };
     let pool = pool(robot, candidates, options)?;
     check()?;
-    let sockets = options.sockets.as_ref().map_or(0, |s| s.sockets.len());
+    let sockets = options.instrument.sockets().map_or(0, |s| s.sockets.len());
     let compliance = if options.compliance {
         compliance_joints(robot, &pool.q)
     } else {
@@ -643,12 +690,20 @@ pub fn plan_cancellable(
         options,
     );
     check()?;
-    let rows = if options.orientation { 6 } else { 3 };
-    let distances = options.sockets.as_ref().map_or(0, |s| s.distances.len());
+    let rows = if options.instrument.orientation() {
+        6
+    } else {
+        3
+    };
+    let distances = options
+        .instrument
+        .sockets()
+        .map_or(0, |s| s.distances.len());
     // What the plan separates, and at least what `identify` asks equations
     // for (the independent parameters; for contacts, the points' and not the
     // base's).
-    let counted = independent_parameter_count(robot, options.orientation) + 3 * sockets;
+    let counted =
+        independent_parameter_count(robot, options.instrument.orientation()) + 3 * sockets;
     let unknowns =
         (all.params.len() + 3 * sockets).max(if sockets > 0 { counted - 6 } else { counted })
             + all.compliance.len();
@@ -899,7 +954,7 @@ fn pool(
     given: Option<&[Vec<f64>]>,
     options: &PlanOptions,
 ) -> Result<Pool, PlanError> {
-    if let Some(plate) = &options.sockets {
+    if let Some(plate) = options.instrument.sockets() {
         let least = options.poses.div_ceil(plate.sockets.len().max(1)).max(2);
         let (q, socket_of) = sockets::candidates(
             robot,
@@ -1071,7 +1126,7 @@ impl Criterion {
         pool: &Pool,
         all: &Separable,
     ) -> Self {
-        let sockets = options.sockets.as_ref().map_or(0, |s| s.sockets.len());
+        let sockets = options.instrument.sockets().map_or(0, |s| s.sockets.len());
         let gauge = match &pool.socket_of {
             Some(socket_of) => {
                 let held: Vec<Param> = all.held.iter().map(|(p, _)| *p).collect();
@@ -1079,7 +1134,7 @@ impl Criterion {
             }
             None => Vec::new(),
         };
-        let columns: Vec<Column> = full_params(robot, options.orientation)
+        let columns: Vec<Column> = full_params(robot, options.instrument.orientation())
             .into_iter()
             .filter(|p| {
                 // A socket plan's base and gauge are the frame of its sockets.
@@ -1100,7 +1155,7 @@ impl Criterion {
                 Column::Compliance(_) | Column::Socket { .. } => 0.0,
             }),
         ));
-        let distances = distance_rows(options.sockets.as_ref(), &columns);
+        let distances = distance_rows(options.instrument.sockets(), &columns);
         prior += distances.transpose() * &distances;
         let g = jacobian(robot, workspace, None, &columns, None);
         Self {
@@ -1111,10 +1166,10 @@ impl Criterion {
             },
             noise: (
                 options.position_noise,
-                options.orientation.then_some(options.orientation_noise),
+                options.instrument.orientation_noise(),
             ),
             prior,
-            plate: options.sockets.clone(),
+            plate: options.instrument.sockets().cloned(),
             columns,
         }
     }
@@ -1347,7 +1402,13 @@ mod tests {
             robot.tool.xyz = nalgebra::Vector3::new(0.06, 0.0, 0.08);
             let rows = if orientation { 6 } else { 3 };
             let asked = PlanOptions {
-                orientation,
+                instrument: if orientation {
+                    Instrument::Poses {
+                        orientation_noise: ORIENTATION_NOISE,
+                    }
+                } else {
+                    Instrument::Positions
+                },
                 candidates: 3_000,
                 ..PlanOptions::default()
             };
@@ -1455,7 +1516,7 @@ mod tests {
         )
         .unwrap();
         let asked = PlanOptions {
-            sockets: Some(plate.clone()),
+            instrument: Instrument::Sockets(plate.clone()),
             candidates: 1_500,
             poses: 1,
             ..PlanOptions::default()

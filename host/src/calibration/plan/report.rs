@@ -16,7 +16,7 @@ use crate::report::units::UnitsReport;
 
 use armcal_shared::Param;
 
-use super::{OFF_AXIS, Plan, PlanOptions, Prediction};
+use super::{Instrument, OFF_AXIS, Plan, PlanOptions, Prediction};
 use crate::apply::compensate;
 use armcal_shared::Calibration;
 
@@ -274,7 +274,7 @@ impl Plan {
                 })
                 .collect(),
             noise_mm: options.position_noise * 1e3,
-            orientation: options.orientation,
+            orientation: options.instrument.orientation(),
             compliance: self
                 .predicted
                 .compliance
@@ -292,7 +292,7 @@ impl Plan {
                     reason: why.clone(),
                 })
                 .collect(),
-            sockets: options.sockets.as_ref().map(|plate| SocketsReport {
+            sockets: options.instrument.sockets().map(|plate| SocketsReport {
                 sockets: plate
                     .sockets
                     .iter()
@@ -350,14 +350,14 @@ impl Plan {
     pub fn summary(&self, model_name: &str, options: &PlanOptions) -> String {
         let mut out = String::new();
         let mm = |x: f64| x * 1e3;
-        let measured = match &options.sockets {
-            Some(plate) => format!(
+        let measured = match &options.instrument {
+            Instrument::Sockets(plate) => format!(
                 "a ball seated in {}, {} between them",
                 plural(plate.sockets.len(), "socket"),
                 plural(plate.distances.len(), "known distance")
             ),
-            None if options.orientation => "full poses".into(),
-            None => "positions".into(),
+            Instrument::Poses { .. } => "full poses".into(),
+            Instrument::Positions => "positions".into(),
         };
         let _ = writeln!(
             out,
@@ -390,7 +390,7 @@ impl Plan {
                  gives no joint limits (--above or --within sets the cell instead)"
             );
         }
-        if let Some(plate) = &options.sockets {
+        if let Some(plate) = options.instrument.sockets() {
             let counts: Vec<String> = plate
                 .sockets
                 .iter()
@@ -508,7 +508,7 @@ impl Plan {
     /// written over the planned ones make the session to identify from.
     pub fn csv(&self, comment: &str, cal: &Calibration, options: &PlanOptions) -> String {
         let joints = compensate::joints_csv(comment, cal, self.q.iter().cloned());
-        let Some(plate) = &options.sockets else {
+        let Some(plate) = options.instrument.sockets() else {
             return joints;
         };
         let u = &cal.units;
