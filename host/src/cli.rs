@@ -4,12 +4,12 @@
 
 use std::path::PathBuf;
 
-use armcal::calibration::cancel::Cancel;
 use armcal::calibration::gravity::TorqueSign;
 use armcal::calibration::identify::channel_weight::{ChannelWeight, ChannelWeights};
 use armcal::calibration::identify::prior_scale::PriorScale;
 use armcal::calibration::identify::{ParamSet, StatedScales};
 use armcal::calibration::plan::Optimality;
+use armcal::cancel::Cancel;
 use armcal::commands::tool::Tool;
 use armcal::commands::{diagnose, export, holdout, identify, plan, simulate};
 use armcal::io::model_file;
