@@ -4,10 +4,10 @@
 
 use std::path::PathBuf;
 
-use armcal::calibration::cancel::Cancel;
 use armcal::calibration::gravity::TorqueSign;
 use armcal::calibration::identify::StatedScales;
 use armcal::calibration::identify::channel_weight::ChannelWeights;
+use armcal::cancel::Cancel;
 use armcal::commands::choices::{
     CriterionArg, Params, PriorScaleArg, Targets, TorqueSignArg, WeightArg,
 };

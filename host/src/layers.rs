@@ -14,6 +14,9 @@ use std::path::{Path, PathBuf};
 /// Each module's floor, from the ground up; a path belongs to the longest
 /// entry it starts with.
 const FLOORS: &[(&str, u32)] = &[
+    // Stopping a long computation between its steps: under everything that
+    // computes, the session's passes over the rows too.
+    ("cancel", 0),
     // What a calibration is made from, and how reports are written: they
     // know nothing else of armcal.
     ("session", 1),
@@ -22,8 +25,7 @@ const FLOORS: &[(&str, u32)] = &[
     ("io", 2),
     // Using a calibration: predict, compensate, export, stream, serve.
     ("apply", 3),
-    // The calibration's ground: cancelling, dense matrices, threads, gravity.
-    ("calibration::cancel", 4),
+    // The calibration's ground: dense matrices, threads, gravity.
     ("calibration::dense", 4),
     ("calibration::parallel", 4),
     ("calibration::gravity", 4),

@@ -1,6 +1,7 @@
 //! # armcal: the robot calibrator (library part of the `armcal` binary)
 //!
-//! The library is in six layers, in the order data flows through a session;
+//! The library is in six layers, in the order data flows through a session,
+//! over [`cancel`] (stopping a long computation);
 //! a newcomer looking for a verb's science starts in [`calibration`], for a file
 //! format in [`io`], for what a verb is asked in [`commands`]. The command line
 //! is in the binary: `host/src/cli.rs` (the flags, turned into the requests of
@@ -39,13 +40,20 @@
 //! ([`session`]'s table). [`io`] parses into them and imports nothing of
 //! [`calibration`]; [`calibration`] reads them.
 //!
+//! ## [`cancel`]: stopping a long computation
+//!
+//! The [`Cancel`](cancel::Cancel) handle a computation asks between its steps
+//! and the [`Interrupt`](cancel::Interrupt) that raises it (the Python
+//! package's Ctrl-C); under every other layer, so that [`session`]'s passes
+//! over the rows ask it as [`calibration`]'s do.
+//!
 //! ## [`calibration`]: the science, in floors
 //!
 //! Each floor uses only the floors under it (the test `layers` checks it):
 //!
 //! | floor | module | idea |
 //! | --- | --- | --- |
-//! | ground | [`calibration::gravity`], [`calibration::cancel`], [`calibration::dense`], [`calibration::parallel`] | the arm's masses from measured torques; stopping a long computation; faer's matrices; independent pieces on every core |
+//! | ground | [`calibration::gravity`], [`calibration::dense`], [`calibration::parallel`] | the arm's masses from measured torques; faer's matrices; independent pieces on every core |
 //! | simulator | [`calibration::simulate`] | true robots with built-in errors and their noisy measurements |
 //! | fit | [`calibration::fit`] | the weighted least-squares fit of the full model (Mirman & Gupta's columns, the prior, each channel's noise) |
 //! | validation | [`calibration::validation`] | cross-validation folds, deleted residuals, the F tests, the repeats' lack of fit, a session without a tracker's figures, whether a calibration may be written |
@@ -79,6 +87,7 @@
 
 pub mod apply;
 pub mod calibration;
+pub mod cancel;
 pub mod commands;
 pub mod io;
 pub mod report;

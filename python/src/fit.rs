@@ -16,7 +16,7 @@ use pyo3::prelude::*;
 
 use std::sync::{Arc, OnceLock};
 
-use armcal::calibration::cancel::Cancel;
+use armcal::cancel::Cancel;
 
 use crate::calibration::Calibration;
 use crate::data::Measurements;

@@ -9,8 +9,8 @@
 //! Both in the model's length unit, in the model's base frame, which they do
 //! not depend on.
 
-use armcal::calibration::cancel::Cancel;
 use armcal::calibration::identify::StatedScales;
+use armcal::cancel::Cancel;
 use armcal::commands::holdout::{Calibrate, Request, Sessions, run};
 use pyo3::prelude::*;
 

@@ -2,7 +2,7 @@
 //! own while Python's main thread keeps handling its signals, and an
 //! interrupt asks the computation's [`Cancel`] to stop at its next step.
 
-use armcal::calibration::cancel::{Cancel, Interrupt};
+use armcal::cancel::{Cancel, Interrupt};
 use pyo3::prelude::*;
 
 use crate::errors;

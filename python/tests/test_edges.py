@@ -24,13 +24,16 @@ import armcal
 # 10 ms the main thread polls its signals at.
 CTRL_C_LATENCY_S = 0.1 + 0.09
 # Ctrl-C's latency allowed for `identify` and `diagnose` of 10⁵ rows, s: the
-# 0.1 s asked, plus their longest step between two cancellation checks, a
-# pass over the rows that has none of its own (the rows sorted into
-# configurations, the normal matrix of the deleted residuals, the candidates'
-# gravity torques): measured with SIGINT every 0.04 s through both calls on 2
-# cores under a load of 4–5, 0.2 s at worst, with up to the 10 ms the main
-# thread polls its signals at.
-FIT_CTRL_C_LATENCY_S = 0.1 + 0.2
+# 0.1 s asked, plus their slowest step between two cancellation checks (every
+# pass over the rows asks at its chunks: the rows sorted into configurations,
+# the deleted residuals, the candidates' gravity torques, the linearisation's
+# Jacobian zeroed a few columns at a time). Measured with SIGINT at 40 points
+# from 1 % to 97 % of each call on 2 cores under a load of 2.5–4.5: 46 ms at
+# worst for identify, 79 ms for diagnose (the unwinding of a linearisation
+# made for the effects' scores: its rows, configurations and folds), each
+# with up to the 10 ms the main thread polls its signals at; 0.14 and 0.17 s
+# before these checks.
+FIT_CTRL_C_LATENCY_S = 0.1 + 0.08
 # CPU time (both cores) a stopped computation may still take after
 # KeyboardInterrupt, s: the test's own Python, not a computation's.
 CPU_AFTER_STOP_S = 0.02

@@ -4,7 +4,6 @@
 //! These modules work on SI values read by [`crate::io`]; none of them opens a
 //! file of its own (the HTML pages are returned as text).
 
-pub mod cancel;
 pub mod check;
 pub mod demo;
 pub mod dense;

@@ -8,7 +8,6 @@
 use armcal_shared::{Calibration, TargetFrame};
 
 use super::{Front, fit_options, folds};
-use crate::calibration::cancel::Cancel;
 use crate::calibration::diagnose::Choice;
 use crate::calibration::diagnose::RowPlaces;
 use crate::calibration::diagnose::report::DiagnoseReport;
@@ -19,6 +18,7 @@ use crate::calibration::identify::channel_weight::{self, ChannelWeights, Weighti
 use crate::calibration::identify::sessions::{SessionHeldOut, Trained, held_out_by_session};
 use crate::calibration::identify::{self, StatedScales, sessions};
 use crate::calibration::validation::acceptance::FailedCalibration;
+use crate::cancel::Cancel;
 use crate::session::measurements::Measurements;
 use crate::session::model::RobotModel;
 use crate::session::observation::Observation;
@@ -45,7 +45,7 @@ pub struct Request {
     /// ([`crate::calibration::gravity`]).
     pub torque_sign: Option<TorqueSign>,
     /// The caller's request to stop, asked at the computation's step
-    /// boundaries ([`crate::calibration::cancel`]); [`Cancel::NEVER`] on the
+    /// boundaries ([`crate::cancel`]); [`Cancel::NEVER`] on the
     /// command line, which SIGINT ends.
     pub cancel: Cancel,
 }

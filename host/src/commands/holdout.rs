@@ -7,12 +7,12 @@
 //! SI.
 
 use super::{Argument, Front, fit_options};
-use crate::calibration::cancel::Cancel;
 use crate::calibration::fit::FullOptions;
 use crate::calibration::holdout::{self, HeldOut, Selection};
 use crate::calibration::identify::StatedScales;
 use crate::calibration::validation::contact_check::ContactCheck;
 use crate::calibration::validation::folds::DEFAULT_FOLDS;
+use crate::cancel::Cancel;
 use crate::session::input_error::InputError;
 use crate::session::measurements::Measurements;
 use crate::session::model::RobotModel;
@@ -49,7 +49,7 @@ pub struct Request {
     /// The noise and prior scales stated (model units).
     pub scales: StatedScales,
     /// The caller's request to stop, asked at the computation's step
-    /// boundaries ([`crate::calibration::cancel`]); [`Cancel::NEVER`] on the
+    /// boundaries ([`crate::cancel`]); [`Cancel::NEVER`] on the
     /// command line, which SIGINT ends.
     pub cancel: Cancel,
 }

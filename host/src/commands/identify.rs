@@ -8,7 +8,6 @@
 use armcal_shared::TargetFrame;
 
 use super::{Front, fit_options};
-use crate::calibration::cancel::Cancel;
 use crate::calibration::fit::{Extension, FitRequest, FullOptions};
 use crate::calibration::gravity::{TorqueSign, with_measured_gravity};
 use crate::calibration::identify::channel_weight::ChannelWeights;
@@ -16,6 +15,7 @@ use crate::calibration::identify::prior_scale::PriorScale;
 use crate::calibration::identify::sessions::{Trained, held_out_by_session};
 use crate::calibration::identify::{self, Identification, ParamSet, StatedScales, suspect_rows};
 use crate::calibration::validation::acceptance::FailedCalibration;
+use crate::cancel::Cancel;
 use crate::session::input_error::InputError;
 use crate::session::measurements::Measurements;
 use crate::session::model::RobotModel;
@@ -43,7 +43,7 @@ pub struct Request {
     /// ([`crate::calibration::gravity`]).
     pub torque_sign: Option<TorqueSign>,
     /// The caller's request to stop, asked at the computation's step
-    /// boundaries ([`crate::calibration::cancel`]); [`Cancel::NEVER`] on the
+    /// boundaries ([`crate::cancel`]); [`Cancel::NEVER`] on the
     /// command line, which SIGINT ends.
     pub cancel: Cancel,
 }

@@ -12,7 +12,12 @@
 use armcal_shared::{JointType, Robot};
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 
+use crate::cancel::Cancel;
 use crate::session::observation::{Contact, Observation};
+
+/// The rows [`Configurations::of`] sorts into configurations between two
+/// questions to the caller's request to stop (a few ms).
+const CANCEL_ROWS: usize = 4096;
 
 /// Two readings of a revolute joint closer than this (rad) are one reading:
 /// a 17-bit encoder's count is 4.8·10⁻⁵ rad, a 20-bit one's 6·10⁻⁶ rad.
@@ -136,15 +141,18 @@ pub fn distinct_equations_reach(
 
 impl Configurations {
     /// The configurations of `data` for `robot`'s joint types: of one
-    /// measured point in one session each.
-    pub fn of(robot: &Robot<f64>, data: &[Observation]) -> Self {
-        Self::partition(&Sameness::of(robot, Scope::Measurement), data)
+    /// measured point in one session each. Once `cancel` is requested the
+    /// rows not yet sorted are each a configuration of their own: the
+    /// caller's next check drops the whole.
+    pub fn of(robot: &Robot<f64>, data: &[Observation], cancel: Cancel) -> Self {
+        Self::partition(&Sameness::of(robot, Scope::Measurement), data, cancel)
     }
 
     /// The configurations of the robot in `data`, whatever point or session
-    /// measured them (several SMRs on the flange, sessions that overlap).
-    pub fn of_robot(robot: &Robot<f64>, data: &[Observation]) -> Self {
-        Self::partition(&Sameness::of(robot, Scope::Robot), data)
+    /// measured them (several SMRs on the flange, sessions that overlap);
+    /// `cancel` as [`Configurations::of`] asks it.
+    pub fn of_robot(robot: &Robot<f64>, data: &[Observation], cancel: Cancel) -> Self {
+        Self::partition(&Sameness::of(robot, Scope::Robot), data, cancel)
     }
 
     /// For each row, its configuration's index (configurations in order of
@@ -168,8 +176,16 @@ impl Configurations {
     /// one pose — a repeatability test — 10¹² comparisons): it joins the
     /// configuration it matches, and joins into one the configurations it
     /// matches several of; it starts a configuration of its own when it
-    /// matches none.
-    fn partition(sameness: &Sameness, data: &[Observation]) -> Self {
+    /// matches none. `cancel` is asked before the sort and every
+    /// [`CANCEL_ROWS`] rows taken; once requested, the rows not taken are
+    /// left alone, each its own configuration.
+    fn partition(sameness: &Sameness, data: &[Observation], cancel: Cancel) -> Self {
+        if cancel.requested() {
+            // Not even sorted: every row its own configuration.
+            return Self {
+                rows: (0..data.len()).map(|i| vec![i]).collect(),
+            };
+        }
         let resolution = &sameness.resolution;
         let spread = |j: usize| {
             let (lo, hi) = data
@@ -195,7 +211,10 @@ impl Configurations {
         }
         // The first row of each configuration so far, in the order taken.
         let mut firsts: Vec<usize> = Vec::new();
-        for &i in &order {
+        for (taken, &i) in order.iter().enumerate() {
+            if taken % CANCEL_ROWS == 0 && cancel.requested() {
+                break;
+            }
             let mut joined: Option<usize> = None;
             let mut merged = Vec::new();
             for (at, &f) in firsts.iter().enumerate().rev() {
@@ -409,10 +428,31 @@ mod tests {
         other.q[2] += 3.0 * REVOLUTE_RESOLUTION;
         data.push(other);
         let start = std::time::Instant::now();
-        let c = Configurations::of(&robot, &data);
+        let c = Configurations::of(&robot, &data, Cancel::NEVER);
         assert!(start.elapsed().as_secs_f64() < 5.0, "{:?}", start.elapsed());
         assert_eq!(c.count(), 2);
         assert_eq!(c.rows[0].len(), 100_000);
         assert_eq!(c.rows[1], [100_000]);
+    }
+
+    /// Asked to stop, the partition sorts nothing: every row is a
+    /// configuration of its own (what the caller's next check drops); never
+    /// asked, the repeats are one.
+    #[test]
+    fn a_partition_asked_to_stop_leaves_every_row_alone() {
+        let link = Link::new(JointType::Revolute, 0.0, 0.1, 0.3, 0.0);
+        let robot = Robot::new(armcal_shared::Convention::Dh, &[link, link]).unwrap();
+        let data: Vec<Observation> = (0..3)
+            .map(|_| Observation::at_contact(vec![0.1, 0.2], Contact::Measured))
+            .collect();
+        assert_eq!(Configurations::of(&robot, &data, Cancel::NEVER).count(), 1);
+        let interrupt = crate::cancel::Interrupt::new();
+        interrupt.raise();
+        for c in [
+            Configurations::of(&robot, &data, interrupt.cancel()),
+            Configurations::of_robot(&robot, &data, interrupt.cancel()),
+        ] {
+            assert_eq!(c.rows, [[0], [1], [2]]);
+        }
     }
 }

@@ -12,6 +12,7 @@ use armcal_shared::units::Units;
 use armcal_shared::{JointType, Robot};
 use nalgebra::Point3;
 
+use crate::cancel::Cancel;
 use crate::session::configurations::{Configurations, distinct_equations_reach};
 use crate::session::constraints::{Constraints, DistanceLine, merge_named};
 use crate::session::input_error::InputError;
@@ -241,8 +242,10 @@ impl Measurements {
         if distinct_equations_reach(robot, &self.poses, needed, Observation::equations) {
             return Ok(());
         }
-        // Too few: the rows' count or the configurations', said as it is.
-        let configurations = Configurations::of(robot, &self.poses);
+        // Too few: the rows' count or the configurations', said as it is
+        // (a check before any computation, on the way to a refusal: nothing
+        // to cancel).
+        let configurations = Configurations::of(robot, &self.poses, Cancel::NEVER);
         if configurations.repeated() {
             let equations = configurations
                 .rows
@@ -305,7 +308,7 @@ impl Measurements {
                 continue;
             }
             let per_pose = if orientation { 6 } else { 3 };
-            let equations = Configurations::of(robot, &part.poses)
+            let equations = Configurations::of(robot, &part.poses, Cancel::NEVER)
                 .rows
                 .iter()
                 .map(|rows| part.poses[rows[0]].equations())
@@ -322,7 +325,7 @@ impl Measurements {
                      distinct poses in it{}",
                     plural(part.poses.len(), "row"),
                     plural(
-                        Configurations::of(robot, &part.poses).count(),
+                        Configurations::of(robot, &part.poses, Cancel::NEVER).count(),
                         "distinct configuration"
                     ),
                     frames.describe(),

@@ -8,7 +8,12 @@
 use armcal_shared::effects::{Effect, gravity_torques};
 use armcal_shared::{Convention, JointType, Param, Robot};
 
+use crate::cancel::Cancel;
 use crate::session::observation::Observation;
+
+/// The rows whose gravity torques [`candidates`] computes between two
+/// questions to the caller's request to stop (a few ms).
+const CANCEL_ROWS: usize = 4096;
 
 /// A candidate extension of the geometric model.
 #[derive(Clone, Debug, PartialEq)]
@@ -68,8 +73,11 @@ pub fn own_columns(candidates: &[&Candidate], fitted: usize) -> Vec<Vec<usize>> 
         .collect()
 }
 
-/// Every candidate the data can show (see the module header).
-pub fn candidates(robot: &Robot<f64>, data: &[Observation]) -> Vec<Candidate> {
+/// Every candidate the data can show (see the module header). `cancel` is
+/// asked every [`CANCEL_ROWS`] rows of the gravity torques; once requested,
+/// the rows left are not read (the candidates are then of the rows read:
+/// the caller's next check drops them).
+pub fn candidates(robot: &Robot<f64>, data: &[Observation], cancel: Cancel) -> Vec<Candidate> {
     let mut out = Vec::new();
     let both_ways = |j: usize| {
         let signs: Vec<i8> = data
@@ -81,7 +89,10 @@ pub fn candidates(robot: &Robot<f64>, data: &[Observation]) -> Vec<Candidate> {
     // The largest gravity torque each joint carries in these poses: a joint that
     // carries none (a vertical axis) cannot show a compliance.
     let mut torque = vec![0.0f64; robot.dof()];
-    for o in data {
+    for (i, o) in data.iter().enumerate() {
+        if i % CANCEL_ROWS == 0 && cancel.requested() {
+            break;
+        }
         if let Ok(chain) = robot.chain(&o.q) {
             let tau = gravity_torques(robot, &chain, o.context.payload.unwrap_or(0.0));
             for (m, t) in torque.iter_mut().zip(&tau) {

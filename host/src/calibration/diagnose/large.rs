@@ -38,6 +38,10 @@ use crate::calibration::validation::stats::f_quantile;
 use crate::session::constraints::Constraints;
 use crate::session::observation::Observation;
 
+/// The rows [`Diagnosis::position_errors`] evaluates between two questions
+/// to the caller's request to stop (a few ms).
+const CANCEL_ROWS: usize = 4096;
+
 /// How a long session was diagnosed: on a sample, the calibration on all.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Selection {
@@ -131,7 +135,9 @@ impl Diagnosis {
     /// The position error (m) of the calibration written at each row of
     /// `data` (`None` where it has no measured position, `∞` where the model
     /// cannot be evaluated), its model evaluated as `armcal predict`
-    /// evaluates it.
+    /// evaluates it. The fit's request to stop is asked every
+    /// [`CANCEL_ROWS`] rows; once it is, the rows left have none (`None`):
+    /// the caller's next check drops them.
     pub(super) fn position_errors(
         &self,
         nominal: &Robot<f64>,
@@ -145,9 +151,14 @@ impl Diagnosis {
         let model = self.calibration(nominal, task, Units::SI).model();
         // Each session's rows as its own frames place the written model.
         let models = self.fit.registrations.effect_models(&model);
+        let cancel = self.fit.cancel;
+        let mut stopped = false;
         data.iter()
-            .map(|o| {
-                (o.contact == crate::session::observation::Contact::Measured).then(|| {
+            .enumerate()
+            .map(|(i, o)| {
+                stopped = stopped || (i % CANCEL_ROWS == 0 && cancel.requested());
+                let measured = o.contact == crate::session::observation::Contact::Measured;
+                (measured && !stopped).then(|| {
                     crate::session::registration::in_session(&models, o.session)
                         .forward(&o.q, &o.context)
                         .map_or(f64::INFINITY, |t| {

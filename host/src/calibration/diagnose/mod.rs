@@ -78,6 +78,7 @@ use crate::calibration::validation::blunders::{self, Blunder, Scale};
 use crate::calibration::validation::folds::{Folds, HeldOut, SELECTION_POSES, Subset};
 use crate::calibration::validation::replicates::LackOfFit;
 use crate::calibration::validation::stats::f_quantile;
+use crate::cancel::Cancel;
 use crate::session::configurations::Configurations;
 use crate::session::constraints::{Constraints, MIN_PLANE_TOUCHES};
 use crate::session::measurements::Measurements;
@@ -89,6 +90,11 @@ use crate::session::registration::in_session;
 use alike::Alike;
 pub use candidates::{Candidate, candidates, own_columns};
 pub use geometry::ModelScore;
+
+/// The rows a pass of the diagnosis over the rows of its own (the nominal
+/// model's tool points) computes between two questions to the caller's
+/// request to stop (a few ms).
+const CANCEL_ROWS: usize = 4096;
 
 /// The family-wise error rate of the effect search.
 pub const ALPHA: f64 = 0.01;
@@ -201,18 +207,30 @@ pub(crate) fn position_errors(fit: &FullFit, data: &[Observation]) -> Vec<f64> {
 /// model estimates it. The rows of the same fold stand in where the others
 /// are too few (a point named by one fold's rows only). With several
 /// sessions, `nominal` is the nominal robot as each session sees it.
-fn nominal_errors(nominal: &[Robot<f64>], data: &[Observation], k: usize) -> Vec<f64> {
+/// `cancel` is asked every [`CANCEL_ROWS`] rows of the nominal tool points
+/// (and as [`Configurations::of_robot`] asks it); once requested, the rows
+/// left have none (the origin): the caller's next check drops the errors.
+fn nominal_errors(
+    nominal: &[Robot<f64>],
+    data: &[Observation],
+    k: usize,
+    cancel: Cancel,
+) -> Vec<f64> {
     let k = k.clamp(2, data.len().max(2));
     let contacts: Vec<Contact> = data.iter().map(|o| o.contact).collect();
-    let configurations = Configurations::of_robot(&nominal[0], data).index(data.len());
+    let configurations = Configurations::of_robot(&nominal[0], data, cancel).index(data.len());
     let fold =
         crate::calibration::validation::folds::interleaved_folds(&contacts, &configurations, k);
     let tool: Vec<Vector3<f64>> = data
-        .iter()
-        .map(|o| {
-            in_session(nominal, o.session)
-                .forward(&o.q)
-                .map_or(Vector3::zeros(), |t| t.translation.vector)
+        .chunks(CANCEL_ROWS)
+        .flat_map(|rows| {
+            let stop = cancel.requested();
+            rows.iter().map(move |o| {
+                (!stop)
+                    .then(|| in_session(nominal, o.session).forward(&o.q).ok())
+                    .flatten()
+                    .map_or(Vector3::zeros(), |t| t.translation.vector)
+            })
         })
         .collect();
     // The nominal tool points of the rows held to the same contact as row
@@ -446,7 +464,7 @@ pub fn diagnose_with_progress(
     if constraints.is_empty() && data.len() > options.selection_poses {
         return large::diagnose_large(nominal, data, options, progress);
     }
-    let configurations = Configurations::of(nominal, data);
+    let configurations = Configurations::of(nominal, data, options.fit.cancel);
     if !configurations.repeated() {
         return diagnose_distinct(nominal, data, constraints, options, progress);
     }
@@ -471,7 +489,7 @@ pub fn diagnose_with_progress(
     d.replicates = Some(Replicates {
         rows: data.len(),
         configurations: configurations.count(),
-        robot_configurations: Configurations::of_robot(nominal, data).count(),
+        robot_configurations: Configurations::of_robot(nominal, data, options.fit.cancel).count(),
         copies: kept_configurations.measured_repeats(data) && pure.is_none(),
         lack_of_fit: pure.map(|pure| {
             LackOfFit::test(
@@ -619,7 +637,7 @@ fn diagnose_once(
     cancel.check()?;
     let mut geo = pass.geometric_model(&screen)?;
     cancel.check()?;
-    let mut search = Search::from(&geo, candidates(nominal, &screen.clean));
+    let mut search = Search::from(&geo, candidates(nominal, &screen.clean, cancel));
     if geo.best.geometry.is_some() {
         while search.round(&pass, &geo, &screen.clean, progress) {
             cancel.check()?;
@@ -871,7 +889,12 @@ impl Pass<'_> {
         let fit_options = options.fit.at_noise_of(reference);
         // The nominal model registered to each later session as the fit starts.
         let registered = session_registrations(self.nominal, clean, &reference.registrations);
-        let nominal_errors = nominal_errors(&registered.robots(self.nominal), clean, options.folds);
+        let nominal_errors = nominal_errors(
+            &registered.robots(self.nominal),
+            clean,
+            options.folds,
+            options.fit.cancel,
+        );
         let models = geometry::score(self.nominal, &screen.lin, options.folds, &nominal_errors);
         let best = geometry::best(&models).clone();
         let nominal_holdout = models[0].held;
@@ -1669,7 +1692,7 @@ mod tests {
         let data = simulate(&nominal, &Scenario::tracker(30, 3))
             .expect("simulates")
             .observations;
-        let compliant: Vec<Vec<usize>> = candidates(&nominal, &data)
+        let compliant: Vec<Vec<usize>> = candidates(&nominal, &data, Cancel::NEVER)
             .into_iter()
             .filter(|c| c.name == "joint_compliance")
             .map(|c| c.joints)
@@ -1738,7 +1761,7 @@ mod tests {
         let fit = FitRequest::new(&nominal, &data, &options.fit)
             .run()
             .expect("fits");
-        let all = candidates(&nominal, &data);
+        let all = candidates(&nominal, &data, Cancel::NEVER);
         let all: Vec<&Candidate> = all.iter().collect();
         let lin = linearize_candidates(
             &fit,

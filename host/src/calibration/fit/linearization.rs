@@ -9,8 +9,8 @@ use nalgebra::{DMatrix, DVector, Point3};
 
 use super::rows::{DistanceRows, LinearSystem, NormalEquations};
 use super::{Constraints, Extension, FullFit, Model, Observation, PlaneEstimate, Status, Unknown};
-use crate::calibration::cancel::Cancel;
 use crate::calibration::dense;
+use crate::cancel::Cancel;
 use crate::session::channel::Channel;
 use crate::session::channel::{PerChannel, Weighed, WeightFactors};
 use crate::session::configurations::Configurations;
@@ -149,7 +149,12 @@ pub fn linearize(
         offset,
     } = AtFit::of(fit, extension, constraints, prior);
     let weights = fit.weights();
-    let sys = LinearSystem::build(&model, data, &unknowns, &weights, fit.cancel);
+    // Asked to stop while its rows were made: the linearisation of no pose
+    // (its known distances alone), which the caller's next check drops.
+    let (sys, data) = match LinearSystem::build(&model, data, &unknowns, &weights, fit.cancel) {
+        Some(sys) => (sys, data),
+        None => (LinearSystem::empty(unknowns.len()), &data[..0]),
+    };
     let distances = DistanceRows::rows(&model, &unknowns);
     let poses_rows = sys.j.nrows();
     let (j, r) = if distances.is_empty() {
@@ -184,7 +189,8 @@ pub fn linearize(
         r,
         first_rows,
         contacts: data.iter().map(|o| o.contact).collect(),
-        configurations: Configurations::of_robot(&fit.calibrated, data).index(data.len()),
+        configurations: Configurations::of_robot(&fit.calibrated, data, fit.cancel)
+            .index(data.len()),
         fitted,
         noise: data
             .iter()
@@ -409,5 +415,55 @@ pub fn fold_normals(
         fitted: fit.weights,
         precision,
         offset,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calibration::fit::{FitRequest, FullOptions};
+    use crate::calibration::simulate::{Scenario, simulate};
+    use crate::calibration::validation::blunders::deleted_residuals;
+    use crate::cancel::Interrupt;
+    use crate::io::model_file::load_model;
+
+    /// A linearisation asked to stop before its Jacobian is made is of no
+    /// pose (none of its rows allocated), and the deleted residuals computed
+    /// from it stop at their first question; never asked, it has every
+    /// pose's rows, as the fit does.
+    #[test]
+    fn a_linearisation_asked_to_stop_is_of_no_pose() {
+        let nominal = load_model("ur5e").unwrap().robot;
+        let data = simulate(&nominal, &Scenario::tracker(40, 5))
+            .unwrap()
+            .observations;
+        let options = FullOptions::default();
+        let mut fit = FitRequest::new(&nominal, &data, &options).run().unwrap();
+        let none = Constraints::default();
+        let whole = linearize(&fit, Extension::NONE, &data, &none, &options.prior);
+        assert_eq!((whole.poses(), whole.j.nrows()), (40, 120));
+        let interrupt = Interrupt::new();
+        interrupt.raise();
+        fit.cancel = interrupt.cancel();
+        let stopped = linearize(&fit, Extension::NONE, &data, &none, &options.prior);
+        assert_eq!((stopped.poses(), stopped.j.nrows()), (0, 0));
+        assert_eq!(stopped.j.ncols(), whole.j.ncols());
+        assert!(deleted_residuals(&stopped, &[]).is_none());
+    }
+
+    /// The Jacobian zeroed a few columns at a time is [`Mat::zeros`]: the
+    /// same shape and layout, every entry zero.
+    #[test]
+    fn the_jacobian_zeroed_in_steps_is_the_zero_matrix() {
+        use crate::calibration::fit::rows::stoppable_zeros;
+        let (rows, cols) = (1001, 2 * 8 + 3);
+        let zeros = stoppable_zeros(rows, cols, Cancel::NEVER).unwrap();
+        let whole = Mat::<f64>::zeros(rows, cols);
+        assert_eq!(zeros.shape(), whole.shape());
+        assert_eq!(zeros.col_stride(), whole.col_stride());
+        assert!(zeros.col_iter().all(|c| c.iter().all(|&x| x == 0.0)));
+        let interrupt = Interrupt::new();
+        interrupt.raise();
+        assert!(stoppable_zeros(rows, cols, interrupt.cancel()).is_none());
     }
 }

@@ -84,7 +84,7 @@ use faer::linalg::solvers::{DenseSolveCore, Solve};
 use faer::{Mat, Side};
 use nalgebra::{Matrix3, Point3, Rotation3, Vector3};
 
-use crate::calibration::cancel::{Cancel, Cancelled};
+use crate::cancel::{Cancel, Cancelled};
 use crate::session::channel::WeightFactors;
 use crate::session::channel::{Channel, PerChannel};
 use crate::session::prior::{PRIOR_FACTORS, Prior};
@@ -390,7 +390,7 @@ pub struct FullOptions {
     /// would restore the weight.
     pub weights: WeightFactors,
     /// The caller's request to stop, asked before each pass over the rows
-    /// ([`crate::calibration::cancel`]): a fit asked to stop ends with
+    /// ([`crate::cancel`]): a fit asked to stop ends with
     /// [`FullError::Cancelled`]. Never raised by default.
     pub cancel: Cancel,
 }

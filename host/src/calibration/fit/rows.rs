@@ -15,10 +15,10 @@ use faer::{Accum, Mat, Par};
 use nalgebra::{Point3, Vector3};
 
 use super::{Model, Observation, PlaneEstimate, Unknown, rms_pair};
-use crate::calibration::cancel::Cancel;
 use crate::calibration::dense::unit_diagonal_scale;
 use crate::calibration::fit::noise::Weights;
 use crate::calibration::parallel;
+use crate::cancel::Cancel;
 use crate::session::channel::{Channel, PerChannel};
 
 /// The weighted Jacobian and residual of one linearisation, stored whole (rows ×
@@ -39,7 +39,9 @@ impl LinearSystem {
     /// The linearisation at `model`: per pose its 3 position rows, then its 3
     /// orientation rows when measured ([`for_each_pose_rows`]); the poses in
     /// one piece per core (of at most [`BLOCK_POSES`]: a few ms of rows
-    /// between two questions to `cancel`), each piece filling its own rows. Once `cancel` is requested the pieces not started are
+    /// between two questions to `cancel`), each piece filling its own rows.
+    /// `None` once `cancel` is requested while the Jacobian is allocated
+    /// ([`stoppable_zeros`]); requested later, the pieces not started are
     /// left zero: the caller's next check drops the whole.
     pub(super) fn build(
         model: &Model,
@@ -47,9 +49,9 @@ impl LinearSystem {
         params: &[Unknown],
         weights: &Weights,
         cancel: Cancel,
-    ) -> Self {
+    ) -> Option<Self> {
         let rows = Self::rows(data);
-        let mut j = Mat::zeros(rows, params.len());
+        let mut j = stoppable_zeros(rows, params.len(), cancel)?;
         let mut r = Mat::zeros(rows, 1);
         let piece = parallel::piece_len(data.len(), MIN_PIECE_POSES).min(BLOCK_POSES);
         let mut pieces = Vec::new();
@@ -77,8 +79,37 @@ impl LinearSystem {
                 }
             });
         });
-        Self { j, r }
+        Some(Self { j, r })
     }
+
+    /// The system of no rows, of `params` columns.
+    pub(super) fn empty(params: usize) -> Self {
+        Self {
+            j: Mat::zeros(0, params),
+            r: Mat::zeros(0, 1),
+        }
+    }
+}
+
+/// The columns [`stoppable_zeros`] zeroes between two questions to the
+/// caller's request to stop: 8 columns of 3·10⁵ rows are 19 MB, a few ms
+/// of first touches of fresh memory.
+const CANCEL_COLUMNS: usize = 8;
+
+/// A `rows × cols` matrix of zeros (laid out as [`Mat::zeros`] lays it out),
+/// zeroed [`CANCEL_COLUMNS`] columns at a time: the Jacobian of 10⁵ poses and
+/// every candidate effect's columns is hundreds of MB, whose first touch
+/// alone takes 0.1–0.4 s. `None` once `cancel` is requested part way.
+pub(super) fn stoppable_zeros(rows: usize, cols: usize, cancel: Cancel) -> Option<Mat<f64>> {
+    let mut m = Mat::with_capacity(rows, cols);
+    m.resize_with(rows, 0, |_, _| 0.0);
+    for start in (0..cols).step_by(CANCEL_COLUMNS) {
+        if cancel.requested() {
+            return None;
+        }
+        m.resize_with(rows, (start + CANCEL_COLUMNS).min(cols), |_, _| 0.0);
+    }
+    Some(m)
 }
 
 /// The fewest poses [`LinearSystem::build`] gives a core: about a µs each

@@ -220,7 +220,8 @@ pub(crate) fn fold_sums(
 ) -> (usize, FoldNormals) {
     let contacts: Vec<_> = data.iter().map(|o| o.contact).collect();
     let k = folds.clamp(2, data.len().max(2));
-    let configurations = Configurations::of_robot(&fit.calibrated, data).index(data.len());
+    let configurations =
+        Configurations::of_robot(&fit.calibrated, data, fit.cancel).index(data.len());
     let fold = interleaved_folds(&contacts, &configurations, k);
     (k, fold_normals(fit, data, constraints, prior, &fold, k))
 }

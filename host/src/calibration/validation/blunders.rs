@@ -131,16 +131,24 @@ pub fn deleted_residuals(lin: &Linearization, excluded: &[bool]) -> Option<Delet
         .collect();
     // Each product below is a pass over the rows: none starts once the
     // caller asked to stop.
-    let asked_to_stop = || lin.cancel.requested();
-    if asked_to_stop() {
+    let cancel = lin.cancel;
+    if cancel.requested() {
         return None;
     }
-    let (jf, rf) = lin.gathered(&fitted);
-    if asked_to_stop() {
+    // Every row fitted (no pose left out): the linearisation's own rows, not
+    // a copy of them.
+    let gathered;
+    let (jf, rf) = if fitted.len() == lin.first_rows.len() {
+        (lin.j.as_ref(), lin.r.as_ref())
+    } else {
+        gathered = lin.gathered(&fitted);
+        (gathered.0.as_ref(), gathered.1.as_ref())
+    };
+    if cancel.requested() {
         return None;
     }
-    let a = jf.transpose() * &jf;
-    if asked_to_stop() {
+    let a = jf.transpose() * jf;
+    if cancel.requested() {
         return None;
     }
     let scale = unit_diagonal_scale(&a);
@@ -151,23 +159,25 @@ pub fn deleted_residuals(lin: &Linearization, excluded: &[bool]) -> Option<Delet
     // B = L⁻¹ (JS)ᵀ: one triangular solve for every row at once, then each
     // pose's block H_ii from its own columns of B.
     let llt = normal.llt(Side::Lower).ok()?;
-    let mut b = Mat::from_fn(p, lin.j.nrows(), |c, row| lin.j[(row, c)] * scale[c]);
-    // Each row's column solved alone: in blocks, so that the caller's
-    // request to stop is asked between them (`None` once it is).
-    let columns = b.ncols();
+    // B in blocks of CANCEL_ROWS rows' columns, each made and solved alone
+    // (each row's column is solved alone), so that the caller's request to
+    // stop is asked between them (`None` once it is).
+    let columns = lin.j.nrows();
+    let mut blocks = Vec::with_capacity(columns.div_ceil(CANCEL_ROWS));
     for start in (0..columns).step_by(CANCEL_ROWS) {
-        if asked_to_stop() {
+        if cancel.requested() {
             return None;
         }
-        let block = b
-            .as_mut()
-            .subcols_mut(start, CANCEL_ROWS.min(columns - start));
-        solve_lower_triangular_in_place(llt.L(), block, Par::Seq);
+        let width = CANCEL_ROWS.min(columns - start);
+        let mut block = Mat::from_fn(p, width, |c, row| lin.j[(start + row, c)] * scale[c]);
+        solve_lower_triangular_in_place(llt.L(), block.as_mut(), Par::Seq);
+        blocks.push(block);
     }
+    let b = |c: usize, row: usize| blocks[row / CANCEL_ROWS][(c, row % CANCEL_ROWS)];
     let omega = rf.squared_norm_l2();
     let mut stats = Vec::with_capacity(n);
     for (i, &out) in excluded.iter().enumerate().take(n) {
-        if i % CANCEL_ROWS == 0 && asked_to_stop() {
+        if i % CANCEL_ROWS == 0 && cancel.requested() {
             return None;
         }
         stats.push({
@@ -176,7 +186,7 @@ pub fn deleted_residuals(lin: &Linearization, excluded: &[bool]) -> Option<Delet
             let sign = if out { 1.0 } else { -1.0 };
             let m = DMatrix::from_fn(k, k, |r, s| {
                 let h: f64 = (0..p)
-                    .map(|c| b[(c, rows.start + r)] * b[(c, rows.start + s)])
+                    .map(|c| b(c, rows.start + r) * b(c, rows.start + s))
                     .sum();
                 let identity = if r == s { 1.0 } else { 0.0 };
                 identity + sign * h

@@ -730,7 +730,8 @@ mod tests {
             }
             data.extend(rows);
         }
-        let configurations = Configurations::of_robot(&robot, &data).index(data.len());
+        let configurations =
+            Configurations::of_robot(&robot, &data, crate::cancel::Cancel::NEVER).index(data.len());
         assert_eq!(*configurations.iter().max().unwrap(), 23);
         let contacts: Vec<Contact> = data.iter().map(|o| o.contact).collect();
         let folds = interleaved_folds(&contacts, &configurations, 10);

@@ -132,7 +132,7 @@ mod tests {
                 data.push(o);
             }
         }
-        let c = Configurations::of(&robot, &data);
+        let c = Configurations::of(&robot, &data, crate::cancel::Cancel::NEVER);
         assert_eq!(c.count(), 12);
         assert!(c.rows.iter().all(|r| r.len() == 5));
         let pure = c.pure_error(&data).unwrap();

@@ -9,11 +9,16 @@
 //! cross-validation, each candidate effect scored, each prior scale and
 //! orientation weight chosen, each stage of a diagnosis; and within a pass
 //! over the rows, at each chunk of the rows (the normal equations' chunks,
-//! the linearisation's pieces, the deleted residuals' blocks), so that on
-//! 10⁵ rows the longest step between two questions is tens of ms. Raised,
+//! the linearisation's Jacobian, zeroed a few columns at a time, and its
+//! pieces, the rows sorted into configurations, the deleted residuals'
+//! blocks, the candidates' gravity torques, a diagnosis' tool points), so
+//! that on 10⁵ rows the longest step between two questions is tens of ms.
+//! It stands under every other module, [`crate::session`] included, so
+//! that the session's own passes over the rows ask it too. Raised,
 //! the computation ends with [`Cancelled`] and its caller drops what it had
-//! (a pass asked to stop part way leaves partial sums, which the next
-//! question discards); never raised ([`Cancel::NEVER`], the default),
+//! (a pass asked to stop part way leaves partial sums, a linearisation
+//! asked while its Jacobian is made is of no pose: the next
+//! question discards them); never raised ([`Cancel::NEVER`], the default),
 //! nothing changes: the question is one atomic load.
 //!
 //! The command line never raises one (SIGINT ends the process at once); the
