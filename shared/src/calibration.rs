@@ -125,7 +125,7 @@ pub struct Calibration {
     pub errors: Vec<ParamError, MAX_PARAMS>,
     /// What its corrections reach: [`Task::Pose`] when identified from full
     /// poses (the orientation is calibrated too), [`Task::Position`] from
-    /// positions. On the wire the bool "from full poses" ([`task_as_bool`]).
+    /// positions. On the wire the bool "from full poses", `true` for a pose.
     #[serde(with = "task_as_bool")]
     pub task: Task,
     /// The units of the model file, in which results are reported.

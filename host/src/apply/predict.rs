@@ -16,7 +16,7 @@
 //! [`Calibration::units`], apply to the joints file as they applied to the model
 //! and data it was identified from); the computation is SI; the CSV
 //! ([`Predictions::to_csv`]) gives `x, y, z` in the model's length unit and, when
-//! the calibration was identified from full poses ([`Calibration::orientation`]),
+//! the calibration was identified from full poses ([`Calibration::task`] is `Task::Pose`),
 //! the unit quaternion `qw, qx, qy, qz`, scalar first, with `qw ≥ 0`. Numbers are
 //! written with the shortest decimal that reads back to the same `f64` (Rust's
 //! `{}`), so nothing is lost to formatting.

@@ -74,7 +74,7 @@ pub fn own_columns(candidates: &[&Candidate], fitted: usize) -> Vec<Vec<usize>> 
 }
 
 /// Every candidate the data can show (see the module header). `cancel` is
-/// asked every [`CANCEL_ROWS`] rows of the gravity torques; once requested,
+/// asked every 4,096 rows of the gravity torques; once requested,
 /// the rows left are not read (the candidates are then of the rows read:
 /// the caller's next check drops them).
 pub fn candidates(robot: &Robot<f64>, data: &[Observation], cancel: Cancel) -> Vec<Candidate> {
