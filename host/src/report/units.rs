@@ -1,9 +1,9 @@
 //! The units a report's values are in, as every JSON report states them
 //! (`units`: `length`, `angle`; docs/file-formats.md §6, §7), and a frame
-//! given in them.
+//! and a parameter's value given in them.
 
-use armcal_shared::Frame;
 use armcal_shared::units::Units;
+use armcal_shared::{Frame, Param};
 use serde::Serialize;
 
 /// The model file's units, which a report's values are in.
@@ -40,5 +40,15 @@ impl FrameReport {
             xyz: frame.xyz.iter().map(|x| units.length_from_si(*x)).collect(),
             rpy: frame.rpy.iter().map(|x| units.angle_from_si(*x)).collect(),
         }
+    }
+}
+
+/// A parameter's value `si` (m or rad) in the model's unit of its kind:
+/// its length unit, or its angle unit for an angle.
+pub fn param_in_units(units: &Units, param: Param, si: f64) -> f64 {
+    if param.is_angle() {
+        units.angle_from_si(si)
+    } else {
+        units.length_from_si(si)
     }
 }

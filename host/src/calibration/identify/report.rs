@@ -5,7 +5,6 @@
 //! noise rows ([`NoiseRow`]) are `diagnose`'s too. Nothing here computes; it
 //! reads an [`Identification`].
 
-use armcal_shared::Param;
 use armcal_shared::units::Units;
 use serde::{Serialize, Serializer};
 
@@ -16,6 +15,7 @@ use super::sessions::{self, SessionReport};
 use crate::calibration::fit::noise;
 use crate::calibration::gravity::GravityReport;
 use crate::report::units::UnitsReport;
+use crate::report::units::param_in_units;
 use crate::session::channel::Channel;
 use crate::session::measurements::Measurements;
 
@@ -265,15 +265,6 @@ pub struct PlaneReport {
     pub offset: f64,
 }
 
-/// A parameter value in the model file's units.
-fn in_units(units: &Units, param: Param, si: f64) -> f64 {
-    if param.is_angle() {
-        units.angle_from_si(si)
-    } else {
-        units.length_from_si(si)
-    }
-}
-
 impl Identification {
     /// The report of an identification from `data`, in `units`.
     pub fn report(&self, units: &Units, data: &Measurements) -> IdentifyReport {
@@ -287,9 +278,9 @@ impl Identification {
                 .iter()
                 .map(|r| ParameterReport {
                     name: r.param.to_string(),
-                    nominal: in_units(units, r.param, r.nominal),
-                    error: in_units(units, r.param, r.error),
-                    std: r.std.map(|s| in_units(units, r.param, s)),
+                    nominal: param_in_units(units, r.param, r.nominal),
+                    error: param_in_units(units, r.param, r.error),
+                    std: r.std.map(|s| param_in_units(units, r.param, s)),
                     status: if r.fixed.is_some() {
                         "fixed"
                     } else {

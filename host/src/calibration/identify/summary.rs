@@ -7,26 +7,16 @@
 use armcal_shared::compensation::Task;
 use std::fmt::Write as _;
 
-use armcal_shared::Param;
-
 use super::Identification;
 use super::prior_scale::{self, PriorChoice};
 use super::report::{NoiseRow, noise_rows};
 use crate::calibration::fit::noise;
 use crate::report::format::{length_and_mm, significant};
+use crate::report::units::param_in_units;
 use crate::session::measurements::Measurements;
 use crate::session::model::RobotModel;
 use crate::session::prior::PRIOR_FACTORS;
 use armcal_shared::units::Units;
-
-/// A parameter value in the model file's units.
-fn in_units(units: &Units, param: Param, si: f64) -> f64 {
-    if param.is_angle() {
-        units.angle_from_si(si)
-    } else {
-        units.length_from_si(si)
-    }
-}
 
 impl Identification {
     /// The summary's line on the prior: its scale, and how it was chosen.
@@ -318,14 +308,14 @@ impl Identification {
                 u.length.to_string()
             };
             let std = r.std.map_or("-".to_string(), |s| {
-                format!("{:.3e}", in_units(u, r.param, s))
+                format!("{:.3e}", param_in_units(u, r.param, s))
             });
             let _ = writeln!(
                 out,
                 "  {:<9} {:>14.6} {:>14.6e} {:>12}   {} [{unit}]",
                 r.param.to_string(),
-                in_units(u, r.param, r.nominal),
-                in_units(u, r.param, r.error),
+                param_in_units(u, r.param, r.nominal),
+                param_in_units(u, r.param, r.error),
                 std,
                 r.fixed
                     .as_deref()

@@ -6,6 +6,7 @@
 //! Lengths in the model's units (`_mm` fields in mm), each parameter's
 //! standard error in its own unit. Nothing here computes; it reads a [`Plan`].
 
+use crate::report::units::param_in_units;
 use crate::session::measurements::plural;
 use std::fmt::Write as _;
 
@@ -19,15 +20,6 @@ use armcal_shared::Param;
 use super::{Instrument, OFF_AXIS, Plan, PlanOptions, Prediction};
 use crate::apply::compensate;
 use armcal_shared::Calibration;
-
-/// A parameter's value in the model's unit: length or angle.
-fn in_units(u: &Units, param: Param, si: f64) -> f64 {
-    if param.is_angle() {
-        u.angle_from_si(si)
-    } else {
-        u.length_from_si(si)
-    }
-}
 
 /// `armcal plan`'s report (docs/file-formats.md §7): the plan's predicted
 /// accuracy, its rows, and the designs it was compared with.
@@ -230,7 +222,7 @@ fn prediction_report(p: &Prediction, identified: &[Param], u: &Units) -> Predict
             .iter()
             .map(|(param, s)| ParameterStd {
                 name: param.to_string(),
-                std: in_units(u, *param, *s),
+                std: param_in_units(u, *param, *s),
                 unit: if param.is_angle() {
                     u.angle.to_string()
                 } else {
