@@ -1,7 +1,7 @@
-//! The diagnosis as its reports give it: the summary `armcal diagnose`
-//! prints, the JSON of `--json` (`docs/file-formats.md` §6), and the labels,
-//! noise rows and held-out rows the HTML page ([`super::html`]) shares
-//! with them. Nothing here computes; it reads a [`Diagnosis`].
+//! The summary `armcal diagnose` prints, and the labels, noise rows and
+//! held-out rows the HTML page ([`super::html`]) and the report
+//! ([`super::report`], the JSON) share with it. Nothing here computes; it
+//! reads a [`Diagnosis`].
 
 use armcal_shared::effects::Effect;
 use armcal_shared::{JointType, Param, Robot};

@@ -1,8 +1,6 @@
-//! The identification as its reports give it: the summary `armcal identify`
-//! prints and the JSON of `--json` (`docs/file-formats.md` §6), values in the
-//! model file's units (`mm`-suffixed fields excepted), and the noise rows
-//! `diagnose`'s reports share. Nothing here computes; it reads an
-//! [`Identification`].
+//! The summary `armcal identify` prints, values in the model file's units
+//! (and mm beside them); the JSON is [`super::report`]'s. Nothing here
+//! computes; it reads an [`Identification`].
 
 use armcal_shared::compensation::Task;
 use std::fmt::Write as _;
