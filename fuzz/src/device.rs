@@ -27,6 +27,7 @@
 //!   every status but `NonFinite` (and a command that was not finite) comes
 //!   with finite commands; the counters count each command once.
 
+use armcal_shared::compensation::Task;
 use std::sync::OnceLock;
 
 use armcal_shared::calibration::MAX_FILE_LEN;
@@ -75,8 +76,12 @@ fn devices() -> &'static [Device; 3] {
         };
         [
             Device::new(TICK_PERIOD),
-            loaded(crate::calibration_of("puma560", true, false)),
-            loaded(crate::calibration_of("figaroh-talos-left-arm", false, true)),
+            loaded(crate::calibration_of("puma560", Task::Pose, false)),
+            loaded(crate::calibration_of(
+                "figaroh-talos-left-arm",
+                Task::Position,
+                true,
+            )),
         ]
     })
 }

@@ -9,6 +9,7 @@
 //! Every harness panics (a crash for libFuzzer) when an assertion fails;
 //! returning normally means the input was handled as the code promises.
 
+use armcal_shared::compensation::Task;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::sync::OnceLock;
@@ -130,12 +131,12 @@ pub fn models() -> &'static [RobotModel] {
 /// every kind of parameter, and, if `effects`, one effect of each kind:
 /// what `armcal identify` / `diagnose` would write, identified on every joint
 /// within 1 rad (or m) of 0, at 20–30 °C and 0–5 kg.
-pub fn calibration_of(name: &str, orientation: bool, effects: bool) -> Calibration {
+pub fn calibration_of(name: &str, task: Task, effects: bool) -> Calibration {
     use armcal_shared::effects::one_of_each;
     use armcal_shared::{FrameAxis, Param, ParamError};
     let (text, file) = armcal::io::builtin::builtin_model(name).expect("a built-in model");
     let model = parse_model(text, file).expect("the built-in model reads");
-    let mut cal = Calibration::nominal(model.robot, orientation, model.units);
+    let mut cal = Calibration::nominal(model.robot, task, model.units);
     for (param, error) in [
         (Param::Theta(1), 1e-3),
         (Param::A(2), -2e-3),

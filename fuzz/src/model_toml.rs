@@ -10,8 +10,8 @@
 //! parameters (what `armcal identify --out` would write for it): the file
 //! encodes and decodes to the same calibration.
 
-use armcal_shared::compensation::Task;
 use armcal::io::model_file::parse_model;
+use armcal_shared::compensation::Task;
 use armcal_shared::{Calibration, MAX_JOINTS};
 
 /// The harness; see [the module](self). Returns whether the model was

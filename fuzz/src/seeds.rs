@@ -1,9 +1,9 @@
 //! The seed inputs of each target: small valid files and streams, written to
 //! `corpus/<target>/seed-*` by `cargo test -- --ignored write_seeds`.
 
-use armcal_shared::compensation::Task;
 use armcal_shared::Calibration;
 use armcal_shared::calibration::{HEADER_LEN, MAGIC, OLDEST_VERSION, model_hash};
+use armcal_shared::compensation::Task;
 use armcal_shared::link::{
     self, Command, Context, Corrected, FrameError, HALT_FRAME, MAX_FRAME, RangeReport, Rejection,
     Request, Response, StatusReport, TickStatus,
@@ -206,10 +206,11 @@ fn older(cal: &Calibration, version: u16) -> Vec<u8> {
 }
 
 fn calibrations() -> Vec<Seed> {
-    let puma = calibration_of("puma560", true, false);
-    let talos = calibration_of("figaroh-talos-left-arm", false, true);
+    let puma = calibration_of("puma560", Task::Pose, false);
+    let talos = calibration_of("figaroh-talos-left-arm", Task::Position, true);
     let mut lift = Calibration::nominal(
-        crate::models()[4].robot.clone(), Task::Pose,
+        crate::models()[4].robot.clone(),
+        Task::Pose,
         crate::models()[4].units,
     );
     lift.targets = armcal_shared::TargetFrame::Base;
@@ -269,7 +270,7 @@ fn frames() -> Vec<Seed> {
             }),
         ),
         command(2, &Q9, None),
-        load_requests(&file_of(&calibration_of("puma560", true, false)))[0].clone(),
+        load_requests(&file_of(&calibration_of("puma560", Task::Pose, false)))[0].clone(),
         Request::Ranges,
         Request::Halt,
     ];
@@ -328,8 +329,12 @@ fn frames() -> Vec<Seed> {
 
 fn streams() -> Vec<Seed> {
     // The selectors index the devices of `crate::device`: none, PUMA, TALOS.
-    let puma = file_of(&calibration_of("puma560", true, false));
-    let talos = file_of(&calibration_of("figaroh-talos-left-arm", false, true));
+    let puma = file_of(&calibration_of("puma560", Task::Pose, false));
+    let talos = file_of(&calibration_of(
+        "figaroh-talos-left-arm",
+        Task::Position,
+        true,
+    ));
     let warm = Some(Context {
         temperature: Some(35.0),
         payload: Some(2.0),
