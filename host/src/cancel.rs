@@ -34,6 +34,11 @@
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, Ordering};
 
+/// The rows a pass of kinematics over the rows (a row's forward kinematics,
+/// its chain, its configuration) computes between two questions to the
+/// caller's request to stop: a few ms.
+pub const ROWS: usize = 4096;
+
 /// Whether the caller asked a computation to stop: asked at its step
 /// boundaries ([`Cancel::check`]).
 #[derive(Clone, Copy, Debug, Default)]
@@ -51,6 +56,13 @@ impl Cancel {
     /// Whether the caller asked to stop.
     pub fn requested(self) -> bool {
         self.0.is_some_and(|flag| flag.load(Ordering::Relaxed))
+    }
+
+    /// Whether the caller asked to stop, asked at row `row` of a pass over
+    /// the rows only every [`ROWS`] rows (false between): the question of a
+    /// pass that computes a row's kinematics, a few ms apart.
+    pub fn requested_at(self, row: usize) -> bool {
+        row.is_multiple_of(ROWS) && self.requested()
     }
 
     /// [`Cancelled`] once the caller asked to stop.

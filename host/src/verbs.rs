@@ -231,9 +231,8 @@ pub(crate) fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
     let writer = simulate_cmd::writer(CLI, &model, &args.request())?;
     let description = command_line(Some(args.seed));
     if args.truth.is_some() {
-        let json = serde_json::to_string_pretty(&serde_json::to_value(
-            writer.truth().truth(&model.robot, &u),
-        )?)?;
+        let truth = armcal::report::to_json(&writer.truth().truth(&model.robot, &u));
+        let json = serde_json::to_string_pretty(&truth)?;
         outputs.set("--truth", json.into_bytes());
     }
     // The rows are drawn as they are written, session after session: the
@@ -399,7 +398,7 @@ pub(crate) fn sweep(args: SweepArgs) -> anyhow::Result<()> {
         // Through a JSON value: its keys in the alphabetical order of the
         // other reports.
         let rows: Vec<_> = results.iter().map(Case::report).collect();
-        let rows = serde_json::to_value(rows)?;
+        let rows = armcal::report::to_json(&rows);
         outputs.set("--json", serde_json::to_string_pretty(&rows)?.into_bytes());
         outputs.commit()?;
     }

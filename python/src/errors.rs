@@ -56,13 +56,13 @@ pub(crate) fn torque_sign(
 ) -> PyResult<Option<TorqueSign>> {
     torque_sign
         .map(|word| {
-            choice(py, "torque_sign", word, choices::parse::<TorqueSignArg>).map_err(|_| {
-                argument(
-                    py,
-                    "torque_sign",
-                    format!("{word:?}: expected \"drive\", \"load\" or None (read from the data)"),
-                )
-            })
+            choices::parse::<TorqueSignArg>(word)
+                .map(TorqueSign::from)
+                .map_err(|_| {
+                    let mut words = choices::words::<TorqueSignArg>();
+                    words.push("None (read from the data)".into());
+                    argument(py, "torque_sign", choices::expected(word, &words))
+                })
         })
         .transpose()
 }
@@ -297,8 +297,7 @@ pub fn to_python<'py>(
     py: Python<'py>,
     value: &impl serde::Serialize,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let value = serde_json::to_value(value).map_err(failure)?;
-    pythonize::pythonize(py, &value).map_err(failure)
+    pythonize::pythonize(py, &armcal::report::to_json(value)).map_err(failure)
 }
 
 /// The value of the argument `name` as `T`, refused with an

@@ -16,19 +16,26 @@ use crate::calibration::plan::Optimality;
 /// The choice named `word` (`"chosen"`, `"0.1"`, …), or why not: `"WORD":
 /// expected "a", "b" or "c"`, the words in the order `--help` lists them.
 pub fn parse<T: ValueEnum>(word: &str) -> Result<T, String> {
-    T::from_str(word, false).map_err(|_| {
-        let words: Vec<String> = T::value_variants()
-            .iter()
-            .filter_map(|v| v.to_possible_value())
-            .map(|v| format!("{:?}", v.get_name()))
-            .collect();
-        let listed = match words.split_last() {
-            Some((last, [])) => last.clone(),
-            Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
-            None => String::new(),
-        };
-        format!("{word:?}: expected {listed}")
-    })
+    T::from_str(word, false).map_err(|_| expected(word, &words::<T>()))
+}
+
+/// The words of choice `T`, each quoted, in the order `--help` lists them.
+pub fn words<T: ValueEnum>() -> Vec<String> {
+    T::value_variants()
+        .iter()
+        .filter_map(|v| v.to_possible_value())
+        .map(|v| format!("{:?}", v.get_name()))
+        .collect()
+}
+
+/// Why `word` is refused: `"WORD": expected a, b or c`.
+pub fn expected(word: &str, words: &[String]) -> String {
+    let listed = match words.split_last() {
+        Some((last, [])) => last.clone(),
+        Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
+        None => String::new(),
+    };
+    format!("{word:?}: expected {listed}")
 }
 
 /// `--criterion`.

@@ -289,7 +289,6 @@ impl Diagnosed {
     /// The JSON report of the diagnosis of `data`: [`Diagnosed::report`]
     /// serialised.
     pub fn json(&self, data: &Measurements, lines: &[usize]) -> serde_json::Value {
-        serde_json::to_value(self.report(data, lines))
-            .expect("a report of numbers, strings and lists serialises")
+        crate::report::to_json(&self.report(data, lines))
     }
 }

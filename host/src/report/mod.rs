@@ -11,3 +11,10 @@ pub mod format;
 pub mod html;
 pub mod svg;
 pub mod units;
+
+/// A report (a verb's `#[derive(Serialize)]` outcome) as the JSON value
+/// `--json` writes: its keys in alphabetical order, a float that is not
+/// finite `null`.
+pub fn to_json(report: &impl serde::Serialize) -> serde_json::Value {
+    serde_json::to_value(report).expect("a report of numbers, strings and lists serialises")
+}

@@ -15,10 +15,6 @@ use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 use crate::cancel::Cancel;
 use crate::session::observation::{Contact, Observation};
 
-/// The rows [`Configurations::of`] sorts into configurations between two
-/// questions to the caller's request to stop (a few ms).
-const CANCEL_ROWS: usize = 4096;
-
 /// Two readings of a revolute joint closer than this (rad) are one reading:
 /// a 17-bit encoder's count is 4.8·10⁻⁵ rad, a 20-bit one's 6·10⁻⁶ rad.
 pub const REVOLUTE_RESOLUTION: f64 = 2e-5;
@@ -177,7 +173,7 @@ impl Configurations {
     /// configuration it matches, and joins into one the configurations it
     /// matches several of; it starts a configuration of its own when it
     /// matches none. `cancel` is asked before the sort and every
-    /// [`CANCEL_ROWS`] rows taken; once requested, the rows not taken are
+    /// [`crate::cancel::ROWS`] rows taken; once requested, the rows not taken are
     /// left alone, each its own configuration.
     fn partition(sameness: &Sameness, data: &[Observation], cancel: Cancel) -> Self {
         if cancel.requested() {
@@ -212,7 +208,7 @@ impl Configurations {
         // The first row of each configuration so far, in the order taken.
         let mut firsts: Vec<usize> = Vec::new();
         for (taken, &i) in order.iter().enumerate() {
-            if taken % CANCEL_ROWS == 0 && cancel.requested() {
+            if cancel.requested_at(taken) {
                 break;
             }
             let mut joined: Option<usize> = None;

@@ -198,17 +198,13 @@ impl Measurements {
 
     /// Whether every pose has a measured orientation.
     pub fn has_orientation(&self) -> bool {
-        !self.poses.is_empty() && self.poses.iter().all(|p| p.orientation.is_some())
+        self.task() == Task::Pose
     }
 
     /// What a calibration from these poses compensates: [`Task::Pose`] when
     /// every pose has a measured orientation ([`Self::has_orientation`]).
     pub fn task(&self) -> Task {
-        if self.has_orientation() {
-            Task::Pose
-        } else {
-            Task::Position
-        }
+        crate::session::observation::task(&self.poses)
     }
 
     /// The number of scalar equations the poses give: 3 per pose, 6 per pose with

@@ -4,6 +4,7 @@
 //! (temperature, payload, approach, torques), with the limits a row's values
 //! are read within. Positions in m, joints in rad or m, torques in N·m.
 
+use armcal_shared::compensation::Task;
 use armcal_shared::effects::{Approach, Context};
 use armcal_shared::ranges::Ranges;
 use nalgebra::{Point3, UnitQuaternion};
@@ -64,6 +65,17 @@ pub fn ranges<'a>(poses: impl IntoIterator<Item = &'a Observation>) -> Ranges<f6
             .into_iter()
             .map(|o| (&o.q[..], o.context.temperature, o.context.payload)),
     )
+}
+
+/// What a calibration from `poses` compensates: [`Task::Pose`] when every
+/// pose (of one at least) has a measured orientation, else
+/// [`Task::Position`].
+pub fn task(poses: &[Observation]) -> Task {
+    if !poses.is_empty() && poses.iter().all(|p| p.orientation.is_some()) {
+        Task::Pose
+    } else {
+        Task::Position
+    }
 }
 
 /// The number of sessions `poses` were measured in (1 for none or one).

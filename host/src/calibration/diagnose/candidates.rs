@@ -11,10 +11,6 @@ use armcal_shared::{Convention, JointType, Param, Robot};
 use crate::cancel::Cancel;
 use crate::session::observation::Observation;
 
-/// The rows whose gravity torques [`candidates`] computes between two
-/// questions to the caller's request to stop (a few ms).
-const CANCEL_ROWS: usize = 4096;
-
 /// A candidate extension of the geometric model.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Candidate {
@@ -74,7 +70,7 @@ pub fn own_columns(candidates: &[&Candidate], fitted: usize) -> Vec<Vec<usize>> 
 }
 
 /// Every candidate the data can show (see the module header). `cancel` is
-/// asked every 4,096 rows of the gravity torques; once requested,
+/// asked every [`crate::cancel::ROWS`] rows of the gravity torques; once requested,
 /// the rows left are not read (the candidates are then of the rows read:
 /// the caller's next check drops them).
 pub fn candidates(robot: &Robot<f64>, data: &[Observation], cancel: Cancel) -> Vec<Candidate> {
@@ -90,7 +86,7 @@ pub fn candidates(robot: &Robot<f64>, data: &[Observation], cancel: Cancel) -> V
     // carries none (a vertical axis) cannot show a compliance.
     let mut torque = vec![0.0f64; robot.dof()];
     for (i, o) in data.iter().enumerate() {
-        if i % CANCEL_ROWS == 0 && cancel.requested() {
+        if cancel.requested_at(i) {
             break;
         }
         if let Ok(chain) = robot.chain(&o.q) {

@@ -29,7 +29,6 @@
 //! never this long and is diagnosed whole. Units: SI.
 
 use armcal_shared::Robot;
-use armcal_shared::compensation::Task;
 use armcal_shared::units::Units;
 
 use super::{ALPHA, Choice, DiagnoseOptions, Diagnosis};
@@ -37,10 +36,6 @@ use crate::calibration::fit::{Extension, FitRequest, FullError, FullOptions};
 use crate::calibration::validation::stats::f_quantile;
 use crate::session::constraints::Constraints;
 use crate::session::observation::Observation;
-
-/// The rows [`Diagnosis::position_errors`] evaluates between two questions
-/// to the caller's request to stop (a few ms).
-const CANCEL_ROWS: usize = 4096;
 
 /// How a long session was diagnosed: on a sample, the calibration on all.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -136,18 +131,14 @@ impl Diagnosis {
     /// `data` (`None` where it has no measured position, `∞` where the model
     /// cannot be evaluated), its model evaluated as `armcal predict`
     /// evaluates it. The fit's request to stop is asked every
-    /// [`CANCEL_ROWS`] rows; once it is, the rows left have none (`None`):
+    /// [`crate::cancel::ROWS`] rows; once it is, the rows left have none (`None`):
     /// the caller's next check drops them.
     pub(super) fn position_errors(
         &self,
         nominal: &Robot<f64>,
         data: &[Observation],
     ) -> Vec<Option<f64>> {
-        let task = if data.iter().all(|o| o.orientation.is_some()) {
-            Task::Pose
-        } else {
-            Task::Position
-        };
+        let task = crate::session::observation::task(data);
         let model = self.calibration(nominal, task, Units::SI).model();
         // Each session's rows as its own frames place the written model.
         let models = self.fit.registrations.effect_models(&model);
@@ -156,7 +147,7 @@ impl Diagnosis {
         data.iter()
             .enumerate()
             .map(|(i, o)| {
-                stopped = stopped || (i % CANCEL_ROWS == 0 && cancel.requested());
+                stopped = stopped || cancel.requested_at(i);
                 let measured = o.contact == crate::session::observation::Contact::Measured;
                 (measured && !stopped).then(|| {
                     crate::session::registration::in_session(&models, o.session)

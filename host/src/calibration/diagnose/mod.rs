@@ -91,11 +91,6 @@ use alike::Alike;
 pub use candidates::{Candidate, candidates, own_columns};
 pub use geometry::ModelScore;
 
-/// The rows a pass of the diagnosis over the rows of its own (the nominal
-/// model's tool points) computes between two questions to the caller's
-/// request to stop (a few ms).
-const CANCEL_ROWS: usize = 4096;
-
 /// The family-wise error rate of the effect search.
 pub const ALPHA: f64 = 0.01;
 
@@ -207,7 +202,7 @@ pub(crate) fn position_errors(fit: &FullFit, data: &[Observation]) -> Vec<f64> {
 /// model estimates it. The rows of the same fold stand in where the others
 /// are too few (a point named by one fold's rows only). With several
 /// sessions, `nominal` is the nominal robot as each session sees it.
-/// `cancel` is asked every [`CANCEL_ROWS`] rows of the nominal tool points
+/// `cancel` is asked every [`crate::cancel::ROWS`] rows of the nominal tool points
 /// (and as [`Configurations::of_robot`] asks it); once requested, the rows
 /// left have none (the origin): the caller's next check drops the errors.
 fn nominal_errors(
@@ -222,7 +217,7 @@ fn nominal_errors(
     let fold =
         crate::calibration::validation::folds::interleaved_folds(&contacts, &configurations, k);
     let tool: Vec<Vector3<f64>> = data
-        .chunks(CANCEL_ROWS)
+        .chunks(crate::cancel::ROWS)
         .flat_map(|rows| {
             let stop = cancel.requested();
             rows.iter().map(move |o| {

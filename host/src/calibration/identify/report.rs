@@ -374,8 +374,7 @@ impl Identification {
     /// The JSON of an identification from `data` (docs/file-formats.md
     /// §6): [`Identification::report`] serialised.
     pub fn to_json(&self, units: &Units, data: &Measurements) -> serde_json::Value {
-        serde_json::to_value(self.report(units, data))
-            .expect("a report of numbers, strings and lists serialises")
+        crate::report::to_json(&self.report(units, data))
     }
 
     /// The report's `prior`: the scale fitted at (model units; `None` for

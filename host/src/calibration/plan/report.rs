@@ -334,8 +334,7 @@ impl Plan {
     /// The JSON of `--json` (docs/file-formats.md §7): [`Plan::report`]
     /// serialised.
     pub fn to_json(&self, options: &PlanOptions, u: &Units) -> serde_json::Value {
-        serde_json::to_value(self.report(options, u))
-            .expect("a report of numbers, strings and lists serialises")
+        crate::report::to_json(&self.report(options, u))
     }
 
     /// The summary `armcal plan` prints.
