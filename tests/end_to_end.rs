@@ -1136,11 +1136,11 @@ mod diagnosis {
         assert!(u.gain > 1.0 && u.gain < 1.05, "gain {}", u.gain);
         assert_eq!(u.shortfall, Shortfall::Gain { min_gain: 1.05 });
         let lines: Vec<usize> = (2..2 + session.observations.len()).collect();
-        let summary = d.summary(
-            RowPlaces::lines(&lines),
-            &options(),
-            &armcal_shared::units::Units::SI,
-        );
+        // The summary is rendered from the report, as the command prints it.
+        let model = load_model("ur10e").unwrap();
+        let summary = d
+            .report(&model, RowPlaces::lines(&lines), &options())
+            .summary();
         assert!(
             summary.contains("not worth modelling: joint_compliance (joints 2)"),
             "{summary}"

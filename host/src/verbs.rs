@@ -81,9 +81,10 @@ pub(crate) fn holdout(args: HoldoutArgs) -> anyhow::Result<()> {
     let progress = Progress::stage("leaving each session out in turn");
     let rows = holdout_cmd::run(CLI, &model, given, &args.request())?;
     progress.finish();
+    let reports: Vec<_> = rows.iter().map(|r| r.report(&model.units)).collect();
     print!(
         "{}",
-        holdout_cmd::holdout_table(&rows, reference.as_ref().map(|_| "reference"))
+        holdout_cmd::holdout_table(&reports, reference.as_ref().map(|_| "reference"))
     );
     Ok(())
 }
@@ -122,18 +123,20 @@ pub(crate) fn identify(args: IdentifyArgs) -> anyhow::Result<()> {
             .and_then(|g| g.warning())
             .iter(),
     );
-    warn(&identified.result.warnings(&data, &identified.model.units));
+    // What it prints, warns and writes as JSON: one report.
+    let report = identified.result.report(&identified.model, &data);
+    warn(&report.warnings);
     accept(identified.failed, args.write_failed)?;
-    let (model, result) = (identified.model, identified.result);
+    let result = identified.result;
     // Everything is computed and encoded before the first byte is written.
     if args.out.is_some() {
         outputs.set("--out", result.calibration.to_bytes()?);
     }
     if args.json.is_some() {
-        let text = serde_json::to_string_pretty(&result.to_json(&model.units, &data))?;
+        let text = serde_json::to_string_pretty(&armcal::report::to_json(&report))?;
         outputs.set("--json", text.into_bytes());
     }
-    finish(outputs, args.quiet, || result.summary(&model, &data))?;
+    finish(outputs, args.quiet, || report.summary())?;
     Ok(())
 }
 
@@ -195,17 +198,16 @@ pub(crate) fn plan(args: PlanArgs) -> anyhow::Result<()> {
         command_line(Some(args.seed))
     );
     outputs.set("--out", plan.csv(&comment, &cal, &options).into_bytes());
+    // What it prints, and writes as JSON and HTML: one report.
+    let report = plan.report(&model.name, &options, &model.units);
     if args.json.is_some() {
-        let text = serde_json::to_string_pretty(&plan.to_json(&options, &model.units))?;
+        let text = serde_json::to_string_pretty(&armcal::report::to_json(&report))?;
         outputs.set("--json", text.into_bytes());
     }
     if args.html.is_some() {
-        outputs.set(
-            "--html",
-            plan.html(&model.name, &options, &model.units).into_bytes(),
-        );
+        outputs.set("--html", plan.html(&report, &model.units).into_bytes());
     }
-    finish(outputs, false, || plan.summary(&model.name, &options))
+    finish(outputs, false, || report.summary())
 }
 
 /// `armcal simulate`.
@@ -307,18 +309,19 @@ pub(crate) fn diagnose(args: DiagnoseArgs) -> anyhow::Result<()> {
     warn(diagnosed.gravity.as_ref().and_then(|g| g.warning()).iter());
     warn(&diagnosed.session_warnings(&data));
     accept(diagnosed.failed.take(), args.write_failed)?;
-    let lines = &data.lines;
+    // What it prints, and writes as JSON and HTML: one report.
+    let report = diagnosed.report(&data, &data.lines);
     if args.out.is_some() {
         outputs.set("--out", diagnosed.calibration.to_bytes()?);
     }
     if args.json.is_some() {
-        let text = serde_json::to_string_pretty(&diagnosed.json(&data, lines))?;
+        let text = serde_json::to_string_pretty(&armcal::report::to_json(&report))?;
         outputs.set("--json", text.into_bytes());
     }
     if args.html.is_some() {
-        outputs.set("--html", diagnosed.html(&data).into_bytes());
+        outputs.set("--html", diagnosed.html(&report, &data).into_bytes());
     }
-    finish(outputs, args.quiet, || diagnosed.summary(&data, lines))?;
+    finish(outputs, args.quiet, || report.summary())?;
     Ok(())
 }
 

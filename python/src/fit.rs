@@ -79,10 +79,12 @@ pub struct Diagnosis {
     html: OnceLock<String>,
 }
 
-/// What the HTML page of a diagnosis is made of: the diagnosis and its data.
+/// What the HTML page of a diagnosis is made of: the diagnosis, its data,
+/// and its report.
 struct Page {
     diagnosed: diagnose_cmd::Diagnosed,
     data: Arc<armcal::session::measurements::Measurements>,
+    report: DiagnoseReport,
 }
 
 /// The data of a fit: given, or loaded from a path or built-in name against
@@ -267,9 +269,10 @@ pub fn identify_py<'py>(
         let request = identify_cmd::Request { cancel, ..request };
         let identified = identify_cmd::run(PYTHON, m, rows, &request)?;
         let (m, result) = (&identified.model, identified.result);
+        let report = result.report(m, rows);
         let outcome = Outcome {
-            report: Report::Identify(Box::new(result.report(&m.units, rows))),
-            summary: result.summary(m, rows),
+            summary: report.summary(),
+            report: Report::Identify(Box::new(report)),
             calibration: result.calibration.clone(),
             failed: identified.failed.map(|f| f.to_string()),
         };
@@ -358,17 +361,22 @@ pub fn diagnose<'py>(
         // Arrays name their rows from 0, files by line.
         let from = usize::from(arrays);
         let lines: Vec<usize> = rows.lines.iter().map(|line| line - from).collect();
+        let report = diagnosed.report(rows, &lines);
         let outcome = Outcome {
-            report: Report::Diagnose(Box::new(diagnosed.report(rows, &lines))),
-            summary: diagnosed.summary(rows, &lines),
+            summary: report.summary(),
+            report: Report::Diagnose(Box::new(report.clone())),
             calibration: diagnosed.calibration.clone(),
             failed: diagnosed.failed.take().map(|f| f.to_string()),
         };
-        anyhow::Ok((outcome, diagnosed))
+        anyhow::Ok((outcome, (diagnosed, report)))
     })?;
-    let (outcome, diagnosed) = outcome.map_err(|e| errors::command(py, e, arrays))?;
+    let (outcome, (diagnosed, report)) = outcome.map_err(|e| errors::command(py, e, arrays))?;
     let page = Diagnosis {
-        page: Arc::new(Page { diagnosed, data }),
+        page: Arc::new(Page {
+            diagnosed,
+            data,
+            report,
+        }),
         html: OnceLock::new(),
     };
     Py::new(py, PyClassInitializer::from(outcome).add_subclass(page))
@@ -476,7 +484,7 @@ impl Diagnosis {
         }
         let page = self.page.clone();
         let html = interruptible(py, OnInterrupt::RunsOn, move |_| {
-            page.diagnosed.html(&page.data)
+            page.diagnosed.html(&page.report, &page.data)
         })?;
         Ok(self.html.get_or_init(|| html))
     }

@@ -121,6 +121,6 @@ pub fn plan<'py>(
                 .collect()
         })
         .collect();
-    let report = errors::to_python(py, &plan.to_json(&options, &m.units))?;
+    let report = errors::to_python(py, &plan.report(&m.name, &options, &m.units))?;
     Ok((errors::to_numpy(py, joints, m.robot.dof(), false)?, report))
 }

@@ -330,14 +330,23 @@ impl Demo {
 
     /// The HTML page of `armcal diagnose --html` for the simulated session.
     pub fn html(&self) -> String {
-        crate::calibration::diagnose::html::html(
-            &self.model,
-            &format!("simulated by armcal demo --seed {}", self.seed),
-            &self.diagnosis,
-            &self.session.observations,
-            &self.options,
-            "",
-        )
+        use crate::calibration::diagnose::{RowPlaces, report::DiagnoseReport};
+        let rows = &self.session.observations;
+        // A simulated row is named by its index.
+        let lines: Vec<usize> = (0..rows.len()).collect();
+        let report = DiagnoseReport {
+            data: format!("simulated by armcal demo --seed {}", self.seed),
+            poses: rows.len(),
+            diagnosis: self
+                .diagnosis
+                .report(&self.model, RowPlaces::lines(&lines), &self.options),
+            outlier_files: None,
+            gravity: None,
+            approach_order: "rows",
+            weights: Default::default(),
+            sessions: None,
+        };
+        crate::calibration::diagnose::html::html(&report, &self.model, &self.diagnosis, rows)
     }
 
     /// The short summary, ending with where the report was written.

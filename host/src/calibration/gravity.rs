@@ -182,7 +182,7 @@ pub struct GravityReport {
     /// Whether the model had masses.
     pub model_had_masses: bool,
     /// `fitted` or `model`.
-    pub masses_used: &'static str,
+    pub masses_used: MassesSource,
     /// Why the fitted masses are not used (empty when they are).
     pub not_used_because: Vec<String>,
     /// Each joint's RMS torque residual, N·m.
@@ -193,6 +193,78 @@ pub struct GravityReport {
     pub spread_nm: Vec<f64>,
     /// Each session's offset of each joint, N·m.
     pub offset_nm: Vec<Vec<f64>>,
+}
+
+impl GravityReport {
+    /// The summary's lines: how the torques were read, and where the
+    /// compliance's torques come from.
+    pub fn summary(&self) -> String {
+        let worst = self
+            .residual_nm
+            .iter()
+            .zip(&self.spread_nm)
+            .enumerate()
+            .max_by(|a, b| a.1.0.total_cmp(b.1.0));
+        let mut s = format!(
+            "gravity torques from the measured joint torques (tau1..tau{}, {}, {}): ",
+            self.residual_nm.len(),
+            crate::session::measurements::plural(self.poses, "pose"),
+            self.reading
+        );
+        if self.masses_used == MassesSource::Fitted {
+            s.push_str(&format!(
+                "the arm's masses fitted ({}); a compliance twists by these",
+                if self.model_had_masses {
+                    "held to the model's where the torques do not show them"
+                } else {
+                    "the model has none: held to 1 kg at each link frame where the torques do not show them"
+                }
+            ));
+        } else {
+            s.push_str(
+                "the masses fitted to them are not used, the model's are (a compliance twists by the model's gravity torques)",
+            );
+        }
+        if let Some((j, (r, spread))) = worst {
+            s.push_str(&format!(
+                "; largest residual joint {}: {r:.3} N·m RMS of a {spread:.3} N·m spread",
+                j + 1
+            ));
+        }
+        for r in &self.not_used_because {
+            s.push_str(&format!("\n  not used: {r}"));
+        }
+        s
+    }
+
+    /// The section of `diagnose`'s HTML page: the [`GravityReport::summary`]
+    /// the terminal prints, and each joint's residual RMS beside the spread
+    /// of its torques.
+    pub fn html(&self) -> String {
+        use crate::report::html::html_escape;
+        let mut s = format!(
+            "<h2>Joint torques</h2><p>{}</p><table><tr><th>joint</th><th>residual RMS [N·m]</th><th>spread of the torques [N·m]</th></tr>",
+            html_escape(&self.summary()).replace('\n', "<br>")
+        );
+        for (j, (r, spread)) in self.residual_nm.iter().zip(&self.spread_nm).enumerate() {
+            s.push_str(&format!(
+                "<tr><td>{}</td><td>{r:.3}</td><td>{spread:.3}</td></tr>",
+                j + 1
+            ));
+        }
+        s.push_str("</table>");
+        s
+    }
+}
+
+/// Whose masses a compliance twists by, as the reports give it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MassesSource {
+    /// The masses fitted to the torques.
+    Fitted,
+    /// The model's own (the fit failed its checks).
+    Model,
 }
 
 /// How the torques' sign was settled, as the reports give it: `stated`,
@@ -877,6 +949,11 @@ impl GravityFit {
         format!("{} ({why})", self.sign.reading())
     }
 
+    /// The summary's lines ([`GravityReport::summary`] of its report).
+    pub fn summary(&self) -> String {
+        self.report().summary()
+    }
+
     /// The reports' `gravity`: where the compliance's torques come from.
     pub fn report(&self) -> GravityReport {
         let torque_sign_source = match &self.sign_source {
@@ -898,8 +975,8 @@ impl GravityFit {
             },
         };
         let (masses_used, not_used_because) = match &self.used {
-            MassesUsed::Fitted => ("fitted", Vec::new()),
-            MassesUsed::ModelMasses(r) => ("model", r.clone()),
+            MassesUsed::Fitted => (MassesSource::Fitted, Vec::new()),
+            MassesUsed::ModelMasses(r) => (MassesSource::Model, r.clone()),
         };
         GravityReport {
             source: "measured joint torques",
@@ -915,67 +992,6 @@ impl GravityFit {
             spread_nm: self.spread.clone(),
             offset_nm: self.offset.clone(),
         }
-    }
-
-    /// The section of `diagnose`'s HTML page: the [`GravityFit::summary`]
-    /// the terminal prints, and each joint's residual RMS beside the spread
-    /// of its torques.
-    pub fn html(&self) -> String {
-        use crate::report::html::html_escape;
-        let mut s = format!(
-            "<h2>Joint torques</h2><p>{}</p><table><tr><th>joint</th><th>residual RMS [N·m]</th><th>spread of the torques [N·m]</th></tr>",
-            html_escape(&self.summary()).replace('\n', "<br>")
-        );
-        for (j, (r, spread)) in self.residual.iter().zip(&self.spread).enumerate() {
-            s.push_str(&format!(
-                "<tr><td>{}</td><td>{r:.3}</td><td>{spread:.3}</td></tr>",
-                j + 1
-            ));
-        }
-        s.push_str("</table>");
-        s
-    }
-
-    /// The summary's lines: how the torques were read, and where the
-    /// compliance's torques come from.
-    pub fn summary(&self) -> String {
-        let worst = self
-            .residual
-            .iter()
-            .zip(&self.spread)
-            .enumerate()
-            .max_by(|a, b| a.1.0.total_cmp(b.1.0));
-        let mut s = format!(
-            "gravity torques from the measured joint torques (tau1..tau{}, {}, {}): ",
-            self.residual.len(),
-            crate::session::measurements::plural(self.poses, "pose"),
-            self.sign_summary()
-        );
-        match &self.used {
-            MassesUsed::Fitted => s.push_str(&format!(
-                "the arm's masses fitted ({}); a compliance twists by these",
-                if self.model_had_masses {
-                    "held to the model's where the torques do not show them"
-                } else {
-                    "the model has none: held to 1 kg at each link frame where the torques do not show them"
-                }
-            )),
-            MassesUsed::ModelMasses(_) => s.push_str(
-                "the masses fitted to them are not used, the model's are (a compliance twists by the model's gravity torques)",
-            ),
-        }
-        if let Some((j, (r, spread))) = worst {
-            s.push_str(&format!(
-                "; largest residual joint {}: {r:.3} N·m RMS of a {spread:.3} N·m spread",
-                j + 1
-            ));
-        }
-        if let MassesUsed::ModelMasses(reasons) = &self.used {
-            for r in reasons {
-                s.push_str(&format!("\n  not used: {r}"));
-            }
-        }
-        s
     }
 }
 
@@ -1256,7 +1272,8 @@ mod tests {
         let g = g.unwrap();
         assert_eq!((g.sign, &g.used), (TorqueSign::Load, &MassesUsed::Fitted));
         assert!(
-            g.summary()
+            g.report()
+                .summary()
                 .contains("tau read as the sensors' load torques: negated")
         );
     }

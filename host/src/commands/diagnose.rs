@@ -204,60 +204,16 @@ impl Diagnosed {
         )
     }
 
-    /// The summary of the diagnosis of `data`: the masses' fit to the
-    /// measured torques, if any, each session's figures when there are
-    /// several, then the diagnosis' own (`lines`: each pose's line or row).
-    pub fn summary(&self, data: &Measurements, lines: &[usize]) -> String {
-        let units = &self.model.units;
-        let head = self.gravity.as_ref().map(|g| format!("{}\n", g.summary()));
-        let order = self
-            .backlash_from_row_order(data)
-            .map(|joints| {
-                format!(
-                    "note: the backlash of joint {joints} takes each pose's approach direction from the \
-                     rows' order (the file has no `t` column): it holds only if the rows are in the \
-                     order the robot moved\n"
-                )
-            })
-            .unwrap_or_default();
-        let weight = self.weighting.summary(&self.diagnosis.fit);
-        head.unwrap_or_default()
-            + &weight
-            + &sessions::summary(&self.diagnosis.fit, &self.sessions_held_out, data, units)
-            + &self
-                .diagnosis
-                .summary(RowPlaces::of(lines, data), &self.options, units)
-            + &order
-    }
-
-    /// The joints of the backlash found (`"2, 3"`), when the approach
-    /// directions came from the rows' order: a row without a time `t`. With a
-    /// time on every row they are in the order of the times
-    /// (docs/file-formats.md §2).
-    fn backlash_from_row_order(&self, data: &Measurements) -> Option<String> {
-        let joints: Vec<String> = self
-            .diagnosis
-            .findings
-            .iter()
-            .filter(|f| f.candidate.name == "backlash")
-            .map(|f| f.candidate.joints_label())
-            .collect();
-        (!joints.is_empty() && data.times.iter().any(Option::is_none)).then(|| joints.join(", "))
-    }
-
-    /// The HTML page of the diagnosis of `data` (`--html`): the masses' fit
-    /// to the measured torques first, if any, as the summary gives it.
-    pub fn html(&self, data: &Measurements) -> String {
-        let gravity = self.gravity.as_ref().map(GravityFit::html);
-        let sessions = sessions::html(&self.diagnosis.fit, &self.sessions_held_out, data);
-        let weight = self.weighting.html(&self.diagnosis.fit);
+    /// The HTML page of the diagnosis of `data` (`--html`): its `report`'s
+    /// text and tables ([`Diagnosed::report`]), the masses' fit to the
+    /// measured torques first, if any, as the summary gives it; the plots
+    /// from the diagnosis and the rows.
+    pub fn html(&self, report: &DiagnoseReport, data: &Measurements) -> String {
         crate::calibration::diagnose::html::html(
+            report,
             &self.model,
-            &data.file,
             &self.diagnosis,
             identify::observations(data),
-            &self.options,
-            &(gravity.unwrap_or_default() + &sessions + &weight),
         )
     }
 
@@ -269,6 +225,8 @@ impl Diagnosed {
         let rows = RowPlaces::of(lines, data);
         let fit = &self.diagnosis.fit;
         DiagnoseReport {
+            data: data.file.clone(),
+            poses: data.len(),
             diagnosis: self.diagnosis.report(&self.model, rows, &self.options),
             // Each outlier's file: a line is its own file's.
             outlier_files: rows.sessions.is_some().then(|| {
@@ -284,11 +242,5 @@ impl Diagnosed {
             weights: self.weighting.reports(fit),
             sessions: sessions::reports(fit, &self.sessions_held_out, data, &self.model.units),
         }
-    }
-
-    /// The JSON report of the diagnosis of `data`: [`Diagnosed::report`]
-    /// serialised.
-    pub fn json(&self, data: &Measurements, lines: &[usize]) -> serde_json::Value {
-        crate::report::to_json(&self.report(data, lines))
     }
 }

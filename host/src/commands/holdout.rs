@@ -8,9 +8,9 @@
 
 use super::{Argument, Front, fit_options};
 use crate::calibration::fit::FullOptions;
-use crate::calibration::holdout::{self, HeldOut, Selection};
+use crate::calibration::holdout::{self, HeldOut, HeldOutReport, Selection};
 use crate::calibration::identify::StatedScales;
-use crate::calibration::validation::contact_check::ContactCheck;
+use crate::calibration::validation::contact_check::ContactCheckReport;
 use crate::calibration::validation::folds::DEFAULT_FOLDS;
 use crate::cancel::Cancel;
 use crate::session::input_error::InputError;
@@ -134,11 +134,12 @@ pub fn require_sessions(
     Ok(())
 }
 
-/// The table of [`crate::calibration::holdout::held_out`], in mm: per held-out session, the spread
-/// (RMS over its points) and the worst distance error of each model, and the
-/// flatness (RMS over its planes) when a session has planes; `–` where a
-/// session has none of that kind.
-pub fn holdout_table(rows: &[HeldOut], reference: Option<&str>) -> String {
+/// The table of [`crate::calibration::holdout::held_out`], rendered from
+/// its reports ([`HeldOut::report`], Python's dicts), in mm: per held-out
+/// session, the spread (RMS over its points) and the worst distance error of
+/// each model, and the flatness (RMS over its planes) when a session has
+/// planes; `–` where a session has none of that kind.
+pub fn holdout_table(rows: &[HeldOutReport], reference: Option<&str>) -> String {
     use std::fmt::Write as _;
     let planes = rows.iter().any(|r| !r.nominal.planes.is_empty());
     let mut out = String::new();
@@ -173,14 +174,14 @@ pub fn holdout_table(rows: &[HeldOut], reference: Option<&str>) -> String {
     let _ = writeln!(out, "{header}");
     let _ = writeln!(out, "{sub}");
     let mm = |v: Option<f64>, signed: bool| match v {
-        Some(v) if signed => format!(" {:>+16.3}", v * 1e3),
-        Some(v) => format!(" {:>16.3}", v * 1e3),
+        Some(v) if signed => format!(" {v:>+16.3}"),
+        Some(v) => format!(" {v:>16.3}"),
         None => format!(" {:>16}", "–"),
     };
-    let figures = |c: &ContactCheck| {
-        let mut f = mm(c.spread_rms(), false) + &mm(c.worst_distance_error(), true);
+    let figures = |c: &ContactCheckReport| {
+        let mut f = mm(c.spread_mm, false) + &mm(c.distance_error_mm, true);
         if planes {
-            f.push_str(&mm(c.flatness_rms(), false));
+            f.push_str(&mm(c.flatness_mm, false));
         }
         f
     };

@@ -16,10 +16,11 @@ pub fn significant(x: f64) -> String {
 
 /// A length `x` (m) as the summaries give it: in the model's unit, then in mm.
 pub fn length_and_mm(u: &Units, x: f64) -> String {
-    format!(
-        "{:.6} {} ({:.4} mm)",
-        u.length_from_si(x),
-        u.length,
-        x * 1e3
-    )
+    length_and_mm_of(u.length_from_si(x), &u.length.to_string(), x * 1e3)
+}
+
+/// A length as the summaries give it, from a report's two figures: `x` in
+/// the model's `unit`, then `mm`.
+pub fn length_and_mm_of(x: f64, unit: &str, mm: f64) -> String {
+    format!("{x:.6} {unit} ({mm:.4} mm)")
 }

@@ -24,6 +24,18 @@ impl From<&Units> for UnitsReport {
     }
 }
 
+impl UnitsReport {
+    /// The units the report names.
+    pub fn units(&self) -> Units {
+        Units {
+            length: armcal_shared::units::LengthUnit::from_name(&self.length)
+                .expect("a report names the length unit of its model"),
+            angle: armcal_shared::units::AngleUnit::from_name(&self.angle)
+                .expect("a report names the angle unit of its model"),
+        }
+    }
+}
+
 /// A frame in a report: its shift and roll-pitch-yaw in the model's units.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct FrameReport {

@@ -124,18 +124,6 @@ pub fn alike(columns: &Columns, chosen: &[usize], others: &[(&Candidate, &[usize
 }
 
 impl Alike {
-    /// The report's sentence: which cause these data cannot tell from
-    /// `chosen`, and what would separate them.
-    pub fn sentence(&self, chosen: &Candidate) -> String {
-        format!(
-            "these data cannot tell it from {} (joints {}), which reproduces its signature to within {:.1} standard errors of the noise; to separate them, {}",
-            self.candidate.name,
-            self.candidate.joints_label(),
-            self.unexplained,
-            self.separated_by(chosen)
-        )
-    }
-
     /// What measurement would separate `chosen` from this candidate, for
     /// the report.
     pub fn separated_by(&self, chosen: &Candidate) -> &'static str {

@@ -18,10 +18,9 @@ use armcal_shared::jacobian::at_point;
 use armcal_shared::{Param, Twist};
 use nalgebra::Vector3;
 
-use crate::calibration::diagnose::{
-    DiagnoseOptions, Diagnosis, effect_unit, effect_value, residuals,
-};
-use crate::calibration::fit::Status;
+use crate::calibration::diagnose::report::{DiagnoseReport, DiagnosisReport};
+use crate::calibration::diagnose::{Diagnosis, residuals};
+use crate::calibration::fit::noise::NoiseSource;
 use crate::report::format::significant;
 use crate::report::html::{html_escape, page_head};
 use crate::session::model::RobotModel;
@@ -252,71 +251,68 @@ fn panels(model: &RobotModel, d: &Diagnosis, data: &[Observation]) -> Vec<Plot> 
     out
 }
 
-/// The whole page; `sections`: what goes before the diagnosis' own, as the
-/// terminal's summary gives it first (the masses' fit to the measured
-/// torques, [`crate::calibration::gravity::GravityFit::html`]; several
-/// sessions, [`crate::calibration::identify::sessions::html`]; the
-/// orientation weight), empty when there is none.
+/// The whole page of the diagnosis `d` of `data` by `model`: its text and
+/// tables rendered from its `report`, as the summary is; the plots from the
+/// diagnosis and the rows, which the report does not hold. The masses' fit
+/// to the measured torques, the sessions and the weights come first, as
+/// the summary gives them.
 pub fn html(
+    report: &DiagnoseReport,
     model: &RobotModel,
-    data_file: &str,
     d: &Diagnosis,
     data: &[Observation],
-    options: &DiagnoseOptions,
-    sections: &str,
 ) -> String {
+    let r = &report.diagnosis;
     let mut s = String::new();
-    html_head(&mut s, model, data_file, data.len());
-    s.push_str(sections);
-    html_models(&mut s, model, d);
-    html_findings(&mut s, model, d, data);
-    html_holdout(&mut s, d, options);
-    html_parameters(&mut s, model, d);
-    s
-}
-
-/// The page's head, title and first paragraph: model, data, poses.
-fn html_head(s: &mut String, model: &RobotModel, data_file: &str, poses: usize) {
     let _ = write!(
         s,
         "{head}<p>Model <b>{name}</b>, data <b>{data_file}</b>: {n} poses.</p>",
-        head = page_head("diagnose", &model.name),
-        name = html_escape(&model.name),
-        data_file = html_escape(data_file),
-        n = poses,
+        head = page_head("diagnose", &r.model),
+        name = html_escape(&r.model),
+        data_file = html_escape(&report.data),
+        n = report.poses,
     );
+    if let Some(g) = &report.gravity {
+        s.push_str(&g.html());
+    }
+    if let Some(sessions) = &report.sessions {
+        s.push_str(&crate::calibration::identify::sessions::html(sessions));
+    }
+    s.push_str(&report.weights.html());
+    html_models(&mut s, r);
+    html_findings(&mut s, r, model, d, data);
+    html_holdout(&mut s, r);
+    html_parameters(&mut s, r);
+    s
 }
 
 /// The model chosen, every model's held-out error, the noises, the prior's role.
-fn html_models(s: &mut String, model: &RobotModel, d: &Diagnosis) {
-    let mm = |x: f64| x * 1e3;
-    // The chosen model, every model's held-out error, the noises, the prior.
+fn html_models(s: &mut String, r: &DiagnosisReport) {
     let _ = write!(
         s,
         "<h2>The model chosen on held-out poses</h2><p>Chosen: <b>{}</b>.</p><p>Each geometric model's held-out error{}:</p><table><tr><th>model</th><th>parameters</th><th>held-out RMS [mm]</th><th>mean [mm]</th><th>max [mm]</th></tr>",
-        html_escape(&d.chosen_label()),
-        html_escape(&d.models_scored())
+        html_escape(&r.chosen.label),
+        html_escape(&r.models_scored())
     );
-    for m in &d.models {
+    for m in &r.models {
         let _ = write!(
             s,
             "<tr><td>{}</td><td>{}</td><td>{:.4}</td><td>{:.4}</td><td>{:.4}</td></tr>",
-            html_escape(&m.label()),
+            html_escape(&m.model),
             m.parameters,
-            mm(m.held.rms),
-            mm(m.held.mean),
-            mm(m.held.max)
+            m.rms_mm,
+            m.mean_mm,
+            m.max_mm
         );
     }
     let _ = write!(s, "</table><p>");
-    html_residuals(s, model, d);
-    let (held, moved) = d.prior_role();
-    let list = crate::calibration::diagnose::parameter_list;
+    html_residuals(s, r);
+    let list = crate::calibration::diagnose::summary::name_list;
     let _ = write!(
         s,
         "</p><p>Moved by the data: {}. Held near nominal by the prior: {}.</p>",
-        list(&moved),
-        list(&held)
+        list(&r.prior_role.moved_by_data),
+        list(&r.prior_role.held_by_prior)
     );
 }
 
@@ -325,9 +321,9 @@ fn html_models(s: &mut String, model: &RobotModel, d: &Diagnosis) {
 /// calibration's residuals show (the instrument's noise and what the geometry
 /// does not model), named so, with what the extended calibration leaves
 /// beside it when it extends the geometry; a stated noise is the noise.
-fn html_residuals(s: &mut String, model: &RobotModel, d: &Diagnosis) {
-    let units = &model.units;
-    for n in d.noise_rows(units) {
+fn html_residuals(s: &mut String, r: &DiagnosisReport) {
+    let units = r.units.units();
+    for n in &r.noise {
         let (what, unit) = (n.what, &n.unit);
         let (used, shown) = (significant(n.used), significant(n.shown));
         let in_mm = if *unit == units.length.name() && units.length.name() != "mm" {
@@ -335,41 +331,48 @@ fn html_residuals(s: &mut String, model: &RobotModel, d: &Diagnosis) {
         } else {
             String::new()
         };
-        let _ = match n.source_name() {
-            "stated" => write!(
+        let _ = match n.source {
+            NoiseSource::Stated => write!(
                 s,
                 "Noise of the {what}s: <b>{used} {unit}</b>{in_mm} per axis (stated); the geometric calibration's residuals show {shown} {unit}. "
             ),
-            source => write!(
+            NoiseSource::Estimated => write!(
                 s,
-                "The geometric calibration's residuals, {what}s: <b>{used} {unit}</b>{in_mm} per axis ({source} from them as the {what} noise every fit weighs the rows by: the instrument's noise and whatever the geometry does not model). "
+                "The geometric calibration's residuals, {what}s: <b>{used} {unit}</b>{in_mm} per axis ({} from them as the {what} noise every fit weighs the rows by: the instrument's noise and whatever the geometry does not model). ",
+                n.source_name()
             ),
         };
     }
-    if d.extends_the_geometry() {
+    if r.extends_the_geometry {
         let _ = write!(
             s,
             "The extended calibration's residuals, positions: <b>{} mm</b> per axis (what the calibration chosen leaves). ",
-            significant(d.noise * 1e3)
+            significant(r.noise_estimate_mm)
         );
     }
 }
 
 /// What the geometric model gets wrong: the findings, the plots, the
 /// residual panels.
-fn html_findings(s: &mut String, model: &RobotModel, d: &Diagnosis, data: &[Observation]) {
+fn html_findings(
+    s: &mut String,
+    r: &DiagnosisReport,
+    model: &RobotModel,
+    d: &Diagnosis,
+    data: &[Observation],
+) {
     let _ = write!(s, "<h2>What the geometric model gets wrong</h2>");
-    if d.findings.is_empty() {
+    if r.effects.is_empty() {
         let _ = write!(
             s,
             "<p><b>Nothing beyond geometry</b>: the geometric calibration explains the data to the noise.</p>"
         );
     }
     let _ = write!(s, "<ul>");
-    for f in &d.findings {
-        let _ = write!(s, "<li>{}", html_escape(&f.sentence()));
-        for a in &f.alike {
-            let _ = write!(s, "<br>{}", html_escape(&a.sentence(&f.candidate)));
+    for e in &r.effects {
+        let _ = write!(s, "<li>{}", html_escape(&e.sentence()));
+        for a in &e.alike {
+            let _ = write!(s, "<br>{}", html_escape(&a.sentence()));
         }
         s.push_str("</li>");
     }
@@ -387,56 +390,55 @@ fn html_findings(s: &mut String, model: &RobotModel, d: &Diagnosis, data: &[Obse
 }
 
 /// The held-out gain table, the fitted figures, blunders and repeated configurations.
-fn html_holdout(s: &mut String, d: &Diagnosis, options: &DiagnoseOptions) {
-    let mm = |x: f64| x * 1e3;
+fn html_holdout(s: &mut String, r: &DiagnosisReport) {
     let _ = write!(
         s,
         "</div><h2>Gain on held-out poses ({}-fold)</h2><table><tr><th>model</th><th>RMS [mm]</th><th>mean [mm]</th><th>max [mm]</th></tr>",
-        options.folds
+        r.holdout.folds
     );
-    for (label, h) in d.holdout_rows() {
+    for (label, rms, mean, max) in r.holdout.rows() {
         let _ = write!(
             s,
-            "<tr><td>{label}</td><td>{:.4}</td><td>{:.4}</td><td>{:.4}</td></tr>",
-            mm(h.rms),
-            mm(h.mean),
-            mm(h.max)
+            "<tr><td>{label}</td><td>{rms:.4}</td><td>{mean:.4}</td><td>{max:.4}</td></tr>",
         );
     }
-    if let Some(h) = d.fitted {
+    if let Some(f) = &r.fitted {
         let _ = write!(
             s,
             "<tr><td>fitted, in-sample: the calibration written, at the poses it was fitted to (what <code>armcal predict</code> gives with it)</td><td>{:.4}</td><td>{:.4}</td><td>{:.4}</td></tr>",
-            mm(h.rms),
-            mm(h.mean),
-            mm(h.max)
+            f.rms_mm, f.mean_mm, f.max_mm
         );
     }
     let _ = write!(s, "</table>");
-    let set_aside = d.suspects.iter().filter(|b| b.set_aside).count();
-    if !d.suspects.is_empty() {
+    let set_aside = r.suspect_rows.iter().filter(|b| b.set_aside).count();
+    if !r.suspect_rows.is_empty() {
         let _ = write!(
             s,
             "<p>Blunders: {} poses flagged at a robust scale, {set_aside} set aside because the other poses are predicted better held-out without them (the data lines: the summary and the JSON's <code>outlier_rows</code>).</p>",
-            d.suspects.len()
+            r.suspect_rows.len()
         );
     }
-    if let Some(r) = &d.replicates {
+    if let Some(rep) = &r.replicates {
         let _ = write!(
             s,
             "<p>Repeated configurations: {} rows in {} distinct configurations, fitted and held out as their means.",
-            r.rows, r.configurations
+            rep.rows, rep.configurations
         );
-        if let Some(l) = &r.lack_of_fit {
+        if let (Some(pure), Some(shown), Some(expected), Some(f), Some(threshold), Some(lack)) = (
+            rep.pure_error_mm,
+            rep.residual_at_means_mm,
+            rep.expected_at_means_mm,
+            rep.lack_of_fit_f,
+            rep.lack_of_fit_threshold,
+            rep.lack_of_fit,
+        ) {
             let _ = write!(
                 s,
-                " The repeats show an instrument noise of {} mm per axis; the model leaves {} mm at the means where the instrument alone would leave {} mm (F = {:.2}, 1 % threshold {:.2}: {}).",
-                significant(mm(l.pure.sigma)),
-                significant(mm(l.shown)),
-                significant(mm(l.expected)),
-                l.f,
-                l.threshold,
-                if l.significant() {
+                " The repeats show an instrument noise of {} mm per axis; the model leaves {} mm at the means where the instrument alone would leave {} mm (F = {f:.2}, 1 % threshold {threshold:.2}: {}).",
+                significant(pure),
+                significant(shown),
+                significant(expected),
+                if lack {
                     "lack of fit"
                 } else {
                     "no lack of fit"
@@ -448,46 +450,36 @@ fn html_holdout(s: &mut String, d: &Diagnosis, options: &DiagnoseOptions) {
 }
 
 /// The parameters of the extended calibration, its effects, and the page's end.
-fn html_parameters(s: &mut String, model: &RobotModel, d: &Diagnosis) {
+fn html_parameters(s: &mut String, r: &DiagnosisReport) {
     let _ = write!(
         s,
         "<h2>Parameters of the extended calibration</h2><table><tr><th>parameter</th><th>unit</th><th>nominal</th><th>error</th><th>std</th><th>status</th></tr>"
     );
-    let units = &model.units;
-    for p in &d.fit.params {
-        let (conv, unit): (&dyn Fn(f64) -> f64, &str) = if p.param.is_angle() {
-            (&|v| units.angle_from_si(v), units.angle.name())
+    for p in &r.parameters {
+        let angle = p.name.parse::<Param>().is_ok_and(|p| p.is_angle());
+        let unit = if angle {
+            &r.units.angle
         } else {
-            (&|v| units.length_from_si(v), units.length.name())
+            &r.units.length
         };
-        let (std, status) = match &p.status {
-            Status::Identified { std } => (format!("{:.3e}", conv(*std)), "identified".to_string()),
-            Status::Fixed { reason } => ("–".into(), format!("fixed: {reason}")),
-        };
+        let std = p.std.map_or("–".into(), |s| format!("{s:.3e}"));
+        let status = p
+            .reason
+            .as_deref()
+            .map_or("identified".to_string(), |why| format!("fixed: {why}"));
         let _ = write!(
             s,
             "<tr><td>{}</td><td>{unit}</td><td>{:.6}</td><td>{:.4e}</td><td>{std}</td><td style=\"text-align:left\">{status}</td></tr>",
-            p.param,
-            conv(p.nominal),
-            conv(p.error)
+            p.name, p.nominal, p.error
         );
     }
-    for e in &d.fit.effects {
-        let value = |v: f64| effect_value(&model.robot, &e.effect, units, v);
-        let unit = effect_unit(&model.robot, &e.effect, units);
-        for (i, st) in e.status.iter().enumerate() {
-            let v = value(e.effect.parameter(i).unwrap_or(0.0));
-            let std = match st {
-                Status::Identified { std } => format!("{:.3e}", value(*std)),
-                Status::Fixed { .. } => "–".into(),
-            };
-            let _ = write!(
-                s,
-                "<tr><td>{}</td><td>{unit}</td><td>0</td><td>{v:.4e}</td><td>{std}</td><td style=\"text-align:left\">{}</td></tr>",
-                crate::calibration::fit::effect_parameter_name(&e.effect, i),
-                e.effect.name()
-            );
-        }
+    for e in &r.effect_parameters {
+        let std = e.std.map_or("–".into(), |s| format!("{s:.3e}"));
+        let _ = write!(
+            s,
+            "<tr><td>{}</td><td>{}</td><td>0</td><td>{:.4e}</td><td>{std}</td><td style=\"text-align:left\">{}</td></tr>",
+            e.name, e.unit, e.value, e.effect
+        );
     }
     let _ = writeln!(s, "</table><p>Written by armcal.</p></body></html>");
 }

@@ -54,10 +54,7 @@ pub mod html;
 pub mod large;
 pub mod report;
 mod summary;
-pub use summary::RowPlaces;
-
-pub use summary::parameter_list;
-pub(crate) use summary::{effect_unit, effect_value};
+pub use report::RowPlaces;
 
 use armcal_shared::calibration::MAX_PARAMS;
 use armcal_shared::compensation::Task;
@@ -274,19 +271,6 @@ pub struct Finding {
 }
 
 impl Finding {
-    /// The finding as the summary and the HTML page state it: the effect,
-    /// its joints, its held-out gain and its F test.
-    pub fn sentence(&self) -> String {
-        format!(
-            "found {} (joints {}): held-out gain ×{:.2}, F {:.1} > {:.1} (1% family-wise)",
-            self.candidate.name,
-            self.candidate.joints_label(),
-            self.gain,
-            self.f_test.0,
-            self.f_test.1
-        )
-    }
-
     /// The report's `evidence` (docs/file-formats.md §6): the held-out gain
     /// as a percentage over `folds` folds and the F test.
     pub fn evidence(&self, folds: usize) -> String {

@@ -8,22 +8,122 @@
 use armcal_shared::compensation::Task;
 use std::collections::BTreeMap;
 
-use armcal_shared::{Calibration, Param};
+use armcal_shared::effects::Effect;
+use armcal_shared::{Calibration, JointType, Param, Robot};
 use serde::Serialize;
 
-use super::summary::{RowPlaces, effect_value};
 use super::{Choice, DiagnoseOptions, Diagnosis, HeldOutModels, Shortfall};
 use crate::calibration::fit::Status;
+use crate::calibration::fit::prior::Geometry;
 use crate::calibration::gravity::GravityReport;
 use crate::calibration::identify::channel_weight::WeightReports;
-use crate::calibration::identify::report::{NoiseRow, noise_rows};
+use crate::calibration::identify::report::{NoiseRow, ParameterReport, noise_rows};
 use crate::calibration::identify::sessions::SessionReport;
+use crate::report::units::UnitsReport;
+use crate::session::measurements::Measurements;
 use crate::session::model::RobotModel;
+use crate::session::observation::Observation;
+
+/// How the reports name a pose: its row's line (a file's; an array's row,
+/// from 0) and, with several sessions, its session's file.
+#[derive(Clone, Copy, Debug)]
+pub struct RowPlaces<'a> {
+    /// Each pose's line.
+    pub lines: &'a [usize],
+    /// With several sessions: the poses (their sessions) and each session's file.
+    pub sessions: Option<(&'a [Observation], &'a [String])>,
+}
+
+impl<'a> RowPlaces<'a> {
+    /// The places of the poses of `data`, each at its line in `lines`.
+    pub fn of(lines: &'a [usize], data: &'a Measurements) -> Self {
+        Self {
+            lines,
+            sessions: (data.session_count() > 1).then_some((&data.poses[..], &data.sessions[..])),
+        }
+    }
+
+    /// Poses named by their line alone (one session).
+    pub fn lines(lines: &'a [usize]) -> Self {
+        Self {
+            lines,
+            sessions: None,
+        }
+    }
+
+    /// Pose `i`'s line.
+    pub fn line(&self, i: usize) -> usize {
+        self.lines.get(i).copied().unwrap_or(0)
+    }
+
+    /// Pose `i`'s file, with several sessions.
+    pub fn file(&self, i: usize) -> Option<&'a str> {
+        let (poses, files) = self.sessions?;
+        files.get(poses.get(i)?.session).map(String::as_str)
+    }
+
+    /// Pose `i` as the summary names it: `data line N`, or `FILE line N`
+    /// with several sessions.
+    pub fn label(&self, i: usize) -> String {
+        match self.file(i) {
+            Some(file) => format!("{file} line {}", self.line(i)),
+            None => format!("data line {}", self.line(i)),
+        }
+    }
+}
+
+/// A parameter of a found effect in the model's units: angles (gear amplitudes,
+/// half the lost motion of a revolute joint, a compliance's rad per N·m) in the
+/// angle unit, lengths in the length unit, ratios as they are.
+pub(crate) fn effect_value(
+    robot: &Robot<f64>,
+    effect: &Effect<f64>,
+    units: &armcal_shared::units::Units,
+    v: f64,
+) -> f64 {
+    let revolute = effect
+        .joint()
+        .is_some_and(|j| robot.links[j].joint == JointType::Revolute);
+    match effect {
+        Effect::ThermalExpansion { .. } | Effect::EncoderScale { .. } => v,
+        _ if revolute => units.angle_from_si(v),
+        _ => units.length_from_si(v),
+    }
+}
+
+/// The unit of a parameter of `effect` as [`effect_value`] gives it.
+pub(crate) fn effect_unit(
+    robot: &Robot<f64>,
+    effect: &Effect<f64>,
+    units: &armcal_shared::units::Units,
+) -> String {
+    let revolute = effect
+        .joint()
+        .is_some_and(|j| robot.links[j].joint == JointType::Revolute);
+    let moved = if revolute {
+        units.angle.name()
+    } else {
+        units.length.name()
+    };
+    match effect {
+        Effect::ThermalExpansion { .. } => "1/°C".into(),
+        Effect::EncoderScale { .. } => "1".into(),
+        Effect::JointCompliance { .. } if revolute => format!("{moved}/(N·m)"),
+        Effect::JointCompliance { .. } => format!("{moved}/N"),
+        _ => moved.into(),
+    }
+}
 
 /// `armcal diagnose`'s report (docs/file-formats.md §6): the diagnosis'
 /// own figures and what the command ran beside it.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct DiagnoseReport {
+    /// The data file (several sessions: their files), as the HTML page
+    /// names it; not in the JSON (as `identify`'s).
+    #[serde(skip)]
+    pub data: String,
+    /// The poses diagnosed.
+    pub poses: usize,
     /// The diagnosis' own figures.
     #[serde(flatten)]
     pub diagnosis: DiagnosisReport,
@@ -47,8 +147,18 @@ pub struct DiagnoseReport {
 /// The diagnosis' own figures ([`Diagnosis::report`]).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct DiagnosisReport {
-    /// The noise the geometric fit's residuals show, mm.
+    /// The model's name.
+    pub model: String,
+    /// The noise the chosen calibration's residuals show, mm (the geometric
+    /// calibration's, or the extended one's when it extends the geometry).
     pub noise_estimate_mm: f64,
+    /// Whether the calibration chosen extends the geometry with effects:
+    /// its residuals are then not the geometric calibration's.
+    pub extends_the_geometry: bool,
+    /// The sessions fitted (each in its own frames).
+    pub session_count: usize,
+    /// The model file's units, which the values not in mm are in.
+    pub units: UnitsReport,
     /// Each channel's noise.
     pub noise: Vec<NoiseRow>,
     /// The model chosen.
@@ -77,8 +187,27 @@ pub struct DiagnosisReport {
     pub suspect_rows: Vec<SuspectReport>,
     /// Every candidate's first-round gain.
     pub candidates: Vec<CandidateReport>,
+    /// The final fit's parameters (the extended calibration's geometry).
+    pub parameters: Vec<ParameterReport>,
+    /// The final fit's effects' parameters.
+    pub effect_parameters: Vec<EffectParameterReport>,
     /// The candidate the search stopped on.
     pub unsettled: Option<UnsettledReport>,
+}
+
+/// A parameter of an effect in the final fit, in its own unit.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct EffectParameterReport {
+    /// Its name (`compliance2`, …).
+    pub name: String,
+    /// The effect's name.
+    pub effect: &'static str,
+    /// Its unit (`rad/(N·m)`, `1/°C`, …).
+    pub unit: String,
+    /// Its value (its nominal is 0).
+    pub value: f64,
+    /// Its standard error (`null`: held).
+    pub std: Option<f64>,
 }
 
 /// The model chosen.
@@ -145,6 +274,8 @@ pub struct DataShare {
 pub struct HoldoutReport {
     /// `K-fold`.
     pub method: String,
+    /// K.
+    pub folds: usize,
     /// Nominal RMS.
     pub nominal_rms_mm: f64,
     /// Geometric RMS.
@@ -176,6 +307,10 @@ pub struct EffectReport {
     pub parameters: BTreeMap<String, f64>,
     /// Held-out RMS without it over with it.
     pub gain: f64,
+    /// Its F statistic.
+    pub f: f64,
+    /// The 1 % family-wise threshold it exceeds.
+    pub threshold: f64,
     /// The effects the data could not tell from it.
     pub alike: Vec<AlikeReport>,
     /// The evidence, as a sentence.
@@ -316,6 +451,63 @@ pub struct UnsettledReport {
     pub shortfall: &'static str,
     /// Poses that would settle it, when significance fell short.
     pub poses_needed: Option<usize>,
+    /// The gain asked of an effect, when its gain fell short.
+    pub min_gain: Option<f64>,
+}
+
+impl Diagnosis {
+    /// The model chosen, as reports name it: `nominal`, or the geometric model
+    /// with its prior and the effects.
+    pub fn chosen_label(&self) -> String {
+        match self.choice {
+            Choice::Nominal => "nominal (nothing beats it held-out)".into(),
+            Choice::Calibrated {
+                geometry,
+                prior_factor,
+                ..
+            } => {
+                let mut s = if geometry == Geometry::Registration {
+                    "registration (base and tool)".to_string()
+                } else {
+                    format!("{}, prior ×{prior_factor}", geometry.name())
+                };
+                for f in &self.findings {
+                    s.push_str(&format!(
+                        " + {} (joints {})",
+                        f.candidate.name,
+                        f.candidate.joints_label()
+                    ));
+                }
+                s
+            }
+        }
+    }
+
+    /// Whether the calibration chosen extends the geometry with effects:
+    /// its residuals are then not the geometric calibration's, and the
+    /// reports give both.
+    pub fn extends_the_geometry(&self) -> bool {
+        !self.fit.effects.is_empty() && self.choice != Choice::Nominal
+    }
+
+    /// The D-H parameters the prior holds (data share below one half) and those
+    /// the data moved (at least one half), in the final fit.
+    pub fn prior_role(&self) -> (Vec<Param>, Vec<Param>) {
+        let (mut held, mut moved) = (Vec::new(), Vec::new());
+        for p in &self.fit.params {
+            if matches!(p.param, Param::Base(_) | Param::Tool(_))
+                || !matches!(p.status, Status::Identified { .. })
+            {
+                continue;
+            }
+            if p.data_share < 0.5 {
+                held.push(p.param);
+            } else {
+                moved.push(p.param);
+            }
+        }
+        (held, moved)
+    }
 }
 
 /// Joints from 0 as the reports give them, from 1.
@@ -348,8 +540,12 @@ impl Diagnosis {
             Choice::Nominal => (options.fit.prior, 1.0),
         };
         DiagnosisReport {
+            model: model.name.clone(),
             noise_estimate_mm: mm(self.noise),
-            noise: noise_rows(&self.geometric.noise, units),
+            extends_the_geometry: self.extends_the_geometry(),
+            session_count: self.fit.sessions.len(),
+            units: UnitsReport::from(units),
+            noise: noise_rows(&self.geometric, units),
             chosen: ChosenReport {
                 model: match self.choice {
                     Choice::Nominal => "nominal",
@@ -433,6 +629,19 @@ impl Diagnosis {
                     gain: *g,
                 })
                 .collect(),
+            parameters: self
+                .fit
+                .params
+                .iter()
+                .map(|p| {
+                    let (std, fixed) = match &p.status {
+                        Status::Identified { std } => (Some(*std), None),
+                        Status::Fixed { reason } => (None, Some(reason.as_str())),
+                    };
+                    ParameterReport::of(units, p.param, p.nominal, p.error, std, fixed)
+                })
+                .collect(),
+            effect_parameters: self.effect_parameter_reports(model),
             unsettled: self.unsettled.as_ref().map(|u| UnsettledReport {
                 name: u.candidate.name,
                 joints: from_one(&u.candidate.joints),
@@ -446,6 +655,10 @@ impl Diagnosis {
                 poses_needed: match u.shortfall {
                     Shortfall::Significance { poses_needed } => Some(poses_needed),
                     Shortfall::Gain { .. } => None,
+                },
+                min_gain: match u.shortfall {
+                    Shortfall::Significance { .. } => None,
+                    Shortfall::Gain { min_gain } => Some(min_gain),
                 },
             }),
         }
@@ -486,6 +699,8 @@ impl Diagnosis {
                     joints: from_one(&f.candidate.joints),
                     parameters,
                     gain: f.gain,
+                    f: f.f_test.0,
+                    threshold: f.f_test.1,
                     alike: f
                         .alike
                         .iter()
@@ -502,6 +717,30 @@ impl Diagnosis {
             .collect()
     }
 
+    /// The report's `effect_parameters`: each parameter of the final fit's
+    /// effects, in its own unit.
+    fn effect_parameter_reports(&self, model: &RobotModel) -> Vec<EffectParameterReport> {
+        let units = &model.units;
+        let mut out = Vec::new();
+        for e in &self.fit.effects {
+            let value = |v: f64| effect_value(&model.robot, &e.effect, units, v);
+            let unit = effect_unit(&model.robot, &e.effect, units);
+            for (i, status) in e.status.iter().enumerate() {
+                out.push(EffectParameterReport {
+                    name: crate::calibration::fit::effect_parameter_name(&e.effect, i),
+                    effect: e.effect.name(),
+                    unit: unit.clone(),
+                    value: value(e.effect.parameter(i).unwrap_or(0.0)),
+                    std: match status {
+                        Status::Identified { std } => Some(value(*std)),
+                        Status::Fixed { .. } => None,
+                    },
+                });
+            }
+        }
+        out
+    }
+
     /// The report's `holdout`: the held-out errors of the three models, mm.
     fn holdout_report(&self, options: &DiagnoseOptions) -> HoldoutReport {
         let mm = |x: f64| x * 1e3;
@@ -512,6 +751,7 @@ impl Diagnosis {
         } = self.holdout;
         HoldoutReport {
             method: format!("{}-fold", options.folds),
+            folds: options.folds,
             nominal_rms_mm: mm(nominal.rms),
             geometric_rms_mm: mm(geometric.rms),
             extended_rms_mm: mm(extended.rms),
@@ -546,5 +786,30 @@ impl Diagnosis {
                 lack_of_fit: l.map(|l| l.significant()),
             }
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::io::measurements::parse_measurements;
+    use crate::io::model_file::load_model;
+
+    /// A pose of one session is named by its line; of several, by its
+    /// file and its line in it (each file numbers its own lines).
+    #[test]
+    fn a_row_is_named_by_its_file_when_there_are_several() {
+        let model = load_model("ur5e").unwrap();
+        let file = |name: &str| {
+            let text = "q1,q2,q3,q4,q5,q6,x,y,z\n0.1,0.2,0.3,0.4,0.5,0.6,0.1,0.2,0.3\n";
+            parse_measurements(text, name, &model).unwrap()
+        };
+        let one = file("a.csv");
+        assert_eq!(RowPlaces::of(&one.lines, &one).label(0), "data line 2");
+        let two = Measurements::sessions(vec![file("a.csv"), file("b.csv")]).unwrap();
+        let rows = RowPlaces::of(&two.lines, &two);
+        assert_eq!(rows.label(0), "a.csv line 2");
+        assert_eq!(rows.label(1), "b.csv line 2");
+        assert_eq!(rows.file(1), Some("b.csv"));
     }
 }

@@ -515,15 +515,6 @@ impl Weighting {
         }
     }
 
-    /// The summary's lines, a kind after another ([`WeightChoice::summary`]),
-    /// the residuals from `fit` (the fit at the weights chosen).
-    pub fn summary(&self, fit: &FullFit) -> String {
-        self.0
-            .iter()
-            .map(|w| w.choice.summary(w.kind, residual(fit, w.kind)))
-            .collect()
-    }
-
     /// The reports' `orientation_weight` and `contact_weights`
     /// (docs/file-formats.md §6), the residuals from `fit`.
     pub fn reports(&self, fit: &FullFit) -> WeightReports {
@@ -540,14 +531,6 @@ impl Weighting {
             }
         }
         out
-    }
-
-    /// The HTML report's sections, one a kind ([`WeightChoice::html`]).
-    pub fn html(&self, fit: &FullFit) -> String {
-        self.0
-            .iter()
-            .map(|w| w.choice.html(w.kind, residual(fit, w.kind)))
-            .collect()
     }
 }
 
@@ -581,13 +564,25 @@ pub struct WeightReport {
     /// Its name (`estimated`, `0.1`, …).
     pub name: String,
     /// `stated`, `undetermined` or `cross-validation`.
-    pub chosen_by: &'static str,
+    pub chosen_by: ChosenBy,
     /// The cross-validation's folds.
     pub folds: Option<usize>,
     /// Each weight's held-out score.
     pub held_out: Vec<WeightScoreReport>,
     /// The kind's disagreement with the other rows, when found.
     pub disagreement: Option<Disagreement>,
+}
+
+/// How a kind's weight was chosen, as the reports say it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ChosenBy {
+    /// Stated by its option.
+    Stated,
+    /// No training set determines the model: the noise's weight kept.
+    Undetermined,
+    /// By the held-out tool points.
+    CrossValidation,
 }
 
 /// One weight's held-out score in the reports.
@@ -603,17 +598,49 @@ pub struct WeightScoreReport {
     pub held_out_rms_mm: f64,
 }
 
-/// A kind's disagreement with the other rows: the significance and the
+/// A kind's disagreement with the other rows: the significance, and the
 /// kind's noise at full weight and residual at the weight chosen, keyed by
-/// the kind's unit (`orientation_noise_at_full_weight_mrad`,
-/// `residual_rms_mm`, …).
+/// the kind's unit.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
-pub struct Disagreement {
-    /// In standard errors of the paired difference.
-    pub significance: Option<f64>,
-    /// The noise and residual, named with their unit.
-    #[serde(flatten)]
-    pub figures: BTreeMap<String, Option<f64>>,
+#[serde(untagged)]
+pub enum Disagreement {
+    /// The orientations', mrad.
+    Orientation {
+        /// In standard errors of the paired difference.
+        significance: Option<f64>,
+        /// Their noise at full weight, mrad per axis.
+        orientation_noise_at_full_weight_mrad: f64,
+        /// Their residual RMS at the weight chosen, mrad.
+        orientation_rms_mrad: f64,
+    },
+    /// A contact kind's, mm.
+    Contact {
+        /// In standard errors of the paired difference.
+        significance: Option<f64>,
+        /// Its noise at full weight, mm per axis.
+        noise_at_full_weight_mm: f64,
+        /// Its residual RMS at the weight chosen, mm.
+        residual_rms_mm: f64,
+    },
+}
+
+impl Disagreement {
+    /// Its significance (`None`: not finite), noise at full weight and
+    /// residual at the weight chosen, in the kind's unit.
+    fn figures(&self) -> (Option<f64>, f64, f64) {
+        match *self {
+            Self::Orientation {
+                significance,
+                orientation_noise_at_full_weight_mrad: noise,
+                orientation_rms_mrad: residual,
+            }
+            | Self::Contact {
+                significance,
+                noise_at_full_weight_mm: noise,
+                residual_rms_mm: residual,
+            } => (significance, noise, residual),
+        }
+    }
 }
 
 /// How a kind's values read in the reports: the unit, its factor from SI,
@@ -631,81 +658,16 @@ fn reading(kind: Weighed) -> (&'static str, f64, &'static str) {
 }
 
 impl WeightChoice {
-    /// The summary's lines for kind `kind`: the weight fitted at and how it
-    /// was chosen (each weight's held-out RMS of the tool point, mm), and
-    /// when the kind disagrees with the other rows, that finding with its
-    /// residual RMS at the weight chosen (`residual`, rad or m).
-    pub fn summary(&self, kind: Weighed, residual: f64) -> String {
-        let name = ChannelWeight::name;
-        let what = kind.key();
-        let option = format!("--{what}-weight");
-        let mut out = match self {
-            Self::Stated { weight } => {
-                format!("{what} weight: {} (stated, {option})
-", name(*weight))
-            }
-            Self::Undetermined { folds } => format!(
-                "{what} weight: estimated (no training set of {folds} folds determines the model: nothing chosen)
-"
-            ),
-            Self::CrossValidated {
-                weight,
-                folds,
-                scores,
-                ..
-            } => format!(
-                "{what} weight: {} (chosen, {folds}-fold held-out tool-point RMS: {})
-",
-                name(*weight),
-                scores
-                    .iter()
-                    .map(|s| format!("{} {:.4} mm", name(s.weight), s.held_out * 1e3))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
-        };
-        if let Self::CrossValidated {
-            weight,
-            significance,
-            noise,
-            ..
-        } = self
-            && self.disagrees()
-        {
-            let (estimated, chosen) = (
-                self.score_of(1.0).unwrap_or(f64::NAN),
-                self.score_of(*weight).unwrap_or(f64::NAN),
-            );
-            let (unit, to, cause) = reading(kind);
-            let others = match kind {
-                Weighed::Orientation => "positions",
-                Weighed::Point | Weighed::Plane => "other contacts",
-            };
-            out.push_str(&format!(
-                "  the {} disagree with the {others}: weighed by their noise \
-                 ({:.3} {unit} per axis) they predict held-out tool points {:.4} mm against {:.4} \
-                 mm at {} ({:.1} standard errors of the difference); their residual \
-                 at the weight chosen is {:.3} {unit} RMS: {cause}\n",
-                kind.name(),
-                noise * to,
-                estimated * 1e3,
-                chosen * 1e3,
-                name(*weight),
-                significance,
-                residual * to
-            ));
-        }
-        out
-    }
-
     /// The reports' entry for kind `kind` (docs/file-formats.md §6): the
     /// weight, how it was chosen, each weight's held-out RMS (mm) and the
     /// disagreement found, with the kind's residual RMS at the weight chosen
     /// (`residual`, rad or m; given in mrad or mm).
     pub fn report(&self, kind: Weighed, residual: f64) -> WeightReport {
         let (chosen_by, folds, scores, significance, noise) = match self {
-            Self::Stated { .. } => ("stated", None, &[][..], None, None),
-            Self::Undetermined { folds } => ("undetermined", Some(*folds), &[][..], None, None),
+            Self::Stated { .. } => (ChosenBy::Stated, None, &[][..], None, None),
+            Self::Undetermined { folds } => {
+                (ChosenBy::Undetermined, Some(*folds), &[][..], None, None)
+            }
             Self::CrossValidated {
                 folds,
                 scores,
@@ -713,31 +675,28 @@ impl WeightChoice {
                 noise,
                 ..
             } => (
-                "cross-validation",
+                ChosenBy::CrossValidation,
                 Some(*folds),
                 &scores[..],
                 Some(*significance),
                 Some(*noise),
             ),
         };
-        let (unit, to, _) = reading(kind);
+        let (_, to, _) = reading(kind);
         let disagreement = self.disagrees().then(|| {
-            let (noise_key, residual_key) = match kind {
-                Weighed::Orientation => (
-                    "orientation_noise_at_full_weight_mrad".to_string(),
-                    "orientation_rms_mrad".to_string(),
-                ),
-                _ => (
-                    format!("noise_at_full_weight_{unit}"),
-                    format!("residual_rms_{unit}"),
-                ),
-            };
-            Disagreement {
-                significance: significance.filter(|s| s.is_finite()),
-                figures: BTreeMap::from([
-                    (noise_key, noise.map(|n| n * to)),
-                    (residual_key, Some(residual * to)),
-                ]),
+            let significance = significance.filter(|s| s.is_finite());
+            let (noise, residual) = (noise.unwrap_or(f64::NAN) * to, residual * to);
+            match kind {
+                Weighed::Orientation => Disagreement::Orientation {
+                    significance,
+                    orientation_noise_at_full_weight_mrad: noise,
+                    orientation_rms_mrad: residual,
+                },
+                Weighed::Point | Weighed::Plane => Disagreement::Contact {
+                    significance,
+                    noise_at_full_weight_mm: noise,
+                    residual_rms_mm: residual,
+                },
             }
         });
         WeightReport {
@@ -757,41 +716,115 @@ impl WeightChoice {
             disagreement,
         }
     }
+}
+
+impl WeightReport {
+    /// The summary's lines for kind `kind`: the weight fitted at and how it
+    /// was chosen (each weight's held-out RMS of the tool point, mm), and
+    /// when the kind disagrees with the other rows, that finding with its
+    /// residual RMS at the weight chosen.
+    pub fn summary(&self, kind: Weighed) -> String {
+        let what = kind.key();
+        let mut out = match (self.chosen_by, self.folds) {
+            (ChosenBy::Stated, _) | (_, None) => {
+                format!("{what} weight: {} (stated, --{what}-weight)\n", self.name)
+            }
+            (ChosenBy::Undetermined, Some(folds)) => format!(
+                "{what} weight: estimated (no training set of {folds} folds determines the model: nothing chosen)\n"
+            ),
+            (ChosenBy::CrossValidation, Some(folds)) => format!(
+                "{what} weight: {} (chosen, {folds}-fold held-out tool-point RMS: {})\n",
+                self.name,
+                self.held_out
+                    .iter()
+                    .map(|s| format!("{} {:.4} mm", s.name, s.held_out_rms_mm))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        };
+        if let Some(d) = &self.disagreement {
+            let (significance, noise, residual) = d.figures();
+            let score = |w: f64| {
+                self.held_out
+                    .iter()
+                    .find(|s| s.weight == w)
+                    .map_or(f64::NAN, |s| s.held_out_rms_mm)
+            };
+            let (unit, _, cause) = reading(kind);
+            let others = match kind {
+                Weighed::Orientation => "positions",
+                Weighed::Point | Weighed::Plane => "other contacts",
+            };
+            out.push_str(&format!(
+                "  the {} disagree with the {others}: weighed by their noise \
+                 ({noise:.3} {unit} per axis) they predict held-out tool points {:.4} mm against {:.4} \
+                 mm at {} ({:.1} standard errors of the difference); their residual \
+                 at the weight chosen is {residual:.3} {unit} RMS: {cause}\n",
+                kind.name(),
+                score(1.0),
+                score(self.weight),
+                self.name,
+                significance.unwrap_or(f64::NAN),
+            ));
+        }
+        out
+    }
 
     /// The HTML report's section for kind `kind`: the summary's lines as a
     /// table of each weight's held-out RMS and the finding.
-    pub fn html(&self, kind: Weighed, residual: f64) -> String {
+    pub fn html(&self, kind: Weighed) -> String {
         let what = kind.key();
         let mut title = what.to_string();
         title[..1].make_ascii_uppercase();
         let mut s = format!("<h2>{title} weight</h2>\n");
-        if let Self::CrossValidated { weight, scores, .. } = self {
+        if self.chosen_by == ChosenBy::CrossValidation {
             s.push_str(&format!(
                 "<table><tr><th>{what} weight</th><th>prior factor</th>\
                  <th>held-out tool-point RMS (mm)</th></tr>\n",
             ));
-            for score in scores {
-                let mark = if score.weight == *weight {
+            for score in &self.held_out {
+                let mark = if score.weight == self.weight {
                     " (chosen)"
                 } else {
                     ""
                 };
                 s.push_str(&format!(
                     "<tr><td>{}{mark}</td><td>×{}</td><td>{:.4}</td></tr>\n",
-                    ChannelWeight::name(score.weight),
-                    score.prior_factor,
-                    score.held_out * 1e3
+                    score.name, score.prior_factor, score.held_out_rms_mm
                 ));
             }
             s.push_str("</table>\n");
         }
-        for line in self.summary(kind, residual).lines() {
+        for line in self.summary(kind).lines() {
             s.push_str(&format!(
                 "<p>{}</p>\n",
                 crate::report::html::html_escape(line.trim())
             ));
         }
         s
+    }
+}
+
+impl WeightReports {
+    /// Each kind weighed, in the reports' order ([`Weighed::ALL`]).
+    fn each(&self) -> impl Iterator<Item = (Weighed, &WeightReport)> {
+        Weighed::ALL.into_iter().filter_map(|kind| {
+            let report = match kind {
+                Weighed::Orientation => self.orientation_weight.as_ref(),
+                kind => self.contact_weights.as_ref()?.get(kind.key()),
+            };
+            report.map(|r| (kind, r))
+        })
+    }
+
+    /// The summary's lines, a kind after another ([`WeightReport::summary`]).
+    pub fn summary(&self) -> String {
+        self.each().map(|(kind, r)| r.summary(kind)).collect()
+    }
+
+    /// The HTML page's sections, a kind after another ([`WeightReport::html`]).
+    pub fn html(&self) -> String {
+        self.each().map(|(kind, r)| r.html(kind)).collect()
     }
 }
 

@@ -620,7 +620,8 @@ fn a_probed_block_held_out_is_judged_by_its_flatness() {
         assert_eq!(r.calibrated.spread_rms(), None);
         assert_eq!(r.calibrated.worst_distance_error(), None);
     }
-    let table = holdout_table(&rows, None);
+    let reports: Vec<_> = rows.iter().map(|r| r.report(&model.units)).collect();
+    let table = holdout_table(&reports, None);
     assert!(table.contains("flatness"), "{table}");
     assert!(table.contains('–'), "{table}");
 }
@@ -682,7 +683,10 @@ fn delivered(
     )
     .expect("fits");
     let calibrated = fit.calibrated();
-    eprintln!("{}", fit.weighting.summary(fit.full.as_ref().unwrap()));
+    eprintln!(
+        "{}",
+        fit.weighting.reports(fit.full.as_ref().unwrap()).summary()
+    );
     let mut rng = simulate::rng(99);
     let held = simulate::random_configurations(truth, 200, &mut rng);
     (

@@ -12,12 +12,15 @@ use super::Identification;
 use super::channel_weight::WeightReports;
 use super::prior_scale::PriorChoice;
 use super::sessions::{self, SessionReport};
-use crate::calibration::fit::noise;
+use crate::calibration::fit::{FullFit, noise};
 use crate::calibration::gravity::GravityReport;
+use crate::calibration::validation::acceptance::Residual as Judged;
 use crate::report::units::UnitsReport;
 use crate::report::units::param_in_units;
 use crate::session::channel::Channel;
 use crate::session::measurements::Measurements;
+use crate::session::model::RobotModel;
+use armcal_shared::compensation::Task;
 
 /// One channel's noise as the reports show it, in the model's units.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -36,6 +39,11 @@ pub struct NoiseRow {
     /// The unit of both (the model's length unit, its angle unit for
     /// orientations).
     pub unit: String,
+    /// The channel's rows beyond the unknowns they determine (below 1: too
+    /// few to check a stated noise).
+    pub redundancy: f64,
+    /// The factor on the weight its noise gives its rows (1: full weight).
+    pub weight: f64,
 }
 
 impl NoiseRow {
@@ -56,10 +64,10 @@ fn source_name<S: Serializer>(source: &noise::NoiseSource, s: S) -> Result<S::Ok
     })
 }
 
-/// The noise of each channel the data have ([`noise::NoiseEstimate::rows`]),
-/// in the model's units, for reports.
-pub fn noise_rows(noise: &noise::NoiseEstimate, units: &Units) -> Vec<NoiseRow> {
-    noise
+/// The noise of each channel `fit`'s data have ([`noise::NoiseEstimate::rows`]),
+/// in the model's units, with the weight each was fitted at, for reports.
+pub fn noise_rows(fit: &FullFit, units: &Units) -> Vec<NoiseRow> {
+    fit.noise
         .rows()
         .into_iter()
         .map(|(channel, n)| {
@@ -75,6 +83,9 @@ pub fn noise_rows(noise: &noise::NoiseEstimate, units: &Units) -> Vec<NoiseRow> 
                 shown: in_units(units, n.shown),
                 source: n.source,
                 unit,
+                redundancy: n.redundancy,
+                // The known distances' weight is their noise's.
+                weight: channel.map_or(1.0, |c| fit.weights.of_channel(c)),
             }
         })
         .collect()
@@ -85,6 +96,20 @@ pub fn noise_rows(noise: &noise::NoiseEstimate, units: &Units) -> Vec<NoiseRow> 
 /// paper's.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct IdentifyReport {
+    /// The model's name.
+    pub model: String,
+    /// Its joints.
+    pub joints: usize,
+    /// The data file (several sessions: their files), as the summary names
+    /// it. Not in the JSON: two reports of the same rows compare equal
+    /// whatever their files are called (a session's and a row's file are,
+    /// where several files must be told apart).
+    #[serde(skip)]
+    pub data: String,
+    /// The poses fitted.
+    pub poses: usize,
+    /// `pose` (full poses) or `position`: what the calibration compensates.
+    pub task: TaskReport,
     /// `full` or `paper`.
     pub params: &'static str,
     /// Iterations run.
@@ -104,6 +129,10 @@ pub struct IdentifyReport {
     pub warnings: Vec<String>,
     /// The rows the fit explains worst that fail the deleted-residual test.
     pub suspect_rows: Vec<SuspectRowReport>,
+    /// The rows that test tested.
+    pub suspect_rows_tested: usize,
+    /// Those failing it, named or not.
+    pub suspect_rows_failing: usize,
     /// The nominal model's residual on the rows, once judged.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub nominal_residual: Option<NominalResidual>,
@@ -128,6 +157,32 @@ pub struct ParameterReport {
     /// Why it was held at nominal.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
+}
+
+impl ParameterReport {
+    /// Parameter `param` (its nominal value, error and standard error SI;
+    /// `fixed`: why it was held) in `units`.
+    pub fn of(
+        units: &Units,
+        param: armcal_shared::Param,
+        nominal: f64,
+        error: f64,
+        std: Option<f64>,
+        fixed: Option<&str>,
+    ) -> Self {
+        Self {
+            name: param.to_string(),
+            nominal: param_in_units(units, param, nominal),
+            error: param_in_units(units, param, error),
+            std: std.map(|s| param_in_units(units, param, s)),
+            status: if fixed.is_some() {
+                "fixed"
+            } else {
+                "identified"
+            },
+            reason: fixed.map(str::to_string),
+        }
+    }
 }
 
 /// A calibration's residuals on the rows it was fitted to.
@@ -158,13 +213,53 @@ pub struct SuspectRowReport {
     pub threshold: f64,
 }
 
-/// The nominal model's residual on the rows.
+/// What a calibration compensates, as the reports say it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TaskReport {
+    /// Full poses: orientations and positions.
+    Pose,
+    /// Positions.
+    Position,
+}
+
+impl From<Task> for TaskReport {
+    fn from(task: Task) -> Self {
+        match task {
+            Task::Pose => Self::Pose,
+            Task::Position => Self::Position,
+        }
+    }
+}
+
+/// The nominal model's residual on the rows, and the written calibration's.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct NominalResidual {
     /// RMS position residual, the model's length unit.
     pub position_rms: f64,
     /// The same, mm.
     pub position_rms_mm: f64,
+    /// RMS orientation residual, the model's angle unit (`null` without
+    /// orientations).
+    pub orientation_rms: Option<f64>,
+    /// The written calibration's on the same rows: what `armcal predict`
+    /// gives with the file.
+    pub calibrated: JudgedResidual,
+    /// Whether the figures are the contacts' spread about the fitted points
+    /// and planes (a session without a tracker) rather than position errors.
+    pub contact_spread: bool,
+}
+
+/// A model's residual on the rows it is judged on.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct JudgedResidual {
+    /// RMS position residual, the model's length unit.
+    pub position_rms: f64,
+    /// The same, mm.
+    pub position_rms_mm: f64,
+    /// RMS orientation residual, the model's angle unit (`null` without
+    /// orientations).
+    pub orientation_rms: Option<f64>,
 }
 
 /// The full model's statistics in `identify`'s report.
@@ -205,11 +300,30 @@ pub struct PriorReport {
     /// The factor on the stated one.
     pub factor: f64,
     /// How it was chosen.
-    pub chosen_by: &'static str,
+    pub chosen_by: PriorChosenBy,
+    /// The cross-validation's folds (`null`: none run).
+    pub folds: Option<usize>,
     /// How far it reaches (the full fit's).
     pub reach: Option<f64>,
     /// Each factor's held-out score, when cross-validated.
     pub held_out: Option<Vec<PriorScoreReport>>,
+}
+
+/// How the prior's scale was chosen, as the reports say it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum PriorChosenBy {
+    /// As stated, nothing tried.
+    #[serde(rename = "stated")]
+    Stated,
+    /// As stated: no factor tried changes the held-out error materially.
+    #[serde(rename = "stated: immaterial to the data")]
+    Immaterial,
+    /// As stated: no training set of the folds determines the model.
+    #[serde(rename = "stated: folds undetermined")]
+    Undetermined,
+    /// The factor that predicts held-out poses best.
+    #[serde(rename = "cross-validation")]
+    CrossValidation,
 }
 
 /// One prior factor's held-out score.
@@ -241,6 +355,21 @@ pub struct ContactsReport {
     pub planes: Vec<PlaneReport>,
     /// Each known distance's residual, the model's length unit.
     pub distance_residuals: Vec<f64>,
+    /// Each known distance, with its residual.
+    pub distances: Vec<DistanceReport>,
+}
+
+/// A known distance between two points, and what the fit made of it.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct DistanceReport {
+    /// The points' names (`?` for one not in the file).
+    pub between: [String; 2],
+    /// The distance stated, the model's length unit.
+    pub length: f64,
+    /// Fitted minus stated, the model's length unit.
+    pub residual: f64,
+    /// Its line in the constraints file.
+    pub line: usize,
 }
 
 /// A point the tool touches, located by the fit.
@@ -266,27 +395,38 @@ pub struct PlaneReport {
 }
 
 impl Identification {
-    /// The report of an identification from `data`, in `units`.
-    pub fn report(&self, units: &Units, data: &Measurements) -> IdentifyReport {
+    /// The report of an identification of `model` from `data`, in the
+    /// model's units.
+    pub fn report(&self, model: &RobotModel, data: &Measurements) -> IdentifyReport {
+        let units = &model.units;
         let length = |x: f64| units.length_from_si(x);
+        let angle = |x: f64| units.angle_from_si(x);
+        let judged = |r: &Judged| JudgedResidual {
+            position_rms: length(r.position),
+            position_rms_mm: r.position * 1e3,
+            orientation_rms: r.orientation.map(angle),
+        };
         IdentifyReport {
+            model: model.name.clone(),
+            joints: model.robot.dof(),
+            data: data.file.clone(),
+            poses: data.poses.len(),
+            task: self.calibration.task.into(),
             params: self.params.name(),
             iterations: self.iterations,
             converged: self.converged,
             parameters: self
                 .parameters
                 .iter()
-                .map(|r| ParameterReport {
-                    name: r.param.to_string(),
-                    nominal: param_in_units(units, r.param, r.nominal),
-                    error: param_in_units(units, r.param, r.error),
-                    std: r.std.map(|s| param_in_units(units, r.param, s)),
-                    status: if r.fixed.is_some() {
-                        "fixed"
-                    } else {
-                        "identified"
-                    },
-                    reason: r.fixed.clone(),
+                .map(|r| {
+                    ParameterReport::of(
+                        units,
+                        r.param,
+                        r.nominal,
+                        r.error,
+                        r.std,
+                        r.fixed.as_deref(),
+                    )
                 })
                 .collect(),
             residual: Residual {
@@ -310,9 +450,14 @@ impl Identification {
                     threshold: r.threshold,
                 })
                 .collect(),
+            suspect_rows_tested: self.suspect_rows.tested,
+            suspect_rows_failing: self.suspect_rows.failing,
             nominal_residual: self.judgement.as_ref().map(|j| NominalResidual {
                 position_rms: length(j.nominal.position),
                 position_rms_mm: j.nominal.position * 1e3,
+                orientation_rms: j.nominal.orientation.map(angle),
+                calibrated: judged(&j.calibrated),
+                contact_spread: data.is_constrained(),
             }),
             full: self.full.as_ref().map(|fit| FullReport {
                 sessions: sessions::reports(fit, &self.sessions_held_out, data, units),
@@ -320,7 +465,7 @@ impl Identification {
                 observability_index: fit.observability,
                 variance_factor: fit.variance_factor,
                 equations: fit.equations,
-                noise: noise_rows(&fit.noise, units),
+                noise: noise_rows(fit, units),
                 prior: self.prior_report(units),
                 weights: self.weighting.reports(fit),
                 correlations: fit
@@ -365,16 +510,67 @@ impl Identification {
                             .iter()
                             .map(|d| length(*d))
                             .collect(),
+                        distances: data
+                            .constraints
+                            .distances
+                            .iter()
+                            .zip(&fit.distance_residuals)
+                            .map(|(d, r)| DistanceReport {
+                                between: d.points.map(|k| {
+                                    data.constraints
+                                        .points
+                                        .get(k)
+                                        .map_or("?", |p| p.name.as_str())
+                                        .to_string()
+                                }),
+                                length: length(d.length),
+                                residual: length(*r),
+                                line: d.line,
+                            })
+                            .collect(),
                     }
                 }),
             }),
         }
     }
 
-    /// The JSON of an identification from `data` (docs/file-formats.md
-    /// §6): [`Identification::report`] serialised.
-    pub fn to_json(&self, units: &Units, data: &Measurements) -> serde_json::Value {
-        crate::report::to_json(&self.report(units, data))
+    /// What the user should know of this identification of `data` that
+    /// does not stop it, one a line for standard error and the JSON's
+    /// `warnings`: each session that does not reconcile with the others
+    /// ([`super::sessions::warnings`]), each row named by
+    /// [`super::suspect_rows`].
+    fn warnings(&self, data: &Measurements, u: &Units) -> Vec<String> {
+        let mut out = Vec::new();
+        if let Some(fit) = &self.full {
+            out.extend(super::sessions::warnings(
+                &self.sessions_held_out,
+                data,
+                super::sessions::sharing_of(fit),
+                u,
+            ));
+        }
+        let rows = &self.suspect_rows;
+        out.extend(rows.named.iter().map(|r| {
+            format!(
+                "{}:{}: the fit explains this row worst: its residual {}, its deleted residual \
+                 F = {:.3e} above {:.1} (the {} quantile of F(k, R − k)): a blunder? identify \
+                 fitted it; `armcal diagnose` sets such rows aside when the others are \
+                 predicted better without them",
+                data.file_of(r.pose),
+                data.lines[r.pose],
+                crate::report::format::length_and_mm(u, r.residual),
+                r.f,
+                r.threshold,
+                super::suspect_rows::quantile_name(rows.tested)
+            )
+        }));
+        if rows.failing > rows.named.len() {
+            out.push(format!(
+                "{} more rows fail the deleted-residual test: run `armcal diagnose`",
+                rows.failing - rows.named.len()
+            ));
+        }
+        out
     }
 
     /// The report's `prior`: the scale fitted at (model units; `None` for
@@ -383,19 +579,24 @@ impl Identification {
         let factor = self.prior.as_ref().map_or(1.0, PriorChoice::factor);
         let scaled = self.stated_prior.scaled(factor);
         let finite = |x: f64| x.is_finite().then_some(x);
-        let (chosen_by, scores) = match &self.prior {
-            None => ("stated", None),
-            Some(PriorChoice::Immaterial) => ("stated: immaterial to the data", None),
-            Some(PriorChoice::Undetermined { .. }) => ("stated: folds undetermined", None),
-            Some(PriorChoice::CrossValidated { scores, .. }) => {
-                ("cross-validation", Some(scores.as_slice()))
+        let (chosen_by, folds, scores) = match &self.prior {
+            None => (PriorChosenBy::Stated, None, None),
+            Some(PriorChoice::Immaterial) => (PriorChosenBy::Immaterial, None, None),
+            Some(PriorChoice::Undetermined { folds }) => {
+                (PriorChosenBy::Undetermined, Some(*folds), None)
             }
+            Some(PriorChoice::CrossValidated { folds, scores, .. }) => (
+                PriorChosenBy::CrossValidation,
+                Some(*folds),
+                Some(scores.as_slice()),
+            ),
         };
         PriorReport {
             length: finite(units.length_from_si(scaled.length)),
             angle: finite(units.angle_from_si(scaled.angle)),
             factor,
             chosen_by,
+            folds,
             reach: self.full.as_ref().map(|f| f.prior_reach),
             held_out: scores.map(|s| {
                 s.iter()

@@ -26,8 +26,8 @@ use armcal_shared::Frame;
 
 use crate::calibration::fit::{FullError, FullFit, FullOptions, Status, register_session};
 use crate::calibration::validation::stats::f_quantile;
-use crate::report::format::length_and_mm;
-use crate::report::units::FrameReport;
+use crate::report::format::{length_and_mm, length_and_mm_of};
+use crate::report::units::{FrameReport, UnitsReport};
 use crate::session::channel::Channel;
 use crate::session::measurements::Measurements;
 use crate::session::observation::Observation;
@@ -330,96 +330,73 @@ fn moved(a: &Frame<f64>, b: &Frame<f64>) -> (f64, f64) {
     (d.translation.vector.norm(), d.rotation.angle())
 }
 
-/// The summary's lines on the sessions, when `data` has several: which
-/// frames are each session's own, which registration the file holds, and
-/// each session's poses, residual and frames.
-pub fn summary(
-    fit: &FullFit,
-    held_out: &[SessionHeldOut],
-    data: &Measurements,
-    u: &Units,
-) -> String {
+/// The summary's lines on the sessions (their [`reports`], in units `u`),
+/// when there are several: which frames are each session's own, which
+/// registration the file holds, and each session's poses, residual and
+/// frames.
+pub fn summary(sessions: &[SessionReport], u: &UnitsReport) -> String {
     let mut out = String::new();
-    if fit.sessions.len() < 2 {
+    let Some(second) = sessions.get(1) else {
         return out;
-    }
-    let frames = match fit.registrations.own_frames(1) {
+    };
+    let frames = match (second.base.is_some(), second.tool.is_some()) {
         (true, true) => "each with its own base frame and tool",
         (true, false) => "each with its own base frame, one tool (--same-tool)",
         (false, true) => "one base frame (--same-base), each with its own tool",
         (false, false) => "one base frame and one tool (--same-base --same-tool)",
     };
-    let first = data
-        .sessions
-        .first()
-        .map_or(data.file.as_str(), String::as_str);
     let _ = writeln!(
         out,
         "{} sessions, {frames}; the calibration written holds the first session's registration \
-         ({first}): `armcal predict` with it gives that session's figure",
-        fit.sessions.len()
+         ({}): `armcal predict` with it gives that session's figure",
+        sessions.len(),
+        sessions[0].file
     );
-    let length = |x: f64| length_and_mm(u, x);
-    for (k, s) in fit.sessions.iter().enumerate() {
-        let file = data.sessions.get(k).map_or("?", String::as_str);
+    let length = |x: f64, mm: f64| length_and_mm_of(x, &u.length, mm);
+    for (k, s) in sessions.iter().enumerate() {
         let _ = write!(
             out,
-            "  session {} {file}: {}, position RMS {}",
+            "  session {} {}: {}, position RMS {}",
             k + 1,
+            s.file,
             crate::session::measurements::plural(s.poses, "pose"),
-            length(s.position_rms)
+            length(s.position_rms, s.position_rms_mm)
         );
         if let Some(o) = s.orientation_rms {
+            let _ = write!(out, ", orientation RMS {o:.6} {}", u.angle);
+        }
+        if let (Some(h), Some(mm)) = (s.held_out_rms, s.held_out_rms_mm) {
             let _ = write!(
                 out,
-                ", orientation RMS {:.6} {}",
-                u.angle_from_si(o),
-                u.angle
+                "; left out {} (the others calibrated, its own frames registered)",
+                length(h, mm)
+            );
+            if s.reconciled == Some(false) {
+                out.push_str(", NOT reconciled with the others (see the warning)");
+            }
+        }
+        if let Some(reason) = &s.held_out_not_computed {
+            let _ = write!(
+                out,
+                "; left out: not computed, the others alone cannot calibrate the robot \
+                 ({reason})"
             );
         }
-        match held_out.get(k) {
-            Some(SessionHeldOut::Predicted(h)) => {
-                let _ = write!(
-                    out,
-                    "; left out {} (the others calibrated, its own frames registered)",
-                    length(h.position_rms)
-                );
-                if h.reconciliation.is_some_and(|r| !r.reconciled()) {
-                    out.push_str(", NOT reconciled with the others (see the warning)");
-                }
-            }
-            Some(SessionHeldOut::NotComputed { reason }) => {
-                let _ = write!(
-                    out,
-                    "; left out: not computed, the others alone cannot calibrate the robot \
-                     ({reason})"
-                );
-            }
-            None => {}
-        }
-        if k > 0 {
-            let (a, b) = (fit.robot_of(0), fit.robot_of(k));
-            let (shift, turn) = moved(&a.base, &b.base);
+        if let Some(m) = &s.from_first {
             let _ = write!(
                 out,
                 "; base {} and {:.6} {} from the first's, tool {} from the first's",
-                length(shift),
-                u.angle_from_si(turn),
+                length(m.base_shift, m.base_shift_mm),
+                m.base_turn,
                 u.angle,
-                length((b.tool.xyz - a.tool.xyz).norm())
+                length(m.tool_shift, m.tool_shift_mm)
             );
         }
-        let held: Vec<String> = s
-            .frames
-            .iter()
-            .filter(|(_, _, status)| matches!(status, Status::Fixed { .. }))
-            .map(|(p, _, _)| p.to_string())
-            .collect();
-        if !held.is_empty() {
+        if !s.held_frames.is_empty() {
             let _ = write!(
                 out,
                 "; its {} held at their start (its rows do not determine them)",
-                held.join(", ")
+                s.held_frames.join(", ")
             );
         }
         let _ = writeln!(out);
@@ -427,16 +404,15 @@ pub fn summary(
     out
 }
 
-/// The HTML page's section on the sessions, when `data` has several: a
-/// table of each session's file, poses, residual, left-out figure and
-/// frames' shift from the first's; empty for one session.
-pub fn html(fit: &FullFit, held_out: &[SessionHeldOut], data: &Measurements) -> String {
+/// The HTML page's section on the sessions (their [`reports`]), when there
+/// are several: a table of each session's file, poses, residual, left-out
+/// figure and frames' shift from the first's; empty for one session.
+pub fn html(sessions: &[SessionReport]) -> String {
     use crate::report::html::html_escape;
     let mut s = String::new();
-    if fit.sessions.len() < 2 {
+    if sessions.len() < 2 {
         return s;
     }
-    let first = data.sessions.first().map_or("", String::as_str);
     let _ = write!(
         s,
         "<h2>Sessions</h2><p>{} sessions of one robot: one geometry and one set of effects, each session \
@@ -445,27 +421,23 @@ pub fn html(fit: &FullFit, held_out: &[SessionHeldOut], data: &Measurements) -> 
          other sessions calibrated, the session's own frames registered to its rows.</p><table><tr>\
          <th>session</th><th>poses</th><th>RMS [mm]</th><th>left out [mm]</th><th>base from the \
          first's [mm, mrad]</th><th>tool from the first's [mm]</th></tr>",
-        fit.sessions.len(),
-        html_escape(first)
+        sessions.len(),
+        html_escape(&sessions[0].file)
     );
-    let first_robot = fit.robot_of(0);
-    for (k, session) in fit.sessions.iter().enumerate() {
-        let robot = fit.robot_of(k);
-        let (shift, turn) = moved(&first_robot.base, &robot.base);
-        let left_out = held_out
-            .get(k)
-            .and_then(SessionHeldOut::figure)
-            .map_or("–".into(), |h| format!("{:.4}", h.position_rms * 1e3));
+    for (k, session) in sessions.iter().enumerate() {
+        let left_out = session
+            .held_out_rms_mm
+            .map_or("–".into(), |h| format!("{h:.4}"));
+        let (shift, turn, tool) = session.from_first.as_ref().map_or((0.0, 0.0, 0.0), |m| {
+            (m.base_shift_mm, m.base_turn_mrad, m.tool_shift_mm)
+        });
         let _ = write!(
             s,
-            "<tr><td>{} {}</td><td>{}</td><td>{:.4}</td><td>{left_out}</td><td>{:.3}, {:.3}</td><td>{:.3}</td></tr>",
+            "<tr><td>{} {}</td><td>{}</td><td>{:.4}</td><td>{left_out}</td><td>{shift:.3}, {turn:.3}</td><td>{tool:.3}</td></tr>",
             k + 1,
-            html_escape(data.sessions.get(k).map_or("?", String::as_str)),
+            html_escape(&session.file),
             session.poses,
-            session.position_rms * 1e3,
-            shift * 1e3,
-            turn * 1e3,
-            (robot.tool.xyz - first_robot.tool.xyz).norm() * 1e3
+            session.position_rms_mm,
         );
     }
     s.push_str("</table>");
@@ -500,8 +472,29 @@ pub fn reports(
                 Some(SessionHeldOut::NotComputed { reason }) => Some(reason.clone()),
                 _ => None,
             };
+            let from_first = (k > 0).then(|| {
+                let first = fit.robot_of(0);
+                let (shift, turn) = moved(&first.base, &robot.base);
+                let tool = (robot.tool.xyz - first.tool.xyz).norm();
+                MovedReport {
+                    base_shift: u.length_from_si(shift),
+                    base_shift_mm: shift * 1e3,
+                    base_turn: u.angle_from_si(turn),
+                    base_turn_mrad: turn * 1e3,
+                    tool_shift: u.length_from_si(tool),
+                    tool_shift_mm: tool * 1e3,
+                }
+            });
+            let held_frames = s
+                .frames
+                .iter()
+                .filter(|(_, _, status)| matches!(status, Status::Fixed { .. }))
+                .map(|(p, _, _)| p.to_string())
+                .collect();
             SessionReport {
-                file: data.sessions.get(k).cloned(),
+                file: data.sessions.get(k).map_or("?", String::as_str).to_string(),
+                from_first,
+                held_frames,
                 held_out_not_computed,
                 reconciled: reconciliation.map(|r| r.reconciled()),
                 reconciliation: reconciliation.map(|r| ReconciliationReport {
@@ -535,7 +528,12 @@ pub fn reports(
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct SessionReport {
     /// Its file.
-    pub file: Option<String>,
+    pub file: String,
+    /// Its base and tool against the first session's (`null` for the first).
+    pub from_first: Option<MovedReport>,
+    /// Its own frames' parameters its rows do not determine, held at their
+    /// start.
+    pub held_frames: Vec<String>,
     /// Why it was not left out, when it was not.
     pub held_out_not_computed: Option<String>,
     /// Whether its left-out figure agrees with the others' residuals.
@@ -562,6 +560,23 @@ pub struct SessionReport {
     pub tool: Option<FrameReport>,
     /// Whether the calibration written holds its registration (the first).
     pub written: bool,
+}
+
+/// How far a session's frames sit from the first session's.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct MovedReport {
+    /// The base frame's shift, the model's length unit.
+    pub base_shift: f64,
+    /// The same, mm.
+    pub base_shift_mm: f64,
+    /// The base frame's turn, the model's angle unit.
+    pub base_turn: f64,
+    /// The same, mrad.
+    pub base_turn_mrad: f64,
+    /// The tool point's shift, the model's length unit.
+    pub tool_shift: f64,
+    /// The same, mm.
+    pub tool_shift_mm: f64,
 }
 
 /// The F test of a left-out session against the others' residuals.

@@ -1,159 +1,117 @@
-//! The summary `armcal identify` prints, values in the model file's units
-//! (and mm beside them); the JSON is [`super::report`]'s. Nothing here
-//! computes; it reads an [`Identification`].
+//! The summary `armcal identify` prints, rendered from its report
+//! ([`IdentifyReport`], the JSON `--json` writes): values in the model
+//! file's units, mm beside the lengths. Nothing here computes; what the
+//! summary says, the JSON holds.
 
-use armcal_shared::compensation::Task;
 use std::fmt::Write as _;
 
-use super::Identification;
-use super::prior_scale::{self, PriorChoice};
-use super::report::{NoiseRow, noise_rows};
-use crate::calibration::fit::noise;
-use crate::report::format::{length_and_mm, significant};
-use crate::report::units::param_in_units;
-use crate::session::measurements::Measurements;
-use crate::session::model::RobotModel;
-use crate::session::prior::PRIOR_FACTORS;
-use armcal_shared::units::Units;
+use armcal_shared::Param;
 
-impl Identification {
-    /// The summary's line on the prior: its scale, and how it was chosen.
-    fn prior_line(&self, u: &Units) -> Option<String> {
-        self.full.as_ref()?;
-        let p = &self.stated_prior;
-        if !p.has_scale() {
-            return Some("prior: none (least squares)".into());
-        }
-        let factor = self.prior.as_ref().map_or(1.0, PriorChoice::factor);
-        let scaled = p.scaled(factor);
-        let mut line = format!(
-            "prior {} {}, {} {} on the D-H errors",
-            significant(u.length_from_si(scaled.length)),
-            u.length,
-            significant(u.angle_from_si(scaled.angle)),
-            u.angle
-        );
-        match &self.prior {
-            None => line.push_str(" (as stated)"),
-            Some(PriorChoice::Immaterial) => line.push_str(&format!(
-                " (as stated: no scale from ×{} to ×{} could change the held-out error by {} of its sampling error)",
-                PRIOR_FACTORS[0],
-                PRIOR_FACTORS[PRIOR_FACTORS.len() - 1],
-                prior_scale::IMMATERIAL
-            )),
-            Some(PriorChoice::Undetermined { folds }) => line.push_str(&format!(
-                " (as stated: no training set of the {folds}-fold cross-validation determines the model)"
-            )),
-            Some(
-                c @ PriorChoice::CrossValidated {
-                    factor, folds, ..
-                },
-            ) => {
-                let mm = |f: f64| c.score_of(f).map(|s| format!("{} mm", significant(s * 1e3)));
-                line.push_str(&format!(
-                    ", the stated ×{factor}: held-out {} by {folds}-fold cross-validation",
-                    mm(*factor).unwrap_or_default(),
-                ));
-                if *factor != 1.0
-                    && let Some(stated) = mm(1.0)
-                {
-                    line.push_str(&format!(" against {stated} at the stated scale"));
-                }
-            }
-        }
-        Some(line)
+use super::prior_scale;
+use super::report::{
+    ContactsReport, FullReport, IdentifyReport, NoiseRow, PriorChosenBy, PriorReport, TaskReport,
+};
+use super::sessions;
+use crate::calibration::fit::noise::NoiseSource;
+use crate::report::format::{length_and_mm_of, significant};
+use crate::session::prior::PRIOR_FACTORS;
+
+impl IdentifyReport {
+    /// A length the report gives in the model's unit (`x`) and in `mm`, as
+    /// the summary prints it.
+    fn length(&self, x: f64, mm: f64) -> String {
+        length_and_mm_of(x, &self.units.length, mm)
     }
 
     /// The human summary.
-    pub fn summary(&self, model: &RobotModel, data: &Measurements) -> String {
-        let u = &model.units;
+    pub fn summary(&self) -> String {
+        let (length, angle) = (&self.units.length, &self.units.angle);
         let mut out = String::new();
         let _ = writeln!(
             out,
             "identify --params {}: {} ({} joints) from {} ({}{})",
-            self.params.name(),
-            model.name,
-            model.robot.dof(),
-            data.file,
-            crate::session::measurements::plural(data.poses.len(), "pose"),
-            if self.calibration.task == Task::Pose {
-                ", full poses"
-            } else {
-                ", positions"
+            self.params,
+            self.model,
+            self.joints,
+            self.data,
+            crate::session::measurements::plural(self.poses, "pose"),
+            match self.task {
+                TaskReport::Pose => ", full poses",
+                TaskReport::Position => ", positions",
             }
         );
+        let r = &self.residual;
         let _ = writeln!(
             out,
-            "{} after {} iterations; residual rms {:.6} {} ({:.4} mm){}",
+            "{} after {} iterations; residual rms {:.6} {length} ({:.4} mm){}",
             if self.converged {
                 "converged"
             } else {
                 "NOT converged"
             },
             self.iterations,
-            u.length_from_si(self.position_rms),
-            u.length,
-            self.position_rms * 1e3,
-            if self.calibration.task == Task::Pose {
-                format!(
-                    ", orientation rms {:.6} {}",
-                    u.angle_from_si(self.orientation_rms),
-                    u.angle
-                )
-            } else {
-                String::new()
+            r.position_rms,
+            r.position_rms_mm,
+            match self.task {
+                TaskReport::Pose => format!(", orientation rms {:.6} {angle}", r.orientation_rms),
+                TaskReport::Position => String::new(),
             }
         );
-        self.write_judgement(&mut out, u, data);
-        if let Some(fit) = &self.full {
-            out.push_str(&super::sessions::summary(
-                fit,
-                &self.sessions_held_out,
-                data,
-                u,
-            ));
+        self.write_judgement(&mut out);
+        if let Some(s) = self.full.as_ref().and_then(|f| f.sessions.as_deref()) {
+            out.push_str(&sessions::summary(s, &self.units));
         }
-        self.write_suspect_rows(&mut out, data, u);
+        self.write_suspect_rows(&mut out);
         if let Some(g) = &self.gravity {
             let _ = writeln!(out, "{}", g.summary());
         }
-        self.write_fit_statistics(&mut out, u);
-        self.write_parameters(&mut out, u);
-        self.write_constraints(&mut out, u, data);
-        self.write_correlations(&mut out);
+        if let Some(full) = &self.full {
+            full.write_statistics(&mut out);
+            let _ = writeln!(out, "{}", full.prior.line(&self.units));
+            out.push_str(&full.weights.summary());
+        }
+        self.write_parameters(&mut out);
+        if let Some(contacts) = self.full.as_ref().and_then(|f| f.contacts.as_ref()) {
+            contacts.write(&mut out, length);
+        }
+        if let Some(full) = self.full.as_ref().filter(|f| !f.correlations.is_empty()) {
+            let _ = writeln!(out, "\nstrongest correlations:");
+            for c in &full.correlations {
+                let _ = writeln!(out, "  {:<9} {:<9} {:+.4}", c.a, c.b, c.r);
+            }
+        }
         out
     }
 
     /// The rows the fit explains worst that fail the deleted-residual test
     /// ([`super::suspect_rows`]), each at its file and line, and what
     /// `diagnose` does with them.
-    fn write_suspect_rows(&self, out: &mut String, data: &Measurements, u: &Units) {
-        let rows = &self.suspect_rows;
-        if rows.named.is_empty() {
+    fn write_suspect_rows(&self, out: &mut String) {
+        if self.suspect_rows.is_empty() {
             return;
         }
-        let named: Vec<String> = rows
-            .named
+        let named: Vec<String> = self
+            .suspect_rows
             .iter()
             .map(|r| {
                 format!(
                     "{}:{} (residual {}, F = {:.3e} > {:.1})",
-                    data.file_of(r.pose),
-                    data.lines[r.pose],
-                    length_and_mm(u, r.residual),
+                    r.file,
+                    r.line,
+                    self.length(r.residual, r.residual_mm),
                     r.f,
                     r.threshold
                 )
             })
             .collect();
-        let more = rows.failing - rows.named.len();
+        let more = self.suspect_rows_failing - self.suspect_rows.len();
         let _ = writeln!(
             out,
             "rows the fit explains worst, failing the deleted-residual test ({} of {} rows at \
              α = 1 %): {}{}; identify fits them, `armcal diagnose` sets such rows aside when \
              the others are predicted better without them",
-            rows.failing,
-            rows.tested,
+            self.suspect_rows_failing,
+            self.suspect_rows_tested,
             named.join(", "),
             if more > 0 {
                 format!(" and {more} more")
@@ -163,73 +121,32 @@ impl Identification {
         );
     }
 
-    /// What the user should know of this identification of `data` that
-    /// does not stop it, one a line for standard error and the JSON's
-    /// `warnings`: each session that does not reconcile with the others
-    /// ([`super::sessions::warnings`]), each row named by
-    /// [`super::suspect_rows`].
-    pub fn warnings(&self, data: &Measurements, u: &Units) -> Vec<String> {
-        let mut out = Vec::new();
-        if let Some(fit) = &self.full {
-            out.extend(super::sessions::warnings(
-                &self.sessions_held_out,
-                data,
-                super::sessions::sharing_of(fit),
-                u,
-            ));
-        }
-        let rows = &self.suspect_rows;
-        out.extend(rows.named.iter().map(|r| {
-            format!(
-                "{}:{}: the fit explains this row worst: its residual {}, its deleted residual \
-                 F = {:.3e} above {:.1} (the {} quantile of F(k, R − k)): a blunder? identify \
-                 fitted it; `armcal diagnose` sets such rows aside when the others are \
-                 predicted better without them",
-                data.file_of(r.pose),
-                data.lines[r.pose],
-                length_and_mm(u, r.residual),
-                r.f,
-                r.threshold,
-                super::suspect_rows::quantile_name(rows.tested)
-            )
-        }));
-        if rows.failing > rows.named.len() {
-            out.push(format!(
-                "{} more rows fail the deleted-residual test: run `armcal diagnose`",
-                rows.failing - rows.named.len()
-            ));
-        }
-        out
-    }
-
     /// The nominal model's residual on the rows beside the calibration's
     /// (what `armcal predict` gives with the file written), when judged.
-    fn write_judgement(&self, out: &mut String, u: &Units, data: &Measurements) {
-        let Some(j) = &self.judgement else {
+    fn write_judgement(&self, out: &mut String) {
+        let Some(j) = &self.nominal_residual else {
             return;
         };
-        let what = if data.is_constrained() {
+        let what = if j.contact_spread {
             "contact spread about the fitted points and planes"
         } else {
             "position RMS"
         };
-        let length = |x: f64| length_and_mm(u, x);
+        let c = &j.calibrated;
         let _ = write!(
             out,
             "{what} on these rows: nominal {} → calibrated {}",
-            length(j.nominal.position),
-            length(j.calibrated.position)
+            self.length(j.position_rms, j.position_rms_mm),
+            self.length(c.position_rms, c.position_rms_mm)
         );
-        if let (Some(n), Some(c)) = (j.nominal.orientation, j.calibrated.orientation) {
+        if let (Some(n), Some(c)) = (j.orientation_rms, c.orientation_rms) {
             let _ = write!(
                 out,
-                "; orientation nominal {:.6} → calibrated {:.6} {}",
-                u.angle_from_si(n),
-                u.angle_from_si(c),
-                u.angle
+                "; orientation nominal {n:.6} → calibrated {c:.6} {}",
+                self.units.angle
             );
         }
-        let several = self.full.as_ref().is_some_and(|f| f.sessions.len() > 1);
+        let several = self.full.as_ref().is_some_and(|f| f.sessions.is_some());
         let _ = writeln!(
             out,
             " (the calibration written{}",
@@ -241,159 +158,165 @@ impl Identification {
         );
     }
 
-    /// The full fit's condition number, observability and variance factor, and each channel's noise.
-    fn write_fit_statistics(&self, out: &mut String, u: &Units) {
-        if let Some(fit) = &self.full {
-            let _ = writeln!(
-                out,
-                "condition number {:.3e}, observability index O1 {:.3e}, variance factor {:.3} (residual/stated noise)²",
-                fit.condition_number, fit.observability, fit.variance_factor
-            );
-            let rows = fit.noise.rows().into_iter().map(|(c, n)| {
-                // The factor on the channel's weight (the known distances': 1).
-                let factor = c.map_or(1.0, |c| fit.weights.of_channel(c));
-                (n.redundancy, factor)
-            });
-            for (n, (r, factor)) in noise_rows(&fit.noise, u).into_iter().zip(rows) {
-                let NoiseRow {
-                    what,
-                    used,
-                    shown,
-                    ref unit,
-                    ..
-                } = n;
-                let stated = n.source == noise::NoiseSource::Stated;
-                let _ = match stated {
-                    _ if factor != 1.0 => writeln!(
-                        out,
-                        "{what} noise {used:.3e} {unit} ({}, at full weight; the rows weighed ×{factor} of it); the residuals show {shown:.3e} {unit}",
-                        if stated { "stated" } else { "estimated" },
-                    ),
-                    true if r < 1.0 => writeln!(
-                        out,
-                        "{what} noise {used:.3e} {unit} (stated); too few rows beyond the unknowns (redundancy {r:.2}) to check it"
-                    ),
-                    true => writeln!(
-                        out,
-                        "{what} noise {used:.3e} {unit} (stated); the residuals show {shown:.3e} {unit}"
-                    ),
-                    false => writeln!(
-                        out,
-                        "{what} noise {used:.3e} {unit} (estimated from the residuals)"
-                    ),
-                };
-            }
-        }
-    }
-
-    /// The prior's line and the table of the parameters.
-    fn write_parameters(&self, out: &mut String, u: &Units) {
-        if let Some(line) = self.prior_line(u) {
-            let _ = writeln!(out, "{line}");
-        }
-        if let Some(fit) = &self.full {
-            out.push_str(&self.weighting.summary(fit));
-        }
+    /// The table of the parameters.
+    fn write_parameters(&self, out: &mut String) {
         let _ = writeln!(
             out,
             "\n  {:<9} {:>14} {:>14} {:>12}   status",
             "parameter", "nominal", "error", "std"
         );
         for r in &self.parameters {
-            let unit = if r.param.is_angle() {
-                u.angle.to_string()
+            let angle = r.name.parse::<Param>().is_ok_and(|p| p.is_angle());
+            let unit = if angle {
+                &self.units.angle
             } else {
-                u.length.to_string()
+                &self.units.length
             };
-            let std = r.std.map_or("-".to_string(), |s| {
-                format!("{:.3e}", param_in_units(u, r.param, s))
-            });
+            let std = r.std.map_or("-".to_string(), |s| format!("{s:.3e}"));
             let _ = writeln!(
                 out,
                 "  {:<9} {:>14.6} {:>14.6e} {:>12}   {} [{unit}]",
-                r.param.to_string(),
-                param_in_units(u, r.param, r.nominal),
-                param_in_units(u, r.param, r.error),
+                r.name,
+                r.nominal,
+                r.error,
                 std,
-                r.fixed
+                r.reason
                     .as_deref()
                     .map_or("identified".to_string(), |why| format!("fixed: {why}")),
             );
         }
     }
+}
 
-    /// A constraint session's estimated points and planes and its distances' residuals.
-    fn write_constraints(&self, out: &mut String, u: &Units, data: &Measurements) {
-        if let Some(fit) = self
-            .full
-            .as_ref()
-            .filter(|f| !f.points.is_empty() || !f.planes.is_empty())
-        {
-            let _ = writeln!(
-                out,
-                "\nunknown fixed points (base frame, estimated with the robot) [{}]:",
-                u.length
-            );
-            for p in &fit.points {
-                let l = |x: f64| u.length_from_si(x);
-                let _ = writeln!(
+impl FullReport {
+    /// The full fit's condition number, observability and variance factor,
+    /// and each channel's noise.
+    fn write_statistics(&self, out: &mut String) {
+        let _ = writeln!(
+            out,
+            "condition number {:.3e}, observability index O1 {:.3e}, variance factor {:.3} (residual/stated noise)²",
+            self.condition_number, self.observability_index, self.variance_factor
+        );
+        for n in &self.noise {
+            let NoiseRow {
+                what,
+                used,
+                shown,
+                ref unit,
+                redundancy: r,
+                weight: factor,
+                ..
+            } = *n;
+            let stated = n.source == NoiseSource::Stated;
+            let _ = match stated {
+                _ if factor != 1.0 => writeln!(
                     out,
-                    "  {:<12} {:>12.6} {:>12.6} {:>12.6}   std {:.2e} {:.2e} {:.2e}",
-                    p.name,
-                    l(p.position.x),
-                    l(p.position.y),
-                    l(p.position.z),
-                    l(p.std.x),
-                    l(p.std.y),
-                    l(p.std.z)
-                );
-            }
-            for p in &fit.planes {
-                let _ = writeln!(
+                    "{what} noise {used:.3e} {unit} ({}, at full weight; the rows weighed ×{factor} of it); the residuals show {shown:.3e} {unit}",
+                    n.source_name(),
+                ),
+                true if r < 1.0 => writeln!(
                     out,
-                    "  plane {:<12} normal ({:+.6}, {:+.6}, {:+.6}), offset {:.6} {}",
-                    p.name,
-                    p.normal.x,
-                    p.normal.y,
-                    p.normal.z,
-                    u.length_from_si(p.offset),
-                    u.length
-                );
-            }
-            for (d, r) in data
-                .constraints
-                .distances
-                .iter()
-                .zip(&fit.distance_residuals)
-            {
-                let names = d.points.map(|k| {
-                    data.constraints
-                        .points
-                        .get(k)
-                        .map_or("?", |p| p.name.as_str())
-                });
-                let _ = writeln!(
+                    "{what} noise {used:.3e} {unit} (stated); too few rows beyond the unknowns (redundancy {r:.2}) to check it"
+                ),
+                true => writeln!(
                     out,
-                    "  distance {} – {}: {:.6} {} stated, fitted minus stated {:+.2e} {} (line {})",
-                    names[0],
-                    names[1],
-                    u.length_from_si(d.length),
-                    u.length,
-                    u.length_from_si(*r),
-                    u.length,
-                    d.line
-                );
-            }
+                    "{what} noise {used:.3e} {unit} (stated); the residuals show {shown:.3e} {unit}"
+                ),
+                false => writeln!(
+                    out,
+                    "{what} noise {used:.3e} {unit} (estimated from the residuals)"
+                ),
+            };
         }
     }
+}
 
-    /// The strongest correlations of the estimates.
-    fn write_correlations(&self, out: &mut String) {
-        if let Some(fit) = self.full.as_ref().filter(|f| !f.correlations.is_empty()) {
-            let _ = writeln!(out, "\nstrongest correlations:");
-            for (a, b, r) in &fit.correlations {
-                let _ = writeln!(out, "  {a:<9} {b:<9} {r:+.4}");
+impl PriorReport {
+    /// The summary's line on the prior: its scale, and how it was chosen.
+    fn line(&self, u: &crate::report::units::UnitsReport) -> String {
+        if self.length.is_none() && self.angle.is_none() {
+            return "prior: none (least squares)".into();
+        }
+        // A scale of none is infinite.
+        let scale = |x: Option<f64>| significant(x.unwrap_or(f64::INFINITY));
+        let mut line = format!(
+            "prior {} {}, {} {} on the D-H errors",
+            scale(self.length),
+            u.length,
+            scale(self.angle),
+            u.angle
+        );
+        let mm = |f: f64| {
+            self.held_out
+                .iter()
+                .flatten()
+                .find(|s| s.factor == f)
+                .map(|s| format!("{} mm", significant(s.rms_mm)))
+        };
+        match (self.chosen_by, self.folds) {
+            (PriorChosenBy::Immaterial, _) => line.push_str(&format!(
+                " (as stated: no scale from ×{} to ×{} could change the held-out error by {} of its sampling error)",
+                PRIOR_FACTORS[0],
+                PRIOR_FACTORS[PRIOR_FACTORS.len() - 1],
+                prior_scale::IMMATERIAL
+            )),
+            (PriorChosenBy::Undetermined, Some(folds)) => line.push_str(&format!(
+                " (as stated: no training set of the {folds}-fold cross-validation determines the model)"
+            )),
+            (PriorChosenBy::CrossValidation, Some(folds)) => {
+                let factor = self.factor;
+                line.push_str(&format!(
+                    ", the stated ×{factor}: held-out {} by {folds}-fold cross-validation",
+                    mm(factor).unwrap_or_default(),
+                ));
+                if factor != 1.0
+                    && let Some(stated) = mm(1.0)
+                {
+                    line.push_str(&format!(" against {stated} at the stated scale"));
+                }
             }
+            _ => line.push_str(" (as stated)"),
+        }
+        line
+    }
+}
+
+impl ContactsReport {
+    /// A constraint session's estimated points and planes and its
+    /// distances' residuals, lengths in `length`.
+    fn write(&self, out: &mut String, length: &str) {
+        let _ = writeln!(
+            out,
+            "\nunknown fixed points (base frame, estimated with the robot) [{length}]:"
+        );
+        // A coordinate's standard error not determined reads as NaN.
+        let std = |s: Option<f64>| s.unwrap_or(f64::NAN);
+        for p in &self.points {
+            let _ = writeln!(
+                out,
+                "  {:<12} {:>12.6} {:>12.6} {:>12.6}   std {:.2e} {:.2e} {:.2e}",
+                p.name,
+                p.xyz[0],
+                p.xyz[1],
+                p.xyz[2],
+                std(p.std[0]),
+                std(p.std[1]),
+                std(p.std[2])
+            );
+        }
+        for p in &self.planes {
+            let _ = writeln!(
+                out,
+                "  plane {:<12} normal ({:+.6}, {:+.6}, {:+.6}), offset {:.6} {length}",
+                p.name, p.normal[0], p.normal[1], p.normal[2], p.offset,
+            );
+        }
+        for d in &self.distances {
+            let _ = writeln!(
+                out,
+                "  distance {} – {}: {:.6} {length} stated, fitted minus stated {:+.2e} {length} (line {})",
+                d.between[0], d.between[1], d.length, d.residual, d.line
+            );
         }
     }
 }

@@ -1,10 +1,12 @@
-//! The plan as its reports give it: the summary `armcal plan` prints, the
-//! JSON of `--json` (`docs/file-formats.md` §7) and the HTML page of
-//! `--html` (the workspace seen from above and from the side, each target
-//! coloured by the predicted error there, the planned poses' tool points on
-//! it).
-//! Lengths in the model's units (`_mm` fields in mm), each parameter's
-//! standard error in its own unit. Nothing here computes; it reads a [`Plan`].
+//! The plan as data: [`PlanReport`], the JSON of `--json`
+//! (`docs/file-formats.md` §7) and Python's dictionary; the summary `armcal
+//! plan` prints is rendered from it, and so are the HTML page's text and
+//! table (`--html`), beside the workspace seen from above and from the
+//! side, each target coloured by the predicted error there, the planned
+//! poses' tool points on it (the plan's geometry, which the report does not
+//! hold). Lengths in the model's units (`_mm` fields in mm), each
+//! parameter's standard error in its own unit. Nothing here computes; it
+//! reads a [`Plan`].
 
 use crate::report::units::param_in_units;
 use crate::session::measurements::plural;
@@ -17,7 +19,7 @@ use crate::report::units::UnitsReport;
 
 use armcal_shared::Param;
 
-use super::{Instrument, OFF_AXIS, Plan, PlanOptions, Prediction};
+use super::{OFF_AXIS, Plan, PlanOptions, Prediction};
 use crate::apply::compensate;
 use armcal_shared::Calibration;
 
@@ -25,6 +27,8 @@ use armcal_shared::Calibration;
 /// accuracy, its rows, and the designs it was compared with.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct PlanReport {
+    /// The model's name.
+    pub model: String,
     /// The plan's predicted accuracy.
     #[serde(flatten)]
     pub predicted: PredictionReport,
@@ -61,8 +65,13 @@ pub struct PlanReport {
     pub criterion: &'static str,
     /// The best design of the other criterion.
     pub compared: ComparedReport,
+    /// The parameters the poses identify.
+    pub identified: Vec<String>,
     /// The parameters held, and why.
     pub held: Vec<HeldReport>,
+    /// Whether the poses were kept above the robot's base plane (the model
+    /// gives no joint limits, and no cell was stated).
+    pub above_base: bool,
     /// The tool point off the flange's axis that the plan suggests.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub off_axis: Option<OffAxisReport>,
@@ -200,10 +209,16 @@ pub struct HeldReport {
 /// A tool point off the flange's axis and what it gains.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct OffAxisReport {
-    /// Its distance from the axis, the model's length unit.
+    /// The tool point's distance from the axis today, the model's length unit.
     pub distance: f64,
-    /// The tool point, the model's length unit.
+    /// The same, mm.
+    pub distance_mm: f64,
+    /// The tool point suggested, the model's length unit (flange frame).
     pub tool: Vec<f64>,
+    /// The same, mm.
+    pub tool_mm: Vec<f64>,
+    /// Its distance from the axis, mm.
+    pub off_axis_mm: f64,
     /// The parameters it makes identifiable.
     pub gained: Vec<String>,
     /// The plan's prediction with it.
@@ -242,8 +257,9 @@ fn prediction_report(p: &Prediction, identified: &[Param], u: &Units) -> Predict
 }
 
 impl Plan {
-    /// The report of `--json` (docs/file-formats.md §7).
-    pub fn report(&self, options: &PlanOptions, u: &Units) -> PlanReport {
+    /// The report of `--json` (docs/file-formats.md §7), of the plan for
+    /// the model named `model`.
+    pub fn report(&self, model: &str, options: &PlanOptions, u: &Units) -> PlanReport {
         let other = |predicted: &Result<Prediction, Vec<String>>| match predicted {
             Ok(p) => Predicted::Identifies(prediction_report(p, &self.identified, u)),
             Err(missed) => Predicted::Misses {
@@ -252,6 +268,7 @@ impl Plan {
             },
         };
         PlanReport {
+            model: model.to_string(),
             predicted: prediction_report(&self.predicted, &self.identified, u),
             poses: self.points.len(),
             rows: self.q.len(),
@@ -310,6 +327,7 @@ impl Plan {
                 criterion: self.compared.criterion.name(),
                 predicted: other(&self.compared.predicted),
             },
+            identified: self.identified.iter().map(ToString::to_string).collect(),
             held: self
                 .held
                 .iter()
@@ -318,9 +336,13 @@ impl Plan {
                     reason: why.clone(),
                 })
                 .collect(),
+            above_base: options.above_base,
             off_axis: self.off_axis.as_ref().map(|o| OffAxisReport {
                 distance: u.length_from_si(o.distance),
+                distance_mm: o.distance * 1e3,
                 tool: o.tool.iter().map(|&x| u.length_from_si(x)).collect(),
+                tool_mm: o.tool.iter().map(|&x| x * 1e3).collect(),
+                off_axis_mm: OFF_AXIS * 1e3,
                 gained: o.gained.iter().map(ToString::to_string).collect(),
                 predicted: o
                     .predicted
@@ -330,31 +352,27 @@ impl Plan {
             units: UnitsReport::from(u),
         }
     }
+}
 
-    /// The JSON of `--json` (docs/file-formats.md §7): [`Plan::report`]
-    /// serialised.
-    pub fn to_json(&self, options: &PlanOptions, u: &Units) -> serde_json::Value {
-        crate::report::to_json(&self.report(options, u))
-    }
-
+impl PlanReport {
     /// The summary `armcal plan` prints.
-    pub fn summary(&self, model_name: &str, options: &PlanOptions) -> String {
+    pub fn summary(&self) -> String {
         let mut out = String::new();
-        let mm = |x: f64| x * 1e3;
-        let measured = match &options.instrument {
-            Instrument::Sockets(plate) => format!(
+        let measured = match (&self.sockets, self.orientation) {
+            (Some(s), _) => format!(
                 "a ball seated in {}, {} between them",
-                plural(plate.sockets.len(), "socket"),
-                plural(plate.distances.len(), "known distance")
+                plural(s.sockets.len(), "socket"),
+                plural(s.distances, "known distance")
             ),
-            Instrument::Poses { .. } => "full poses".into(),
-            Instrument::Positions => "positions".into(),
+            (None, true) => "full poses".into(),
+            (None, false) => "positions".into(),
         };
         let _ = writeln!(
             out,
-            "plan: {} of {model_name} ({measured}), chosen from {} for {}; the measurement \
+            "plan: {} of {} ({measured}), chosen from {} for {}; the measurement \
              path {:.3} (joint space, rad and m)",
-            plural(self.points.len(), "pose"),
+            plural(self.poses, "pose"),
+            self.model,
             plural(self.candidates, "candidate"),
             plural(self.targets, "workspace configuration"),
             self.path
@@ -363,7 +381,7 @@ impl Plan {
             let rows: Vec<String> = self
                 .near_singular
                 .iter()
-                .map(|(row, c)| format!("{} ({c:.4})", row + 1))
+                .map(|n| format!("{} ({:.4})", n.row, n.conditioning))
                 .collect();
             let _ = writeln!(
                 out,
@@ -374,120 +392,151 @@ impl Plan {
                 rows.join(", ")
             );
         }
-        if options.above_base {
+        if self.above_base {
             let _ = writeln!(
                 out,
                 "the flange and the tool point kept above the robot's base plane: the model \
                  gives no joint limits (--above or --within sets the cell instead)"
             );
         }
-        if let Some(plate) = options.instrument.sockets() {
-            let counts: Vec<String> = plate
+        if let Some(s) = &self.sockets {
+            let counts: Vec<String> = s
                 .sockets
                 .iter()
-                .enumerate()
-                .map(|(k, s)| {
-                    let n = super::sockets::rows_at(&self.socket_of, k);
-                    format!("{} {n}", s.name)
-                })
+                .map(|s| format!("{} {}", s.name, s.poses))
                 .collect();
             let _ = writeln!(
                 out,
                 "poses a socket: {}; the robot is predicted in the frame the sockets are \
                  estimated in (its base held at nominal){}",
                 counts.join(", "),
-                if plate.distances.is_empty() {
+                if s.distances == 0 {
                     "; no known distance: only the prior on the lengths holds the arm's scale"
                 } else {
                     ""
                 }
             );
         }
+        let p = &self.predicted;
         let _ = writeln!(
             out,
             "predicted at {} mm noise per axis: the calibrated robot off by {:.4} mm RMS over the \
              workspace, {:.4} mm at its worst target ({:.4} mm RMS against new measurements, \
              their noise added), chosen {}; {} random poses: {}; the {} plan of as many: {}",
-            significant_mm(options.position_noise),
-            mm(self.predicted.rms),
-            mm(self.predicted.max),
-            mm(self.predicted.measured_rms),
-            options.criterion.name(),
-            self.points.len(),
-            figures(&self.random),
-            self.compared.criterion.name(),
-            figures(&self.compared.predicted),
+            crate::report::format::significant(self.noise_mm),
+            p.predicted_rms_mm,
+            p.predicted_max_mm,
+            p.predicted_measured_rms_mm,
+            self.criterion,
+            self.poses,
+            self.random.figures(),
+            self.compared.criterion,
+            self.compared.predicted.figures(),
         );
-        if options.visits == super::Visits::BothSides {
+        if self.both_sides {
             let _ = writeln!(
                 out,
                 "each pose measured approached from below and from above in every joint (for \
                  backlash): {} rows, a via row before each; {} poses not from both sides (a \
                  limit or the cell in the way)",
-                self.q.len(),
-                self.one_sided
+                self.rows, self.one_sided
             );
         }
-        for (joint, std) in &self.predicted.compliance {
+        for c in &self.compliance {
             let _ = writeln!(
                 out,
                 "the compliance of joint {} identified with the geometry, predicted standard \
-                 error {std:.3e} rad/(N·m)",
-                joint + 1
+                 error {:.3e} rad/(N·m)",
+                c.joint, c.std
             );
         }
-        for (joint, why) in &self.compliance_held {
+        for c in &self.compliance_held {
             let _ = writeln!(
                 out,
-                "  the compliance of joint {}: no plan identifies it: {why}",
-                joint + 1
+                "  the compliance of joint {}: no plan identifies it: {}",
+                c.joint, c.reason
             );
         }
-        let o = &self.predicted.observability;
+        let o = &p.observability;
         let _ = writeln!(
             out,
             "observability O1 {:.3e}, O2 {:.3e}, O3 {:.3e}, O4 {:.3e}, O5 {:.3e}; {} parameters \
              identified, {} not (held at nominal, or by the prior):",
-            o[0],
-            o[1],
-            o[2],
-            o[3],
-            o[4],
+            o.O1,
+            o.O2,
+            o.O3,
+            o.O4,
+            o.O5,
             self.identified.len(),
             self.held.len()
         );
-        for (p, why) in &self.held {
-            let _ = writeln!(out, "  {p}: no plan identifies it: {why}");
+        for h in &self.held {
+            let _ = writeln!(out, "  {}: no plan identifies it: {}", h.name, h.reason);
         }
         if let Some(o) = &self.off_axis {
-            let gained: Vec<String> = o.gained.iter().map(ToString::to_string).collect();
             let _ = writeln!(
                 out,
                 "the tool point is {:.1} mm from the last joint's axis: a turn of that joint does \
                  not move it. Measured {:.0} mm off that axis (tool at {:.1}, {:.1}, {:.1} mm, \
                  flange frame), the same poses would identify {}{}",
-                mm(o.distance),
-                mm(OFF_AXIS),
-                mm(o.tool.x),
-                mm(o.tool.y),
-                mm(o.tool.z),
-                if gained.is_empty() {
+                o.distance_mm,
+                o.off_axis_mm,
+                o.tool_mm[0],
+                o.tool_mm[1],
+                o.tool_mm[2],
+                if o.gained.is_empty() {
                     "nothing more".to_string()
                 } else {
-                    format!("{} too", gained.join(", "))
+                    format!("{} too", o.gained.join(", "))
                 },
                 match &o.predicted {
                     Some(p) => format!(
                         ", and predict that point to {:.4} mm RMS over the workspace, {:.4} mm at \
                          its worst target",
-                        mm(p.rms),
-                        mm(p.max)
+                        p.predicted_rms_mm, p.predicted_max_mm
                     ),
                     None => String::new(),
                 }
             );
         }
         out
+    }
+
+    /// The HTML page's table of the predicted accuracy: the plan's, and as
+    /// many random poses' and the other criterion's where they identify
+    /// what the plan does.
+    fn html_table(&self) -> String {
+        let mut s = String::new();
+        let row = |s: &mut String, what: &str, p: &PredictionReport| {
+            let _ = write!(
+                s,
+                "<tr><td>{what}</td><td>{:.4}</td><td>{:.4}</td><td>{:.4}</td></tr>",
+                p.predicted_rms_mm, p.predicted_max_mm, p.predicted_measured_rms_mm
+            );
+        };
+        s.push_str("<h2>Predicted accuracy</h2><table><tr><th>poses</th><th>calibrated robot, RMS over the workspace [mm]</th><th>at the worst target [mm]</th><th>against new measurements, RMS [mm]</th></tr>");
+        row(&mut s, "planned", &self.predicted);
+        if let Predicted::Identifies(p) = &self.random {
+            row(&mut s, "as many random", p);
+        }
+        if let Predicted::Identifies(p) = &self.compared.predicted {
+            row(&mut s, &format!("as many, {}", self.compared.criterion), p);
+        }
+        s
+    }
+}
+
+impl Predicted {
+    /// Another set of poses' predicted figures for the summary (RMS, worst,
+    /// RMS against new measurements, mm), or what it does not identify.
+    fn figures(&self) -> String {
+        match self {
+            Self::Identifies(p) => format!(
+                "{:.4} mm, {:.4} mm ({:.4} mm)",
+                p.predicted_rms_mm, p.predicted_max_mm, p.predicted_measured_rms_mm
+            ),
+            Self::Misses { missed, .. } => format!("do not identify {}", missed.join(", ")),
+        }
     }
 }
 
@@ -533,9 +582,10 @@ impl Plan {
         out
     }
 
-    /// The HTML page of `--html`: the summary's figures, then where in the
-    /// workspace the calibration from the plan is predicted to miss most.
-    pub fn html(&self, model_name: &str, options: &PlanOptions, u: &Units) -> String {
+    /// The HTML page of `--html`: the summary and the figures of its
+    /// `report`, then where in the workspace the calibration from the plan
+    /// is predicted to miss most (the plan's targets and poses).
+    pub fn html(&self, report: &PlanReport, u: &Units) -> String {
         use crate::report::html::{html_escape, page_head};
         use crate::report::svg::{Point, Scatter, Series};
         let mm = |x: f64| x * 1e3;
@@ -584,35 +634,11 @@ impl Plan {
         let mut s = String::new();
         let _ = write!(
             s,
-            "{head}<pre>{summary}</pre>",
-            head = page_head("plan", model_name),
-            summary = html_escape(&self.summary(model_name, options)),
+            "{head}<pre>{summary}</pre>{table}",
+            head = page_head("plan", &report.model),
+            summary = html_escape(&report.summary()),
+            table = report.html_table(),
         );
-        let _ = write!(
-            s,
-            "<h2>Predicted accuracy</h2><table><tr><th>poses</th><th>calibrated robot, RMS over the workspace [mm]</th><th>at the worst target [mm]</th><th>against new measurements, RMS [mm]</th></tr><tr><td>planned</td><td>{:.4}</td><td>{:.4}</td><td>{:.4}</td></tr>",
-            mm(self.predicted.rms),
-            mm(self.predicted.max),
-            mm(self.predicted.measured_rms)
-        );
-        let others = [
-            ("as many random".to_string(), &self.random),
-            (
-                format!("as many, {}", self.compared.criterion.name()),
-                &self.compared.predicted,
-            ),
-        ];
-        for (what, predicted) in others {
-            if let Ok(r) = predicted {
-                let _ = write!(
-                    s,
-                    "<tr><td>{what}</td><td>{:.4}</td><td>{:.4}</td><td>{:.4}</td></tr>",
-                    mm(r.rms),
-                    mm(r.max),
-                    mm(r.measured_rms)
-                );
-            }
-        }
         let _ = write!(
             s,
             "</table><h2>Where the calibration will miss most</h2><p>Each workspace target's nominal tool point, coloured by the calibrated robot's predicted RMS error there; the planned poses' tool points in black (measurement frame).</p><div class=\"plots\">{}{}</div></body></html>",
@@ -620,31 +646,5 @@ impl Plan {
             view("seen from the side", (0, 2), ("x", "z"))
         );
         s
-    }
-}
-
-/// A noise in mm, without trailing zeros.
-fn significant_mm(m: f64) -> String {
-    crate::report::format::significant(m * 1e3)
-}
-
-/// Another set of poses' predicted figures for the summary (RMS, worst, RMS
-/// against new measurements, mm), or what it does not identify.
-fn figures(predicted: &Result<Prediction, Vec<String>>) -> String {
-    match predicted {
-        Ok(p) => format!(
-            "{:.4} mm, {:.4} mm ({:.4} mm)",
-            p.rms * 1e3,
-            p.max * 1e3,
-            p.measured_rms * 1e3
-        ),
-        Err(missed) => format!(
-            "do not identify {}",
-            missed
-                .iter()
-                .map(ToString::to_string)
-                .collect::<Vec<_>>()
-                .join(", ")
-        ),
     }
 }

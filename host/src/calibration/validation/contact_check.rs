@@ -105,6 +105,12 @@ pub struct ContactCheckReport {
     pub distance_error: Option<f64>,
     /// [`ContactCheck::flatness_rms`].
     pub flatness: Option<f64>,
+    /// The spread, mm.
+    pub spread_mm: Option<f64>,
+    /// The distance error, mm.
+    pub distance_error_mm: Option<f64>,
+    /// The flatness, mm.
+    pub flatness_mm: Option<f64>,
     /// Each point.
     pub points: Vec<PointReport>,
     /// Each plane.
@@ -156,7 +162,11 @@ impl ContactCheck {
     /// The report of these figures, lengths in `units`.
     pub fn report(&self, units: &Units) -> ContactCheckReport {
         let length = |v: f64| units.length_from_si(v);
+        let mm = |v: f64| v * 1e3;
         ContactCheckReport {
+            spread_mm: self.spread_rms().map(mm),
+            distance_error_mm: self.worst_distance_error().map(mm),
+            flatness_mm: self.flatness_rms().map(mm),
             spread: self.spread_rms().map(length),
             distance_error: self.worst_distance_error().map(length),
             flatness: self.flatness_rms().map(length),
