@@ -545,7 +545,7 @@ impl Diagnosis {
             extends_the_geometry: self.extends_the_geometry(),
             session_count: self.fit.sessions.len(),
             units: UnitsReport::from(units),
-            noise: noise_rows(&self.geometric, units),
+            noise: noise_rows(&self.geometric.noise, units),
             chosen: ChosenReport {
                 model: match self.choice {
                     Choice::Nominal => "nominal",

@@ -39,8 +39,16 @@ pub struct NoiseRow {
     /// The unit of both (the model's length unit, its angle unit for
     /// orientations).
     pub unit: String,
-    /// The channel's rows beyond the unknowns they determine (below 1: too
-    /// few to check a stated noise).
+}
+
+/// How far one channel's noise can be checked, and the weight it was
+/// fitted at: the summary's reading of a [`NoiseRow`].
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct NoiseCheck {
+    /// The channel's name, as its [`NoiseRow`]'s.
+    pub channel: &'static str,
+    /// Its rows beyond the unknowns they determine (below 1: too few to
+    /// check a stated noise).
     pub redundancy: f64,
     /// The factor on the weight its noise gives its rows (1: full weight).
     pub weight: f64,
@@ -64,10 +72,10 @@ fn source_name<S: Serializer>(source: &noise::NoiseSource, s: S) -> Result<S::Ok
     })
 }
 
-/// The noise of each channel `fit`'s data have ([`noise::NoiseEstimate::rows`]),
-/// in the model's units, with the weight each was fitted at, for reports.
-pub fn noise_rows(fit: &FullFit, units: &Units) -> Vec<NoiseRow> {
-    fit.noise
+/// The noise of each channel the data have ([`noise::NoiseEstimate::rows`]),
+/// in the model's units, for reports.
+pub fn noise_rows(noise: &noise::NoiseEstimate, units: &Units) -> Vec<NoiseRow> {
+    noise
         .rows()
         .into_iter()
         .map(|(channel, n)| {
@@ -83,10 +91,22 @@ pub fn noise_rows(fit: &FullFit, units: &Units) -> Vec<NoiseRow> {
                 shown: in_units(units, n.shown),
                 source: n.source,
                 unit,
-                redundancy: n.redundancy,
-                // The known distances' weight is their noise's.
-                weight: channel.map_or(1.0, |c| fit.weights.of_channel(c)),
             }
+        })
+        .collect()
+}
+
+/// Each channel's [`NoiseCheck`] in `fit`, in the order of its
+/// [`noise_rows`].
+pub fn noise_checks(fit: &FullFit) -> Vec<NoiseCheck> {
+    fit.noise
+        .rows()
+        .into_iter()
+        .map(|(channel, n)| NoiseCheck {
+            channel: channel.map_or("distance", Channel::name),
+            redundancy: n.redundancy,
+            // The known distances' weight is their noise's.
+            weight: channel.map_or(1.0, |c| fit.weights.of_channel(c)),
         })
         .collect()
 }
@@ -278,6 +298,8 @@ pub struct FullReport {
     pub equations: usize,
     /// Each channel's noise.
     pub noise: Vec<NoiseRow>,
+    /// Each channel's redundancy and weight, in the order of `noise`.
+    pub noise_checks: Vec<NoiseCheck>,
     /// The prior fitted at.
     pub prior: PriorReport,
     /// The weights of orientations and contacts.
@@ -465,7 +487,8 @@ impl Identification {
                 observability_index: fit.observability,
                 variance_factor: fit.variance_factor,
                 equations: fit.equations,
-                noise: noise_rows(fit, units),
+                noise: noise_rows(&fit.noise, units),
+                noise_checks: noise_checks(fit),
                 prior: self.prior_report(units),
                 weights: self.weighting.reports(fit),
                 correlations: fit

@@ -197,16 +197,15 @@ impl FullReport {
             "condition number {:.3e}, observability index O1 {:.3e}, variance factor {:.3} (residual/stated noise)²",
             self.condition_number, self.observability_index, self.variance_factor
         );
-        for n in &self.noise {
+        for (n, check) in self.noise.iter().zip(&self.noise_checks) {
             let NoiseRow {
                 what,
                 used,
                 shown,
                 ref unit,
-                redundancy: r,
-                weight: factor,
                 ..
             } = *n;
+            let (r, factor) = (check.redundancy, check.weight);
             let stated = n.source == NoiseSource::Stated;
             let _ = match stated {
                 _ if factor != 1.0 => writeln!(
