@@ -41,9 +41,9 @@
 //! pose far from the others can be the one that carries the information. Either
 //! way the summary gives both figures.
 
+use faer::linalg::solvers::Solve;
 use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
-use faer::{Mat, Par, Side};
-use nalgebra::{DMatrix, DVector};
+use faer::{Col, Mat, Par, Side};
 
 use crate::calibration::dense::unit_diagonal_scale;
 use crate::calibration::fit::Linearization;
@@ -184,17 +184,17 @@ pub fn deleted_residuals(lin: &Linearization, excluded: &[bool]) -> Option<Delet
             let rows = lin.rows_of(i);
             let k = rows.len();
             let sign = if out { 1.0 } else { -1.0 };
-            let m = DMatrix::from_fn(k, k, |r, s| {
+            let m = Mat::from_fn(k, k, |r, s| {
                 let h: f64 = (0..p)
                     .map(|c| b(c, rows.start + r) * b(c, rows.start + s))
                     .sum();
                 let identity = if r == s { 1.0 } else { 0.0 };
                 identity + sign * h
             });
-            let ri = DVector::from_fn(k, |r, _| lin.r[(rows.start + r, 0)]);
+            let ri = Col::from_fn(k, |r| lin.r[(rows.start + r, 0)]);
             let t = m
-                .cholesky()
-                .map_or(f64::INFINITY, |f| ri.dot(&f.solve(&ri)));
+                .llt(Side::Lower)
+                .map_or(f64::INFINITY, |f| ri.transpose() * f.solve(&ri));
             (t, k)
         });
     }
