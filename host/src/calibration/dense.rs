@@ -1,9 +1,9 @@
 //! faer's owned matrices (the fit's Jacobians and their products) read a
 //! column at a time, as contiguous slices; the normal equations of some rows,
-//! in faer like the rows themselves (the folds, the deleted residuals and the
-//! tests of alike causes solve in them with faer's Cholesky factor); and the
-//! scale of a normal matrix to a unit diagonal, which the fit, the folds and
-//! the deleted residuals all solve in.
+//! in faer like the rows themselves (the folds' training sets, which the
+//! cross-validation and the test of alike causes solve with faer's Cholesky
+//! factor); and the scale of a normal matrix to a unit diagonal, which the
+//! fit, the folds and the deleted residuals all solve in.
 
 use faer::linalg::matmul::triangular::{self, BlockStructure};
 use faer::{Accum, Col, Mat, Par};
