@@ -1,12 +1,12 @@
 //! faer's owned matrices (the fit's Jacobians and their products) read a
-//! column at a time: as contiguous slices, and copied into nalgebra's dense
-//! matrices for the small solves of the diagnosis (both store by columns);
-//! and the scale of a normal matrix to a unit diagonal, which the fit, the
-//! folds and the deleted residuals all solve in.
+//! column at a time, as contiguous slices; the normal equations of some rows,
+//! in faer like the rows themselves (the folds' training sets, which the
+//! cross-validation and the test of alike causes solve with faer's Cholesky
+//! factor); and the scale of a normal matrix to a unit diagonal, which the
+//! fit, the folds and the deleted residuals all solve in.
 
 use faer::linalg::matmul::triangular::{self, BlockStructure};
-use faer::{Accum, Mat, Par};
-use nalgebra::{DMatrix, DVector};
+use faer::{Accum, Col, Mat, Par};
 
 /// Why a column of an owned matrix is a slice.
 pub const CONTIGUOUS: &str = "a column of an owned matrix is contiguous";
@@ -16,23 +16,9 @@ pub fn column(m: &Mat<f64>, c: usize) -> &[f64] {
     m.col(c).try_as_col_major().expect(CONTIGUOUS).as_slice()
 }
 
-/// `m` as nalgebra's dense matrix.
-pub fn to_nalgebra(m: &Mat<f64>) -> DMatrix<f64> {
-    let mut out = DMatrix::zeros(m.nrows(), m.ncols());
-    for (c, mut into) in out.column_iter_mut().enumerate() {
-        into.as_mut_slice().copy_from_slice(column(m, c));
-    }
-    out
-}
-
-/// The single column of `v` as nalgebra's vector.
-pub fn to_vector(v: &Mat<f64>) -> DVector<f64> {
-    DVector::from_column_slice(column(v, 0))
-}
-
 /// The normal equations `(JᵀJ, Jᵀr)` of rows `j`, `r`: the lower half of
 /// `JᵀJ` by one product (half the work of the whole), mirrored.
-pub fn normal_equations(j: &Mat<f64>, r: &Mat<f64>) -> (DMatrix<f64>, DVector<f64>) {
+pub fn normal_equations(j: &Mat<f64>, r: &Mat<f64>) -> (Mat<f64>, Col<f64>) {
     let mut a = Mat::zeros(j.ncols(), j.ncols());
     triangular::matmul(
         a.as_mut(),
@@ -45,10 +31,19 @@ pub fn normal_equations(j: &Mat<f64>, r: &Mat<f64>) -> (DMatrix<f64>, DVector<f6
         1.0,
         Par::Seq,
     );
-    let mut a = to_nalgebra(&a);
-    a.fill_upper_triangle_with_lower_triangle();
+    mirror_lower(&mut a);
     let b = j.transpose() * r;
-    (a, to_vector(&b))
+    (a, b.col(0).to_owned())
+}
+
+/// `m`'s strictly upper triangle set to its lower one: a symmetric matrix of
+/// which a product computed the lower half.
+fn mirror_lower(m: &mut Mat<f64>) {
+    for c in 1..m.ncols() {
+        for r in 0..c.min(m.nrows()) {
+            m[(r, c)] = m[(c, r)];
+        }
+    }
 }
 
 /// The factors `1/√G_kk` that scale a normal matrix `G = JᵀJ` to a unit diagonal

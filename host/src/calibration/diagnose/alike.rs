@@ -25,9 +25,12 @@
 //! errors), the data cannot tell `c` from `d`: both fit them alike, and only
 //! another measurement separates them ([`Alike::separated_by`]). Everything
 //! comes from the normal equations the cross-validation already summed (one
-//! small solve per pair), SI units.
+//! small solve per pair, with faer's Cholesky factor, as the cross-validation
+//! solves), SI units.
 
-use nalgebra::{DMatrix, DVector};
+use faer::linalg::solvers::Solve;
+use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
+use faer::{Col, Mat, MatRef, Par, Side};
 
 use super::candidates::Candidate;
 
@@ -49,7 +52,7 @@ pub struct Alike {
 /// [`alike`] reads.
 pub struct Columns<'a> {
     /// `(JᵀJ, Jᵀr)` over every column, rows whitened.
-    pub normal: &'a (DMatrix<f64>, DVector<f64>),
+    pub normal: &'a (Mat<f64>, Col<f64>),
     /// Each column's prior precision (0: none).
     pub precision: &'a [f64],
     /// How many leading columns are the model before the chosen candidate.
@@ -59,8 +62,8 @@ pub struct Columns<'a> {
 impl Columns<'_> {
     /// `N[rows, cols]`, with the prior precision on the diagonal when `rows`
     /// and `cols` are the same.
-    fn block(&self, rows: &[usize], cols: &[usize]) -> DMatrix<f64> {
-        DMatrix::from_fn(rows.len(), cols.len(), |i, k| {
+    fn block(&self, rows: &[usize], cols: &[usize]) -> Mat<f64> {
+        Mat::from_fn(rows.len(), cols.len(), |i, k| {
             let prior = if rows[i] == cols[k] {
                 self.precision[rows[i]]
             } else {
@@ -84,43 +87,49 @@ pub fn alike(columns: &Columns, chosen: &[usize], others: &[(&Candidate, &[usize
     let fa = columns.with(chosen);
     let Some(z) = columns
         .block(&fa, &fa)
-        .cholesky()
-        .map(|l| l.solve(&DVector::from_fn(fa.len(), |i, _| columns.normal.1[fa[i]])))
+        .llt(Side::Lower)
+        .ok()
+        .map(|l| l.solve(Col::from_fn(fa.len(), |i| columns.normal.1[fa[i]])))
     else {
         return Vec::new();
     };
-    let x = z.rows(columns.fitted, chosen.len()).into_owned();
+    let x = z.subrows(columns.fitted, chosen.len()).to_owned();
     // `[F B]`'s factor from `F`'s, shared by every other candidate: with
     // `W = L_F⁻¹ N_FB` and `L_S` the factor of `N_BB − WᵀW` it is
     // `[L_F 0; Wᵀ L_S]`, so `N_A[F B] N_[F B]⁻¹ N_[F B]A = Y_FᵀY_F + Y_BᵀY_B`
     // with `Y_F = L_F⁻¹ N_FA` (the same for every other) and
     // `Y_B = L_S⁻¹ (N_BA − Wᵀ Y_F)`.
     let fitted: Vec<usize> = (0..columns.fitted).collect();
-    let Some(l_f) = columns.block(&fitted, &fitted).cholesky() else {
+    let Ok(l_f) = columns.block(&fitted, &fitted).llt(Side::Lower) else {
         return Vec::new();
     };
-    let l_f = l_f.l();
-    let Some(y_f) = l_f.solve_lower_triangular(&columns.block(&fitted, chosen)) else {
-        return Vec::new();
-    };
+    let l_f = l_f.L();
+    let y_f = lower_solve(l_f, columns.block(&fitted, chosen));
     let beside_fitted = columns.block(chosen, chosen) - y_f.transpose() * &y_f;
     others
         .iter()
         .filter(|(_, own)| !own.is_empty() && own.iter().all(|c| !chosen.contains(c)))
         .filter_map(|(candidate, own)| {
-            let w = l_f.solve_lower_triangular(&columns.block(&fitted, own))?;
-            let schur = (columns.block(own, own) - w.transpose() * &w).cholesky()?;
-            let y_b = schur
-                .l()
-                .solve_lower_triangular(&(columns.block(own, chosen) - w.transpose() * &y_f))?;
+            let w = lower_solve(l_f, columns.block(&fitted, own));
+            let schur = (columns.block(own, own) - w.transpose() * &w)
+                .llt(Side::Lower)
+                .ok()?;
+            let y_b = lower_solve(schur.L(), columns.block(own, chosen) - w.transpose() * &y_f);
             let outside = &beside_fitted - y_b.transpose() * &y_b;
-            let unexplained = (x.transpose() * outside * &x)[(0, 0)].max(0.0).sqrt();
+            let unexplained: f64 = x.transpose() * (outside * &x);
+            let unexplained = unexplained.max(0.0).sqrt();
             (unexplained < SEPARATED).then(|| Alike {
                 candidate: (*candidate).clone(),
                 unexplained,
             })
         })
         .collect()
+}
+
+/// `L⁻¹ b` for a lower triangular `l`, in the place of `b`.
+fn lower_solve(l: MatRef<'_, f64>, mut b: Mat<f64>) -> Mat<f64> {
+    solve_lower_triangular_in_place(l, b.as_mut(), Par::Seq);
+    b
 }
 
 impl Alike {
@@ -164,7 +173,7 @@ mod tests {
         let n = 400;
         let angle = |i: usize| -2.0 + 4.0 * i as f64 / n as f64;
         let rows = |leak: f64| {
-            DMatrix::from_fn(n, 5, |i, c| {
+            Mat::from_fn(n, 5, |i, c| {
                 let q = angle(i);
                 match c {
                     0 => 1.0,                                  // a fitted offset
@@ -178,7 +187,7 @@ mod tests {
         for (leak, harmonic_alike) in [(0.0, true), (0.75, false)] {
             let j = rows(leak);
             // A signal of 100 standard errors in all.
-            let r = j.column(1) * (100.0 / j.column(1).norm());
+            let r = j.col(1) * (100.0 / j.col(1).norm_l2());
             let normal = (j.transpose() * &j, j.transpose() * r);
             let columns = Columns {
                 normal: &normal,

@@ -4,8 +4,8 @@
 //! the prior's scale ([`crate::calibration::identify::prior_scale`]) step from.
 
 use armcal_shared::{FrameAxis, Param};
-use faer::Mat;
-use nalgebra::{DMatrix, DVector, Point3};
+use faer::{Col, Mat};
+use nalgebra::Point3;
 
 use super::rows::{DistanceRows, LinearSystem, NormalEquations};
 use super::{Constraints, Extension, FullFit, Model, Observation, PlaneEstimate, Status, Unknown};
@@ -286,16 +286,16 @@ impl Linearization {
 }
 
 /// The normal equations of some rows: `JᵀJ` and `Jᵀr`.
-pub type Normal = (DMatrix<f64>, DVector<f64>);
+pub type Normal = (Mat<f64>, Col<f64>);
 
 /// A fold's held-out rows of one tool-point channel (a measured position or
 /// a contact; not the orientation), each row in m (multiplied back by what
 /// the fit divided it by), so that `‖r − Jδ‖²` of those rows is in m².
 pub struct HeldRows {
     /// `JᵀJ` of the rows, m².
-    pub a: DMatrix<f64>,
+    pub a: Mat<f64>,
     /// `Jᵀr` of the rows, m.
-    pub b: DVector<f64>,
+    pub b: Col<f64>,
     /// `rᵀr` of the rows, m².
     pub rtr: f64,
     /// The poses they belong to.
@@ -306,9 +306,9 @@ pub struct HeldRows {
 pub struct FoldNormal {
     /// `JᵀJ` of the fold's pose rows, every channel, each row divided as in
     /// the fit (by its noise, times the square root of its weight's factor).
-    pub a: DMatrix<f64>,
+    pub a: Mat<f64>,
     /// `Jᵀr` of the same rows.
-    pub b: DVector<f64>,
+    pub b: Col<f64>,
     /// Each channel's share of `a` and `b` (zero for a channel without
     /// rows): what another weight of the channel scales
     /// ([`crate::calibration::identify::channel_weight`]).
@@ -361,8 +361,9 @@ pub fn fold_normals(
     } = AtFit::of(fit, Extension::NONE, constraints, prior);
     let weights = fit.weights();
     let p = unknowns.len();
-    let (matrix, vector) = (dense::to_nalgebra, dense::to_vector);
-    let zero = || (DMatrix::zeros(p, p), DVector::zeros(p));
+    // The sums as they are, in faer: `Jᵀr` as a column.
+    let normal = |jtj: &Mat<f64>, jtr: &Mat<f64>| (jtj.clone(), jtr.col(0).to_owned());
+    let zero = || (Mat::zeros(p, p), Col::zeros(p));
     let folds: Vec<FoldNormal> = (0..k)
         .map(|f| {
             let poses: Vec<&Observation> = data
@@ -373,14 +374,14 @@ pub fn fold_normals(
                 .collect();
             let sums = NormalEquations::accumulate(&model, &poses, &unknowns, &weights, fit.cancel);
             let mut fold = FoldNormal {
-                a: DMatrix::zeros(p, p),
-                b: DVector::zeros(p),
+                a: Mat::zeros(p, p),
+                b: Col::zeros(p),
                 shares: PerChannel::from_fn(|_| zero()),
                 held: PerChannel::default(),
                 poses: poses.len(),
             };
             for c in Channel::ALL {
-                let (a, b) = (matrix(&sums.jtj[c]), vector(&sums.jtr[c]));
+                let (a, b) = normal(&sums.jtj[c], &sums.jtr[c]);
                 if c != Channel::Orientation && sums.rows[c] > 0 {
                     let s2 = fit.row_scale(c).powi(2);
                     fold.held[c] = Some(HeldRows {
@@ -398,7 +399,7 @@ pub fn fold_normals(
         })
         .collect();
     let distances = DistanceRows::of(&model, &unknowns);
-    let mut all = (matrix(&distances.jtj), vector(&distances.jtr));
+    let mut all = normal(&distances.jtj, &distances.jtr);
     let mut shares = PerChannel::from_fn(|_| zero());
     for fold in &folds {
         all.0 += &fold.a;

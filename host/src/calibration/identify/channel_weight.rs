@@ -74,7 +74,7 @@
 //!
 //! Units: SI inside (m, rad); the scores are RMS held-out tool-point errors, m.
 
-use nalgebra::DVector;
+use faer::Col;
 use std::collections::BTreeMap;
 
 use super::prior_scale::{
@@ -265,7 +265,7 @@ struct Cell {
     factor: f64,
     squares: f64,
     poses: usize,
-    steps: Vec<DVector<f64>>,
+    steps: Vec<Col<f64>>,
 }
 
 /// The standard error of the difference of two cells' held-out sums of
@@ -289,7 +289,7 @@ fn paired_error(
                 .zip(&fold.held.0)
                 .filter(|&(c, _)| Some(c) != except)
                 .filter_map(|(_, held)| held.as_ref())
-                .map(|held| d.dot(&(&held.a * &d)))
+                .map(|held| d.transpose() * (&held.a * &d))
                 .sum::<f64>()
         })
         .sum();

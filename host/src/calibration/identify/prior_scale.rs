@@ -48,7 +48,8 @@ use crate::session::configurations::Configurations;
 use crate::session::constraints::Constraints;
 use crate::session::observation::Observation;
 use crate::session::prior::{PRIOR_FACTORS, Prior};
-use nalgebra::{DMatrix, DVector};
+use faer::linalg::solvers::Solve;
+use faer::{Col, Mat, Side};
 
 /// How the identification sets the prior's scale.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -244,7 +245,7 @@ pub(crate) fn fold_steps(
     sums: &FoldNormals,
     factor: f64,
     weights: &WeightFactors,
-) -> Option<Vec<DVector<f64>>> {
+) -> Option<Vec<Col<f64>>> {
     let p = sums.offset.len();
     let precision: Vec<f64> = sums
         .precision
@@ -274,19 +275,20 @@ pub(crate) fn fold_steps(
                 a += &fold.shares[c].0 * less;
                 b += &fold.shares[c].1 * less;
             }
-            let rhs = DVector::from_fn(p, |i, _| b[i] - precision[i] * sums.offset[i]);
+            let rhs = Col::from_fn(p, |i| b[i] - precision[i] * sums.offset[i]);
             // Scaled to a unit diagonal, for the conditioning of the factorisation.
             let scale: Vec<f64> = (0..p)
                 .map(|i| unit_scale(a[(i, i)] + precision[i]))
                 .collect();
-            let n = DMatrix::from_fn(p, p, |i, j| {
+            let n = Mat::from_fn(p, p, |i, j| {
                 let prior = if i == j { precision[i] } else { 0.0 };
                 (a[(i, j)] + prior) * scale[i] * scale[j]
             });
             let x = n
-                .cholesky()?
-                .solve(&DVector::from_fn(p, |i, _| rhs[i] * scale[i]));
-            Some(DVector::from_fn(p, |i, _| x[i] * scale[i]))
+                .llt(Side::Lower)
+                .ok()?
+                .solve(Col::from_fn(p, |i| rhs[i] * scale[i]));
+            Some(Col::from_fn(p, |i| x[i] * scale[i]))
         })
         .collect()
 }
@@ -296,7 +298,7 @@ pub(crate) fn fold_steps(
 /// `except`.
 pub(crate) fn held_out_squares(
     sums: &FoldNormals,
-    steps: &[DVector<f64>],
+    steps: &[Col<f64>],
     except: Option<Channel>,
 ) -> (f64, usize) {
     sums.folds
@@ -305,7 +307,8 @@ pub(crate) fn held_out_squares(
         .fold((0.0, 0), |(mut squares, mut poses), (fold, delta)| {
             for (c, held) in Channel::ALL.into_iter().zip(&fold.held.0) {
                 if let (Some(held), true) = (held, Some(c) != except) {
-                    squares += held.rtr - 2.0 * delta.dot(&held.b) + delta.dot(&(&held.a * delta));
+                    squares += held.rtr - 2.0 * (delta.transpose() * &held.b)
+                        + delta.transpose() * (&held.a * delta);
                     poses += held.poses;
                 }
             }

@@ -30,8 +30,8 @@ use crate::calibration::validation::folds::SELECTION_POSES;
 use crate::session::constraints::Constraints;
 use crate::session::observation::Observation;
 use crate::session::prior::Prior;
-use faer::Mat;
-use nalgebra::{DMatrix, DVector};
+use faer::linalg::solvers::Solve;
+use faer::{Col, Mat, Side};
 
 /// The most rows named, the worst first: a fit with more such rows has a
 /// problem `diagnose` should judge as a whole.
@@ -151,13 +151,13 @@ fn confirmed(
     let b = jt.transpose() * &rt;
     let p = a.ncols();
     let scale = unit_diagonal_scale(&a);
-    let normal = DMatrix::from_fn(p, p, |i, j| {
+    let normal = Mat::from_fn(p, p, |i, j| {
         (a[(i, j)] + if i == j { lin.precision[i] } else { 0.0 }) * scale[i] * scale[j]
     });
-    let rhs = DVector::from_fn(p, |c, _| {
+    let rhs = Col::from_fn(p, |c| {
         (b[(c, 0)] - lin.precision[c] * lin.offset[c]) * scale[c]
     });
-    let Some(step) = normal.cholesky().map(|f| f.solve(&rhs)) else {
+    let Some(step) = normal.llt(Side::Lower).ok().map(|f| f.solve(&rhs)) else {
         return flagged;
     };
     let delta = Mat::from_fn(p, 1, |c, _| step[c] * scale[c]);

@@ -41,9 +41,10 @@
 //! pose far from the others can be the one that carries the information. Either
 //! way the summary gives both figures.
 
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::{cholesky_in_place, cholesky_in_place_scratch};
 use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::{Mat, Par, Side};
-use nalgebra::{DMatrix, DVector};
 
 use crate::calibration::dense::unit_diagonal_scale;
 use crate::calibration::fit::Linearization;
@@ -175,28 +176,54 @@ pub fn deleted_residuals(lin: &Linearization, excluded: &[bool]) -> Option<Delet
     }
     let b = |c: usize, row: usize| blocks[row / CANCEL_ROWS][(c, row % CANCEL_ROWS)];
     let omega = rf.squared_norm_l2();
+    // Each pose's `I ± H_ii` (its `k` rows: 1, 3 or 6) factorised in place in
+    // one matrix and scratch reused pose after pose (faer's Cholesky, the
+    // lower half), and `T_i = r_iᵀ (L Lᵀ)⁻¹ r_i = ‖L⁻¹ r_i‖²`.
+    let most = (0..n).map(|i| lin.rows_of(i).len()).max().unwrap_or(0);
+    let mut m = Mat::<f64>::zeros(most, most);
+    let mut y = Mat::<f64>::zeros(most, 1);
+    let mut scratch = MemBuffer::new(cholesky_in_place_scratch::<f64>(
+        most,
+        Par::Seq,
+        Default::default(),
+    ));
     let mut stats = Vec::with_capacity(n);
     for (i, &out) in excluded.iter().enumerate().take(n) {
         if i % CANCEL_ROWS == 0 && cancel.requested() {
             return None;
         }
-        stats.push({
-            let rows = lin.rows_of(i);
-            let k = rows.len();
-            let sign = if out { 1.0 } else { -1.0 };
-            let m = DMatrix::from_fn(k, k, |r, s| {
+        let rows = lin.rows_of(i);
+        let k = rows.len();
+        let sign = if out { 1.0 } else { -1.0 };
+        let mut m = m.as_mut().submatrix_mut(0, 0, k, k);
+        for s in 0..k {
+            for r in s..k {
                 let h: f64 = (0..p)
                     .map(|c| b(c, rows.start + r) * b(c, rows.start + s))
                     .sum();
                 let identity = if r == s { 1.0 } else { 0.0 };
-                identity + sign * h
-            });
-            let ri = DVector::from_fn(k, |r, _| lin.r[(rows.start + r, 0)]);
-            let t = m
-                .cholesky()
-                .map_or(f64::INFINITY, |f| ri.dot(&f.solve(&ri)));
-            (t, k)
-        });
+                m[(r, s)] = identity + sign * h;
+            }
+        }
+        let mut y = y.as_mut().subrows_mut(0, k);
+        for r in 0..k {
+            y[(r, 0)] = lin.r[(rows.start + r, 0)];
+        }
+        let factored = cholesky_in_place(
+            m.as_mut(),
+            Default::default(),
+            Par::Seq,
+            MemStack::new(&mut scratch),
+            Default::default(),
+        );
+        let t = match factored {
+            Ok(_) => {
+                solve_lower_triangular_in_place(m.as_ref(), y.as_mut(), Par::Seq);
+                y.squared_norm_l2()
+            }
+            Err(_) => f64::INFINITY,
+        };
+        stats.push((t, k));
     }
     Some(Deleted { stats, omega })
 }

@@ -25,8 +25,11 @@
 //! [`crate::calibration::diagnose::cross_validate`] refits every fold from
 //! scratch: the reference the tests hold the linearisation to.
 
-use faer::Mat;
-use nalgebra::{DMatrix, DVector};
+use faer::linalg::solvers::{Llt, Solve};
+use faer::linalg::triangular_solve::{
+    solve_lower_triangular_in_place, solve_upper_triangular_in_place,
+};
+use faer::{Col, Mat, Par, Side};
 
 use crate::calibration::dense::{column, normal_equations, unit_scale};
 use crate::calibration::fit::Linearization;
@@ -153,7 +156,7 @@ impl GroupRows {
 /// The Cholesky factor of a scaled MAP normal matrix (see [`Folds::factor`]):
 /// `L`, and each column's scale to a unit diagonal.
 struct Factor {
-    l: DMatrix<f64>,
+    l: Mat<f64>,
     scale: Vec<f64>,
 }
 
@@ -202,10 +205,10 @@ pub struct Folds<'a> {
     lin: &'a Linearization,
     fold: Vec<Role>,
     /// Each fold's training normal equations: every pose's less the fold's.
-    training: Vec<(DMatrix<f64>, DVector<f64>)>,
+    training: Vec<(Mat<f64>, Col<f64>)>,
     /// Each fold's held-out rows.
     held_rows: Vec<GroupRows>,
-    all: (DMatrix<f64>, DVector<f64>),
+    all: (Mat<f64>, Col<f64>),
     rtr: f64,
 }
 
@@ -283,13 +286,17 @@ impl<'a> Folds<'a> {
         let lin = self.lin;
         let rows: Vec<usize> = lin.rows_of(pose).collect();
         let columns = lin.j.ncols();
-        let a = DMatrix::from_fn(columns, columns, |i, k| {
-            rows.iter().map(|&r| lin.j[(r, i)] * lin.j[(r, k)]).sum()
+        let a = Mat::from_fn(columns, columns, |i, k| {
+            rows.iter()
+                .map(|&r| lin.j[(r, i)] * lin.j[(r, k)])
+                .sum::<f64>()
         });
-        let b = DVector::from_fn(columns, |i, _| {
-            rows.iter().map(|&r| lin.j[(r, i)] * lin.r[(r, 0)]).sum()
+        let b = Col::from_fn(columns, |i| {
+            rows.iter()
+                .map(|&r| lin.j[(r, i)] * lin.r[(r, 0)])
+                .sum::<f64>()
         });
-        let add = |(m, v): &(DMatrix<f64>, DVector<f64>)| (m + &a, v + &b);
+        let add = |(m, v): &(Mat<f64>, Col<f64>)| (m + &a, v + &b);
         let mut fold = self.fold.clone();
         fold[pose] = Role::Train;
         Self {
@@ -304,7 +311,7 @@ impl<'a> Folds<'a> {
 
     /// The normal equations `(JᵀJ, Jᵀr)` of every pose but those left out
     /// ([`Role::Out`]), over every column, without the prior.
-    pub fn normal_equations(&self) -> &(DMatrix<f64>, DVector<f64>) {
+    pub fn normal_equations(&self) -> &(Mat<f64>, Col<f64>) {
         &self.all
     }
 
@@ -356,7 +363,7 @@ impl<'a> Folds<'a> {
             .map(|&c| unit_scale(a[(c, c)] + precision(c)))
             .collect();
         // The lower half: all the factorisation reads.
-        let mut n = DMatrix::zeros(m, m);
+        let mut n = Mat::zeros(m, m);
         for j in 0..m {
             n[(j, j)] = (a[(s[j], s[j])] + precision(s[j])) * scale[j] * scale[j];
             for i in j + 1..m {
@@ -364,7 +371,7 @@ impl<'a> Folds<'a> {
             }
         }
         Some(Factor {
-            l: n.cholesky()?.unpack(),
+            l: n.llt(Side::Lower).ok()?.L().to_owned(),
             scale,
         })
     }
@@ -386,14 +393,16 @@ impl<'a> Folds<'a> {
         let (a, b) = fold.map_or(&self.all, |f| &self.training[f]);
         let precision = |c: usize| lin.precision[c] * subset.precision_factor;
         let scale = &factor.scale;
-        let rhs = DVector::from_fn(m, |i, _| {
+        let mut x = Col::from_fn(m, |i| {
             let c = s[i];
             (b[c] + held.iter().map(|&h| a[(c, h)] * lin.offset[h]).sum::<f64>()
                 - precision(c) * lin.offset[c])
                 * scale[i]
         });
-        let l = factor.l.view((0, 0), (m, m));
-        let x = l.tr_solve_lower_triangular(&l.solve_lower_triangular(&rhs)?)?;
+        // `L Lᵀ x = rhs` by the leading block of the factor.
+        let l = factor.l.as_ref().submatrix(0, 0, m, m);
+        solve_lower_triangular_in_place(l, x.as_mat_mut(), Par::Seq);
+        solve_upper_triangular_in_place(l.transpose(), x.as_mat_mut(), Par::Seq);
         let mut delta: Vec<f64> = lin.offset.iter().map(|o| -o).collect();
         for i in 0..m {
             delta[s[i]] = x[i] * scale[i];
@@ -529,15 +538,15 @@ impl<'a> Folds<'a> {
 /// forward solution `L⁻¹ rhs` of its right-hand side.
 struct BaseFactor {
     factor: Factor,
-    y: DVector<f64>,
+    y: Col<f64>,
 }
 
 /// A candidate's columns `C` beside a factored base `B` (see [`Extensions`]):
 /// `W = L_B⁻¹ N_BC`, the factor of the Schur complement `N_CC − WᵀW`, and the
 /// scales of `C` to a unit diagonal.
 struct Block {
-    w: DMatrix<f64>,
-    schur: nalgebra::Cholesky<f64, nalgebra::Dyn>,
+    w: Mat<f64>,
+    schur: Llt<f64>,
     scale: Vec<f64>,
 }
 
@@ -578,10 +587,10 @@ impl<'a> Folds<'a> {
             let factor = self.factor(s, base.precision_factor, fold)?;
             let b = &fold.map_or(&self.all, |f| &self.training[f]).1;
             let precision = |c: usize| lin.precision[c] * base.precision_factor;
-            let rhs = DVector::from_fn(m, |i, _| {
+            let mut y = Col::from_fn(m, |i| {
                 (b[s[i]] - precision(s[i]) * lin.offset[s[i]]) * factor.scale[i]
             });
-            let y = factor.l.solve_lower_triangular(&rhs)?;
+            solve_lower_triangular_in_place(factor.l.as_ref(), y.as_mat_mut(), Par::Seq);
             Some(BaseFactor { factor, y })
         };
         let factors = if at_nominal {
@@ -622,7 +631,7 @@ impl Extensions<'_, '_> {
         let Some(block) = self.block(plain, &self.folds.all.0, extra, |_| 0.0) else {
             return false;
         };
-        let lc = block.schur.l();
+        let lc = block.schur.L();
         debug_assert!(self.base.columns.iter().all(|&c| c < self.folds.lin.fitted));
         (0..extra.len()).all(|i| {
             extra[i] < self.folds.lin.fitted || (block.scale[i] > 0.0 && lc[(i, i)] >= separability)
@@ -635,7 +644,7 @@ impl Extensions<'_, '_> {
     fn block(
         &self,
         factor: &Factor,
-        a: &DMatrix<f64>,
+        a: &Mat<f64>,
         extra: &[usize],
         precision: impl Fn(usize) -> f64,
     ) -> Option<Block> {
@@ -645,15 +654,15 @@ impl Extensions<'_, '_> {
             .iter()
             .map(|&c| unit_scale(a[(c, c)] + precision(c)))
             .collect();
-        let nbc = DMatrix::from_fn(s.len(), k, |i, j| {
+        let mut w = Mat::from_fn(s.len(), k, |i, j| {
             a[(s[i], extra[j])] * factor.scale[i] * scale[j]
         });
-        let w = factor.l.solve_lower_triangular(&nbc)?;
-        let ncc = DMatrix::from_fn(k, k, |i, j| {
+        solve_lower_triangular_in_place(factor.l.as_ref(), w.as_mut(), Par::Seq);
+        let ncc = Mat::from_fn(k, k, |i, j| {
             let prior = if i == j { precision(extra[i]) } else { 0.0 };
             (a[(extra[i], extra[j])] + prior) * scale[i] * scale[j]
         });
-        let schur = (ncc - w.transpose() * &w).cholesky()?;
+        let schur = (ncc - w.transpose() * &w).llt(Side::Lower).ok()?;
         Some(Block { w, schur, scale })
     }
 
@@ -669,12 +678,13 @@ impl Extensions<'_, '_> {
         let s = &self.base.columns;
         let k = extra.len();
         let Block { w, schur, scale } = self.block(factor, a, extra, precision)?;
-        let rhs = DVector::from_fn(k, |i, _| {
+        let rhs = Col::from_fn(k, |i| {
             let c = extra[i];
             (b[c] - precision(c) * lin.offset[c]) * scale[i]
         });
-        let x_extra = schur.solve(&(rhs - w.transpose() * y));
-        let x_base = factor.l.tr_solve_lower_triangular(&(y - &w * &x_extra))?;
+        let x_extra = schur.solve(rhs - w.transpose() * y);
+        let mut x_base = y - &w * &x_extra;
+        solve_upper_triangular_in_place(factor.l.transpose(), x_base.as_mat_mut(), Par::Seq);
         let mut delta: Vec<f64> = lin.offset.iter().map(|o| -o).collect();
         for (i, &c) in s.iter().enumerate() {
             delta[c] = x_base[i] * factor.scale[i];
