@@ -79,8 +79,8 @@ pub fn task(poses: &[Observation]) -> Task {
 }
 
 /// The number of sessions `poses` were measured in (1 for none or one).
-pub fn session_count(poses: &[Observation]) -> usize {
-    poses.iter().map(|o| o.session + 1).max().unwrap_or(1)
+pub fn session_count<'a>(poses: impl IntoIterator<Item = &'a Observation>) -> usize {
+    poses.into_iter().map(|o| o.session + 1).max().unwrap_or(1)
 }
 
 /// What a pose's tool point is held to.
