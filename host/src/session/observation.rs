@@ -70,8 +70,9 @@ pub fn ranges<'a>(poses: impl IntoIterator<Item = &'a Observation>) -> Ranges<f6
 /// What a calibration from `poses` compensates: [`Task::Pose`] when every
 /// pose (of one at least) has a measured orientation, else
 /// [`Task::Position`].
-pub fn task(poses: &[Observation]) -> Task {
-    if !poses.is_empty() && poses.iter().all(|p| p.orientation.is_some()) {
+pub fn task<'a>(poses: impl IntoIterator<Item = &'a Observation>) -> Task {
+    let mut poses = poses.into_iter().peekable();
+    if poses.peek().is_some() && poses.all(|p| p.orientation.is_some()) {
         Task::Pose
     } else {
         Task::Position
