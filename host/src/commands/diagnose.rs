@@ -23,6 +23,7 @@ use crate::session::measurements::Measurements;
 use crate::session::model::RobotModel;
 use crate::session::observation::Observation;
 use crate::session::registration::FrameSharing;
+use crate::session::rows::Rows;
 use armcal_shared::Param;
 
 /// What `diagnose` is asked.
@@ -116,7 +117,7 @@ pub fn run(
     options.fit = weighted;
     let diagnosis = diagnose_with_progress(
         &model.robot,
-        observations,
+        observations.into(),
         &data.constraints,
         &options,
         progress,
@@ -155,9 +156,8 @@ fn sessions_held_out(
     if diagnosis.fit.sessions.len() < 2 {
         return Vec::new();
     }
-    let kept: Vec<Observation> = (0..data.len())
+    let kept: Vec<usize> = (0..data.len())
         .filter(|i| diagnosis.blunders.binary_search(i).is_err())
-        .map(|i| data[i].clone())
         .collect();
     let at = options.fit.at_noise_of(&diagnosis.fit);
     let effects = diagnosis.fit.fitted_effects();
@@ -189,7 +189,12 @@ fn sessions_held_out(
                 .map(|f| Trained::of(&f))
         }
     };
-    held_out_by_session(&kept, &calibrate, options.fit.sessions, &at)
+    held_out_by_session(
+        Rows::picked(data, &kept),
+        &calibrate,
+        options.fit.sessions,
+        &at,
+    )
 }
 
 impl Diagnosed {

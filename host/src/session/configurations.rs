@@ -14,6 +14,7 @@ use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 
 use crate::cancel::Cancel;
 use crate::session::observation::{Contact, Observation};
+use crate::session::rows::Rows;
 
 /// Two readings of a revolute joint closer than this (rad) are one reading:
 /// a 17-bit encoder's count is 4.8·10⁻⁵ rad, a 20-bit one's 6·10⁻⁶ rad.
@@ -140,15 +141,19 @@ impl Configurations {
     /// measured point in one session each. Once `cancel` is requested the
     /// rows not yet sorted are each a configuration of their own: the
     /// caller's next check drops the whole.
-    pub fn of(robot: &Robot<f64>, data: &[Observation], cancel: Cancel) -> Self {
-        Self::partition(&Sameness::of(robot, Scope::Measurement), data, cancel)
+    pub fn of<'a>(robot: &Robot<f64>, data: impl Into<Rows<'a>>, cancel: Cancel) -> Self {
+        Self::partition(
+            &Sameness::of(robot, Scope::Measurement),
+            data.into(),
+            cancel,
+        )
     }
 
     /// The configurations of the robot in `data`, whatever point or session
     /// measured them (several SMRs on the flange, sessions that overlap);
     /// `cancel` as [`Configurations::of`] asks it.
-    pub fn of_robot(robot: &Robot<f64>, data: &[Observation], cancel: Cancel) -> Self {
-        Self::partition(&Sameness::of(robot, Scope::Robot), data, cancel)
+    pub fn of_robot<'a>(robot: &Robot<f64>, data: impl Into<Rows<'a>>, cancel: Cancel) -> Self {
+        Self::partition(&Sameness::of(robot, Scope::Robot), data.into(), cancel)
     }
 
     /// For each row, its configuration's index (configurations in order of
@@ -175,7 +180,7 @@ impl Configurations {
     /// matches none. `cancel` is asked before the sort and every
     /// [`crate::cancel::ROWS`] rows taken; once requested, the rows not taken are
     /// left alone, each its own configuration.
-    fn partition(sameness: &Sameness, data: &[Observation], cancel: Cancel) -> Self {
+    fn partition(sameness: &Sameness, data: Rows<'_>, cancel: Cancel) -> Self {
         if cancel.requested() {
             // Not even sorted: every row its own configuration.
             return Self {
@@ -278,7 +283,8 @@ impl Configurations {
 
     /// Whether some configuration of measured positions (rows of `data`) was
     /// measured more than once.
-    pub fn measured_repeats(&self, data: &[Observation]) -> bool {
+    pub fn measured_repeats<'a>(&self, data: impl Into<Rows<'a>>) -> bool {
+        let data = data.into();
         self.rows
             .iter()
             .any(|r| r.len() > 1 && data[r[0]].contact == Contact::Measured)
@@ -287,7 +293,8 @@ impl Configurations {
     /// One observation per configuration: the mean of its rows' joints,
     /// context, position and orientation (the rotation nearest the mean of
     /// the rotation matrices), held to the same contact.
-    pub fn means(&self, data: &[Observation]) -> Vec<Observation> {
+    pub fn means<'a>(&self, data: impl Into<Rows<'a>>) -> Vec<Observation> {
+        let data = data.into();
         self.rows
             .iter()
             .map(|rows| {
@@ -334,7 +341,8 @@ impl Configurations {
     /// configuration's mean; `None` when no measured configuration repeats,
     /// or when the repeats are identical (within [`IDENTICAL`]: rows copied,
     /// not measured again).
-    pub fn pure_error(&self, data: &[Observation]) -> Option<PureError> {
+    pub fn pure_error<'a>(&self, data: impl Into<Rows<'a>>) -> Option<PureError> {
+        let data = data.into();
         let (mut sum, mut dof, mut repeated) = (0.0, 0usize, 0usize);
         for rows in &self.rows {
             if rows.len() < 2 || data[rows[0]].contact != Contact::Measured {
@@ -363,7 +371,8 @@ impl Configurations {
 
     /// `mean_g(1 / n_g)` over the measured configurations: the share of the
     /// pure-error variance a configuration's mean keeps, on average.
-    pub fn mean_inverse_count(&self, data: &[Observation]) -> f64 {
+    pub fn mean_inverse_count<'a>(&self, data: impl Into<Rows<'a>>) -> f64 {
+        let data = data.into();
         let measured: Vec<usize> = self
             .rows
             .iter()

@@ -13,6 +13,7 @@
 //! | module | idea |
 //! | --- | --- |
 //! | [`observation`] | one measured row ([`observation::Observation`]): joint readings, what its tool point is held to, orientation, context |
+//! | [`rows`] | rows of a session borrowed, all or those an index set names ([`rows::Rows`]): a subset without copies |
 //! | [`measurements`] | the session of rows ([`measurements::Measurements`]) and its `require_*` checks |
 //! | [`joints`] | rows of joint readings alone ([`joints::JointRows`]) |
 //! | [`constraints`] | unknown fixed points and planes, known distances |
@@ -35,3 +36,4 @@ pub mod model;
 pub mod observation;
 pub mod prior;
 pub mod registration;
+pub mod rows;

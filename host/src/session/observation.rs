@@ -70,8 +70,9 @@ pub fn ranges<'a>(poses: impl IntoIterator<Item = &'a Observation>) -> Ranges<f6
 /// What a calibration from `poses` compensates: [`Task::Pose`] when every
 /// pose (of one at least) has a measured orientation, else
 /// [`Task::Position`].
-pub fn task(poses: &[Observation]) -> Task {
-    if !poses.is_empty() && poses.iter().all(|p| p.orientation.is_some()) {
+pub fn task<'a>(poses: impl IntoIterator<Item = &'a Observation>) -> Task {
+    let mut poses = poses.into_iter().peekable();
+    if poses.peek().is_some() && poses.all(|p| p.orientation.is_some()) {
         Task::Pose
     } else {
         Task::Position
@@ -79,8 +80,8 @@ pub fn task(poses: &[Observation]) -> Task {
 }
 
 /// The number of sessions `poses` were measured in (1 for none or one).
-pub fn session_count(poses: &[Observation]) -> usize {
-    poses.iter().map(|o| o.session + 1).max().unwrap_or(1)
+pub fn session_count<'a>(poses: impl IntoIterator<Item = &'a Observation>) -> usize {
+    poses.into_iter().map(|o| o.session + 1).max().unwrap_or(1)
 }
 
 /// What a pose's tool point is held to.

@@ -9,7 +9,7 @@ use armcal_shared::effects::{Effect, gravity_torques};
 use armcal_shared::{Convention, JointType, Param, Robot};
 
 use crate::cancel::Cancel;
-use crate::session::observation::Observation;
+use crate::session::rows::Rows;
 
 /// A candidate extension of the geometric model.
 #[derive(Clone, Debug, PartialEq)]
@@ -73,7 +73,12 @@ pub fn own_columns(candidates: &[&Candidate], fitted: usize) -> Vec<Vec<usize>> 
 /// asked every [`crate::cancel::ROWS`] rows of the gravity torques; once requested,
 /// the rows left are not read (the candidates are then of the rows read:
 /// the caller's next check drops them).
-pub fn candidates(robot: &Robot<f64>, data: &[Observation], cancel: Cancel) -> Vec<Candidate> {
+pub fn candidates<'a>(
+    robot: &Robot<f64>,
+    data: impl Into<Rows<'a>>,
+    cancel: Cancel,
+) -> Vec<Candidate> {
+    let data = data.into();
     let mut out = Vec::new();
     let both_ways = |j: usize| {
         let signs: Vec<i8> = data

@@ -35,7 +35,7 @@ use super::{ALPHA, Choice, DiagnoseOptions, Diagnosis};
 use crate::calibration::fit::{Extension, FitRequest, FullError, FullOptions};
 use crate::calibration::validation::stats::f_quantile;
 use crate::session::constraints::Constraints;
-use crate::session::observation::Observation;
+use crate::session::rows::Rows;
 
 /// How a long session was diagnosed: on a sample, the calibration on all.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -55,16 +55,16 @@ pub struct Selection {
 /// module header).
 pub(super) fn diagnose_large(
     nominal: &Robot<f64>,
-    data: &[Observation],
+    data: Rows<'_>,
     options: &DiagnoseOptions,
     progress: &mut dyn FnMut(usize, usize, usize),
 ) -> Result<Diagnosis, FullError> {
     let every = data.len().div_ceil(options.selection_poses.max(1));
     let sample: Vec<usize> = (0..data.len()).step_by(every).collect();
-    let rows: Vec<Observation> = sample.iter().map(|&i| data[i].clone()).collect();
+    let rows = data.positions_of(sample.iter().copied());
+    let rows = Rows::picked(data.all(), &rows);
     let mut d =
-        super::diagnose_with_progress(nominal, &rows, &Constraints::default(), options, progress)?;
-    drop(rows);
+        super::diagnose_with_progress(nominal, rows, &Constraints::default(), options, progress)?;
     for b in &mut d.blunders {
         *b = sample[*b];
     }
@@ -86,10 +86,8 @@ pub(super) fn diagnose_large(
     blunders.extend(&flagged);
     blunders.sort_unstable();
     blunders.dedup();
-    let kept: Vec<Observation> = (0..data.len())
-        .filter(|i| blunders.binary_search(i).is_err())
-        .map(|i| data[i].clone())
-        .collect();
+    let kept = data.positions_of((0..data.len()).filter(|i| blunders.binary_search(i).is_err()));
+    let kept = Rows::picked(data.all(), &kept);
     if let Choice::Calibrated {
         geometry, prior, ..
     } = d.choice
@@ -104,7 +102,7 @@ pub(super) fn diagnose_large(
             .iter()
             .flat_map(|f| f.candidate.extra.iter().copied())
             .collect();
-        d.fit = FitRequest::new(nominal, &kept, &fit_options)
+        d.fit = FitRequest::new(nominal, kept, &fit_options)
             .extended(Extension {
                 effects: &d.fit.fitted_effects(),
                 extra: &extra,
@@ -115,8 +113,8 @@ pub(super) fn diagnose_large(
         d.noise = d.fit.noise.tool_point().shown;
     }
     d.blunders = blunders;
-    d.ranges = crate::session::observation::ranges(&kept);
-    d.fitted = d.fitted_at(nominal, &kept);
+    d.ranges = crate::session::observation::ranges(kept);
+    d.fitted = d.fitted_at(nominal, kept);
     d.selection = Some(Selection {
         rows: data.len(),
         every,
@@ -133,11 +131,7 @@ impl Diagnosis {
     /// evaluates it. The fit's request to stop is asked every
     /// [`crate::cancel::ROWS`] rows; once it is, the rows left have none (`None`):
     /// the caller's next check drops them.
-    pub(super) fn position_errors(
-        &self,
-        nominal: &Robot<f64>,
-        data: &[Observation],
-    ) -> Vec<Option<f64>> {
+    pub(super) fn position_errors(&self, nominal: &Robot<f64>, data: Rows<'_>) -> Vec<Option<f64>> {
         let task = crate::session::observation::task(data);
         let model = self.calibration(nominal, task, Units::SI).model();
         // Each session's rows as its own frames place the written model.

@@ -84,6 +84,7 @@ use crate::session::observation::Contact;
 use crate::session::observation::Observation;
 use crate::session::prior::Prior;
 use crate::session::registration::in_session;
+use crate::session::rows::Rows;
 use alike::Alike;
 pub use candidates::{Candidate, candidates, own_columns};
 pub use geometry::ModelScore;
@@ -133,7 +134,8 @@ impl Default for DiagnoseOptions {
 /// In a session without a tracker, what the tool point is held to stands for
 /// the measured point: the fitted fixed point, or the foot of the tool point
 /// on the fitted plane (a residual along the plane's normal).
-pub fn residuals(fit: &FullFit, data: &[Observation]) -> Vec<Vector3<f64>> {
+pub fn residuals<'a>(fit: &FullFit, data: impl Into<Rows<'a>>) -> Vec<Vector3<f64>> {
+    let data = data.into();
     let Ok(model) = EffectModel::new(fit.calibrated.clone(), &fit.fitted_effects()) else {
         return Vec::new();
     };
@@ -173,20 +175,17 @@ pub fn cross_validate(
     let mut errors = Vec::with_capacity(data.len());
     for fold in 0..k {
         options.fit.cancel.check()?;
-        let (train, test): (Vec<_>, Vec<_>) =
-            data.iter().enumerate().partition(|(i, _)| i % k != fold);
-        let train: Vec<Observation> = train.into_iter().map(|(_, o)| o.clone()).collect();
-        let test: Vec<Observation> = test.into_iter().map(|(_, o)| o.clone()).collect();
-        let fit = FitRequest::new(nominal, &train, &options.fit)
+        let (train, test): (Vec<usize>, Vec<usize>) = (0..data.len()).partition(|i| i % k != fold);
+        let fit = FitRequest::new(nominal, Rows::picked(data, &train), &options.fit)
             .extended(Extension { effects, extra })
             .run()?;
-        errors.extend(position_errors(&fit, &test));
+        errors.extend(position_errors(&fit, Rows::picked(data, &test)));
     }
     Ok(HeldOut::of(&errors))
 }
 
 /// Position errors (m) of a fitted model at the observations.
-pub(crate) fn position_errors(fit: &FullFit, data: &[Observation]) -> Vec<f64> {
+pub(crate) fn position_errors(fit: &FullFit, data: Rows<'_>) -> Vec<f64> {
     residuals(fit, data).iter().map(|r| r.norm()).collect()
 }
 
@@ -202,12 +201,7 @@ pub(crate) fn position_errors(fit: &FullFit, data: &[Observation]) -> Vec<f64> {
 /// `cancel` is asked every [`crate::cancel::ROWS`] rows of the nominal tool points
 /// (and as [`Configurations::of_robot`] asks it); once requested, the rows
 /// left have none (the origin): the caller's next check drops the errors.
-fn nominal_errors(
-    nominal: &[Robot<f64>],
-    data: &[Observation],
-    k: usize,
-    cancel: Cancel,
-) -> Vec<f64> {
+fn nominal_errors(nominal: &[Robot<f64>], data: Rows<'_>, k: usize, cancel: Cancel) -> Vec<f64> {
     let k = k.clamp(2, data.len().max(2));
     let contacts: Vec<Contact> = data.iter().map(|o| o.contact).collect();
     let configurations = Configurations::of_robot(&nominal[0], data, cancel).index(data.len());
@@ -401,7 +395,7 @@ pub fn diagnose(
 ) -> Result<Diagnosis, FullError> {
     diagnose_with_progress(
         nominal,
-        data,
+        data.into(),
         &Constraints::default(),
         options,
         &mut |_, _, _| {},
@@ -420,7 +414,13 @@ pub fn diagnose_session(
     constraints: &Constraints,
     options: &DiagnoseOptions,
 ) -> Result<Diagnosis, FullError> {
-    diagnose_with_progress(nominal, data, constraints, options, &mut |_, _, _| {})
+    diagnose_with_progress(
+        nominal,
+        data.into(),
+        constraints,
+        options,
+        &mut |_, _, _| {},
+    )
 }
 
 /// [`diagnose_session`], calling `progress(round, candidate, candidates)`
@@ -435,7 +435,7 @@ pub fn diagnose_session(
 /// repeats show ([`LackOfFit`]).
 pub fn diagnose_with_progress(
     nominal: &Robot<f64>,
-    data: &[Observation],
+    data: Rows<'_>,
     constraints: &Constraints,
     options: &DiagnoseOptions,
     progress: &mut dyn FnMut(usize, usize, usize),
@@ -448,19 +448,17 @@ pub fn diagnose_with_progress(
         return diagnose_distinct(nominal, data, constraints, options, progress);
     }
     let means = configurations.means(data);
-    let mut d = diagnose_distinct(nominal, &means, constraints, options, progress)?;
+    let mut d = diagnose_distinct(nominal, (&means).into(), constraints, options, progress)?;
     let rows = &configurations.rows;
     d.blunders = d.blunders.iter().flat_map(|&c| rows[c].clone()).collect();
     d.blunders.sort_unstable();
     for s in &mut d.suspects {
         s.pose = rows[s.pose][0];
     }
-    let kept: Vec<Observation> = (0..data.len())
-        .filter(|i| d.blunders.binary_search(i).is_err())
-        .map(|i| data[i].clone())
-        .collect();
-    d.ranges = crate::session::observation::ranges(&kept);
-    d.fitted = d.fitted_at(nominal, &kept);
+    let kept = data.positions_of((0..data.len()).filter(|i| d.blunders.binary_search(i).is_err()));
+    let kept = Rows::picked(data.all(), &kept);
+    d.ranges = crate::session::observation::ranges(kept);
+    d.fitted = d.fitted_at(nominal, kept);
     // A blunder is a whole configuration: the others are those kept.
     let kept_configurations = configurations.without(&d.blunders);
     let shown = d.fit.noise.position;
@@ -513,7 +511,7 @@ pub struct Replicates {
 /// figure is of one set of poses.
 fn diagnose_distinct(
     nominal: &Robot<f64>,
-    data: &[Observation],
+    data: Rows<'_>,
     constraints: &Constraints,
     options: &DiagnoseOptions,
     progress: &mut dyn FnMut(usize, usize, usize),
@@ -529,8 +527,14 @@ fn diagnose_distinct(
     let kept: Vec<usize> = (0..data.len())
         .filter(|i| !late.iter().any(|b| b.set_aside && b.pose == *i))
         .collect();
-    let rest: Vec<Observation> = kept.iter().map(|&i| data[i].clone()).collect();
-    let mut d = diagnose_once(nominal, &rest, constraints, options, progress)?;
+    let rest = data.positions_of(kept.iter().copied());
+    let mut d = diagnose_once(
+        nominal,
+        Rows::picked(data.all(), &rest),
+        constraints,
+        options,
+        progress,
+    )?;
     for b in &mut d.blunders {
         *b = kept[*b];
     }
@@ -559,7 +563,7 @@ fn diagnose_distinct(
 /// (the first screen was made about that model already).
 fn late_blunders(
     d: &Diagnosis,
-    data: &[Observation],
+    data: Rows<'_>,
     constraints: &Constraints,
     options: &DiagnoseOptions,
 ) -> Vec<Blunder> {
@@ -572,8 +576,9 @@ fn late_blunders(
     let kept: Vec<usize> = (0..data.len())
         .filter(|i| !d.blunders.contains(i))
         .collect();
-    let clean: Vec<Observation> = kept.iter().map(|&i| data[i].clone()).collect();
-    let lin = linearize(&d.fit, Extension::NONE, &clean, constraints, &prior);
+    let clean = data.positions_of(kept.iter().copied());
+    let clean = Rows::picked(data.all(), &clean);
+    let lin = linearize(&d.fit, Extension::NONE, clean, constraints, &prior);
     let none = vec![false; clean.len()];
     let Some(deleted) = blunders::deleted_residuals(&lin, &none) else {
         return Vec::new();
@@ -599,7 +604,7 @@ fn late_blunders(
 /// them, and the choice, never worse than nominal.
 fn diagnose_once(
     nominal: &Robot<f64>,
-    data: &[Observation],
+    data: Rows<'_>,
     constraints: &Constraints,
     options: &DiagnoseOptions,
     progress: &mut dyn FnMut(usize, usize, usize),
@@ -616,9 +621,9 @@ fn diagnose_once(
     cancel.check()?;
     let mut geo = pass.geometric_model(&screen)?;
     cancel.check()?;
-    let mut search = Search::from(&geo, candidates(nominal, &screen.clean, cancel));
+    let mut search = Search::from(&geo, candidates(nominal, screen.clean(), cancel));
     if geo.best.geometry.is_some() {
-        while search.round(&pass, &geo, &screen.clean, progress) {
+        while search.round(&pass, &geo, screen.clean(), progress) {
             cancel.check()?;
         }
     }
@@ -638,17 +643,26 @@ struct Pass<'a> {
 
 /// Stages 1–2: the reference fit to the poses the screen kept, the poses it
 /// flagged and those it set aside.
-struct Screen {
+struct Screen<'a> {
     /// The reference fit (every D-H parameter, the stated prior), without the blunders.
     reference: FullFit,
     /// Every pose the screen flagged, with the held-out judgement.
     suspects: Vec<Blunder>,
     /// The indices of the poses set aside.
     blunders: Vec<usize>,
-    /// The poses kept.
-    clean: Vec<Observation>,
+    /// The session's rows the poses are of ([`Rows::all`]).
+    all: &'a [Observation],
+    /// The poses kept: where they lie in `all`.
+    kept: Vec<usize>,
     /// The reference's linearisation at the poses kept.
     lin: Linearization,
+}
+
+impl Screen<'_> {
+    /// The poses kept, borrowed.
+    fn clean(&self) -> Rows<'_> {
+        Rows::picked(self.all, &self.kept)
+    }
 }
 
 /// The screen's suspects before they are judged.
@@ -727,7 +741,7 @@ impl Pass<'_> {
         &self,
         start: Option<&Robot<f64>>,
         extension: Extension<'_>,
-        data: &[Observation],
+        data: Rows<'_>,
         options: &FullOptions,
     ) -> Result<FullFit, FullError> {
         FitRequest::new(self.nominal, data, options)
@@ -746,12 +760,9 @@ impl Pass<'_> {
     }
 
     /// Stages 1–2: the reference fit, and blunders.
-    fn screen(&self, data: &[Observation]) -> Result<Screen, FullError> {
+    fn screen<'a>(&self, data: Rows<'a>) -> Result<Screen<'a>, FullError> {
         let prior = self.options.fit.prior;
         let constraints = self.constraints;
-        let subset = |kept: &[usize]| -> Vec<Observation> {
-            kept.iter().map(|&i| data[i].clone()).collect()
-        };
         let mut reference = self.fit(None, Extension::NONE, data, &self.reference_options())?;
         // Every later fit starts from the noise the reference shows (an estimated
         // noise then settles in a round or two; a stated one stays as stated).
@@ -772,29 +783,30 @@ impl Pass<'_> {
             .filter(|b| b.set_aside)
             .map(|b| b.pose)
             .collect();
-        let kept: Vec<usize> = (0..n).filter(|i| !blunders.contains(i)).collect();
-        let clean = subset(&kept);
+        let kept = data.positions_of((0..n).filter(|i| !blunders.contains(i)));
+        let clean = Rows::picked(data.all(), &kept);
         let set_aside: Vec<bool> = (0..n).map(|i| blunders.contains(&i)).collect();
         let lin = match screen {
             // The reference as fitted to every pose.
             _ if blunders.is_empty() => all_lin,
             Some((f, _)) if set_aside == excluded => {
                 reference = f;
-                linearize(&reference, Extension::NONE, &clean, constraints, &prior)
+                linearize(&reference, Extension::NONE, clean, constraints, &prior)
             }
             screen => {
                 let start = screen
                     .as_ref()
                     .map_or(&reference.calibrated, |(f, _)| &f.calibrated);
-                reference = self.fit(Some(start), Extension::NONE, &clean, &reference_options)?;
-                linearize(&reference, Extension::NONE, &clean, constraints, &prior)
+                reference = self.fit(Some(start), Extension::NONE, clean, &reference_options)?;
+                linearize(&reference, Extension::NONE, clean, constraints, &prior)
             }
         };
         Ok(Screen {
             reference,
             suspects,
             blunders,
-            clean,
+            all: data.all(),
+            kept,
             lin,
         })
     }
@@ -805,7 +817,7 @@ impl Pass<'_> {
     /// every pose, and the poses it left out.
     fn screen_suspects(
         &self,
-        data: &[Observation],
+        data: Rows<'_>,
         reference: &FullFit,
         reference_options: &FullOptions,
         all_lin: &Linearization,
@@ -835,14 +847,12 @@ impl Pass<'_> {
             if next == excluded {
                 break;
             }
-            let kept: Vec<Observation> = (0..n)
-                .filter(|&i| !next[i])
-                .map(|i| data[i].clone())
-                .collect();
+            let kept = data.positions_of((0..n).filter(|&i| !next[i]));
+            let kept = Rows::picked(data.all(), &kept);
             // From the reference, which lies near. Leaving them out can leave a
             // fixed point too few rows: keep them then.
             let start = Some(&reference.calibrated);
-            let Ok(f) = self.fit(start, Extension::NONE, &kept, reference_options) else {
+            let Ok(f) = self.fit(start, Extension::NONE, kept, reference_options) else {
                 flagged.clear();
                 break;
             };
@@ -863,7 +873,7 @@ impl Pass<'_> {
 
     /// Stage 3: the geometric model.
     fn geometric_model(&self, screen: &Screen) -> Result<Geometric, FullError> {
-        let (options, reference, clean) = (self.options, &screen.reference, &screen.clean);
+        let (options, reference, clean) = (self.options, &screen.reference, screen.clean());
         // The noise the reference shows without its blunders.
         let fit_options = options.fit.at_noise_of(reference);
         // The nominal model registered to each later session as the fit starts.
@@ -925,7 +935,7 @@ impl Pass<'_> {
         if search.chosen.is_empty() {
             return;
         }
-        let (reference, clean, prior) = (&screen.reference, &screen.clean, self.options.fit.prior);
+        let (reference, clean, prior) = (&screen.reference, screen.clean(), self.options.fit.prior);
         let identified = |fit: &FullFit, p: Param| {
             fit.params
                 .iter()
@@ -987,6 +997,8 @@ impl Pass<'_> {
 
     /// Stage 5: never worse than nominal; the diagnosis.
     fn conclude(&self, screen: Screen, geo: Geometric, search: Search) -> Diagnosis {
+        // The poses kept, borrowed apart from the fields moved into the diagnosis.
+        let clean = Rows::picked(screen.all, &screen.kept);
         let prior = self.options.fit.prior;
         let nominal_holdout = geo.nominal_holdout;
         let choice = if geo.best.geometry.is_some() && search.current.rms < nominal_holdout.rms {
@@ -1024,9 +1036,9 @@ impl Pass<'_> {
             fitted: None,
             replicates: None,
             selection: None,
-            ranges: crate::session::observation::ranges(&screen.clean),
+            ranges: crate::session::observation::ranges(clean),
         };
-        d.fitted = d.fitted_at(self.nominal, &screen.clean);
+        d.fitted = d.fitted_at(self.nominal, clean);
         d
     }
 }
@@ -1052,7 +1064,7 @@ impl Search {
         &mut self,
         pass: &Pass,
         geo: &Geometric,
-        clean: &[Observation],
+        clean: Rows<'_>,
         progress: &mut dyn FnMut(usize, usize, usize),
     ) -> bool {
         let options = pass.options;
@@ -1137,7 +1149,7 @@ impl Search {
         pass: &Pass,
         remaining: &[&Candidate],
         prior: &Prior,
-        clean: &[Observation],
+        clean: Rows<'_>,
         progress: &mut dyn FnMut(usize, usize, usize),
     ) -> Option<Vec<Scored>> {
         let options = pass.options;
@@ -1356,10 +1368,10 @@ fn identifies(fit: &FullFit, candidate: &Candidate) -> bool {
 /// The linearisation of `fit` with the columns of every one of `candidates`:
 /// their extra parameters, then their effects, each in the order of
 /// `candidates` (the layout of [`candidates::own_columns`]).
-fn linearize_candidates(
+fn linearize_candidates<'a>(
     fit: &FullFit,
     candidates: &[&Candidate],
-    data: &[Observation],
+    data: impl Into<Rows<'a>>,
     constraints: &Constraints,
     prior: &Prior,
 ) -> Linearization {
@@ -1448,7 +1460,7 @@ impl Diagnosis {
     /// ([`Diagnosis::calibration`]) at the measured poses of `data`, its model
     /// evaluated as `armcal predict` evaluates it; `None` when no pose has a
     /// measured position.
-    fn fitted_at(&self, nominal: &Robot<f64>, data: &[Observation]) -> Option<HeldOut> {
+    fn fitted_at(&self, nominal: &Robot<f64>, data: Rows<'_>) -> Option<HeldOut> {
         let errors: Vec<f64> = self
             .position_errors(nominal, data)
             .into_iter()

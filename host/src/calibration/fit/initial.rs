@@ -6,7 +6,8 @@
 use armcal_shared::{Robot, rotation_error};
 use nalgebra::{IsometryMatrix3, Matrix3, Point3, Rotation3, Vector3};
 
-use super::{Model, Observation, PlaneEstimate, Registrations};
+use super::{Model, PlaneEstimate, Registrations};
+use crate::session::rows::Rows;
 
 /// The most poses the closed-form estimate of base and tool reads: evenly
 /// spaced over a longer session. A start for the fit, which then reads every
@@ -17,20 +18,17 @@ pub(super) const START_POSES: usize = 10_000;
 /// `shape` gives it), each estimated in closed form for `robot` on the
 /// session's rows; the first session's, the model's own, are `robot`'s and
 /// not estimated.
-pub fn session_registrations(
+pub fn session_registrations<'a>(
     robot: &Robot<f64>,
-    data: &[Observation],
+    data: impl Into<Rows<'a>>,
     shape: &Registrations,
 ) -> Registrations {
+    let data = data.into();
     let mut out = shape.clone();
     for (k, own) in out.sessions.iter_mut().enumerate() {
-        let rows: Vec<Observation> = data
-            .iter()
-            .filter(|o| o.session == k + 1)
-            .cloned()
-            .collect();
+        let rows = data.positions_of((0..data.len()).filter(|&i| data[i].session == k + 1));
         let mut seen = robot.clone();
-        initial_base_tool(&mut seen, &rows);
+        initial_base_tool(&mut seen, Rows::picked(data.all(), &rows));
         if let Some(base) = own.base.as_mut() {
             *base = seen.base;
         }
@@ -43,14 +41,15 @@ pub fn session_registrations(
 
 /// The closed-form estimate of base and tool with the nominal joints (see the
 /// module header), from at most [`START_POSES`] of the poses.
-pub(super) fn initial_base_tool(robot: &mut Robot<f64>, data: &[Observation]) {
+pub(super) fn initial_base_tool(robot: &mut Robot<f64>, data: Rows<'_>) {
     let step = data.len().div_ceil(START_POSES).max(1);
-    let sample: std::borrow::Cow<'_, [Observation]> = if step > 1 {
-        data.iter().step_by(step).cloned().collect()
+    let sample: Vec<usize>;
+    let data = if step > 1 {
+        sample = data.positions_of((0..data.len()).step_by(step));
+        Rows::picked(data.all(), &sample)
     } else {
-        data.into()
+        data
     };
-    let data = &*sample;
     let mut bare = robot.clone();
     bare.base = armcal_shared::Frame::identity();
     bare.tool = armcal_shared::Frame::identity();
@@ -157,7 +156,7 @@ pub(super) fn initial_base_tool(robot: &mut Robot<f64>, data: &[Observation]) {
 /// over the flange frames `(R_i, p_i)` of point `k`'s rows, with a faint pull
 /// to the nominal tool point where the rows leave it undetermined). The base
 /// is nominal; the distances do not enter the start.
-pub(super) fn initial_points_tool(model: &mut Model, data: &[Observation], tool: bool) {
+pub(super) fn initial_points_tool(model: &mut Model, data: Rows<'_>, tool: bool) {
     let mut bare = model.robot.clone();
     bare.tool = armcal_shared::Frame::identity();
     let bare = bare.prepare();

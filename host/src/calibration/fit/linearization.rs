@@ -8,7 +8,7 @@ use faer::{Col, Mat};
 use nalgebra::Point3;
 
 use super::rows::{DistanceRows, LinearSystem, NormalEquations};
-use super::{Constraints, Extension, FullFit, Model, Observation, PlaneEstimate, Status, Unknown};
+use super::{Constraints, Extension, FullFit, Model, PlaneEstimate, Status, Unknown};
 use crate::calibration::dense;
 use crate::cancel::Cancel;
 use crate::session::channel::Channel;
@@ -16,6 +16,7 @@ use crate::session::channel::{PerChannel, Weighed, WeightFactors};
 use crate::session::configurations::Configurations;
 use crate::session::observation::Contact;
 use crate::session::prior::Prior;
+use crate::session::rows::Rows;
 
 /// The model at a fit's solution and the unknowns of a linearisation about
 /// it ([`linearize`], [`fold_normals`]): the fit's identified parameters, its
@@ -134,13 +135,14 @@ impl AtFit {
 /// from nominal, so that a solve on any subset of the poses is the MAP step of
 /// the fit. What [`crate::calibration::diagnose`] cross-validates models with,
 /// by one Gauss–Newton step per fold.
-pub fn linearize(
+pub fn linearize<'a>(
     fit: &FullFit,
     extension: Extension<'_>,
-    data: &[Observation],
+    data: impl Into<Rows<'a>>,
     constraints: &Constraints,
     prior: &Prior,
 ) -> Linearization {
+    let data = data.into();
     let AtFit {
         model,
         unknowns,
@@ -153,7 +155,7 @@ pub fn linearize(
     // (its known distances alone), which the caller's next check drops.
     let (sys, data) = match LinearSystem::build(&model, data, &unknowns, &weights, fit.cancel) {
         Some(sys) => (sys, data),
-        None => (LinearSystem::empty(unknowns.len()), &data[..0]),
+        None => (LinearSystem::empty(unknowns.len()), data.slice(0..0)),
     };
     let distances = DistanceRows::rows(&model, &unknowns);
     let poses_rows = sys.j.nrows();
@@ -346,7 +348,7 @@ pub struct FoldNormals {
 /// many folds.
 pub fn fold_normals(
     fit: &FullFit,
-    data: &[Observation],
+    data: Rows<'_>,
     constraints: &Constraints,
     prior: &Prior,
     fold: &[usize],
@@ -366,13 +368,10 @@ pub fn fold_normals(
     let zero = || (Mat::zeros(p, p), Col::zeros(p));
     let folds: Vec<FoldNormal> = (0..k)
         .map(|f| {
-            let poses: Vec<&Observation> = data
-                .iter()
-                .zip(fold)
-                .filter(|&(_, &g)| g == f)
-                .map(|(o, _)| o)
-                .collect();
-            let sums = NormalEquations::accumulate(&model, &poses, &unknowns, &weights, fit.cancel);
+            let picked =
+                data.positions_of((0..data.len().min(fold.len())).filter(|&i| fold[i] == f));
+            let poses = Rows::picked(data.all(), &picked);
+            let sums = NormalEquations::accumulate(&model, poses, &unknowns, &weights, fit.cancel);
             let mut fold = FoldNormal {
                 a: Mat::zeros(p, p),
                 b: Col::zeros(p),

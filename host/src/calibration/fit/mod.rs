@@ -347,6 +347,7 @@ pub fn effect_parameter_name(effect: &Effect<f64>, component: usize) -> String {
 
 use crate::session::constraints::Constraints;
 use crate::session::observation::Observation;
+use crate::session::rows::Rows;
 
 /// Settings of the full identification.
 #[derive(Clone, Copy, Debug)]
@@ -770,7 +771,7 @@ impl Extension<'_> {
 #[derive(Clone, Copy, Debug)]
 pub struct FitRequest<'a> {
     nominal: &'a Robot<f64>,
-    data: &'a [Observation],
+    data: Rows<'a>,
     options: &'a FullOptions,
     extension: Extension<'a>,
     start: Option<&'a Robot<f64>>,
@@ -778,12 +779,17 @@ pub struct FitRequest<'a> {
 }
 
 impl<'a> FitRequest<'a> {
-    /// Every identifiable geometric parameter of `nominal` from `data`,
-    /// from the nominal model and the closed-form base and tool.
-    pub fn new(nominal: &'a Robot<f64>, data: &'a [Observation], options: &'a FullOptions) -> Self {
+    /// Every identifiable geometric parameter of `nominal` from `data` (a
+    /// session's rows, or a view of some of them: [`Rows`]), from the
+    /// nominal model and the closed-form base and tool.
+    pub fn new(
+        nominal: &'a Robot<f64>,
+        data: impl Into<Rows<'a>>,
+        options: &'a FullOptions,
+    ) -> Self {
         Self {
             nominal,
-            data,
+            data: data.into(),
             options,
             extension: Extension::NONE,
             start: None,

@@ -13,9 +13,10 @@ use armcal_shared::{FrameAxis, Param, Robot};
 use super::initial::initial_base_tool;
 use super::rows::NormalEquations;
 use super::solve::levenberg_marquardt;
-use super::{FrameSharing, FullError, FullOptions, Model, Observation, Sharing, Unknown};
+use super::{FrameSharing, FullError, FullOptions, Model, Sharing, Unknown};
 use crate::calibration::fit::noise::Weights;
 use crate::session::channel::PerChannel;
+use crate::session::rows::Rows;
 
 /// A session registered ([`register_session`]).
 #[derive(Clone, Debug)]
@@ -34,7 +35,7 @@ pub struct Registered {
 pub fn register_session(
     robot: &Robot<f64>,
     effects: &[Effect<f64>],
-    data: &[Observation],
+    data: Rows<'_>,
     sharing: FrameSharing,
     options: &FullOptions,
 ) -> Result<Registered, FullError> {

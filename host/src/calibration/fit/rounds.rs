@@ -22,14 +22,15 @@ use super::rows::{LinearSystem, NormalEquations};
 use super::selection::{constrained_subset, separable_subset};
 use super::solve::{levenberg_marquardt, wrap_angle};
 use super::{
-    Constraints, EffectFit, FullError, FullFit, FullOptions, MAX_NOISE_ROUNDS, Model, Observation,
-    ParamResult, PlaneEstimate, PlaneFit, PointFit, Posterior, Registrations, SessionFit, Status,
-    Unknown, channel_weights, full_params, independent_parameter_count, prior_reach, prior_terms,
+    Constraints, EffectFit, FullError, FullFit, FullOptions, MAX_NOISE_ROUNDS, Model, ParamResult,
+    PlaneEstimate, PlaneFit, PointFit, Posterior, Registrations, SessionFit, Status, Unknown,
+    channel_weights, full_params, independent_parameter_count, prior_reach, prior_terms,
 };
 use crate::session::channel::Weighed;
 use crate::session::channel::{Channel, PerChannel};
 use crate::session::observation::session_count;
 use crate::session::prior::Prior;
+use crate::session::rows::Rows;
 
 /// Refuses data the fit cannot read: rows at points or planes the
 /// constraints do not name, effects on joints the model lacks, poses with
@@ -37,7 +38,7 @@ use crate::session::prior::Prior;
 pub(super) fn check_inputs(
     nominal: &Robot<f64>,
     effects: &[Effect<f64>],
-    data: &[Observation],
+    data: Rows<'_>,
     constraints: &Constraints,
 ) -> Result<(), FullError> {
     if let Some(i) = data.iter().position(|o| {
@@ -95,7 +96,7 @@ impl Unknowns {
         nominal: &Robot<f64>,
         effects: &[Effect<f64>],
         extra: &[Param],
-        data: &[Observation],
+        data: Rows<'_>,
         constraints: &Constraints,
         options: &FullOptions,
     ) -> Result<Self, FullError> {
@@ -198,7 +199,7 @@ impl Unknowns {
         nominal: &Robot<f64>,
         start: Option<&Robot<f64>>,
         effects: &[Effect<f64>],
-        data: &[Observation],
+        data: Rows<'_>,
         constraints: &Constraints,
         options: &FullOptions,
     ) -> Model {
@@ -238,7 +239,7 @@ impl Unknowns {
         &self,
         model: &mut Model,
         model_frames: bool,
-        data: &[Observation],
+        data: Rows<'_>,
         options: &FullOptions,
     ) {
         let shape = Registrations::of(&model.robot, self.sessions, options.sessions);
@@ -247,8 +248,8 @@ impl Unknowns {
             return;
         }
         if model_frames {
-            let first: Vec<Observation> = data.iter().filter(|o| o.session == 0).cloned().collect();
-            initial_base_tool(&mut model.robot, &first);
+            let first = data.positions_of((0..data.len()).filter(|&i| data[i].session == 0));
+            initial_base_tool(&mut model.robot, Rows::picked(data.all(), &first));
         }
         model.registrations = session_registrations(&model.robot, data, &shape);
     }
@@ -262,7 +263,7 @@ impl Unknowns {
 /// noise the residuals show.
 pub(super) struct Fit<'a> {
     nominal: &'a Robot<f64>,
-    data: &'a [Observation],
+    data: Rows<'a>,
     constraints: &'a Constraints,
     options: &'a FullOptions,
     unknowns: Unknowns,
@@ -330,7 +331,7 @@ impl<'a> Fit<'a> {
     /// The fit of `unknowns` to `data` from `robot`, at the options' noise.
     pub(super) fn new(
         nominal: &'a Robot<f64>,
-        data: &'a [Observation],
+        data: Rows<'a>,
         constraints: &'a Constraints,
         options: &'a FullOptions,
         unknowns: Unknowns,

@@ -5,8 +5,6 @@
 //! in blocks of poses on every core, and the rows of the known distances.
 //! See the parent module's "Residuals and weights".
 
-use std::borrow::Borrow;
-
 use armcal_shared::effects::{Effect, EffectModel, gravity_torques, joint_param};
 use armcal_shared::jacobian::at_point;
 use armcal_shared::{Chain, Param, Prepared, Robot, Twist, rotation_error};
@@ -20,6 +18,7 @@ use crate::calibration::fit::noise::Weights;
 use crate::calibration::parallel;
 use crate::cancel::Cancel;
 use crate::session::channel::{Channel, PerChannel};
+use crate::session::rows::Rows;
 
 /// The weighted Jacobian and residual of one linearisation, stored whole (rows ×
 /// unknowns): what [`linearize`] hands the diagnosis, which solves on subsets of
@@ -32,7 +31,7 @@ pub(super) struct LinearSystem {
 }
 
 impl LinearSystem {
-    pub(super) fn rows(data: &[Observation]) -> usize {
+    pub(super) fn rows(data: Rows<'_>) -> usize {
         data.iter().map(Observation::equations).sum()
     }
 
@@ -45,7 +44,7 @@ impl LinearSystem {
     /// left zero: the caller's next check drops the whole.
     pub(super) fn build(
         model: &Model,
-        data: &[Observation],
+        data: Rows<'_>,
         params: &[Unknown],
         weights: &Weights,
         cancel: Cancel,
@@ -154,9 +153,9 @@ impl PoseRows {
 /// expansion's is `ΔT Σ_i (a_i ∂/∂a_i + s_i ∂/∂s_i)`. The dependence of `Δq`
 /// on the geometry (through the gravity torque) is left out of the Jacobian:
 /// it only slows convergence, the residuals stay exact.
-pub(super) fn for_each_pose_rows<O: Borrow<Observation>>(
+pub(super) fn for_each_pose_rows(
     model: &Model,
-    data: &[O],
+    data: Rows<'_>,
     params: &[Unknown],
     weights: &Weights,
     mut emit: impl FnMut(&PoseRows),
@@ -165,7 +164,7 @@ pub(super) fn for_each_pose_rows<O: Borrow<Observation>>(
     // Each session sees the robot through its own base and tool frames.
     let robots = model.registrations.robots(&model.robot);
     let kinematics: Vec<Prepared<f64>> = robots.iter().map(Robot::prepare).collect();
-    let Some(Ok(mut chain)) = data.first().map(|o| kinematics[0].chain(&o.borrow().q)) else {
+    let Some(Ok(mut chain)) = data.first().map(|o| kinematics[0].chain(&o.q)) else {
         return;
     };
     let mut rows = PoseRows {
@@ -176,7 +175,7 @@ pub(super) fn for_each_pose_rows<O: Borrow<Observation>>(
         position_rows: 3,
         channel: Channel::Position,
     };
-    let q0 = &data[0].borrow().q;
+    let q0 = &data[0].q;
     let base_columns: Vec<[Twist<f64>; 6]> = kinematics
         .iter()
         .map(|k| {
@@ -191,7 +190,6 @@ pub(super) fn for_each_pose_rows<O: Borrow<Observation>>(
     let effects = PoseEffects::of(model);
     let mut q_eff: Vec<f64> = Vec::new();
     for obs in data {
-        let obs: &Observation = obs.borrow();
         let session = obs.session.min(robots.len() - 1);
         // Joint counts were checked on entry.
         let Some(at) = effects.place(
@@ -603,16 +601,20 @@ impl NormalEquations {
     /// has, then added in pose order — the same sums whatever the number of
     /// threads. Once `cancel` is requested the chunks not started add
     /// nothing: the caller's next check drops the sums.
-    pub(super) fn accumulate<O: Borrow<Observation> + Sync>(
+    pub(super) fn accumulate(
         model: &Model,
-        data: &[O],
+        data: Rows<'_>,
         params: &[Unknown],
         weights: &Weights,
         cancel: Cancel,
     ) -> Self {
-        let chunks: Vec<&[O]> = data.chunks(CHUNK_POSES).collect();
+        let chunks: Vec<Rows<'_>> = data.chunks(CHUNK_POSES).collect();
         let partials = parallel::map(&chunks, |c| {
-            let c = if cancel.requested() { &c[..0] } else { c };
+            let c = if cancel.requested() {
+                c.slice(0..0)
+            } else {
+                *c
+            };
             Self::accumulate_chunk(model, c, params, weights)
         });
         let mut partials = partials.into_iter();
@@ -636,16 +638,15 @@ impl NormalEquations {
     /// The normal equations of the poses `data` at `model`, their rows filled a
     /// block of [`BLOCK_POSES`] poses at a time into a reused block matrix
     /// whose `JᵀJ` (lower half) and `Jᵀr` are then added by faer's matrix product.
-    pub(super) fn accumulate_chunk<O: Borrow<Observation>>(
+    pub(super) fn accumulate_chunk(
         model: &Model,
-        data: &[O],
+        data: Rows<'_>,
         params: &[Unknown],
         weights: &Weights,
     ) -> Self {
         let p = params.len();
         let mut rows = PerChannel::<usize>::default();
         for o in data {
-            let o: &Observation = o.borrow();
             rows[o.channel()] += o.position_rows();
             rows[Channel::Orientation] += o.orientation_rows();
         }

@@ -9,8 +9,9 @@ use faer::{Mat, Side};
 use nalgebra::Vector3;
 
 use super::rows::NormalEquations;
-use super::{FullOptions, Model, Observation, Unknown};
+use super::{FullOptions, Model, Unknown};
 use crate::calibration::fit::noise::Weights;
+use crate::session::rows::Rows;
 
 /// The rank-revealing Cholesky of the scaled normal matrix in the order of
 /// preference: the indices of the separable parameters, and the others with the
@@ -19,7 +20,7 @@ pub(super) fn separable_subset(
     sys: &NormalEquations,
     params: &[Unknown],
     robot: &Model,
-    data: &[Observation],
+    data: Rows<'_>,
     options: &FullOptions,
     noise_scale: f64,
 ) -> (Vec<usize>, Vec<(Unknown, String)>) {
@@ -103,7 +104,7 @@ pub(super) fn separable_subset(
 pub(super) fn constrained_subset(
     params: &[Unknown],
     robot: &Model,
-    data: &[Observation],
+    data: Rows<'_>,
     options: &FullOptions,
     noise_scale: f64,
     weights: &Weights,
@@ -153,7 +154,7 @@ pub(super) fn dependence_reason(
     g: &Mat<f64>,
     params: &[Unknown],
     robot: &Model,
-    data: &[Observation],
+    data: Rows<'_>,
 ) -> String {
     // Least-squares coefficients of column k on the kept columns: G_SS c = G_Sk.
     let n = kept.len();
@@ -227,11 +228,7 @@ pub(super) fn dependence_reason(
 
 /// The geometric reason for a dependence, where one is recognised: consecutive
 /// parallel joint axes, or the first joint axis parallel to the measurement frame's z.
-pub(super) fn geometry_reason(
-    param: Param,
-    robot: &Robot<f64>,
-    data: &[Observation],
-) -> Option<String> {
+pub(super) fn geometry_reason(param: Param, robot: &Robot<f64>, data: Rows<'_>) -> Option<String> {
     let chain = robot.chain(&data.first()?.q).ok()?;
     let parallel = |a: &Vector3<f64>, b: &Vector3<f64>| a.cross(b).norm() < 1e-9;
     let m = match param {

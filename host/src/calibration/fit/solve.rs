@@ -6,8 +6,9 @@ use faer::linalg::solvers::Solve;
 use faer::{Mat, Side};
 
 use super::rows::NormalEquations;
-use super::{FullError, FullOptions, Model, Observation, Unknown, prior_cost};
+use super::{FullError, FullOptions, Model, Unknown, prior_cost};
 use crate::calibration::fit::noise::Weights;
+use crate::session::rows::Rows;
 
 /// The damping Levenberg–Marquardt starts from, on the normal equations
 /// scaled to a unit diagonal: Nielsen's `τ = 1e-6` for a start near the
@@ -32,7 +33,7 @@ pub(super) fn negligible(decrease: f64, cost: f64) -> bool {
 /// [`FullFit::last_decrease`]) and the linearisation at the solution.
 pub(super) fn levenberg_marquardt(
     robot: &mut Model,
-    data: &[Observation],
+    data: Rows<'_>,
     free_params: &[Unknown],
     weights: &Weights,
     options: &FullOptions,

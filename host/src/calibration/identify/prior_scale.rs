@@ -224,7 +224,10 @@ pub(crate) fn fold_sums(
     let configurations =
         Configurations::of_robot(&fit.calibrated, data, fit.cancel).index(data.len());
     let fold = interleaved_folds(&contacts, &configurations, k);
-    (k, fold_normals(fit, data, constraints, prior, &fold, k))
+    (
+        k,
+        fold_normals(fit, data.into(), constraints, prior, &fold, k),
+    )
 }
 
 /// The RMS of the held-out tool-point errors at `factor` times the prior

@@ -34,6 +34,7 @@ use crate::session::observation::Observation;
 use crate::session::observation::session_count;
 use crate::session::registration::FrameSharing;
 use crate::session::registration::Sharing;
+use crate::session::rows::Rows;
 use armcal_shared::Robot;
 use armcal_shared::effects::Effect;
 use armcal_shared::units::Units;
@@ -171,12 +172,13 @@ pub type Calibrate<'a> = dyn Fn(&[Observation]) -> Result<Trained, FullError> + 
 /// ([`Reconciliation`]). Empty for one session. A session whose others
 /// cannot be calibrated alone, or whose frames cannot be registered, has
 /// no figure ([`SessionHeldOut::NotComputed`]): it never fails the whole.
-pub fn held_out_by_session(
-    data: &[Observation],
+pub fn held_out_by_session<'a>(
+    data: impl Into<Rows<'a>>,
     calibrate: &Calibrate<'_>,
     sharing: FrameSharing,
     options: &FullOptions,
 ) -> Vec<SessionHeldOut> {
+    let data = data.into();
     let count = session_count(data);
     if count < 2 {
         return Vec::new();
@@ -191,17 +193,11 @@ pub fn held_out_by_session(
                     ..o.clone()
                 })
                 .collect();
-            let left_out: Vec<Observation> =
-                data.iter().filter(|o| o.session == k).cloned().collect();
+            let left = data.positions_of((0..data.len()).filter(|&i| data[i].session == k));
+            let left_out = Rows::picked(data.all(), &left);
             let figure = calibrate(&training).and_then(|trained| {
-                register_session(
-                    &trained.robot,
-                    &trained.effects,
-                    &left_out,
-                    sharing,
-                    options,
-                )
-                .map(|r| (trained.noise, r.position_rms, r.orientation_rms))
+                register_session(&trained.robot, &trained.effects, left_out, sharing, options)
+                    .map(|r| (trained.noise, r.position_rms, r.orientation_rms))
             });
             match figure {
                 Ok((noise, position_rms, orientation)) => SessionHeldOut::Predicted(LeftOut {
@@ -211,7 +207,7 @@ pub fn held_out_by_session(
                         .any(|o| o.orientation.is_some())
                         .then_some(orientation),
                     reconciliation: noise
-                        .and_then(|n| reconcile(&n, position_rms, &left_out, sharing, count)),
+                        .and_then(|n| reconcile(&n, position_rms, left_out, sharing, count)),
                 }),
                 Err(e) => SessionHeldOut::NotComputed {
                     reason: e.to_string(),
@@ -228,7 +224,7 @@ pub fn held_out_by_session(
 fn reconcile(
     noise: &TrainingNoise,
     position_rms: f64,
-    rows: &[Observation],
+    rows: Rows<'_>,
     sharing: FrameSharing,
     sessions: usize,
 ) -> Option<Reconciliation> {
