@@ -80,7 +80,7 @@ fn findings(diagnosis: &Diagnosis) -> Vec<(String, Vec<String>)> {
         .findings
         .iter()
         .map(|f| {
-            let name = |c: &armcal::calibration::diagnose::Candidate| {
+            let name = |c: &armcal::calibration::diagnose::candidates::Candidate| {
                 format!("{} {}", c.name, c.joints_label())
             };
             (

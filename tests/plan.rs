@@ -15,7 +15,8 @@
 //! the held-out poses (their noise, 35 µm RMS in 3-D, added) the plan's
 //! predicted figure must hold as well.
 
-use armcal::calibration::plan::{Instrument, Optimality, Plan, PlanOptions, plan};
+use armcal::calibration::plan::design::Optimality;
+use armcal::calibration::plan::{Instrument, Plan, PlanOptions, plan};
 use armcal::commands::{Front, identify};
 use armcal::io::model_file::load_model;
 use armcal::session::measurements::Measurements;
@@ -895,7 +896,7 @@ fn issue_45_goals_on_a_puma_560() {
 fn the_noise_alone_limits_the_acceptance_case() {
     use armcal::calibration::fit::FullOptions;
     use armcal::calibration::identify::prior_scale::PriorScale;
-    use armcal::calibration::identify::{ParamSet, identify};
+    use armcal::calibration::identify::{IdentifyRequest, identify};
     use armcal::calibration::plan::within_limits;
     for name in ["ur10e", "puma560"] {
         let model = load_model(name).unwrap();
@@ -920,14 +921,11 @@ fn the_noise_alone_limits_the_acceptance_case() {
             let fitted = |noise: f64, scale: PriorScale| {
                 let poses = measure(&truth, &p.q, noise, None, &mut rng(seed));
                 let data = session(poses, Default::default());
-                let id = identify(
-                    &model,
-                    &data,
-                    ParamSet::Full,
-                    &FullOptions::default(),
+                let request = IdentifyRequest {
                     scale,
-                )
-                .unwrap();
+                    ..IdentifyRequest::new(FullOptions::default())
+                };
+                let id = identify(&model, &data, &request).unwrap();
                 held_out(&id.calibration.calibrated(), &truth, &targets, 0.0).0
             };
             exact.push(fitted(0.0, PriorScale::default()));

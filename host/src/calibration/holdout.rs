@@ -19,7 +19,7 @@ use armcal_shared::units::Units;
 use crate::calibration::diagnose::{DiagnoseOptions, diagnose_session};
 use crate::calibration::fit::FullOptions;
 use crate::calibration::identify::prior_scale::PriorScale;
-use crate::calibration::identify::{self, IdentifyError, ParamSet};
+use crate::calibration::identify::{self, IdentifyError};
 use crate::calibration::validation::contact_check::{
     ContactCheck, ContactCheckReport, contact_check, geometric,
 };
@@ -72,7 +72,14 @@ pub fn calibrate(
         .map_err(IdentifyError::from)?;
     let model = &fitted;
     let identified = |scale: PriorScale| -> Result<Calibrated, IdentifyError> {
-        let fit = identify::identify(model, data, ParamSet::Full, options, scale)?;
+        let fit = identify::identify(
+            model,
+            data,
+            &identify::IdentifyRequest {
+                scale,
+                ..identify::IdentifyRequest::new(*options)
+            },
+        )?;
         Ok(Calibrated {
             model: geometric(&fit.calibrated()),
             training_rms: fit.position_rms,

@@ -11,7 +11,7 @@ use crate::calibration::gravity::TorqueSign;
 use crate::calibration::identify::ParamSet;
 use crate::calibration::identify::channel_weight::ChannelWeight;
 use crate::calibration::identify::prior_scale::PriorScale;
-use crate::calibration::plan::Optimality;
+use crate::calibration::plan::design::Optimality;
 
 /// The choice named `word` (`"chosen"`, `"0.1"`, …), or why not: `"WORD":
 /// expected "a", "b" or "c"`, the words in the order `--help` lists them.

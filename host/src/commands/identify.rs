@@ -89,13 +89,15 @@ pub fn run(
         )
         .into());
     }
-    let mut result = identify::identify_weighted(
+    let mut result = identify::identify(
         model,
         data,
-        request.params,
-        &options,
-        request.prior_scale,
-        &request.channel_weights,
+        &identify::IdentifyRequest {
+            params: request.params,
+            options,
+            scale: request.prior_scale,
+            weights: request.channel_weights,
+        },
     )?;
     if let Some(fit) = result.full.as_ref().filter(|f| f.sessions.len() > 1) {
         // Each session left out, the others calibrated at the prior's scale chosen.

@@ -6,8 +6,9 @@
 //! the plan is SI.
 
 use super::Front;
+use crate::calibration::plan::design::Optimality;
 use crate::calibration::plan::{
-    Instrument, ORIENTATION_NOISE, Optimality, Plan, PlanOptions, Visits, plan_cancellable,
+    Instrument, ORIENTATION_NOISE, Plan, PlanOptions, Visits, plan_cancellable,
 };
 use crate::io::sockets::Sockets;
 use crate::session::input_error::InputError;

@@ -86,8 +86,8 @@ use crate::session::prior::Prior;
 use crate::session::registration::in_session;
 use crate::session::rows::Rows;
 use alike::Alike;
-pub use candidates::{Candidate, candidates, own_columns};
-pub use geometry::ModelScore;
+use candidates::{Candidate, candidates, own_columns};
+use geometry::ModelScore;
 
 /// The family-wise error rate of the effect search.
 pub const ALPHA: f64 = 0.01;

@@ -832,7 +832,7 @@ impl WeightReports {
 mod tests {
     use super::*;
     use crate::calibration::fit::FullOptions;
-    use crate::calibration::identify::{ParamSet, identify_weighted};
+    use crate::calibration::identify::{IdentifyRequest, identify};
     use crate::calibration::simulate::{OrientationBias, Scenario, simulate};
     use crate::io::measurements::parse_measurements;
     use crate::io::model_file::load_model;
@@ -881,13 +881,13 @@ mod tests {
         let options = FullOptions::default();
         let mut weights = ChannelWeights::chosen(DEFAULT_FOLDS);
         weights[Weighed::Orientation] = weight;
-        let fit = identify_weighted(
+        let fit = identify(
             model,
             data,
-            ParamSet::Full,
-            &options,
-            PriorScale::default(),
-            &weights,
+            &IdentifyRequest {
+                weights,
+                ..IdentifyRequest::new(options)
+            },
         )
         .unwrap();
         let w = fit

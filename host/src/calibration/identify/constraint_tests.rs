@@ -673,13 +673,13 @@ fn delivered(
             .options(model)
             .expect("no scale stated")
     };
-    let fit = super::identify_weighted(
+    let fit = super::identify(
         model,
         data,
-        super::ParamSet::Full,
-        &options,
-        super::prior_scale::PriorScale::default(),
-        &request,
+        &super::IdentifyRequest {
+            weights: request,
+            ..super::IdentifyRequest::new(options)
+        },
     )
     .expect("fits");
     let calibrated = fit.calibrated();

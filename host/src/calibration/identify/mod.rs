@@ -223,40 +223,51 @@ pub fn observations(data: &Measurements) -> &[Observation] {
     &data.poses
 }
 
-/// Runs the identification of `set` on `data`.
-///
-/// `--params full` fits at the prior `scale` says: as stated, or at the
-/// factor on it that predicts held-out poses best ([`prior_scale`]; the fit at
-/// the stated prior first, then again at the factor chosen when it differs).
+/// What an identification is asked: which parameters, the fit's options,
+/// how the prior's scale is set and how each kind of row beside the
+/// reference is weighed.
+#[derive(Clone, Copy, Debug)]
+pub struct IdentifyRequest {
+    /// `--params`: every identifiable parameter, or the paper's.
+    pub params: ParamSet,
+    /// The fit's options: the noise, the stated prior, the sessions' frames,
+    /// the cancel.
+    pub options: FullOptions,
+    /// `--params full`: the prior as stated, or at the factor on it that
+    /// predicts held-out poses best ([`prior_scale`]; the fit at the stated
+    /// prior first, then again at the factor chosen when it differs).
+    pub scale: PriorScale,
+    /// Each kind of row beside the reference: weighed as stated, or at the
+    /// weight that predicts held-out tool points best ([`channel_weight`];
+    /// a session of positions alone has one kind and no choice).
+    pub weights: ChannelWeights,
+}
+
+impl IdentifyRequest {
+    /// The full model fitted with `options`, the prior's scale and each
+    /// kind's weight chosen held-out: the command line's defaults.
+    pub fn new(options: FullOptions) -> Self {
+        Self {
+            params: ParamSet::Full,
+            options,
+            scale: PriorScale::default(),
+            weights: ChannelWeights::chosen(crate::calibration::validation::folds::DEFAULT_FOLDS),
+        }
+    }
+}
+
+/// Runs the identification `request` asks on `data`.
 pub fn identify(
     model: &RobotModel,
     data: &Measurements,
-    set: ParamSet,
-    options: &FullOptions,
-    scale: PriorScale,
+    request: &IdentifyRequest,
 ) -> Result<Identification, IdentifyError> {
-    identify_weighted(
-        model,
-        data,
-        set,
-        options,
+    let IdentifyRequest {
+        params: set,
+        ref options,
         scale,
-        &ChannelWeights::chosen(crate::calibration::validation::folds::DEFAULT_FOLDS),
-    )
-}
-
-/// [`identify`] with each kind of row beside the reference weighed as
-/// `weights` says: as stated, or at the weight that predicts held-out tool
-/// points best ([`channel_weight`]; a session of positions alone has one
-/// kind and no choice).
-pub fn identify_weighted(
-    model: &RobotModel,
-    data: &Measurements,
-    set: ParamSet,
-    options: &FullOptions,
-    scale: PriorScale,
-    weights: &ChannelWeights,
-) -> Result<Identification, IdentifyError> {
+        ref weights,
+    } = *request;
     let nominal = &model.robot;
     // Full poses when any row has an orientation (the paper's model needs
     // every one).

@@ -323,7 +323,7 @@ pub(crate) fn held_out_squares(
 mod tests {
     use super::*;
     use crate::calibration::fit::{Extension, FitRequest, FullOptions, linearize};
-    use crate::calibration::identify::{ParamSet, identify};
+    use crate::calibration::identify::{IdentifyRequest, identify};
     use crate::calibration::simulate::{Scenario, simulate};
     use crate::calibration::validation::folds::{Folds, Subset};
     use crate::io::measurements::{load_measurements, parse_measurements};
@@ -418,7 +418,17 @@ mod tests {
             let (model, mut data) = tracker("ur5e", 200 + poses, 1e-2, seed);
             let held: Vec<Observation> = data.poses.split_off(poses);
             let options = FullOptions::default();
-            let fit = |scale| identify(&model, &data, ParamSet::Full, &options, scale).unwrap();
+            let fit = |scale| {
+                identify(
+                    &model,
+                    &data,
+                    &IdentifyRequest {
+                        scale,
+                        ..IdentifyRequest::new(options)
+                    },
+                )
+                .unwrap()
+            };
             let (stated, chosen) = (fit(PriorScale::Stated), fit(PriorScale::default()));
             let factor = chosen.prior.as_ref().unwrap().factor();
             let (e_stated, e_chosen) = (

@@ -59,7 +59,7 @@ use crate::session::observation::Contact;
 use crate::session::observation::Observation;
 use crate::session::prior::Prior;
 use design::Candidates;
-pub use design::Optimality;
+use design::Optimality;
 
 /// A box the tool point must stay in, measurement frame, m.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -386,10 +386,10 @@ mod tests {
     #[test]
     fn the_fits_own_residual_is_the_calibrations() {
         use crate::calibration::fit::FullOptions;
-        use crate::calibration::identify::{ParamSet, identify};
+        use crate::calibration::identify::{IdentifyRequest, identify};
         let (model, data) = session();
         let options = FullOptions::default();
-        let fit = identify(&model, &data, ParamSet::Full, &options, Default::default()).unwrap();
+        let fit = identify(&model, &data, &IdentifyRequest::new(options)).unwrap();
         let computed = residual(&geometric(&fit.calibrated()), &NONE, &data, &[]).position;
         assert!(
             (computed - fit.position_rms).abs() < 1e-9 * fit.position_rms,
