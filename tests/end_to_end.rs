@@ -1113,7 +1113,7 @@ mod diagnosis {
     /// raise the gain), but that it gains too little.
     #[test]
     fn a_real_effect_too_small_to_matter_is_called_so() {
-        use armcal::calibration::diagnose::{RowPlaces, Shortfall};
+        use armcal::calibration::diagnose::{Shortfall, report::RowPlaces};
         let nominal = load_model("ur10e").unwrap().robot;
         let mut scenario = Scenario::tracker(1000, 7);
         scenario.effects = vec![Effect::JointCompliance {

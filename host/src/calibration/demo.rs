@@ -330,7 +330,7 @@ impl Demo {
 
     /// The HTML page of `armcal diagnose --html` for the simulated session.
     pub fn html(&self) -> String {
-        use crate::calibration::diagnose::{RowPlaces, report::DiagnoseReport};
+        use crate::calibration::diagnose::report::{DiagnoseReport, RowPlaces};
         let rows = &self.session.observations;
         // A simulated row is named by its index.
         let lines: Vec<usize> = (0..rows.len()).collect();

@@ -9,8 +9,8 @@ use armcal_shared::{Calibration, TargetFrame};
 
 use super::{Front, fit_options, folds};
 use crate::calibration::diagnose::Choice;
-use crate::calibration::diagnose::RowPlaces;
 use crate::calibration::diagnose::report::DiagnoseReport;
+use crate::calibration::diagnose::report::RowPlaces;
 use crate::calibration::diagnose::{DiagnoseOptions, Diagnosis, diagnose_with_progress};
 use crate::calibration::fit::{Extension, FitRequest, FullOptions};
 use crate::calibration::gravity::{GravityFit, TorqueSign, with_measured_gravity};

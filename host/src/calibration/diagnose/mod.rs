@@ -54,7 +54,6 @@ pub mod html;
 pub mod large;
 pub mod report;
 mod summary;
-pub use report::RowPlaces;
 
 use armcal_shared::calibration::MAX_PARAMS;
 use armcal_shared::compensation::Task;
