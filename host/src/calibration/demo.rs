@@ -330,7 +330,7 @@ impl Demo {
 
     /// The HTML page of `armcal diagnose --html` for the simulated session.
     pub fn html(&self) -> String {
-        use crate::calibration::diagnose::report::{DiagnoseReport, RowPlaces};
+        use crate::calibration::diagnose::report::{ApproachOrder, DiagnoseReport, RowPlaces};
         let rows = &self.session.observations;
         // A simulated row is named by its index.
         let lines: Vec<usize> = (0..rows.len()).collect();
@@ -342,7 +342,7 @@ impl Demo {
                 .report(&self.model, RowPlaces::lines(&lines), &self.options),
             outlier_files: None,
             gravity: None,
-            approach_order: "rows",
+            approach_order: ApproachOrder::Rows,
             weights: Default::default(),
             sessions: None,
         };

@@ -9,8 +9,8 @@ use armcal_shared::{Calibration, TargetFrame};
 
 use super::{Front, fit_options, folds};
 use crate::calibration::diagnose::Choice;
-use crate::calibration::diagnose::report::DiagnoseReport;
 use crate::calibration::diagnose::report::RowPlaces;
+use crate::calibration::diagnose::report::{ApproachOrder, DiagnoseReport};
 use crate::calibration::diagnose::{DiagnoseOptions, Diagnosis, diagnose_with_progress};
 use crate::calibration::fit::{Extension, FitRequest, FullOptions};
 use crate::calibration::gravity::{GravityFit, TorqueSign, with_measured_gravity};
@@ -240,9 +240,9 @@ impl Diagnosed {
             }),
             gravity: self.gravity.as_ref().map(GravityFit::report),
             approach_order: if data.times.iter().all(Option::is_some) {
-                "times"
+                ApproachOrder::Times
             } else {
-                "rows"
+                ApproachOrder::Rows
             },
             weights: self.weighting.reports(fit),
             sessions: sessions::reports(fit, &self.sessions_held_out, data, &self.model.units),

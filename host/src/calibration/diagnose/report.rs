@@ -133,15 +133,25 @@ pub struct DiagnoseReport {
     /// The masses' fit to the measured torques, when the rows have them.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub gravity: Option<GravityReport>,
-    /// Where the backlash's approach directions came from: `times` (every
-    /// row has a `t`) or `rows` (the rows' order).
-    pub approach_order: &'static str,
+    /// Where the backlash's approach directions came from.
+    pub approach_order: ApproachOrder,
     /// The weights of orientations and contacts.
     #[serde(flatten)]
     pub weights: WeightReports,
     /// Each session, when there are several.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sessions: Option<Vec<SessionReport>>,
+}
+
+/// Where each pose's approach directions (which a backlash reads) came
+/// from, as the reports say it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ApproachOrder {
+    /// Every row has a time `t`: the order of the times.
+    Times,
+    /// The rows' order (a row without a time).
+    Rows,
 }
 
 /// The diagnosis' own figures ([`Diagnosis::report`]).

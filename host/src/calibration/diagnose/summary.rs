@@ -7,7 +7,8 @@
 use std::fmt::Write as _;
 
 use super::report::{
-    AlikeReport, CandidateReport, DiagnoseReport, DiagnosisReport, EffectReport, HoldoutReport,
+    AlikeReport, ApproachOrder, CandidateReport, DiagnoseReport, DiagnosisReport, EffectReport,
+    HoldoutReport,
 };
 use crate::calibration::fit::noise::NoiseSource;
 use crate::calibration::identify::sessions;
@@ -58,7 +59,7 @@ impl DiagnoseReport {
             .filter(|e| e.name == "backlash")
             .map(|e| joints_label(&e.joints))
             .collect();
-        if self.approach_order == "rows" && !backlash.is_empty() {
+        if self.approach_order == ApproachOrder::Rows && !backlash.is_empty() {
             let _ = writeln!(
                 out,
                 "note: the backlash of joint {} takes each pose's approach direction from the \
