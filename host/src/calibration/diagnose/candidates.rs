@@ -27,12 +27,7 @@ pub struct Candidate {
 impl Candidate {
     /// Its joints as a reader counts them, `"2, 3"`, or `"all"` for thermal expansion.
     pub fn joints_label(&self) -> String {
-        let joints: Vec<String> = self.joints.iter().map(|j| (j + 1).to_string()).collect();
-        if joints.is_empty() {
-            "all".into()
-        } else {
-            joints.join(", ")
-        }
+        joints_label(self.joints.iter().map(|j| j + 1))
     }
 
     /// Whether `effect` is this candidate's effect (the same kind at the same
@@ -45,6 +40,17 @@ impl Candidate {
     /// Parameters the candidate adds.
     pub fn parameter_count(&self) -> usize {
         self.effect.map_or(0, |e| e.parameter_count()) + self.extra.len()
+    }
+}
+
+/// `2, 3`, or `all` for none: joints counted from 1 as the summaries and
+/// the HTML page name an effect's.
+pub fn joints_label(joints: impl IntoIterator<Item = usize>) -> String {
+    let joints: Vec<String> = joints.into_iter().map(|j| j.to_string()).collect();
+    if joints.is_empty() {
+        "all".into()
+    } else {
+        joints.join(", ")
     }
 }
 

@@ -456,12 +456,7 @@ fn html_parameters(s: &mut String, r: &DiagnosisReport) {
         "<h2>Parameters of the extended calibration</h2><table><tr><th>parameter</th><th>unit</th><th>nominal</th><th>error</th><th>std</th><th>status</th></tr>"
     );
     for p in &r.parameters {
-        let angle = p.name.parse::<Param>().is_ok_and(|p| p.is_angle());
-        let unit = if angle {
-            &r.units.angle
-        } else {
-            &r.units.length
-        };
+        let unit = p.unit(&r.units);
         let std = p.std.map_or("–".into(), |s| format!("{s:.3e}"));
         let status = p
             .reason

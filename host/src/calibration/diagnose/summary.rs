@@ -6,6 +6,7 @@
 
 use std::fmt::Write as _;
 
+use super::candidates::joints_label;
 use super::report::{
     AlikeReport, ApproachOrder, CandidateReport, DiagnoseReport, DiagnosisReport, EffectReport,
     HoldoutReport,
@@ -13,19 +14,6 @@ use super::report::{
 use crate::calibration::fit::noise::NoiseSource;
 use crate::calibration::identify::sessions;
 use crate::report::format::significant;
-
-/// `2, 3` (from 1), or `all`: an effect's joints as the summary names them.
-fn joints_label(joints: &[usize]) -> String {
-    if joints.is_empty() {
-        "all".into()
-    } else {
-        joints
-            .iter()
-            .map(ToString::to_string)
-            .collect::<Vec<_>>()
-            .join(", ")
-    }
-}
 
 /// `a2, theta3`, or `none`: parameters by name as reports list them.
 pub(crate) fn name_list(names: &[String]) -> String {
@@ -57,7 +45,7 @@ impl DiagnoseReport {
             .effects
             .iter()
             .filter(|e| e.name == "backlash")
-            .map(|e| joints_label(&e.joints))
+            .map(|e| joints_label(e.joints.iter().copied()))
             .collect();
         if self.approach_order == ApproachOrder::Rows && !backlash.is_empty() {
             let _ = writeln!(
@@ -82,7 +70,13 @@ impl DiagnosisReport {
         let effects: Vec<String> = self
             .effects
             .iter()
-            .map(|e| format!("{} (joints {})", e.name, joints_label(&e.joints)))
+            .map(|e| {
+                format!(
+                    "{} (joints {})",
+                    e.name,
+                    joints_label(e.joints.iter().copied())
+                )
+            })
             .collect();
         format!(", each with the effects found: {}", effects.join(", "))
     }
@@ -265,8 +259,13 @@ impl DiagnosisReport {
             }
         }
         if let Some(u) = &self.unsettled {
-            let (name, joints, gain, f, t) =
-                (u.name, joints_label(&u.joints), u.gain, u.f, u.threshold);
+            let (name, joints, gain, f, t) = (
+                u.name,
+                joints_label(u.joints.iter().copied()),
+                u.gain,
+                u.f,
+                u.threshold,
+            );
             let _ = match (u.poses_needed, u.min_gain) {
                 (Some(poses_needed), _) => writeln!(
                     out,
@@ -329,7 +328,7 @@ impl DiagnosisReport {
                 out,
                 "  {:<20} joints {:<6} ×{:.3}",
                 c.name,
-                joints_label(&c.joints),
+                joints_label(c.joints.iter().copied()),
                 c.gain
             );
         }
@@ -370,7 +369,7 @@ impl AlikeReport {
         format!(
             "these data cannot tell it from {} (joints {}), which reproduces its signature to within {:.1} standard errors of the noise; to separate them, {}",
             self.name,
-            joints_label(&self.joints),
+            joints_label(self.joints.iter().copied()),
             self.unexplained_sigma,
             self.separated_by
         )
@@ -383,7 +382,7 @@ impl EffectReport {
         format!(
             "found {} (joints {}): held-out gain ×{:.2}, F {:.1} > {:.1} (1% family-wise)",
             self.name,
-            joints_label(&self.joints),
+            joints_label(self.joints.iter().copied()),
             self.gain,
             self.f,
             self.threshold

@@ -180,6 +180,20 @@ pub struct ParameterReport {
 }
 
 impl ParameterReport {
+    /// Its unit of `units`: the angle unit for an angle, else the length
+    /// unit.
+    pub fn unit<'a>(&self, units: &'a UnitsReport) -> &'a str {
+        if self
+            .name
+            .parse::<armcal_shared::Param>()
+            .is_ok_and(|p| p.is_angle())
+        {
+            &units.angle
+        } else {
+            &units.length
+        }
+    }
+
     /// Parameter `param` (its nominal value, error and standard error SI;
     /// `fixed`: why it was held) in `units`.
     pub fn of(

@@ -5,8 +5,6 @@
 
 use std::fmt::Write as _;
 
-use armcal_shared::Param;
-
 use super::prior_scale;
 use super::report::{
     ContactsReport, FullReport, IdentifyReport, NoiseRow, PriorChosenBy, PriorReport, TaskReport,
@@ -166,12 +164,7 @@ impl IdentifyReport {
             "parameter", "nominal", "error", "std"
         );
         for r in &self.parameters {
-            let angle = r.name.parse::<Param>().is_ok_and(|p| p.is_angle());
-            let unit = if angle {
-                &self.units.angle
-            } else {
-                &self.units.length
-            };
+            let unit = r.unit(&self.units);
             let std = r.std.map_or("-".to_string(), |s| format!("{s:.3e}"));
             let _ = writeln!(
                 out,
